@@ -1,0 +1,1 @@
+"""Angular-velocity estimators, one module each, each naming its source."""
