@@ -1,0 +1,708 @@
+r"""The sampled, streaming Sarras estimator: one sample at a time (``update``) or whole logs (``run``).
+
+Reference: I. Sarras, "Continuous globally exponential rigid-body angular velocity estimation from attitude
+measurements", with the sign of the output map corrected (``shared/design/observer.md``,
+:mod:`omegahat.observers.sarras`). This module realises that continuous-time observer for measurements that
+arrive at sample times ``t_k`` (any, possibly irregular, spacing).
+
+Coordinates. Instead of the paper's ``(ξ, r̂_i)`` the state is ``(ω̂, r_i, e_i)`` with ``e_i = r̂_i − r_i``;
+``ω̂ = ξ + J⁻¹ Σ k_i r_i × r̂_i`` makes the two equivalent. Differentiating that output map along the observer
+with ``ṙ_i = r_i × ω̂`` (the direction moved along the estimate), the ``k_i`` and ``l_i`` terms cancel
+(Jacobi identity) and::
+
+    J ω̂̇ = (J ω̂) × ω̂ + τ                                                   (E1)
+    ė_i  = e_i × ω̂ − l_i(ω̂) e_i                                           (E2)
+
+while a jump ``Δ_i`` of ``r_i`` (with ξ and r̂ continuous) moves the output by ``J⁻¹ Σ k_i Δ_i × r̂_i``.
+
+Between samples (``t_k → t_{k+1}``, ``h = t_{k+1} − t_k``, torque ``τ_k`` held from its sample):
+
+1. **Predict.** ω̂ follows (E1) alone; the predicted directions move along the estimate,
+   ``r_i^pred = ΔR̂ᵀ r_i,k`` with ``ΔR̂`` the attitude increment of ``Ṙ = R ω̂×`` over the interval; (E2) gives
+   ``e_i = exp(−∫ l_i dt) ΔR̂ᵀ e_i,k``: the stiff decay is applied exactly, never with an explicit step.
+   (E1) and ``ΔR̂`` are integrated together with the Runge–Kutta–Munthe-Kaas method of order 4 (RKMK4: classical
+   RK4 for ω̂, and for ``ΔR̂ = exp(u)`` the stages ``u̇ = dexp⁻¹_{−u}(ω̂) ≈ ω̂ + ½ u × ω̂ + (1/12) u × (u × ω̂)``),
+   in substeps of angle ``h_sub (|ω̂| + h|J⁻¹τ|) ≤ max_substep_angle``; ``∫|ω̂| dt`` (for ``l_i(ω̂)``) is
+   integrated with the same RK4 weights. For a constant ω̂ every stage equals ``h ω̂`` and ``ΔR̂ = exp(h ω̂)``
+   exactly, so a body at constant rate (J = I, or an axisymmetric body spinning about its axis) is predicted
+   without error.
+2. **Innovation** ``Δ_i = r_i,meas − r_i^pred``; ``r̂_i = r_i^pred + e_i`` is continuous across the sample.
+3. **Correction (implicit).** The plain jump ``y = J⁻¹ Σ k_i Δ_i × r̂_i`` linearises to ``y ≈ −h J⁻¹ M z``
+   (``z = ω̂ − ω``, ``M = Σ k_i (I − r_i r_iᵀ)``): explicit Euler of ``ż = −J⁻¹ M z``, which overshoots for
+   ``k h / J ≈ 1`` and diverges beyond 2. The estimator applies instead::
+
+       ω̂ ← ω̂ + (I + h J⁻¹ M_meas)⁻¹ y,      M_meas = Σ k_i (|r_i|² I − r_i r_iᵀ)   (measured r_i)    (C)
+
+   whose linearised error map is ``z ← (I + h J⁻¹ M)⁻¹ z``, eigenvalues ``1/(1 + h λ)`` with ``λ > 0`` the
+   eigenvalues of ``J⁻¹ M`` (similar to the SPD ``J^{-½} M J^{-½}``): a contraction for every k, h. It is zero when
+   ``Δ = 0`` (exact equilibrium), and as ``h → 0`` it tends to the continuous observer (first order in h; see
+   ``benchmarks/sampled_convergence.py``).
+4. **Reset** ``e_i ← e_i − Δ_i`` and ``r_i ← r_i,meas`` (r̂ continuous, r jumps to the measurement).
+
+Initialisation: the first valid sample sets ``r_i``; ``ω̂₀`` is given (default 0) and ``r̂_i0`` is given (default
+the first measurement, ``e = 0``; the paper's scenario uses ``r̂_10 = (0, −1, 0)``, ``r̂_20 = (0, 0, −1)``). Until
+that first valid sample the output is ``ω̂₀``.
+
+Input (see :mod:`omegahat.measurements` for the checks). Attitudes (matrices, quaternions in SciPy's scalar-last
+order unless ``scalar_first=True``, ``Rotation``) are turned into ``r_i = Rᵀ v_i``; the default ``v_i`` are the
+first ``gains.n`` inertial axes, i.e. **all three rows of R for three gains**, the first two rows for two gains
+(the paper). Direction input: ``references`` (the inertial ``v_i``, ``(n, 3)``) and per sample the measured
+body-frame directions ``(n, 3)``.
+
+Bad input, and what happens (the estimator's state is left exactly as it was whenever a sample is rejected):
+
+* a NaN or inf anywhere in the measurement → the sample is **skipped**: the state is predicted to its time (the
+  torque given with it starts being held), no correction, ``update`` returns the prediction; counted in
+  ``n_missing`` and its time appended to ``skipped_times``. Gaps (long intervals) need nothing special: the
+  prediction simply runs over the whole interval; ``largest_interval`` reports the longest one seen;
+* direction measurements within ``min_angle_deg`` of collinear → skipped the same way, counted in ``n_collinear``;
+* not a rotation (``‖RᵀR − I‖_F > rotation_tol`` or ``det R < 0``), a quaternion with ``|‖q‖ − 1| >
+  quat_norm_tol``, a zero direction → :class:`omegahat.measurements.MeasurementError` naming the value;
+* a time not strictly after the previous sample's, or not finite → ``ValueError`` naming both times;
+* a torque that is not finite, wrong shapes → ``ValueError`` naming the value or shape.
+
+``run`` issues one :class:`SkippedSamplesWarning` when it skipped samples, and is atomic: if it rejects a sample
+it raises (naming the sample's index and time) and leaves the estimator as it was before the call.
+
+Implementation: the state is one flat array (:class:`EstimatorState` is its readable view); the compiled
+:func:`step` validates one sample and advances the state in a single Numba call, ``update`` is a thin shell over
+it and ``run`` loops over the very same function in compiled code. :func:`reference_step` is the plain NumPy
+version of steps 1–4 (the test oracle).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from omegahat import measurements as ms
+from omegahat._validation import as_inertia, as_positive, as_vector3
+from omegahat.gains import ObserverGains
+from omegahat.observers.base import Estimator
+
+__all__ = [
+    "EstimatorState",
+    "SarrasEstimator",
+    "SkippedSamplesWarning",
+    "reference_predict",
+    "reference_step",
+    "step",
+]
+
+MAX_SUBSTEP_ANGLE = 0.05  # rad: default bound on h_sub (|ω̂| + h |J⁻¹τ|)
+MAX_SUBSTEPS = 1_000_000  # cap on substeps per interval (a gap of hours at a fast spin)
+
+# Statuses beyond those of omegahat.measurements (rejections, ≥ ms.ERROR).
+TIME_ORDER = 20  #: info = previous time
+TIME_NOT_FINITE = 21
+TORQUE_NOT_FINITE = 22
+
+# Layout of the flat state vector (n directions): [t, initialised, ω̂(3), τ(3), r(n·3), e(n·3)].
+_T, _INIT, _W, _TAU, _R = 0, 1, 2, 5, 8
+
+
+class SkippedSamplesWarning(UserWarning):
+    """``run`` skipped samples (missing or collinear); their times are in ``estimator.skipped_times``."""
+
+
+@dataclass(frozen=True)
+class EstimatorState:
+    """Readable copy of the estimator's state (``n`` directions).
+
+    ``t`` time of the last sample (NaN before any), ``initialised`` whether a valid sample has set ``r``,
+    ``omega_hat (3,)``, ``torque (3,)`` held since ``t``, ``r (n, 3)`` the directions at ``t`` (the last
+    measurement or its prediction), ``e (n, 3) = r̂ − r``.
+    """
+
+    t: float
+    initialised: bool
+    omega_hat: np.ndarray
+    torque: np.ndarray
+    r: np.ndarray
+    e: np.ndarray
+
+    @property
+    def r_hat(self) -> np.ndarray:
+        """The observer's filtered directions ``r̂ = r + e``, ``(n, 3)``."""
+        return self.r + self.e
+
+    @classmethod
+    def from_vector(cls, x: np.ndarray) -> EstimatorState:
+        n = (x.size - _R) // 6
+        return cls(
+            t=float(x[_T]),
+            initialised=bool(x[_INIT]),
+            omega_hat=x[_W : _W + 3].copy(),
+            torque=x[_TAU : _TAU + 3].copy(),
+            r=x[_R : _R + 3 * n].reshape(n, 3).copy(),
+            e=x[_R + 3 * n :].reshape(n, 3).copy(),
+        )
+
+    def to_vector(self) -> np.ndarray:
+        return np.concatenate(
+            [[self.t, float(self.initialised)], self.omega_hat, self.torque, self.r.ravel(), self.e.ravel()]
+        )
+
+
+# ------------------------------------------------------------------------------------- plain NumPy: the oracle
+
+
+def _exp_so3(phi):
+    """Rodrigues (Taylor near 0): ``exp(φ×)``."""
+    th = np.linalg.norm(phi)
+    K = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
+    if th < 1e-4:
+        a, b = 1 - th**2 / 6 + th**4 / 120, 0.5 - th**2 / 24 + th**4 / 720
+    else:
+        a, b = np.sin(th) / th, (1 - np.cos(th)) / th**2
+    return np.eye(3) + a * K + b * K @ K
+
+
+def _substeps(h, omega_hat, J_inv, tau, max_angle):
+    angle = h * (np.linalg.norm(omega_hat) + h * np.linalg.norm(J_inv @ tau))
+    return int(min(MAX_SUBSTEPS, max(1, math.ceil(angle / max_angle))))
+
+
+def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, max_angle=MAX_SUBSTEP_ANGLE):
+    """Step 1 (predict over ``h``), plain NumPy: returns ``(ω̂, r_pred, e_pred)``."""
+    f = lambda w: J_inv @ (np.cross(J @ w, w) + tau)  # (E1)  # noqa: E731
+    dexpinv = lambda u, w: w + 0.5 * np.cross(u, w) + np.cross(u, np.cross(u, w)) / 12.0  # noqa: E731
+    n_sub = _substeps(h, omega_hat, J_inv, tau, max_angle)
+    hs = h / n_sub
+    w = np.array(omega_hat, dtype=float)
+    D = np.eye(3)  # ΔR̂
+    int_abs_w = 0.0  # ∫ |ω̂| dt
+    for _ in range(n_sub):  # RKMK4
+        w1 = w
+        K1, L1 = hs * w1, hs * f(w1)
+        w2 = w + L1 / 2
+        K2, L2 = hs * dexpinv(K1 / 2, w2), hs * f(w2)
+        w3 = w + L2 / 2
+        K3, L3 = hs * dexpinv(K2 / 2, w3), hs * f(w3)
+        w4 = w + L3
+        K4, L4 = hs * dexpinv(K3, w4), hs * f(w4)
+        int_abs_w += hs * (np.linalg.norm(w1) + 2 * np.linalg.norm(w2) + 2 * np.linalg.norm(w3) + np.linalg.norm(w4)) / 6
+        D = D @ _exp_so3((K1 + 2 * K2 + 2 * K3 + K4) / 6)
+        w = w + (L1 + 2 * L2 + 2 * L3 + L4) / 6
+    decay = np.exp(-(gains.l_offset * h + gains.l_slope * int_abs_w))  # exact solution of (E2)'s decay
+    return w, r @ D, decay[:, None] * (e @ D)  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
+
+
+def reference_step(state: EstimatorState, t, r_meas, tau, J, gains: ObserverGains, r_hat0=None,
+                   omega_hat0=None, max_angle=MAX_SUBSTEP_ANGLE) -> EstimatorState:
+    """Steps 1–4 for one valid sample of directions ``r_meas (n, 3)``, plain NumPy (no validation).
+
+    ``tau`` is the torque given with this sample (held from ``t`` on); the interval uses ``state.torque``.
+    """
+    r_meas = np.asarray(r_meas, dtype=float)
+    tau = np.zeros(3) if tau is None else np.asarray(tau, dtype=float)
+    if not state.initialised:
+        w0 = np.zeros(3) if omega_hat0 is None else np.asarray(omega_hat0, float)
+        e0 = np.zeros_like(r_meas) if r_hat0 is None else np.asarray(r_hat0, float) - r_meas
+        return EstimatorState(float(t), True, w0, tau, r_meas.copy(), e0)
+    J_inv = np.linalg.inv(J)
+    h = t - state.t
+    w, r_pred, e_pred = reference_predict(state.omega_hat, state.r, state.e, state.torque, h, J, J_inv, gains,
+                                          max_angle)
+    delta = r_meas - r_pred  # step 2
+    r_hat = r_pred + e_pred
+    k = gains.k
+    y = J_inv @ np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # plain jump
+    M = sum(k[i] * (r_meas[i] @ r_meas[i] * np.eye(3) - np.outer(r_meas[i], r_meas[i])) for i in range(k.size))
+    w = w + np.linalg.solve(np.eye(3) + h * J_inv @ M, y)  # (C)
+    return EstimatorState(float(t), True, w, tau, r_meas.copy(), e_pred - delta)  # step 4
+
+
+# --------------------------------------------------------------------------------------------- compiled kernel
+
+# Layout of the flat parameter vector: [J(9), J⁻¹(9), rotation_tol, quat_norm_tol, min_sin, max_angle,
+# scalar_first, has_r_hat0, n, k(n), l_offset(n), l_slope(n), V(3n), r̂0(3n), ω̂0(3)].
+_P_J, _P_JI, _P_ROT, _P_QN, _P_SIN, _P_ANG, _P_SF, _P_HASR, _P_N, _P_K = 0, 9, 18, 19, 20, 21, 22, 23, 24, 25
+
+
+@numba.njit(cache=True)
+def _cross(a, b, out):
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@numba.njit(cache=True)
+def _euler_rhs(J, J_inv, w, tau, out):
+    """``out = J⁻¹((J w) × w + τ)`` (E1)."""
+    Jw0 = J[0, 0] * w[0] + J[0, 1] * w[1] + J[0, 2] * w[2]
+    Jw1 = J[1, 0] * w[0] + J[1, 1] * w[1] + J[1, 2] * w[2]
+    Jw2 = J[2, 0] * w[0] + J[2, 1] * w[1] + J[2, 2] * w[2]
+    g0 = Jw1 * w[2] - Jw2 * w[1] + tau[0]
+    g1 = Jw2 * w[0] - Jw0 * w[2] + tau[1]
+    g2 = Jw0 * w[1] - Jw1 * w[0] + tau[2]
+    for a in range(3):
+        out[a] = J_inv[a, 0] * g0 + J_inv[a, 1] * g1 + J_inv[a, 2] * g2
+
+
+@numba.njit(cache=True)
+def _dexpinv(u, w, hs, out):
+    """``out = hs (w + ½ u × w + (1/12) u × (u × w))``."""
+    c0 = u[1] * w[2] - u[2] * w[1]
+    c1 = u[2] * w[0] - u[0] * w[2]
+    c2 = u[0] * w[1] - u[1] * w[0]
+    d0 = u[1] * c2 - u[2] * c1
+    d1 = u[2] * c0 - u[0] * c2
+    d2 = u[0] * c1 - u[1] * c0
+    out[0] = hs * (w[0] + 0.5 * c0 + d0 / 12.0)
+    out[1] = hs * (w[1] + 0.5 * c1 + d1 / 12.0)
+    out[2] = hs * (w[2] + 0.5 * c2 + d2 / 12.0)
+
+
+@numba.njit(cache=True)
+def _exp_into(phi, E):
+    th2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]
+    th = np.sqrt(th2)
+    if th < 1e-4:
+        a = 1.0 - th2 / 6.0 + th2 * th2 / 120.0
+        b = 0.5 - th2 / 24.0 + th2 * th2 / 720.0
+    else:
+        a = np.sin(th) / th
+        b = (1.0 - np.cos(th)) / th2
+    x, y, z = phi[0], phi[1], phi[2]
+    # I + a K + b K², K = φ×, K² = φφᵀ − θ² I
+    E[0, 0] = 1.0 + b * (x * x - th2)
+    E[1, 1] = 1.0 + b * (y * y - th2)
+    E[2, 2] = 1.0 + b * (z * z - th2)
+    E[0, 1] = -a * z + b * x * y
+    E[1, 0] = a * z + b * x * y
+    E[0, 2] = a * y + b * x * z
+    E[2, 0] = -a * y + b * x * z
+    E[1, 2] = -a * x + b * y * z
+    E[2, 1] = a * x + b * y * z
+
+
+@numba.njit(cache=True)
+def _predict(J, J_inv, l_off, l_slope, max_angle, w, tau, h, D, decay):
+    """Step 1 in place: ``w`` ← ω̂(t+h), ``D`` ← ΔR̂, ``decay[i]`` ← exp(−∫ l_i dt)."""
+    f = np.empty(3)
+    _euler_rhs(J, J_inv, np.zeros(3), tau, f)  # J⁻¹τ
+    wn = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+    angle = h * (wn + h * np.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2))
+    n_sub = max(1, min(MAX_SUBSTEPS, math.ceil(angle / max_angle)))
+    hs = h / n_sub
+    K1, K2, K3, K4 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    L1, L2, L3, L4 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    ws, u, E, T = np.empty(3), np.empty(3), np.empty((3, 3)), np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            D[a, b] = 1.0 if a == b else 0.0
+    int_abs = 0.0
+    for _ in range(n_sub):  # RKMK4, as reference_predict
+        n1 = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
+        _euler_rhs(J, J_inv, w, tau, L1)
+        for a in range(3):
+            K1[a] = hs * w[a]
+            L1[a] *= hs
+            ws[a] = w[a] + 0.5 * L1[a]
+            u[a] = 0.5 * K1[a]
+        n2 = np.sqrt(ws[0] ** 2 + ws[1] ** 2 + ws[2] ** 2)
+        _dexpinv(u, ws, hs, K2)
+        _euler_rhs(J, J_inv, ws, tau, L2)
+        for a in range(3):
+            L2[a] *= hs
+            ws[a] = w[a] + 0.5 * L2[a]
+            u[a] = 0.5 * K2[a]
+        n3 = np.sqrt(ws[0] ** 2 + ws[1] ** 2 + ws[2] ** 2)
+        _dexpinv(u, ws, hs, K3)
+        _euler_rhs(J, J_inv, ws, tau, L3)
+        for a in range(3):
+            L3[a] *= hs
+            ws[a] = w[a] + L3[a]
+        n4 = np.sqrt(ws[0] ** 2 + ws[1] ** 2 + ws[2] ** 2)
+        _dexpinv(K3, ws, hs, K4)
+        _euler_rhs(J, J_inv, ws, tau, L4)
+        for a in range(3):
+            L4[a] *= hs
+        int_abs += hs * (n1 + 2.0 * n2 + 2.0 * n3 + n4) / 6.0
+        for a in range(3):
+            u[a] = (K1[a] + 2.0 * K2[a] + 2.0 * K3[a] + K4[a]) / 6.0
+            w[a] += (L1[a] + 2.0 * L2[a] + 2.0 * L3[a] + L4[a]) / 6.0
+        _exp_into(u, E)
+        if n_sub == 1:
+            D[:, :] = E
+        else:
+            for a in range(3):
+                for b in range(3):
+                    T[a, b] = D[a, 0] * E[0, b] + D[a, 1] * E[1, b] + D[a, 2] * E[2, b]
+            D[:, :] = T
+    for i in range(l_off.size):
+        decay[i] = np.exp(-(l_off[i] * h + l_slope[i] * int_abs))
+
+
+@numba.njit(cache=True)
+def _solve3(A, y, out):
+    """``out = A⁻¹ y`` by the adjugate (A = I + h J⁻¹ M is well conditioned: eigenvalues ≥ 1)."""
+    c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
+    c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
+    c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
+    det = A[0, 0] * c00 + A[0, 1] * c01 + A[0, 2] * c02
+    c10 = A[0, 2] * A[2, 1] - A[0, 1] * A[2, 2]
+    c11 = A[0, 0] * A[2, 2] - A[0, 2] * A[2, 0]
+    c12 = A[0, 1] * A[2, 0] - A[0, 0] * A[2, 1]
+    c20 = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
+    c21 = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
+    c22 = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
+    out[0] = (c00 * y[0] + c10 * y[1] + c20 * y[2]) / det
+    out[1] = (c01 * y[0] + c11 * y[1] + c21 * y[2]) / det
+    out[2] = (c02 * y[0] + c12 * y[1] + c22 * y[2]) / det
+
+
+@numba.njit(cache=True)
+def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
+    """Validate one sample and advance the flat state ``x`` into ``out``; returns ``(status, info)``.
+
+    On a rejection (status ≥ ms.ERROR) ``out`` is left unspecified and ``x`` is never written.
+    """
+    n = int(p[_P_N])
+    J = p[_P_J : _P_J + 9].reshape(3, 3)
+    J_inv = p[_P_JI : _P_JI + 9].reshape(3, 3)
+    k = p[_P_K : _P_K + n]
+    l_off = p[_P_K + n : _P_K + 2 * n]
+    l_slope = p[_P_K + 2 * n : _P_K + 3 * n]
+    V = p[_P_K + 3 * n : _P_K + 6 * n].reshape(n, 3)
+    # --- checks that do not touch the state
+    if not np.isfinite(t):
+        return TIME_NOT_FINITE, t
+    if np.isfinite(x[_T]) and not t > x[_T]:
+        return TIME_ORDER, x[_T]
+    for a in range(3):
+        if not np.isfinite(tau[a]):
+            return TORQUE_NOT_FINITE, tau[a]
+    status, info = ms.convert_sample(m, kind, V, p[_P_SF] != 0.0, p[_P_ROT], p[_P_QN], p[_P_SIN], r_meas, R_work)
+    if status >= ms.ERROR:
+        return status, info
+    # --- accepted: write the new state into out
+    out[:] = x
+    out[_T] = t
+    w = out[_W : _W + 3]
+    r = out[_R : _R + 3 * n].reshape(n, 3)
+    e = out[_R + 3 * n : _R + 6 * n].reshape(n, 3)
+    if x[_INIT] == 0.0:
+        if status == ms.OK:  # initialisation by the first valid sample
+            out[_INIT] = 1.0
+            r[:, :] = r_meas
+            if p[_P_HASR] != 0.0:
+                e[:, :] = p[_P_K + 6 * n : _P_K + 9 * n].reshape(n, 3) - r_meas
+            else:
+                e[:, :] = 0.0
+        out[_TAU : _TAU + 3] = tau
+        return status, info
+    h = t - x[_T]
+    D = np.empty((3, 3))
+    decay = np.empty(n)
+    _predict(J, J_inv, l_off, l_slope, p[_P_ANG], w, x[_TAU : _TAU + 3], h, D, decay)  # step 1
+    rp = np.empty((n, 3))
+    ep = np.empty(3)
+    for i in range(n):
+        for c in range(3):  # r_pred = ΔR̂ᵀ r, e_pred = decay ΔR̂ᵀ e (row form: rᵀ ΔR̂)
+            rp[i, c] = r[i, 0] * D[0, c] + r[i, 1] * D[1, c] + r[i, 2] * D[2, c]
+            ep[c] = e[i, 0] * D[0, c] + e[i, 1] * D[1, c] + e[i, 2] * D[2, c]
+        for c in range(3):
+            e[i, c] = decay[i] * ep[c]
+    out[_TAU : _TAU + 3] = tau
+    if status != ms.OK:  # skipped sample: keep the prediction
+        r[:, :] = rp
+        return status, info
+    y = np.zeros(3)
+    A = np.zeros((3, 3))
+    dl = np.empty(3)
+    rh = np.empty(3)
+    c = np.empty(3)
+    for i in range(n):
+        for a in range(3):
+            dl[a] = r_meas[i, a] - rp[i, a]  # step 2: Δ_i
+            rh[a] = rp[i, a] + e[i, a]  # r̂_i
+        _cross(dl, rh, c)
+        r2 = r_meas[i, 0] ** 2 + r_meas[i, 1] ** 2 + r_meas[i, 2] ** 2
+        for a in range(3):
+            y[a] += k[i] * c[a]
+            for b in range(3):  # M_meas = Σ k_i (|r_i|² I − r_i r_iᵀ)
+                A[a, b] += k[i] * ((r2 if a == b else 0.0) - r_meas[i, a] * r_meas[i, b])
+        for a in range(3):
+            e[i, a] -= dl[a]  # step 4
+            r[i, a] = r_meas[i, a]
+    # step 3 (C): ω̂ += (I + h J⁻¹ M)⁻¹ J⁻¹ Σ k_i Δ_i × r̂_i
+    Jy = np.empty(3)
+    B = np.empty((3, 3))
+    for a in range(3):
+        Jy[a] = J_inv[a, 0] * y[0] + J_inv[a, 1] * y[1] + J_inv[a, 2] * y[2]
+        for b in range(3):
+            B[a, b] = (1.0 if a == b else 0.0) + h * (
+                J_inv[a, 0] * A[0, b] + J_inv[a, 1] * A[1, b] + J_inv[a, 2] * A[2, b]
+            )
+    dw = np.empty(3)
+    _solve3(B, Jy, dw)
+    for a in range(3):
+        w[a] += dw[a]
+    return status, info
+
+
+@numba.njit(cache=True)
+def step(x, p, t, m, kind, tau):
+    """Pure step: ``(new_state, status, info)``; ``x`` is not modified. ``m`` 2-D (see measurements)."""
+    n = int(p[_P_N])
+    out = np.empty_like(x)
+    status, info = _step_into(x, p, t, m, kind, tau, out, np.empty((n, 3)), np.empty((3, 3)))
+    return out, status, info
+
+
+@numba.njit(cache=True)
+def _run(x, p, times, m, kind, taus):
+    """The same :func:`_step_into` over a log; returns ``(final_state, ω̂ (T,3), status (T,), first_bad, info)``."""
+    T = times.size
+    n = int(p[_P_N])
+    W = np.empty((T, 3))
+    status = np.zeros(T, dtype=np.int64)
+    cur = x.copy()
+    nxt = np.empty_like(x)
+    r_meas = np.empty((n, 3))
+    R_work = np.empty((3, 3))
+    for j in range(T):
+        s, info = _step_into(cur, p, times[j], m[j], kind, taus[j], nxt, r_meas, R_work)
+        status[j] = s
+        if s >= ms.ERROR:
+            return x, W, status, j, info
+        cur, nxt = nxt, cur
+        W[j, :] = cur[_W : _W + 3]
+    return cur, W, status, -1, 0.0
+
+
+# ------------------------------------------------------------------------------------------------ the object
+
+_ZERO3 = np.zeros(3)
+_ZERO3.flags.writeable = False
+
+
+class SarrasEstimator(Estimator):
+    """Sampled Sarras estimator (module docstring: equations, input, bad-input behaviour).
+
+    Parameters
+    ----------
+    J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
+    gains : :class:`omegahat.gains.ObserverGains` for ``n`` directions (required): ``theorem_gains``,
+        :func:`omegahat.tuning.sensor_gains` or your own.
+    references : inertial directions ``v_i`` ``(n, 3)``. With ``measurement="attitude"`` (default when no
+        references are given) they default to the first ``n`` inertial axes (rows of R); with
+        ``measurement="directions"`` (default when references are given) they are required.
+    omega_hat0 : initial estimate (default 0). ``r_hat0`` : initial ``r̂_i`` ``(n, 3)`` (default: first sample).
+    scalar_first : quaternion order (default False: SciPy's ``(x, y, z, w)``).
+    rotation_tol, quat_norm_tol, min_angle_deg : input checks (see :mod:`omegahat.measurements`).
+    max_substep_angle : bound on the prediction's substep angle (rad).
+    """
+
+    def __init__(
+        self,
+        J,
+        *,
+        gains: ObserverGains,
+        references=None,
+        measurement: str | None = None,
+        omega_hat0=None,
+        r_hat0=None,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+        min_angle_deg: float = ms.MIN_ANGLE_DEG,
+        max_substep_angle: float = MAX_SUBSTEP_ANGLE,
+    ):
+        self.J = as_inertia(J)
+        if not isinstance(gains, ObserverGains):
+            raise TypeError(f"gains must be an omegahat.gains.ObserverGains; got {type(gains).__name__}")
+        self.gains = gains
+        n = gains.n
+        if measurement is None:
+            measurement = "attitude" if references is None else "directions"
+        if measurement not in ("attitude", "directions"):
+            raise ValueError(f"measurement must be 'attitude' or 'directions'; got {measurement!r}")
+        self.measurement = measurement
+        if references is None:
+            if measurement == "directions":
+                raise ValueError("measurement='directions' needs the inertial references (n, 3)")
+            if n not in (2, 3):
+                raise ValueError(f"attitude input without references uses 2 or 3 rows of R; gains are for {n}")
+        self.references = ms.as_references(references, n)
+        if self.references.shape[0] != n:
+            raise ValueError(f"{n} gains were given for {self.references.shape[0]} reference directions")
+        self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
+        if r_hat0 is None:
+            self.r_hat0 = None
+        else:
+            self.r_hat0 = np.asarray(r_hat0, dtype=float)
+            if self.r_hat0.shape != (n, 3) or not np.all(np.isfinite(self.r_hat0)):
+                raise ValueError(f"r_hat0 must be {n} finite directions, shape ({n}, 3); got {r_hat0!r}")
+        self.scalar_first = bool(scalar_first)
+        tols = [as_positive(v, name)[0] for v, name in (
+            (rotation_tol, "rotation_tol"), (quat_norm_tol, "quat_norm_tol"),
+            (max_substep_angle, "max_substep_angle"))]
+        if not 0 <= min_angle_deg < 90:
+            raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
+        self.rotation_tol, self.quat_norm_tol, self.max_substep_angle = (float(v) for v in tols)
+        self.min_angle_deg = float(min_angle_deg)
+        self._params = np.concatenate([
+            self.J.ravel(), np.linalg.inv(self.J).ravel(),
+            [self.rotation_tol, self.quat_norm_tol, np.sin(np.radians(self.min_angle_deg)),
+             self.max_substep_angle, float(self.scalar_first), float(self.r_hat0 is not None), float(n)],
+            gains.k, gains.l_offset, gains.l_slope, self.references.ravel(),
+            np.zeros(3 * n) if self.r_hat0 is None else self.r_hat0.ravel(),
+        ])
+        self.reset()
+
+    # -- state ------------------------------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Forget every sample: back to ``ω̂₀``, uninitialised, counters cleared."""
+        n = self.gains.n
+        x = np.zeros(_R + 6 * n)
+        x[_T] = np.nan
+        x[_W : _W + 3] = self.omega_hat0
+        self._x = x
+        self.n_missing = 0
+        self.n_collinear = 0
+        self.skipped_times: list[float] = []
+        self.largest_interval = 0.0
+        self.last_status = None
+
+    @property
+    def state(self) -> EstimatorState:
+        """A readable copy of the current state."""
+        return EstimatorState.from_vector(self._x)
+
+    @property
+    def omega_hat(self) -> np.ndarray:
+        return self._x[_W : _W + 3].copy()
+
+    # -- input ------------------------------------------------------------------------------------------------
+
+    def _sample(self, measurement):
+        """``(m 2-D, kind)`` for one sample, shape checked (values are checked in the kernel)."""
+        if isinstance(measurement, Rotation):
+            if not measurement.single:
+                raise ValueError(f"update takes one sample; got a Rotation holding {len(measurement)}")
+            return measurement.as_matrix(), ms.KIND_MATRIX
+        m = np.asarray(measurement, dtype=float)
+        if self.measurement == "attitude":
+            if m.shape == (3, 3):
+                return m, ms.KIND_MATRIX
+            if m.shape == (4,):
+                return m.reshape(1, 4), ms.KIND_QUAT
+            raise ValueError(f"an attitude sample must be a 3x3 matrix, a quaternion (4,) or a Rotation; "
+                             f"got shape {m.shape}")
+        if m.shape != self.references.shape:
+            raise ValueError(f"a direction sample must have shape {self.references.shape} (one row per reference); "
+                             f"got shape {m.shape}")
+        return m, ms.KIND_DIRECTIONS
+
+    def _batch(self, measurements, T):
+        if isinstance(measurements, Rotation):
+            m = measurements.as_matrix()
+            kind = ms.KIND_MATRIX
+        else:
+            m = np.asarray(measurements, dtype=float)
+            if self.measurement == "attitude" and m.shape == (T, 3, 3):
+                kind = ms.KIND_MATRIX
+            elif self.measurement == "attitude" and m.shape == (T, 4):
+                m, kind = m.reshape(T, 1, 4), ms.KIND_QUAT
+            elif self.measurement == "directions" and m.shape == (T, *self.references.shape):
+                kind = ms.KIND_DIRECTIONS
+            else:
+                want = ("(T, 3, 3) or (T, 4)" if self.measurement == "attitude"
+                        else f"(T, {self.references.shape[0]}, 3)")
+                raise ValueError(f"measurements must have shape {want} with T = {T} samples; got shape {m.shape}")
+        if m.shape[0] != T:
+            raise ValueError(f"{m.shape[0]} measurements for {T} times")
+        return np.ascontiguousarray(m), kind
+
+    def _reject(self, status, info, t, where):
+        if status == TIME_ORDER:
+            return ValueError(f"{where}: time t = {t!r} is not after the previous sample's t = {info!r} "
+                              "(timestamps must increase strictly)")
+        if status == TIME_NOT_FINITE:
+            return ValueError(f"{where}: time t = {t!r} is not finite")
+        if status == TORQUE_NOT_FINITE:
+            return ValueError(f"{where} (t = {t!r}): torque must be finite; got {info!r}")
+        return ms.MeasurementError(ms.describe_rejection(status, info, f"{where} (t = {t!r})"))
+
+    # -- estimation -------------------------------------------------------------------------------------------
+
+    def update(self, t, measurement, torque=None) -> np.ndarray:
+        """Take the sample at time ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""
+        m, kind = self._sample(measurement)
+        if torque is None:
+            tau = _ZERO3
+        else:
+            tau = np.asarray(torque, dtype=float)
+            if tau.shape != (3,):
+                raise ValueError(f"torque must be a 3-vector; got shape {tau.shape}")
+        t_prev = self._x[_T]
+        x, status, info = step(self._x, self._params, float(t), m, kind, tau)
+        if status >= ms.ERROR:
+            raise self._reject(status, info, t, "the sample")
+        self._x = x
+        self.last_status = status
+        if status != ms.OK:
+            self._note_skipped(status, t)
+        if t - t_prev > self.largest_interval:  # NaN before the first sample: comparison False
+            self.largest_interval = t - t_prev
+        return x[_W : _W + 3].copy()
+
+    def _note_skipped(self, status, t):
+        if status == ms.MISSING:
+            self.n_missing += 1
+        else:
+            self.n_collinear += 1
+        self.skipped_times.append(float(t))
+
+    def run(self, times, measurements, torques=None) -> np.ndarray:
+        """ω̂ at every sample of a log ``(T, 3)``, continuing from the current state (:meth:`reset` first for
+        a fresh start). Same compiled step as :meth:`update`; atomic on rejection (see the module docstring).
+
+        ``times (T,)``; ``measurements`` ``(T, 3, 3)``, ``(T, 4)``, a ``Rotation`` of T, or ``(T, n, 3)``;
+        ``torques (T, 3)`` or None. Per-sample statuses are left in ``last_status``.
+        """
+        times = np.asarray(times, dtype=float)
+        if times.ndim != 1:
+            raise ValueError(f"times must have shape (T,); got shape {times.shape}")
+        T = times.size
+        m, kind = self._batch(measurements, T)
+        if torques is None:
+            taus = np.zeros((T, 3))
+        else:
+            taus = np.ascontiguousarray(torques, dtype=float)
+            if taus.shape != (T, 3):
+                raise ValueError(f"torques must have shape ({T}, 3); got shape {taus.shape}")
+        x, W, status, first_bad, info = _run(self._x, self._params, np.ascontiguousarray(times), m, kind, taus)
+        if first_bad >= 0:
+            raise self._reject(int(status[first_bad]), float(info), float(times[first_bad]),
+                               f"sample {first_bad}")
+        t_prev = self._x[_T]
+        self._x = x
+        self.last_status = status
+        skipped = status != ms.OK
+        if T:
+            gaps = np.diff(np.concatenate([[t_prev], times])) if np.isfinite(t_prev) else np.diff(times)
+            if gaps.size:
+                self.largest_interval = max(self.largest_interval, float(gaps.max()))
+        if skipped.any():
+            n_miss = int(np.count_nonzero(status == ms.MISSING))
+            n_col = int(np.count_nonzero(status == ms.COLLINEAR))
+            self.n_missing += n_miss
+            self.n_collinear += n_col
+            self.skipped_times.extend(times[skipped].tolist())
+            warnings.warn(
+                f"skipped {n_miss + n_col} of {T} samples ({n_miss} missing: NaN/inf, {n_col} with nearly "
+                "collinear directions); the estimate was predicted through them (times in skipped_times)",
+                SkippedSamplesWarning,
+                stacklevel=2,
+            )
+        return W
