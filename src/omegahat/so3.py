@@ -6,8 +6,8 @@ Conventions (used everywhere in omegahat):
 * ``hat(v)`` is the skew matrix with ``hat(v) @ x == cross(v, x)``; ``vee`` is its inverse.
 * ``exp(φ) = I + sin θ/θ φ× + (1 − cos θ)/θ² φ×²`` (Rodrigues), θ = |φ|; ``log`` is its inverse with
   ``|log R| ≤ π``.
-* Quaternions follow SciPy: scalar **last** ``(x, y, z, w)`` unless ``scalar_first=True``. A quaternion and its
-  negative are the same rotation.
+* Quaternions follow SciPy: scalar **last** ``(x, y, z, w)`` unless ``scalar_first=True``. A quaternion and
+  its negative are the same rotation.
 
 Every function broadcasts over leading axes: a vector is ``(*B, 3)``, a matrix ``(*B, 3, 3)``, a quaternion
 ``(*B, 4)``.
@@ -17,7 +17,7 @@ Numerical care:
 * near the identity the coefficients of ``exp``/``log`` are evaluated by their Taylor series (the closed forms
   lose all digits as θ → 0);
 * near θ = π the axis of ``log`` is read from the symmetric part ``(R + Rᵀ)/2 = cos θ I + (1 − cos θ) a aᵀ``,
-  because the antisymmetric part ``sin θ a×`` vanishes there.
+  because the antisymmetric part ``sin θ a×`` vanishes there (used for θ > 2 rad).
 """
 
 from __future__ import annotations
@@ -40,15 +40,29 @@ __all__ = [
 
 # Below this angle the Taylor branches are used; their truncation error is O(θ⁶) ≈ 1e-24 there.
 _SMALL_ANGLE = 1e-4
-# Above this angle (rad) log reads the axis from the symmetric part.
-_NEAR_PI = np.pi - 1e-2
+# Above this angle (rad) log reads the axis from the symmetric part. The generic branch θ/sin θ · vee(R) loses
+# digits as ε/sin θ (1.4e-14 in exp(log R) at π − 1e-2); the symmetric part (1 − cos θ) a aᵀ is accurate once
+# 1 − cos θ ≥ 1, so switch well before π: with 2.0 rad both branches stay within 1.3e-15 (tests/test_so3.py).
+_NEAR_PI = 2.0
+
+
+def _check_vectors(v, name: str) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    if v.shape[-1:] != (3,):
+        raise ValueError(f"{name} expects vectors of shape (..., 3), got shape {v.shape}")
+    return v
+
+
+def _check_matrices(M, name: str) -> np.ndarray:
+    M = np.asarray(M, dtype=float)
+    if M.shape[-2:] != (3, 3):
+        raise ValueError(f"{name} expects matrices of shape (..., 3, 3), got shape {M.shape}")
+    return M
 
 
 def hat(v):
     """Skew-symmetric matrix of ``v``: ``hat(v) @ x == np.cross(v, x)``. ``(*B, 3) -> (*B, 3, 3)``."""
-    v = np.asarray(v, dtype=float)
-    if v.shape[-1:] != (3,):
-        raise ValueError(f"hat expects vectors of shape (..., 3), got shape {v.shape}")
+    v = _check_vectors(v, "hat")
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
     o = np.zeros_like(x)
     return np.stack(
@@ -59,9 +73,7 @@ def hat(v):
 
 def vee(S):
     """Inverse of :func:`hat` (the antisymmetric part is read off; ``(*B, 3, 3) -> (*B, 3)``)."""
-    S = np.asarray(S, dtype=float)
-    if S.shape[-2:] != (3, 3):
-        raise ValueError(f"vee expects matrices of shape (..., 3, 3), got shape {S.shape}")
+    S = _check_matrices(S, "vee")
     return 0.5 * np.stack(
         [S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]], axis=-1
     )
@@ -79,7 +91,7 @@ def _exp_coefficients(theta):
 
 def exp(phi):
     """Rotation matrix ``exp(φ×)`` of a rotation vector ``φ``. ``(*B, 3) -> (*B, 3, 3)``."""
-    phi = np.asarray(phi, dtype=float)
+    phi = _check_vectors(phi, "exp")
     K = hat(phi)
     theta = np.linalg.norm(phi, axis=-1)
     a, b = _exp_coefficients(theta)
@@ -92,9 +104,7 @@ def log(R):
 
     At exactly θ = π both ``±π a`` are valid; the sign is then whatever the rounding of ``R − Rᵀ`` gives.
     """
-    R = np.asarray(R, dtype=float)
-    if R.shape[-2:] != (3, 3):
-        raise ValueError(f"log expects matrices of shape (..., 3, 3), got shape {R.shape}")
+    R = _check_matrices(R, "log")
     w = vee(R)  # = sin θ · a
     s = np.linalg.norm(w, axis=-1)
     c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)  # = cos θ
@@ -123,19 +133,19 @@ def log(R):
 
 def orthogonality_error(R):
     """Frobenius norm of ``RᵀR − I`` (0 for an exact rotation). ``(*B, 3, 3) -> (*B,)``."""
-    R = np.asarray(R, dtype=float)
+    R = _check_matrices(R, "orthogonality_error")
     return np.linalg.norm(np.swapaxes(R, -1, -2) @ R - np.eye(3), axis=(-2, -1))
 
 
 def is_rotation(R, tol=1e-6):
     """True where ``‖RᵀR − I‖_F ≤ tol`` and ``det R > 0``. ``(*B, 3, 3) -> (*B,)`` booleans."""
-    R = np.asarray(R, dtype=float)
+    R = _check_matrices(R, "is_rotation")
     return (orthogonality_error(R) <= tol) & (np.linalg.det(R) > 0)
 
 
 def project(M):
     """Nearest rotation to ``M`` in the Frobenius norm (special orthogonal polar factor, by SVD)."""
-    M = np.asarray(M, dtype=float)
+    M = _check_matrices(M, "project")
     U, _, Vt = np.linalg.svd(M)
     d = np.sign(np.linalg.det(U @ Vt))
     d = np.where(d == 0, 1.0, d)
@@ -164,13 +174,13 @@ def from_quat(q, scalar_first=False):
 
 
 def to_quat(R, scalar_first=False):
-    """Unit quaternion of rotation matrix ``R``, scalar part ≥ 0 (SciPy's algorithm). ``(*B,3,3) -> (*B,4)``."""
-    R = np.asarray(R, dtype=float)
+    """Unit quaternion of rotation matrix ``R``, scalar part ≥ 0 (SciPy's algorithm). ``(*B,3,3)->(*B,4)``."""
+    R = _check_matrices(R, "to_quat")
     flat = R.reshape(-1, 3, 3)
     q = Rotation.from_matrix(flat).as_quat(canonical=True)
     if scalar_first:
         q = np.roll(q, 1, axis=-1)
-    return q.reshape(R.shape[:-2] + (4,))
+    return q.reshape((*R.shape[:-2], 4))
 
 
 def as_matrix(attitude, scalar_first=False):
@@ -186,5 +196,6 @@ def as_matrix(attitude, scalar_first=False):
     if a.shape[-1:] == (4,):
         return from_quat(a, scalar_first=scalar_first)
     raise ValueError(
-        f"an attitude must be a scipy Rotation, matrices (..., 3, 3) or quaternions (..., 4); got shape {a.shape}"
+        "an attitude must be a scipy Rotation, matrices (..., 3, 3) or quaternions (..., 4); "
+        f"got shape {a.shape}"
     )
