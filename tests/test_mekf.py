@@ -1,5 +1,5 @@
-"""The gyro-less MEKF: Jacobians against finite differences, discretisation against SciPy, NEES within χ² bounds,
-noise-free convergence, gaps and bad input."""
+"""The gyro-less MEKF: Jacobians against finite differences, discretisation against SciPy, NEES within χ²
+bounds, noise-free convergence, gaps and bad input."""
 
 import numpy as np
 import pytest
@@ -55,7 +55,7 @@ def test_process_jacobian_matches_finite_differences(model):
         [(error_rate(d * e, model) - error_rate(-d * e, model)) / (2 * d) for e in np.eye(6)]
     )
     np.testing.assert_allclose(F, F_fd, atol=1e-6)
-    # G: the torque noise enters through Euler's equations (ω̇ = J⁻¹(... + τ)); the kinematic noise is ω̇ itself.
+    # G: torque noise enters through Euler's equations (ω̇ = J⁻¹(... + τ)); the kinematic noise is ω̇ itself.
     body = RigidBody(J)
     G_fd = np.column_stack(
         [(body.omega_dot(W_HAT, d * e) - body.omega_dot(W_HAT, -d * e)) / (2 * d) for e in np.eye(3)]
@@ -69,10 +69,8 @@ def test_measurement_jacobians_match_finite_differences():
     d = 1e-6
     # Attitude fix: z(δθ) = 2 dq_vec / dq_w of R̂ᵀ R̂ Exp(δθ) = 2 tan(θ/2) axis, so dz/dδθ = I at 0.
     _, H = attitude_innovation(R_hat, R_hat)
-    H_fd = np.column_stack(
-        [(attitude_innovation(R_hat, R_hat @ Exp(d * e))[0] - attitude_innovation(R_hat, R_hat @ Exp(-d * e))[0])
-         / (2 * d) for e in np.eye(3)]
-    )
+    z_of = lambda dth: attitude_innovation(R_hat, R_hat @ Exp(dth))[0]  # noqa: E731
+    H_fd = np.column_stack([(z_of(d * e) - z_of(-d * e)) / (2 * d) for e in np.eye(3)])
     np.testing.assert_allclose(H[:, :3], H_fd, atol=1e-8)
     np.testing.assert_array_equal(H[:, 3:], 0.0)
     phi = np.array([0.4, -0.2, 0.3])
@@ -132,9 +130,9 @@ def simulate_truth(model, J_true, q, h, steps, n_runs, rng, n_sub=20):
 @pytest.mark.parametrize(("model", "q"), [("kinematic", 1e-3), ("dynamic", 2e-3)])
 def test_nees_within_chi2_bounds_near_linear(model, q):
     """Near-linear case (small rates, small noise, many fixes): averaged over N seeded runs, the NEES of the
-    6-dimensional error is N⁻¹χ²(6N). We require the run-averaged NEES to lie inside the two-sided 99 % interval
-    [χ²₀.₀₀₅(6N), χ²₀.₉₉₅(6N)]/N at ≥ 95 % of the sample times (99 % expected if the filter is consistent), and
-    its average over all times within 10 % of 6. (Checked to fail when the filter's q is 5 times too large or
+    6-dimensional error is N⁻¹χ²(6N). We require the run-averaged NEES to lie inside the two-sided 99 %
+    interval [χ²₀.₀₀₅(6N), χ²₀.₉₉₅(6N)]/N at ≥ 95 % of the sample times (99 % expected if the filter is
+    consistent), and its average over all times within 10 % of 6. (Checked to fail when the filter's q is 5 times too large or
     too small: 16 % and 8 % of the times inside, averages 4.0 and 15.5.)"""
     J_true = np.diag([1.0, 1.2, 0.9])
     h, steps, n_runs, sigma = 0.05, 80, 30, 0.01
@@ -213,7 +211,7 @@ def test_errors_and_state_kept_after_rejection():
     for g in (f, ref):
         g.update(0.0, np.eye(3))
         g.update(0.1, Exp([0.01, 0.02, 0.0]))
-    with pytest.raises(ValueError, match=r"measurement must be a rotation matrix \(3, 3\).*got shape \(2, 3\)"):
+    with pytest.raises(ValueError, match=r"must be a rotation matrix \(3, 3\).*got shape \(2, 3\)"):
         f.update(0.2, np.zeros((2, 3)))
     with pytest.raises(ValueError, match=r"measurement\[0\] is not a rotation matrix"):
         f.update(0.2, 2 * np.eye(3))
@@ -221,7 +219,8 @@ def test_errors_and_state_kept_after_rejection():
         f.update(0.1, np.eye(3))
     with pytest.raises(ValueError, match=r"torque must be 3 finite numbers; got \[ 0. nan"):
         f.update(0.2, np.eye(3), torque=[0.0, np.nan, 0.0])
-    np.testing.assert_array_equal(f.update(0.2, Exp([0.02, 0.04, 0.0])), ref.update(0.2, Exp([0.02, 0.04, 0.0])))
+    R2 = Exp([0.02, 0.04, 0.0])
+    np.testing.assert_array_equal(f.update(0.2, R2), ref.update(0.2, R2))
     g = MEKF(None, "kinematic", references=np.eye(3)[:2])
     with pytest.raises(ValueError, match=r"measurement must be 2 body-frame directions, shape \(2, 3\)"):
         g.update(0.0, np.eye(3))
