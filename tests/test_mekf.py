@@ -132,8 +132,8 @@ def test_nees_within_chi2_bounds_near_linear(model, q):
     """Near-linear case (small rates, small noise, many fixes): averaged over N seeded runs, the NEES of the
     6-dimensional error is N⁻¹χ²(6N). We require the run-averaged NEES to lie inside the two-sided 99 %
     interval [χ²₀.₀₀₅(6N), χ²₀.₉₉₅(6N)]/N at ≥ 95 % of the sample times (99 % expected if the filter is
-    consistent), and its average over all times within 10 % of 6. (Checked to fail when the filter's q is 5 times too large or
-    too small: 16 % and 8 % of the times inside, averages 4.0 and 15.5.)"""
+    consistent), and its average over all times within 10 % of 6. (Checked to fail when the filter's q is
+    5 times too large or too small: 16 % and 8 % of the times inside, averages 4.0 and 15.5.)"""
     J_true = np.diag([1.0, 1.2, 0.9])
     h, steps, n_runs, sigma = 0.05, 80, 30, 0.01
     sigma_th0, sigma_w0 = 0.02, 0.1
