@@ -102,8 +102,8 @@ TIME_ORDER = 20  #: info = previous time
 TIME_NOT_FINITE = 21
 TORQUE_NOT_FINITE = 22
 
-# Layout of the flat state vector (n directions): [t, initialised, ω̂(3), τ(3), r(n·3), e(n·3)].
-_T, _INIT, _W, _TAU, _R = 0, 1, 2, 5, 8
+# Layout of the flat state vector (n directions): [t, initialised, t_meas, ω̂(3), τ(3), r(n·3), e(n·3)].
+_T, _INIT, _TM, _W, _TAU, _R = 0, 1, 2, 3, 6, 9
 
 
 class SkippedSamplesWarning(UserWarning):
@@ -115,12 +115,14 @@ class EstimatorState:
     """Readable copy of the estimator's state (``n`` directions).
 
     ``t`` time of the last sample (NaN before any), ``initialised`` whether a valid sample has set ``r``,
+    ``t_meas`` time of the last valid (not skipped) sample,
     ``omega_hat (3,)``, ``torque (3,)`` held since ``t``, ``r (n, 3)`` the directions at ``t`` (the last
     measurement or its prediction), ``e (n, 3) = r̂ − r``.
     """
 
     t: float
     initialised: bool
+    t_meas: float
     omega_hat: np.ndarray
     torque: np.ndarray
     r: np.ndarray
@@ -137,6 +139,7 @@ class EstimatorState:
         return cls(
             t=float(x[_T]),
             initialised=bool(x[_INIT]),
+            t_meas=float(x[_TM]),
             omega_hat=x[_W : _W + 3].copy(),
             torque=x[_TAU : _TAU + 3].copy(),
             r=x[_R : _R + 3 * n].reshape(n, 3).copy(),
@@ -145,7 +148,7 @@ class EstimatorState:
 
     def to_vector(self) -> np.ndarray:
         return np.concatenate(
-            [[self.t, float(self.initialised)], self.omega_hat, self.torque, self.r.ravel(), self.e.ravel()]
+            [[self.t, float(self.initialised), self.t_meas], self.omega_hat, self.torque, self.r.ravel(), self.e.ravel()]
         )
 
 
@@ -193,29 +196,37 @@ def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, m
     return w, r @ D, decay[:, None] * (e @ D)  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
 
 
-def reference_step(state: EstimatorState, t, r_meas, tau, J, gains: ObserverGains, r_hat0=None,
-                   omega_hat0=None, max_angle=MAX_SUBSTEP_ANGLE) -> EstimatorState:
-    """Steps 1–4 for one valid sample of directions ``r_meas (n, 3)``, plain NumPy (no validation).
+def reference_step(
+    state: EstimatorState, t, r_meas, tau, J, gains: ObserverGains, r_hat0=None, omega_hat0=None,
+    max_angle=MAX_SUBSTEP_ANGLE,
+) -> EstimatorState:
+    """Steps 1–4 for one sample of directions ``r_meas (n, 3)`` (None: a skipped sample), plain NumPy, no checks.
 
     ``tau`` is the torque given with this sample (held from ``t`` on); the interval uses ``state.torque``.
     """
-    r_meas = np.asarray(r_meas, dtype=float)
     tau = np.zeros(3) if tau is None else np.asarray(tau, dtype=float)
     if not state.initialised:
+        if r_meas is None:
+            return EstimatorState(float(t), False, state.t_meas, state.omega_hat, tau, state.r, state.e)
+        r_meas = np.asarray(r_meas, dtype=float)
         w0 = np.zeros(3) if omega_hat0 is None else np.asarray(omega_hat0, float)
         e0 = np.zeros_like(r_meas) if r_hat0 is None else np.asarray(r_hat0, float) - r_meas
-        return EstimatorState(float(t), True, w0, tau, r_meas.copy(), e0)
+        return EstimatorState(float(t), True, float(t), w0, tau, r_meas.copy(), e0)
     J_inv = np.linalg.inv(J)
-    h = t - state.t
-    w, r_pred, e_pred = reference_predict(state.omega_hat, state.r, state.e, state.torque, h, J, J_inv, gains,
-                                          max_angle)
+    w, r_pred, e_pred = reference_predict(
+        state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle
+    )
+    if r_meas is None:
+        return EstimatorState(float(t), True, state.t_meas, w, tau, r_pred, e_pred)
+    r_meas = np.asarray(r_meas, dtype=float)
     delta = r_meas - r_pred  # step 2
     r_hat = r_pred + e_pred
     k = gains.k
-    y = J_inv @ np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # plain jump
+    y = J_inv @ np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # the plain jump
     M = sum(k[i] * (r_meas[i] @ r_meas[i] * np.eye(3) - np.outer(r_meas[i], r_meas[i])) for i in range(k.size))
-    w = w + np.linalg.solve(np.eye(3) + h * J_inv @ M, y)  # (C)
-    return EstimatorState(float(t), True, w, tau, r_meas.copy(), e_pred - delta)  # step 4
+    h = t - state.t_meas  # since the last valid sample
+    w = w + np.linalg.solve(np.eye(3) + h * J_inv @ M, y)  # step 3, (C)
+    return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - delta)  # step 4
 
 
 # --------------------------------------------------------------------------------------------- compiled kernel
@@ -391,6 +402,7 @@ def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
     if x[_INIT] == 0.0:
         if status == ms.OK:  # initialisation by the first valid sample
             out[_INIT] = 1.0
+            out[_TM] = t
             r[:, :] = r_meas
             if p[_P_HASR] != 0.0:
                 e[:, :] = p[_P_K + 6 * n : _P_K + 9 * n].reshape(n, 3) - r_meas
@@ -432,7 +444,10 @@ def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
         for a in range(3):
             e[i, a] -= dl[a]  # step 4
             r[i, a] = r_meas[i, a]
-    # step 3 (C): ω̂ += (I + h J⁻¹ M)⁻¹ J⁻¹ Σ k_i Δ_i × r̂_i
+    # step 3 (C): ω̂ += (I + h J⁻¹ M)⁻¹ J⁻¹ Σ k_i Δ_i × r̂_i, h since the last valid sample (the span over which
+    # the innovation accumulated, so skipping a sample changes nothing but the prediction's substeps)
+    h = t - x[_TM]
+    out[_TM] = t
     Jy = np.empty(3)
     B = np.empty((3, 3))
     for a in range(3):
@@ -624,6 +639,7 @@ class SarrasEstimator(Estimator):
         return np.ascontiguousarray(m), kind
 
     def _reject(self, status, info, t, where):
+        t, info = float(t), float(info)
         if status == TIME_ORDER:
             return ValueError(f"{where}: time t = {t!r} is not after the previous sample's t = {info!r} "
                               "(timestamps must increase strictly)")
