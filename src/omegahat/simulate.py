@@ -160,7 +160,9 @@ class CoupledProblem:
     @property
     def xi0(self) -> np.ndarray:
         """The observer's ξ₀ that gives ω̂₀ (the paper's ``ξ₀ = Σ k_i J⁻¹ (r̂_i0 × r_i0)`` when ω̂₀ = 0)."""
-        return sarras.xi_for_omega_hat(self.omega_hat0, self.r0, self.r_hat0, self.gains.k, np.linalg.inv(self.J))
+        return sarras.xi_for_omega_hat(
+            self.omega_hat0, self.r0, self.r_hat0, self.gains.k, np.linalg.inv(self.J)
+        )
 
 
 def paper_problem(torque=None) -> CoupledProblem:
@@ -388,7 +390,9 @@ def _error_norm(y_fine, y_coarse, n, rtol, atol):
 
 
 @numba.njit(cache=True)
-def integrate_coupled(y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps):
+def integrate_coupled(
+    y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps
+):
     """Integrate the coupled system from t_out[0] and return y at every t_out ``(T, len(y0))``.
 
     Returns ``(Y, accepted, rejected, ok)``; ``ok`` is False when ``max_steps`` was exceeded or the state became
@@ -419,7 +423,9 @@ def integrate_coupled(y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, 
                 last = True
             _etdrk4_step(y, t, hh, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, work, y_full)
             _etdrk4_step(y, t, 0.5 * hh, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, work, y_half)
-            _etdrk4_step(y_half, t + 0.5 * hh, 0.5 * hh, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, work, y_fine)
+            _etdrk4_step(
+                y_half, t + 0.5 * hh, 0.5 * hh, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, work, y_fine
+            )
             err = _error_norm(y_fine, y_full, n, rtol, atol)
             if not np.isfinite(err):
                 if hh < 1e-14:
@@ -522,7 +528,7 @@ def simulate(
             raise ValueError(f"horizon must be positive and finite; got {horizon!r}")
         if not (np.isfinite(dt_out) and dt_out > 0):
             raise ValueError(f"dt_out must be positive and finite; got {dt_out!r}")
-        count = int(round(horizon / dt_out))
+        count = round(horizon / dt_out)
         t_out = np.linspace(0.0, count * dt_out, count + 1)
         if t_out[-1] < horizon:
             t_out = np.append(t_out, horizon)
@@ -586,7 +592,9 @@ def simulate_reference(
     omega = Y[:, 3 * n : 3 * n + 3]
     xi = Y[:, 3 * n + 3 : 3 * n + 6]
     r_hat = Y[:, 3 * n + 6 :].reshape(-1, n, 3)
-    omega_hat = xi + output_sign * np.einsum("ij,tj->ti", Jinv, np.einsum("i,tia->ta", g.k, np.cross(r, r_hat)))
+    omega_hat = xi + output_sign * np.einsum(
+        "ij,tj->ti", Jinv, np.einsum("i,tia->ta", g.k, np.cross(r, r_hat))
+    )
     return CoupledTrajectory(
         t=sol.t,
         omega=omega,
