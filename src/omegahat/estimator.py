@@ -236,43 +236,38 @@ def reference_step(
 _P_J, _P_JI, _P_ROT, _P_QN, _P_SIN, _P_ANG, _P_SF, _P_HASR, _P_N, _P_K = 0, 9, 18, 19, 20, 21, 22, 23, 24, 25
 
 
-@numba.njit(cache=True)
-def _cross(a, b, out):
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
+@numba.njit(cache=True, inline="always")
+def _euler_rhs(J, J_inv, w0, w1, w2, t0, t1, t2):
+    """``J⁻¹((J w) × w + τ)`` (E1), as a tuple."""
+    a0 = J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2
+    a1 = J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2
+    a2 = J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2
+    g0 = a1 * w2 - a2 * w1 + t0
+    g1 = a2 * w0 - a0 * w2 + t1
+    g2 = a0 * w1 - a1 * w0 + t2
+    return (
+        J_inv[0, 0] * g0 + J_inv[0, 1] * g1 + J_inv[0, 2] * g2,
+        J_inv[1, 0] * g0 + J_inv[1, 1] * g1 + J_inv[1, 2] * g2,
+        J_inv[2, 0] * g0 + J_inv[2, 1] * g1 + J_inv[2, 2] * g2,
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def _dexpinv(u0, u1, u2, w0, w1, w2, hs):
+    """``hs (w + ½ u × w + (1/12) u × (u × w))``, as a tuple."""
+    c0 = u1 * w2 - u2 * w1
+    c1 = u2 * w0 - u0 * w2
+    c2 = u0 * w1 - u1 * w0
+    d0 = u1 * c2 - u2 * c1
+    d1 = u2 * c0 - u0 * c2
+    d2 = u0 * c1 - u1 * c0
+    return hs * (w0 + 0.5 * c0 + d0 / 12.0), hs * (w1 + 0.5 * c1 + d1 / 12.0), hs * (w2 + 0.5 * c2 + d2 / 12.0)
 
 
 @numba.njit(cache=True)
-def _euler_rhs(J, J_inv, w, tau, out):
-    """``out = J⁻¹((J w) × w + τ)`` (E1)."""
-    Jw0 = J[0, 0] * w[0] + J[0, 1] * w[1] + J[0, 2] * w[2]
-    Jw1 = J[1, 0] * w[0] + J[1, 1] * w[1] + J[1, 2] * w[2]
-    Jw2 = J[2, 0] * w[0] + J[2, 1] * w[1] + J[2, 2] * w[2]
-    g0 = Jw1 * w[2] - Jw2 * w[1] + tau[0]
-    g1 = Jw2 * w[0] - Jw0 * w[2] + tau[1]
-    g2 = Jw0 * w[1] - Jw1 * w[0] + tau[2]
-    for a in range(3):
-        out[a] = J_inv[a, 0] * g0 + J_inv[a, 1] * g1 + J_inv[a, 2] * g2
-
-
-@numba.njit(cache=True)
-def _dexpinv(u, w, hs, out):
-    """``out = hs (w + ½ u × w + (1/12) u × (u × w))``."""
-    c0 = u[1] * w[2] - u[2] * w[1]
-    c1 = u[2] * w[0] - u[0] * w[2]
-    c2 = u[0] * w[1] - u[1] * w[0]
-    d0 = u[1] * c2 - u[2] * c1
-    d1 = u[2] * c0 - u[0] * c2
-    d2 = u[0] * c1 - u[1] * c0
-    out[0] = hs * (w[0] + 0.5 * c0 + d0 / 12.0)
-    out[1] = hs * (w[1] + 0.5 * c1 + d1 / 12.0)
-    out[2] = hs * (w[2] + 0.5 * c2 + d2 / 12.0)
-
-
-@numba.njit(cache=True)
-def _exp_into(phi, E):
-    th2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]
+def _exp_into(x, y, z, E):
+    """``E = exp(φ×)`` for ``φ = (x, y, z)`` (Rodrigues; Taylor below 1e-4 rad)."""
+    th2 = x * x + y * y + z * z
     th = np.sqrt(th2)
     if th < 1e-4:
         a = 1.0 - th2 / 6.0 + th2 * th2 / 120.0
@@ -280,7 +275,6 @@ def _exp_into(phi, E):
     else:
         a = np.sin(th) / th
         b = (1.0 - np.cos(th)) / th2
-    x, y, z = phi[0], phi[1], phi[2]
     # I + a K + b K², K = φ×, K² = φφᵀ − θ² I
     E[0, 0] = 1.0 + b * (x * x - th2)
     E[1, 1] = 1.0 + b * (y * y - th2)
@@ -294,66 +288,64 @@ def _exp_into(phi, E):
 
 
 @numba.njit(cache=True)
-def _predict(J, J_inv, l_off, l_slope, max_angle, w, tau, h, D, decay):
-    """Step 1 in place: ``w`` ← ω̂(t+h), ``D`` ← ΔR̂, ``decay[i]`` ← exp(−∫ l_i dt)."""
-    f = np.empty(3)
-    _euler_rhs(J, J_inv, np.zeros(3), tau, f)  # J⁻¹τ
-    wn = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-    angle = h * (wn + h * np.sqrt(f[0] ** 2 + f[1] ** 2 + f[2] ** 2))
+def _predict(J, J_inv, max_angle, w, tau, h, D, E, T):
+    """Step 1 in place (RKMK4, as :func:`reference_predict`): ``w`` ← ω̂(t+h), ``D`` ← ΔR̂; returns ∫|ω̂| dt.
+
+    ``E``, ``T`` are 3×3 scratch matrices.
+    """
+    t0, t1, t2 = tau[0], tau[1], tau[2]
+    f0, f1, f2 = _euler_rhs(J, J_inv, 0.0, 0.0, 0.0, t0, t1, t2)  # J⁻¹τ
+    w0, w1, w2 = w[0], w[1], w[2]
+    angle = h * (np.sqrt(w0 * w0 + w1 * w1 + w2 * w2) + h * np.sqrt(f0 * f0 + f1 * f1 + f2 * f2))
     n_sub = max(1, min(MAX_SUBSTEPS, math.ceil(angle / max_angle)))
     hs = h / n_sub
-    K1, K2, K3, K4 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    L1, L2, L3, L4 = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    ws, u, E, T = np.empty(3), np.empty(3), np.empty((3, 3)), np.empty((3, 3))
-    for a in range(3):
-        for b in range(3):
-            D[a, b] = 1.0 if a == b else 0.0
     int_abs = 0.0
-    for _ in range(n_sub):  # RKMK4, as reference_predict
-        n1 = np.sqrt(w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-        _euler_rhs(J, J_inv, w, tau, L1)
-        for a in range(3):
-            K1[a] = hs * w[a]
-            L1[a] *= hs
-            ws[a] = w[a] + 0.5 * L1[a]
-            u[a] = 0.5 * K1[a]
-        n2 = np.sqrt(ws[0] ** 2 + ws[1] ** 2 + ws[2] ** 2)
-        _dexpinv(u, ws, hs, K2)
-        _euler_rhs(J, J_inv, ws, tau, L2)
-        for a in range(3):
-            L2[a] *= hs
-            ws[a] = w[a] + 0.5 * L2[a]
-            u[a] = 0.5 * K2[a]
-        n3 = np.sqrt(ws[0] ** 2 + ws[1] ** 2 + ws[2] ** 2)
-        _dexpinv(u, ws, hs, K3)
-        _euler_rhs(J, J_inv, ws, tau, L3)
-        for a in range(3):
-            L3[a] *= hs
-            ws[a] = w[a] + L3[a]
-        n4 = np.sqrt(ws[0] ** 2 + ws[1] ** 2 + ws[2] ** 2)
-        _dexpinv(K3, ws, hs, K4)
-        _euler_rhs(J, J_inv, ws, tau, L4)
-        for a in range(3):
-            L4[a] *= hs
+    for j in range(n_sub):
+        # stage 1
+        L10, L11, L12 = _euler_rhs(J, J_inv, w0, w1, w2, t0, t1, t2)
+        L10, L11, L12 = hs * L10, hs * L11, hs * L12
+        K10, K11, K12 = hs * w0, hs * w1, hs * w2
+        n1 = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        # stage 2
+        s0, s1, s2 = w0 + 0.5 * L10, w1 + 0.5 * L11, w2 + 0.5 * L12
+        n2 = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        K20, K21, K22 = _dexpinv(0.5 * K10, 0.5 * K11, 0.5 * K12, s0, s1, s2, hs)
+        L20, L21, L22 = _euler_rhs(J, J_inv, s0, s1, s2, t0, t1, t2)
+        L20, L21, L22 = hs * L20, hs * L21, hs * L22
+        # stage 3
+        s0, s1, s2 = w0 + 0.5 * L20, w1 + 0.5 * L21, w2 + 0.5 * L22
+        n3 = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        K30, K31, K32 = _dexpinv(0.5 * K20, 0.5 * K21, 0.5 * K22, s0, s1, s2, hs)
+        L30, L31, L32 = _euler_rhs(J, J_inv, s0, s1, s2, t0, t1, t2)
+        L30, L31, L32 = hs * L30, hs * L31, hs * L32
+        # stage 4
+        s0, s1, s2 = w0 + L30, w1 + L31, w2 + L32
+        n4 = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        K40, K41, K42 = _dexpinv(K30, K31, K32, s0, s1, s2, hs)
+        L40, L41, L42 = _euler_rhs(J, J_inv, s0, s1, s2, t0, t1, t2)
+        L40, L41, L42 = hs * L40, hs * L41, hs * L42
         int_abs += hs * (n1 + 2.0 * n2 + 2.0 * n3 + n4) / 6.0
-        for a in range(3):
-            u[a] = (K1[a] + 2.0 * K2[a] + 2.0 * K3[a] + K4[a]) / 6.0
-            w[a] += (L1[a] + 2.0 * L2[a] + 2.0 * L3[a] + L4[a]) / 6.0
-        _exp_into(u, E)
-        if n_sub == 1:
-            D[:, :] = E
-        else:
+        w0 += (L10 + 2.0 * L20 + 2.0 * L30 + L40) / 6.0
+        w1 += (L11 + 2.0 * L21 + 2.0 * L31 + L41) / 6.0
+        w2 += (L12 + 2.0 * L22 + 2.0 * L32 + L42) / 6.0
+        u0 = (K10 + 2.0 * K20 + 2.0 * K30 + K40) / 6.0
+        u1 = (K11 + 2.0 * K21 + 2.0 * K31 + K41) / 6.0
+        u2 = (K12 + 2.0 * K22 + 2.0 * K32 + K42) / 6.0
+        if j == 0:
+            _exp_into(u0, u1, u2, D)
+        else:  # D ← D exp(u)
+            _exp_into(u0, u1, u2, E)
             for a in range(3):
                 for b in range(3):
                     T[a, b] = D[a, 0] * E[0, b] + D[a, 1] * E[1, b] + D[a, 2] * E[2, b]
             D[:, :] = T
-    for i in range(l_off.size):
-        decay[i] = np.exp(-(l_off[i] * h + l_slope[i] * int_abs))
+    w[0], w[1], w[2] = w0, w1, w2
+    return int_abs
 
 
 @numba.njit(cache=True)
-def _solve3(A, y, out):
-    """``out = A⁻¹ y`` by the adjugate (A = I + h J⁻¹ M is well conditioned: eigenvalues ≥ 1)."""
+def _solve3(A, y0, y1, y2):
+    """``A⁻¹ y`` by the adjugate (A = I + h J⁻¹ M has eigenvalues ≥ 1: well conditioned), as a tuple."""
     c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
     c01 = A[1, 2] * A[2, 0] - A[1, 0] * A[2, 2]
     c02 = A[1, 0] * A[2, 1] - A[1, 1] * A[2, 0]
@@ -364,16 +356,19 @@ def _solve3(A, y, out):
     c20 = A[0, 1] * A[1, 2] - A[0, 2] * A[1, 1]
     c21 = A[0, 2] * A[1, 0] - A[0, 0] * A[1, 2]
     c22 = A[0, 0] * A[1, 1] - A[0, 1] * A[1, 0]
-    out[0] = (c00 * y[0] + c10 * y[1] + c20 * y[2]) / det
-    out[1] = (c01 * y[0] + c11 * y[1] + c21 * y[2]) / det
-    out[2] = (c02 * y[0] + c12 * y[1] + c22 * y[2]) / det
+    return (
+        (c00 * y0 + c10 * y1 + c20 * y2) / det,
+        (c01 * y0 + c11 * y1 + c21 * y2) / det,
+        (c02 * y0 + c12 * y1 + c22 * y2) / det,
+    )
 
 
 @numba.njit(cache=True)
-def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
+def _step_into(x, p, t, m, kind, tau, out, wk):
     """Validate one sample and advance the flat state ``x`` into ``out``; returns ``(status, info)``.
 
-    On a rejection (status ≥ ms.ERROR) ``out`` is left unspecified and ``x`` is never written.
+    ``wk`` is scratch space ``(n + 12, 3)``. On a rejection (status ≥ ms.ERROR) ``out`` is left unspecified;
+    ``x`` is never written.
     """
     n = int(p[_P_N])
     J = p[_P_J : _P_J + 9].reshape(3, 3)
@@ -382,6 +377,11 @@ def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
     l_off = p[_P_K + n : _P_K + 2 * n]
     l_slope = p[_P_K + 2 * n : _P_K + 3 * n]
     V = p[_P_K + 3 * n : _P_K + 6 * n].reshape(n, 3)
+    r_meas = wk[:n]
+    D = wk[n : n + 3]
+    E = wk[n + 3 : n + 6]
+    T = wk[n + 6 : n + 9]
+    A = wk[n + 9 : n + 12]
     # --- checks that do not touch the state
     if not np.isfinite(t):
         return TIME_NOT_FINITE, t
@@ -390,7 +390,7 @@ def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
     for a in range(3):
         if not np.isfinite(tau[a]):
             return TORQUE_NOT_FINITE, tau[a]
-    status, info = ms.convert_sample(m, kind, V, p[_P_SF] != 0.0, p[_P_ROT], p[_P_QN], p[_P_SIN], r_meas, R_work)
+    status, info = ms.convert_sample(m, kind, V, p[_P_SF] != 0.0, p[_P_ROT], p[_P_QN], p[_P_SIN], r_meas, E)
     if status >= ms.ERROR:
         return status, info
     # --- accepted: write the new state into out
@@ -399,6 +399,7 @@ def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
     w = out[_W : _W + 3]
     r = out[_R : _R + 3 * n].reshape(n, 3)
     e = out[_R + 3 * n : _R + 6 * n].reshape(n, 3)
+    out[_TAU : _TAU + 3] = tau
     if x[_INIT] == 0.0:
         if status == ms.OK:  # initialisation by the first valid sample
             out[_INIT] = 1.0
@@ -408,88 +409,87 @@ def _step_into(x, p, t, m, kind, tau, out, r_meas, R_work):
                 e[:, :] = p[_P_K + 6 * n : _P_K + 9 * n].reshape(n, 3) - r_meas
             else:
                 e[:, :] = 0.0
-        out[_TAU : _TAU + 3] = tau
         return status, info
-    h = t - x[_T]
-    D = np.empty((3, 3))
-    decay = np.empty(n)
-    _predict(J, J_inv, l_off, l_slope, p[_P_ANG], w, x[_TAU : _TAU + 3], h, D, decay)  # step 1
-    rp = np.empty((n, 3))
-    ep = np.empty(3)
-    for i in range(n):
-        for c in range(3):  # r_pred = ΔR̂ᵀ r, e_pred = decay ΔR̂ᵀ e (row form: rᵀ ΔR̂)
-            rp[i, c] = r[i, 0] * D[0, c] + r[i, 1] * D[1, c] + r[i, 2] * D[2, c]
-            ep[c] = e[i, 0] * D[0, c] + e[i, 1] * D[1, c] + e[i, 2] * D[2, c]
-        for c in range(3):
-            e[i, c] = decay[i] * ep[c]
-    out[_TAU : _TAU + 3] = tau
-    if status != ms.OK:  # skipped sample: keep the prediction
-        r[:, :] = rp
-        return status, info
-    y = np.zeros(3)
-    A = np.zeros((3, 3))
-    dl = np.empty(3)
-    rh = np.empty(3)
-    c = np.empty(3)
-    for i in range(n):
-        for a in range(3):
-            dl[a] = r_meas[i, a] - rp[i, a]  # step 2: Δ_i
-            rh[a] = rp[i, a] + e[i, a]  # r̂_i
-        _cross(dl, rh, c)
-        r2 = r_meas[i, 0] ** 2 + r_meas[i, 1] ** 2 + r_meas[i, 2] ** 2
-        for a in range(3):
-            y[a] += k[i] * c[a]
-            for b in range(3):  # M_meas = Σ k_i (|r_i|² I − r_i r_iᵀ)
-                A[a, b] += k[i] * ((r2 if a == b else 0.0) - r_meas[i, a] * r_meas[i, b])
-        for a in range(3):
-            e[i, a] -= dl[a]  # step 4
-            r[i, a] = r_meas[i, a]
-    # step 3 (C): ω̂ += (I + h J⁻¹ M)⁻¹ J⁻¹ Σ k_i Δ_i × r̂_i, h since the last valid sample (the span over which
-    # the innovation accumulated, so skipping a sample changes nothing but the prediction's substeps)
-    h = t - x[_TM]
-    out[_TM] = t
-    Jy = np.empty(3)
-    B = np.empty((3, 3))
+    int_abs = _predict(J, J_inv, p[_P_ANG], w, x[_TAU : _TAU + 3], t - x[_T], D, E, T)  # step 1
+    h_pred = t - x[_T]
+    skipped = status != ms.OK
+    h = t - x[_TM]  # the correction's interval: since the last valid sample (see step 3)
+    y0 = y1 = y2 = 0.0
     for a in range(3):
-        Jy[a] = J_inv[a, 0] * y[0] + J_inv[a, 1] * y[1] + J_inv[a, 2] * y[2]
         for b in range(3):
-            B[a, b] = (1.0 if a == b else 0.0) + h * (
-                J_inv[a, 0] * A[0, b] + J_inv[a, 1] * A[1, b] + J_inv[a, 2] * A[2, b]
-            )
-    dw = np.empty(3)
-    _solve3(B, Jy, dw)
+            A[a, b] = 0.0
+    for i in range(n):
+        # r_pred = ΔR̂ᵀ r and e_pred = exp(−∫ l_i dt) ΔR̂ᵀ e, in row form rᵀ ΔR̂
+        decay = np.exp(-(l_off[i] * h_pred + l_slope[i] * int_abs))
+        p0 = r[i, 0] * D[0, 0] + r[i, 1] * D[1, 0] + r[i, 2] * D[2, 0]
+        p1 = r[i, 0] * D[0, 1] + r[i, 1] * D[1, 1] + r[i, 2] * D[2, 1]
+        p2 = r[i, 0] * D[0, 2] + r[i, 1] * D[1, 2] + r[i, 2] * D[2, 2]
+        e0 = decay * (e[i, 0] * D[0, 0] + e[i, 1] * D[1, 0] + e[i, 2] * D[2, 0])
+        e1 = decay * (e[i, 0] * D[0, 1] + e[i, 1] * D[1, 1] + e[i, 2] * D[2, 1])
+        e2 = decay * (e[i, 0] * D[0, 2] + e[i, 1] * D[1, 2] + e[i, 2] * D[2, 2])
+        if skipped:  # keep the prediction
+            r[i, 0], r[i, 1], r[i, 2] = p0, p1, p2
+            e[i, 0], e[i, 1], e[i, 2] = e0, e1, e2
+            continue
+        m0, m1, m2 = r_meas[i, 0], r_meas[i, 1], r_meas[i, 2]
+        d0, d1, d2 = m0 - p0, m1 - p1, m2 - p2  # step 2: Δ_i
+        h0, h1, h2 = p0 + e0, p1 + e1, p2 + e2  # r̂_i
+        y0 += k[i] * (d1 * h2 - d2 * h1)  # Σ k_i Δ_i × r̂_i
+        y1 += k[i] * (d2 * h0 - d0 * h2)
+        y2 += k[i] * (d0 * h1 - d1 * h0)
+        r2 = m0 * m0 + m1 * m1 + m2 * m2  # M_meas = Σ k_i (|r_i|² I − r_i r_iᵀ)
+        A[0, 0] += k[i] * (r2 - m0 * m0)
+        A[1, 1] += k[i] * (r2 - m1 * m1)
+        A[2, 2] += k[i] * (r2 - m2 * m2)
+        A[0, 1] -= k[i] * m0 * m1
+        A[0, 2] -= k[i] * m0 * m2
+        A[1, 2] -= k[i] * m1 * m2
+        r[i, 0], r[i, 1], r[i, 2] = m0, m1, m2  # step 4: r jumps to the measurement, r̂ is continuous
+        e[i, 0], e[i, 1], e[i, 2] = e0 - d0, e1 - d1, e2 - d2
+    if skipped:
+        return status, info
+    A[1, 0], A[2, 0], A[2, 1] = A[0, 1], A[0, 2], A[1, 2]
+    # step 3 (C): ω̂ += (I + h J⁻¹ M)⁻¹ J⁻¹ Σ k_i Δ_i × r̂_i, with h since the last valid sample (the span over
+    # which the innovation accumulated, so a skipped sample changes nothing but the prediction's substeps)
+    out[_TM] = t
     for a in range(3):
-        w[a] += dw[a]
+        for b in range(3):
+            T[a, b] = (1.0 if a == b else 0.0) + h * (J_inv[a, 0] * A[0, b] + J_inv[a, 1] * A[1, b] + J_inv[a, 2] * A[2, b])
+    z0 = J_inv[0, 0] * y0 + J_inv[0, 1] * y1 + J_inv[0, 2] * y2
+    z1 = J_inv[1, 0] * y0 + J_inv[1, 1] * y1 + J_inv[1, 2] * y2
+    z2 = J_inv[2, 0] * y0 + J_inv[2, 1] * y1 + J_inv[2, 2] * y2
+    dw0, dw1, dw2 = _solve3(T, z0, z1, z2)
+    w[0] += dw0
+    w[1] += dw1
+    w[2] += dw2
     return status, info
 
 
 @numba.njit(cache=True)
 def step(x, p, t, m, kind, tau):
-    """Pure step: ``(new_state, status, info)``; ``x`` is not modified. ``m`` 2-D (see measurements)."""
-    n = int(p[_P_N])
+    """Pure step: ``(new_state, status, info)``; ``x`` is not modified. ``m`` is 2-D (matrix ``(3, 3)``,
+    quaternion ``(1, 4)`` or directions ``(n, 3)``), ``kind`` one of ``measurements.KIND_*``."""
     out = np.empty_like(x)
-    status, info = _step_into(x, p, t, m, kind, tau, out, np.empty((n, 3)), np.empty((3, 3)))
+    status, info = _step_into(x, p, t, m, kind, tau, out, np.empty((int(p[_P_N]) + 12, 3)))
     return out, status, info
 
 
 @numba.njit(cache=True)
 def _run(x, p, times, m, kind, taus):
-    """The same :func:`_step_into` over a log; returns ``(final_state, ω̂ (T,3), status (T,), first_bad, info)``."""
+    """:func:`_step_into` over a log: ``(final_state, ω̂ (T, 3), status (T,), first_bad, info)``."""
     T = times.size
-    n = int(p[_P_N])
     W = np.empty((T, 3))
     status = np.zeros(T, dtype=np.int64)
     cur = x.copy()
     nxt = np.empty_like(x)
-    r_meas = np.empty((n, 3))
-    R_work = np.empty((3, 3))
+    wk = np.empty((int(p[_P_N]) + 12, 3))
     for j in range(T):
-        s, info = _step_into(cur, p, times[j], m[j], kind, taus[j], nxt, r_meas, R_work)
+        s, info = _step_into(cur, p, times[j], m[j], kind, taus[j], nxt, wk)
         status[j] = s
         if s >= ms.ERROR:
             return x, W, status, j, info
         cur, nxt = nxt, cur
-        W[j, :] = cur[_W : _W + 3]
+        W[j, 0], W[j, 1], W[j, 2] = cur[_W], cur[_W + 1], cur[_W + 2]
     return cur, W, status, -1, 0.0
 
 
