@@ -385,3 +385,22 @@ def test_reset_and_uninitialised_output():
     est.reset()
     assert est.n_missing == 0 and np.isnan(est.state.t)
     np.testing.assert_array_equal(est.run(times[2:], R[2:]), first)
+
+
+def test_gap_to_the_continuous_observer_is_first_order_in_h():
+    """Quick version of benchmarks/sampled_convergence.py: paper scenario, gap at t = 1 s for h = 4, 2, 1 ms."""
+    from omegahat.simulate import paper_problem, simulate
+
+    prob = paper_problem()
+    hs = [4e-3, 2e-3, 1e-3]
+    t_out = np.arange(1001) * 1e-3
+    cont = simulate(prob, t_out=t_out, rtol=1e-10)
+    gaps = []
+    for h in hs:
+        sel = slice(0, None, round(h / 1e-3))
+        est = SarrasEstimator(prob.J, gains=prob.gains, references=prob.references, r_hat0=prob.r_hat0)
+        W = est.run(t_out[sel], cont.r[sel])
+        gaps.append(np.linalg.norm(W[-1] - cont.omega_hat[-1]))
+    order = np.polyfit(np.log(hs), np.log(gaps), 1)[0]
+    assert 0.85 < order < 1.4, (gaps, order)
+    assert gaps[-1] < 5e-4
