@@ -110,7 +110,9 @@ _SLEW = dict(
     steady_after=150.0,
 )
 
-_BROAD = dict(J_true=np.eye(3), J_model=np.eye(3), omega_max=10.0, converged_tol=0.1, steady_after=0.0)
+# Real data: 285.714 Hz optical attitude; σ assumed 0.05° (NOTICE.md: rest jitter 0.014°–0.085° RMS).
+_BROAD = dict(J_true=np.eye(3), J_model=np.eye(3), omega_max=10.0, converged_tol=0.1, steady_after=0.0,
+              rate_hz=2000.0 / 7.0, attitude_sigma=np.radians(0.05))
 
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
