@@ -69,10 +69,12 @@ def main(argv=None):
     med_R, p90_R = median_update_ns(est, times, R, reps)
     est = SarrasEstimator(J, gains=g)
     med_q, p90_q = median_update_ns(est, times, q, reps)
-    print(f"update, one rotation matrix: median {med_R / 1e3:.2f} us (90th percentile {p90_R / 1e3:.2f} us), "
-          f"{reps} calls")
-    print(f"update, one quaternion:      median {med_q / 1e3:.2f} us (90th percentile {p90_q / 1e3:.2f} us), "
-          f"{reps} calls")
+    print(
+        f"update, one rotation matrix: median {med_R / 1e3:.2f} us (90th percentile {p90_R / 1e3:.2f} us), {reps} calls"
+    )
+    print(
+        f"update, one quaternion:      median {med_q / 1e3:.2f} us (90th percentile {p90_q / 1e3:.2f} us), {reps} calls"
+    )
 
     for label, meas in (("rotation matrices", R), ("quaternions", q)):
         best = np.inf
@@ -91,8 +93,10 @@ def main(argv=None):
         st = reference_step(st, times[j], R[j], None, J, g)
         out[j] = st.omega_hat
     dt = time.perf_counter() - t0
-    print(f"plain NumPy per-sample oracle: {n / dt:.0f} samples/s ({dt / n * 1e6:.1f} us per sample); "
-          f"max |compiled - oracle| over {n} samples = {np.abs(W[:n] - out).max():.2e} rad/s")
+    print(
+        f"plain NumPy per-sample oracle: {n / dt:.0f} samples/s ({dt / n * 1e6:.1f} us per sample); "
+        f"max |compiled - oracle| over {n} samples = {np.abs(W[:n] - out).max():.2e} rad/s"
+    )
 
 
 if __name__ == "__main__":

@@ -88,8 +88,10 @@ def main():
     if args.compare_phi1:
         for variant, rows in gaps_phi1([0.01 / 2**j for j in range(4)]).items():
             o05, o1 = (np.polyfit(np.log(rows[:, 0]), np.log(rows[:, c]), 1)[0] for c in (1, 2))
-            print(f"{variant:>8}: h = {rows[:, 0]}, gap 0.5 s = {rows[:, 1]}, gap 1 s = {rows[:, 2]}, "
-                  f"orders {o05:.2f}, {o1:.2f}")
+            print(
+                f"{variant:>8}: h = {rows[:, 0]}, gap 0.5 s = {rows[:, 1]}, gap 1 s = {rows[:, 2]}, "
+                f"orders {o05:.2f}, {o1:.2f}"
+            )
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ of issue 3.1, the linearised correction, and every bad-input behaviour (state in
 
 from __future__ import annotations
 
+import itertools
 import re
 import warnings
 
@@ -44,7 +45,7 @@ def truth(J, w0, times, torque=lambda t: np.zeros(3), breaks=()):
     edges = [times[0], *[b for b in breaks if times[0] < b < times[-1]], times[-1]]
     y = np.concatenate([np.eye(3).ravel(), w0])
     Rs, Ws = [], []
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
+    for a, b in itertools.pairwise(edges):
         sel = (times >= a) & ((times < b) if b < times[-1] else (times <= b))
         tau = torque(a)
         sol = solve_ivp(rhs, (a, b), y, method="DOP853", rtol=1e-12, atol=1e-12, t_eval=times[sel], args=(tau,))
@@ -275,10 +276,12 @@ def test_rejects_wrong_shapes_and_bad_torque():
     times, R, g = _setup()
     _after_rejection(lambda e: e.update(times[20], R[20][:2]), r"got shape \(2, 3\)", times, R, g)
     _after_rejection(lambda e: e.update(times[20], np.ones(5)), r"got shape \(5,\)", times, R, g)
-    _after_rejection(lambda e: e.update(times[20], R[20], [1.0, 2.0]), r"torque must be a 3-vector; got shape \(2,\)",
-                     times, R, g)
-    _after_rejection(lambda e: e.update(times[20], R[20], [1.0, np.inf, 0]), r"torque must be finite; got inf",
-                     times, R, g)
+    _after_rejection(
+        lambda e: e.update(times[20], R[20], [1.0, 2.0]), r"torque must be a 3-vector; got shape \(2,\)", times, R, g
+    )
+    _after_rejection(
+        lambda e: e.update(times[20], R[20], [1.0, np.inf, 0]), r"torque must be finite; got inf", times, R, g
+    )
 
 
 def test_run_is_atomic_and_names_the_sample():
@@ -339,7 +342,7 @@ def test_quaternion_sign_flips_give_the_same_result():
 def test_direction_input_and_collinear_measurements_are_skipped():
     """Accelerometer + magnetometer style input: two inertial directions 60° apart, measured in the body."""
     times = np.arange(60) * 0.01
-    R, W = truth(PAPER_J, PAPER_W0, times)
+    R, _ = truth(PAPER_J, PAPER_W0, times)
     V = np.array([[0.0, 0.0, 1.0], [0.0, np.sqrt(3) / 2, 0.5]])
     B = np.einsum("ij,tjk->tik", V, R) * np.array([9.81, 45.0])[None, :, None]  # r = V R, unnormalised
     g = ObserverGains.constant(8.0, 20.0, n=2)

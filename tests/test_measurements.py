@@ -77,16 +77,22 @@ def test_quaternion_far_from_unit_norm():
 
 
 def test_wrong_shapes_are_named():
-    with pytest.raises(ValueError, match=r"rotation matrix \(\.\.\., 3, 3\), a quaternion \(\.\.\., 4\).*shape \(5, 3\)"):
+    with pytest.raises(
+        ValueError, match=r"rotation matrix \(\.\.\., 3, 3\), a quaternion \(\.\.\., 4\).*shape \(5, 3\)"
+    ):
         attitude_matrices(np.zeros((5, 3)))
-    with pytest.raises(ValueError, match=r"direction measurements must have shape \(\.\.\., 2, 3\); got shape \(3, 3\)"):
+    with pytest.raises(
+        ValueError, match=r"direction measurements must have shape \(\.\.\., 2, 3\); got shape \(3, 3\)"
+    ):
         body_directions(np.eye(3), n=2)
     with pytest.raises(ValueError, match=r"references must have shape \(n, 3\) with n >= 2; got shape \(3,\)"):
         attitude_directions(ROT, references=[1.0, 0, 0])
 
 
 def test_body_directions_normalise_flag_collinear_and_reject_zero():
-    b = np.array([[[0.0, 0.0, 9.8], [20.0, 0.0, -40.0]], [[0.0, 0.0, 9.8], [0.0, 1e-3, 5.0]], [[np.nan, 0, 1], [1, 0, 0]]])
+    b = np.array(
+        [[[0.0, 0.0, 9.8], [20.0, 0.0, -40.0]], [[0.0, 0.0, 9.8], [0.0, 1e-3, 5.0]], [[np.nan, 0, 1], [1, 0, 0]]]
+    )
     d = body_directions(b)
     assert list(d.status) == [OK, COLLINEAR, MISSING]  # second: 0.011° apart (< 1°)
     np.testing.assert_allclose(np.linalg.norm(d.r[0], axis=1), 1.0, rtol=1e-15)

@@ -148,7 +148,13 @@ class EstimatorState:
 
     def to_vector(self) -> np.ndarray:
         return np.concatenate(
-            [[self.t, float(self.initialised), self.t_meas], self.omega_hat, self.torque, self.r.ravel(), self.e.ravel()]
+            [
+                [self.t, float(self.initialised), self.t_meas],
+                self.omega_hat,
+                self.torque,
+                self.r.ravel(),
+                self.e.ravel(),
+            ]
         )
 
 
@@ -189,7 +195,9 @@ def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, m
         K3, L3 = hs * dexpinv(K2 / 2, w3), hs * f(w3)
         w4 = w + L3
         K4, L4 = hs * dexpinv(K3, w4), hs * f(w4)
-        int_abs_w += hs * (np.linalg.norm(w1) + 2 * np.linalg.norm(w2) + 2 * np.linalg.norm(w3) + np.linalg.norm(w4)) / 6
+        int_abs_w += (
+            hs * (np.linalg.norm(w1) + 2 * np.linalg.norm(w2) + 2 * np.linalg.norm(w3) + np.linalg.norm(w4)) / 6
+        )
         D = D @ _exp_so3((K1 + 2 * K2 + 2 * K3 + K4) / 6)
         w = w + (L1 + 2 * L2 + 2 * L3 + L4) / 6
     decay = np.exp(-(gains.l_offset * h + gains.l_slope * int_abs_w))  # exact solution of (E2)'s decay
@@ -197,7 +205,14 @@ def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, m
 
 
 def reference_step(
-    state: EstimatorState, t, r_meas, tau, J, gains: ObserverGains, r_hat0=None, omega_hat0=None,
+    state: EstimatorState,
+    t,
+    r_meas,
+    tau,
+    J,
+    gains: ObserverGains,
+    r_hat0=None,
+    omega_hat0=None,
     max_angle=MAX_SUBSTEP_ANGLE,
 ) -> EstimatorState:
     """Steps 1–4 for one sample of directions ``r_meas (n, 3)`` (None: a skipped sample), plain NumPy, no checks.
@@ -454,7 +469,9 @@ def _step_into(x, p, t, m, kind, tau, out, wk):
     out[_TM] = t
     for a in range(3):
         for b in range(3):
-            T[a, b] = (1.0 if a == b else 0.0) + h * (J_inv[a, 0] * A[0, b] + J_inv[a, 1] * A[1, b] + J_inv[a, 2] * A[2, b])
+            T[a, b] = (1.0 if a == b else 0.0) + h * (
+                J_inv[a, 0] * A[0, b] + J_inv[a, 1] * A[1, b] + J_inv[a, 2] * A[2, b]
+            )
     z0 = J_inv[0, 0] * y0 + J_inv[0, 1] * y1 + J_inv[0, 2] * y2
     z1 = J_inv[1, 0] * y0 + J_inv[1, 1] * y1 + J_inv[1, 2] * y2
     z2 = J_inv[2, 0] * y0 + J_inv[2, 1] * y1 + J_inv[2, 2] * y2
@@ -557,20 +574,38 @@ class SarrasEstimator(Estimator):
             if self.r_hat0.shape != (n, 3) or not np.all(np.isfinite(self.r_hat0)):
                 raise ValueError(f"r_hat0 must be {n} finite directions, shape ({n}, 3); got {r_hat0!r}")
         self.scalar_first = bool(scalar_first)
-        tols = [as_positive(v, name)[0] for v, name in (
-            (rotation_tol, "rotation_tol"), (quat_norm_tol, "quat_norm_tol"),
-            (max_substep_angle, "max_substep_angle"))]
+        tols = [
+            as_positive(v, name)[0]
+            for v, name in (
+                (rotation_tol, "rotation_tol"),
+                (quat_norm_tol, "quat_norm_tol"),
+                (max_substep_angle, "max_substep_angle"),
+            )
+        ]
         if not 0 <= min_angle_deg < 90:
             raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
         self.rotation_tol, self.quat_norm_tol, self.max_substep_angle = (float(v) for v in tols)
         self.min_angle_deg = float(min_angle_deg)
-        self._params = np.concatenate([
-            self.J.ravel(), np.linalg.inv(self.J).ravel(),
-            [self.rotation_tol, self.quat_norm_tol, np.sin(np.radians(self.min_angle_deg)),
-             self.max_substep_angle, float(self.scalar_first), float(self.r_hat0 is not None), float(n)],
-            gains.k, gains.l_offset, gains.l_slope, self.references.ravel(),
-            np.zeros(3 * n) if self.r_hat0 is None else self.r_hat0.ravel(),
-        ])
+        self._params = np.concatenate(
+            [
+                self.J.ravel(),
+                np.linalg.inv(self.J).ravel(),
+                [
+                    self.rotation_tol,
+                    self.quat_norm_tol,
+                    np.sin(np.radians(self.min_angle_deg)),
+                    self.max_substep_angle,
+                    float(self.scalar_first),
+                    float(self.r_hat0 is not None),
+                    float(n),
+                ],
+                gains.k,
+                gains.l_offset,
+                gains.l_slope,
+                self.references.ravel(),
+                np.zeros(3 * n) if self.r_hat0 is None else self.r_hat0.ravel(),
+            ]
+        )
         self.reset()
 
     # -- state ------------------------------------------------------------------------------------------------
@@ -611,11 +646,14 @@ class SarrasEstimator(Estimator):
                 return m, ms.KIND_MATRIX
             if m.shape == (4,):
                 return m.reshape(1, 4), ms.KIND_QUAT
-            raise ValueError(f"an attitude sample must be a 3x3 matrix, a quaternion (4,) or a Rotation; "
-                             f"got shape {m.shape}")
+            raise ValueError(
+                f"an attitude sample must be a 3x3 matrix, a quaternion (4,) or a Rotation; got shape {m.shape}"
+            )
         if m.shape != self.references.shape:
-            raise ValueError(f"a direction sample must have shape {self.references.shape} (one row per reference); "
-                             f"got shape {m.shape}")
+            raise ValueError(
+                f"a direction sample must have shape {self.references.shape} (one row per reference); "
+                f"got shape {m.shape}"
+            )
         return m, ms.KIND_DIRECTIONS
 
     def _batch(self, measurements, T):
@@ -631,8 +669,9 @@ class SarrasEstimator(Estimator):
             elif self.measurement == "directions" and m.shape == (T, *self.references.shape):
                 kind = ms.KIND_DIRECTIONS
             else:
-                want = ("(T, 3, 3) or (T, 4)" if self.measurement == "attitude"
-                        else f"(T, {self.references.shape[0]}, 3)")
+                want = (
+                    "(T, 3, 3) or (T, 4)" if self.measurement == "attitude" else f"(T, {self.references.shape[0]}, 3)"
+                )
                 raise ValueError(f"measurements must have shape {want} with T = {T} samples; got shape {m.shape}")
         if m.shape[0] != T:
             raise ValueError(f"{m.shape[0]} measurements for {T} times")
@@ -641,8 +680,10 @@ class SarrasEstimator(Estimator):
     def _reject(self, status, info, t, where):
         t, info = float(t), float(info)
         if status == TIME_ORDER:
-            return ValueError(f"{where}: time t = {t!r} is not after the previous sample's t = {info!r} "
-                              "(timestamps must increase strictly)")
+            return ValueError(
+                f"{where}: time t = {t!r} is not after the previous sample's t = {info!r} "
+                "(timestamps must increase strictly)"
+            )
         if status == TIME_NOT_FINITE:
             return ValueError(f"{where}: time t = {t!r} is not finite")
         if status == TORQUE_NOT_FINITE:
@@ -699,8 +740,7 @@ class SarrasEstimator(Estimator):
                 raise ValueError(f"torques must have shape ({T}, 3); got shape {taus.shape}")
         x, W, status, first_bad, info = _run(self._x, self._params, np.ascontiguousarray(times), m, kind, taus)
         if first_bad >= 0:
-            raise self._reject(int(status[first_bad]), float(info), float(times[first_bad]),
-                               f"sample {first_bad}")
+            raise self._reject(int(status[first_bad]), float(info), float(times[first_bad]), f"sample {first_bad}")
         t_prev = self._x[_T]
         self._x = x
         self.last_status = status

@@ -93,7 +93,7 @@ def sensor_gains(
             "give exactly one of bandwidth_hz, convergence_time or angular_accel; got "
             + (", ".join(f"{k}={v!r}" for k, v in given.items()) or "none")
         )
-    (name, value), = given.items()
+    ((name, value),) = given.items()
     value = float(as_positive(value, name)[0])
     if name == "bandwidth_hz":
         omega_b = 2 * np.pi * value
