@@ -11,7 +11,8 @@ unit inertial directions (2 for the three rows of R, so ``k = b tr(J)/6`` as ``o
 chosen on BROAD trial 01 (285.7 Hz, ``benchmarks/real_data.py``); lower it for noisy or slow logs.
 
 Attitude input uses the three rows of R unless ``--references`` names other inertial directions; direction
-input needs ``--references`` (one ``x,y,z`` per direction, in the order b1, b2, ...). Missing samples (empty
+input needs ``--references=x,y,z;x,y,z;...`` (one triple per direction, in the order b1, b2, ...; write it
+with ``=`` so that a leading minus sign is not taken for an option). Missing samples (empty
 fields, NaN) are skipped and predicted through; the count is reported.
 """
 
@@ -49,11 +50,15 @@ def _numbers(text: str) -> list[float]:
     return values
 
 
-def _direction(text: str) -> list[float]:
-    v = _numbers(text)
-    if len(v) != 3:
-        raise argparse.ArgumentTypeError(f"a reference direction is 3 numbers x,y,z; got {text!r}")
-    return v
+def _directions(text: str) -> list[list[float]]:
+    """``"x,y,z;x,y,z;..."`` → one 3-vector per ``;``-separated direction."""
+    out = []
+    for part in text.split(";"):
+        v = _numbers(part)
+        if len(v) != 3:
+            raise argparse.ArgumentTypeError(f"a reference direction is 3 numbers x,y,z; got {part.strip()!r}")
+        out.append(v)
+    return out
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,9 +70,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")
     parser.add_argument("--bandwidth", type=float, metavar="B",
                         help=f"error decay rate in rad/s, sets k and l (default {DEFAULT_BANDWIDTH:g})")
-    parser.add_argument("--references", type=_direction, nargs="+", metavar="X,Y,Z",
-                        help="known inertial directions (required for b1x.. direction input; for attitude "
-                             "input default: the three inertial axes, i.e. the rows of R)")
+    parser.add_argument("--references", type=_directions, metavar="X,Y,Z;X,Y,Z",
+                        help="known inertial directions, ';' between directions, written with '=' "
+                             "(--references=0,0,9.8;-0.9,15.5,-41.3) so a leading minus is not read as an "
+                             "option; required for b1x.. direction input; for attitude input default: the "
+                             "three inertial axes, i.e. the rows of R")
     bar = parser.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help=f"always show a progress bar (default: from {PROGRESS_MIN_SAMPLES} samples on)")
