@@ -1,0 +1,746 @@
+r"""Monte-Carlo campaigns: many independent plant + observer runs, and what they say about the theorem.
+
+**Batch engine.** :func:`simulate_batch` integrates ``N`` coupled problems (same body, references and gains;
+own initial conditions and torque) with :func:`omegahat.simulate.integrate_coupled_batch`, a Numba ``prange``
+over runs that calls the single-run kernel :func:`omegahat.simulate.integrate_coupled` unchanged, so every run
+is bit-for-bit what :func:`omegahat.simulate.simulate` gives for it, whatever the batch or chunk it sits in.
+
+**Seeds.** Run ``j`` of a campaign with seed ``s`` draws everything from
+``numpy.random.default_rng(SeedSequence(s, spawn_key=(j,)))``: the ``j``-th child of
+``SeedSequence(s).spawn(...)``. A run depends on ``(s, j)`` only; :func:`replay` rebuilds any run from them.
+
+**The claim under test** (observer.md; Sarras' theorem): with ``J_m I ≤ J ≤ J_M I``, ``|ω(t)| ≤ ω_M`` and gains
+meeting the conditions of :mod:`omegahat.gains`, the errors ``z = ω̂ − ω``, ``e_i = r̂_i − r_i`` converge
+globally exponentially, and the proof's ``V = |J z| + ½ Σ |e_i|²`` decreases. Each run draws
+
+* the attitude uniform on SO(3) (a normalised standard normal quaternion);
+* ω₀ uniform in the ball ``|ω₀| ≤ omega0_fraction · ω_M``;
+* each ``r̂_i0``: 0 with probability ``p_zero``, ``−r_i0`` with probability ``p_opposite``, otherwise uniform
+  in the ball of radius ``r_hat_radius``;
+* ω̂₀ with a uniform direction and ``|ω̂₀|`` uniform in ``[0, omega_hat_max]`` (uniform in magnitude, not in
+  volume, so small and large initial errors are equally represented);
+* a torque ``Σ_j a_j ∘ sin(ν_j t + φ_j)`` (:class:`~omegahat.simulate.SinusoidalTorque`, no constant term) with
+  ``a_j`` uniform in ``[−amplitude, amplitude]³``, ν_j uniform in ``frequency``, φ_j uniform in ``[0, 2π)``.
+
+A run whose ``|ω|`` exceeds ω_M at an output time breaks the assumption: it is counted and **set aside**.
+
+**Envelope.** With ``E(t) = |z(t)| + Σ_i |e_i(t)|`` and ``ρ(t) = E(t)/E(0)`` on the output grid ``t_k``:
+
+* a run's rate ``λ_run = −ln ρ(t_f) / t_f``, where ``t_f`` is the last output time with ``ρ ≥ rho_floor``
+  (default 1e-8; below it the integrator's tolerance, not the observer, sets ρ). It is the average exponential
+  rate at which the run loses its first ``−ln ρ(t_f)`` nepers (8 decades when the floor is reached);
+* its own constant ``c_run = max_{t_k ≤ t_f} ρ(t_k) e^{λ_run t_k} ≥ 1`` (the overshoot above a pure exponential
+  at its own rate);
+* the campaign's worst rate ``λ* = min λ_run`` and worst constant ``c* = max_runs max_{t_k ≤ t_f}
+  ρ(t_k) e^{λ* t_k}``: the smallest c for which ``E(t) ≤ c e^{−λ* t} E(0)`` holds for every run and output
+  time down to the floor. ``(c*, λ*)`` is an envelope measured on the grid, not a proof.
+
+**Counterexamples** (saved with their seed and index, one list per gain set): a run that failed to integrate
+(non-finite state or step budget), did not converge (``ρ(horizon) > converged_below``), or along which ``V``
+increased between two output times by more than the relative tolerance ``v_increase_tol`` (checked while
+``ρ ≥ rho_floor``). ``V`` increasing is a counterexample to the proof only for gains that satisfy the theorem
+(``satisfies_theorem`` in the summary); for practical gains it is reported as what it is.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numba
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from omegahat._validation import as_directions, as_inertia
+from omegahat.gains import ObserverGains, check_gains, theorem_gains
+from omegahat.simulate import (
+    CoupledProblem,
+    SinusoidalTorque,
+    initial_state,
+    integrate_coupled_batch,
+    simulate,
+)
+
+__all__ = [
+    "BatchResult",
+    "Campaign",
+    "GainSetResult",
+    "campaign_from_toml",
+    "draw_problem",
+    "envelope_fit",
+    "load_campaign",
+    "plot_envelopes",
+    "plot_rates",
+    "replay",
+    "run_campaign",
+    "run_chunk",
+    "run_seed",
+    "simulate_batch",
+    "summarize",
+    "write_outputs",
+]
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Batch engine
+# --------------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """States of ``N`` runs at the output times: ``Y (N, T, 6n + 6)`` in the kernel's layout
+    ``[r (3n), ω, z, e (3n)]``; accepted and rejected steps ``(N,)``; ``ok (N,)`` False where a run failed."""
+
+    t: np.ndarray
+    Y: np.ndarray
+    accepted: np.ndarray
+    rejected: np.ndarray
+    ok: np.ndarray
+
+
+def _first_step(problem: CoupledProblem, h_max: float) -> float:
+    # the same first step as omegahat.simulate.simulate
+    return min(h_max, 0.1 / max(1.0, float(np.max(problem.gains.l(problem.omega_hat0)))))
+
+
+def simulate_batch(
+    problems,
+    t_out,
+    rtol: float = 1e-9,
+    atol: float = 1e-15,
+    h_max: float = 0.05,
+    max_steps: int = 10_000_000,
+    n_workers: int | None = None,
+) -> BatchResult:
+    """Integrate ``problems`` (a sequence of :class:`~omegahat.simulate.CoupledProblem` sharing J, gains and
+    references) in parallel; each run equals ``simulate(problem, t_out=t_out, ...)`` bit for bit.
+
+    A failed run does not raise: its ``ok`` is False and its rows after the failure are NaN.
+    ``n_workers`` defaults to Numba's thread count.
+    """
+    problems = list(problems)
+    if not problems:
+        raise ValueError("simulate_batch needs at least one problem")
+    p0 = problems[0]
+    for j, p in enumerate(problems):
+        same = (
+            np.array_equal(p.J, p0.J)
+            and np.array_equal(p.references, p0.references)
+            and all(np.array_equal(getattr(p.gains, a), getattr(p0.gains, a)) for a in ("k", "l_offset", "l_slope"))
+        )
+        if not same:
+            raise ValueError(f"problem {j} has another J, gains or references than problem 0; batch them apart")
+    t_out = np.asarray(t_out, dtype=float)
+    if t_out.ndim != 1 or t_out.size < 1 or t_out[0] != 0.0 or np.any(np.diff(t_out) <= 0):
+        raise ValueError("t_out must start at 0 and increase strictly")
+    N = len(problems)
+    M = max(p.torque.frequencies.size for p in problems)
+    # Padding with zero-amplitude terms adds exactly 0.0 to the torque: the padded run is the same run.
+    tc = np.zeros((N, 3))
+    ta = np.zeros((N, M, 3))
+    tf = np.zeros((N, M))
+    tp = np.zeros((N, M, 3))
+    Y0 = np.empty((N, 6 * p0.gains.n + 6))
+    h0 = np.empty(N)
+    for j, p in enumerate(problems):
+        m = p.torque.frequencies.size
+        tc[j] = p.torque.constant
+        ta[j, :m] = p.torque.amplitudes
+        tf[j, :m] = p.torque.frequencies
+        tp[j, :m] = p.torque.phases
+        Y0[j] = initial_state(p)
+        h0[j] = _first_step(p, h_max)
+    g = p0.gains
+    workers = numba.get_num_threads() if n_workers is None else int(n_workers)
+    if workers < 1:
+        raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
+    Y, acc, rej, ok = integrate_coupled_batch(
+        Y0, t_out, g.n, p0.J, np.linalg.inv(p0.J), g.k, g.l_offset, g.l_slope, tc, ta, tf, tp,
+        float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
+    )
+    return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Campaign definition
+# --------------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """Everything that defines a campaign; two equal campaigns give the same numbers (module docstring)."""
+
+    J: np.ndarray
+    omega_max: float
+    gains: dict  # name -> ObserverGains
+    references: np.ndarray = field(default_factory=lambda: np.eye(3)[:2])
+    runs: int = 1000
+    seed: int = 0
+    chunk_size: int = 256
+    horizon: float = 20.0
+    dt_out: float = 0.05
+    rtol: float = 1e-6
+    atol: float = 1e-15
+    h_max: float = 0.05
+    max_steps: int = 2_000_000
+    omega0_fraction: float = 0.6
+    r_hat_radius: float = 10.0
+    p_zero: float = 0.05
+    p_opposite: float = 0.05
+    omega_hat_max: float = 100.0
+    torque_terms: int = 2
+    torque_amplitude: float = 0.3
+    torque_frequency: tuple = (0.5, 5.0)
+    rho_floor: float = 1e-8
+    converged_below: float = 1e-6
+    v_increase_tol: float = 1e-6
+
+    def __post_init__(self):
+        object.__setattr__(self, "J", as_inertia(self.J))
+        object.__setattr__(self, "references", as_directions(self.references))
+        for name, g in self.gains.items():
+            if not isinstance(g, ObserverGains):
+                raise TypeError(f"gains[{name!r}] must be an ObserverGains; got {type(g).__name__}")
+            if g.n != self.references.shape[0]:
+                raise ValueError(
+                    f"gains[{name!r}] are for {g.n} directions, the campaign has {self.references.shape[0]}"
+                )
+        if not self.gains:
+            raise ValueError("a campaign needs at least one gain set")
+        for attr in _RANGES:
+            _check_number(attr, attr, "Campaign", getattr(self, attr), attr in _INTEGER)
+        lo, hi = self.torque_frequency
+        if not 0 < lo <= hi < math.inf:
+            raise ValueError(f"Campaign: torque_frequency must be (low, high) with 0 < low <= high; got {(lo, hi)!r}")
+        if self.p_zero + self.p_opposite > 1:
+            raise ValueError(f"Campaign: p_zero + p_opposite must not exceed 1; got {self.p_zero} + {self.p_opposite}")
+
+    @property
+    def t_out(self) -> np.ndarray:
+        count = round(self.horizon / self.dt_out)
+        return np.linspace(0.0, count * self.dt_out, count + 1)
+
+
+def run_seed(seed: int, index: int) -> np.random.SeedSequence:
+    """The seed sequence of run ``index``: equal to ``SeedSequence(seed).spawn(index + 1)[index]``."""
+    return np.random.SeedSequence(seed, spawn_key=(int(index),))
+
+
+def _unit(rng) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def draw_problem(campaign: Campaign, index: int, gains_name: str | None = None) -> CoupledProblem:
+    """Run ``index`` of the campaign as a :class:`~omegahat.simulate.CoupledProblem` (draws in the module
+    docstring, always in the same order from the run's own generator)."""
+    c = campaign
+    rng = np.random.default_rng(run_seed(c.seed, index))
+    q = rng.normal(size=4)
+    R0 = Rotation.from_quat(q / np.linalg.norm(q)).as_matrix()
+    omega0 = _unit(rng) * c.omega0_fraction * c.omega_max * rng.random() ** (1.0 / 3.0)
+    r0 = c.references @ R0
+    n = r0.shape[0]
+    r_hat0 = np.empty((n, 3))
+    for i in range(n):
+        u = rng.random()
+        ball = _unit(rng) * c.r_hat_radius * rng.random() ** (1.0 / 3.0)
+        if u < c.p_zero:
+            r_hat0[i] = 0.0
+        elif u < c.p_zero + c.p_opposite:
+            r_hat0[i] = -r0[i]
+        else:
+            r_hat0[i] = ball
+    omega_hat0 = _unit(rng) * c.omega_hat_max * rng.random()
+    M = c.torque_terms
+    torque = SinusoidalTorque(
+        amplitudes=rng.uniform(-c.torque_amplitude, c.torque_amplitude, size=(M, 3)),
+        frequencies=rng.uniform(c.torque_frequency[0], c.torque_frequency[1], size=M),
+        phases=rng.uniform(0.0, 2.0 * np.pi, size=(M, 3)),
+    )
+    name = next(iter(c.gains)) if gains_name is None else gains_name
+    return CoupledProblem(
+        J=c.J, gains=c.gains[name], omega0=omega0, R0=R0, references=c.references, r_hat0=r_hat0,
+        omega_hat0=omega_hat0, torque=torque,
+    )
+
+
+def replay(campaign: Campaign, gains_name: str, index: int):
+    """Run ``index`` again with :func:`omegahat.simulate.simulate` (identical to its campaign run)."""
+    p = draw_problem(campaign, index, gains_name)
+    return simulate(p, t_out=campaign.t_out, rtol=campaign.rtol, atol=campaign.atol, h_max=campaign.h_max,
+                    max_steps=campaign.max_steps)
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Per-run diagnostics
+# --------------------------------------------------------------------------------------------------------------
+
+
+def envelope_fit(t, rho, rho_floor):
+    """``(λ_run, c_run, i_f)`` of each run (module docstring) from ``ρ (N, T)`` on the grid ``t (T,)``.
+
+    ``i_f`` is the index of ``t_f``; a run that never leaves ρ = 1 has ``i_f = 0`` and ``λ_run = NaN``.
+    """
+    rho = np.asarray(rho, dtype=float)
+    above = rho >= rho_floor
+    T = t.size
+    i_f = T - 1 - np.argmax(above[:, ::-1], axis=1)  # last index with ρ ≥ floor (ρ(0) = 1 ≥ floor)
+    rows = np.arange(rho.shape[0])
+    t_f = t[i_f]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.where(t_f > 0, -np.log(rho[rows, i_f]) / np.where(t_f > 0, t_f, 1.0), np.nan)
+    c_run = np.array([_worst_constant(t, rho[j], i_f[j], lam[j]) for j in range(rho.shape[0])])
+    return lam, c_run, i_f
+
+
+def _worst_constant(t, rho_row, i_f, lam):
+    if not np.isfinite(lam):
+        return np.nan
+    return float(np.max(rho_row[: i_f + 1] * np.exp(lam * t[: i_f + 1])))
+
+
+@dataclass
+class GainSetResult:
+    """Per-run diagnostics of one gain set over a range of runs (arrays indexed by run)."""
+
+    index: np.ndarray  #: run indices
+    ok: np.ndarray  #: integrated without failure
+    in_bound: np.ndarray  #: max |ω| ≤ ω_M on the output grid
+    omega_peak: np.ndarray  #: max |ω| on the grid
+    rho: np.ndarray  #: (N, T) E(t)/E(0)
+    E0: np.ndarray  #: E(0)
+    lam: np.ndarray  #: λ_run
+    c_run: np.ndarray  #: c_run
+    t_f: np.ndarray  #: t_f
+    v_increase: np.ndarray  #: largest relative increase of V between output times (≤ 0: V never increased)
+    steps: np.ndarray  #: accepted steps
+    rejected: np.ndarray  #: rejected steps
+
+    @staticmethod
+    def concatenate(parts):
+        return GainSetResult(
+            **{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(GainSetResult)}
+        )
+
+
+def diagnose(campaign: Campaign, batch: BatchResult, indices) -> GainSetResult:
+    """Envelope, V and ω-bound diagnostics of a batch (module docstring)."""
+    n = campaign.references.shape[0]
+    Y = batch.Y
+    z = Y[:, :, 3 * n + 3 : 3 * n + 6]
+    e = Y[:, :, 3 * n + 6 :].reshape(Y.shape[0], Y.shape[1], n, 3)
+    w = Y[:, :, 3 * n : 3 * n + 3]
+    e_norm = np.linalg.norm(e, axis=-1)
+    E = np.linalg.norm(z, axis=-1) + e_norm.sum(axis=-1)
+    E0 = E[:, 0]
+    rho = E / E0[:, None]
+    V = np.linalg.norm(z @ campaign.J.T, axis=-1) + 0.5 * (e_norm**2).sum(axis=-1)
+    t = batch.t
+    ok = batch.ok & np.all(np.isfinite(rho), axis=1)
+    rho_safe = np.where(ok[:, None], rho, 1.0)
+    lam, c_run, i_f = envelope_fit(t, rho_safe, campaign.rho_floor)
+    # relative increases of V between consecutive output times, while ρ ≥ floor
+    rel = (V[:, 1:] - V[:, :-1]) / V[:, :-1]
+    checked = np.arange(1, t.size)[None, :] <= i_f[:, None]
+    v_increase = np.where(checked & ok[:, None], rel, -np.inf).max(axis=1)
+    omega_peak = np.where(ok, np.nanmax(np.linalg.norm(w, axis=-1), axis=1), np.nan)
+    return GainSetResult(
+        index=np.asarray(indices, dtype=np.int64),
+        ok=ok,
+        in_bound=ok & (omega_peak <= campaign.omega_max),
+        omega_peak=omega_peak,
+        rho=rho,
+        E0=E0,
+        lam=np.where(ok, lam, np.nan),
+        c_run=np.where(ok, c_run, np.nan),
+        t_f=t[i_f],
+        v_increase=v_increase,
+        steps=batch.accepted,
+        rejected=batch.rejected,
+    )
+
+
+def run_chunk(campaign: Campaign, start: int, stop: int) -> dict:
+    """Runs ``start .. stop − 1`` of the campaign for every gain set: ``{gains name: GainSetResult}``.
+
+    The unit of work of :func:`run_campaign` and of :mod:`omegahat.distributed`; its result depends on the run
+    indices only, not on how the campaign is cut into chunks.
+    """
+    if not (0 <= start < stop <= campaign.runs):
+        raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")
+    indices = np.arange(start, stop)
+    out = {}
+    for name in campaign.gains:
+        problems = [draw_problem(campaign, j, name) for j in indices]
+        batch = simulate_batch(
+            problems, campaign.t_out, rtol=campaign.rtol, atol=campaign.atol, h_max=campaign.h_max,
+            max_steps=campaign.max_steps,
+        )
+        out[name] = diagnose(campaign, batch, indices)
+    return out
+
+
+def chunks(campaign: Campaign, chunk_size: int | None = None):
+    """``(start, stop)`` pairs covering the campaign's runs."""
+    size = campaign.chunk_size if chunk_size is None else int(chunk_size)
+    if size < 1:
+        raise ValueError(f"chunk_size must be at least 1; got {chunk_size!r}")
+    return [(s, min(s + size, campaign.runs)) for s in range(0, campaign.runs, size)]
+
+
+def merge(campaign: Campaign, parts) -> dict:
+    """Chunk results (any order) into one ``{gains name: GainSetResult}`` ordered by run index."""
+    merged = {}
+    for name in campaign.gains:
+        r = GainSetResult.concatenate([p[name] for p in parts])
+        order = np.argsort(r.index, kind="stable")
+        merged[name] = GainSetResult(**{f.name: getattr(r, f.name)[order] for f in dataclasses.fields(r)})
+        if not np.array_equal(merged[name].index, np.arange(campaign.runs)):
+            raise ValueError("chunk results do not cover every run exactly once")
+    return merged
+
+
+def run_campaign(campaign: Campaign, chunk_size: int | None = None, progress: bool = False) -> dict:
+    """All runs of the campaign, chunk by chunk on this machine (Numba threads): ``{name: GainSetResult}``."""
+    parts = []
+    spans = chunks(campaign, chunk_size)
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=campaign.runs, unit="run", desc="montecarlo")
+    for start, stop in spans:
+        parts.append(run_chunk(campaign, start, stop))
+        if bar is not None:
+            bar.update(stop - start)
+    if bar is not None:
+        bar.close()
+    return merge(campaign, parts)
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Summary
+# --------------------------------------------------------------------------------------------------------------
+
+
+def _float(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _counterexamples(campaign: Campaign, name: str, r: GainSetResult) -> list:
+    out = []
+    rho_end = r.rho[:, -1]
+    for j in range(r.index.size):
+        reasons = []
+        if not r.ok[j]:
+            reasons.append("integration failed (non-finite state or step budget)")
+        elif not r.in_bound[j]:
+            continue  # set aside: the assumption |ω| ≤ ω_M does not hold
+        else:
+            if not rho_end[j] <= campaign.converged_below:
+                reasons.append(f"not converged: rho(horizon) = {rho_end[j]:.3g} > {campaign.converged_below:g}")
+            if r.v_increase[j] > campaign.v_increase_tol:
+                reasons.append(f"V increased by {r.v_increase[j]:.3g} (relative) between two output times")
+        if reasons:
+            p = draw_problem(campaign, int(r.index[j]), name)
+            out.append({
+                "gains": name,
+                "index": int(r.index[j]),
+                "seed": {"entropy": int(campaign.seed), "spawn_key": [int(r.index[j])]},
+                "reasons": reasons,
+                "lambda_run": _float(r.lam[j]),
+                "rho_end": _float(rho_end[j]),
+                "omega0": p.omega0.tolist(),
+                "R0": p.R0.tolist(),
+                "r_hat0": p.r_hat0.tolist(),
+                "omega_hat0": p.omega_hat0.tolist(),
+                "torque": {
+                    "amplitudes": p.torque.amplitudes.tolist(),
+                    "frequencies": p.torque.frequencies.tolist(),
+                    "phases": p.torque.phases.tolist(),
+                },
+            })
+    return out
+
+
+def worst_envelope(campaign: Campaign, r: GainSetResult):
+    """``(λ*, c*, index of the slowest run)`` over the in-bound runs (module docstring)."""
+    use = r.in_bound & np.isfinite(r.lam)
+    if not np.any(use):
+        return math.nan, math.nan, -1
+    lam_star = float(np.min(r.lam[use]))
+    t = campaign.t_out
+    masked = np.where(t[None, :] <= r.t_f[use][:, None], r.rho[use] * np.exp(lam_star * t)[None, :], 0.0)
+    c_star = float(masked.max())
+    slowest = int(r.index[use][np.argmin(r.lam[use])])
+    return lam_star, c_star, slowest
+
+
+def summarize(campaign: Campaign, results: dict) -> dict:
+    """A JSON-ready summary: per gain set the envelope, counts, counterexamples and step statistics."""
+    summary = {
+        "runs": campaign.runs,
+        "seed": campaign.seed,
+        "horizon": campaign.horizon,
+        "dt_out": campaign.dt_out,
+        "rtol": campaign.rtol,
+        "omega_max": campaign.omega_max,
+        "J": campaign.J.tolist(),
+        "references": campaign.references.tolist(),
+        "rho_floor": campaign.rho_floor,
+        "gain_sets": {},
+    }
+    for name, r in results.items():
+        g = campaign.gains[name]
+        check = check_gains(g, campaign.J, campaign.omega_max, campaign.references, warn=False)
+        lam_star, c_star, slowest = worst_envelope(campaign, r)
+        use = r.in_bound & np.isfinite(r.lam)
+        cex = _counterexamples(campaign, name, r)
+        summary["gain_sets"][name] = {
+            "k": g.k.tolist(),
+            "l_offset": g.l_offset.tolist(),
+            "l_slope": g.l_slope.tolist(),
+            "satisfies_theorem": check.ok,
+            "runs_integrated": int(r.ok.sum()),
+            "runs_failed": int((~r.ok).sum()),
+            "runs_out_of_bound": int((r.ok & ~r.in_bound).sum()),
+            "runs_used": int(use.sum()),
+            "worst_lambda": _float(lam_star),
+            "worst_c": _float(c_star),
+            "slowest_run": slowest,
+            "lambda_quantiles": {
+                q: _float(np.quantile(r.lam[use], float(q))) if use.any() else None
+                for q in ("0.01", "0.5", "0.99")
+            },
+            "max_c_run": _float(np.max(r.c_run[use])) if use.any() else None,
+            "v_increased_runs": int((use & (r.v_increase > campaign.v_increase_tol)).sum()),
+            "not_converged_runs": int((use & ~(r.rho[:, -1] <= campaign.converged_below)).sum()),
+            "counterexamples": len(cex),
+            "counterexample_list": cex,
+            "accepted_steps": int(r.steps.sum()),
+            "rejected_steps": int(r.rejected.sum()),
+        }
+    return summary
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Figures
+# --------------------------------------------------------------------------------------------------------------
+
+
+def plot_envelopes(campaign: Campaign, results: dict, summary: dict, max_lines: int = 100):
+    """One panel per gain set: ρ(t) of up to ``max_lines`` in-bound runs, the pointwise worst ρ over all of them
+    and the envelope ``c* e^{−λ* t}`` (log scale). Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    names = list(results)
+    fig, axes = plt.subplots(1, len(names), figsize=(6 * len(names), 4.2), squeeze=False)
+    t = campaign.t_out
+    for ax, name in zip(axes[0], names, strict=True):
+        r = results[name]
+        s = summary["gain_sets"][name]
+        use = np.flatnonzero(r.in_bound)
+        floor = campaign.rho_floor * 1e-2
+        for j in use[:max_lines]:
+            ax.semilogy(t, np.maximum(r.rho[j], floor), color="0.6", lw=0.5, alpha=0.6)
+        if use.size:
+            ax.semilogy(t, np.maximum(r.rho[use].max(axis=0), floor), color="C3", lw=1.5, label="worst ρ(t)")
+        if s["worst_lambda"] is not None:
+            env = s["worst_c"] * np.exp(-s["worst_lambda"] * t)
+            ax.semilogy(t, np.maximum(env, floor), "k--", lw=1.2,
+                        label=f"c* e^(-λ* t): c* = {s['worst_c']:.3g}, λ* = {s['worst_lambda']:.3g}/s")
+        ax.axhline(campaign.rho_floor, color="C0", lw=0.8, ls=":", label="ρ floor")
+        ax.set_ylim(floor, None)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("(|z| + Σ|e_i|) / initial")
+        ax.set_title(f"{name}: {s['runs_used']} runs")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def plot_rates(campaign: Campaign, results: dict):
+    """Histogram of the per-run rates λ_run, one colour per gain set. Returns the figure."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for name, r in results.items():
+        lam = r.lam[r.in_bound & np.isfinite(r.lam)]
+        if lam.size:
+            ax.hist(lam, bins=60, alpha=0.6, label=f"{name} (min {lam.min():.3g}/s)")
+    ax.set_xlabel("λ_run (1/s)")
+    ax.set_ylabel("runs")
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def write_outputs(campaign: Campaign, results: dict, out_dir) -> dict:
+    """Write ``summary.json``, ``counterexamples.json``, ``envelopes.png`` and ``rates.png``; return the summary
+    (without the counterexample lists, which are in their own file)."""
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = summarize(campaign, results)
+    cex = {name: s.pop("counterexample_list") for name, s in summary["gain_sets"].items()}
+    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (out / "counterexamples.json").write_text(json.dumps(cex, indent=2) + "\n")
+    full = {**summary, "gain_sets": {n: {**s, "counterexample_list": cex[n]} for n, s in summary["gain_sets"].items()}}
+    fig = plot_envelopes(campaign, results, full)
+    fig.savefig(out / "envelopes.png", dpi=120)
+    plt.close(fig)
+    fig = plot_rates(campaign, results)
+    fig.savefig(out / "rates.png", dpi=120)
+    plt.close(fig)
+    return summary
+
+
+# --------------------------------------------------------------------------------------------------------------
+# Configuration (TOML)
+# --------------------------------------------------------------------------------------------------------------
+
+_SECTIONS = {
+    "campaign": {
+        "runs": "runs", "seed": "seed", "chunk_size": "chunk_size", "horizon": "horizon", "dt_out": "dt_out",
+        "rtol": "rtol", "atol": "atol", "h_max": "h_max", "max_steps": "max_steps", "rho_floor": "rho_floor",
+        "converged_below": "converged_below", "v_increase_tol": "v_increase_tol",
+    },
+    "body": {"J": "J", "references": "references", "omega_max": "omega_max"},
+    "initial": {
+        "omega0_fraction": "omega0_fraction", "r_hat_radius": "r_hat_radius", "p_zero": "p_zero",
+        "p_opposite": "p_opposite", "omega_hat_max": "omega_hat_max",
+    },
+    "torque": {"terms": "torque_terms", "amplitude": "torque_amplitude", "frequency": "torque_frequency"},
+}
+_INTEGER = {"runs", "seed", "chunk_size", "max_steps", "torque_terms"}
+# (lower, lower inclusive, upper, upper inclusive) for scalar settings
+_RANGES = {
+    "runs": (1, True, math.inf, False), "seed": (0, True, math.inf, False),
+    "chunk_size": (1, True, math.inf, False), "max_steps": (1, True, math.inf, False),
+    "horizon": (0, False, math.inf, False), "dt_out": (0, False, math.inf, False),
+    "rtol": (0, False, 1, False), "atol": (0, False, math.inf, False), "h_max": (0, False, math.inf, False),
+    "rho_floor": (0, False, 1, False), "converged_below": (0, False, 1, False),
+    "v_increase_tol": (0, True, math.inf, False), "omega_max": (0, False, math.inf, False),
+    "omega0_fraction": (0, True, 1, True), "r_hat_radius": (0, True, math.inf, False),
+    "p_zero": (0, True, 1, True), "p_opposite": (0, True, 1, True), "omega_hat_max": (0, True, math.inf, False),
+    "torque_terms": (0, True, math.inf, False), "torque_amplitude": (0, True, math.inf, False),
+}
+_GAIN_KEYS = {
+    "theorem": {"kind", "margin", "l0"},
+    "constant": {"kind", "k", "l"},
+    "affine": {"kind", "k", "l_offset", "l_slope"},
+}
+
+
+def _check_number(key: str, attr: str, where: str, value, integer: bool) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{where}: {key} must be a number; got {value!r}")
+    if integer and not isinstance(value, int):
+        raise ValueError(f"{where}: {key} must be an integer; got {value!r}")
+    lo, lo_in, hi, hi_in = _RANGES.get(attr, (-math.inf, False, math.inf, False))
+    ok = math.isfinite(value) and (value >= lo if lo_in else value > lo) and (value <= hi if hi_in else value < hi)
+    if not ok:
+        lo_s = ("[" if lo_in else "(") + f"{lo:g}"
+        hi_s = f"{hi:g}" + ("]" if hi_in else ")")
+        raise ValueError(f"{where}: {key} = {value!r} is out of range {lo_s}, {hi_s}")
+    return value
+
+
+def _gains_from_table(name: str, table: dict, J, omega_max, references) -> ObserverGains:
+    where = f"[gains.{name}]"
+    if not isinstance(table, dict):
+        raise ValueError(f"{where} must be a table; got {table!r}")
+    kind = table.get("kind")
+    if kind not in _GAIN_KEYS:
+        raise ValueError(f"{where}: kind must be one of {sorted(_GAIN_KEYS)}; got {kind!r}")
+    unknown = set(table) - _GAIN_KEYS[kind]
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: "
+                         f"{sorted(_GAIN_KEYS[kind])}")
+    try:
+        if kind == "theorem":
+            return theorem_gains(J, omega_max, references, margin=table.get("margin", 1.0), l0=table.get("l0", 1.0))
+        n = references.shape[0]
+        if kind == "constant":
+            return ObserverGains.constant(table["k"], table["l"], n=n)
+        k = np.broadcast_to(np.asarray(table["k"], dtype=float), (n,)).copy()
+        return ObserverGains(k=k, l_offset=table["l_offset"], l_slope=table.get("l_slope", 0.0))
+    except KeyError as exc:
+        raise ValueError(f"{where}: missing key {exc.args[0]!r}") from None
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def campaign_from_dict(config: dict, source: str = "config") -> Campaign:
+    """Build a :class:`Campaign` from a parsed TOML document; errors name the section, key and value."""
+    unknown = set(config) - set(_SECTIONS) - {"gains"}
+    if unknown:
+        raise ValueError(f"{source}: unknown section(s) {sorted(unknown)}; allowed: {[*_SECTIONS, 'gains']}")
+    kwargs = {}
+    for section, keys in _SECTIONS.items():
+        table = config.get(section, {})
+        if not isinstance(table, dict):
+            raise ValueError(f"{source}: [{section}] must be a table; got {table!r}")
+        bad = set(table) - set(keys)
+        if bad:
+            raise ValueError(f"{source}: unknown key(s) {sorted(bad)} in [{section}]; allowed: {sorted(keys)}")
+        for key, value in table.items():
+            attr = keys[key]
+            where = f"{source} [{section}]"
+            if attr in ("J", "references"):
+                try:
+                    kwargs[attr] = as_inertia(value, "J") if attr == "J" else as_directions(value)
+                except (ValueError, TypeError) as exc:
+                    raise ValueError(f"{where}: {key} = {value!r}: {exc}") from None
+            elif attr == "torque_frequency":
+                if (not isinstance(value, list) or len(value) != 2
+                        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+                        or not 0 < value[0] <= value[1] or not math.isfinite(value[1])):
+                    raise ValueError(f"{where}: frequency must be [low, high] with 0 < low <= high; got {value!r}")
+                kwargs[attr] = (float(value[0]), float(value[1]))
+            else:
+                num = _check_number(key, attr, where, value, attr in _INTEGER)
+                kwargs[attr] = num if attr in _INTEGER else float(num)
+    if "omega_max" not in kwargs:
+        raise ValueError(f"{source}: [body] omega_max is required (the bound |omega| <= omega_M of the theorem)")
+    if kwargs.get("p_zero", 0.05) + kwargs.get("p_opposite", 0.05) > 1:
+        raise ValueError(f"{source} [initial]: p_zero + p_opposite must not exceed 1; got "
+                         f"{kwargs.get('p_zero', 0.05)} + {kwargs.get('p_opposite', 0.05)}")
+    J = kwargs.setdefault("J", np.diag([3.0, 2.0, 1.0]))
+    refs = kwargs.setdefault("references", np.eye(3)[:2])
+    gains_table = config.get("gains")
+    if not isinstance(gains_table, dict) or not gains_table:
+        raise ValueError(f"{source}: at least one [gains.NAME] table is required (kind = \"theorem\", "
+                         "\"constant\" or \"affine\")")
+    kwargs["gains"] = {
+        name: _gains_from_table(name, t, J, kwargs["omega_max"], refs) for name, t in gains_table.items()
+    }
+    return Campaign(**kwargs)
+
+
+def campaign_from_toml(text: str, source: str = "config") -> Campaign:
+    """Parse TOML text; a syntax error is reported with its line and column."""
+    try:
+        config = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{source}: invalid TOML: {exc}") from None
+    return campaign_from_dict(config, source)
+
+
+def load_campaign(path) -> Campaign:
+    """Read a campaign from a TOML file (see ``examples/campaign.toml``)."""
+    path = Path(path)
+    return campaign_from_toml(path.read_text(), str(path))
+
+
+
+def replace(campaign: Campaign, **changes) -> Campaign:
+    """A copy of ``campaign`` with some settings changed (``dataclasses.replace``)."""
+    return dataclasses.replace(campaign, **changes)
