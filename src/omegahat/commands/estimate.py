@@ -7,7 +7,7 @@ Reads a CSV or NPZ log (:mod:`omegahat.io`: columns ``t`` and ``qw,qx,qy,qz`` or
 Gains: either ``--k`` and ``--l`` (one number for all directions or one per direction), or ``--bandwidth b``
 (rad/s): equal ``k_i = b · (tr J / 3) / μ₁`` with ``μ₁ = λ_min(Σ_i (I − v_i v_iᵀ))`` the geometry factor of the
 unit inertial directions (2 for the three rows of R, so ``k = b tr(J)/6`` as ``omegahat compare`` uses), and
-``l_i = 10 b``: the linearised error then decays at about b rad/s. The default, 500 rad/s, is the bandwidth
+``l_i = 10 b``: the linearised error then decays at about b rad/s. The default, 450 rad/s, is the bandwidth
 chosen on BROAD trial 01 (285.7 Hz, ``benchmarks/real_data.py``); lower it for noisy or slow logs.
 
 Attitude input uses the three rows of R unless ``--references`` names other inertial directions; direction
@@ -34,7 +34,7 @@ from omegahat.io import read_log, write_omega_csv
 
 HELP = "Estimate the angular velocity from an attitude log (CSV or NPZ) and write t,wx,wy,wz."
 
-DEFAULT_BANDWIDTH = 500.0  # rad/s, chosen on BROAD trial 01 (benchmarks/real_data.py)
+DEFAULT_BANDWIDTH = 450.0  # rad/s, chosen on BROAD trial 01 (benchmarks/real_data.py)
 L_PER_BANDWIDTH = 10.0  # l_i = 10 b, as omegahat compare
 PROGRESS_MIN_SAMPLES = 100_000  # show a progress bar from this many samples on (unless told otherwise)
 CHUNK = 20_000  # samples per estimator call when a progress bar is shown
