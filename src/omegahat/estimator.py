@@ -35,8 +35,13 @@ Between samples (``t_k → t_{k+1}``, ``h = t_{k+1} − t_k``, torque ``τ_k`` h
 
    whose linearised error map is ``z ← (I + h J⁻¹ M)⁻¹ z``, eigenvalues ``1/(1 + h λ)`` with ``λ > 0`` the
    eigenvalues of ``J⁻¹ M`` (similar to the SPD ``J^{-½} M J^{-½}``): a contraction for every k, h. It is zero when
-   ``Δ = 0`` (exact equilibrium), and as ``h → 0`` it tends to the continuous observer (first order in h; see
-   ``benchmarks/sampled_convergence.py``).
+   ``Δ = 0`` (exact equilibrium), and as ``h → 0`` it tends to the continuous observer at first order: on the
+   paper's scenario the gap |ω̂_sampled − ω̂_continuous| at t = 1 s is 1.8e-3, 8.3e-4, 3.8e-4, 1.8e-4, 8.4e-5,
+   4.1e-5 rad/s for h = 10, 5, 2.5, 1.25, 0.625, 0.3125 ms (fitted order 1.09; ``python
+   benchmarks/sampled_convergence.py``). The exponential alternative ``ω̂ += (I − e^{−A}) A⁻¹ y``,
+   ``A = h J⁻¹ M_meas``, has a smaller gap at these h (6.6e-5 at 1 s for h = 10 ms) but it does not shrink at a
+   clean rate (4.5e-5 at h = 1.25 ms, fitted order 0.18; ``--compare-phi1``), and it needs a matrix exponential
+   per sample: the implicit form is kept for its measured, monotone first-order convergence and its simplicity.
 4. **Reset** ``e_i ← e_i − Δ_i`` and ``r_i ← r_i,meas`` (r̂ continuous, r jumps to the measurement).
 
 Initialisation: the first valid sample sets ``r_i``; ``ω̂₀`` is given (default 0) and ``r̂_i0`` is given (default
@@ -67,7 +72,9 @@ it raises (naming the sample's index and time) and leaves the estimator as it wa
 Implementation: the state is one flat array (:class:`EstimatorState` is its readable view); the compiled
 :func:`step` validates one sample and advances the state in a single Numba call, ``update`` is a thin shell over
 it and ``run`` loops over the very same function in compiled code. :func:`reference_step` is the plain NumPy
-version of steps 1–4 (the test oracle).
+version of steps 1–4 (the test oracle). Measured with ``python benchmarks/estimator_speed.py`` (paper's body at
+1 kHz, three rows, on a shared 2-core machine, one core): ``update`` median 3.6 µs (matrix) / 3.9 µs (quaternion);
+``run`` 1.2 (matrices) to 1.9 (quaternions) million samples/s; the NumPy oracle 1.5e3 samples/s, agreeing to 8e-15.
 """
 
 from __future__ import annotations
@@ -695,6 +702,8 @@ class SarrasEstimator(Estimator):
     def update(self, t, measurement, torque=None) -> np.ndarray:
         """Take the sample at time ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""
         m, kind = self._sample(measurement)
+        if not m.flags.c_contiguous:  # one compiled specialisation (C-contiguous) serves every call
+            m = np.ascontiguousarray(m)
         if torque is None:
             tau = _ZERO3
         else:
