@@ -1,0 +1,299 @@
+"""Monte-Carlo campaigns: batch = loop of simulate, chunking and replay, seeds, envelope fit against closed forms,
+the sampler's ranges, counterexamples, TOML errors and the command."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat import montecarlo as mc
+from omegahat.cli import main
+from omegahat.gains import ObserverGains, theorem_gains
+from omegahat.simulate import CoupledProblem, SinusoidalTorque, simulate
+
+J = np.diag([3.0, 2.0, 1.0])
+
+
+def _small(runs=6, **kw):
+    base = dict(
+        J=J,
+        omega_max=3.0,
+        gains={"theorem": theorem_gains(J, 3.0), "constant": ObserverGains.constant(14.5, 1.0)},
+        runs=runs,
+        seed=123,
+        chunk_size=4,
+        horizon=1.0,
+        dt_out=0.1,
+    )
+    base.update(kw)
+    return mc.Campaign(**base)
+
+
+def _random_problems(gains, count, seed):
+    rng = np.random.default_rng(seed)
+    problems = []
+    for j in range(count):
+        m = j % 3  # 0, 1 or 2 torque terms: the batch pads with zero terms
+        problems.append(
+            CoupledProblem(
+                J=J,
+                gains=gains,
+                omega0=rng.normal(size=3),
+                R0=Rotation.random(random_state=rng),
+                r_hat0=rng.normal(size=(2, 3)) * 3,
+                omega_hat0=rng.normal(size=3) * 20,
+                torque=SinusoidalTorque(
+                    constant=rng.normal(size=3) * 0.1,
+                    amplitudes=rng.normal(size=(m, 3)) * 0.3,
+                    frequencies=rng.uniform(0.5, 4.0, m),
+                    phases=rng.uniform(0, 6.0, (m, 3)),
+                ),
+            )
+        )
+    return problems
+
+
+@pytest.mark.parametrize("gains", [theorem_gains(J, 3.0), ObserverGains.constant(5.0, 2.0)], ids=["theorem", "l2"])
+def test_batch_equals_loop_of_simulate(gains):
+    problems = _random_problems(gains, 7, seed=5)
+    t = np.linspace(0.0, 1.5, 16)
+    batch = mc.simulate_batch(problems, t, rtol=1e-8, n_workers=2)
+    assert batch.ok.all()
+    for j, p in enumerate(problems):
+        single = simulate(p, t_out=t, rtol=1e-8)
+        n = 2
+        np.testing.assert_allclose(batch.Y[j, :, 3 * n + 3 : 3 * n + 6], single.z, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(batch.Y[j, :, 3 * n + 6 :].reshape(-1, n, 3), single.e, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(batch.Y[j, :, 3 * n : 3 * n + 3], single.omega, rtol=0, atol=1e-12)
+        assert batch.accepted[j] == single.steps and batch.rejected[j] == single.rejected
+
+
+def test_batch_does_not_depend_on_workers_or_order():
+    problems = _random_problems(theorem_gains(J, 3.0), 5, seed=9)
+    t = np.linspace(0.0, 0.5, 6)
+    a = mc.simulate_batch(problems, t, rtol=1e-7, n_workers=1)
+    b = mc.simulate_batch(problems[::-1], t, rtol=1e-7, n_workers=3)
+    np.testing.assert_array_equal(a.Y, b.Y[::-1])
+
+
+def test_batch_rejects_mixed_gains_and_bad_arguments():
+    p = _random_problems(theorem_gains(J, 3.0), 1, 0) + _random_problems(ObserverGains.constant(1.0, 1.0), 1, 0)
+    with pytest.raises(ValueError, match="problem 1 has another J, gains or references"):
+        mc.simulate_batch(p, [0.0, 1.0])
+    with pytest.raises(ValueError, match="at least one problem"):
+        mc.simulate_batch([], [0.0, 1.0])
+    with pytest.raises(ValueError, match="t_out must start at 0"):
+        mc.simulate_batch(p[:1], [0.5, 1.0])
+    with pytest.raises(ValueError, match="n_workers must be at least 1; got 0"):
+        mc.simulate_batch(p[:1], [0.0, 1.0], n_workers=0)
+
+
+def test_run_seed_is_the_spawned_child():
+    children = np.random.SeedSequence(42).spawn(5)
+    for j, child in enumerate(children):
+        a = np.random.default_rng(child).random(4)
+        b = np.random.default_rng(mc.run_seed(42, j)).random(4)
+        np.testing.assert_array_equal(a, b)
+
+
+def test_campaign_does_not_depend_on_chunking_and_runs_replay():
+    c = _small(runs=7)
+    a = mc.run_campaign(c, chunk_size=3)
+    b = mc.run_campaign(c, chunk_size=7)
+    for name in c.gains:
+        np.testing.assert_array_equal(a[name].rho, b[name].rho)
+        np.testing.assert_array_equal(a[name].lam, b[name].lam)
+    # any run replays alone from (seed, index) through the single-run simulate
+    tr = mc.replay(c, "theorem", 5)
+    E = np.linalg.norm(tr.z, axis=-1) + np.linalg.norm(tr.e, axis=-1).sum(-1)
+    np.testing.assert_allclose(E / E[0], a["theorem"].rho[5], rtol=1e-12, atol=0)
+    # a single chunk in the middle gives the same rows
+    mid = mc.run_chunk(c, 2, 5)["constant"]
+    np.testing.assert_array_equal(mid.rho, a["constant"].rho[2:5])
+    with pytest.raises(ValueError, match=r"chunk \[5, 9\) is not inside the campaign's 7 runs"):
+        mc.run_chunk(c, 5, 9)
+
+
+def test_sampler_ranges_and_special_initial_filters():
+    c = _small(runs=400, p_zero=0.2, p_opposite=0.2, omega_hat_max=100.0, r_hat_radius=10.0, omega0_fraction=0.5)
+    zero = opposite = 0
+    traces = []
+    for j in range(c.runs):
+        p = mc.draw_problem(c, j)
+        assert np.linalg.norm(p.omega0) <= 0.5 * 3.0
+        assert np.linalg.norm(p.omega_hat0) <= 100.0
+        assert np.all(np.linalg.norm(p.r_hat0, axis=1) <= 10.0)
+        r0 = p.r0
+        zero += int(np.sum(np.all(p.r_hat0 == 0.0, axis=1)))
+        opposite += int(np.sum(np.all(p.r_hat0 == -r0, axis=1)))
+        traces.append(np.trace(p.R0))
+        assert p.torque.amplitudes.shape == (2, 3) and np.all(np.abs(p.torque.amplitudes) <= 0.3)
+    # 800 filters, each zero / opposite with probability 0.2: expected 160, sd 11.3
+    assert 110 < zero < 210 and 110 < opposite < 210
+    # Haar measure on SO(3): E[trace R] = 0, Var[trace R] = 1 (trace = 1 + 2 cos θ, θ with density (1 - cos θ)/π)
+    assert abs(np.mean(traces)) < 0.2 and abs(np.var(traces) - 1.0) < 0.25
+
+
+def test_envelope_fit_of_pure_exponential_and_of_overshoot():
+    t = np.linspace(0.0, 10.0, 1001)
+    floor = 1e-8
+    pure = np.exp(-3.0 * t)  # reaches the floor at t = ln(1e8)/3 = 6.14 s
+    a, b, T = 4.0, 1.0, 10.0
+    over = (1 + a * t) * np.exp(-b * t)  # never reaches the floor: λ_run = b − ln(1 + aT)/T
+    lam, c_run, i_f = mc.envelope_fit(t, np.stack([pure, over]), floor)
+    t_f_pure = t[np.flatnonzero(pure >= floor)[-1]]
+    assert t_f_pure == pytest.approx(math.log(1e8) / 3.0, abs=0.01)
+    assert lam[0] == pytest.approx(3.0, rel=1e-12)
+    assert c_run[0] == pytest.approx(1.0, rel=1e-12)
+    s = math.log(1 + a * T) / T
+    assert lam[1] == pytest.approx(b - s, rel=1e-12)
+    # c_run = max_t (1 + a t) e^{−s t}: the maximum is at t* = 1/s − 1/a
+    t_star = 1 / s - 1 / a
+    assert c_run[1] == pytest.approx((1 + a * t_star) * math.exp(-s * t_star), rel=1e-5)
+    assert i_f[1] == t.size - 1
+
+
+def test_worst_envelope_is_min_rate_and_max_constant():
+    c = _small(runs=2, horizon=10.0, dt_out=0.01)
+    t = c.t_out
+    rho = np.stack([np.exp(-2.0 * t), (1 + 4 * t) * np.exp(-3.0 * t)])
+    lam, c_run, i_f = mc.envelope_fit(t, rho, c.rho_floor)
+    r = mc.GainSetResult(
+        index=np.arange(2), ok=np.ones(2, bool), in_bound=np.ones(2, bool), omega_peak=np.zeros(2), rho=rho,
+        E0=np.ones(2), lam=lam, c_run=c_run, t_f=t[i_f], v_increase=np.zeros(2), steps=np.zeros(2, int),
+        rejected=np.zeros(2, int),
+    )
+    lam_star, c_star, slowest = mc.worst_envelope(c, r)
+    assert lam_star == pytest.approx(2.0, rel=1e-12) and slowest == 0
+    # max_t (1 + 4t) e^{−t}: at t = 3/4, value 4 e^{−3/4}
+    assert c_star == pytest.approx(4 * math.exp(-0.75), rel=1e-4)
+
+
+def test_theorem_gains_converge_and_v_decreases_on_wide_initial_conditions():
+    """The claim itself on 12 runs with |ω̂₀| up to 100 and r̂ anywhere in the ball of radius 10, 0 and −r
+    included (p = 0.25 each): every in-bound run converges and V never increases on the grid."""
+    c = _small(runs=12, gains={"theorem": theorem_gains(J, 3.0)}, horizon=4.0, p_zero=0.25, p_opposite=0.25,
+               converged_below=1e-6)
+    res = mc.run_campaign(c)
+    s = mc.summarize(c, res)["gain_sets"]["theorem"]
+    assert s["satisfies_theorem"]
+    assert s["runs_used"] >= 10
+    assert s["counterexamples"] == 0 and s["v_increased_runs"] == 0
+    assert s["worst_lambda"] > 3.0  # measured 5.0 on 10,000 runs of examples/campaign.toml
+
+
+def test_constant_small_l_fails_globally_and_counterexamples_replay():
+    """With constant l = 1 a large initial estimate gets stuck: run saved with its seed, replayed identically."""
+    c = _small(runs=6, gains={"constant": ObserverGains.constant(14.5, 1.0)}, horizon=3.0, omega_hat_max=100.0)
+    res = mc.run_campaign(c)
+    s = mc.summarize(c, res)["gain_sets"]["constant"]
+    assert not s["satisfies_theorem"]
+    assert s["counterexamples"] >= 1
+    cex = s["counterexample_list"][0]
+    assert cex["seed"] == {"entropy": 123, "spawn_key": [cex["index"]]}
+    tr = mc.replay(c, "constant", cex["index"])
+    E = np.linalg.norm(tr.z, axis=-1) + np.linalg.norm(tr.e, axis=-1).sum(-1)
+    assert E[-1] / E[0] == pytest.approx(cex["rho_end"], rel=1e-12)
+    p = mc.draw_problem(c, cex["index"])
+    np.testing.assert_array_equal(p.omega_hat0, cex["omega_hat0"])
+
+
+def test_out_of_bound_runs_are_set_aside():
+    c = _small(runs=6, gains={"theorem": theorem_gains(J, 3.0)}, omega0_fraction=1.0, torque_amplitude=3.0,
+               torque_frequency=(0.5, 0.6), horizon=2.0)
+    res = mc.run_campaign(c)["theorem"]
+    s = mc.summarize(c, {"theorem": res})["gain_sets"]["theorem"]
+    out = res.ok & (res.omega_peak > 3.0)
+    assert out.sum() >= 1
+    assert s["runs_out_of_bound"] == out.sum() and s["runs_used"] == (res.in_bound & np.isfinite(res.lam)).sum()
+
+
+# ------------------------------------------------------------------------------------------ configuration
+
+GOOD = """
+[campaign]
+runs = 3
+seed = 7
+horizon = 0.5
+dt_out = 0.1
+
+[body]
+omega_max = 3.0
+
+[gains.theorem]
+kind = "theorem"
+
+[gains.small]
+kind = "affine"
+k = 5.0
+l_offset = 5.0
+l_slope = 2.0
+"""
+
+
+def test_toml_builds_the_campaign():
+    c = mc.campaign_from_toml(GOOD)
+    assert c.runs == 3 and c.seed == 7 and c.omega_max == 3.0
+    np.testing.assert_allclose(c.gains["theorem"].k, [14.5, 14.5])
+    np.testing.assert_allclose(c.gains["small"].l_slope, [2.0, 2.0])
+
+
+def test_example_campaign_parses():
+    c = mc.load_campaign("examples/campaign.toml")
+    assert c.runs == 10000 and set(c.gains) == {"theorem", "slope", "constant"}
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("[campaign]\nruns = \n", r"invalid TOML: .*line 2, column 8"),
+        (GOOD.replace("seed = 7", "seeds = 7"), r"unknown key\(s\) \['seeds'\] in \[campaign\]"),
+        (GOOD.replace("runs = 3", "runs = 0"), r"\[campaign\]: runs = 0 is out of range \[1, inf\)"),
+        (GOOD.replace("runs = 3", "runs = 2.5"), r"\[campaign\]: runs must be an integer; got 2.5"),
+        (GOOD.replace("horizon = 0.5", 'horizon = "long"'), r"horizon must be a number; got 'long'"),
+        (GOOD.replace("rtol", "x") + "\n[campaign2]\n", r"unknown section\(s\) \['campaign2'\]"),
+        (GOOD.replace("omega_max = 3.0", "omega_max = -1.0"), r"\[body\]: omega_max = -1.0 is out of range"),
+        (GOOD.replace("omega_max = 3.0", "J = [1.0, -2.0, 1.0]\nomega_max = 3.0"), r"J = \[1.0, -2.0, 1.0\]"),
+        (GOOD.replace('kind = "theorem"', 'kind = "magic"'), r"\[gains.theorem\]: kind must be one of"),
+        (GOOD.replace("l_slope = 2.0", "l_slop = 2.0"), r"\[gains.small\]: unknown key\(s\) \['l_slop'\]"),
+        (GOOD.replace("l_offset = 5.0", "l_offset = -5.0"), r"\[gains.small\]: l must be positive"),
+        (GOOD.replace("omega_max = 3.0", ""), r"omega_max is required"),
+        (GOOD + "\n[torque]\nfrequency = [2.0, 1.0]\n", r"frequency must be \[low, high\].*got \[2.0, 1.0\]"),
+        (GOOD + "\n[initial]\np_zero = 0.7\np_opposite = 0.5\n", r"p_zero \+ p_opposite must not exceed 1"),
+        (GOOD + "\n[initial]\np_zero = 1.5\n", r"\[initial\]: p_zero = 1.5 is out of range \[0, 1\]"),
+    ],
+)
+def test_toml_errors_name_key_and_value(text, match):
+    with pytest.raises(ValueError, match=match):
+        mc.campaign_from_toml(text)
+
+
+def test_campaign_constructor_checks_values():
+    with pytest.raises(ValueError, match=r"Campaign: runs = -1 is out of range"):
+        _small(runs=-1)
+    with pytest.raises(ValueError, match=r"gains\['x'\] are for 3 directions, the campaign has 2"):
+        _small(gains={"x": ObserverGains.constant(1.0, 1.0, n=3)})
+
+
+def test_command_writes_summary_and_figures(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(GOOD)
+    out = tmp_path / "out"
+    assert main(["montecarlo", str(cfg), "--out", str(out), "--no-progress"]) == 0
+    for f in ("summary.json", "counterexamples.json", "envelopes.png", "rates.png"):
+        assert (out / f).stat().st_size > 0
+    summary = json.loads((out / "summary.json").read_text())
+    c = mc.campaign_from_toml(GOOD)
+    expected = mc.summarize(c, mc.run_campaign(c))
+    for name in ("theorem", "small"):
+        assert summary["gain_sets"][name]["worst_lambda"] == expected["gain_sets"][name]["worst_lambda"]
+    assert json.loads((out / "counterexamples.json").read_text()).keys() == {"theorem", "small"}
+
+
+def test_command_reports_bad_config(tmp_path, capsys):
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text("[campaign]\nruns = \n")
+    assert main(["montecarlo", str(cfg), "--out", str(tmp_path / "o")]) == 2
+    assert "line 2, column 8" in capsys.readouterr().err
