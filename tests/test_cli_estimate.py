@@ -10,7 +10,6 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import so3
 from omegahat.cli import main
-from omegahat.commands.estimate import bandwidth_gains
 from omegahat.rigid_body import RigidBody, Torque, integrate
 
 OMEGA = np.array([0.7, -0.4, 1.1])  # constant body rate (J = I, no torque)
@@ -111,14 +110,6 @@ def test_known_torque_and_inertia(tmp_path, capsys):
     code, _, _ = run_cli(capsys, "estimate", src_no, "-o", dst, "--inertia", "3", "2", "1", "--bandwidth", "100")
     assert code == 0
     assert np.abs(read_output(dst)[-250:, 1:] - truth.omega[-250:]).max() > 10 * err_end
-
-
-def test_bandwidth_gains_match_compare_rule_for_three_rows():
-    g = bandwidth_gains(40.0, np.diag([3.0, 2.0, 1.0]), np.eye(3))
-    np.testing.assert_allclose(g.k, 40.0 * 6.0 / 6.0)  # k = b tr(J)/6
-    np.testing.assert_allclose(g.l_offset, 400.0)
-    # Two orthogonal directions: λ_min(Σ (I − v vᵀ)) = 1, so k = b tr(J)/3.
-    np.testing.assert_allclose(bandwidth_gains(40.0, np.eye(3), np.eye(3)[:2]).k, 40.0)
 
 
 def test_progress_bar_on_request(tmp_path, capsys):

@@ -87,3 +87,21 @@ def test_convergence_time_is_met_noise_free():
     z = SarrasEstimator(J, gains=g, omega_hat0=w + z0).run(times, R) - w
     # after 1 s = 5 time constants: |z| = 0.01 e^{-5}, to within 10 % (nonlinear terms are O(|z|²))
     assert np.linalg.norm(z[-1]) == pytest.approx(0.01 * np.exp(-1.0 / tc), rel=0.1)
+
+
+def test_bandwidth_gains_give_the_bandwidth_as_decay_rate_for_an_isotropic_body():
+    """J = c I: the continuous linearised error ż = −J⁻¹ M z, M = Σ k (I − v vᵀ), decays at exactly b for three
+    rows (all eigenvalues of J⁻¹ M equal b) and at least b for two orthogonal rows (smallest eigenvalue b)."""
+    from omegahat.tuning import bandwidth_gains
+
+    J = 2.5 * np.eye(3)
+    for refs, lam_min in ((np.eye(3), 40.0), (np.eye(3)[:2], 40.0)):
+        g = bandwidth_gains(J, 40.0, refs)
+        M = sum(k * (np.eye(3) - np.outer(v, v)) for k, v in zip(g.k, refs, strict=True))
+        assert np.linalg.eigvalsh(M / 2.5)[0] == pytest.approx(lam_min, rel=1e-12)
+        np.testing.assert_allclose(g.l_offset, 400.0)
+    # three rows: isotropic, every mode at b
+    g3 = bandwidth_gains(J, 40.0)
+    np.testing.assert_allclose(np.linalg.eigvalsh(2 * g3.k[0] * np.eye(3) / 2.5), 40.0)
+    with pytest.raises(ValueError, match="bandwidth must be positive"):
+        bandwidth_gains(J, -1.0)

@@ -50,11 +50,28 @@ from scipy.linalg import solve_discrete_lyapunov
 from omegahat._validation import as_directions, as_inertia, as_positive
 from omegahat.gains import ObserverGains, inertia_bounds
 
-__all__ = ["predicted_noise_std", "sensor_gains"]
+__all__ = ["bandwidth_gains", "predicted_noise_std", "sensor_gains"]
 
 
 def _geometry(references) -> np.ndarray:
     return as_directions(np.eye(3) if references is None else references)
+
+
+def bandwidth_gains(J, bandwidth: float, references=None, l_per_bandwidth: float = 10.0) -> ObserverGains:
+    """The simple rule used by ``omegahat estimate --bandwidth`` and ``omegahat compare``.
+
+    Equal ``k_i = b (tr J / 3) / μ₁`` with ``μ₁ = λ_min Σ (I − v_i v_iᵀ)`` (2 for the three rows of R, 1 for two
+    orthogonal rows) and ``l_i = l_per_bandwidth · b``: the continuous linearised error ``ż = −J⁻¹ M z`` then
+    decays at about ``b`` rad/s for a near-isotropic body. It ignores the sample rate; :func:`sensor_gains` is the
+    rate- and noise-aware design (slowest mode at least ``b``, using ``J_M``).
+    """
+    J = as_inertia(J)
+    b = float(as_positive(bandwidth, "bandwidth")[0])
+    v = _geometry(references)
+    mu1 = float(np.linalg.eigvalsh(np.eye(3) * v.shape[0] - v.T @ v)[0])
+    k = b * np.trace(J) / 3.0 / mu1
+    l = float(as_positive(l_per_bandwidth, "l_per_bandwidth")[0]) * b
+    return ObserverGains.constant(k, l, n=v.shape[0])
 
 
 def sensor_gains(

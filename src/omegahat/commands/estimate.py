@@ -26,11 +26,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from omegahat import gains as gains_mod
 from omegahat._validation import as_directions, as_inertia
 from omegahat.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.gains import ObserverGains
 from omegahat.io import read_log, write_omega_csv
+from omegahat.tuning import bandwidth_gains
 
 HELP = "Estimate the angular velocity from an attitude log (CSV or NPZ) and write t,wx,wy,wz."
 
@@ -81,17 +81,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     bar.add_argument("--no-progress", dest="progress", action="store_false", help="never show one")
 
 
-def bandwidth_gains(bandwidth: float, J, references) -> ObserverGains:
-    """Equal gains whose linearised error decays at about ``bandwidth`` rad/s (module docstring)."""
-    b = float(bandwidth)
-    if not (np.isfinite(b) and b > 0):
-        raise ValueError(f"--bandwidth must be a positive number of rad/s; got {bandwidth!r}")
-    v = as_directions(references, name="references")
-    mu1 = gains_mod.mu(np.ones(v.shape[0]), v)  # λ_min(Σ (I − v vᵀ)) for unit gains
-    k = b * np.trace(J) / 3.0 / mu1
-    return ObserverGains.constant(k, L_PER_BANDWIDTH * b, n=v.shape[0])
-
-
 def _per_direction(values, n: int, name: str) -> np.ndarray:
     a = np.asarray(values, dtype=float)
     if a.size == 1:
@@ -108,7 +97,10 @@ def _gains(args, J, references) -> ObserverGains:
     if (args.k is None) != (args.l is None):
         raise ValueError("--k and --l go together (or use --bandwidth)")
     if args.k is None:
-        return bandwidth_gains(DEFAULT_BANDWIDTH if args.bandwidth is None else args.bandwidth, J, references)
+        b = DEFAULT_BANDWIDTH if args.bandwidth is None else args.bandwidth
+        if not (np.isfinite(b) and b > 0):
+            raise ValueError(f"--bandwidth must be a positive number of rad/s; got {b!r}")
+        return bandwidth_gains(J, b, references, L_PER_BANDWIDTH)
     return ObserverGains(k=_per_direction(args.k, n, "k"), l_offset=_per_direction(args.l, n, "l"))
 
 
