@@ -27,7 +27,7 @@ import numpy as np
 
 from omegahat import broad
 from omegahat.estimator import SarrasEstimator, SkippedSamplesWarning
-from omegahat.gains import ObserverGains
+from omegahat.tuning import bandwidth_gains
 
 GRID = (100.0, 150.0, 200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 700.0, 1000.0, 1500.0,
         2000.0, 5000.0, 10000.0)  # rad/s
@@ -35,7 +35,7 @@ TUNING_TRIAL = "01"
 
 
 def sarras(trial, b):
-    gains = ObserverGains.constant(b / 2.0, 10.0 * b, n=3)  # J = I: k = b tr(J)/6 = b/2
+    gains = bandwidth_gains(np.eye(3), b)  # J = I, three rows: k = b/2, l = 10 b
     est = SarrasEstimator(np.eye(3), gains=gains)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SkippedSamplesWarning)
