@@ -297,3 +297,12 @@ def test_command_reports_bad_config(tmp_path, capsys):
     cfg.write_text("[campaign]\nruns = \n")
     assert main(["montecarlo", str(cfg), "--out", str(tmp_path / "o")]) == 2
     assert "line 2, column 8" in capsys.readouterr().err
+
+
+def test_serial_loop_equals_parallel_batch():
+    c = _small(runs=5)
+    a = mc.run_chunk(c, 0, 5, parallel=True)
+    b = mc.run_chunk(c, 0, 5, parallel=False)
+    for name in c.gains:
+        np.testing.assert_array_equal(a[name].rho, b[name].rho)
+        np.testing.assert_array_equal(a[name].steps, b[name].steps)

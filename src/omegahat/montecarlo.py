@@ -61,6 +61,7 @@ from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
     initial_state,
+    integrate_coupled,
     integrate_coupled_batch,
     simulate,
 )
@@ -115,12 +116,15 @@ def simulate_batch(
     h_max: float = 0.05,
     max_steps: int = 10_000_000,
     n_workers: int | None = None,
+    parallel: bool = True,
 ) -> BatchResult:
     """Integrate ``problems`` (a sequence of :class:`~omegahat.simulate.CoupledProblem` sharing J, gains and
-    references) in parallel; each run equals ``simulate(problem, t_out=t_out, ...)`` bit for bit.
+    references); each run equals ``simulate(problem, t_out=t_out, ...)`` bit for bit.
 
-    A failed run does not raise: its ``ok`` is False and its rows after the failure are NaN.
-    ``n_workers`` defaults to Numba's thread count.
+    ``parallel=True``: one Numba ``prange`` over runs on ``n_workers`` threads (default: Numba's thread count).
+    ``parallel=False``: a loop calling the single-run kernel, for callers that parallelise themselves (Dask
+    workers running several tasks in threads; Numba's default threading layer must not be entered from two
+    threads at once). A failed run does not raise: its ``ok`` is False and its rows after the failure are NaN.
     """
     problems = list(problems)
     if not problems:
@@ -158,10 +162,21 @@ def simulate_batch(
     workers = numba.get_num_threads() if n_workers is None else int(n_workers)
     if workers < 1:
         raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
-    Y, acc, rej, ok = integrate_coupled_batch(
-        Y0, t_out, g.n, p0.J, np.linalg.inv(p0.J), g.k, g.l_offset, g.l_slope, tc, ta, tf, tp,
-        float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
-    )
+    args = (g.n, p0.J, np.linalg.inv(p0.J), g.k, g.l_offset, g.l_slope)
+    if parallel:
+        Y, acc, rej, ok = integrate_coupled_batch(
+            Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers
+        )
+    else:
+        Y = np.empty((N, t_out.size, Y0.shape[1]))
+        acc = np.zeros(N, dtype=np.int64)
+        rej = np.zeros(N, dtype=np.int64)
+        ok = np.zeros(N, dtype=bool)
+        for j in range(N):
+            Y[j], acc[j], rej[j], ok[j] = integrate_coupled(
+                Y0[j], t_out, *args, tc[j], ta[j], tf[j], tp[j], float(rtol), float(atol), h0[j], float(h_max),
+                int(max_steps),
+            )
     return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
 
 
@@ -365,11 +380,11 @@ def diagnose(campaign: Campaign, batch: BatchResult, indices) -> GainSetResult:
     )
 
 
-def run_chunk(campaign: Campaign, start: int, stop: int) -> dict:
+def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict:
     """Runs ``start .. stop − 1`` of the campaign for every gain set: ``{gains name: GainSetResult}``.
 
     The unit of work of :func:`run_campaign` and of :mod:`omegahat.distributed`; its result depends on the run
-    indices only, not on how the campaign is cut into chunks.
+    indices only, not on how the campaign is cut into chunks nor on ``parallel`` (see :func:`simulate_batch`).
     """
     if not (0 <= start < stop <= campaign.runs):
         raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")
@@ -379,7 +394,7 @@ def run_chunk(campaign: Campaign, start: int, stop: int) -> dict:
         problems = [draw_problem(campaign, j, name) for j in indices]
         batch = simulate_batch(
             problems, campaign.t_out, rtol=campaign.rtol, atol=campaign.atol, h_max=campaign.h_max,
-            max_steps=campaign.max_steps,
+            max_steps=campaign.max_steps, parallel=parallel,
         )
         out[name] = diagnose(campaign, batch, indices)
     return out
