@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from omegahat import broad
 from omegahat.io import AttitudeLog, LogFormatError, read_csv, read_log, read_npz, write_omega_csv
 
-BROAD = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
+BROAD = broad.data_dir()
 
 
 def write(tmp_path, text, name="log.csv"):

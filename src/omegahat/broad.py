@@ -65,8 +65,20 @@ NOTICE_DIFFERENCING_RMS = {"01": 0.045, "06": 0.094, "10": 0.039}
 
 
 def data_dir() -> Path:
-    """``<repository root>/../shared/data/broad`` (the repository root is two levels above this package)."""
-    return (Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad").resolve()
+    """Where the BROAD recordings are: ``$OMEGAHAT_BROAD_DIR`` if set, else ``../shared/data/broad`` relative to
+    the working directory (the repository root, where the tests and benchmarks run), else relative to this
+    package's source tree (an editable install). The first that exists; the working-directory one otherwise."""
+    env = os.environ.get("OMEGAHAT_BROAD_DIR")
+    if env:
+        return Path(env).resolve()
+    candidates = [
+        Path.cwd() / ".." / "shared" / "data" / "broad",
+        Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad",
+    ]
+    for c in candidates:
+        if c.is_dir():
+            return c.resolve()
+    return candidates[0].resolve()
 
 
 @dataclass(frozen=True)
