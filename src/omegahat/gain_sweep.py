@@ -206,11 +206,12 @@ def recommend_gains(
 ) -> Recommendation:
     """Gains for an attitude sensor sampled at ``rate_hz`` with noise ``noise_std_rad`` (rad per axis).
 
-    Candidates are :func:`omegahat.tuning.sensor_gains` at each bandwidth of ``bandwidths_hz`` (default 12
-    bandwidths, geometric, from ``rate/500`` to ``rate/5``), each measured by :func:`evaluate_gains` (same noise
-    for all). Give exactly one goal: ``max_noise`` (rad/s RMS) → the fastest candidate within it;
-    ``max_convergence_time`` (s) → the least noisy candidate within it. ``horizon`` defaults to enough time for
-    the slowest candidate to settle (``3 ln(1/settle) / (2π b_min)``, at least 5 s).
+    Candidates are :func:`omegahat.tuning.sensor_gains` at each bandwidth of ``bandwidths_hz`` (default 16
+    bandwidths, geometric, from ``min(0.05 Hz, rate/500)`` to ``rate/5``), each measured by
+    :func:`evaluate_gains` (same noise for all). Give exactly one goal: ``max_noise`` (rad/s RMS) → the
+    fastest candidate within it; ``max_convergence_time`` (s) → the least noisy candidate within it.
+    ``horizon`` defaults to enough time for the slowest candidate to settle (``3 ln(1/settle) / (2π b_min)``,
+    at least 5 s).
     """
     J = as_inertia(J)
     rate = float(as_positive(rate_hz, "rate_hz")[0])
@@ -222,8 +223,10 @@ def recommend_gains(
         )
     goal = "max_noise" if max_noise is not None else "max_convergence_time"
     limit = float(as_positive(max_noise if max_noise is not None else max_convergence_time, goal)[0])
-    bws = np.geomspace(rate / 500, rate / 5, 12) if bandwidths_hz is None else as_positive(bandwidths_hz,
-                                                                                          "bandwidths_hz")
+    if bandwidths_hz is None:
+        bws = np.geomspace(min(0.05, rate / 500), rate / 5, 16)
+    else:
+        bws = as_positive(bandwidths_hz, "bandwidths_hz")
     settle = kwargs.get("settle", 0.01)
     if horizon is None:
         horizon = max(5.0, 3 * math.log(1 / settle) / (2 * math.pi * float(np.min(bws))))
