@@ -158,8 +158,10 @@ def get(name: str) -> Scenario:
 
 
 def broad_data_dir() -> Path:
-    """``<repository root>/../shared/data/broad`` (may not exist)."""
-    return Path(__file__).resolve().parents[2].parent / "shared" / "data" / "broad"
+    """Where the BROAD recordings are looked for (:func:`omegahat.broad.data_dir`; may not exist)."""
+    from omegahat import broad
+
+    return broad.data_dir()
 
 
 def simulate(scenario: Scenario, seed: int, duration: float | None = None) -> Run:

@@ -68,6 +68,20 @@ def _check_cutoff_hz(cutoff_hz):
     return c
 
 
+def as_attitude_sample(measurement, scalar_first=False, tol=1e-4):
+    """One checked attitude sample as a rotation matrix, or None when it is not finite (a missing sample)."""
+    if isinstance(measurement, Rotation):
+        return measurement.as_matrix()
+    a = np.asarray(measurement, dtype=float)
+    if a.shape not in ((3, 3), (4,)):
+        raise ValueError(
+            f"measurement must be a rotation matrix (3, 3), a quaternion (4,) or a scipy Rotation; got shape {a.shape}"
+        )
+    if not np.all(np.isfinite(a)):
+        return None
+    return as_attitude_matrices(a[None], scalar_first, tol, name="measurement")[0]
+
+
 def as_attitude_matrices(attitudes, scalar_first=False, tol=1e-4, name="attitudes"):
     """Rotation matrices ``(T, 3, 3)`` from a log of attitudes; rows that are not finite become NaN.
 
@@ -268,17 +282,7 @@ class DifferencingEstimator(Estimator):
         self.n_skipped = 0
 
     def _attitude(self, measurement):
-        if isinstance(measurement, Rotation):
-            return measurement.as_matrix()
-        a = np.asarray(measurement, dtype=float)
-        if a.shape not in ((3, 3), (4,)):
-            raise ValueError(
-                f"measurement must be a rotation matrix (3, 3), a quaternion (4,) or a scipy Rotation; "
-                f"got shape {a.shape}"
-            )
-        if not np.all(np.isfinite(a)):
-            return None
-        return as_attitude_matrices(a[None], self.scalar_first, self.tol, name="measurement")[0]
+        return as_attitude_sample(measurement, self.scalar_first, self.tol)
 
     def update(self, t, measurement, torque=None) -> np.ndarray:
         """Take the attitude sampled at ``t``; return ω̂ (for ``t`` if backward, for the previous sample time

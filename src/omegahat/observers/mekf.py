@@ -43,7 +43,7 @@ from scipy.spatial.transform import Rotation
 from omegahat import so3
 from omegahat._validation import _fmt, as_directions, as_inertia, as_positive, as_vector3
 from omegahat.observers.base import Estimator
-from omegahat.observers.differencing import as_attitude_matrices
+from omegahat.observers.differencing import as_attitude_matrices, as_attitude_sample
 from omegahat.rigid_body import RigidBody, Torque, cf4_step
 
 __all__ = [
@@ -234,17 +234,7 @@ class MEKF(Estimator):
     def _measurement(self, m):
         """Checked sample: a rotation matrix, body directions ``(n, 3)``, or None when not finite."""
         if self.references is None:
-            if isinstance(m, Rotation):
-                return m.as_matrix()
-            a = np.asarray(m, dtype=float)
-            if a.shape not in ((3, 3), (4,)):
-                raise ValueError(
-                    f"measurement must be a rotation matrix (3, 3), a quaternion (4,) or a scipy Rotation; "
-                    f"got shape {a.shape}"
-                )
-            if not np.all(np.isfinite(a)):
-                return None
-            return as_attitude_matrices(a[None], self.scalar_first, self.tol, name="measurement")[0]
+            return as_attitude_sample(m, self.scalar_first, self.tol)
         a = np.asarray(m, dtype=float)
         n = len(self.references)
         if a.shape != (n, 3):
