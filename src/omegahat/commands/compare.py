@@ -35,10 +35,10 @@ import numpy as np
 
 from omegahat import scenarios as S
 from omegahat.estimator import SarrasEstimator
-from omegahat.gains import ObserverGains
 from omegahat.observers.differencing import DifferencingEstimator
 from omegahat.observers.mekf import MEKF
 from omegahat.observers.spline import SplineEstimator
+from omegahat.tuning import bandwidth_gains
 
 HELP = "Compare omegahat with differencing, a spline and an EKF on the standard scenarios."
 
@@ -69,8 +69,7 @@ def _meas_sigma(sc):
 def _sarras(sc, b_rel):
     # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
     # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
-    b = b_rel * sc.rate_hz
-    gains = ObserverGains.constant(b * _jbar(sc) / 2.0, 10.0 * b, n=3)
+    gains = bandwidth_gains(sc.J_model, b_rel * sc.rate_hz)  # three rows: k = b tr(J)/6, l = 10 b
     return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0)
 
 
