@@ -202,3 +202,16 @@ def test_output_option_is_required(good_csv, capsys):
         main(["estimate", str(good_csv)])
     assert exc.value.code == 2
     assert "-o/--output" in capsys.readouterr().err
+
+
+def test_warm_start_is_the_default_and_can_be_turned_off(tmp_path, capsys):
+    t = np.arange(50) * 0.01
+    src = tmp_path / "in.npz"
+    np.savez(src, t=t, R=constant_rate_attitudes(t))
+    warm, cold = tmp_path / "warm.csv", tmp_path / "cold.csv"
+    assert run_cli(capsys, "estimate", src, "-o", warm)[0] == 0
+    assert run_cli(capsys, "estimate", src, "-o", cold, "--no-warm-start")[0] == 0
+    # warm: the rate is exact from the second sample on (constant rate, J = I); cold: it starts at 0
+    np.testing.assert_allclose(read_output(warm)[1:, 1:], np.broadcast_to(OMEGA, (49, 3)), atol=1e-12)
+    w_cold = read_output(cold)
+    assert np.linalg.norm(w_cold[1, 1:] - OMEGA) > 0.1 * np.linalg.norm(OMEGA)

@@ -18,6 +18,9 @@ def test_convergence_time_and_steady_rms_on_hand_made_errors():
     assert convergence_time(t, np.full(10, 2.0), 1.0) == math.inf
     assert convergence_time(t, np.r_[np.full(9, 0.5), 2.0], 1.0) == math.inf  # ends above: never settled
     assert steady_rms(t, err, 8.0) == pytest.approx(np.sqrt((0.2**2 + 0.1**2) / 2))
+    diverged = np.r_[err[:5], np.full(5, np.inf)]  # NaN = no estimate, inf = a method that diverged
+    assert convergence_time(t, diverged, 1.0) == math.inf
+    assert steady_rms(t, diverged, 8.0) == math.inf
 
 
 def _run(tmp_path, name, capsys):
@@ -38,7 +41,7 @@ def test_compare_writes_its_files_and_is_deterministic(tmp_path, capsys):
     with open(out1 / "results.csv") as f:
         rows = list(csv.DictReader(f))
     assert [r["method"] for r in rows] == [
-        "omegahat", "diff-backward", "diff-central", "spline", "mekf-dynamic", "mekf-kinematic",
+        "omegahat", "omegahat-cold", "diff-backward", "diff-central", "spline", "mekf-dynamic", "mekf-kinematic",
     ]
     # The fixed point the table must agree with: on noise-free samples at 100 Hz, raw backward differencing is
     # first order, |error| ≈ h |ω̇| / 2 at t_k, i.e. well above 1e-4 and below 0.1 rad/s on the paper's body.

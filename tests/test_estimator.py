@@ -407,3 +407,69 @@ def test_gap_to_the_continuous_observer_is_first_order_in_h():
     order = np.polyfit(np.log(hs), np.log(gaps), 1)[0]
     assert 0.85 < order < 1.4, (gaps, order)
     assert gaps[-1] < 5e-4
+
+
+# ----------------------------------------------------------------------------------------- warm start (W)
+
+
+@pytest.mark.parametrize("angle_per_sample", [0.01, 1.0, 2.5])
+def test_warm_start_is_exact_for_a_constant_rate(angle_per_sample):
+    # J = I, torque-free: ω is constant, so log(ΔR)/h is the rate exactly, even for 2.5 rad between samples
+    w = np.array([0.8, -1.2, 1.5])
+    h = angle_per_sample / np.linalg.norm(w)
+    times = h * np.arange(6)
+    est = SarrasEstimator(np.eye(3), gains=ObserverGains.constant(0.5, 5.0, n=3), warm_start=True)
+    W = est.run(times, constant_rate_attitudes(w, times))
+    np.testing.assert_array_equal(W[0], np.zeros(3))  # ω̂₀ until the second sample
+    np.testing.assert_allclose(W[1:], np.tile(w, (5, 1)), rtol=0, atol=1e-13)
+
+
+def test_warm_start_error_is_second_order_in_h():
+    # torque-free tumbling of the paper's body against DOP853: the error at the second sample is O(h²)
+    hs = np.array([0.04, 0.02, 0.01, 0.005])
+    errs = []
+    for h in hs:
+        times = np.array([0.0, h])
+        R, w = truth(PAPER_J, PAPER_W0, times)
+        est = SarrasEstimator(PAPER_J, gains=theorem_gains(PAPER_J, 3.0), warm_start=True)
+        errs.append(np.linalg.norm(est.run(times, R)[1] - w[1]))
+    order = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    assert 1.9 < order < 2.1, (order, errs)
+
+
+def test_warm_start_compiled_matches_numpy_oracle_through_skips():
+    times, R, _ = _tumbling_log(T=60)
+    R = R.copy()
+    R[1] = np.nan  # skipped while the warm start waits
+    R[4] = np.nan  # skipped afterwards
+    taus = 0.3 * np.sin(np.arange(60))[:, None] * np.array([1.0, -2.0, 0.5])
+    g = ObserverGains(k=[14.5, 14.5], l_offset=[40.0, 40.0], l_slope=[3.0, 3.0])
+    est = SarrasEstimator(PAPER_J, gains=g, r_hat0=PAPER_RHAT0, warm_start=True)
+    with pytest.warns(SkippedSamplesWarning):
+        W = est.run(times, R, taus)
+    st = EstimatorState(np.nan, False, np.nan, np.zeros(3), np.zeros(3), np.zeros((2, 3)), np.zeros((2, 3)))
+    for j, t in enumerate(times):
+        r_meas = None if np.isnan(R[j]).any() else R[j][:2]
+        st = reference_step(st, t, r_meas, taus[j], PAPER_J, g, r_hat0=PAPER_RHAT0, warm_start=True)
+        np.testing.assert_allclose(W[j], st.omega_hat, rtol=0, atol=1e-12)
+        if j == 1:
+            assert st.warm_pending
+    assert not est.state.warm_pending
+    np.testing.assert_allclose(est.state.e, st.e, atol=1e-12)
+    np.testing.assert_allclose(est.state.r, st.r, atol=1e-15)
+
+
+def test_warm_start_keeps_state_on_rejection_and_round_trips():
+    times, R, _ = _tumbling_log(T=3)
+    est = SarrasEstimator(PAPER_J, gains=theorem_gains(PAPER_J, 3.0), warm_start=True)
+    est.update(times[0], R[0])
+    before = est.state.to_vector()
+    assert est.state.warm_pending
+    with pytest.raises(MeasurementError):
+        est.update(times[1], 2.0 * R[1])
+    np.testing.assert_array_equal(est.state.to_vector(), before)
+    np.testing.assert_array_equal(EstimatorState.from_vector(before).to_vector(), before)  # stage 1 survives
+    est.update(times[1], R[1])
+    assert not est.state.warm_pending
+    est.reset()
+    assert not est.state.initialised and not est.state.warm_pending

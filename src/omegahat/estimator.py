@@ -48,6 +48,17 @@ Initialisation: the first valid sample sets ``r_i``; ``ω̂₀`` is given (defau
 the first measurement, ``e = 0``; the paper's scenario uses ``r̂_10 = (0, −1, 0)``, ``r̂_20 = (0, 0, −1)``). Until
 that first valid sample the output is ``ω̂₀``.
 
+**Warm start (W)**, optional (``warm_start=True``). The observer converges from any ω̂₀, but only at the rate its
+gains allow, and gains tuned for a noisy sensor are slow (tens of seconds for the ``slew`` scenario of
+:mod:`omegahat.scenarios`). Since ξ₀ is free, nothing in the theory forbids choosing it from the data: at the
+second valid sample (interval ``h`` since the first), the estimator solves Wahba's problem for the rotation ``A``
+that best carries the first sample's directions onto the second's, ``A = argmin Σ k_i |r_i,meas − A r_i|²``
+(SVD, Markley 1988), takes the mean rate ``ω_avg = log(Aᵀ)/h`` (``ΔR̂ = Aᵀ``, exact for a constant rate while
+``|ω| h < π``) and moves it from the interval's midpoint to its end with half a step of (E1),
+``ω̂ = ω_avg + (h/2) J⁻¹((J ω_avg) × ω_avg + τ)``, so that its error is ``O(h²)`` plus the measurement noise
+(about ``√2 σ / h``). ``r`` and ``e`` are advanced by steps 1, 2 and 4 with ``ΔR̂ = Aᵀ``; the gains take over from
+there. Until the second valid sample the output is ``ω̂₀``.
+
 Input (see :mod:`omegahat.measurements` for the checks). Attitudes (matrices, quaternions in SciPy's scalar-last
 order unless ``scalar_first=True``, ``Rotation``) are turned into ``r_i = Rᵀ v_i``; the default ``v_i`` are the
 first ``gains.n`` inertial axes, i.e. **all three rows of R for three gains**, the first two rows for two gains
@@ -88,6 +99,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
+from omegahat import so3
 from omegahat._validation import as_inertia, as_positive, as_vector3
 from omegahat.gains import ObserverGains
 from omegahat.observers.base import Estimator
@@ -109,7 +121,8 @@ TIME_ORDER = 20  #: info = previous time
 TIME_NOT_FINITE = 21
 TORQUE_NOT_FINITE = 22
 
-# Layout of the flat state vector (n directions): [t, initialised, t_meas, ω̂(3), τ(3), r(n·3), e(n·3)].
+# Layout of the flat state vector (n directions): [t, stage, t_meas, ω̂(3), τ(3), r(n·3), e(n·3)], stage 0 before
+# the first valid sample, 1 after it while a warm start waits for the second, 2 running.
 _T, _INIT, _TM, _W, _TAU, _R = 0, 1, 2, 3, 6, 9
 
 
@@ -124,7 +137,8 @@ class EstimatorState:
     ``t`` time of the last sample (NaN before any), ``initialised`` whether a valid sample has set ``r``,
     ``t_meas`` time of the last valid (not skipped) sample,
     ``omega_hat (3,)``, ``torque (3,)`` held since ``t``, ``r (n, 3)`` the directions at ``t`` (the last
-    measurement or its prediction), ``e (n, 3) = r̂ − r``.
+    measurement or its prediction), ``e (n, 3) = r̂ − r``, ``warm_pending`` whether a warm start (W) is waiting
+    for the second valid sample (``r`` is then the first sample's measurement).
     """
 
     t: float
@@ -134,6 +148,7 @@ class EstimatorState:
     torque: np.ndarray
     r: np.ndarray
     e: np.ndarray
+    warm_pending: bool = False
 
     @property
     def r_hat(self) -> np.ndarray:
@@ -145,18 +160,19 @@ class EstimatorState:
         n = (x.size - _R) // 6
         return cls(
             t=float(x[_T]),
-            initialised=bool(x[_INIT]),
+            initialised=bool(x[_INIT] > 0.0),
             t_meas=float(x[_TM]),
             omega_hat=x[_W : _W + 3].copy(),
             torque=x[_TAU : _TAU + 3].copy(),
             r=x[_R : _R + 3 * n].reshape(n, 3).copy(),
             e=x[_R + 3 * n :].reshape(n, 3).copy(),
+            warm_pending=bool(x[_INIT] == 1.0),
         )
 
     def to_vector(self) -> np.ndarray:
         return np.concatenate(
             [
-                [self.t, float(self.initialised), self.t_meas],
+                [self.t, 0.0 if not self.initialised else 1.0 if self.warm_pending else 2.0, self.t_meas],
                 self.omega_hat,
                 self.torque,
                 self.r.ravel(),
@@ -221,8 +237,10 @@ def reference_step(
     r_hat0=None,
     omega_hat0=None,
     max_angle=MAX_SUBSTEP_ANGLE,
+    warm_start=False,
 ) -> EstimatorState:
-    """Steps 1–4 for one sample of directions ``r_meas (n, 3)`` (None: a skipped sample), plain NumPy, no checks.
+    """Steps 1–4 (or the warm start W) for one sample of directions ``r_meas (n, 3)`` (None: a skipped sample),
+    plain NumPy, no checks.
 
     ``tau`` is the torque given with this sample (held from ``t`` on); the interval uses ``state.torque``.
     """
@@ -233,8 +251,21 @@ def reference_step(
         r_meas = np.asarray(r_meas, dtype=float)
         w0 = np.zeros(3) if omega_hat0 is None else np.asarray(omega_hat0, float)
         e0 = np.zeros_like(r_meas) if r_hat0 is None else np.asarray(r_hat0, float) - r_meas
-        return EstimatorState(float(t), True, float(t), w0, tau, r_meas.copy(), e0)
+        return EstimatorState(float(t), True, float(t), w0, tau, r_meas.copy(), e0, warm_start)
     J_inv = np.linalg.inv(J)
+    if state.warm_pending:
+        if r_meas is None:
+            return EstimatorState(float(t), True, state.t_meas, state.omega_hat, tau, state.r, state.e, True)
+        r_meas = np.asarray(r_meas, dtype=float)
+        h = t - state.t_meas
+        # (W): Wahba's rotation A = argmin Σ k_i |m_i − A r_i|² (SVD), ω_avg = log(Aᵀ)/h, then half a step of (E1)
+        U, _, Vt = np.linalg.svd((gains.k[:, None, None] * r_meas[:, :, None] * state.r[:, None, :]).sum(axis=0))
+        A = U @ np.diag([1.0, 1.0, np.linalg.det(U) * np.linalg.det(Vt)]) @ Vt
+        w_avg = so3.log(A.T) / h
+        w = w_avg + 0.5 * h * J_inv @ (np.cross(J @ w_avg, w_avg) + state.torque)
+        decay = np.exp(-(gains.l_offset * h + gains.l_slope * np.linalg.norm(w_avg) * h))
+        r_pred, e_pred = state.r @ A.T, decay[:, None] * (state.e @ A.T)
+        return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - (r_meas - r_pred))
     w, r_pred, e_pred = reference_predict(
         state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle
     )
@@ -254,8 +285,10 @@ def reference_step(
 # --------------------------------------------------------------------------------------------- compiled kernel
 
 # Layout of the flat parameter vector: [J(9), J⁻¹(9), rotation_tol, quat_norm_tol, min_sin, max_angle,
-# scalar_first, has_r_hat0, n, k(n), l_offset(n), l_slope(n), V(3n), r̂0(3n), ω̂0(3)].
-_P_J, _P_JI, _P_ROT, _P_QN, _P_SIN, _P_ANG, _P_SF, _P_HASR, _P_N, _P_K = 0, 9, 18, 19, 20, 21, 22, 23, 24, 25
+# scalar_first, has_r_hat0, n, warm_start, k(n), l_offset(n), l_slope(n), V(3n), r̂0(3n)].
+_P_J, _P_JI, _P_ROT, _P_QN, _P_SIN, _P_ANG, _P_SF, _P_HASR, _P_N, _P_WARM, _P_K = (
+    0, 9, 18, 19, 20, 21, 22, 23, 24, 25, 26
+)
 
 
 @numba.njit(cache=True, inline="always")
@@ -386,6 +419,75 @@ def _solve3(A, y0, y1, y2):
 
 
 @numba.njit(cache=True)
+def _rotvec(R):
+    """Rotation vector of ``R`` (|φ| ≤ π) through its quaternion (Shepperd's pivoting: accurate at every angle)."""
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    if tr >= R[0, 0] and tr >= R[1, 1] and tr >= R[2, 2]:
+        qw = 0.5 * np.sqrt(max(0.0, 1.0 + tr))
+        f = 0.25 / qw
+        qx, qy, qz = (R[2, 1] - R[1, 2]) * f, (R[0, 2] - R[2, 0]) * f, (R[1, 0] - R[0, 1]) * f
+    elif R[0, 0] >= R[1, 1] and R[0, 0] >= R[2, 2]:
+        qx = 0.5 * np.sqrt(max(0.0, 1.0 + 2.0 * R[0, 0] - tr))
+        f = 0.25 / qx
+        qw, qy, qz = (R[2, 1] - R[1, 2]) * f, (R[0, 1] + R[1, 0]) * f, (R[0, 2] + R[2, 0]) * f
+    elif R[1, 1] >= R[2, 2]:
+        qy = 0.5 * np.sqrt(max(0.0, 1.0 + 2.0 * R[1, 1] - tr))
+        f = 0.25 / qy
+        qw, qx, qz = (R[0, 2] - R[2, 0]) * f, (R[0, 1] + R[1, 0]) * f, (R[1, 2] + R[2, 1]) * f
+    else:
+        qz = 0.5 * np.sqrt(max(0.0, 1.0 + 2.0 * R[2, 2] - tr))
+        f = 0.25 / qz
+        qw, qx, qy = (R[1, 0] - R[0, 1]) * f, (R[0, 2] + R[2, 0]) * f, (R[1, 2] + R[2, 1]) * f
+    if qw < 0.0:
+        qw, qx, qy, qz = -qw, -qx, -qy, -qz
+    s = np.sqrt(qx * qx + qy * qy + qz * qz)
+    if s < 1e-12:  # θ = 2 atan2(s, qw) ≈ 2 s / qw: φ = 2 q_vec / qw to O(θ³)
+        g = 2.0 / qw
+    else:
+        g = 2.0 * math.atan2(s, qw) / s
+    return g * qx, g * qy, g * qz
+
+
+@numba.njit(cache=True)
+def _warm_start(J, J_inv, k, l_off, l_slope, tau, h, r, e, r_meas, A):
+    """Warm start (W) in place: ω̂ from the first two valid samples; returns ``ω̂ (3 floats)``.
+
+    ``r`` (the directions measured at the first sample), ``e`` are advanced to the second sample like steps 1,
+    2 and 4 with ``ΔR̂ = Aᵀ``; ``A`` (3×3) receives the Wahba rotation.
+    """
+    n = r.shape[0]
+    B = np.zeros((3, 3))  # Σ k_i m_i r_iᵀ
+    for i in range(n):
+        for a in range(3):
+            for b in range(3):
+                B[a, b] += k[i] * r_meas[i, a] * r[i, b]
+    U, _, Vt = np.linalg.svd(B)
+    d = np.linalg.det(U) * np.linalg.det(Vt)
+    for a in range(3):
+        for b in range(3):
+            A[a, b] = U[a, 0] * Vt[0, b] + U[a, 1] * Vt[1, b] + d * U[a, 2] * Vt[2, b]
+    At = A.T.copy()
+    p0, p1, p2 = _rotvec(At)  # ΔR̂ = Aᵀ = exp(h ω_avg)
+    w0, w1, w2 = p0 / h, p1 / h, p2 / h
+    f0, f1, f2 = _euler_rhs(J, J_inv, w0, w1, w2, tau[0], tau[1], tau[2])
+    int_abs = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2) * h  # ∫|ω̂| dt along the constant ω_avg
+    for i in range(n):
+        decay = np.exp(-(l_off[i] * h + l_slope[i] * int_abs))
+        q0 = A[0, 0] * r[i, 0] + A[0, 1] * r[i, 1] + A[0, 2] * r[i, 2]  # r_pred = A r
+        q1 = A[1, 0] * r[i, 0] + A[1, 1] * r[i, 1] + A[1, 2] * r[i, 2]
+        q2 = A[2, 0] * r[i, 0] + A[2, 1] * r[i, 1] + A[2, 2] * r[i, 2]
+        e0 = decay * (A[0, 0] * e[i, 0] + A[0, 1] * e[i, 1] + A[0, 2] * e[i, 2])
+        e1 = decay * (A[1, 0] * e[i, 0] + A[1, 1] * e[i, 1] + A[1, 2] * e[i, 2])
+        e2 = decay * (A[2, 0] * e[i, 0] + A[2, 1] * e[i, 1] + A[2, 2] * e[i, 2])
+        # r̂ continuous: e ← e_pred − (r_meas − r_pred), r ← r_meas
+        e[i, 0] = e0 - (r_meas[i, 0] - q0)
+        e[i, 1] = e1 - (r_meas[i, 1] - q1)
+        e[i, 2] = e2 - (r_meas[i, 2] - q2)
+        r[i, 0], r[i, 1], r[i, 2] = r_meas[i, 0], r_meas[i, 1], r_meas[i, 2]
+    return w0 + 0.5 * h * f0, w1 + 0.5 * h * f1, w2 + 0.5 * h * f2  # midpoint rate → rate at the sample
+
+
+@numba.njit(cache=True)
 def _step_into(x, p, t, m, kind, tau, out, wk):
     """Validate one sample and advance the flat state ``x`` into ``out``; returns ``(status, info)``.
 
@@ -424,13 +526,21 @@ def _step_into(x, p, t, m, kind, tau, out, wk):
     out[_TAU : _TAU + 3] = tau
     if x[_INIT] == 0.0:
         if status == ms.OK:  # initialisation by the first valid sample
-            out[_INIT] = 1.0
+            out[_INIT] = 1.0 if p[_P_WARM] != 0.0 else 2.0
             out[_TM] = t
             r[:, :] = r_meas
             if p[_P_HASR] != 0.0:
                 e[:, :] = p[_P_K + 6 * n : _P_K + 9 * n].reshape(n, 3) - r_meas
             else:
                 e[:, :] = 0.0
+        return status, info
+    if x[_INIT] == 1.0:  # warm start pending: ω̂ and r, e wait for the second valid sample
+        if status == ms.OK:
+            w[0], w[1], w[2] = _warm_start(
+                J, J_inv, k, l_off, l_slope, x[_TAU : _TAU + 3], t - x[_TM], r, e, r_meas, A
+            )
+            out[_INIT] = 2.0
+            out[_TM] = t
         return status, info
     int_abs = _predict(J, J_inv, p[_P_ANG], w, x[_TAU : _TAU + 3], t - x[_T], D, E, T)  # step 1
     h_pred = t - x[_T]
@@ -538,6 +648,9 @@ class SarrasEstimator(Estimator):
     scalar_first : quaternion order (default False: SciPy's ``(x, y, z, w)``).
     rotation_tol, quat_norm_tol, min_angle_deg : input checks (see :mod:`omegahat.measurements`).
     max_substep_angle : bound on the prediction's substep angle (rad).
+    warm_start : if True, ω̂ is not taken from ``omega_hat0`` but computed from the first two valid samples (W,
+        module docstring): the estimate is right from the second sample on instead of converging at the gains'
+        rate. Default False: the observer as published, started from ``omega_hat0``.
     """
 
     def __init__(
@@ -554,6 +667,7 @@ class SarrasEstimator(Estimator):
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
         min_angle_deg: float = ms.MIN_ANGLE_DEG,
         max_substep_angle: float = MAX_SUBSTEP_ANGLE,
+        warm_start: bool = False,
     ):
         self.J = as_inertia(J)
         if not isinstance(gains, ObserverGains):
@@ -593,6 +707,7 @@ class SarrasEstimator(Estimator):
             raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
         self.rotation_tol, self.quat_norm_tol, self.max_substep_angle = (float(v) for v in tols)
         self.min_angle_deg = float(min_angle_deg)
+        self.warm_start = bool(warm_start)
         self._params = np.concatenate(
             [
                 self.J.ravel(),
@@ -605,6 +720,7 @@ class SarrasEstimator(Estimator):
                     float(self.scalar_first),
                     float(self.r_hat0 is not None),
                     float(n),
+                    float(self.warm_start),
                 ],
                 gains.k,
                 gains.l_offset,

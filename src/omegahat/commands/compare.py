@@ -56,6 +56,10 @@ class Method:
     knob: str  # what the one tuning parameter is
     grid: tuple  # its values (None = no knob)
     make: object  # (scenario, value) -> Estimator
+    # True for the recursive estimators, which output a rate at every sample: a non-finite output (or a
+    # numerical failure inside the method) is then divergence and counts as an infinite error, not as "no
+    # estimate" (differencing and the spline have samples without one, e.g. at the ends and around gaps).
+    always_estimates: bool = False
 
 
 def _jbar(sc):
@@ -66,11 +70,13 @@ def _meas_sigma(sc):
     return max(float(sc.attitude_sigma), 1e-6)  # a filter needs a positive measurement variance
 
 
-def _sarras(sc, b_rel):
-    # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
-    # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
-    gains = bandwidth_gains(sc.J_model, b_rel * sc.rate_hz)  # three rows: k = b tr(J)/6, l = 10 b
-    return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0)
+def _sarras(warm_start):
+    def make(sc, b_rel):
+        # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
+        # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
+        gains = bandwidth_gains(sc.J_model, b_rel * sc.rate_hz)  # three rows: k = b tr(J)/6, l = 10 b
+        return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0, warm_start=warm_start)
+    return make
 
 
 def _mekf(model):
@@ -84,17 +90,23 @@ def _mekf(model):
 _CUTOFFS = (None, 0.25, 0.1, 0.025, 0.01)  # × sample rate
 _SIGMA_A = tuple(10.0**p for p in range(-6, 2))
 
+_BANDWIDTHS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0)
+_SARRAS_KNOB = "bandwidth b (x rate, rad/s per Hz; k = b*tr(J)/6, l = 10 b)"
+
 METHODS = (
-    Method("omegahat", True, "bandwidth b (x rate, rad/s per Hz; k = b*tr(J)/6, l = 10 b)",
-           (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0), _sarras),
+    Method("omegahat", True, _SARRAS_KNOB + "; warm start from the first two samples", _BANDWIDTHS, _sarras(True),
+           True),
+    Method("omegahat-cold", True, _SARRAS_KNOB + "; started from the scenario's w_hat0", _BANDWIDTHS,
+           _sarras(False), True),
     Method("diff-backward", True, "low-pass cut-off (x rate; none = raw)", _CUTOFFS,
            lambda sc, c: DifferencingEstimator("backward", None if c is None else c * sc.rate_hz)),
     Method("diff-central", False, "low-pass cut-off (x rate; none = raw)", _CUTOFFS,
            lambda sc, c: DifferencingEstimator("central", None if c is None else c * sc.rate_hz)),
     Method("spline", False, "none", (None,), lambda sc, _: SplineEstimator()),
     Method("mekf-dynamic", True, "rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)", _SIGMA_A,
-           _mekf("dynamic")),
-    Method("mekf-kinematic", True, "rate noise sigma_a rad/s^1.5 (q = sigma_a^2)", _SIGMA_A, _mekf("kinematic")),
+           _mekf("dynamic"), True),
+    Method("mekf-kinematic", True, "rate noise sigma_a rad/s^1.5 (q = sigma_a^2)", _SIGMA_A, _mekf("kinematic"),
+           True),
 )
 
 
@@ -113,8 +125,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def convergence_time(t, err, tol):
-    """First sample time after which ``err`` (finite rows) stays ≤ ``tol``; ``inf`` if never."""
-    ok = np.isfinite(err)
+    """First sample time after which ``err`` stays ≤ ``tol``; ``inf`` if never. NaN rows (no estimate) are left
+    out; an infinite error (a diverged method) counts as above any tolerance."""
+    ok = ~np.isnan(err)
     bad = np.flatnonzero(ok & (err > tol))
     if not ok.any():
         return math.inf
@@ -125,7 +138,8 @@ def convergence_time(t, err, tol):
 
 
 def steady_rms(t, err, t0):
-    m = (t >= t0) & np.isfinite(err)
+    """RMS of ``err`` over ``t ≥ t0``, NaN rows (no estimate) left out; infinite if the method diverged."""
+    m = (t >= t0) & ~np.isnan(err)
     return float(np.sqrt(np.mean(err[m] ** 2))) if m.any() else math.nan
 
 
@@ -134,13 +148,24 @@ def _errors(est, omega):
 
 
 def _run_method(method, sc, value, run):
+    """``(ω̂ (T, 3), cost per sample, failure)``; ``failure`` is None or what made the method diverge."""
     est = method.make(sc, value)
     t0 = time.perf_counter()
+    failure = None
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # skipped samples are expected on real data
-        w = est.run(run.t, run.R_meas, run.torque)
+        try:
+            w = est.run(run.t, run.R_meas, run.torque)
+        except (np.linalg.LinAlgError, FloatingPointError) as exc:  # e.g. an EKF whose state became NaN
+            w = np.full((run.t.size, 3), np.inf)
+            failure = f"{type(exc).__name__}: {exc}"
     cost = (time.perf_counter() - t0) / run.t.size
-    return w, cost
+    if method.always_estimates:
+        bad = ~np.all(np.isfinite(w), axis=1)
+        if bad.any():
+            w = np.where(bad[:, None], np.inf, w)
+            failure = failure or f"non-finite estimate from t = {run.t[np.flatnonzero(bad)[0]]:g} s"
+    return w, cost, failure
 
 
 def _load_trial(trial_name, seconds=None):
@@ -193,14 +218,14 @@ def compare_scenario(sc, methods, duration=None):
     for m in methods:
         best = None
         for value in m.grid:
-            w, _ = _run_method(m, sc, value, tune_run)
+            w, _, _ = _run_method(m, sc, value, tune_run)
             if sc.real:
                 score = _score_real(tune_run, w)
             else:
                 score = steady_rms(tune_run.t, _errors(w, tune_run.omega), t_steady)
             if best is None or (np.isfinite(score) and not score >= best[1]):
                 best = (value, score)
-        w, cost = _run_method(m, sc, best[0], run)
+        w, cost, failure = _run_method(m, sc, best[0], run)
         err = _errors(w, run.omega)
         row = {
             "scenario": sc.name,
@@ -212,6 +237,7 @@ def compare_scenario(sc, methods, duration=None):
             "steady_rms": steady_rms(run.t, err, t_steady),
             "inband_rms": _score_real(run, w) if sc.real else math.nan,
             "cost_us": cost * 1e6,
+            "failure": failure or "",
         }
         rows.append(row)
         curves[m.name] = err
@@ -255,6 +281,10 @@ def markdown(rows, methods):
               "is against the raw bias-corrected gyroscope over the whole record. Knobs and grids:", ""]
     for m in methods:
         lines.append(f"- {m.name}: {m.knob}; grid {', '.join(_fmt(v) for v in m.grid)}")
+    failed = [r for r in rows if r["failure"]]
+    if failed:
+        lines += ["", "Diverged on the scored run (error counted as infinite from then on):", ""]
+        lines += [f"- {r['scenario']} / {r['method']}: {r['failure']}" for r in failed]
     return "\n".join(lines)
 
 

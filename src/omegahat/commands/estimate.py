@@ -75,6 +75,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(--references=0,0,9.8;-0.9,15.5,-41.3) so a leading minus is not read as an "
                              "option; required for b1x.. direction input; for attitude input default: the "
                              "three inertial axes, i.e. the rows of R")
+    warm = parser.add_mutually_exclusive_group()
+    warm.add_argument("--warm-start", dest="warm_start", action="store_true", default=True,
+                      help="start the rate from the first two valid samples (default)")
+    warm.add_argument("--no-warm-start", dest="warm_start", action="store_false",
+                      help="start from omega_hat = 0 and let the observer converge at its gains' rate")
     bar = parser.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_true", default=None,
                      help=f"always show a progress bar (default: from {PROGRESS_MIN_SAMPLES} samples on)")
@@ -132,7 +137,8 @@ def run(args) -> int:
     references = _references(args, log)
     gains = _gains(args, J, references)
     measurement = "directions" if log.kind == "directions" else "attitude"
-    estimator = SarrasEstimator(J, gains=gains, references=references, measurement=measurement)
+    estimator = SarrasEstimator(J, gains=gains, references=references, measurement=measurement,
+                                warm_start=args.warm_start)
 
     T = log.t.size
     show_run = show if show is not None else T >= PROGRESS_MIN_SAMPLES
