@@ -224,3 +224,173 @@ def test_errors_and_state_kept_after_rejection():
     g = MEKF(None, "kinematic", references=np.eye(3)[:2])
     with pytest.raises(ValueError, match=r"measurement must be 2 body-frame directions, shape \(2, 3\)"):
         g.update(0.0, np.eye(3))
+
+
+# ------------------------------------------------------------------------------------------------------------
+# The compiled MEKF.run against the NumPy reference path (a loop of MEKF.update)
+
+J_DYN = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.0]])
+REFS = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0], [1.0, 0.0, 0.0]])
+
+
+def uneven_log(n, rng, gaps=False):
+    """Times with uneven steps (2–30 ms), optionally with gaps of 0.13 s and 0.4 s (max_step 0.05: several
+    sub-steps); truth from the dynamic model with a known torque; attitude fixes and direction samples."""
+    times = np.cumsum(rng.uniform(0.002, 0.03, n))
+    if gaps:
+        times[n // 4 :] += 0.13
+        times[n // 2 :] += 0.4
+    tau = rng.normal(0.0, 0.2, (n, 3))
+    truth = integrate(RigidBody(J_DYN), Exp([0.3, -0.2, 0.1]), [1.0, -0.5, 0.3], times, max_step=1e-3)
+    R_meas = truth.R @ Exp(rng.normal(0.0, 1e-3, (n, 3)))
+    b_meas = np.einsum("ij,tjk->tik", REFS, truth.R) + rng.normal(0.0, 1e-3, (n, 3, 3))
+    return times, tau, R_meas, b_meas
+
+
+def update_loop(f, times, meas, torques=None):
+    return np.array([f.update(times[j], meas[j], None if torques is None else torques[j]) for j in range(len(times))])
+
+
+def assert_same_state(a, b, rtol=1e-10):
+    """Filter states equal to ``rtol`` relative (to the largest entry of ω̂ and of P)."""
+    np.testing.assert_allclose(a.omega, b.omega, rtol=0, atol=rtol * np.abs(b.omega).max())
+    np.testing.assert_allclose(a.P, b.P, rtol=0, atol=rtol * np.abs(b.P).max())
+    if b.R is None:
+        assert a.R is None
+    else:
+        np.testing.assert_allclose(a.R, b.R, rtol=0, atol=rtol)
+    assert (a.t, a.n_skipped) == (b.t, b.n_skipped)
+    np.testing.assert_array_equal(a._tau, b._tau)
+
+
+CASES = {
+    # name: (model, directions, NaN samples, gaps, torque)
+    "dynamic-attitude-torque": ("dynamic", False, False, False, True),
+    "kinematic-directions": ("kinematic", True, False, False, False),
+    "dynamic-attitude-nan": ("dynamic", False, True, False, True),
+    "kinematic-directions-nan": ("kinematic", True, True, False, False),
+    "dynamic-attitude-gaps": ("dynamic", False, False, True, True),
+    "kinematic-directions-gaps": ("kinematic", True, False, True, False),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_run_equals_update_loop(case):
+    model, directions, nan, gaps, torque = CASES[case]
+    times, tau, R_meas, b_meas = uneven_log(150, np.random.default_rng(7), gaps=gaps)
+    meas = b_meas if directions else R_meas
+    if nan:
+        meas = meas.copy()
+        meas[[0, 1, 40, 41, 42, 90]] = np.nan  # the first fix comes late; a run of missing samples
+        meas[70, 1, 2] = np.inf
+    tq = tau if torque else None
+
+    def make():
+        return MEKF(J_DYN if model == "dynamic" else None, model, q=1e-3, measurement_sigma=1e-3,
+                    references=REFS if directions else None, omega0=[0.5, 0.0, 0.0], sigma_omega0=1.0)
+
+    compiled, oracle = make(), make()
+    out = compiled.run(times, meas, tq)
+    ref = update_loop(oracle, times, meas, tq)
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    assert_same_state(compiled, oracle)
+    assert compiled.n_skipped == (7 if nan else 0)
+    if gaps:
+        assert np.diff(times).max() > 8 * compiled.max_step
+
+
+def test_update_after_run_continues_like_updates():
+    times, tau, R_meas, _ = uneven_log(120, np.random.default_rng(3), gaps=True)
+    f, g = MEKF(J_DYN, q=1e-3), MEKF(J_DYN, q=1e-3)
+    first = f.run(times[:60], R_meas[:60], tau[:60])  # the torque of sample 59 is held into the next step
+    rest = update_loop(f, times[60:], R_meas[60:], tau[60:])
+    ref = update_loop(g, times, R_meas, tau)
+    np.testing.assert_allclose(np.vstack([first, rest]), ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    assert_same_state(f, g)
+    # ... and run after update continues too (no reset), starting with R unset for the kinematic model.
+    h, k = MEKF(None, "kinematic", references=REFS), MEKF(None, "kinematic", references=REFS)
+    _, _, _, b_meas = uneven_log(40, np.random.default_rng(4))
+    b_meas[:3] = np.nan
+    update_loop(h, times[:2], b_meas[:2])
+    assert h.R is None and h.n_skipped == 2
+    out = h.run(times[2:40], b_meas[2:40])
+    ref = update_loop(k, times[:40], b_meas[:40])
+    np.testing.assert_allclose(out, ref[2:], rtol=0, atol=1e-10 * np.abs(ref).max())
+    assert_same_state(h, k)
+
+
+def test_run_accepts_quaternions_and_rotations_like_update():
+    times, _, R_meas, _ = uneven_log(30, np.random.default_rng(5))
+    quat = Rotation.from_matrix(R_meas).as_quat()
+    ref = MEKF(J_DYN).run(times, R_meas)
+    np.testing.assert_allclose(MEKF(J_DYN).run(times, Rotation.from_matrix(R_meas)), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(MEKF(J_DYN, scalar_first=True).run(times, np.roll(quat, 1, axis=1)), ref,
+                               rtol=0, atol=1e-12)
+    f = MEKF(J_DYN)
+    np.testing.assert_allclose(update_loop(f, times, quat), ref, rtol=0, atol=1e-10)
+    assert MEKF(J_DYN).run([], np.zeros((0, 3, 3))).shape == (0, 3)
+
+
+def test_run_rejects_a_bad_sample_and_keeps_the_state():
+    times, tau, R_meas, b_meas = uneven_log(20, np.random.default_rng(6))
+    f = MEKF(J_DYN)
+    f.run(times[:5], R_meas[:5], tau[:5])
+    before = (f.R.copy(), f.omega.copy(), f.P.copy(), f.t, f._tau.copy(), f.n_skipped)
+
+    def unchanged():
+        np.testing.assert_array_equal(f.R, before[0])
+        np.testing.assert_array_equal(f.omega, before[1])
+        np.testing.assert_array_equal(f.P, before[2])
+        assert (f.t, f.n_skipped) == (before[3], before[5])
+        np.testing.assert_array_equal(f._tau, before[4])
+
+    bad = R_meas[5:].copy()
+    bad[7] = 2 * np.eye(3)
+    with pytest.raises(ValueError, match=r"measurements\[7\] is not a rotation matrix .*\[\[2\. 0\. 0\.\]"):
+        f.run(times[5:], bad)
+    unchanged()
+    bad_t = times[5:].copy()
+    bad_t[4] = bad_t[3]
+    message = rf"times must increase strictly; times\[4\] = \S*{bad_t[4]}\S* <= times\[3\] = \S*{bad_t[3]}"
+    with pytest.raises(ValueError, match=message):
+        f.run(bad_t, R_meas[5:])
+    bad_t[4] = np.nan
+    with pytest.raises(ValueError, match=r"times must be finite; got times\[4\] = nan$"):
+        f.run(bad_t, R_meas[5:])
+    with pytest.raises(ValueError, match=rf"got times\[0\] = {times[2]} after t = {times[4]}$"):
+        f.run(times[2:], R_meas[2:])
+    bad_tau = tau[5:].copy()
+    bad_tau[9, 1] = np.nan
+    with pytest.raises(ValueError, match=r"torque must be 3 finite numbers; got torques\[9\] = \[.*nan"):
+        f.run(times[5:], R_meas[5:], bad_tau)
+    with pytest.raises(ValueError, match=r"times must have shape \(14,\) to match the attitudes; got shape \(15,\)"):
+        f.run(times[5:], R_meas[6:])
+    unchanged()
+    g = MEKF(None, "kinematic", references=REFS[:2])
+    with pytest.raises(ValueError, match=r"samples of 2 body-frame directions, shape \(T, 2, 3\); got \(20, 3, 3\)"):
+        g.run(times, b_meas)
+    assert g.t is None and g.R is None
+
+
+def test_compiled_pieces_match_numpy_and_scipy():
+    from omegahat.observers.mekf import _expm_block_upper, _quat_of_matrix, _solve_spd
+
+    rng = np.random.default_rng(1)
+    # Van Loan matrices (block upper triangular), one needing scaling and squaring.
+    for model, h in (("dynamic", 0.003), ("kinematic", 0.05), ("dynamic", 2.0)):
+        F, G = process_jacobian(W_HAT, J, J_INV, model)
+        M = np.zeros((12, 12))
+        M[:6, :6], M[:6, 6:], M[6:, 6:] = -F, 0.3 * G @ G.T, F.T
+        ref = expm_small(M * h)
+        np.testing.assert_allclose(_expm_block_upper(M * h, 6), ref, rtol=0, atol=1e-14 * np.abs(ref).max())
+    # Shepperd's quaternion: every pivot, near 180°, and a matrix 1e-6 off a rotation (projected, like SciPy).
+    mats = [Exp(v) for v in rng.normal(size=(50, 3))]
+    mats += [Exp(np.pi * np.eye(3)[i] * (1 - 1e-9)) for i in range(3)] + [np.eye(3)]
+    mats += [Exp([0.3, 0.2, -1.0]) + 1e-6 * rng.normal(size=(3, 3))]
+    for D in mats:
+        ref = Rotation.from_matrix(D).as_quat(canonical=True)
+        np.testing.assert_allclose(_quat_of_matrix(D), ref, rtol=0, atol=1e-12)
+    A = rng.normal(size=(6, 6))
+    S = A @ A.T + np.eye(6)
+    B = rng.normal(size=(6, 6))
+    np.testing.assert_allclose(_solve_spd(S, B), np.linalg.solve(S, B), rtol=1e-12, atol=1e-13)

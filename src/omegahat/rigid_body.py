@@ -258,6 +258,27 @@ def _omega_dot(J, J_inv, w, tau):
 
 
 @numba.njit(cache=True)
+def _cf4_increment(J, J_inv, w1, hs, tau0, tau_mid, tau1):
+    """One CF4 step of size ``hs`` from ω = ``w1`` with the torque ``tau0, tau_mid, tau1`` at t, t + h/2, t + h.
+
+    Returns ``(p, ω⁺)``: ``p`` is the unit quaternion (scalar first) of the attitude increment
+    ``exp(h(Ω₁/4 + Ω₂/6 + Ω₃/6 − Ω₄/12)) exp(h(−Ω₁/12 + Ω₂/6 + Ω₃/6 + Ω₄/4))``, so that ``R⁺ = R R(p)``
+    (``q⁺ = q ⊗ p``), and ω⁺ is the classical RK4 update. Shared by :func:`_cf4_kernel` and the MEKF kernel.
+    """
+    a1 = _omega_dot(J, J_inv, w1, tau0)
+    w2 = w1 + 0.5 * hs * a1
+    a2 = _omega_dot(J, J_inv, w2, tau_mid)
+    w3 = w1 + 0.5 * hs * a2
+    a3 = _omega_dot(J, J_inv, w3, tau_mid)
+    w4 = w1 + hs * a3
+    a4 = _omega_dot(J, J_inv, w4, tau1)
+    first = hs * (w1 / 4.0 + w2 / 6.0 + w3 / 6.0 - w4 / 12.0)
+    second = hs * (-w1 / 12.0 + w2 / 6.0 + w3 / 6.0 + w4 / 4.0)
+    step = _quat_mul(_quat_exp(first[0], first[1], first[2]), _quat_exp(second[0], second[1], second[2]))
+    return step, w1 + hs * (a1 + 2.0 * a2 + 2.0 * a3 + a4) / 6.0
+
+
+@numba.njit(cache=True)
 def _cf4_kernel(q0, w0, J, J_inv, h, tau_stages, record):
     """CF4 steps of sizes ``h (S,)``; torque ``tau_stages (S, 3, 3)`` at t, t + h/2, t + h of each step.
 
@@ -278,20 +299,9 @@ def _cf4_kernel(q0, w0, J, J_inv, h, tau_stages, record):
     w_out[0] = w1
     k = 1
     for s in range(h.size):
-        hs = h[s]
-        a1 = _omega_dot(J, J_inv, w1, tau_stages[s, 0])
-        w2 = w1 + 0.5 * hs * a1
-        a2 = _omega_dot(J, J_inv, w2, tau_stages[s, 1])
-        w3 = w1 + 0.5 * hs * a2
-        a3 = _omega_dot(J, J_inv, w3, tau_stages[s, 1])
-        w4 = w1 + hs * a3
-        a4 = _omega_dot(J, J_inv, w4, tau_stages[s, 2])
-        first = hs * (w1 / 4.0 + w2 / 6.0 + w3 / 6.0 - w4 / 12.0)
-        second = hs * (-w1 / 12.0 + w2 / 6.0 + w3 / 6.0 + w4 / 4.0)
-        step = _quat_mul(_quat_exp(first[0], first[1], first[2]), _quat_exp(second[0], second[1], second[2]))
+        step, w1 = _cf4_increment(J, J_inv, w1, h[s], tau_stages[s, 0], tau_stages[s, 1], tau_stages[s, 2])
         q = _quat_mul(q, step)
         q = q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-        w1 = w1 + hs * (a1 + 2.0 * a2 + 2.0 * a3 + a4) / 6.0
         if record[s]:
             R_out[k] = _quat_to_matrix(q)
             w_out[k] = w1
