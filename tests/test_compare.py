@@ -49,6 +49,10 @@ def test_compare_writes_its_files_and_is_deterministic(tmp_path, capsys):
     assert 1e-4 < float(back["steady_rms"]) < 0.1
     assert back["tuned"] == "none"  # no noise: the raw difference is the best of its grid
     assert "Tuning: each method's one knob" in text1
+    # From the paper's large initial error (2.3 rad/s), warm-started omegahat is not slower than either EKF.
+    conv = {r["method"]: float(r["convergence_s"]) for r in rows}
+    assert conv["omegahat"] <= min(conv["mekf-dynamic"], conv["mekf-kinematic"])
+    assert conv["omegahat"] < conv["omegahat-cold"]
 
 
 def test_compare_rejects_an_unknown_scenario(capsys):

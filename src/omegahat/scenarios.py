@@ -17,6 +17,10 @@ Registered scenarios (:data:`SCENARIOS`):
 * ``slew-J10`` — the same, but the estimators are told principal moments wrong by ±10 %.
 * ``slew-disturbance`` — the same, with an unknown constant disturbance torque of (4, −3, 2) mN·m.
 * ``slew-1Hz`` — the same as ``slew`` with a slower star tracker at 1 Hz.
+* ``tumble`` — the same spacecraft tumbling torque-free at |ω| = 1 rad/s (after a failure), coarse attitude
+  fixes (0.1° per axis) at 1 Hz, every estimator started at ω̂₀ = 0: the initial error is the whole rate, and the
+  body turns by 1 rad between fixes. ``tumble-fast`` — the same at 2 rad/s (2 rad between fixes, still below the
+  π at which sampled attitudes become ambiguous).
 * ``broad-01``, ``broad-06``, ``broad-10`` — real recordings (``../shared/data/broad/``, see its NOTICE.md):
   optical attitude at 285.7 Hz, J = I and τ = 0 as stand-ins; scored in band against the gyroscope by
   :mod:`omegahat.broad`. Available only where the data directory exists.
@@ -110,6 +114,20 @@ _SLEW = dict(
     steady_after=150.0,
 )
 
+# A tumbling spacecraft (same inertia), torque-free, coarse attitude fixes at 1 Hz: the initial error is the whole
+# rate, and the body turns by |ω| h = 1 (tumble) or 2 (tumble-fast) rad between fixes.
+_TUMBLE_AXIS = np.array([0.6, -0.5, 0.62]) / np.linalg.norm([0.6, -0.5, 0.62])
+_TUMBLE = dict(
+    J_true=_J_SC,
+    J_model=_J_SC,
+    omega_hat0=np.zeros(3),
+    duration=300.0,
+    rate_hz=1.0,
+    attitude_sigma=np.radians(0.1),
+    converged_tol=1e-2,
+    steady_after=150.0,
+)
+
 # Real data: 285.714 Hz optical attitude; σ assumed 0.05° (NOTICE.md: rest jitter 0.014°–0.085° RMS).
 _BROAD = dict(J_true=np.eye(3), J_model=np.eye(3), omega_max=10.0, converged_tol=0.1, steady_after=0.0,
               rate_hz=2000.0 / 7.0, attitude_sigma=np.radians(0.05))
@@ -135,6 +153,10 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("slew-disturbance", "as slew, unknown constant disturbance torque (4,-3,2) mN m",
                  **{**_SLEW, "disturbance": np.array([4e-3, -3e-3, 2e-3])}),
         Scenario("slew-1Hz", "as slew, star tracker at 1 Hz", **{**_SLEW, "rate_hz": 1.0}),
+        Scenario("tumble", "tumbling spacecraft, |w| = 1 rad/s, attitude 0.1 deg/axis at 1 Hz, no torque",
+                 omega0=1.0 * _TUMBLE_AXIS, omega_max=1.5, **_TUMBLE),
+        Scenario("tumble-fast", "as tumble at |w| = 2 rad/s: 2 rad between fixes",
+                 omega0=2.0 * _TUMBLE_AXIS, omega_max=3.0, **_TUMBLE),
         Scenario("broad-01", "BROAD trial 01 (slow rotation), optical attitude, J = I, tau = 0 stand-ins",
                  broad_trial="01", **_BROAD),
         Scenario("broad-06", "BROAD trial 06 (fast rotation), optical attitude, J = I, tau = 0 stand-ins",
