@@ -90,7 +90,7 @@ def _mekf(model):
 _CUTOFFS = (None, 0.25, 0.1, 0.025, 0.01)  # × sample rate
 _SIGMA_A = tuple(10.0**p for p in range(-6, 2))
 
-_BANDWIDTHS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0)
+_BANDWIDTHS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
 _SARRAS_KNOB = "bandwidth b (x rate, rad/s per Hz; k = b*tr(J)/6, l = 10 b)"
 
 METHODS = (
