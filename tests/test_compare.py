@@ -7,13 +7,15 @@ import numpy as np
 import pytest
 
 from omegahat.cli import main
-from omegahat.commands.compare import convergence_time, steady_rms
+from omegahat.commands.compare import convergence_time, first_below, steady_rms
 
 
 def test_convergence_time_and_steady_rms_on_hand_made_errors():
     t = np.arange(10.0)
     err = np.array([5.0, 3.0, 0.5, 2.0, 0.5, 0.4, 0.3, np.nan, 0.2, 0.1])
     assert convergence_time(t, err, 1.0) == 4.0  # last excursion above 1 is at t = 3
+    assert first_below(t, err, 1.0) == 2.0  # ... but it first dips below at t = 2
+    assert first_below(t, err, 0.01) == math.inf
     assert convergence_time(t, err, 10.0) == 0.0
     assert convergence_time(t, np.full(10, 2.0), 1.0) == math.inf
     assert convergence_time(t, np.r_[np.full(9, 0.5), 2.0], 1.0) == math.inf  # ends above: never settled
