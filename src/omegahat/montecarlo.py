@@ -50,10 +50,10 @@ rows of R, ω_M = 3; 48 runs left |ω| ≤ ω_M and were set aside, 9,952 used p
   20 s, V increased in 7,972 (all saved as counterexamples); λ* < 0. The l that grows with |ω̂| matters.
 
 Accuracy (rtol 1e-6 against 1e-10, runs 7902 and 4731): λ_run of the theorem's and the slope gains agree to
-1e-7 relative. The trapped runs of constant l are sensitive to perturbations: run 4731 ends at |ω̂ − ω| = 151
-rad/s at rtol 1e-6 but 47 rad/s at rtol 1e-10, 1e-12 and with DOP853 at rtol 1e-12 on the observer's own
-equations (λ_run −0.10 against −0.044/s). Their verdict (not converged) is robust, their numbers are not: replay
-a counterexample at a tighter ``rtol`` before quoting its trajectory.
+1e-7 relative. The trapped runs of constant l are sensitive to perturbations: run 4731 ends at |ω̂ − ω| = 147
+rad/s at rtol 1e-6 (151 with the former step-doubling control) but 47 rad/s at rtol 1e-10, 1e-12 and with DOP853
+at rtol 1e-12 on the observer's own equations (λ_run −0.099 against −0.044/s). Their verdict (not converged) is
+robust, their numbers are not: replay a counterexample at a tighter ``rtol`` before quoting its trajectory.
 """
 
 from __future__ import annotations

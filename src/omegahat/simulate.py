@@ -25,8 +25,18 @@ They are checked against the observer's own equations integrated by ``scipy.inte
 2002) whose linear part is the scalar decay ``−l_i(ω̂_n)`` of each ``e_i`` frozen at the start of the step (the
 rest, including ``−(l_i(ω̂) − l_i(ω̂_n)) e_i``, is the explicit part); on the other components it reduces to the
 classical RK4. The stiff decay is therefore integrated exactly whatever ``l_i h``. The step size is controlled by
-step doubling (two half steps against one full step, error estimate ``(y_half − y_full)/15``) with a mixed
-relative/absolute tolerance per block ``(r_i, ω, z, e_i)``.
+an embedded estimate (the ETD34 construction of Whalen, Brio & Moloney, J. Comput. Phys. 280, 2015): the
+nonlinear part at the new point, which the next step needs anyway (first same as last), replaces the last stage
+in ETDRK4's final combination, giving a third-order solution; ``δ = b₄ (N(c) − N(y_{n+1}))`` is its difference
+from the fourth-order solution, which is the one propagated. The test is a mixed relative/absolute tolerance per
+block ``(r_i, ω, z, e_i)``. Four evaluations of the right-hand side per step (step doubling, used before, took
+11). On the stiff ``e_i`` the estimate is close to the true local error of ETDRK4, which there scales like
+``h³`` (the last stage sees ``z`` at a second-order stage: the method's stiff order reduction); the step-doubling
+estimate ``(y_half − y_full)/15`` assumed ``h⁵`` and underestimated it up to tenfold, so the new control takes
+more, cheaper steps and its results are closer to the reference at the same ``rtol``. On ``(r, ω, z)`` the
+estimate is of third order, hence conservative. Steps are not forced onto the output times: those are filled by
+the step's continuous extension of order 3 (ETDRK4's combination with θ-dependent φ-weights, exact on the stiff
+decay; the classical RK4 dense output on the other blocks); only the last step ends on the last output time.
 
 **Torques.** The kernel evaluates the torque itself, so it must be given as data:
 :class:`SinusoidalTorque` ``τ(t) = c + Σ_j a_j ∘ sin(ν_j t + φ_j)`` (a constant is the case with no terms).
@@ -195,7 +205,7 @@ class CoupledTrajectory:
     xi: np.ndarray  #: (T, 3) the observer's ξ
     z: np.ndarray  #: (T, 3) ω̂ − ω as integrated (not rounded by the subtraction of two O(|ω|) numbers)
     e: np.ndarray  #: (T, n, 3) r̂_i − r_i as integrated
-    steps: int  #: accepted steps (each = two half steps of the integrator)
+    steps: int  #: accepted steps of the integrator
     rejected: int  #: rejected steps
 
     @property
@@ -212,10 +222,12 @@ class CoupledTrajectory:
 # --------------------------------------------------------------------------------------------------------------
 # Fast kernel (Numba). State layout y = [r_1..r_n (3n), ω (3), z (3), e_1..e_n (3n)].
 #
-# Cost per accepted step (the unit of omegahat.montecarlo's throughput): one trial = a full ETDRK4 step and two
-# half steps, 11 evaluations of the nonlinear part (the full step and the first half step share the one at the
-# start; a rejected trial keeps it), torque at 5 times from 2 sines and 2 cosines per term (angle addition),
-# φ-functions at 6 arguments (exp shared with them), no heap allocation inside the loop.
+# Cost per accepted step (the unit of omegahat.montecarlo's throughput): one trial = one ETDRK4 step, 4
+# evaluations of the nonlinear part (three stages and the new point, which is the next step's first stage; a
+# rejected trial costs the same 4), torque at 3 times from 2 transcendental calls per term (sin and cos at the
+# step's start are carried from the previous step by angle addition), φ-functions at 2 arguments per distinct
+# rate, no heap allocation inside the loop. Each output time inside a step adds φ-functions at 1 argument.
+# _nonlinear and _etdrk4_step are inlined by Numba (inline="always": measured 12% less time per step).
 # --------------------------------------------------------------------------------------------------------------
 
 
@@ -225,23 +237,27 @@ def _cross_into(a0, a1, a2, b0, b1, b2):
 
 
 @numba.njit(cache=True)
-def _torque_stages(t, h, c, a_cos, a_sin, freq, out):
-    """τ at t + s h/4, s = 0..4, into ``out (5, 3)``: τ(t) = c + Σ_j a_j sin(ν_j t + φ_j), written
-    (a_j cos φ_j) sin ν_j t + (a_j sin φ_j) cos ν_j t; sin and cos at the later times by the angle-addition
-    rotation by ν_j h/4 (four transcendental calls per term for the five times)."""
-    for s in range(5):
+def _torque_stages(h, c, a_cos, a_sin, freq, sn, cs, out, sn_end, cs_end):
+    """τ at t, t + h/2 and t + h into ``out (3, 3)``: τ(t) = c + Σ_j a_j sin(ν_j t + φ_j), written
+    (a_j cos φ_j) sin ν_j t + (a_j sin φ_j) cos ν_j t, from ``sn[j] = sin ν_j t`` and ``cs[j] = cos ν_j t``; the
+    later times by the angle-addition rotation by ν_j h/2 (two transcendental calls per term), which also gives
+    sin and cos at t + h into ``sn_end``, ``cs_end`` (the next step's ``sn``, ``cs``)."""
+    for s in range(3):
         out[s, 0] = c[0]
         out[s, 1] = c[1]
         out[s, 2] = c[2]
     for j in range(freq.shape[0]):
-        sn = np.sin(freq[j] * t)
-        cs = np.cos(freq[j] * t)
-        sd = np.sin(0.25 * freq[j] * h)
-        cd = np.cos(0.25 * freq[j] * h)
-        for s in range(5):
+        a = sn[j]
+        b = cs[j]
+        sd = np.sin(0.5 * freq[j] * h)
+        cd = np.cos(0.5 * freq[j] * h)
+        for s in range(3):
             for d in range(3):
-                out[s, d] += a_cos[j, d] * sn + a_sin[j, d] * cs
-            sn, cs = sn * cd + cs * sd, cs * cd - sn * sd
+                out[s, d] += a_cos[j, d] * a + a_sin[j, d] * b
+            if s < 2:
+                a, b = a * cd + b * sd, b * cd - a * sd
+        sn_end[j] = a
+        cs_end[j] = b
 
 
 @numba.njit(cache=True)
@@ -256,7 +272,7 @@ def _frozen_rates(y, n, l_off, l_slope, out):
         out[i] = l_off[i] + l_slope[i] * norm_wh
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _nonlinear(y, n, J, Jinv, k, l_off, l_slope, l_frozen, tau, dy):
     """dy = f(y) − L y, with L = −l_frozen on the e-blocks and 0 elsewhere; ``tau`` the torque at this time."""
     iw = 3 * n
@@ -340,15 +356,25 @@ def _phi123(x):
 
 
 @numba.njit(cache=True)
+def _phi1_exp(x):
+    """φ₁ and exp of x ≤ 0, as :func:`_phi123` computes them."""
+    if abs(x) < 0.5:
+        p1 = _PHI1_TAYLOR[_PHI_DEGREE]
+        for j in range(_PHI_DEGREE - 1, -1, -1):
+            p1 = p1 * x + _PHI1_TAYLOR[j]
+        return p1, 1.0 + x * p1
+    ex = np.exp(x)
+    return (ex - 1.0) / x, ex
+
+
+@numba.njit(cache=True, inline="always")
 def _etdrk4_step(y, Nu, l_frozen, h, n, J, Jinv, k, l_off, l_slope, tau_mid, tau_end, work, out):
     """One ETDRK4 step (Cox–Matthews) of size h from y; result in out.
 
     ``Nu`` is the nonlinear part at (t, y) with the frozen rates ``l_frozen = l_i(ω̂(y))``; ``tau_mid``,
     ``tau_end`` the torque at t + h/2 and t + h. ``work``: (7, len(y)) scratch.
     """
-    m = y.shape[0]
-    iw = 3 * n
-    ie = iw + 6
+    ie = 3 * n + 6
     Na = work[0]
     Nb = work[1]
     Nc = work[2]
@@ -357,58 +383,106 @@ def _etdrk4_step(y, Nu, l_frozen, h, n, J, Jinv, k, l_off, l_slope, tau_mid, tau
     yc = work[5]
     coef = work[6]  # E, E2, Q, f1, f2, f3 for each direction: 6n ≤ len(y) = 6n + 6
     for i in range(n):
+        if i > 0 and l_frozen[i] == l_frozen[i - 1]:  # equal rates (the usual case): same coefficients
+            for c in range(6):
+                coef[6 * i + c] = coef[6 * i - 6 + c]
+            continue
         x = -l_frozen[i] * h
         p1, p2, p3, ex = _phi123(x)
-        q1, _, _, ex2 = _phi123(0.5 * x)
+        q1, ex2 = _phi1_exp(0.5 * x)
         coef[6 * i] = ex
         coef[6 * i + 1] = ex2
         coef[6 * i + 2] = 0.5 * h * q1
         coef[6 * i + 3] = h * (p1 - 3.0 * p2 + 4.0 * p3)
         coef[6 * i + 4] = h * (2.0 * p2 - 4.0 * p3)
         coef[6 * i + 5] = h * (4.0 * p3 - p2)
+    hh = 0.5 * h
     for j in range(ie):
-        ya[j] = y[j] + 0.5 * h * Nu[j]
-    for j in range(ie, m):
-        i = (j - ie) // 3
-        ya[j] = coef[6 * i + 1] * y[j] + coef[6 * i + 2] * Nu[j]
+        ya[j] = y[j] + hh * Nu[j]
+    for i in range(n):
+        E2, Q = coef[6 * i + 1], coef[6 * i + 2]
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            ya[j] = E2 * y[j] + Q * Nu[j]
     _nonlinear(ya, n, J, Jinv, k, l_off, l_slope, l_frozen, tau_mid, Na)
     for j in range(ie):
-        yb[j] = y[j] + 0.5 * h * Na[j]
-    for j in range(ie, m):
-        i = (j - ie) // 3
-        yb[j] = coef[6 * i + 1] * y[j] + coef[6 * i + 2] * Na[j]
+        yb[j] = y[j] + hh * Na[j]
+    for i in range(n):
+        E2, Q = coef[6 * i + 1], coef[6 * i + 2]
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            yb[j] = E2 * y[j] + Q * Na[j]
     _nonlinear(yb, n, J, Jinv, k, l_off, l_slope, l_frozen, tau_mid, Nb)
     for j in range(ie):
         yc[j] = y[j] + h * Nb[j]
-    for j in range(ie, m):
-        i = (j - ie) // 3
-        yc[j] = coef[6 * i + 1] * ya[j] + coef[6 * i + 2] * (2.0 * Nb[j] - Nu[j])
+    for i in range(n):
+        E2, Q = coef[6 * i + 1], coef[6 * i + 2]
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            yc[j] = E2 * ya[j] + Q * (2.0 * Nb[j] - Nu[j])
     _nonlinear(yc, n, J, Jinv, k, l_off, l_slope, l_frozen, tau_end, Nc)
+    h6 = h / 6.0
     for j in range(ie):
-        out[j] = y[j] + h / 6.0 * (Nu[j] + 2.0 * Na[j] + 2.0 * Nb[j] + Nc[j])
-    for j in range(ie, m):
-        i = (j - ie) // 3
+        out[j] = y[j] + h6 * (Nu[j] + 2.0 * Na[j] + 2.0 * Nb[j] + Nc[j])
+    for i in range(n):
         E, f1, f2, f3 = coef[6 * i], coef[6 * i + 3], coef[6 * i + 4], coef[6 * i + 5]
-        out[j] = E * y[j] + f1 * Nu[j] + f2 * (Na[j] + Nb[j]) + f3 * Nc[j]
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            out[j] = E * y[j] + f1 * Nu[j] + f2 * (Na[j] + Nb[j]) + f3 * Nc[j]
 
 
 @numba.njit(cache=True)
-def _error_norm(y_fine, y_coarse, n, rtol, atol):
-    """max over blocks (r_i, ω, z, e_i) of |δ| / (atol + rtol |y|), δ = (y_fine − y_coarse) / 15."""
-    nb = 2 * n + 2
+def _embedded_error(Nc, N_new, y_new, coef, lf0, lf1, h, n, rtol, atol):
+    """max over blocks (r_i, ω, z, e_i) of |δ| / (atol + rtol |y_new|), δ = b₄ (N(c) − N(y_new)): the ETDRK4
+    solution minus the third-order one that uses the nonlinear part at the new point in place of the last stage
+    (b₄ = h/6 on (r, ω, z), h(4φ₃ − φ₂)(−l_i h) on e_i; N(y_new) taken with the step's frozen rates ``lf0``:
+    ``N_new`` was evaluated with the new point's rates ``lf1``, and N(y; l) = f(y) + l e)."""
+    ie = 3 * n + 6
     worst = 0.0
-    for b in range(nb):
+    for b in range(2 * n + 2):
+        if 3 * b < ie:
+            w = h / 6.0
+            shift = 0.0
+        else:
+            i = b - n - 2
+            w = coef[6 * i + 5]
+            shift = lf0[i] - lf1[i]
         d2 = 0.0
         y2 = 0.0
         for a in range(3):
             j = 3 * b + a
-            d = (y_fine[j] - y_coarse[j]) / 15.0
+            d = w * (Nc[j] - N_new[j] - shift * y_new[j])
             d2 += d * d
-            y2 += y_fine[j] * y_fine[j]
+            y2 += y_new[j] * y_new[j]
         ratio = np.sqrt(d2) / (atol + rtol * np.sqrt(y2))
         if ratio > worst:
             worst = ratio
     return worst
+
+
+@numba.njit(cache=True)
+def _dense_output(y, Nu, Na, Nb, Nc, l_frozen, h, theta, n, out):
+    """The step's continuous extension at t + θh (0 < θ < 1): ETDRK4's final combination with the weights of
+    order 3 at θ, ``b₁ = h(A − 3B + 4C)``, ``b₂ = b₃ = h(2B − 4C)``, ``b₄ = h(4C − B)`` with ``A = θφ₁(θz)``,
+    ``B = θ²φ₂(θz)``, ``C = θ³φ₃(θz)`` and ``e^{θz}`` on the state (z = −l_i h on e_i, 0 elsewhere: classical RK4's
+    cubic dense output). At θ = 1 they are the step's own weights."""
+    ie = 3 * n + 6
+    A = theta
+    B = 0.5 * theta * theta
+    C = B * theta / 3.0
+    b1 = h * (A - 3.0 * B + 4.0 * C)
+    b2 = h * (2.0 * B - 4.0 * C)
+    b4 = h * (4.0 * C - B)
+    for j in range(ie):
+        out[j] = y[j] + b1 * Nu[j] + b2 * (Na[j] + Nb[j]) + b4 * Nc[j]
+    ex = 1.0
+    for i in range(n):
+        if i == 0 or l_frozen[i] != l_frozen[i - 1]:  # equal rates (the usual case): same weights
+            p1, p2, p3, ex = _phi123(-l_frozen[i] * h * theta)
+            A = theta * p1
+            B = theta * theta * p2
+            C = theta * theta * theta * p3
+            b1 = h * (A - 3.0 * B + 4.0 * C)
+            b2 = h * (2.0 * B - 4.0 * C)
+            b4 = h * (4.0 * C - B)
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            out[j] = ex * y[j] + b1 * Nu[j] + b2 * (Na[j] + Nb[j]) + b4 * Nc[j]
 
 
 @numba.njit(cache=True)
@@ -417,8 +491,9 @@ def integrate_coupled(
 ):
     """Integrate the coupled system from t_out[0] and return y at every t_out ``(T, len(y0))``.
 
-    Returns ``(Y, accepted, rejected, ok)``; ``ok`` is False when ``max_steps`` was exceeded or the state became
-    non-finite (the remaining rows are then NaN).
+    Steps are taken freely (the last one ends on ``t_out[-1]``); the other output times are filled from the
+    accepted step that contains them by :func:`_dense_output`. Returns ``(Y, accepted, rejected, ok)``; ``ok`` is
+    False when ``max_steps`` was exceeded or the state became non-finite (the remaining rows are then NaN).
     """
     m = y0.shape[0]
     T = t_out.shape[0]
@@ -426,66 +501,68 @@ def integrate_coupled(
     y = y0.copy()
     Y[0] = y
     t = t_out[0]
-    h = h0  # size of a full (coarse) step
+    t_end = t_out[T - 1]
+    h = h0
     # torque terms a_j sin(ν_j t + φ_j) = (a_j cos φ_j) sin ν_j t + (a_j sin φ_j) cos ν_j t
     a_cos = ta * np.cos(tp)
     a_sin = ta * np.sin(tp)
     work = np.zeros((7, m))
-    y_full = np.empty(m)
-    y_half = np.empty(m)
-    y_fine = np.empty(m)
-    Nu0 = np.empty(m)  # nonlinear part at (t, y)
-    Nu1 = np.empty(m)  # at (t + h/2, y_half)
-    lf0 = np.empty(n)
-    lf1 = np.empty(n)
-    taus = np.empty((5, 3))  # τ at t, t + h/4, t + h/2, t + 3h/4, t + h
-    _torque_stages(t, 0.0, tc, a_cos, a_sin, tf, taus)
-    _frozen_rates(y, n, l_off, l_slope, lf0)
-    _nonlinear(y, n, J, Jinv, k, l_off, l_slope, lf0, taus[0], Nu0)
+    y_new = np.empty(m)
+    Nu = np.empty(m)  # nonlinear part at (t, y) with the rates lf frozen at y
+    N_new = np.empty(m)  # at (t + h, y_new) with the rates lf_new frozen at y_new: the next step's Nu (FSAL)
+    lf = np.empty(n)
+    lf_new = np.empty(n)
+    taus = np.empty((3, 3))  # τ at t, t + h/2, t + h
+    # sin ν_j t and cos ν_j t, carried from step to step by the rotations of _torque_stages (|drift| ~ 1e-16 a step)
+    sn = np.sin(tf * t)
+    cs = np.cos(tf * t)
+    sn_new = np.empty_like(sn)
+    cs_new = np.empty_like(cs)
+    _torque_stages(0.0, tc, a_cos, a_sin, tf, sn, cs, taus, sn_new, cs_new)
+    _frozen_rates(y, n, l_off, l_slope, lf)
+    _nonlinear(y, n, J, Jinv, k, l_off, l_slope, lf, taus[0], Nu)
     accepted = 0
     rejected = 0
-    for idx in range(1, T):
-        t_next = t_out[idx]
-        while t < t_next:
-            if accepted + rejected >= max_steps:
+    idx = 1
+    while idx < T:
+        if accepted + rejected >= max_steps:
+            return Y, accepted, rejected, False
+        hh = min(h, h_max)
+        last = False
+        if t + 1.01 * hh >= t_end:
+            hh = t_end - t
+            last = True
+        _torque_stages(hh, tc, a_cos, a_sin, tf, sn, cs, taus, sn_new, cs_new)
+        _etdrk4_step(y, Nu, lf, hh, n, J, Jinv, k, l_off, l_slope, taus[1], taus[2], work, y_new)
+        _frozen_rates(y_new, n, l_off, l_slope, lf_new)
+        _nonlinear(y_new, n, J, Jinv, k, l_off, l_slope, lf_new, taus[2], N_new)
+        err = _embedded_error(work[2], N_new, y_new, work[6], lf, lf_new, hh, n, rtol, atol)
+        if not np.isfinite(err):
+            if hh < 1e-14:
                 return Y, accepted, rejected, False
-            hh = min(h, h_max)
-            last = False
-            if t + hh >= t_next or t + 1.01 * hh >= t_next:
-                hh = t_next - t
-                last = True
-            _torque_stages(t, hh, tc, a_cos, a_sin, tf, taus)
-            # one full step, and two half steps; the full and the first half step share (t, y, Nu0, lf0)
-            _etdrk4_step(y, Nu0, lf0, hh, n, J, Jinv, k, l_off, l_slope, taus[2], taus[4], work, y_full)
-            _etdrk4_step(y, Nu0, lf0, 0.5 * hh, n, J, Jinv, k, l_off, l_slope, taus[1], taus[2], work, y_half)
-            _frozen_rates(y_half, n, l_off, l_slope, lf1)
-            _nonlinear(y_half, n, J, Jinv, k, l_off, l_slope, lf1, taus[2], Nu1)
-            _etdrk4_step(y_half, Nu1, lf1, 0.5 * hh, n, J, Jinv, k, l_off, l_slope, taus[3], taus[4], work, y_fine)
-            err = _error_norm(y_fine, y_full, n, rtol, atol)
-            if not np.isfinite(err):
-                if hh < 1e-14:
-                    return Y, accepted, rejected, False
-                h = 0.25 * hh
-                rejected += 1
-                continue
-            factor = 0.9 * err ** (-0.2) if err > 0 else 4.0
-            factor = min(4.0, max(0.2, factor))
-            if err <= 1.0:
-                t = t_next if last else t + hh
-                for j in range(m):
-                    y[j] = y_fine[j]
-                _torque_stages(t, 0.0, tc, a_cos, a_sin, tf, taus)
-                _frozen_rates(y, n, l_off, l_slope, lf0)
-                _nonlinear(y, n, J, Jinv, k, l_off, l_slope, lf0, taus[0], Nu0)
-                accepted += 1
-                if not last:
-                    h = hh * factor
-                else:
-                    h = max(h, hh * factor) if hh < h else hh * factor
-            else:
-                h = hh * factor
-                rejected += 1
-        Y[idx] = y
+            h = 0.25 * hh
+            rejected += 1
+            continue
+        factor = 0.9 * err ** (-0.25) if err > 0 else 4.0
+        factor = min(4.0, max(0.2, factor))
+        if err <= 1.0:
+            t_new = t_end if last else t + hh
+            while idx < T and t_out[idx] < t_new:
+                _dense_output(y, Nu, work[0], work[1], work[2], lf, hh, (t_out[idx] - t) / hh, n, Y[idx])
+                idx += 1
+            if idx < T and t_out[idx] == t_new:
+                Y[idx] = y_new
+                idx += 1
+            t = t_new
+            y, y_new = y_new, y
+            Nu, N_new = N_new, Nu
+            lf, lf_new = lf_new, lf
+            sn, sn_new = sn_new, sn
+            cs, cs_new = cs_new, cs
+            accepted += 1
+        else:
+            rejected += 1
+        h = hh * factor
     return Y, accepted, rejected, True
 
 
@@ -591,7 +668,8 @@ def simulate(
     ``rtol``/``atol`` bound the local error of each block ``(r_i, ω, z, e_i)`` relative to its size; the
     default reproduces ``|ω̂ − ω|`` of the paper's run at 0.5, 1 and 2 s to better than 1e-8 relative of a
     DOP853 reference at rtol 1e-13
-    (``tests/test_simulate.py``). Steps never cross an output time, so a dense ``t_out`` costs steps.
+    (``tests/test_simulate.py``). Output times inside a step are filled by its continuous extension (order 3), so
+    a dense ``t_out`` costs no extra steps.
     """
     if t_out is None:
         if not (np.isfinite(horizon) and horizon > 0):
