@@ -103,6 +103,7 @@ from omegahat import so3
 from omegahat._validation import as_inertia, as_positive, as_vector3
 from omegahat.gains import ObserverGains
 from omegahat.observers.base import Estimator
+from omegahat.rigid_body import _quat_of_matrix
 
 __all__ = [
     "EstimatorState",
@@ -420,32 +421,11 @@ def _solve3(A, y0, y1, y2):
 
 @numba.njit(cache=True)
 def _rotvec(R):
-    """Rotation vector of ``R`` (|φ| ≤ π) through its quaternion (Shepperd's pivoting: accurate at every angle)."""
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    if tr >= R[0, 0] and tr >= R[1, 1] and tr >= R[2, 2]:
-        qw = 0.5 * np.sqrt(max(0.0, 1.0 + tr))
-        f = 0.25 / qw
-        qx, qy, qz = (R[2, 1] - R[1, 2]) * f, (R[0, 2] - R[2, 0]) * f, (R[1, 0] - R[0, 1]) * f
-    elif R[0, 0] >= R[1, 1] and R[0, 0] >= R[2, 2]:
-        qx = 0.5 * np.sqrt(max(0.0, 1.0 + 2.0 * R[0, 0] - tr))
-        f = 0.25 / qx
-        qw, qy, qz = (R[2, 1] - R[1, 2]) * f, (R[0, 1] + R[1, 0]) * f, (R[0, 2] + R[2, 0]) * f
-    elif R[1, 1] >= R[2, 2]:
-        qy = 0.5 * np.sqrt(max(0.0, 1.0 + 2.0 * R[1, 1] - tr))
-        f = 0.25 / qy
-        qw, qx, qz = (R[0, 2] - R[2, 0]) * f, (R[0, 1] + R[1, 0]) * f, (R[1, 2] + R[2, 1]) * f
-    else:
-        qz = 0.5 * np.sqrt(max(0.0, 1.0 + 2.0 * R[2, 2] - tr))
-        f = 0.25 / qz
-        qw, qx, qy = (R[1, 0] - R[0, 1]) * f, (R[0, 2] + R[2, 0]) * f, (R[1, 2] + R[2, 1]) * f
-    if qw < 0.0:
-        qw, qx, qy, qz = -qw, -qx, -qy, -qz
-    s = np.sqrt(qx * qx + qy * qy + qz * qz)
-    if s < 1e-12:  # θ = 2 atan2(s, qw) ≈ 2 s / qw: φ = 2 q_vec / qw to O(θ³)
-        g = 2.0 / qw
-    else:
-        g = 2.0 * math.atan2(s, qw) / s
-    return g * qx, g * qy, g * qz
+    """Rotation vector of ``R`` (|φ| ≤ π) from its quaternion (Shepperd's method, accurate at every angle)."""
+    q = _quat_of_matrix(R)  # (x, y, z, w), w ≥ 0
+    s = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
+    g = 2.0 / q[3] if s < 1e-12 else 2.0 * math.atan2(s, q[3]) / s  # θ = 2 atan2(s, w); 2 q_vec / w to O(θ³)
+    return g * q[0], g * q[1], g * q[2]
 
 
 @numba.njit(cache=True)

@@ -248,6 +248,64 @@ def _quat_to_matrix(q):
 
 
 @numba.njit(cache=True)
+def _polar(D):
+    """The rotation nearest to a nearly orthogonal 3 × 3 ``D`` (its polar factor ``U Vᵀ``) by Newton's iteration
+    ``X ← (X + X⁻ᵀ)/2``, quadratically convergent: a few steps from ‖DᵀD − I‖ ~ 1e-4."""
+    X = D.copy()
+    for _ in range(30):
+        C = np.empty((3, 3))  # cofactors: X⁻ᵀ = C / det X
+        for i in range(3):
+            for j in range(3):
+                i1, i2, j1, j2 = (i + 1) % 3, (i + 2) % 3, (j + 1) % 3, (j + 2) % 3
+                C[i, j] = X[i1, j1] * X[i2, j2] - X[i1, j2] * X[i2, j1]
+        det = X[0, 0] * C[0, 0] + X[0, 1] * C[0, 1] + X[0, 2] * C[0, 2]
+        Y = 0.5 * (X + C / det)
+        change = np.abs(Y - X).max()
+        X = Y
+        if change < 1e-15:
+            break
+    return X
+
+
+@numba.njit(cache=True)
+def _quat_of_matrix(D):
+    """Unit quaternion (x, y, z, w) of a rotation matrix by Shepperd's method (the largest of the trace and the
+    diagonal chooses the pivot), normalised, with w ≥ 0: SciPy's ``from_matrix(...).as_quat(canonical=True)``.
+    Like SciPy, a matrix whose ``D Dᵀ`` differs from I by more than 1e-12 is first replaced by the nearest
+    rotation (:func:`_polar`; SciPy uses the SVD, the same matrix)."""
+    dev = 0.0
+    for i in range(3):
+        for j in range(3):
+            g = D[i, 0] * D[j, 0] + D[i, 1] * D[j, 1] + D[i, 2] * D[j, 2]
+            dev = max(dev, abs(g - (1.0 if i == j else 0.0)))
+    if dev > 1e-12:
+        D = _polar(D)
+    tr = D[0, 0] + D[1, 1] + D[2, 2]
+    q = np.empty(4)
+    i = 0
+    if D[1, 1] > D[i, i]:
+        i = 1
+    if D[2, 2] > D[i, i]:
+        i = 2
+    if tr > D[i, i]:  # ties go to the diagonal, as in SciPy (argmax of [D₀₀, D₁₁, D₂₂, tr])
+        q[0] = D[2, 1] - D[1, 2]
+        q[1] = D[0, 2] - D[2, 0]
+        q[2] = D[1, 0] - D[0, 1]
+        q[3] = 1.0 + tr
+    else:
+        j = (i + 1) % 3
+        k = (j + 1) % 3
+        q[i] = 1.0 - tr + 2.0 * D[i, i]
+        q[j] = D[j, i] + D[i, j]
+        q[k] = D[k, i] + D[i, k]
+        q[3] = D[k, j] - D[j, k]
+    q /= np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if q[3] < 0.0:
+        q = -q
+    return q
+
+
+@numba.njit(cache=True)
 def _omega_dot(J, J_inv, w, tau):
     Jw = J @ w
     c = np.empty(3)
