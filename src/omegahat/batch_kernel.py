@@ -1,0 +1,567 @@
+r"""Lockstep batch kernel: many coupled runs stepped together, a row of lanes at a time.
+
+The integrator is the one of :func:`omegahat.simulate.integrate_coupled` (ETDRK4 in error coordinates, the
+embedded ETD3(4) error estimate, free steps, continuous extension of order 3 at the output times); only the
+memory layout differs. Every state component is a row of ``W`` lanes (``y[j, w]``: component ``j`` of the run in
+lane ``w``), so each line of the right-hand side becomes a loop over lanes without branches, which LLVM turns into
+SIMD instructions (AVX2: 4 doubles per instruction). Each lane carries its own run, time, step size, output
+index and counters; a lane whose run has ended takes the next run of its worker's queue, so the lanes stay full
+until the queue runs dry. What is not arithmetic on whole rows stays per lane, in scalar code: the
+exponentials of the φ-functions, sin and cos of large angles, step acceptance and the output times.
+
+**Same numbers as the single-run kernel.** For its run, a lane performs exactly the operations of
+:func:`~omegahat.simulate.integrate_coupled`, in the same order: no fast-math (so no reassociation and no fused
+multiply-adds), the small-angle sin and cos by the same polynomial
+(:func:`omegahat.simulate._sin_cos_small`), the φ-functions by the same routines. A run's result is therefore the
+same bits whichever lane, worker, batch or chunk it lands in (``tests/test_batch_kernel.py`` checks equality
+with the single-run kernel). Two consequences of the layout: a lane whose run has ended and whose queue is empty
+keeps stepping on its last state with ``h = 0`` (its results are discarded), and the initial right-hand side of a
+new run is evaluated for all lanes at once and kept for the new lane only.
+
+**Cost.** One trial step of a row of ``W`` lanes costs what one trial of one run costs in the single-run kernel
+divided by the SIMD width, plus the per-lane scalar part (two exponentials, the acceptance test); measured in
+``benchmarks/montecarlo_throughput.py``.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from numba import literally
+
+from omegahat.simulate import (
+    _SINCOS_SMALL,
+    _cross_into,
+    _dense_weights,
+    _phi1_taylor,
+    _phi123,
+    _phi123_closed,
+    _phi123_taylor,
+    _sin_cos_small,
+    _step_factor,
+)
+
+__all__ = ["LANES", "integrate_coupled_lanes"]
+
+#: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count). Measured on this
+#: 2-core AVX2 machine, benchmarks/montecarlo_throughput.py: 16 and 32 lanes are within noise of each other.
+LANES = 32
+
+# All per-lane arrays of a worker are rows of ONE workspace S (rows, LANES): every lane loop then reads and writes
+# a single base pointer at row offsets, and LLVM vectorises it. With the same loops over separate arrays it
+# gave up (too many run-time alias checks) and the direction loop of the right-hand side ran 4x slower.
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy, rtmp):
+    """:func:`omegahat.simulate._nonlinear` for every lane, the same operations in the same order: rows
+    ``rdy..rdy+m`` of S from the state rows ``ry..``, frozen rates ``rlf..rlf+n`` and torque ``rtau..rtau+3``.
+    Rows ``rtmp..rtmp+4`` are scratch (the sum J ż and |ω̂|)."""
+    iw = 3 * n
+    iz = iw + 3
+    ie = iz + 3
+    J00, J01, J02 = J[0, 0], J[0, 1], J[0, 2]
+    J10, J11, J12 = J[1, 0], J[1, 1], J[1, 2]
+    J20, J21, J22 = J[2, 0], J[2, 1], J[2, 2]
+    K00, K01, K02 = Jinv[0, 0], Jinv[0, 1], Jinv[0, 2]
+    K10, K11, K12 = Jinv[1, 0], Jinv[1, 1], Jinv[1, 2]
+    K20, K21, K22 = Jinv[2, 0], Jinv[2, 1], Jinv[2, 2]
+    yw = ry + iw
+    yz = ry + iz
+    for w in range(LANES):
+        w0, w1, w2 = S[yw, w], S[yw + 1, w], S[yw + 2, w]
+        z0, z1, z2 = S[yz, w], S[yz + 1, w], S[yz + 2, w]
+        wh0, wh1, wh2 = w0 + z0, w1 + z1, w2 + z2
+        Jw0 = J00 * w0 + J01 * w1 + J02 * w2
+        Jw1 = J10 * w0 + J11 * w1 + J12 * w2
+        Jw2 = J20 * w0 + J21 * w1 + J22 * w2
+        Jz0 = J00 * z0 + J01 * z1 + J02 * z2
+        Jz1 = J10 * z0 + J11 * z1 + J12 * z2
+        Jz2 = J20 * z0 + J21 * z1 + J22 * z2
+        # plant: J ω̇ = (Jω) × ω + τ
+        g0, g1, g2 = _cross_into(Jw0, Jw1, Jw2, w0, w1, w2)
+        g0 += S[rtau, w]
+        g1 += S[rtau + 1, w]
+        g2 += S[rtau + 2, w]
+        S[rdy + iw, w] = K00 * g0 + K01 * g1 + K02 * g2
+        S[rdy + iw + 1, w] = K10 * g0 + K11 * g1 + K12 * g2
+        S[rdy + iw + 2, w] = K20 * g0 + K21 * g1 + K22 * g2
+        # error: J ż = (Jz) × ω + (Jω) × z + (Jz) × z + Σ k_i r̂_i × (r_i × z)
+        s0, s1, s2 = _cross_into(Jz0, Jz1, Jz2, w0, w1, w2)
+        p0, p1, p2 = _cross_into(Jw0, Jw1, Jw2, z0, z1, z2)
+        q0, q1, q2 = _cross_into(Jz0, Jz1, Jz2, z0, z1, z2)
+        S[rtmp, w] = s0 + (p0 + q0)
+        S[rtmp + 1, w] = s1 + (p1 + q1)
+        S[rtmp + 2, w] = s2 + (p2 + q2)
+        S[rtmp + 3, w] = np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
+    for i in range(n):
+        ki = k[i]
+        lo = l_off[i]
+        ls = l_slope[i]
+        yr = ry + 3 * i
+        ye = ry + ie + 3 * i
+        dr = rdy + 3 * i
+        de = rdy + ie + 3 * i
+        li = rlf + i
+        for w in range(LANES):
+            w0, w1, w2 = S[yw, w], S[yw + 1, w], S[yw + 2, w]
+            z0, z1, z2 = S[yz, w], S[yz + 1, w], S[yz + 2, w]
+            wh0, wh1, wh2 = w0 + z0, w1 + z1, w2 + z2
+            r0, r1, r2 = S[yr, w], S[yr + 1, w], S[yr + 2, w]
+            e0, e1, e2 = S[ye, w], S[ye + 1, w], S[ye + 2, w]
+            # ṙ_i = r_i × ω
+            a0, a1, a2 = _cross_into(r0, r1, r2, w0, w1, w2)
+            S[dr, w] = a0
+            S[dr + 1, w] = a1
+            S[dr + 2, w] = a2
+            # r_i × z, then r̂_i × (r_i × z)
+            c0, c1, c2 = _cross_into(r0, r1, r2, z0, z1, z2)
+            d0, d1, d2 = _cross_into(r0 + e0, r1 + e1, r2 + e2, c0, c1, c2)
+            S[rtmp, w] += ki * d0
+            S[rtmp + 1, w] += ki * d1
+            S[rtmp + 2, w] += ki * d2
+            # ė_i = r_i × z + e_i × ω̂ − (l_i(ω̂) − l_frozen) e_i
+            f0, f1, f2 = _cross_into(e0, e1, e2, wh0, wh1, wh2)
+            dl = lo + ls * S[rtmp + 3, w] - S[li, w]
+            S[de, w] = c0 + f0 - dl * e0
+            S[de + 1, w] = c1 + f1 - dl * e1
+            S[de + 2, w] = c2 + f2 - dl * e2
+    for w in range(LANES):
+        s0, s1, s2 = S[rtmp, w], S[rtmp + 1, w], S[rtmp + 2, w]
+        S[rdy + iz, w] = K00 * s0 + K01 * s1 + K02 * s2
+        S[rdy + iz + 1, w] = K10 * s0 + K11 * s1 + K12 * s2
+        S[rdy + iz + 2, w] = K20 * s0 + K21 * s1 + K22 * s2
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _frozen_rates_lanes(S, n, l_off, l_slope, ry, rout):
+    """:func:`omegahat.simulate._frozen_rates` for every lane: row ``rout + i`` = l_i(ω̂) at the state rows ``ry..``."""
+    iw = ry + 3 * n
+    for i in range(n):
+        lo = l_off[i]
+        ls = l_slope[i]
+        for w in range(LANES):
+            wh0 = S[iw, w] + S[iw + 3, w]
+            wh1 = S[iw + 1, w] + S[iw + 4, w]
+            wh2 = S[iw + 2, w] + S[iw + 5, w]
+            S[rout + i, w] = lo + ls * np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_end, rcs_end, rsd, rcd):
+    """:func:`omegahat.simulate._torque_stages` for every lane: τ at t, t + h/2, t + h into rows
+    ``rtau + 3s + d`` and sin, cos of ν_j (t + h) into rows ``rsn_end + j``, ``rcs_end + j``."""
+    for s in range(3):
+        for d in range(3):
+            for w in range(LANES):
+                S[rtau + 3 * s + d, w] = S[rtc + d, w]
+    for j in range(M):
+        for w in range(LANES):
+            S[rsd, w], S[rcd, w] = _sin_cos_small(0.5 * S[rtf + j, w] * S[rhh, w])
+        for w in range(LANES):  # large angles (not in a campaign with h_max ν ≤ 1/2): the library's sin and cos
+            x = 0.5 * S[rtf + j, w] * S[rhh, w]
+            if abs(x) > _SINCOS_SMALL:
+                S[rsd, w] = np.sin(x)
+                S[rcd, w] = np.cos(x)
+        ac = racos + 3 * j
+        asn = rasin + 3 * j
+        for w in range(LANES):
+            a = S[rsn + j, w]
+            b = S[rcs + j, w]
+            sdw = S[rsd, w]
+            cdw = S[rcd, w]
+            for s in range(3):
+                S[rtau + 3 * s, w] += S[ac, w] * a + S[asn, w] * b
+                S[rtau + 3 * s + 1, w] += S[ac + 1, w] * a + S[asn + 1, w] * b
+                S[rtau + 3 * s + 2, w] += S[ac + 2, w] * a + S[asn + 2, w] * b
+                if s < 2:
+                    a, b = a * cdw + b * sdw, b * cdw - a * sdw
+            S[rsn_end + j, w] = a
+            S[rcs_end + j, w] = b
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef, rex):
+    """The step's φ-weights of :func:`omegahat.simulate._etdrk4_step` for every lane: rows
+    ``rcoef + 6i .. rcoef + 6i + 6`` = E, E₂, Q, f₁, f₂, f₃ for direction i. The exponentials are taken lane by
+    lane (libm; rows ``rex``, ``rex + 1``), the rest on whole rows. A direction whose rates equal the previous
+    one's in every lane (equal gains, the usual case) copies its weights."""
+    for i in range(n):
+        c = rcoef + 6 * i
+        if i > 0:
+            same = True
+            for w in range(LANES):
+                same = same and S[rlf + i, w] == S[rlf + i - 1, w]
+            if same:
+                for a in range(6):
+                    for w in range(LANES):
+                        S[c + a, w] = S[c - 6 + a, w]
+                continue
+        for w in range(LANES):
+            x = -S[rlf + i, w] * S[rhh, w]
+            S[rex, w] = np.exp(x)
+            S[rex + 1, w] = np.exp(0.5 * x)
+        for w in range(LANES):  # simulate._phi123 and _phi1_exp, both branches computed, one selected
+            h = S[rhh, w]
+            x = -S[rlf + i, w] * h
+            small = abs(x) < 0.5
+            t1, t2, t3, tex = _phi123_taylor(x)
+            c1, c2, c3, cex = _phi123_closed(x, S[rex, w])
+            p1 = t1 if small else c1
+            p2 = t2 if small else c2
+            p3 = t3 if small else c3
+            ex = tex if small else cex
+            x2 = 0.5 * x
+            small2 = abs(x2) < 0.5
+            u1, uex = _phi1_taylor(x2)
+            ex2 = uex if small2 else S[rex + 1, w]
+            q1 = u1 if small2 else (ex2 - 1.0) / x2
+            S[c, w] = ex
+            S[c + 1, w] = ex2
+            S[c + 2, w] = 0.5 * h * q1
+            S[c + 3, w] = h * (p1 - 3.0 * p2 + 4.0 * p3)
+            S[c + 4, w] = h * (2.0 * p2 - 4.0 * p3)
+            S[c + 5, w] = h * (4.0 * p3 - p2)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _half_stage_lanes(S, n, ry, rN, rhalf, rcoef, rout):
+    """The first two stages of :func:`omegahat.simulate._etdrk4_step`: ``y + (h/2) N`` on (r, ω, z) and
+    ``E₂ e + Q N_e`` on each e_i, into rows ``rout..``."""
+    ie = 3 * n + 6
+    for j in range(ie):
+        for w in range(LANES):
+            S[rout + j, w] = S[ry + j, w] + S[rhalf, w] * S[rN + j, w]
+    for i in range(n):
+        c = rcoef + 6 * i
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            for w in range(LANES):
+                S[rout + j, w] = S[c + 1, w] * S[ry + j, w] + S[c + 2, w] * S[rN + j, w]
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _select_row(Si, rmask, rdst, rsrc):
+    """Row ``rdst`` of the workspace takes row ``rsrc`` in the lanes whose mask (row ``rmask``) is all ones."""
+    for w in range(LANES):
+        mk = Si[rmask, w]
+        Si[rdst, w] = (Si[rsrc, w] & mk) | (Si[rdst, w] & ~mk)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, row):
+    """:func:`omegahat.simulate._dense_output` for lane ``w`` (scalar: one output time of one run), into
+    ``Y[run, row]``."""
+    ie = 3 * n + 6
+    b1, b2, b4 = _dense_weights(h, theta, 0.5 * theta * theta, 0.5 * theta * theta * theta / 3.0)
+    for j in range(ie):
+        Y[run, row, j] = (
+            S[ry + j, w] + b1 * S[rNu + j, w] + b2 * (S[rNa + j, w] + S[rNb + j, w]) + b4 * S[rNc + j, w]
+        )
+    ex = 1.0
+    for i in range(n):
+        if i == 0 or S[rlf + i, w] != S[rlf + i - 1, w]:
+            p1, p2, p3, ex = _phi123(-S[rlf + i, w] * h * theta)
+            b1, b2, b4 = _dense_weights(h, theta * p1, theta * theta * p2, theta * theta * theta * p3)
+        for j in range(ie + 3 * i, ie + 3 * i + 3):
+            Y[run, row, j] = (
+                ex * S[ry + j, w] + b1 * S[rNu + j, w] + b2 * (S[rNa + j, w] + S[rNb + j, w]) + b4 * S[rNc + j, w]
+            )
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _lanes_worker(
+    runs, Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps,
+    Y, accepted, rejected, ok, M,
+):
+    """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes; results into
+    ``Y[run]``, ``accepted[run]``, ``rejected[run]``, ``ok[run]`` (``Y`` pre-filled with NaN)."""
+    m = 6 * n + 6
+    T = t_out.shape[0]
+    ie = 3 * n + 6
+    t_end = t_out[T - 1]
+    a2 = atol * atol
+    r2 = rtol * rtol
+    # ---- the workspace: row offsets of each per-lane quantity -------------------------------------------------
+    Ry = 0  # state y
+    Ry_new = Ry + m  # trial point
+    RNu = Ry_new + m  # nonlinear part at (t, y) with the rates frozen at y
+    RN_new = RNu + m  # at the trial point with its own rates: the next step's RNu (FSAL)
+    RNa = RN_new + m  # stages
+    RNb = RNa + m
+    RNc = RNb + m
+    Rya = RNc + m
+    Ryb = Rya + m
+    Ryc = Ryb + m
+    RN_fresh = Ryc + m  # first right-hand side of newly loaded runs
+    Rcoef = RN_fresh + m  # φ-weights, 6 per direction
+    Rlf = Rcoef + 6 * n  # rates l_i frozen at y
+    Rlf_new = Rlf + n
+    Rlf_fresh = Rlf_new + n
+    Rtmp = Rlf_fresh + n  # 4 rows of scratch
+    Rtau = Rtmp + 4  # τ at t, t + h/2, t + h: row Rtau + 3 s + d
+    Rtau_fresh = Rtau + 9
+    Rtc = Rtau_fresh + 3  # the lane's torque: constant, a_j cos φ_j, a_j sin φ_j (row + 3 j + d), ν_j
+    Racos = Rtc + 3
+    Rasin = Racos + 3 * M
+    Rtf = Rasin + 3 * M
+    Rsn = Rtf + M  # sin ν_j t, cos ν_j t, and at t + h
+    Rcs = Rsn + M
+    Rsn_new = Rcs + M
+    Rcs_new = Rsn_new + M
+    Rsd = Rcs_new + M  # sin, cos of ν_j h/2
+    Rcd = Rsd + 1
+    Rhh = Rcd + 1  # the trial's step, h/2, h/6
+    Rhalf = Rhh + 1
+    Rh6 = Rhalf + 1
+    Rerr = Rh6 + 1  # the trial's error ratio
+    Rfactor = Rerr + 1  # the next step over this one
+    Rex = Rfactor + 1  # exp(−l h) and exp(−l h/2), two rows
+    Rmask = Rex + 2  # all bits set where the trial was accepted (read through the int64 view Si)
+    S = np.zeros((Rmask + 1, LANES))
+    Si = S.view(np.int64)
+    for j in range(M):
+        for w in range(LANES):
+            S[Rcs + j, w] = 1.0
+            S[Rcs_new + j, w] = 1.0
+    # ---- per-lane counters ---------------------------------------------------------------------------------
+    run = np.full(LANES, -1, dtype=np.int64)
+    t = np.zeros(LANES)
+    h = np.zeros(LANES)
+    last = np.zeros(LANES, dtype=np.bool_)
+    acc = np.zeros(LANES, dtype=np.int64)
+    rej = np.zeros(LANES, dtype=np.int64)
+    idx = np.zeros(LANES, dtype=np.int64)
+    fresh = np.zeros(LANES, dtype=np.bool_)
+
+    q = 0  # next run of the queue
+    active = 0
+    while True:
+        # ---- load new runs into empty lanes (integrate_coupled's preamble) ------------------------------------
+        any_fresh = False
+        for w in range(LANES):
+            fresh[w] = False
+            if run[w] >= 0 or q >= runs.shape[0]:
+                continue
+            i = runs[q]
+            q += 1
+            for j in range(m):
+                S[Ry + j, w] = Y0[i, j]
+                Y[i, 0, j] = Y0[i, j]
+            if T == 1:  # nothing to integrate
+                accepted[i] = 0
+                rejected[i] = 0
+                ok[i] = True
+                continue
+            run[w] = i
+            active += 1
+            t[w] = t_out[0]
+            h[w] = h0[i]
+            acc[w] = 0
+            rej[w] = 0
+            idx[w] = 1
+            a_cos = ta[i] * np.cos(tp[i])
+            a_sin = ta[i] * np.sin(tp[i])
+            s0 = np.sin(tf[i] * t[w])
+            c0 = np.cos(tf[i] * t[w])
+            for d in range(3):
+                S[Rtc + d, w] = tc[i, d]
+                S[Rtau_fresh + d, w] = tc[i, d]
+            for j in range(M):
+                S[Rtf + j, w] = tf[i, j]
+                S[Rsn + j, w] = s0[j]
+                S[Rcs + j, w] = c0[j]
+                for d in range(3):
+                    S[Racos + 3 * j + d, w] = a_cos[j, d]
+                    S[Rasin + 3 * j + d, w] = a_sin[j, d]
+                    S[Rtau_fresh + d, w] += a_cos[j, d] * s0[j] + a_sin[j, d] * c0[j]
+            fresh[w] = True
+            any_fresh = True
+        if any_fresh:
+            _frozen_rates_lanes(S, n, l_off, l_slope, Ry, Rlf_fresh)
+            _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry, Rlf_fresh, Rtau_fresh, RN_fresh, Rtmp)
+            for w in range(LANES):
+                if fresh[w]:
+                    for j in range(m):
+                        S[RNu + j, w] = S[RN_fresh + j, w]
+                    for i in range(n):
+                        S[Rlf + i, w] = S[Rlf_fresh + i, w]
+        if active == 0:
+            break
+
+        # ---- step sizes (per lane); an idle lane steps by 0 ----------------------------------------------------
+        for w in range(LANES):
+            S[Rhh, w] = 0.0
+            S[Rhalf, w] = 0.0
+            S[Rh6, w] = 0.0
+            last[w] = False
+            if run[w] < 0:
+                continue
+            if acc[w] + rej[w] >= max_steps:
+                i = run[w]
+                accepted[i] = acc[w]
+                rejected[i] = rej[w]
+                ok[i] = False
+                run[w] = -1
+                active -= 1
+                continue
+            hw = min(h[w], h_max)
+            if t[w] + 1.01 * hw >= t_end:
+                hw = t_end - t[w]
+                last[w] = True
+            S[Rhh, w] = hw
+            S[Rhalf, w] = 0.5 * hw
+            S[Rh6, w] = hw / 6.0
+
+        # ---- one ETDRK4 trial for all lanes (simulate._etdrk4_step, then the new point's N) -------------------
+        _torque_stages_lanes(S, M, Rhh, Rtc, Racos, Rasin, Rtf, Rsn, Rcs, Rtau, Rsn_new, Rcs_new, Rsd, Rcd)
+        _phi_coefficients_lanes(S, n, Rlf, Rhh, Rcoef, Rex)
+        _half_stage_lanes(S, n, Ry, RNu, Rhalf, Rcoef, Rya)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Rya, Rlf, Rtau + 3, RNa, Rtmp)
+        _half_stage_lanes(S, n, Ry, RNa, Rhalf, Rcoef, Ryb)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryb, Rlf, Rtau + 3, RNb, Rtmp)
+        for j in range(ie):
+            for w in range(LANES):
+                S[Ryc + j, w] = S[Ry + j, w] + S[Rhh, w] * S[RNb + j, w]
+        for i in range(n):
+            c = Rcoef + 6 * i
+            for j in range(ie + 3 * i, ie + 3 * i + 3):
+                for w in range(LANES):
+                    S[Ryc + j, w] = S[c + 1, w] * S[Rya + j, w] + S[c + 2, w] * (2.0 * S[RNb + j, w] - S[RNu + j, w])
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryc, Rlf, Rtau + 6, RNc, Rtmp)
+        for j in range(ie):
+            for w in range(LANES):
+                S[Ry_new + j, w] = S[Ry + j, w] + S[Rh6, w] * (
+                    S[RNu + j, w] + 2.0 * S[RNa + j, w] + 2.0 * S[RNb + j, w] + S[RNc + j, w]
+                )
+        for i in range(n):
+            c = Rcoef + 6 * i
+            for j in range(ie + 3 * i, ie + 3 * i + 3):
+                for w in range(LANES):
+                    S[Ry_new + j, w] = (
+                        S[c, w] * S[Ry + j, w]
+                        + S[c + 3, w] * S[RNu + j, w]
+                        + S[c + 4, w] * (S[RNa + j, w] + S[RNb + j, w])
+                        + S[c + 5, w] * S[RNc + j, w]
+                    )
+        _frozen_rates_lanes(S, n, l_off, l_slope, Ry_new, Rlf_new)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry_new, Rlf_new, Rtau + 6, RN_new, Rtmp)
+
+        # ---- embedded error (simulate._embedded_error) -----------------------------------------------------------
+        for w in range(LANES):
+            S[Rerr, w] = 0.0
+        for b in range(2 * n + 2):
+            j0 = 3 * b
+            for w in range(LANES):
+                if j0 >= ie:  # e_i: weight h(4φ₃ − φ₂), N(y_new) re-taken with the step's frozen rates
+                    i = b - n - 2
+                    wt = S[Rcoef + 6 * i + 5, w]
+                    shift = S[Rlf + i, w] - S[Rlf_new + i, w]
+                else:
+                    wt = S[Rh6, w]
+                    shift = 0.0
+                d0 = wt * (S[RNc + j0, w] - S[RN_new + j0, w] - shift * S[Ry_new + j0, w])
+                d1 = wt * (S[RNc + j0 + 1, w] - S[RN_new + j0 + 1, w] - shift * S[Ry_new + j0 + 1, w])
+                d2 = wt * (S[RNc + j0 + 2, w] - S[RN_new + j0 + 2, w] - shift * S[Ry_new + j0 + 2, w])
+                v0 = S[Ry_new + j0, w]
+                v1 = S[Ry_new + j0 + 1, w]
+                v2 = S[Ry_new + j0 + 2, w]
+                ratio2 = (d0 * d0 + d1 * d1 + d2 * d2) / (a2 + r2 * (v0 * v0 + v1 * v1 + v2 * v2))
+                worst = S[Rerr, w]
+                S[Rerr, w] = ratio2 if (ratio2 > worst or ratio2 != ratio2) else worst
+        for w in range(LANES):
+            S[Rerr, w] = np.sqrt(S[Rerr, w])
+            S[Rfactor, w] = _step_factor(S[Rerr, w])
+
+        # ---- acceptance, output times and counters (per lane) ------------------------------------------------
+        for w in range(LANES):
+            Si[Rmask, w] = 0
+            i = run[w]
+            if i < 0:
+                continue
+            e = S[Rerr, w]
+            hw = S[Rhh, w]
+            if not np.isfinite(e):
+                if hw < 1e-14:
+                    accepted[i] = acc[w]
+                    rejected[i] = rej[w]
+                    ok[i] = False
+                    run[w] = -1
+                    active -= 1
+                    continue
+                h[w] = 0.25 * hw
+                rej[w] += 1
+                continue
+            factor = S[Rfactor, w]
+            if e <= 1.0:
+                t_new = t_end if last[w] else t[w] + hw
+                while idx[w] < T and t_out[idx[w]] < t_new:
+                    theta = (t_out[idx[w]] - t[w]) / hw
+                    _dense_output_lane(S, n, Ry, RNu, RNa, RNb, RNc, Rlf, hw, theta, w, Y, i, idx[w])
+                    idx[w] += 1
+                if idx[w] < T and t_out[idx[w]] == t_new:
+                    for j in range(m):
+                        Y[i, idx[w], j] = S[Ry_new + j, w]
+                    idx[w] += 1
+                t[w] = t_new
+                acc[w] += 1
+                Si[Rmask, w] = -1
+            else:
+                rej[w] += 1
+            h[w] = hw * factor
+
+        # ---- accepted lanes move to the new point (FSAL: N_new becomes Nu) ------------------------------------
+        # A bitwise select (mask all ones where accepted): exact, and LLVM vectorises it, unlike `a if c else b`
+        # on two rows of S, which it turns into a select of addresses, lane by lane.
+        for j in range(m):
+            _select_row(Si, Rmask, Ry + j, Ry_new + j)
+            _select_row(Si, Rmask, RNu + j, RN_new + j)
+        for i in range(n):
+            _select_row(Si, Rmask, Rlf + i, Rlf_new + i)
+        for j in range(M):
+            _select_row(Si, Rmask, Rsn + j, Rsn_new + j)
+            _select_row(Si, Rmask, Rcs + j, Rcs_new + j)
+
+        # ---- finished runs leave their lanes ---------------------------------------------------------------------
+        for w in range(LANES):
+            i = run[w]
+            if i >= 0 and idx[w] >= T:
+                accepted[i] = acc[w]
+                rejected[i] = rej[w]
+                ok[i] = True
+                run[w] = -1
+                active -= 1
+
+
+@numba.njit(cache=True, parallel=True, error_model="numpy")
+def _integrate_lanes(
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers, M
+):
+    N = Y0.shape[0]
+    T = t_out.shape[0]
+    Y = np.full((N, T, 6 * n + 6), np.nan)
+    accepted = np.zeros(N, dtype=np.int64)
+    rejected = np.zeros(N, dtype=np.int64)
+    ok = np.zeros(N, dtype=np.bool_)
+    for wk in numba.prange(n_workers):
+        _lanes_worker(
+            np.arange(wk, N, n_workers), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol,
+            atol, h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
+        )
+    return Y, accepted, rejected, ok
+
+
+def integrate_coupled_lanes(
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers
+):
+    """:func:`omegahat.simulate.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
+    computed in lockstep: run ``i`` goes to worker ``i mod n_workers``, each worker steps its runs ``LANES`` at a
+    time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``.
+
+    The number of directions ``n`` and of torque terms are compiled in as constants (one compiled kernel per
+    pair, cached on disk): the workspace's row offsets are then constants and LLVM vectorises every lane loop.
+    """
+    return _integrate_lanes(
+        Y0, t_out, int(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps,
+        int(n_workers), int(tf.shape[1]),
+    )

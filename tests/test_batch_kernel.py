@@ -1,0 +1,174 @@
+"""The lockstep batch kernel gives, run by run, the very bits of the single-run kernel; and the small pieces both
+share (small-angle sin/cos, φ-functions, step factor, NaN handling) against independent references.
+
+The kernel is compiled once per (directions, torque terms) pair, about 20 s each on a fresh machine: the tests
+use two pairs, (2, 2) as the default campaign does and (3, 2)."""
+
+from decimal import Decimal, getcontext
+
+import numpy as np
+import pytest
+
+from omegahat.batch_kernel import LANES, integrate_coupled_lanes
+from omegahat.gains import ObserverGains, theorem_gains
+from omegahat.simulate import (
+    CoupledProblem,
+    SinusoidalTorque,
+    _phi123,
+    _phi1_exp,
+    _sin_cos_small,
+    _step_factor,
+    initial_state,
+    integrate_coupled,
+)
+
+
+def _problems(n_runs, n_dirs, n_terms, seed, gains, freq=(0.5, 5.0)):
+    rng = np.random.default_rng(seed)
+    J = np.diag([3.0, 2.0, 1.0])
+    refs = np.eye(3)[:n_dirs] if n_dirs <= 3 else rng.normal(size=(n_dirs, 3))
+    refs = refs / np.linalg.norm(refs, axis=1, keepdims=True)
+    out = []
+    for _ in range(n_runs):
+        q = rng.normal(size=4)
+        from scipy.spatial.transform import Rotation
+
+        R0 = Rotation.from_quat(q / np.linalg.norm(q)).as_matrix()
+        torque = SinusoidalTorque(
+            constant=rng.uniform(-0.1, 0.1, 3),
+            amplitudes=rng.uniform(-0.3, 0.3, (n_terms, 3)),
+            frequencies=rng.uniform(*freq, n_terms),
+            phases=rng.uniform(0, 2 * np.pi, (n_terms, 3)),
+        )
+        out.append(
+            CoupledProblem(
+                J=J, gains=gains, omega0=rng.uniform(-1, 1, 3), R0=R0, references=refs,
+                r_hat0=rng.uniform(-3, 3, (n_dirs, 3)), omega_hat0=rng.uniform(-20, 20, 3), torque=torque,
+            )
+        )
+    return out
+
+
+def _pack(problems, h_max):
+    N = len(problems)
+    n = problems[0].gains.n
+    M = problems[0].torque.frequencies.size
+    tc = np.array([p.torque.constant for p in problems])
+    ta = np.array([p.torque.amplitudes for p in problems]).reshape(N, M, 3)
+    tf = np.array([p.torque.frequencies for p in problems]).reshape(N, M)
+    tp = np.array([p.torque.phases for p in problems]).reshape(N, M, 3)
+    Y0 = np.array([initial_state(p) for p in problems])
+    h0 = np.array([min(h_max, 0.1 / max(1.0, float(np.max(p.gains.l(p.omega_hat0))))) for p in problems])
+    g = problems[0].gains
+    J = problems[0].J
+    return Y0, (n, J, np.linalg.inv(J), g.k, g.l_offset, g.l_slope), (tc, ta, tf, tp), h0
+
+
+def _compare(problems, t_out, rtol=1e-7, atol=1e-15, h_max=0.05, max_steps=1_000_000, workers=2):
+    Y0, body, torque, h0 = _pack(problems, h_max)
+    Y, acc, rej, ok = integrate_coupled_lanes(Y0, t_out, *body, *torque, rtol, atol, h0, h_max, max_steps, workers)
+    for i in range(len(problems)):
+        Yi, a, r, good = integrate_coupled(
+            Y0[i], t_out, *body, *(x[i] for x in torque), rtol, atol, h0[i], h_max, max_steps
+        )
+        assert (acc[i], rej[i], ok[i]) == (a, r, good), f"run {i}"
+        np.testing.assert_array_equal(Y[i], Yi, err_msg=f"run {i}")
+    return Y, acc, rej, ok
+
+
+def test_theorem_gains_more_runs_than_lanes_are_bit_identical_to_the_single_run_kernel():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    problems = _problems(2 * LANES + 5, 2, 2, seed=1, gains=gains)  # lanes are refilled, some idle at the end
+    _, acc, _, ok = _compare(problems, np.linspace(0.0, 2.0, 41))
+    assert ok.all() and acc.min() > 10
+
+
+def test_unequal_small_gains_three_directions():
+    # l_i differ per direction (no shared φ-weights) and are small, so −l h < 1/2: the Taylor branches
+    gains = ObserverGains(k=np.array([2.0, 3.0, 4.0]), l_offset=np.array([0.5, 1.0, 2.0]),
+                          l_slope=np.array([0.1, 0.0, 0.3]))
+    problems = _problems(7, 3, 2, seed=2, gains=gains)  # fewer runs than lanes
+    _, _, _, ok = _compare(problems, np.array([0.0, 0.3, 0.31, 1.5]), rtol=1e-8)
+    assert ok.all()
+
+
+def test_fast_torque_takes_the_library_sin_cos_branch():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    # ν h/2 > 1/4 for h near h_max = 0.05 needs ν > 10
+    problems = _problems(5, 2, 2, seed=3, gains=gains, freq=(20.0, 40.0))
+    _compare(problems, np.linspace(0.0, 1.0, 5), rtol=1e-5)
+
+
+def test_split_over_workers_does_not_change_any_bit():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    problems = _problems(LANES + 3, 2, 2, seed=4, gains=gains)
+    Y0, body, torque, h0 = _pack(problems, 0.05)
+    t = np.linspace(0.0, 1.0, 11)
+    runs = [integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, w) for w in (1, 3)]
+    for a, b in zip(*runs):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_failed_runs_report_ok_false_and_keep_nan_rows_like_the_single_run_kernel():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    problems = _problems(4, 2, 2, seed=5, gains=gains)
+    t = np.linspace(0.0, 1.0, 11)
+    # max_steps reached part way
+    Y, acc, rej, ok = _compare(problems, t, max_steps=30)
+    assert not ok.any() and np.isnan(Y[:, -1]).all() and np.isfinite(Y[:, 0]).all()
+    # a non-finite state is rejected down to h < 1e-14, then the run stops (it used to be accepted silently)
+    Y0, body, torque, h0 = _pack(problems, 0.05)
+    Y0[1, 3 * 2 + 3] = np.inf  # z of run 1
+    Y, acc, rej, ok = integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2)
+    assert list(ok) == [True, False, True, True]
+    assert acc[1] == 0 and rej[1] > 0 and np.isnan(Y[1, 1:]).all()
+    Yi, a, r, good = integrate_coupled(Y0[1], t, *body, *(x[1] for x in torque), 1e-7, 1e-15, h0[1], 0.05, 10**6)
+    assert (a, r, good) == (acc[1], rej[1], False)
+
+
+def test_a_single_output_time_integrates_nothing():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    problems = _problems(3, 2, 2, seed=6, gains=gains)
+    Y, acc, rej, ok = _compare(problems, np.array([0.0]))
+    assert ok.all() and (acc == 0).all()
+
+
+def test_small_angle_sin_cos_agree_with_numpy_to_rounding():
+    x = np.linspace(-0.25, 0.25, 20001)
+    s, c = np.array([_sin_cos_small(v) for v in x]).T
+    # within one unit in the last place of libm's correctly rounded-or-nearly values
+    assert np.all(np.abs(s - np.sin(x)) <= np.spacing(np.abs(np.sin(x))))
+    assert np.all(np.abs(c - np.cos(x)) <= np.spacing(np.cos(x)))
+
+
+def _phi_exact(k, x):
+    # φ_k(x) = (e^x − Σ_{j<k} x^j/j!) / x^k in 60-digit decimal arithmetic
+    getcontext().prec = 60
+    X = Decimal(repr(x))
+    acc = X.exp()
+    term = Decimal(1)
+    for j in range(k):
+        acc -= term
+        term = term * X / (j + 1)
+    return float(acc / X**k)
+
+
+@pytest.mark.parametrize("x", [-1e-8, -0.1, -0.4999, -0.5, -0.5001, -2.0, -30.0, -800.0])
+def test_phi_functions_match_high_precision(x):
+    p1, p2, p3, ex = _phi123(x)
+    q1, ex1 = _phi1_exp(x)
+    for got, k in ((p1, 1), (p2, 2), (p3, 3), (q1, 1)):
+        want = _phi_exact(k, x)
+        assert abs(got - want) <= 4e-15 * abs(want), (k, x, got, want)
+    assert ex == ex1 and abs(ex - np.exp(x)) <= 4e-16 * np.exp(x)
+
+
+def test_step_factor_is_the_clipped_fourth_root_rule():
+    for err in (1e-12, 0.01, 0.5, 0.999, 1.0, 3.0, 1e6):
+        assert _step_factor(err) == pytest.approx(min(4.0, max(0.2, 0.9 * err ** -0.25)), rel=1e-15)
+    assert _step_factor(0.0) == 4.0
