@@ -8,6 +8,7 @@ is bit-for-bit what :func:`omegahat.simulate.simulate` gives for it, whatever th
 **Seeds.** Run ``j`` of a campaign with seed ``s`` draws everything from
 ``numpy.random.default_rng(SeedSequence(s, spawn_key=(j,)))``: the ``j``-th child of
 ``SeedSequence(s).spawn(...)``. A run depends on ``(s, j)`` only; :func:`replay` rebuilds any run from them.
+No draw depends on the gains: :func:`run_chunk` draws each run once and integrates it for every gain set.
 
 **The claim under test** (observer.md; Sarras' theorem): with ``J_m I ≤ J ≤ J_M I``, ``|ω(t)| ≤ ω_M`` and gains
 meeting the conditions of :mod:`omegahat.gains`, the errors ``z = ω̂ − ω``, ``e_i = r̂_i − r_i`` converge
@@ -74,7 +75,6 @@ from omegahat.gains import ObserverGains, check_gains, theorem_gains
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
-    initial_state,
     integrate_coupled,
     integrate_coupled_batch,
     simulate,
@@ -117,9 +117,41 @@ class BatchResult:
     ok: np.ndarray
 
 
-def _first_step(problem: CoupledProblem, h_max: float) -> float:
-    # the same first step as omegahat.simulate.simulate
-    return min(h_max, 0.1 / max(1.0, float(np.max(problem.gains.l(problem.omega_hat0)))))
+def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_steps, n_workers, parallel):
+    # The kernel's inputs packed from stacked runs (the arrays of _draw_runs: R0, omega0, r_hat0, omega_hat0 and
+    # the torque's constant, amplitudes, frequencies, phases, padded to a common number of terms), then the batch
+    # kernel. Y0 is omegahat.simulate.initial_state and h0 the first step of omegahat.simulate.simulate, row by row
+    # with the same floating-point operations, so each run is what simulate gives for it.
+    workers = numba.get_num_threads() if n_workers is None else int(n_workers)
+    if workers < 1:
+        raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
+    omega0, omega_hat0 = runs["omega0"], runs["omega_hat0"]
+    N = omega0.shape[0]
+    r0 = references @ runs["R0"]  # (N, n, 3): r_i = R0ᵀ v_i of each run
+    Y0 = np.concatenate(
+        [r0.reshape(N, -1), omega0, omega_hat0 - omega0, (runs["r_hat0"] - r0).reshape(N, -1)], axis=1
+    )
+    # l_i(ω̂₀) = l_offset_i + l_slope_i |ω̂₀| with the norm of ObserverGains.l (one vector at a time)
+    speed = np.array([np.linalg.norm(w) for w in omega_hat0])
+    l0 = gains.l_offset + gains.l_slope * speed[:, None]
+    h0 = np.minimum(h_max, 0.1 / np.maximum(1.0, np.max(l0, axis=1)))
+    tc, ta, tf, tp = runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"]
+    args = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
+    if parallel:
+        Y, acc, rej, ok = integrate_coupled_batch(
+            Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers
+        )
+    else:
+        Y = np.empty((N, t_out.size, Y0.shape[1]))
+        acc = np.zeros(N, dtype=np.int64)
+        rej = np.zeros(N, dtype=np.int64)
+        ok = np.zeros(N, dtype=bool)
+        for j in range(N):
+            Y[j], acc[j], rej[j], ok[j] = integrate_coupled(
+                Y0[j], t_out, *args, tc[j], ta[j], tf[j], tp[j], float(rtol), float(atol), h0[j], float(h_max),
+                int(max_steps),
+            )
+    return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
 
 
 def simulate_batch(
@@ -158,40 +190,22 @@ def simulate_batch(
     N = len(problems)
     M = max(p.torque.frequencies.size for p in problems)
     # Padding with zero-amplitude terms adds exactly 0.0 to the torque: the padded run is the same run.
-    tc = np.zeros((N, 3))
-    ta = np.zeros((N, M, 3))
-    tf = np.zeros((N, M))
-    tp = np.zeros((N, M, 3))
-    Y0 = np.empty((N, 6 * p0.gains.n + 6))
-    h0 = np.empty(N)
+    runs = {
+        "R0": np.stack([p.R0 for p in problems]),
+        "omega0": np.stack([p.omega0 for p in problems]),
+        "r_hat0": np.stack([p.r_hat0 for p in problems]),
+        "omega_hat0": np.stack([p.omega_hat0 for p in problems]),
+        "constant": np.stack([p.torque.constant for p in problems]),
+        "amplitudes": np.zeros((N, M, 3)),
+        "frequencies": np.zeros((N, M)),
+        "phases": np.zeros((N, M, 3)),
+    }
     for j, p in enumerate(problems):
         m = p.torque.frequencies.size
-        tc[j] = p.torque.constant
-        ta[j, :m] = p.torque.amplitudes
-        tf[j, :m] = p.torque.frequencies
-        tp[j, :m] = p.torque.phases
-        Y0[j] = initial_state(p)
-        h0[j] = _first_step(p, h_max)
-    g = p0.gains
-    workers = numba.get_num_threads() if n_workers is None else int(n_workers)
-    if workers < 1:
-        raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
-    args = (g.n, p0.J, np.linalg.inv(p0.J), g.k, g.l_offset, g.l_slope)
-    if parallel:
-        Y, acc, rej, ok = integrate_coupled_batch(
-            Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers
-        )
-    else:
-        Y = np.empty((N, t_out.size, Y0.shape[1]))
-        acc = np.zeros(N, dtype=np.int64)
-        rej = np.zeros(N, dtype=np.int64)
-        ok = np.zeros(N, dtype=bool)
-        for j in range(N):
-            Y[j], acc[j], rej[j], ok[j] = integrate_coupled(
-                Y0[j], t_out, *args, tc[j], ta[j], tf[j], tp[j], float(rtol), float(atol), h0[j], float(h_max),
-                int(max_steps),
-            )
-    return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
+        runs["amplitudes"][j, :m] = p.torque.amplitudes
+        runs["frequencies"][j, :m] = p.torque.frequencies
+        runs["phases"][j, :m] = p.torque.phases
+    return _integrate(p0.J, p0.references, p0.gains, runs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel)
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -264,37 +278,59 @@ def _unit(rng) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+def _draw_runs(campaign: Campaign, indices) -> dict:
+    # Runs `indices` drawn once each (module docstring; always in the same order from the run's own generator),
+    # stacked by run: R0 (N, 3, 3), omega0 (N, 3), r_hat0 (N, n, 3), omega_hat0 (N, 3) and the torque's constant
+    # (N, 3; zero), amplitudes (N, M, 3), frequencies (N, M), phases (N, M, 3). No draw depends on the gains: the
+    # source of draw_problem (one run) and of run_chunk (a chunk, integrated for every gain set).
+    c = campaign
+    indices = np.asarray(indices, dtype=np.int64).reshape(-1)
+    N, n, M = indices.size, c.references.shape[0], c.torque_terms
+    quat = np.empty((N, 4))
+    omega0 = np.empty((N, 3))
+    r_hat0 = np.empty((N, n, 3))
+    opposite = np.zeros((N, n), dtype=bool)
+    omega_hat0 = np.empty((N, 3))
+    amplitudes = np.empty((N, M, 3))
+    frequencies = np.empty((N, M))
+    phases = np.empty((N, M, 3))
+    for row, index in enumerate(indices):
+        rng = np.random.default_rng(run_seed(c.seed, index))
+        q = rng.normal(size=4)
+        quat[row] = q / np.linalg.norm(q)
+        omega0[row] = _unit(rng) * c.omega0_fraction * c.omega_max * rng.random() ** (1.0 / 3.0)
+        for i in range(n):
+            u = rng.random()
+            ball = _unit(rng) * c.r_hat_radius * rng.random() ** (1.0 / 3.0)
+            if u < c.p_zero:
+                r_hat0[row, i] = 0.0
+            else:
+                opposite[row, i] = u < c.p_zero + c.p_opposite  # −r_i0, filled in once R0 is known
+                r_hat0[row, i] = ball
+        omega_hat0[row] = _unit(rng) * c.omega_hat_max * rng.random()
+        amplitudes[row] = rng.uniform(-c.torque_amplitude, c.torque_amplitude, size=(M, 3))
+        frequencies[row] = rng.uniform(c.torque_frequency[0], c.torque_frequency[1], size=M)
+        phases[row] = rng.uniform(0.0, 2.0 * np.pi, size=(M, 3))
+    # one call for all runs: scipy converts quaternion by quaternion, the same numbers as one call per run
+    R0 = Rotation.from_quat(quat).as_matrix() if N else np.empty((0, 3, 3))
+    r0 = c.references @ R0
+    r_hat0[opposite] = -r0[opposite]
+    return {
+        "R0": R0, "omega0": omega0, "r_hat0": r_hat0, "omega_hat0": omega_hat0, "constant": np.zeros((N, 3)),
+        "amplitudes": amplitudes, "frequencies": frequencies, "phases": phases,
+    }
+
+
 def draw_problem(campaign: Campaign, index: int, gains_name: str | None = None) -> CoupledProblem:
     """Run ``index`` of the campaign as a :class:`~omegahat.simulate.CoupledProblem` (draws in the module
     docstring, always in the same order from the run's own generator)."""
     c = campaign
-    rng = np.random.default_rng(run_seed(c.seed, index))
-    q = rng.normal(size=4)
-    R0 = Rotation.from_quat(q / np.linalg.norm(q)).as_matrix()
-    omega0 = _unit(rng) * c.omega0_fraction * c.omega_max * rng.random() ** (1.0 / 3.0)
-    r0 = c.references @ R0
-    n = r0.shape[0]
-    r_hat0 = np.empty((n, 3))
-    for i in range(n):
-        u = rng.random()
-        ball = _unit(rng) * c.r_hat_radius * rng.random() ** (1.0 / 3.0)
-        if u < c.p_zero:
-            r_hat0[i] = 0.0
-        elif u < c.p_zero + c.p_opposite:
-            r_hat0[i] = -r0[i]
-        else:
-            r_hat0[i] = ball
-    omega_hat0 = _unit(rng) * c.omega_hat_max * rng.random()
-    M = c.torque_terms
-    torque = SinusoidalTorque(
-        amplitudes=rng.uniform(-c.torque_amplitude, c.torque_amplitude, size=(M, 3)),
-        frequencies=rng.uniform(c.torque_frequency[0], c.torque_frequency[1], size=M),
-        phases=rng.uniform(0.0, 2.0 * np.pi, size=(M, 3)),
-    )
+    d = _draw_runs(c, [index])
+    torque = SinusoidalTorque(amplitudes=d["amplitudes"][0], frequencies=d["frequencies"][0], phases=d["phases"][0])
     name = next(iter(c.gains)) if gains_name is None else gains_name
     return CoupledProblem(
-        J=c.J, gains=c.gains[name], omega0=omega0, R0=R0, references=c.references, r_hat0=r_hat0,
-        omega_hat0=omega_hat0, torque=torque,
+        J=c.J, gains=c.gains[name], omega0=d["omega0"][0], R0=d["R0"][0], references=c.references,
+        r_hat0=d["r_hat0"][0], omega_hat0=d["omega_hat0"][0], torque=torque,
     )
 
 
@@ -403,12 +439,14 @@ def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) 
     if not (0 <= start < stop <= campaign.runs):
         raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")
     indices = np.arange(start, stop)
+    runs = _draw_runs(campaign, indices)  # once per run, whatever the number of gain sets
+    # J and the references as a CoupledProblem stores them (as draw_problem + simulate_batch would use them)
+    J, references = as_inertia(campaign.J), as_directions(campaign.references)
     out = {}
-    for name in campaign.gains:
-        problems = [draw_problem(campaign, j, name) for j in indices]
-        batch = simulate_batch(
-            problems, campaign.t_out, rtol=campaign.rtol, atol=campaign.atol, h_max=campaign.h_max,
-            max_steps=campaign.max_steps, parallel=parallel,
+    for name, gains in campaign.gains.items():
+        batch = _integrate(
+            J, references, gains, runs, campaign.t_out, campaign.rtol, campaign.atol, campaign.h_max,
+            campaign.max_steps, None, parallel,
         )
         out[name] = diagnose(campaign, batch, indices)
     return out
@@ -463,8 +501,8 @@ def _float(x):
 
 
 def _counterexamples(campaign: Campaign, name: str, r: GainSetResult) -> list:
-    out = []
     rho_end = r.rho[:, -1]
+    found = []  # (row of r, reasons)
     for j in range(r.index.size):
         reasons = []
         if not r.ok[j]:
@@ -477,24 +515,28 @@ def _counterexamples(campaign: Campaign, name: str, r: GainSetResult) -> list:
             if r.v_increase[j] > campaign.v_increase_tol:
                 reasons.append(f"V increased by {r.v_increase[j]:.3g} (relative) between two output times")
         if reasons:
-            p = draw_problem(campaign, int(r.index[j]), name)
-            out.append({
-                "gains": name,
-                "index": int(r.index[j]),
-                "seed": {"entropy": int(campaign.seed), "spawn_key": [int(r.index[j])]},
-                "reasons": reasons,
-                "lambda_run": _float(r.lam[j]),
-                "rho_end": _float(rho_end[j]),
-                "omega0": p.omega0.tolist(),
-                "R0": p.R0.tolist(),
-                "r_hat0": p.r_hat0.tolist(),
-                "omega_hat0": p.omega_hat0.tolist(),
-                "torque": {
-                    "amplitudes": p.torque.amplitudes.tolist(),
-                    "frequencies": p.torque.frequencies.tolist(),
-                    "phases": p.torque.phases.tolist(),
-                },
-            })
+            found.append((j, reasons))
+    # the initial conditions of all counterexamples in one draw (those of draw_problem for each)
+    d = _draw_runs(campaign, [r.index[j] for j, _ in found])
+    out = []
+    for row, (j, reasons) in enumerate(found):
+        out.append({
+            "gains": name,
+            "index": int(r.index[j]),
+            "seed": {"entropy": int(campaign.seed), "spawn_key": [int(r.index[j])]},
+            "reasons": reasons,
+            "lambda_run": _float(r.lam[j]),
+            "rho_end": _float(rho_end[j]),
+            "omega0": d["omega0"][row].tolist(),
+            "R0": d["R0"][row].tolist(),
+            "r_hat0": d["r_hat0"][row].tolist(),
+            "omega_hat0": d["omega_hat0"][row].tolist(),
+            "torque": {
+                "amplitudes": d["amplitudes"][row].tolist(),
+                "frequencies": d["frequencies"][row].tolist(),
+                "phases": d["phases"][row].tolist(),
+            },
+        })
     return out
 
 
