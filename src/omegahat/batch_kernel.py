@@ -291,17 +291,18 @@ def _lanes_worker(
     RNb = RNa + m
     RNc = RNb + m
     Rya = RNc + m
-    Ryb = Rya + m
-    Ryc = Ryb + m
-    RN_fresh = Ryc + m  # first right-hand side of newly loaded runs
-    Rcoef = RN_fresh + m  # φ-weights, 6 per direction
+    Ryb = Rya + m  # also the third stage's point y_c: y_b is not needed once N_b is known
+    Ryc = Ryb
+    Rcoef = Ryb + m  # φ-weights, 6 per direction
     Rlf = Rcoef + 6 * n  # rates l_i frozen at y
     Rlf_new = Rlf + n
-    Rlf_fresh = Rlf_new + n
-    Rtmp = Rlf_fresh + n  # 4 rows of scratch
+    Rtmp = Rlf_new + n  # 4 rows of scratch
     Rtau = Rtmp + 4  # τ at t, t + h/2, t + h: row Rtau + 3 s + d
-    Rtau_fresh = Rtau + 9
-    Rtc = Rtau_fresh + 3  # the lane's torque: constant, a_j cos φ_j, a_j sin φ_j (row + 3 j + d), ν_j
+    # newly loaded runs: their first right-hand side, rates and torque go to rows a trial overwrites anyway
+    RN_fresh = RNa
+    Rlf_fresh = Rlf_new
+    Rtau_fresh = Rtau
+    Rtc = Rtau + 9  # the lane's torque: constant, a_j cos φ_j, a_j sin φ_j (row + 3 j + d), ν_j
     Racos = Rtc + 3
     Rasin = Racos + 3 * M
     Rtf = Rasin + 3 * M
