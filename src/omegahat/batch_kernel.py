@@ -69,10 +69,11 @@ def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy, rtmp)
     K20, K21, K22 = Jinv[2, 0], Jinv[2, 1], Jinv[2, 2]
     yw = ry + iw
     yz = ry + iz
-    for w in range(LANES):
+    for w in range(LANES):  # n is a compile-time constant: the direction loop below unrolls, this one vectorises
         w0, w1, w2 = S[yw, w], S[yw + 1, w], S[yw + 2, w]
         z0, z1, z2 = S[yz, w], S[yz + 1, w], S[yz + 2, w]
         wh0, wh1, wh2 = w0 + z0, w1 + z1, w2 + z2
+        norm_wh = np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
         Jw0 = J00 * w0 + J01 * w1 + J02 * w2
         Jw1 = J10 * w0 + J11 * w1 + J12 * w2
         Jw2 = J20 * w0 + J21 * w1 + J22 * w2
@@ -91,23 +92,14 @@ def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy, rtmp)
         s0, s1, s2 = _cross_into(Jz0, Jz1, Jz2, w0, w1, w2)
         p0, p1, p2 = _cross_into(Jw0, Jw1, Jw2, z0, z1, z2)
         q0, q1, q2 = _cross_into(Jz0, Jz1, Jz2, z0, z1, z2)
-        S[rtmp, w] = s0 + (p0 + q0)
-        S[rtmp + 1, w] = s1 + (p1 + q1)
-        S[rtmp + 2, w] = s2 + (p2 + q2)
-        S[rtmp + 3, w] = np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
-    for i in range(n):
-        ki = k[i]
-        lo = l_off[i]
-        ls = l_slope[i]
-        yr = ry + 3 * i
-        ye = ry + ie + 3 * i
-        dr = rdy + 3 * i
-        de = rdy + ie + 3 * i
-        li = rlf + i
-        for w in range(LANES):
-            w0, w1, w2 = S[yw, w], S[yw + 1, w], S[yw + 2, w]
-            z0, z1, z2 = S[yz, w], S[yz + 1, w], S[yz + 2, w]
-            wh0, wh1, wh2 = w0 + z0, w1 + z1, w2 + z2
+        s0 += p0 + q0
+        s1 += p1 + q1
+        s2 += p2 + q2
+        for i in range(n):
+            yr = ry + 3 * i
+            ye = ry + ie + 3 * i
+            dr = rdy + 3 * i
+            de = rdy + ie + 3 * i
             r0, r1, r2 = S[yr, w], S[yr + 1, w], S[yr + 2, w]
             e0, e1, e2 = S[ye, w], S[ye + 1, w], S[ye + 2, w]
             # ṙ_i = r_i × ω
@@ -118,17 +110,15 @@ def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy, rtmp)
             # r_i × z, then r̂_i × (r_i × z)
             c0, c1, c2 = _cross_into(r0, r1, r2, z0, z1, z2)
             d0, d1, d2 = _cross_into(r0 + e0, r1 + e1, r2 + e2, c0, c1, c2)
-            S[rtmp, w] += ki * d0
-            S[rtmp + 1, w] += ki * d1
-            S[rtmp + 2, w] += ki * d2
+            s0 += k[i] * d0
+            s1 += k[i] * d1
+            s2 += k[i] * d2
             # ė_i = r_i × z + e_i × ω̂ − (l_i(ω̂) − l_frozen) e_i
             f0, f1, f2 = _cross_into(e0, e1, e2, wh0, wh1, wh2)
-            dl = lo + ls * S[rtmp + 3, w] - S[li, w]
+            dl = l_off[i] + l_slope[i] * norm_wh - S[rlf + i, w]
             S[de, w] = c0 + f0 - dl * e0
             S[de + 1, w] = c1 + f1 - dl * e1
             S[de + 2, w] = c2 + f2 - dl * e2
-    for w in range(LANES):
-        s0, s1, s2 = S[rtmp, w], S[rtmp + 1, w], S[rtmp + 2, w]
         S[rdy + iz, w] = K00 * s0 + K01 * s1 + K02 * s2
         S[rdy + iz + 1, w] = K10 * s0 + K11 * s1 + K12 * s2
         S[rdy + iz + 2, w] = K20 * s0 + K21 * s1 + K22 * s2
@@ -230,13 +220,12 @@ def _half_stage_lanes(S, n, ry, rN, rhalf, rcoef, rout):
     """The first two stages of :func:`omegahat.simulate._etdrk4_step`: ``y + (h/2) N`` on (r, ω, z) and
     ``E₂ e + Q N_e`` on each e_i, into rows ``rout..``."""
     ie = 3 * n + 6
-    for j in range(ie):
-        for w in range(LANES):
+    for w in range(LANES):  # lanes outside, components inside: see _nonlinear_lanes
+        for j in range(ie):
             S[rout + j, w] = S[ry + j, w] + S[rhalf, w] * S[rN + j, w]
-    for i in range(n):
-        c = rcoef + 6 * i
-        for j in range(ie + 3 * i, ie + 3 * i + 3):
-            for w in range(LANES):
+        for i in range(n):
+            c = rcoef + 6 * i
+            for j in range(ie + 3 * i, ie + 3 * i + 3):
                 S[rout + j, w] = S[c + 1, w] * S[ry + j, w] + S[c + 2, w] * S[rN + j, w]
 
 
@@ -421,24 +410,22 @@ def _lanes_worker(
         _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Rya, Rlf, Rtau + 3, RNa, Rtmp)
         _half_stage_lanes(S, n, Ry, RNa, Rhalf, Rcoef, Ryb)
         _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryb, Rlf, Rtau + 3, RNb, Rtmp)
-        for j in range(ie):
-            for w in range(LANES):
+        for w in range(LANES):
+            for j in range(ie):
                 S[Ryc + j, w] = S[Ry + j, w] + S[Rhh, w] * S[RNb + j, w]
-        for i in range(n):
-            c = Rcoef + 6 * i
-            for j in range(ie + 3 * i, ie + 3 * i + 3):
-                for w in range(LANES):
+            for i in range(n):
+                c = Rcoef + 6 * i
+                for j in range(ie + 3 * i, ie + 3 * i + 3):
                     S[Ryc + j, w] = S[c + 1, w] * S[Rya + j, w] + S[c + 2, w] * (2.0 * S[RNb + j, w] - S[RNu + j, w])
         _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryc, Rlf, Rtau + 6, RNc, Rtmp)
-        for j in range(ie):
-            for w in range(LANES):
+        for w in range(LANES):
+            for j in range(ie):
                 S[Ry_new + j, w] = S[Ry + j, w] + S[Rh6, w] * (
                     S[RNu + j, w] + 2.0 * S[RNa + j, w] + 2.0 * S[RNb + j, w] + S[RNc + j, w]
                 )
-        for i in range(n):
-            c = Rcoef + 6 * i
-            for j in range(ie + 3 * i, ie + 3 * i + 3):
-                for w in range(LANES):
+            for i in range(n):
+                c = Rcoef + 6 * i
+                for j in range(ie + 3 * i, ie + 3 * i + 3):
                     S[Ry_new + j, w] = (
                         S[c, w] * S[Ry + j, w]
                         + S[c + 3, w] * S[RNu + j, w]
