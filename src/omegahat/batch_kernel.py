@@ -128,43 +128,43 @@ def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy, rtmp)
 def _frozen_rates_lanes(S, n, l_off, l_slope, ry, rout):
     """:func:`omegahat.simulate._frozen_rates` for every lane: row ``rout + i`` = l_i(ω̂) at the state rows ``ry..``."""
     iw = ry + 3 * n
-    for i in range(n):
-        lo = l_off[i]
-        ls = l_slope[i]
-        for w in range(LANES):
-            wh0 = S[iw, w] + S[iw + 3, w]
-            wh1 = S[iw + 1, w] + S[iw + 4, w]
-            wh2 = S[iw + 2, w] + S[iw + 5, w]
-            S[rout + i, w] = lo + ls * np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
+    for w in range(LANES):
+        wh0 = S[iw, w] + S[iw + 3, w]
+        wh1 = S[iw + 1, w] + S[iw + 4, w]
+        wh2 = S[iw + 2, w] + S[iw + 5, w]
+        norm_wh = np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
+        for i in range(n):
+            S[rout + i, w] = l_off[i] + l_slope[i] * norm_wh
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_end, rcs_end, rsd, rcd):
     """:func:`omegahat.simulate._torque_stages` for every lane: τ at t, t + h/2, t + h into rows
-    ``rtau + 3s + d`` and sin, cos of ν_j (t + h) into rows ``rsn_end + j``, ``rcs_end + j``."""
-    for s in range(3):
-        for d in range(3):
-            for w in range(LANES):
-                S[rtau + 3 * s + d, w] = S[rtc + d, w]
-    for j in range(M):
-        for w in range(LANES):
-            S[rsd, w], S[rcd, w] = _sin_cos_small(0.5 * S[rtf + j, w] * S[rhh, w])
-        for w in range(LANES):  # large angles (not in a campaign with h_max ν ≤ 1/2): the library's sin and cos
+    ``rtau + 3s + d`` and sin, cos of ν_j (t + h) into rows ``rsn_end + j``, ``rcs_end + j``; rows ``rsd + j``,
+    ``rcd + j`` hold sin, cos of ν_j h/2."""
+    for w in range(LANES):
+        for j in range(M):
+            S[rsd + j, w], S[rcd + j, w] = _sin_cos_small(0.5 * S[rtf + j, w] * S[rhh, w])
+    for w in range(LANES):  # large angles (not in a campaign with h_max ν ≤ 1/2): the library's sin and cos
+        for j in range(M):
             x = 0.5 * S[rtf + j, w] * S[rhh, w]
             if abs(x) > _SINCOS_SMALL:
-                S[rsd, w] = np.sin(x)
-                S[rcd, w] = np.cos(x)
-        ac = racos + 3 * j
-        asn = rasin + 3 * j
-        for w in range(LANES):
+                S[rsd + j, w] = np.sin(x)
+                S[rcd + j, w] = np.cos(x)
+    for w in range(LANES):
+        for s in range(3):
+            for d in range(3):
+                S[rtau + 3 * s + d, w] = S[rtc + d, w]
+        for j in range(M):
+            ac = racos + 3 * j
+            asn = rasin + 3 * j
             a = S[rsn + j, w]
             b = S[rcs + j, w]
-            sdw = S[rsd, w]
-            cdw = S[rcd, w]
+            sdw = S[rsd + j, w]
+            cdw = S[rcd + j, w]
             for s in range(3):
-                S[rtau + 3 * s, w] += S[ac, w] * a + S[asn, w] * b
-                S[rtau + 3 * s + 1, w] += S[ac + 1, w] * a + S[asn + 1, w] * b
-                S[rtau + 3 * s + 2, w] += S[ac + 2, w] * a + S[asn + 2, w] * b
+                for d in range(3):
+                    S[rtau + 3 * s + d, w] += S[ac + d, w] * a + S[asn + d, w] * b
                 if s < 2:
                     a, b = a * cdw + b * sdw, b * cdw - a * sdw
             S[rsn_end + j, w] = a
@@ -230,11 +230,14 @@ def _half_stage_lanes(S, n, ry, rN, rhalf, rcoef, rout):
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _select_row(Si, rmask, rdst, rsrc):
-    """Row ``rdst`` of the workspace takes row ``rsrc`` in the lanes whose mask (row ``rmask``) is all ones."""
+def _select_rows(Si, rmask, rdst, rsrc, count):
+    """Rows ``rdst .. rdst + count`` of the workspace take rows ``rsrc ..`` in the lanes whose mask (row
+    ``rmask``) is all ones: a bitwise select, exact, which LLVM vectorises (``a if c else b`` on two rows of S
+    became a select of addresses, lane by lane)."""
     for w in range(LANES):
         mk = Si[rmask, w]
-        Si[rdst, w] = (Si[rsrc, w] & mk) | (Si[rdst, w] & ~mk)
+        for j in range(count):
+            Si[rdst + j, w] = (Si[rsrc + j, w] & mk) | (Si[rdst + j, w] & ~mk)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -300,8 +303,8 @@ def _lanes_worker(
     Rsn_new = Rcs + M
     Rcs_new = Rsn_new + M
     Rsd = Rcs_new + M  # sin, cos of ν_j h/2
-    Rcd = Rsd + 1
-    Rhh = Rcd + 1  # the trial's step, h/2, h/6
+    Rcd = Rsd + M
+    Rhh = Rcd + M  # the trial's step, h/2, h/6
     Rhalf = Rhh + 1
     Rh6 = Rhalf + 1
     Rerr = Rh6 + 1  # the trial's error ratio
@@ -437,10 +440,9 @@ def _lanes_worker(
 
         # ---- embedded error (simulate._embedded_error) -----------------------------------------------------------
         for w in range(LANES):
-            S[Rerr, w] = 0.0
-        for b in range(2 * n + 2):
-            j0 = 3 * b
-            for w in range(LANES):
+            worst = 0.0
+            for b in range(2 * n + 2):
+                j0 = 3 * b
                 if j0 >= ie:  # e_i: weight h(4φ₃ − φ₂), N(y_new) re-taken with the step's frozen rates
                     i = b - n - 2
                     wt = S[Rcoef + 6 * i + 5, w]
@@ -455,8 +457,8 @@ def _lanes_worker(
                 v1 = S[Ry_new + j0 + 1, w]
                 v2 = S[Ry_new + j0 + 2, w]
                 ratio2 = (d0 * d0 + d1 * d1 + d2 * d2) / (a2 + r2 * (v0 * v0 + v1 * v1 + v2 * v2))
-                worst = S[Rerr, w]
-                S[Rerr, w] = ratio2 if (ratio2 > worst or ratio2 != ratio2) else worst
+                worst = ratio2 if (ratio2 > worst or ratio2 != ratio2) else worst
+            S[Rerr, w] = worst
         for w in range(LANES):
             S[Rerr, w] = np.sqrt(S[Rerr, w])
             S[Rfactor, w] = _step_factor(S[Rerr, w])
@@ -499,16 +501,11 @@ def _lanes_worker(
             h[w] = hw * factor
 
         # ---- accepted lanes move to the new point (FSAL: N_new becomes Nu) ------------------------------------
-        # A bitwise select (mask all ones where accepted): exact, and LLVM vectorises it, unlike `a if c else b`
-        # on two rows of S, which it turns into a select of addresses, lane by lane.
-        for j in range(m):
-            _select_row(Si, Rmask, Ry + j, Ry_new + j)
-            _select_row(Si, Rmask, RNu + j, RN_new + j)
-        for i in range(n):
-            _select_row(Si, Rmask, Rlf + i, Rlf_new + i)
-        for j in range(M):
-            _select_row(Si, Rmask, Rsn + j, Rsn_new + j)
-            _select_row(Si, Rmask, Rcs + j, Rcs_new + j)
+        _select_rows(Si, Rmask, Ry, Ry_new, m)
+        _select_rows(Si, Rmask, RNu, RN_new, m)
+        _select_rows(Si, Rmask, Rlf, Rlf_new, n)
+        _select_rows(Si, Rmask, Rsn, Rsn_new, M)
+        _select_rows(Si, Rmask, Rcs, Rcs_new, M)
 
         # ---- finished runs leave their lanes ---------------------------------------------------------------------
         for w in range(LANES):
