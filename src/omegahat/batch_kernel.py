@@ -175,7 +175,7 @@ def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_
 def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef, rex):
     """The step's φ-weights of :func:`omegahat.simulate._etdrk4_step` for every lane: rows
     ``rcoef + 6i .. rcoef + 6i + 6`` = E, E₂, Q, f₁, f₂, f₃ for direction i. The exponentials are taken lane by
-    lane (libm; rows ``rex``, ``rex + 1``), the rest on whole rows. A direction whose rates equal the previous
+    lane (libm, e^{x/2} only; row ``rex``), the rest on whole rows. A direction whose rates equal the previous
     one's in every lane (equal gains, the usual case) copies its weights."""
     for i in range(n):
         c = rcoef + 6 * i
@@ -188,25 +188,31 @@ def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef, rex):
                     for w in range(LANES):
                         S[c + a, w] = S[c - 6 + a, w]
                 continue
-        for w in range(LANES):
+        any_small = False
+        for w in range(LANES):  # libm's exp, lane by lane
             x = -S[rlf + i, w] * S[rhh, w]
-            S[rex, w] = np.exp(x)
-            S[rex + 1, w] = np.exp(0.5 * x)
-        for w in range(LANES):  # simulate._phi123 and _phi1_exp, both branches computed, one selected
+            S[rex, w] = np.exp(0.5 * x)
+            any_small = any_small or abs(x) < 1.0
+        for w in range(LANES):  # simulate._etdrk4_step's weights: both branches computed, one selected
             h = S[rhh, w]
             x = -S[rlf + i, w] * h
-            small = abs(x) < 0.5
-            t1, t2, t3, tex = _phi123_taylor(x)
-            c1, c2, c3, cex = _phi123_closed(x, S[rex, w])
-            p1 = t1 if small else c1
-            p2 = t2 if small else c2
-            p3 = t3 if small else c3
-            ex = tex if small else cex
             x2 = 0.5 * x
-            small2 = abs(x2) < 0.5
-            u1, uex = _phi1_taylor(x2)
-            ex2 = uex if small2 else S[rex + 1, w]
-            q1 = u1 if small2 else (ex2 - 1.0) / x2
+            c1, c2, c3, cex = _phi123_closed(x, S[rex, w] * S[rex, w])
+            q1 = (S[rex, w] - 1.0) / x2
+            ex2 = S[rex, w]
+            p1, p2, p3, ex = c1, c2, c3, cex
+            if any_small:  # the Taylor branches (|x| < 1/2, |x/2| < 1/2), skipped when no lane needs them
+                small = abs(x) < 0.5
+                small2 = abs(x2) < 0.5
+                t1, t2, t3, tex = _phi123_taylor(x)
+                u1, uex = _phi1_taylor(x2)
+                ex2 = uex if small2 else ex2
+                q1 = u1 if small2 else q1
+                c1, c2, c3, cex = _phi123_closed(x, ex2 * ex2)
+                p1 = t1 if small else c1
+                p2 = t2 if small else c2
+                p3 = t3 if small else c3
+                ex = tex if small else cex
             S[c, w] = ex
             S[c + 1, w] = ex2
             S[c + 2, w] = 0.5 * h * q1
@@ -309,8 +315,8 @@ def _lanes_worker(
     Rh6 = Rhalf + 1
     Rerr = Rh6 + 1  # the trial's error ratio
     Rfactor = Rerr + 1  # the next step over this one
-    Rex = Rfactor + 1  # exp(−l h) and exp(−l h/2), two rows
-    Rmask = Rex + 2  # all bits set where the trial was accepted (read through the int64 view Si)
+    Rex = Rfactor + 1  # exp(−l h/2)
+    Rmask = Rex + 1  # all bits set where the trial was accepted (read through the int64 view Si)
     S = np.zeros((Rmask + 1, LANES))
     Si = S.view(np.int64)
     for j in range(M):

@@ -430,8 +430,11 @@ def _etdrk4_step(y, Nu, l_frozen, h, n, J, Jinv, k, l_off, l_slope, tau_mid, tau
                 coef[6 * i + c] = coef[6 * i - 6 + c]
             continue
         x = -l_frozen[i] * h
-        p1, p2, p3, ex = _phi123(x)
         q1, ex2 = _phi1_exp(0.5 * x)
+        if abs(x) < 0.5:
+            p1, p2, p3, ex = _phi123_taylor(x)
+        else:  # one exponential a step: e^x = (e^{x/2})², within 2 units in the last place
+            p1, p2, p3, ex = _phi123_closed(x, ex2 * ex2)
         coef[6 * i] = ex
         coef[6 * i + 1] = ex2
         coef[6 * i + 2] = 0.5 * h * q1
