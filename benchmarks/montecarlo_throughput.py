@@ -1,21 +1,25 @@
-"""Throughput of Monte-Carlo campaigns: the batch engine (Numba prange over runs) beside a per-run Python loop.
+"""Throughput of Monte-Carlo campaigns: the lockstep batch engine beside the per-run kernels.
 
 Unit: one **observer step** = one accepted step of the coupled integrator (``omegahat.simulate``): a trial that
 passed the error test and advanced plant + observer; it is one ETDRK4 step with its embedded error estimate and
 costs 4 evaluations of the right-hand side (three stages and the new point, which is also the next step's first
 stage; a rejected trial costs the same 4; one more per run at the start). Rejected trials are reported but not
-counted as steps. Also printed: ETDRK4 steps/s (1 per trial, accepted or rejected) and right-hand-side
-evaluations/s. Steps/s alone flatters a scheme that takes more, cheaper steps: compare wall times too.
-(Before the embedded estimate, a trial was a full step and two half steps, 3 ETDRK4 steps and 11 evaluations.)
+counted as steps. Also printed: right-hand-side evaluations/s. Steps/s alone flatters a scheme that takes more,
+cheaper steps: compare wall times too.
 
     /tmp/venv/bin/python benchmarks/montecarlo_throughput.py                 # 10,000 runs, gain set "theorem"
-    /tmp/venv/bin/python benchmarks/montecarlo_throughput.py --runs 1000 --gains slope
+    /tmp/venv/bin/python benchmarks/montecarlo_throughput.py --runs 1000 --gains slope --loop-runs 200
 
-Three timings over the same runs (examples/campaign.toml, horizon 20 s, output every 0.05 s):
-  engine   simulate_batch on the pre-drawn problems, chunk by chunk (the kernel and its packing only);
+Timings over the same runs (examples/campaign.toml, horizon 20 s, output every 0.05 s), chunk by chunk as a
+campaign cuts them (``--chunk``, default the campaign's):
+  lanes    omegahat.batch_kernel.integrate_coupled_lanes (what campaigns use): each thread steps its runs 32 at
+           a time in lockstep, SIMD over runs;
+  prange   omegahat.simulate.integrate_coupled_batch: a Numba prange over runs, each run the scalar single-run
+           kernel (the engine before the lockstep kernel); its results must equal the lanes' bit for bit;
   campaign run_campaign end to end (drawing the runs, the kernel, the diagnostics);
   loop     a Python loop calling omegahat.simulate.simulate once per run (one core).
-The machine load (os.getloadavg) is printed: on a shared machine the numbers are lower bounds.
+Kernel timings exclude drawing and packing the runs (done before the clock starts). The machine load
+(os.getloadavg) is printed: on a shared machine the numbers are lower bounds.
 """
 
 from __future__ import annotations
@@ -26,70 +30,115 @@ import time
 from pathlib import Path
 
 import numba
+import numpy as np
 
 from omegahat import montecarlo as mc
-from omegahat.simulate import simulate
+from omegahat.batch_kernel import LANES, integrate_coupled_lanes
+from omegahat.simulate import initial_state, integrate_coupled_batch, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _rates(label, seconds, acc, rej, runs):
-    trials = acc + rej
-    rhs = 4 * trials + runs
+    rhs = 4 * (acc + rej) + runs
     print(
-        f"{label:9s} {seconds:8.2f} s  {acc / seconds:10.3e} steps/s  {trials / seconds:10.3e} ETDRK4 steps/s  "
-        f"{rhs / seconds:10.3e} RHS evals/s  ({acc} steps, {rej} rejected, {runs} runs)"
+        f"{label:9s} {seconds:8.2f} s  {acc / seconds:10.3e} steps/s  {rhs / seconds:10.3e} RHS evals/s  "
+        f"({acc} steps, {rej} rejected, {runs} runs)"
     )
+
+
+def _pack(problems, h_max):
+    """The kernels' arguments for a chunk of problems (as omegahat.montecarlo packs them)."""
+    N = len(problems)
+    p0 = problems[0]
+    M = p0.torque.frequencies.size
+    g = p0.gains
+    body = (g.n, p0.J, np.linalg.inv(p0.J), g.k, g.l_offset, g.l_slope)
+    torque = (
+        np.array([p.torque.constant for p in problems]),
+        np.array([p.torque.amplitudes for p in problems]).reshape(N, M, 3),
+        np.array([p.torque.frequencies for p in problems]).reshape(N, M),
+        np.array([p.torque.phases for p in problems]).reshape(N, M, 3),
+    )
+    Y0 = np.array([initial_state(p) for p in problems])
+    h0 = np.array([min(h_max, 0.1 / max(1.0, float(np.max(p.gains.l(p.omega_hat0))))) for p in problems])
+    return Y0, body, torque, h0
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=10_000)
     ap.add_argument("--gains", default="theorem", help="gain set of examples/campaign.toml (theorem)")
+    ap.add_argument("--chunk", type=int, default=None, help="runs per kernel call (default: the campaign's)")
     ap.add_argument("--loop-runs", type=int, default=None, help="runs in the Python loop (default: all)")
+    ap.add_argument("--skip-prange", action="store_true", help="do not time the per-run prange kernel")
     ap.add_argument("--config", default=str(ROOT / "examples" / "campaign.toml"))
     args = ap.parse_args()
 
     base = mc.load_campaign(args.config)
     campaign = mc.replace(base, runs=args.runs, gains={args.gains: base.gains[args.gains]})
-    print(f"threads: {numba.get_num_threads()} (numba), cores: {os.cpu_count()}, load avg: {os.getloadavg()}")
+    if args.chunk is not None:
+        campaign = mc.replace(campaign, chunk_size=args.chunk)
+    workers = numba.get_num_threads()
+    print(f"threads: {workers} (numba), cores: {os.cpu_count()}, lanes: {LANES}, chunk: {campaign.chunk_size}, "
+          f"load avg: {os.getloadavg()}")
     # compile (and load the on-disk cache) outside the timings
     warm = mc.replace(campaign, runs=2, horizon=0.2)
     mc.run_campaign(warm)
     simulate(mc.draw_problem(warm, 0), t_out=warm.t_out, rtol=warm.rtol)
+    c = campaign
+    tol = (float(c.rtol), float(c.atol))
+    steps = (float(c.h_max), int(c.max_steps))
+    t_out = c.t_out
 
     t0 = time.perf_counter()
-    problems = [mc.draw_problem(campaign, j, args.gains) for j in range(campaign.runs)]
-    t_draw = time.perf_counter() - t0
-    print(f"drawing {campaign.runs} problems: {t_draw:.2f} s")
+    problems = [mc.draw_problem(c, j, args.gains) for j in range(c.runs)]
+    packed = [_pack(problems[a:b], c.h_max) for a, b in mc.chunks(c)]
+    print(f"drawing and packing {c.runs} problems: {time.perf_counter() - t0:.2f} s")
+    Y0w, bw, tw, hw = packed[0]
+    integrate_coupled_lanes(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)
+    integrate_coupled_batch(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)
+
+    kernels = [("lanes", integrate_coupled_lanes)] + ([] if args.skip_prange else [("prange", integrate_coupled_batch)])
+    results = {}
+    for label, kernel in kernels:
+        t0 = time.perf_counter()
+        acc = rej = 0
+        out = []
+        for Y0, body, torque, h0 in packed:
+            Y, a, r, ok = kernel(Y0, t_out, *body, *torque, *tol, h0, *steps, workers)
+            acc += int(a.sum())
+            rej += int(r.sum())
+            out.append((Y[:, -1].copy(), a, r, ok))
+        seconds = time.perf_counter() - t0
+        _rates(label, seconds, acc, rej, c.runs)
+        results[label] = (seconds, acc, out)
+    if "prange" in results:
+        same = all(
+            np.array_equal(x, y, equal_nan=True)
+            for u, v in zip(results["lanes"][2], results["prange"][2])
+            for x, y in zip(u, v)
+        )
+        print(f"lanes / prange: {results['prange'][0] / results['lanes'][0]:.2f}x faster; final states, step "
+              f"counts and flags identical: {same}")
 
     t0 = time.perf_counter()
-    e_acc = e_rej = 0
-    for start, stop in mc.chunks(campaign):  # chunked as in a campaign: (chunk, T, 6n + 6) states at a time
-        batch = mc.simulate_batch(problems[start:stop], campaign.t_out, rtol=campaign.rtol, atol=campaign.atol,
-                                  h_max=campaign.h_max, max_steps=campaign.max_steps)
-        e_acc += int(batch.accepted.sum())
-        e_rej += int(batch.rejected.sum())
-    t_engine = time.perf_counter() - t0
-    _rates("engine", t_engine, e_acc, e_rej, campaign.runs)
+    res = mc.run_campaign(c)[args.gains]
+    _rates("campaign", time.perf_counter() - t0, int(res.steps.sum()), int(res.rejected.sum()), c.runs)
 
-    t0 = time.perf_counter()
-    res = mc.run_campaign(campaign)[args.gains]
-    t_campaign = time.perf_counter() - t0
-    _rates("campaign", t_campaign, int(res.steps.sum()), int(res.rejected.sum()), campaign.runs)
-
-    n_loop = campaign.runs if args.loop_runs is None else args.loop_runs
-    t0 = time.perf_counter()
-    acc = rej = 0
-    for p in problems[:n_loop]:
-        tr = simulate(p, t_out=campaign.t_out, rtol=campaign.rtol, atol=campaign.atol, h_max=campaign.h_max,
-                      max_steps=campaign.max_steps)
-        acc += tr.steps
-        rej += tr.rejected
-    t_loop = time.perf_counter() - t0
-    _rates("loop", t_loop, acc, rej, n_loop)
-    speedup = (e_acc / t_engine) / (acc / t_loop)
-    print(f"engine / loop speed-up: {speedup:.2f}x (steps/s); load avg after: {os.getloadavg()}")
+    n_loop = c.runs if args.loop_runs is None else args.loop_runs
+    if n_loop > 0:
+        t0 = time.perf_counter()
+        acc = rej = 0
+        for p in problems[:n_loop]:
+            tr = simulate(p, t_out=t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max, max_steps=c.max_steps)
+            acc += tr.steps
+            rej += tr.rejected
+        t_loop = time.perf_counter() - t0
+        _rates("loop", t_loop, acc, rej, n_loop)
+        seconds, lanes_acc, _ = results["lanes"]
+        print(f"lanes / loop speed-up: {(lanes_acc / seconds) / (acc / t_loop):.2f}x (steps/s)")
+    print(f"load avg after: {os.getloadavg()}")
 
 
 if __name__ == "__main__":

@@ -1,9 +1,10 @@
 r"""Monte-Carlo campaigns: many independent plant + observer runs, and what they say about the theorem.
 
 **Batch engine.** :func:`simulate_batch` integrates ``N`` coupled problems (same body, references and gains;
-own initial conditions and torque) with :func:`omegahat.simulate.integrate_coupled_batch`, a Numba ``prange``
-over runs that calls the single-run kernel :func:`omegahat.simulate.integrate_coupled` unchanged, so every run
-is bit-for-bit what :func:`omegahat.simulate.simulate` gives for it, whatever the batch or chunk it sits in.
+own initial conditions and torque) with :func:`omegahat.batch_kernel.integrate_coupled_lanes`: each of Numba's
+threads steps its share of the runs 32 at a time in lockstep (SIMD), each run with its own step sizes and
+performing exactly the operations of the single-run kernel :func:`omegahat.simulate.integrate_coupled`, so every
+run is bit-for-bit what :func:`omegahat.simulate.simulate` gives for it, whatever the batch or chunk it sits in.
 
 **Seeds.** Run ``j`` of a campaign with seed ``s`` draws everything from
 ``numpy.random.default_rng(SeedSequence(s, spawn_key=(j,)))``: the ``j``-th child of
@@ -71,12 +72,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from omegahat._validation import as_directions, as_inertia
+from omegahat.batch_kernel import integrate_coupled_lanes
 from omegahat.gains import ObserverGains, check_gains, theorem_gains
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
     integrate_coupled,
-    integrate_coupled_batch,
     simulate,
 )
 
@@ -138,7 +139,7 @@ def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_s
     tc, ta, tf, tp = runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"]
     args = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
     if parallel:
-        Y, acc, rej, ok = integrate_coupled_batch(
+        Y, acc, rej, ok = integrate_coupled_lanes(
             Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers
         )
     else:
@@ -167,7 +168,7 @@ def simulate_batch(
     """Integrate ``problems`` (a sequence of :class:`~omegahat.simulate.CoupledProblem` sharing J, gains and
     references); each run equals ``simulate(problem, t_out=t_out, ...)`` bit for bit.
 
-    ``parallel=True``: one Numba ``prange`` over runs on ``n_workers`` threads (default: Numba's thread count).
+    ``parallel=True``: the lockstep kernel on ``n_workers`` threads (default: Numba's thread count).
     ``parallel=False``: a loop calling the single-run kernel, for callers that parallelise themselves (Dask
     workers running several tasks in threads; Numba's default threading layer must not be entered from two
     threads at once). A failed run does not raise: its ``ok`` is False and its rows after the failure are NaN.
