@@ -29,7 +29,8 @@ an embedded estimate (the ETD34 construction of Whalen, Brio & Moloney, J. Compu
 nonlinear part at the new point, which the next step needs anyway (first same as last), replaces the last stage
 in ETDRK4's final combination, giving a third-order solution; ``δ = b₄ (N(c) − N(y_{n+1}))`` is its difference
 from the fourth-order solution, which is the one propagated. The test is a mixed relative/absolute tolerance per
-block ``(r_i, ω, z, e_i)``. Four evaluations of the right-hand side per step (step doubling, used before, took
+block ``(r_i, ω, z, e_i)``: ``max_b |δ_b| / √(atol² + rtol² |y_b|²) ≤ 1``, and the next step is
+``0.9 (ratio)^(−1/4)`` times this one, clipped to [0.2, 4]. Four evaluations of the right-hand side per step (step doubling, used before, took
 11). On the stiff ``e_i`` the estimate is close to the true local error of ETDRK4, which there scales like
 ``h³`` (the last stage sees ``z`` at a second-order stage: the method's stiff order reduction); the step-doubling
 estimate ``(y_half − y_full)/15`` assumed ``h⁵`` and underestimated it up to tenfold, so the new control takes
@@ -37,6 +38,10 @@ more, cheaper steps and its results are closer to the reference at the same ``rt
 estimate is of third order, hence conservative. Steps are not forced onto the output times: those are filled by
 the step's continuous extension of order 3 (ETDRK4's combination with θ-dependent φ-weights, exact on the stiff
 decay; the classical RK4 dense output on the other blocks); only the last step ends on the last output time.
+
+**Many runs at once.** :mod:`omegahat.batch_kernel` steps many runs in lockstep (SIMD over runs) and gives each
+run the very bits of :func:`integrate_coupled`; the two share their small pieces (``_sin_cos_small``, the
+φ-functions, ``_step_factor``).
 
 **Torques.** The kernel evaluates the torque itself, so it must be given as data:
 :class:`SinusoidalTorque` ``τ(t) = c + Σ_j a_j ∘ sin(ν_j t + φ_j)`` (a constant is the case with no terms).
