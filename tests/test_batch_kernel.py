@@ -101,15 +101,17 @@ def test_fast_torque_takes_the_library_sin_cos_branch():
     _compare(problems, np.linspace(0.0, 1.0, 5), rtol=1e-5)
 
 
-def test_split_over_workers_does_not_change_any_bit():
+def test_split_over_workers_or_serial_does_not_change_any_bit():
     J = np.diag([3.0, 2.0, 1.0])
     gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
     problems = _problems(LANES + 3, 2, 2, seed=4, gains=gains)
     Y0, body, torque, h0 = _pack(problems, 0.05)
     t = np.linspace(0.0, 1.0, 11)
     runs = [integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, w) for w in (1, 3)]
-    for a, b in zip(*runs):
+    runs.append(integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2, parallel=False))
+    for a, b, c in zip(*runs):
         np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(a, c)
 
 
 def test_failed_runs_report_ok_false_and_keep_nan_rows_like_the_single_run_kernel():

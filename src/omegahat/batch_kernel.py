@@ -524,33 +524,54 @@ def _lanes_worker(
                 active -= 1
 
 
+@numba.njit(cache=True, inline="always")
+def _results(N, T, n):
+    """The kernels' outputs: states (NaN until written), accepted and rejected steps, success flags."""
+    return (
+        np.full((N, T, 6 * n + 6), np.nan),
+        np.zeros(N, dtype=np.int64),
+        np.zeros(N, dtype=np.int64),
+        np.zeros(N, dtype=np.bool_),
+    )
+
+
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _integrate_lanes(
     Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers, M
 ):
-    N = Y0.shape[0]
-    T = t_out.shape[0]
-    Y = np.full((N, T, 6 * n + 6), np.nan)
-    accepted = np.zeros(N, dtype=np.int64)
-    rejected = np.zeros(N, dtype=np.int64)
-    ok = np.zeros(N, dtype=np.bool_)
+    Y, accepted, rejected, ok = _results(Y0.shape[0], t_out.shape[0], n)
     for wk in numba.prange(n_workers):
         _lanes_worker(
-            np.arange(wk, N, n_workers), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol,
-            atol, h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
+            np.arange(wk, Y0.shape[0], n_workers), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf,
+            tp, rtol, atol, h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
         )
     return Y, accepted, rejected, ok
 
 
-_COMPILED = {}  # (n, number of torque terms) -> the compiled kernel's entry point
+@numba.njit(cache=True, error_model="numpy")
+def _integrate_lanes_serial(
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers, M
+):
+    # the same on the calling thread (no Numba threading layer: callers that run several in threads, Dask)
+    Y, accepted, rejected, ok = _results(Y0.shape[0], t_out.shape[0], n)
+    _lanes_worker(
+        np.arange(Y0.shape[0]), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol,
+        h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
+    )
+    return Y, accepted, rejected, ok
+
+
+_COMPILED = {}  # (parallel, n, number of torque terms) -> the compiled kernel's entry point
 
 
 def integrate_coupled_lanes(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
+    parallel=True,
 ):
     """:func:`omegahat.simulate.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
     computed in lockstep: run ``i`` goes to worker ``i mod n_workers``, each worker steps its runs ``LANES`` at a
     time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``.
+    ``parallel=False``: all runs on the calling thread, without Numba's threading layer (``n_workers`` ignored).
 
     The number of directions ``n`` and of torque terms are compiled in as constants (one compiled kernel per
     pair, cached on disk): the workspace's row offsets are then constants and LLVM vectorises every lane loop.
@@ -562,12 +583,13 @@ def integrate_coupled_lanes(
         f64(Y0), f64(t_out), int(n), f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
         f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps), int(n_workers), int(tf.shape[1]),
     )
-    key = (args[2], args[-1])
+    kernel = _integrate_lanes if parallel else _integrate_lanes_serial
+    key = (bool(parallel), args[2], args[-1])
     entry = _COMPILED.get(key)
     if entry is not None:
         return entry(*args)
-    result = _integrate_lanes(*args)  # compiles, or loads from the cache, the kernel for this (n, M)
-    for sig, cres in _integrate_lanes.overloads.items():
-        if sig[2] == numba.types.literal(key[0]) and sig[-1] == numba.types.literal(key[1]):
+    result = kernel(*args)  # compiles, or loads from the cache, the kernel for this (n, M)
+    for sig, cres in kernel.overloads.items():
+        if sig[2] == numba.types.literal(key[1]) and sig[-1] == numba.types.literal(key[2]):
             _COMPILED[key] = cres.entry_point
     return result
