@@ -1,5 +1,6 @@
 """Monte-Carlo campaigns: batch = loop of simulate, chunking and replay, seeds, envelope fit against closed forms,
-the sampler's ranges, counterexamples, TOML errors and the command."""
+the compiled diagnostics against their NumPy reference, the sampler's ranges, counterexamples, TOML errors and the
+command."""
 
 import dataclasses
 import json
@@ -142,6 +143,49 @@ def test_run_chunk_equals_drawing_each_problem_per_gain_set():
                 assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), (name, f.name)
             steps.append(want.steps)
         assert not np.array_equal(steps[0], steps[2])  # the gain sets really are integrated differently
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # the reference's nanmax of failed runs' NaN rows
+def test_compiled_diagnose_equals_numpy_reference():
+    """diagnose (one Numba pass, threads or not) gives every field of _diagnose_numpy on runs of every kind: failed
+    (step budget: NaN rows), leaving |ω| ≤ ω_M, reaching ρ_floor or not, V increasing (constant l), plus rows edited
+    by hand: a NaN or infinite state in runs the kernel reported ok, a NaN ω alone (nanmax), E(0) = 0."""
+    gains = {
+        "theorem": theorem_gains(J, 3.0),
+        "slope": ObserverGains(k=[5.0, 5.0], l_offset=5.0, l_slope=2.0),
+        "constant": ObserverGains.constant(14.5, 1.0),
+    }
+    c = _small(runs=24, gains=gains, horizon=3.0, dt_out=0.05, omega0_fraction=1.0, torque_amplitude=1.0,
+               p_zero=0.25, p_opposite=0.25, max_steps=2100)
+    indices = np.arange(c.runs)
+    runs = mc._draw_runs(c, indices)
+    seen = dict.fromkeys(["failed", "out of bound", "floor reached", "floor not reached", "V increased"], 0)
+    for name, g in gains.items():
+        batch = mc._integrate(c.J, c.references, g, runs, c.t_out, c.rtol, c.atol, c.h_max, c.max_steps, None, True)
+        if name == "slope":
+            Y = batch.Y.copy()
+            Y[0, 7, 9] = np.nan  # z of run 0 (ok for the kernel): ok becomes False
+            Y[3, 5, 12] = np.inf  # e_1 of run 3: ok becomes False too
+            Y[1, [0, 1, -1], 6] = np.nan  # ω of run 1 only: it stays ok, its peak is the largest finite |ω|
+            Y[2, :, 9:] = 0.0  # z = e = 0: E(0) = 0, ρ = NaN
+            batch = dataclasses.replace(batch, Y=Y)
+        want = mc._diagnose_numpy(c, batch, indices)
+        for parallel in (True, False):
+            got = mc.diagnose(c, batch, indices, parallel=parallel)
+            for f in dataclasses.fields(mc.GainSetResult):
+                a, b = getattr(got, f.name), getattr(want, f.name)
+                assert a.dtype == b.dtype and a.shape == b.shape, (name, f.name)
+                if a.dtype.kind == "f":
+                    np.testing.assert_allclose(a, b, rtol=1e-12, atol=0, equal_nan=True, err_msg=f"{name} {f.name}")
+                else:
+                    np.testing.assert_array_equal(a, b, err_msg=f"{name} {f.name}")
+        ok = want.ok
+        seen["failed"] += int((~ok).sum())
+        seen["out of bound"] += int((ok & ~want.in_bound).sum())
+        seen["floor reached"] += int((ok & (want.t_f < c.t_out[-1])).sum())
+        seen["floor not reached"] += int((ok & (want.t_f == c.t_out[-1])).sum())
+        seen["V increased"] += int((ok & (want.v_increase > c.v_increase_tol)).sum())
+    assert min(seen.values()) >= 3, seen
 
 
 def test_sampler_ranges_and_special_initial_filters():
