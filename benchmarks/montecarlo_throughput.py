@@ -116,8 +116,8 @@ def main():
     if "prange" in results:
         same = all(
             np.array_equal(x, y, equal_nan=True)
-            for u, v in zip(results["lanes"][2], results["prange"][2])
-            for x, y in zip(u, v)
+            for u, v in zip(results["lanes"][2], results["prange"][2], strict=True)
+            for x, y in zip(u, v, strict=True)
         )
         print(f"lanes / prange: {results['prange'][0] / results['lanes'][0]:.2f}x faster; final states, step "
               f"counts and flags identical: {same}")

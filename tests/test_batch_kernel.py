@@ -14,8 +14,8 @@ from omegahat.gains import ObserverGains, theorem_gains
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
-    _phi123,
     _phi1_exp,
+    _phi123,
     _sin_cos_small,
     _step_factor,
     initial_state,
@@ -109,7 +109,7 @@ def test_split_over_workers_or_serial_does_not_change_any_bit():
     t = np.linspace(0.0, 1.0, 11)
     runs = [integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, w) for w in (1, 3)]
     runs.append(integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2, parallel=False))
-    for a, b, c in zip(*runs):
+    for a, b, c in zip(*runs, strict=True):
         np.testing.assert_array_equal(a, b)
         np.testing.assert_array_equal(a, c)
 
@@ -130,6 +130,7 @@ def test_failed_runs_report_ok_false_and_keep_nan_rows_like_the_single_run_kerne
     assert acc[1] == 0 and rej[1] > 0 and np.isnan(Y[1, 1:]).all()
     Yi, a, r, good = integrate_coupled(Y0[1], t, *body, *(x[1] for x in torque), 1e-7, 1e-15, h0[1], 0.05, 10**6)
     assert (a, r, good) == (acc[1], rej[1], False)
+    np.testing.assert_array_equal(Yi, Y[1])
 
 
 def test_a_single_output_time_integrates_nothing():
@@ -137,7 +138,8 @@ def test_a_single_output_time_integrates_nothing():
     gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
     problems = _problems(3, 2, 2, seed=6, gains=gains)
     Y, acc, rej, ok = _compare(problems, np.array([0.0]))
-    assert ok.all() and (acc == 0).all()
+    assert ok.all() and (acc == 0).all() and (rej == 0).all() and Y.shape == (3, 1, 18)
+    np.testing.assert_array_equal(Y[:, 0], np.array([initial_state(p) for p in problems]))
 
 
 def test_small_angle_sin_cos_agree_with_numpy_to_rounding():

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-
 from numba import literally
 
 from omegahat.simulate import (

@@ -79,7 +79,6 @@ from omegahat.gains import ObserverGains, check_gains, theorem_gains
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
-    integrate_coupled,
     simulate,
 )
 
@@ -140,20 +139,10 @@ def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_s
     h0 = np.minimum(h_max, 0.1 / np.maximum(1.0, np.max(l0, axis=1)))
     tc, ta, tf, tp = runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"]
     args = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
-    if parallel:
-        Y, acc, rej, ok = integrate_coupled_lanes(
-            Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers
-        )
-    else:
-        Y = np.empty((N, t_out.size, Y0.shape[1]))
-        acc = np.zeros(N, dtype=np.int64)
-        rej = np.zeros(N, dtype=np.int64)
-        ok = np.zeros(N, dtype=bool)
-        for j in range(N):
-            Y[j], acc[j], rej[j], ok[j] = integrate_coupled(
-                Y0[j], t_out, *args, tc[j], ta[j], tf[j], tp[j], float(rtol), float(atol), h0[j], float(h_max),
-                int(max_steps),
-            )
+    Y, acc, rej, ok = integrate_coupled_lanes(
+        Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
+        parallel=parallel,
+    )
     return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
 
 
@@ -171,7 +160,7 @@ def simulate_batch(
     references); each run equals ``simulate(problem, t_out=t_out, ...)`` bit for bit.
 
     ``parallel=True``: the lockstep kernel on ``n_workers`` threads (default: Numba's thread count).
-    ``parallel=False``: a loop calling the single-run kernel, for callers that parallelise themselves (Dask
+    ``parallel=False``: the lockstep kernel on the calling thread, for callers that parallelise themselves (Dask
     workers running several tasks in threads; Numba's default threading layer must not be entered from two
     threads at once). A failed run does not raise: its ``ok`` is False and its rows after the failure are NaN.
     """

@@ -21,23 +21,23 @@ cancellation, ``(Jω̂) × ω̂ − (Jω) × ω = (Jz) × ω + (Jω) × z + (Jz)
 They are checked against the observer's own equations integrated by ``scipy.integrate.solve_ivp``
 (:func:`simulate_reference`) in ``tests/test_simulate.py``.
 
-**Integrator.** An exponential Runge–Kutta method of order 4 (ETDRK4, Cox & Matthews, J. Comput. Phys. 176,
-2002) whose linear part is the scalar decay ``−l_i(ω̂_n)`` of each ``e_i`` frozen at the start of the step (the
-rest, including ``−(l_i(ω̂) − l_i(ω̂_n)) e_i``, is the explicit part); on the other components it reduces to the
-classical RK4. The stiff decay is therefore integrated exactly whatever ``l_i h``. The step size is controlled by
-an embedded estimate (the ETD34 construction of Whalen, Brio & Moloney, J. Comput. Phys. 280, 2015): the
-nonlinear part at the new point, which the next step needs anyway (first same as last), replaces the last stage
-in ETDRK4's final combination, giving a third-order solution; ``δ = b₄ (N(c) − N(y_{n+1}))`` is its difference
-from the fourth-order solution, which is the one propagated. The test is a mixed relative/absolute tolerance per
-block ``(r_i, ω, z, e_i)``: ``max_b |δ_b| / √(atol² + rtol² |y_b|²) ≤ 1``, and the next step is
-``0.9 (ratio)^(−1/4)`` times this one, clipped to [0.2, 4]. Four evaluations of the right-hand side per step (step doubling, used before, took
-11). On the stiff ``e_i`` the estimate is close to the true local error of ETDRK4, which there scales like
-``h³`` (the last stage sees ``z`` at a second-order stage: the method's stiff order reduction); the step-doubling
-estimate ``(y_half − y_full)/15`` assumed ``h⁵`` and underestimated it up to tenfold, so the new control takes
-more, cheaper steps and its results are closer to the reference at the same ``rtol``. On ``(r, ω, z)`` the
-estimate is of third order, hence conservative. Steps are not forced onto the output times: those are filled by
-the step's continuous extension of order 3 (ETDRK4's combination with θ-dependent φ-weights, exact on the stiff
-decay; the classical RK4 dense output on the other blocks); only the last step ends on the last output time.
+**Integrator.** An exponential Runge–Kutta method of order 4 (ETDRK4, Cox & Matthews, J. Comput. Phys. 176, 2002)
+whose linear part is the scalar decay ``−l_i(ω̂_n)`` of each ``e_i`` frozen at the start of the step (the rest,
+including ``−(l_i(ω̂) − l_i(ω̂_n)) e_i``, is the explicit part); on the other components it reduces to the classical
+RK4. The stiff decay is therefore integrated exactly whatever ``l_i h``. The step size is controlled by an embedded
+estimate (the ETD34 construction of Whalen, Brio & Moloney, J. Comput. Phys. 280, 2015): the nonlinear part at the
+new point, which the next step needs anyway (first same as last), replaces the last stage in ETDRK4's final
+combination, giving a third-order solution; ``δ = b₄ (N(c) − N(y_{n+1}))`` is its difference from the fourth-order
+solution, which is the one propagated. The test is a mixed relative/absolute tolerance per block ``(r_i, ω, z,
+e_i)``: ``max_b |δ_b| / √(atol² + rtol² |y_b|²) ≤ 1``, and the next step is ``0.9 (ratio)^(−1/4)`` times this one,
+clipped to [0.2, 4]. Four evaluations of the right-hand side per step (step doubling, used before, took 11). On the
+stiff ``e_i`` the estimate is close to the true local error of ETDRK4, which there scales like ``h³`` (the last
+stage sees ``z`` at a second-order stage: the method's stiff order reduction); the step-doubling estimate ``(y_half
+− y_full)/15`` assumed ``h⁵`` and underestimated it up to tenfold, so the new control takes more, cheaper steps and
+its results are closer to the reference at the same ``rtol``. On ``(r, ω, z)`` the estimate is of third order, hence
+conservative. Steps are not forced onto the output times: those are filled by the step's continuous extension of
+order 3 (ETDRK4's combination with θ-dependent φ-weights, exact on the stiff decay; the classical RK4 dense output
+on the other blocks); only the last step ends on the last output time.
 
 **Many runs at once.** :mod:`omegahat.batch_kernel` steps many runs in lockstep (SIMD over runs) and gives each
 run the very bits of :func:`integrate_coupled`; the two share their small pieces (``_sin_cos_small``, the
@@ -229,9 +229,10 @@ class CoupledTrajectory:
 #
 # Cost per accepted step (the unit of omegahat.montecarlo's throughput): one trial = one ETDRK4 step, 4
 # evaluations of the nonlinear part (three stages and the new point, which is the next step's first stage; a
-# rejected trial costs the same 4), torque at 3 times from sin and cos of ν_j h/2 per term (a polynomial for small angles; sin and cos at the
-# step's start are carried from the previous step by angle addition), φ-functions at 2 arguments per distinct
-# rate, no heap allocation inside the loop. Each output time inside a step adds φ-functions at 1 argument.
+# rejected trial costs the same 4), torque at 3 times from sin and cos of ν_j h/2 per term (a polynomial for
+# small angles; sin and cos at the step's start are carried from the previous step by angle addition), one
+# exponential per distinct rate, no heap allocation inside the loop. Each output time inside a step adds
+# φ-functions at 1 argument.
 # _nonlinear and _etdrk4_step are inlined by Numba (inline="always": measured 12% less time per step).
 # --------------------------------------------------------------------------------------------------------------
 
@@ -261,8 +262,8 @@ def _sin_cos_small(x):
 def _torque_stages(h, c, a_cos, a_sin, freq, sn, cs, out, sn_end, cs_end):
     """τ at t, t + h/2 and t + h into ``out (3, 3)``: τ(t) = c + Σ_j a_j sin(ν_j t + φ_j), written
     (a_j cos φ_j) sin ν_j t + (a_j sin φ_j) cos ν_j t, from ``sn[j] = sin ν_j t`` and ``cs[j] = cos ν_j t``; the
-    later times by the angle-addition rotation by ν_j h/2 (:func:`_sin_cos_small` when |ν_j h/2| ≤ 1/4), which also gives
-    sin and cos at t + h into ``sn_end``, ``cs_end`` (the next step's ``sn``, ``cs``)."""
+    later times by the angle-addition rotation by ν_j h/2 (:func:`_sin_cos_small` when |ν_j h/2| ≤ 1/4), which
+    also gives sin and cos at t + h into ``sn_end``, ``cs_end`` (the next step's ``sn``, ``cs``)."""
     for s in range(3):
         out[s, 0] = c[0]
         out[s, 1] = c[1]
