@@ -280,7 +280,8 @@ def _lanes_worker(
     Y, accepted, rejected, ok, M,
 ):
     """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes; results into
-    ``Y[run]``, ``accepted[run]``, ``rejected[run]``, ``ok[run]`` (``Y`` pre-filled with NaN)."""
+    ``Y[run]``, ``accepted[run]``, ``rejected[run]``, ``ok[run]``; a failed run's rows from the failure on are
+    NaN."""
     m = 6 * n + 6
     T = t_out.shape[0]
     ie = 3 * n + 6
@@ -408,6 +409,7 @@ def _lanes_worker(
                 accepted[i] = acc[w]
                 rejected[i] = rej[w]
                 ok[i] = False
+                Y[i, idx[w]:] = np.nan  # the rows the run did not reach
                 run[w] = -1
                 active -= 1
                 continue
@@ -489,6 +491,7 @@ def _lanes_worker(
                     accepted[i] = acc[w]
                     rejected[i] = rej[w]
                     ok[i] = False
+                    Y[i, idx[w]:] = np.nan  # the rows the run did not reach
                     run[w] = -1
                     active -= 1
                     continue
@@ -535,7 +538,7 @@ def _lanes_worker(
 def _results(N, T, n):
     """The kernels' outputs: states (NaN until written), accepted and rejected steps, success flags."""
     return (
-        np.full((N, T, 6 * n + 6), np.nan),
+        np.empty((N, T, 6 * n + 6)),  # every row is written: a state, or NaN after a failure
         np.zeros(N, dtype=np.int64),
         np.zeros(N, dtype=np.int64),
         np.zeros(N, dtype=np.bool_),
