@@ -23,8 +23,8 @@ new run is evaluated for all lanes at once and kept for the new lane only.
 has them, so a campaign split over a cluster of different machines gives the numbers of the local run (as long
 as libm's ``exp``, ``sin`` and ``cos`` agree: the φ-functions, the torque's phases and large angles call them).
 
-**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads): 1.34e7 accepted steps/s, against
-4.2e6 for a ``prange`` over runs of the single-run kernel. In one thread a step costs about 150 ns: the four
+**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads): 1.47e7 accepted steps/s, against
+4.3e6 for a ``prange`` over runs of the single-run kernel. In one thread a step costs about 140 ns: the four
 right-hand sides about 40 ns (≈ 230 floating-point operations each, close to AVX2's rate without fused
 multiply-adds), the rest the stage combinations, one exponential per step and lane, the dense output at output
 times and the per-lane bookkeeping.
