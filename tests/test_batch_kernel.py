@@ -176,3 +176,18 @@ def test_step_factor_is_the_clipped_fourth_root_rule():
     for err in (1e-12, 0.01, 0.5, 0.999, 1.0, 3.0, 1e6):
         assert _step_factor(err) == pytest.approx(min(4.0, max(0.2, 0.9 * err ** -0.25)), rel=1e-15)
     assert _step_factor(0.0) == 4.0
+
+
+def test_inconsistent_shapes_are_named_before_the_unchecked_kernel_runs():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    Y0, body, (tc, ta, tf, tp), h0 = _pack(_problems(3, 2, 2, seed=7, gains=gains), 0.05)
+    t = np.linspace(0.0, 0.1, 3)
+    with pytest.raises(ValueError, match=r"ta must have shape \(3, 2, 3\)"):
+        integrate_coupled_lanes(Y0, t, *body, tc, ta[:, :1], tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)
+    with pytest.raises(ValueError, match=r"h0 must have shape \(3,\)"):
+        integrate_coupled_lanes(Y0, t, *body, tc, ta, tf, tp, 1e-7, 1e-15, h0[:2], 0.05, 100, 2)
+    with pytest.raises(ValueError, match=r"Y0 must have shape \(3, 18\)"):
+        integrate_coupled_lanes(Y0[:, :12], t, *body, tc, ta, tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)
+    with pytest.raises(ValueError, match="t_out must be a non-empty 1-D array"):
+        integrate_coupled_lanes(Y0, t[:0], *body, tc, ta, tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)

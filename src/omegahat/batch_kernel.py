@@ -589,6 +589,21 @@ def integrate_coupled_lanes(
     called directly (Numba's dispatch of literal arguments costs about 14 ms a call).
     """
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    n = int(n)
+    N = np.shape(Y0)[0] if np.ndim(Y0) == 2 else -1
+    M = np.shape(tf)[1] if np.ndim(tf) == 2 else -1
+    # the compiled kernel does not check bounds: every shape is checked here, by name
+    expected = {
+        "Y0": (np.shape(Y0), (N, 6 * n + 6)), "J": (np.shape(J), (3, 3)), "Jinv": (np.shape(Jinv), (3, 3)),
+        "k": (np.shape(k), (n,)), "l_off": (np.shape(l_off), (n,)), "l_slope": (np.shape(l_slope), (n,)),
+        "tc": (np.shape(tc), (N, 3)), "ta": (np.shape(ta), (N, M, 3)), "tf": (np.shape(tf), (N, M)),
+        "tp": (np.shape(tp), (N, M, 3)), "h0": (np.shape(h0), (N,)),
+    }
+    for name, (got, want) in expected.items():
+        if N < 0 or M < 0 or got != want:
+            raise ValueError(f"{name} must have shape {want} (N runs, n = {n} directions, M torque terms); got {got}")
+    if np.ndim(t_out) != 1 or np.size(t_out) < 1:
+        raise ValueError(f"t_out must be a non-empty 1-D array; got shape {np.shape(t_out)}")
     args = (
         f64(Y0), f64(t_out), int(n), f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
         f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps), int(n_workers), int(tf.shape[1]),
