@@ -20,6 +20,7 @@ from omegahat.simulate import (
     _step_factor,
     initial_state,
     integrate_coupled,
+    integrate_coupled_batch,
 )
 
 
@@ -109,9 +110,11 @@ def test_split_over_workers_or_serial_does_not_change_any_bit():
     t = np.linspace(0.0, 1.0, 11)
     runs = [integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, w) for w in (1, 3)]
     runs.append(integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2, parallel=False))
-    for a, b, c in zip(*runs, strict=True):
-        np.testing.assert_array_equal(a, b)
-        np.testing.assert_array_equal(a, c)
+    # and the engine before it, a prange over runs of the single-run kernel (benchmarks/montecarlo_throughput.py)
+    runs.append(integrate_coupled_batch(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2))
+    for a, *others in zip(*runs, strict=True):
+        for b in others:
+            np.testing.assert_array_equal(a, b)
 
 
 def test_failed_runs_report_ok_false_and_keep_nan_rows_like_the_single_run_kernel():
