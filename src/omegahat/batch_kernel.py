@@ -274,6 +274,19 @@ def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, r
             )
 
 
+@numba.njit(cache=True, inline="always")
+def _release_lane(w, good, run, acc, rej, idx, Y, accepted, rejected, ok):
+    """Lane ``w``'s run ends (``good``: it reached the last output time): its counters and flag go out, the
+    rows a failed run did not reach become NaN, and the lane is free."""
+    i = run[w]
+    accepted[i] = acc[w]
+    rejected[i] = rej[w]
+    ok[i] = good
+    if not good:
+        Y[i, idx[w]:] = np.nan
+    run[w] = -1
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _lanes_worker(
     runs, Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps,
@@ -405,12 +418,7 @@ def _lanes_worker(
             if run[w] < 0:
                 continue
             if acc[w] + rej[w] >= max_steps:
-                i = run[w]
-                accepted[i] = acc[w]
-                rejected[i] = rej[w]
-                ok[i] = False
-                Y[i, idx[w]:] = np.nan  # the rows the run did not reach
-                run[w] = -1
+                _release_lane(w, False, run, acc, rej, idx, Y, accepted, rejected, ok)
                 active -= 1
                 continue
             hw = min(h[w], h_max)
@@ -488,11 +496,7 @@ def _lanes_worker(
             hw = S[Rhh, w]
             if not np.isfinite(e):
                 if hw < 1e-14:
-                    accepted[i] = acc[w]
-                    rejected[i] = rej[w]
-                    ok[i] = False
-                    Y[i, idx[w]:] = np.nan  # the rows the run did not reach
-                    run[w] = -1
+                    _release_lane(w, False, run, acc, rej, idx, Y, accepted, rejected, ok)
                     active -= 1
                     continue
                 h[w] = 0.25 * hw
@@ -525,12 +529,8 @@ def _lanes_worker(
 
         # ---- finished runs leave their lanes ---------------------------------------------------------------------
         for w in range(LANES):
-            i = run[w]
-            if i >= 0 and idx[w] >= T:
-                accepted[i] = acc[w]
-                rejected[i] = rej[w]
-                ok[i] = True
-                run[w] = -1
+            if run[w] >= 0 and idx[w] >= T:
+                _release_lane(w, True, run, acc, rej, idx, Y, accepted, rejected, ok)
                 active -= 1
 
 
