@@ -34,7 +34,7 @@ import numpy as np
 
 from omegahat import montecarlo as mc
 from omegahat.batch_kernel import LANES, integrate_coupled_lanes
-from omegahat.simulate import initial_state, integrate_coupled_batch, simulate
+from omegahat.simulate import integrate_coupled_batch, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -45,24 +45,6 @@ def _rates(label, seconds, acc, rej, runs):
         f"{label:9s} {seconds:8.2f} s  {acc / seconds:10.3e} steps/s  {rhs / seconds:10.3e} RHS evals/s  "
         f"({acc} steps, {rej} rejected, {runs} runs)"
     )
-
-
-def _pack(problems, h_max):
-    """The kernels' arguments for a chunk of problems (as omegahat.montecarlo packs them)."""
-    N = len(problems)
-    p0 = problems[0]
-    M = p0.torque.frequencies.size
-    g = p0.gains
-    body = (g.n, p0.J, np.linalg.inv(p0.J), g.k, g.l_offset, g.l_slope)
-    torque = (
-        np.array([p.torque.constant for p in problems]),
-        np.array([p.torque.amplitudes for p in problems]).reshape(N, M, 3),
-        np.array([p.torque.frequencies for p in problems]).reshape(N, M),
-        np.array([p.torque.phases for p in problems]).reshape(N, M, 3),
-    )
-    Y0 = np.array([initial_state(p) for p in problems])
-    h0 = np.array([min(h_max, 0.1 / max(1.0, float(np.max(p.gains.l(p.omega_hat0))))) for p in problems])
-    return Y0, body, torque, h0
 
 
 def main():
@@ -93,7 +75,7 @@ def main():
 
     t0 = time.perf_counter()
     problems = [mc.draw_problem(c, j, args.gains) for j in range(c.runs)]
-    packed = [_pack(problems[a:b], c.h_max) for a, b in mc.chunks(c)]
+    packed = [mc.kernel_inputs(problems[a:b], c.h_max) for a, b in mc.chunks(c)]
     print(f"drawing and packing {c.runs} problems: {time.perf_counter() - t0:.2f} s")
     Y0w, bw, tw, hw = packed[0]
     integrate_coupled_lanes(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)

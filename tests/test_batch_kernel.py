@@ -11,6 +11,7 @@ import pytest
 
 from omegahat.batch_kernel import LANES, integrate_coupled_lanes
 from omegahat.gains import ObserverGains, theorem_gains
+from omegahat.montecarlo import kernel_inputs
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
@@ -50,23 +51,8 @@ def _problems(n_runs, n_dirs, n_terms, seed, gains, freq=(0.5, 5.0)):
     return out
 
 
-def _pack(problems, h_max):
-    N = len(problems)
-    n = problems[0].gains.n
-    M = problems[0].torque.frequencies.size
-    tc = np.array([p.torque.constant for p in problems])
-    ta = np.array([p.torque.amplitudes for p in problems]).reshape(N, M, 3)
-    tf = np.array([p.torque.frequencies for p in problems]).reshape(N, M)
-    tp = np.array([p.torque.phases for p in problems]).reshape(N, M, 3)
-    Y0 = np.array([initial_state(p) for p in problems])
-    h0 = np.array([min(h_max, 0.1 / max(1.0, float(np.max(p.gains.l(p.omega_hat0))))) for p in problems])
-    g = problems[0].gains
-    J = problems[0].J
-    return Y0, (n, J, np.linalg.inv(J), g.k, g.l_offset, g.l_slope), (tc, ta, tf, tp), h0
-
-
 def _compare(problems, t_out, rtol=1e-7, atol=1e-15, h_max=0.05, max_steps=1_000_000, workers=2):
-    Y0, body, torque, h0 = _pack(problems, h_max)
+    Y0, body, torque, h0 = kernel_inputs(problems, h_max)
     Y, acc, rej, ok = integrate_coupled_lanes(Y0, t_out, *body, *torque, rtol, atol, h0, h_max, max_steps, workers)
     for i in range(len(problems)):
         Yi, a, r, good = integrate_coupled(
@@ -106,7 +92,7 @@ def test_split_over_workers_or_serial_does_not_change_any_bit():
     J = np.diag([3.0, 2.0, 1.0])
     gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
     problems = _problems(LANES + 3, 2, 2, seed=4, gains=gains)
-    Y0, body, torque, h0 = _pack(problems, 0.05)
+    Y0, body, torque, h0 = kernel_inputs(problems, 0.05)
     t = np.linspace(0.0, 1.0, 11)
     runs = [integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, w) for w in (1, 3)]
     runs.append(integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2, parallel=False))
@@ -126,7 +112,7 @@ def test_failed_runs_report_ok_false_and_keep_nan_rows_like_the_single_run_kerne
     Y, acc, rej, ok = _compare(problems, t, max_steps=30)
     assert not ok.any() and np.isnan(Y[:, -1]).all() and np.isfinite(Y[:, 0]).all()
     # a non-finite state is rejected down to h < 1e-14, then the run stops (it used to be accepted silently)
-    Y0, body, torque, h0 = _pack(problems, 0.05)
+    Y0, body, torque, h0 = kernel_inputs(problems, 0.05)
     Y0[1, 3 * 2 + 3] = np.inf  # z of run 1
     Y, acc, rej, ok = integrate_coupled_lanes(Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2)
     assert list(ok) == [True, False, True, True]
@@ -184,7 +170,7 @@ def test_step_factor_is_the_clipped_fourth_root_rule():
 def test_inconsistent_shapes_are_named_before_the_unchecked_kernel_runs():
     J = np.diag([3.0, 2.0, 1.0])
     gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
-    Y0, body, (tc, ta, tf, tp), h0 = _pack(_problems(3, 2, 2, seed=7, gains=gains), 0.05)
+    Y0, body, (tc, ta, tf, tp), h0 = kernel_inputs(_problems(3, 2, 2, seed=7, gains=gains), 0.05)
     t = np.linspace(0.0, 0.1, 3)
     with pytest.raises(ValueError, match=r"ta must have shape \(3, 2, 3\)"):
         integrate_coupled_lanes(Y0, t, *body, tc, ta[:, :1], tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)

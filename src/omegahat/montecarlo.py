@@ -89,6 +89,7 @@ __all__ = [
     "campaign_from_toml",
     "draw_problem",
     "envelope_fit",
+    "kernel_inputs",
     "load_campaign",
     "plot_envelopes",
     "plot_rates",
@@ -119,14 +120,11 @@ class BatchResult:
     ok: np.ndarray
 
 
-def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_steps, n_workers, parallel):
+def _kernel_inputs(J, references, gains, runs: dict, h_max):
     # The kernel's inputs packed from stacked runs (the arrays of _draw_runs: R0, omega0, r_hat0, omega_hat0 and
-    # the torque's constant, amplitudes, frequencies, phases, padded to a common number of terms), then the batch
-    # kernel. Y0 is omegahat.simulate.initial_state and h0 the first step of omegahat.simulate.simulate, row by row
-    # with the same floating-point operations, so each run is what simulate gives for it.
-    workers = numba.get_num_threads() if n_workers is None else int(n_workers)
-    if workers < 1:
-        raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
+    # the torque's constant, amplitudes, frequencies, phases, padded to a common number of terms). Y0 is
+    # omegahat.simulate.initial_state and h0 the first step of omegahat.simulate.simulate, row by row with the
+    # same floating-point operations, so each run is what simulate gives for it.
     omega0, omega_hat0 = runs["omega0"], runs["omega_hat0"]
     N = omega0.shape[0]
     r0 = references @ runs["R0"]  # (N, n, 3): r_i = R0ᵀ v_i of each run
@@ -137,13 +135,65 @@ def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_s
     speed = np.array([np.linalg.norm(w) for w in omega_hat0])
     l0 = gains.l_offset + gains.l_slope * speed[:, None]
     h0 = np.minimum(h_max, 0.1 / np.maximum(1.0, np.max(l0, axis=1)))
-    tc, ta, tf, tp = runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"]
-    args = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
+    body = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
+    torque = (runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"])
+    return Y0, body, torque, h0
+
+
+def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_steps, n_workers, parallel):
+    inputs = _kernel_inputs(J, references, gains, runs, h_max)
+    return _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel)
+
+
+def _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel) -> BatchResult:
+    workers = numba.get_num_threads() if n_workers is None else int(n_workers)
+    if workers < 1:
+        raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
+    Y0, body, torque, h0 = inputs
     Y, acc, rej, ok = integrate_coupled_lanes(
-        Y0, t_out, *args, tc, ta, tf, tp, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
+        Y0, t_out, *body, *torque, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
         parallel=parallel,
     )
     return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
+
+
+def kernel_inputs(problems, h_max: float = 0.05):
+    """The batch kernels' inputs for ``problems`` (sharing J, gains and references): ``(Y0, body, torque, h0)``
+    with ``body = (n, J, J⁻¹, k, l_offset, l_slope)`` and ``torque = (constant, amplitudes, frequencies,
+    phases)`` stacked over runs (padded to a common number of terms), for
+    :func:`omegahat.batch_kernel.integrate_coupled_lanes` or :func:`omegahat.simulate.integrate_coupled_batch`
+    as ``kernel(Y0, t_out, *body, *torque, rtol, atol, h0, h_max, max_steps, n_workers)``."""
+    problems = list(problems)
+    if not problems:
+        raise ValueError("a batch needs at least one problem")
+    p0 = problems[0]
+    for j, p in enumerate(problems):
+        same = (
+            np.array_equal(p.J, p0.J)
+            and np.array_equal(p.references, p0.references)
+            and all(np.array_equal(getattr(p.gains, a), getattr(p0.gains, a)) for a in ("k", "l_offset", "l_slope"))
+        )
+        if not same:
+            raise ValueError(f"problem {j} has another J, gains or references than problem 0; batch them apart")
+    N = len(problems)
+    M = max(p.torque.frequencies.size for p in problems)
+    # Padding with zero-amplitude terms adds exactly 0.0 to the torque: the padded run is the same run.
+    runs = {
+        "R0": np.stack([p.R0 for p in problems]),
+        "omega0": np.stack([p.omega0 for p in problems]),
+        "r_hat0": np.stack([p.r_hat0 for p in problems]),
+        "omega_hat0": np.stack([p.omega_hat0 for p in problems]),
+        "constant": np.stack([p.torque.constant for p in problems]),
+        "amplitudes": np.zeros((N, M, 3)),
+        "frequencies": np.zeros((N, M)),
+        "phases": np.zeros((N, M, 3)),
+    }
+    for j, p in enumerate(problems):
+        m = p.torque.frequencies.size
+        runs["amplitudes"][j, :m] = p.torque.amplitudes
+        runs["frequencies"][j, :m] = p.torque.frequencies
+        runs["phases"][j, :m] = p.torque.phases
+    return _kernel_inputs(p0.J, p0.references, p0.gains, runs, h_max)
 
 
 def simulate_batch(
@@ -164,40 +214,10 @@ def simulate_batch(
     workers running several tasks in threads; Numba's default threading layer must not be entered from two
     threads at once). A failed run does not raise: its ``ok`` is False and its rows after the failure are NaN.
     """
-    problems = list(problems)
-    if not problems:
-        raise ValueError("simulate_batch needs at least one problem")
-    p0 = problems[0]
-    for j, p in enumerate(problems):
-        same = (
-            np.array_equal(p.J, p0.J)
-            and np.array_equal(p.references, p0.references)
-            and all(np.array_equal(getattr(p.gains, a), getattr(p0.gains, a)) for a in ("k", "l_offset", "l_slope"))
-        )
-        if not same:
-            raise ValueError(f"problem {j} has another J, gains or references than problem 0; batch them apart")
     t_out = np.asarray(t_out, dtype=float)
     if t_out.ndim != 1 or t_out.size < 1 or t_out[0] != 0.0 or np.any(np.diff(t_out) <= 0):
         raise ValueError("t_out must start at 0 and increase strictly")
-    N = len(problems)
-    M = max(p.torque.frequencies.size for p in problems)
-    # Padding with zero-amplitude terms adds exactly 0.0 to the torque: the padded run is the same run.
-    runs = {
-        "R0": np.stack([p.R0 for p in problems]),
-        "omega0": np.stack([p.omega0 for p in problems]),
-        "r_hat0": np.stack([p.r_hat0 for p in problems]),
-        "omega_hat0": np.stack([p.omega_hat0 for p in problems]),
-        "constant": np.stack([p.torque.constant for p in problems]),
-        "amplitudes": np.zeros((N, M, 3)),
-        "frequencies": np.zeros((N, M)),
-        "phases": np.zeros((N, M, 3)),
-    }
-    for j, p in enumerate(problems):
-        m = p.torque.frequencies.size
-        runs["amplitudes"][j, :m] = p.torque.amplitudes
-        runs["frequencies"][j, :m] = p.torque.frequencies
-        runs["phases"][j, :m] = p.torque.phases
-    return _integrate(p0.J, p0.references, p0.gains, runs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel)
+    return _run_kernel(kernel_inputs(problems, h_max), t_out, rtol, atol, h_max, max_steps, n_workers, parallel)
 
 
 # --------------------------------------------------------------------------------------------------------------
