@@ -15,7 +15,8 @@ from omegahat.montecarlo import kernel_inputs
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
-    _phi1_exp,
+    _phi1_half_closed,
+    _phi1_taylor,
     _phi123,
     _sin_cos_small,
     _step_factor,
@@ -154,7 +155,8 @@ def _phi_exact(k, x):
 @pytest.mark.parametrize("x", [-1e-8, -0.1, -0.4999, -0.5, -0.5001, -2.0, -30.0, -800.0])
 def test_phi_functions_match_high_precision(x):
     p1, p2, p3, ex = _phi123(x)
-    q1, ex1 = _phi1_exp(x)
+    # φ₁ at x as a step computes it for its half step x = (2x)/2: the Taylor series or (e^x − 1)·(2/(2x))
+    q1, ex1 = _phi1_taylor(x) if abs(x) < 0.5 else (_phi1_half_closed(2.0 * x, ex), ex)
     for got, k in ((p1, 1), (p2, 2), (p3, 3), (q1, 1)):
         want = _phi_exact(k, x)
         assert abs(got - want) <= 4e-15 * abs(want), (k, x, got, want)
@@ -180,3 +182,28 @@ def test_inconsistent_shapes_are_named_before_the_unchecked_kernel_runs():
         integrate_coupled_lanes(Y0[:, :12], t, *body, tc, ta, tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)
     with pytest.raises(ValueError, match="t_out must be a non-empty 1-D array"):
         integrate_coupled_lanes(Y0, t[:0], *body, tc, ta, tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)
+
+
+def test_outputs_written_into_given_arrays_are_the_fresh_ones_and_bad_ones_are_named():
+    J = np.diag([3.0, 2.0, 1.0])
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    Y0, body, torque, h0 = kernel_inputs(_problems(5, 2, 2, seed=8, gains=gains), 0.05)
+    t = np.linspace(0.0, 0.5, 6)
+    args = (Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2)
+    fresh = integrate_coupled_lanes(*args)
+    # a reused buffer holding an earlier chunk's numbers (here: garbage) and a view of a larger one
+    big = np.full((8, 6, 18), 7.0)
+    out = (big[:5], np.full(5, -1, dtype=np.int64), np.full(5, -1, dtype=np.int64), np.zeros(5, dtype=bool))
+    got = integrate_coupled_lanes(*args, out=out)
+    assert all(g is o for g, o in zip(got, out, strict=True))
+    for a, b in zip(fresh, got, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert np.all(big[5:] == 7.0)  # nothing written outside the view
+    with pytest.raises(ValueError, match=r"out Y must be a writeable C-contiguous float64 array of shape \(5, 6, 18\)"):
+        integrate_coupled_lanes(*args, out=(big[:5, :5], *out[1:]))
+    with pytest.raises(ValueError, match="out ok must be"):
+        integrate_coupled_lanes(*args, out=(*out[:3], np.zeros(5)))
+    with pytest.raises(ValueError, match="out accepted must be"):
+        integrate_coupled_lanes(*args, out=(out[0], out[1][::-1][::-1].astype(np.int32), *out[2:]))
+    with pytest.raises(ValueError, match=r"out must be a tuple \(Y, accepted, rejected, ok\)"):
+        integrate_coupled_lanes(*args, out=list(out))

@@ -36,10 +36,13 @@ import numba
 import numpy as np
 from numba import literally
 
+from omegahat._exp import exp_kernel
 from omegahat.simulate import (
     _SINCOS_SMALL,
     _cross_into,
     _dense_weights,
+    _larger_ratio,
+    _phi1_half_closed,
     _phi1_taylor,
     _phi123,
     _phi123_closed,
@@ -179,11 +182,11 @@ def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef, rex):
+def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef):
     """The step's φ-weights of :func:`omegahat.simulate._etdrk4_step` for every lane: rows
-    ``rcoef + 6i .. rcoef + 6i + 6`` = E, E₂, Q, f₁, f₂, f₃ for direction i. The exponentials are taken lane by
-    lane (libm, e^{x/2} only; row ``rex``), the rest on whole rows. A direction whose rates equal the previous
-    one's in every lane (equal gains, the usual case) copies its weights."""
+    ``rcoef + 6i .. rcoef + 6i + 6`` = E, E₂, Q, f₁, f₂, f₃ for direction i, on whole rows (one exponential,
+    e^{x/2}, per lane: :func:`omegahat._exp.exp_kernel`, which vectorises). A direction whose rates equal the
+    previous one's in every lane (equal gains, the usual case) copies its weights."""
     for i in range(n):
         c = rcoef + 6 * i
         if i > 0:
@@ -196,36 +199,45 @@ def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef, rex):
                         S[c + a, w] = S[c - 6 + a, w]
                 continue
         any_small = False
-        for w in range(LANES):  # libm's exp, lane by lane
-            x = -S[rlf + i, w] * S[rhh, w]
-            S[rex, w] = np.exp(0.5 * x)
-            any_small = any_small or abs(x) < 1.0
-        for w in range(LANES):  # simulate._etdrk4_step's weights: both branches computed, one selected
-            h = S[rhh, w]
-            x = -S[rlf + i, w] * h
-            x2 = 0.5 * x
-            c1, c2, c3, cex = _phi123_closed(x, S[rex, w] * S[rex, w])
-            q1 = (S[rex, w] - 1.0) / x2
-            ex2 = S[rex, w]
-            p1, p2, p3, ex = c1, c2, c3, cex
-            if any_small:  # the Taylor branches (|x| < 1/2, |x/2| < 1/2), skipped when no lane needs them
+        for w in range(LANES):
+            any_small = any_small or abs(S[rlf + i, w] * S[rhh, w]) < 1.0
+        # simulate._etdrk4_step's weights. Two loops, so that LLVM vectorises each without the other's work (in
+        # one loop it computed the Taylor series for every lane in every step and selected)
+        if not any_small:
+            for w in range(LANES):
+                h = S[rhh, w]
+                x = -S[rlf + i, w] * h
+                ex2 = exp_kernel(0.5 * x)
+                p1, p2, p3, ex = _phi123_closed(x, ex2 * ex2)
+                _store_weights(S, c, w, h, ex, ex2, _phi1_half_closed(x, ex2), p1, p2, p3)
+        else:  # the Taylor branches (|x| < 1/2, |x/2| < 1/2) too: both computed, one selected
+            for w in range(LANES):
+                h = S[rhh, w]
+                x = -S[rlf + i, w] * h
+                x2 = 0.5 * x
                 small = abs(x) < 0.5
                 small2 = abs(x2) < 0.5
                 t1, t2, t3, tex = _phi123_taylor(x)
                 u1, uex = _phi1_taylor(x2)
-                ex2 = uex if small2 else ex2
-                q1 = u1 if small2 else q1
+                ex2 = uex if small2 else exp_kernel(x2)
+                q1 = u1 if small2 else _phi1_half_closed(x, ex2)
                 c1, c2, c3, cex = _phi123_closed(x, ex2 * ex2)
                 p1 = t1 if small else c1
                 p2 = t2 if small else c2
                 p3 = t3 if small else c3
                 ex = tex if small else cex
-            S[c, w] = ex
-            S[c + 1, w] = ex2
-            S[c + 2, w] = 0.5 * h * q1
-            S[c + 3, w] = h * (p1 - 3.0 * p2 + 4.0 * p3)
-            S[c + 4, w] = h * (2.0 * p2 - 4.0 * p3)
-            S[c + 5, w] = h * (4.0 * p3 - p2)
+                _store_weights(S, c, w, h, ex, ex2, q1, p1, p2, p3)
+
+
+@numba.njit(cache=True, inline="always")
+def _store_weights(S, c, w, h, ex, ex2, q1, p1, p2, p3):
+    """Rows ``c .. c + 6`` of lane w: E, E₂, Q, f₁, f₂, f₃ of :func:`omegahat.simulate._etdrk4_step`."""
+    S[c, w] = ex
+    S[c + 1, w] = ex2
+    S[c + 2, w] = 0.5 * h * q1
+    S[c + 3, w] = h * (p1 - 3.0 * p2 + 4.0 * p3)
+    S[c + 4, w] = h * (2.0 * p2 - 4.0 * p3)
+    S[c + 5, w] = h * (4.0 * p3 - p2)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -336,8 +348,7 @@ def _lanes_worker(
     Rh6 = Rhalf + 1
     Rerr = Rh6 + 1  # the trial's error ratio
     Rfactor = Rerr + 1  # the next step over this one
-    Rex = Rfactor + 1  # exp(−l h/2)
-    Rmask = Rex + 1  # all bits set where the trial was accepted (read through the int64 view Si)
+    Rmask = Rfactor + 1  # all bits set where the trial was accepted (read through the int64 view Si)
     S = np.zeros((Rmask + 1, LANES))
     Si = S.view(np.int64)
     for j in range(M):
@@ -431,7 +442,7 @@ def _lanes_worker(
 
         # ---- one ETDRK4 trial for all lanes (simulate._etdrk4_step, then the new point's N) -------------------
         _torque_stages_lanes(S, M, Rhh, Rtc, Racos, Rasin, Rtf, Rsn, Rcs, Rtau, Rsn_new, Rcs_new, Rsd, Rcd)
-        _phi_coefficients_lanes(S, n, Rlf, Rhh, Rcoef, Rex)
+        _phi_coefficients_lanes(S, n, Rlf, Rhh, Rcoef)
         _half_stage_lanes(S, n, Ry, RNu, Rhalf, Rcoef, Rya)
         _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Rya, Rlf, Rtau + 3, RNa, Rtmp)
         _half_stage_lanes(S, n, Ry, RNa, Rhalf, Rcoef, Ryb)
@@ -463,7 +474,8 @@ def _lanes_worker(
 
         # ---- embedded error (simulate._embedded_error) -----------------------------------------------------------
         for w in range(LANES):
-            worst = 0.0
+            worst_num = 0.0
+            worst_den = 1.0
             for b in range(2 * n + 2):
                 j0 = 3 * b
                 if j0 >= ie:  # e_i: weight h(4φ₃ − φ₂), N(y_new) re-taken with the step's frozen rates
@@ -479,9 +491,10 @@ def _lanes_worker(
                 v0 = S[Ry_new + j0, w]
                 v1 = S[Ry_new + j0 + 1, w]
                 v2 = S[Ry_new + j0 + 2, w]
-                ratio2 = (d0 * d0 + d1 * d1 + d2 * d2) / (a2 + r2 * (v0 * v0 + v1 * v1 + v2 * v2))
-                worst = ratio2 if (ratio2 > worst or ratio2 != ratio2) else worst
-            S[Rerr, w] = worst
+                worst_num, worst_den = _larger_ratio(
+                    d0 * d0 + d1 * d1 + d2 * d2, a2 + r2 * (v0 * v0 + v1 * v1 + v2 * v2), worst_num, worst_den
+                )
+            S[Rerr, w] = worst_num / worst_den
         for w in range(LANES):
             S[Rerr, w] = np.sqrt(S[Rerr, w])
             S[Rfactor, w] = _step_factor(S[Rerr, w])
@@ -534,41 +547,50 @@ def _lanes_worker(
                 active -= 1
 
 
-@numba.njit(cache=True, inline="always")
-def _results(N, T, n):
-    """The kernels' outputs: states (NaN until written), accepted and rejected steps, success flags."""
-    return (
-        np.empty((N, T, 6 * n + 6)),  # every row is written: a state, or NaN after a failure
-        np.zeros(N, dtype=np.int64),
-        np.zeros(N, dtype=np.int64),
-        np.zeros(N, dtype=np.bool_),
-    )
-
-
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _integrate_lanes(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers, M
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, Y, accepted,
+    rejected, ok, n_workers, M,
 ):
-    Y, accepted, rejected, ok = _results(Y0.shape[0], t_out.shape[0], n)
     for wk in numba.prange(n_workers):
         _lanes_worker(
             np.arange(wk, Y0.shape[0], n_workers), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf,
             tp, rtol, atol, h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
         )
-    return Y, accepted, rejected, ok
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _integrate_lanes_serial(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers, M
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, Y, accepted,
+    rejected, ok, n_workers, M,
 ):
     # the same on the calling thread (no Numba threading layer: callers that run several in threads, Dask)
-    Y, accepted, rejected, ok = _results(Y0.shape[0], t_out.shape[0], n)
     _lanes_worker(
         np.arange(Y0.shape[0]), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol,
         h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
     )
-    return Y, accepted, rejected, ok
+
+
+def _outputs(out, N, T, m):
+    """The kernel's outputs ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``: new arrays, or ``out``
+    checked. Allocated by NumPy, which asks the kernel for huge pages on large arrays: a chunk's states (59 MB
+    for 1024 runs of 401 output times) are then written without a page fault every 4 KiB (measured: 31 ms a
+    chunk in 4 KiB pages, 8 ms in huge pages, 2 ms into an array written before)."""
+    if out is None:
+        return np.empty((N, T, m)), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64), np.empty(N, dtype=bool)
+    want = (((N, T, m), np.float64), ((N,), np.int64), ((N,), np.int64), ((N,), np.bool_))
+    if not isinstance(out, tuple) or len(out) != 4:
+        raise ValueError("out must be a tuple (Y, accepted, rejected, ok)")
+    for name, a, (shape, dtype) in zip(("Y", "accepted", "rejected", "ok"), out, want, strict=True):
+        good = (
+            isinstance(a, np.ndarray) and a.shape == shape and a.dtype == dtype and a.flags.c_contiguous
+            and a.flags.writeable
+        )
+        if not good:
+            got = (np.shape(a), getattr(a, "dtype", type(a).__name__))
+            raise ValueError(f"out {name} must be a writeable C-contiguous {np.dtype(dtype)} array of shape {shape}; "
+                             f"got {got}")
+    return out
 
 
 _COMPILED = {}  # (parallel, n, number of torque terms) -> the compiled kernel's entry point
@@ -576,12 +598,14 @@ _COMPILED = {}  # (parallel, n, number of torque terms) -> the compiled kernel's
 
 def integrate_coupled_lanes(
     Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
-    parallel=True,
+    parallel=True, out=None,
 ):
     """:func:`omegahat.simulate.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
     computed in lockstep: run ``i`` goes to worker ``i mod n_workers``, each worker steps its runs ``LANES`` at a
-    time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``.
-    ``parallel=False``: all runs on the calling thread, without Numba's threading layer (``n_workers`` ignored).
+    time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``, written into
+    ``out`` when given (arrays of those shapes and dtypes, C-contiguous: a caller that integrates chunk after chunk
+    reuses them). ``parallel=False``: all runs on the calling thread, without Numba's threading layer
+    (``n_workers`` ignored).
 
     The number of directions ``n`` and of torque terms are compiled in as constants (one compiled kernel per
     pair, cached on disk): the workspace's row offsets are then constants and LLVM vectorises every lane loop.
@@ -604,17 +628,19 @@ def integrate_coupled_lanes(
             raise ValueError(f"{name} must have shape {want} (N runs, n = {n} directions, M torque terms); got {got}")
     if np.ndim(t_out) != 1 or np.size(t_out) < 1:
         raise ValueError(f"t_out must be a non-empty 1-D array; got shape {np.shape(t_out)}")
+    results = _outputs(out, N, np.size(t_out), 6 * n + 6)
     args = (
         f64(Y0), f64(t_out), int(n), f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
-        f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps), int(n_workers), int(tf.shape[1]),
+        f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps), *results, int(n_workers), int(M),
     )
     kernel = _integrate_lanes if parallel else _integrate_lanes_serial
     key = (bool(parallel), args[2], args[-1])
     entry = _COMPILED.get(key)
     if entry is not None:
-        return entry(*args)
-    result = kernel(*args)  # compiles, or loads from the cache, the kernel for this (n, M)
+        entry(*args)
+        return results
+    kernel(*args)  # compiles, or loads from the cache, the kernel for this (n, M)
     for sig, cres in kernel.overloads.items():
         if sig[2] == numba.types.literal(key[1]) and sig[-1] == numba.types.literal(key[2]):
             _COMPILED[key] = cres.entry_point
-    return result
+    return results

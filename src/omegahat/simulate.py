@@ -58,6 +58,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from omegahat import so3
+from omegahat._exp import exp_kernel
 from omegahat._validation import as_directions, as_inertia, as_vector3
 from omegahat.gains import ObserverGains, theorem_gains
 from omegahat.observers import sarras
@@ -375,8 +376,19 @@ def _phi123_taylor(x):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _phi123_closed(x, ex):
-    """φ₁, φ₂, φ₃ and exp of x by the closed forms, given ``ex = exp(x)`` (|x| ≥ 1/2)."""
-    return (ex - 1.0) / x, (ex - 1.0 - x) / (x * x), (ex - 1.0 - x - 0.5 * x * x) / (x * x * x), ex
+    """φ₁, φ₂, φ₃ and exp of x by the closed forms, given ``ex = exp(x)`` (|x| ≥ 1/2); one division (1/x), the
+    powers of 1/x by multiplication (a division costs several multiplications' time, and divisions and square
+    roots share one unit)."""
+    inv = 1.0 / x
+    e1 = ex - 1.0
+    return e1 * inv, (e1 - x) * (inv * inv), (e1 - x - 0.5 * x * x) * (inv * inv * inv), ex
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _phi1_half_closed(x, ex2):
+    """φ₁(x/2) = (e^{x/2} − 1)·(2/x) given ``ex2 = e^{x/2}`` (|x/2| ≥ 1/2), through the 1/x of
+    :func:`_phi123_closed` (LLVM computes the shared division once when both are inlined)."""
+    return (ex2 - 1.0) * (2.0 * (1.0 / x))
 
 
 @numba.njit(cache=True, inline="always")
@@ -395,16 +407,7 @@ def _phi123(x):
     of lanes and selects, which gives the same bits."""
     if abs(x) < 0.5:
         return _phi123_taylor(x)
-    return _phi123_closed(x, np.exp(x))
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _phi1_exp(x):
-    """φ₁ and exp of x ≤ 0, as :func:`_phi123` computes them."""
-    if abs(x) < 0.5:
-        return _phi1_taylor(x)
-    ex = np.exp(x)
-    return (ex - 1.0) / x, ex
+    return _phi123_closed(x, exp_kernel(x))
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
@@ -436,7 +439,12 @@ def _etdrk4_step(y, Nu, l_frozen, h, n, J, Jinv, k, l_off, l_slope, tau_mid, tau
                 coef[6 * i + c] = coef[6 * i - 6 + c]
             continue
         x = -l_frozen[i] * h
-        q1, ex2 = _phi1_exp(0.5 * x)
+        x2 = 0.5 * x
+        if abs(x2) < 0.5:
+            q1, ex2 = _phi1_taylor(x2)
+        else:
+            ex2 = exp_kernel(x2)
+            q1 = _phi1_half_closed(x, ex2)
         if abs(x) < 0.5:
             p1, p2, p3, ex = _phi123_taylor(x)
         else:  # one exponential a step: e^x = (e^{x/2})², within 2 units in the last place
@@ -478,17 +486,29 @@ def _etdrk4_step(y, Nu, l_frozen, h, n, J, Jinv, k, l_off, l_slope, tau_mid, tau
             out[j] = E * y[j] + f1 * Nu[j] + f2 * (Na[j] + Nb[j]) + f3 * Nc[j]
 
 
+@numba.njit(cache=True, inline="always")
+def _larger_ratio(num, den, worst_num, worst_den):
+    """The larger of ``num/den`` and ``worst_num/worst_den`` (denominators > 0) as a (numerator, denominator)
+    pair, compared by cross-multiplication so that the error test divides once. A NaN numerator (non-finite
+    state) is kept: the step is then rejected."""
+    if num * worst_den > worst_num * den or num != num:
+        return num, den
+    return worst_num, worst_den
+
+
 @numba.njit(cache=True)
 def _embedded_error(Nc, N_new, y_new, coef, lf0, lf1, h, n, rtol, atol):
     """max over blocks (r_i, ω, z, e_i) of |δ| / √(atol² + rtol² |y_new|²), δ = b₄ (N(c) − N(y_new)): the ETDRK4
     solution minus the third-order one that uses the nonlinear part at the new point in place of the last stage
     (b₄ = h/6 on (r, ω, z), h(4φ₃ − φ₂)(−l_i h) on e_i; N(y_new) taken with the step's frozen rates ``lf0``:
-    ``N_new`` was evaluated with the new point's rates ``lf1``, and N(y; l) = f(y) + l e). The squares are
-    compared and one square root taken at the end (square roots cost as much as the rest of the test)."""
+    ``N_new`` was evaluated with the new point's rates ``lf1``, and N(y; l) = f(y) + l e). The squared ratios
+    are compared as fractions (:func:`_larger_ratio`), and one division and one square root taken at the end
+    (divisions and square roots cost as much as the rest of the test)."""
     ie = 3 * n + 6
     a2 = atol * atol
     r2 = rtol * rtol
-    worst = 0.0
+    worst_num = 0.0
+    worst_den = 1.0
     for b in range(2 * n + 2):
         if 3 * b < ie:
             w = h / 6.0
@@ -504,10 +524,8 @@ def _embedded_error(Nc, N_new, y_new, coef, lf0, lf1, h, n, rtol, atol):
             d = w * (Nc[j] - N_new[j] - shift * y_new[j])
             d2 += d * d
             y2 += y_new[j] * y_new[j]
-        ratio2 = d2 / (a2 + r2 * y2)
-        if ratio2 > worst or ratio2 != ratio2:  # a NaN (non-finite state) is kept: the step is rejected
-            worst = ratio2
-    return np.sqrt(worst)
+        worst_num, worst_den = _larger_ratio(d2, a2 + r2 * y2, worst_num, worst_den)
+    return np.sqrt(worst_num / worst_den)
 
 
 @numba.njit(cache=True, inline="always")
