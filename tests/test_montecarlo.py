@@ -100,6 +100,44 @@ def test_run_seed_is_the_spawned_child():
         np.testing.assert_array_equal(a, b)
 
 
+def _draw_one(c, j):
+    # the sampler's recipe (module docstring of omegahat.montecarlo), written run by run with the generator's own
+    # distributions and norms summed left to right
+    rng = np.random.default_rng(mc.run_seed(c.seed, j))
+
+    def unit(v):
+        return v / math.sqrt(sum(x * x for x in v))
+
+    q = unit(rng.normal(size=4))
+    omega0 = unit(rng.normal(size=3)) * c.omega0_fraction * c.omega_max * rng.random() ** (1.0 / 3.0)
+    R0 = Rotation.from_quat(q).as_matrix()
+    r_hat0 = []
+    for i in range(c.references.shape[0]):
+        u = rng.random()
+        ball = unit(rng.normal(size=3)) * c.r_hat_radius * rng.random() ** (1.0 / 3.0)
+        r_i = c.references[i] @ R0
+        r_hat0.append(np.zeros(3) if u < c.p_zero else -r_i if u < c.p_zero + c.p_opposite else ball)
+    omega_hat0 = unit(rng.normal(size=3)) * c.omega_hat_max * rng.random()
+    M = c.torque_terms
+    amplitudes = rng.uniform(-c.torque_amplitude, c.torque_amplitude, size=(M, 3))
+    frequencies = rng.uniform(*c.torque_frequency, size=M)
+    phases = rng.uniform(0.0, 2.0 * np.pi, size=(M, 3))
+    return dict(R0=R0, omega0=omega0, r_hat0=np.array(r_hat0), omega_hat0=omega_hat0, amplitudes=amplitudes,
+                frequencies=frequencies, phases=phases)
+
+
+def test_draws_follow_the_recipe_run_by_run():
+    c = _small(runs=40, p_zero=0.2, p_opposite=0.2, torque_terms=3, references=np.eye(3),
+               gains={"three": ObserverGains.constant(5.0, 2.0, n=3)})
+    indices = [0, 3, 17, 39, 38, 5]
+    got = mc._draw_runs(c, indices)
+    for row, j in enumerate(indices):
+        want = _draw_one(c, j)
+        for key, value in want.items():
+            np.testing.assert_array_equal(got[key][row], value, err_msg=f"run {j} {key}")
+    assert np.count_nonzero(np.all(got["r_hat0"] == 0.0, axis=-1)) > 0  # the special cases were drawn
+
+
 def test_campaign_does_not_depend_on_chunking_and_runs_replay():
     c = _small(runs=7)
     a = mc.run_campaign(c, chunk_size=3)
@@ -128,8 +166,10 @@ def test_run_chunk_equals_drawing_each_problem_per_gain_set():
     }
     c = _small(runs=12, gains=gains, horizon=0.5, dt_out=0.05, p_zero=0.25, p_opposite=0.25,
                references=[[1.0, 1.0, 0.0], [0.0, 1.0, 2.0]])
-    for start, stop, parallel in [(0, 12, True), (3, 10, False)]:
-        got = mc.run_chunk(c, start, stop, parallel=parallel)
+    buffer = mc.chunk_buffer(c, 12)
+    for start, stop, parallel, buf in [(0, 12, True, None), (3, 10, False, None), (3, 10, True, buffer)]:
+        # a reused buffer holds the earlier gain sets' and chunks' numbers: nothing of them may leak
+        got = mc.run_chunk(c, start, stop, parallel=parallel, buffer=buf)
         assert list(got) == list(gains)
         steps = []
         for name in gains:
@@ -161,7 +201,8 @@ def test_compiled_diagnose_equals_numpy_reference():
     runs = mc._draw_runs(c, indices)
     seen = dict.fromkeys(["failed", "out of bound", "floor reached", "floor not reached", "V increased"], 0)
     for name, g in gains.items():
-        batch = mc._integrate(c.J, c.references, g, runs, c.t_out, c.rtol, c.atol, c.h_max, c.max_steps, None, True)
+        inputs = mc._kernel_inputs(c.J, c.references, g, runs, c.h_max)
+        batch = mc._run_kernel(inputs, c.t_out, c.rtol, c.atol, c.h_max, c.max_steps, None, True)
         if name == "slope":
             Y = batch.Y.copy()
             Y[0, 7, 9] = np.nan  # z of run 0 (ok for the kernel): ok becomes False

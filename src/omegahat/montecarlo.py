@@ -73,6 +73,7 @@ import numba
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from omegahat._seeds import generators
 from omegahat._validation import as_directions, as_inertia
 from omegahat.batch_kernel import integrate_coupled_lanes
 from omegahat.gains import ObserverGains, check_gains, theorem_gains
@@ -140,19 +141,14 @@ def _kernel_inputs(J, references, gains, runs: dict, h_max):
     return Y0, body, torque, h0
 
 
-def _integrate(J, references, gains, runs: dict, t_out, rtol, atol, h_max, max_steps, n_workers, parallel):
-    inputs = _kernel_inputs(J, references, gains, runs, h_max)
-    return _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel)
-
-
-def _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel) -> BatchResult:
+def _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel, out=None) -> BatchResult:
     workers = numba.get_num_threads() if n_workers is None else int(n_workers)
     if workers < 1:
         raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
     Y0, body, torque, h0 = inputs
     Y, acc, rej, ok = integrate_coupled_lanes(
         Y0, t_out, *body, *torque, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
-        parallel=parallel,
+        parallel=parallel, out=out,
     )
     return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
 
@@ -285,44 +281,56 @@ def run_seed(seed: int, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence(seed, spawn_key=(int(index),))
 
 
-def _unit(rng) -> np.ndarray:
-    v = rng.normal(size=3)
-    return v / np.linalg.norm(v)
+def _unit_rows(v):
+    """Rows of ``v`` divided by their norms, the squares summed left to right by NumPy's element-wise
+    arithmetic (the same bits on every machine, unlike BLAS's dot, whose summation order depends on the CPU)."""
+    sq = v[:, 0] * v[:, 0]
+    for j in range(1, v.shape[1]):
+        sq = sq + v[:, j] * v[:, j]
+    return v / np.sqrt(sq)[:, None]
 
 
 def _draw_runs(campaign: Campaign, indices) -> dict:
-    # Runs `indices` drawn once each (module docstring; always in the same order from the run's own generator),
-    # stacked by run: R0 (N, 3, 3), omega0 (N, 3), r_hat0 (N, n, 3), omega_hat0 (N, 3) and the torque's constant
-    # (N, 3; zero), amplitudes (N, M, 3), frequencies (N, M), phases (N, M, 3). No draw depends on the gains: the
-    # source of draw_problem (one run) and of run_chunk (a chunk, integrated for every gain set).
+    # Runs `indices` drawn once each (module docstring), stacked by run: R0 (N, 3, 3), omega0 (N, 3), r_hat0
+    # (N, n, 3), omega_hat0 (N, 3) and the torque's constant (N, 3; zero), amplitudes (N, M, 3), frequencies
+    # (N, M), phases (N, M, 3). No draw depends on the gains: the source of draw_problem (one run) and of
+    # run_chunk (a chunk, integrated for every gain set). The loop only takes each run's raw standard normal
+    # and uniform numbers from its own generator, always in this order: 4 normals (attitude), 3 normals and a
+    # uniform (ω₀), per direction a uniform (zero, opposite or ball), 3 normals and a uniform (r̂_i0), 3 normals
+    # and a uniform (ω̂₀), then 7M uniforms (the torque's amplitudes, frequencies, phases); the arithmetic on
+    # them is done for all runs at once (each element sees the same operations as a run drawn alone).
     c = campaign
     indices = np.asarray(indices, dtype=np.int64).reshape(-1)
     N, n, M = indices.size, c.references.shape[0], c.torque_terms
-    quat = np.empty((N, 4))
-    omega0 = np.empty((N, 3))
-    r_hat0 = np.empty((N, n, 3))
-    opposite = np.zeros((N, n), dtype=bool)
-    omega_hat0 = np.empty((N, 3))
-    amplitudes = np.empty((N, M, 3))
-    frequencies = np.empty((N, M))
-    phases = np.empty((N, M, 3))
-    for row, index in enumerate(indices):
-        rng = np.random.default_rng(run_seed(c.seed, index))
-        q = rng.normal(size=4)
-        quat[row] = q / np.linalg.norm(q)
-        omega0[row] = _unit(rng) * c.omega0_fraction * c.omega_max * rng.random() ** (1.0 / 3.0)
+    normals = np.empty((N, 4 + 3 * (n + 2)))  # attitude, ω₀, r̂_i0, ω̂₀ directions
+    uniforms = np.empty((N, 2 * n + 2))  # ω₀ radius, (choice, radius) per direction, |ω̂₀|
+    torque_u = np.empty((N, 7 * M))
+    for row, rng in enumerate(generators(c.seed, indices)):  # run_seed(c.seed, index)'s generators
+        g, u = normals[row], uniforms[row]
+        rng.standard_normal(out=g[0:7])  # attitude quaternion (4), ω₀'s direction (3): one call, the same numbers
+        u[0] = rng.random()
         for i in range(n):
-            u = rng.random()
-            ball = _unit(rng) * c.r_hat_radius * rng.random() ** (1.0 / 3.0)
-            if u < c.p_zero:
-                r_hat0[row, i] = 0.0
-            else:
-                opposite[row, i] = u < c.p_zero + c.p_opposite  # −r_i0, filled in once R0 is known
-                r_hat0[row, i] = ball
-        omega_hat0[row] = _unit(rng) * c.omega_hat_max * rng.random()
-        amplitudes[row] = rng.uniform(-c.torque_amplitude, c.torque_amplitude, size=(M, 3))
-        frequencies[row] = rng.uniform(c.torque_frequency[0], c.torque_frequency[1], size=M)
-        phases[row] = rng.uniform(0.0, 2.0 * np.pi, size=(M, 3))
+            u[1 + 2 * i] = rng.random()
+            rng.standard_normal(out=g[7 + 3 * i : 10 + 3 * i])
+            u[2 + 2 * i] = rng.random()
+        rng.standard_normal(out=g[7 + 3 * n : 10 + 3 * n])
+        u[1 + 2 * n] = rng.random()
+        rng.random(out=torque_u[row])
+    quat = _unit_rows(normals[:, 0:4])
+    omega0 = _unit_rows(normals[:, 4:7]) * c.omega0_fraction * c.omega_max * (uniforms[:, [0]] ** (1.0 / 3.0))
+    r_hat0 = np.empty((N, n, 3))
+    choice = uniforms[:, 1 : 2 * n + 1 : 2]  # (N, n)
+    for i in range(n):
+        radius = uniforms[:, [2 + 2 * i]] ** (1.0 / 3.0)
+        r_hat0[:, i] = _unit_rows(normals[:, 7 + 3 * i : 10 + 3 * i]) * c.r_hat_radius * radius
+    r_hat0[choice < c.p_zero] = 0.0
+    opposite = (choice >= c.p_zero) & (choice < c.p_zero + c.p_opposite)  # −r_i0, filled in once R0 is known
+    omega_hat0 = _unit_rows(normals[:, 7 + 3 * n : 10 + 3 * n]) * c.omega_hat_max * uniforms[:, [1 + 2 * n]]
+    # Generator.uniform(low, high) is low + (high − low)·U with the same U (tests/test_montecarlo.py checks it)
+    a, (f_lo, f_hi) = c.torque_amplitude, c.torque_frequency
+    amplitudes = -a + (a - -a) * torque_u[:, : 3 * M].reshape(N, M, 3)
+    frequencies = f_lo + (f_hi - f_lo) * torque_u[:, 3 * M : 4 * M]
+    phases = 0.0 + (2.0 * np.pi - 0.0) * torque_u[:, 4 * M :].reshape(N, M, 3)
     # one call for all runs: scipy converts quaternion by quaternion, the same numbers as one call per run
     R0 = Rotation.from_quat(quat).as_matrix() if N else np.empty((0, 3, 3))
     r0 = c.references @ R0
@@ -512,7 +520,7 @@ def _result(campaign, batch, indices, ok, omega_peak, **fields) -> GainSetResult
     # what diagnose and its reference assemble alike: the run indices, the ω bound and the step counts
     return GainSetResult(
         index=np.asarray(indices, dtype=np.int64), ok=ok, in_bound=ok & (omega_peak <= campaign.omega_max),
-        omega_peak=omega_peak, steps=batch.accepted, rejected=batch.rejected, **fields,
+        omega_peak=omega_peak, steps=batch.accepted.copy(), rejected=batch.rejected.copy(), **fields,
     )
 
 
@@ -541,26 +549,41 @@ def _diagnose_numpy(campaign: Campaign, batch: BatchResult, indices) -> GainSetR
                    c_run=np.where(ok, c_run, np.nan), t_f=t[i_f], v_increase=v_increase)
 
 
-def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict:
+def chunk_buffer(campaign: Campaign, chunk_size: int | None = None):
+    """Kernel outputs for a chunk of up to ``chunk_size`` runs (default the campaign's), for :func:`run_chunk`
+    to integrate into chunk after chunk: ``(Y, accepted, rejected, ok)`` as
+    :func:`omegahat.batch_kernel.integrate_coupled_lanes` returns them. Reusing them spares the kernel a fresh
+    59 MB of states per chunk of 1024 runs (401 output times), whose first writes fault page by page."""
+    size = campaign.chunk_size if chunk_size is None else int(chunk_size)
+    m = 6 * campaign.references.shape[0] + 6
+    return (np.empty((size, campaign.t_out.size, m)), np.empty(size, dtype=np.int64),
+            np.empty(size, dtype=np.int64), np.empty(size, dtype=bool))
+
+
+def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True, buffer=None) -> dict:
     """Runs ``start .. stop − 1`` of the campaign for every gain set: ``{gains name: GainSetResult}``.
 
     The unit of work of :func:`run_campaign` and of :mod:`omegahat.distributed`; its result depends on the run
     indices only, not on how the campaign is cut into chunks nor on ``parallel`` (see :func:`simulate_batch`).
+    ``buffer``: a :func:`chunk_buffer` of at least ``stop − start`` runs that the kernel writes into (the
+    result keeps nothing of it), instead of new arrays.
     """
     if not (0 <= start < stop <= campaign.runs):
         raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")
     indices = np.arange(start, stop)
+    out = None if buffer is None else tuple(a[: stop - start] for a in buffer)
     runs = _draw_runs(campaign, indices)  # once per run, whatever the number of gain sets
     # J and the references as a CoupledProblem stores them (as draw_problem + simulate_batch would use them)
     J, references = as_inertia(campaign.J), as_directions(campaign.references)
-    out = {}
+    results = {}
     for name, gains in campaign.gains.items():
-        batch = _integrate(
-            J, references, gains, runs, campaign.t_out, campaign.rtol, campaign.atol, campaign.h_max,
-            campaign.max_steps, None, parallel,
+        inputs = _kernel_inputs(J, references, gains, runs, campaign.h_max)
+        batch = _run_kernel(
+            inputs, campaign.t_out, campaign.rtol, campaign.atol, campaign.h_max, campaign.max_steps, None, parallel,
+            out,
         )
-        out[name] = diagnose(campaign, batch, indices, parallel)
-    return out
+        results[name] = diagnose(campaign, batch, indices, parallel)
+    return results
 
 
 def chunks(campaign: Campaign, chunk_size: int | None = None):
@@ -592,8 +615,9 @@ def run_campaign(campaign: Campaign, chunk_size: int | None = None, progress: bo
         from tqdm import tqdm
 
         bar = tqdm(total=campaign.runs, unit="run", desc="montecarlo")
+    buffer = chunk_buffer(campaign, max(stop - start for start, stop in spans))
     for start, stop in spans:
-        parts.append(run_chunk(campaign, start, stop))
+        parts.append(run_chunk(campaign, start, stop, buffer=buffer))
         if bar is not None:
             bar.update(stop - start)
     if bar is not None:
