@@ -13,7 +13,7 @@ cheaper steps: compare wall times too.
 Timings over the same runs (examples/campaign.toml, horizon 20 s, output every 0.05 s), chunk by chunk as a
 campaign cuts them (``--chunk``, default the campaign's):
   lanes    omegahat.batch_kernel.integrate_coupled_lanes (what campaigns use): each thread steps its runs 32 at
-           a time in lockstep, SIMD over runs;
+           a time in lockstep, SIMD over runs; chunk after chunk into one reused output buffer, as campaigns do;
   prange   omegahat.simulate.integrate_coupled_batch: a Numba prange over runs, each run the scalar single-run
            kernel (the engine before the lockstep kernel); its results must equal the lanes' bit for bit;
   campaign run_campaign end to end (drawing the runs, the kernel, the diagnostics);
@@ -82,16 +82,18 @@ def main():
     integrate_coupled_batch(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)
 
     kernels = [("lanes", integrate_coupled_lanes)] + ([] if args.skip_prange else [("prange", integrate_coupled_batch)])
+    buffer = mc.chunk_buffer(c)
     results = {}
     for label, kernel in kernels:
         t0 = time.perf_counter()
         acc = rej = 0
         out = []
         for Y0, body, torque, h0 in packed:
-            Y, a, r, ok = kernel(Y0, t_out, *body, *torque, *tol, h0, *steps, workers)
+            kw = {"out": tuple(x[: Y0.shape[0]] for x in buffer)} if label == "lanes" else {}
+            Y, a, r, ok = kernel(Y0, t_out, *body, *torque, *tol, h0, *steps, workers, **kw)
             acc += int(a.sum())
             rej += int(r.sum())
-            out.append((Y[:, -1].copy(), a, r, ok))
+            out.append((Y[:, -1].copy(), a.copy(), r.copy(), ok.copy()))
         seconds = time.perf_counter() - t0
         _rates(label, seconds, acc, rej, c.runs)
         results[label] = (seconds, acc, out)
