@@ -149,20 +149,24 @@ def _frozen_rates_lanes(S, n, l_off, l_slope, ry, rout):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_end, rcs_end, rsd, rcd):
-    """:func:`omegahat.simulate._torque_stages` for every lane: τ at t, t + h/2, t + h into rows
-    ``rtau + 3s + d`` and sin, cos of ν_j (t + h) into rows ``rsn_end + j``, ``rcs_end + j``; rows ``rsd + j``,
-    ``rcd + j`` hold sin, cos of ν_j h/2."""
+    """:func:`omegahat.simulate._torque_stages` for every lane: τ at t + h/2 and t + h into rows
+    ``rtau + 3s + d`` (s = 1, 2; τ at t, s = 0, is not needed by a trial) and sin, cos of ν_j (t + h) into rows
+    ``rsn_end + j``, ``rcs_end + j``; rows ``rsd + j``, ``rcd + j`` hold sin, cos of ν_j h/2."""
+    large = 0
     for w in range(LANES):
-        for j in range(M):
-            S[rsd + j, w], S[rcd + j, w] = _sin_cos_small(0.5 * S[rtf + j, w] * S[rhh, w])
-    for w in range(LANES):  # large angles (not in a campaign with h_max ν ≤ 1/2): the library's sin and cos
         for j in range(M):
             x = 0.5 * S[rtf + j, w] * S[rhh, w]
-            if abs(x) > _SINCOS_SMALL:
-                S[rsd + j, w] = np.sin(x)
-                S[rcd + j, w] = np.cos(x)
+            S[rsd + j, w], S[rcd + j, w] = _sin_cos_small(x)
+            large += abs(x) > _SINCOS_SMALL
+    if large > 0:  # large angles (not in a campaign with h_max ν ≤ 1/2): the library's sin and cos
+        for w in range(LANES):
+            for j in range(M):
+                x = 0.5 * S[rtf + j, w] * S[rhh, w]
+                if abs(x) > _SINCOS_SMALL:
+                    S[rsd + j, w] = np.sin(x)
+                    S[rcd + j, w] = np.cos(x)
     for w in range(LANES):
-        for s in range(3):
+        for s in range(1, 3):
             for d in range(3):
                 S[rtau + 3 * s + d, w] = S[rtc + d, w]
         for j in range(M):
@@ -173,8 +177,9 @@ def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_
             sdw = S[rsd + j, w]
             cdw = S[rcd + j, w]
             for s in range(3):
-                for d in range(3):
-                    S[rtau + 3 * s + d, w] += S[ac + d, w] * a + S[asn + d, w] * b
+                if s > 0:
+                    for d in range(3):
+                        S[rtau + 3 * s + d, w] += S[ac + d, w] * a + S[asn + d, w] * b
                 if s < 2:
                     a, b = a * cdw + b * sdw, b * cdw - a * sdw
             S[rsn_end + j, w] = a
