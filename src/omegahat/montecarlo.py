@@ -80,6 +80,7 @@ from omegahat.gains import ObserverGains, check_gains, theorem_gains
 from omegahat.simulate import (
     CoupledProblem,
     SinusoidalTorque,
+    first_step,
     simulate,
 )
 
@@ -132,10 +133,7 @@ def _kernel_inputs(J, references, gains, runs: dict, h_max):
     Y0 = np.concatenate(
         [r0.reshape(N, -1), omega0, omega_hat0 - omega0, (runs["r_hat0"] - r0).reshape(N, -1)], axis=1
     )
-    # l_i(ω̂₀) = l_offset_i + l_slope_i |ω̂₀| with the norm of ObserverGains.l (one vector at a time)
-    speed = np.array([np.linalg.norm(w) for w in omega_hat0])
-    l0 = gains.l_offset + gains.l_slope * speed[:, None]
-    h0 = np.minimum(h_max, 0.1 / np.maximum(1.0, np.max(l0, axis=1)))
+    h0 = first_step(gains, omega_hat0, h_max)
     body = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
     torque = (runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"])
     return Y0, body, torque, h0
@@ -597,10 +595,10 @@ def chunks(campaign: Campaign, chunk_size: int | None = None):
 def merge(campaign: Campaign, parts) -> dict:
     """Chunk results (any order) into one ``{gains name: GainSetResult}`` ordered by run index."""
     merged = {}
+    first = next(iter(campaign.gains))
+    parts = sorted(parts, key=lambda p: int(p[first].index[0]))  # chunks are runs start..stop: concatenate in order
     for name in campaign.gains:
-        r = GainSetResult.concatenate([p[name] for p in parts])
-        order = np.argsort(r.index, kind="stable")
-        merged[name] = GainSetResult(**{f.name: getattr(r, f.name)[order] for f in dataclasses.fields(r)})
+        merged[name] = GainSetResult.concatenate([p[name] for p in parts])
         if not np.array_equal(merged[name].index, np.arange(campaign.runs)):
             raise ValueError("chunk results do not cover every run exactly once")
     return merged

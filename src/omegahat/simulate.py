@@ -67,6 +67,7 @@ __all__ = [
     "CoupledProblem",
     "CoupledTrajectory",
     "SinusoidalTorque",
+    "first_step",
     "paper_problem",
     "simulate",
     "simulate_reference",
@@ -695,6 +696,16 @@ def initial_state(problem: CoupledProblem) -> np.ndarray:
     )
 
 
+def first_step(gains: ObserverGains, omega_hat0, h_max: float):
+    """The kernels' first step for runs starting at ω̂₀ ``(..., 3)``: ``0.1 / max(1, max_i l_i(ω̂₀))``, at most
+    ``h_max`` (a tenth of the fastest decay's time constant). |ω̂₀| is summed element-wise, left to right, so the
+    single-run and the batch paths, on any machine, start with the same step."""
+    w = np.asarray(omega_hat0, dtype=float)
+    speed = np.sqrt((w[..., 0] * w[..., 0] + w[..., 1] * w[..., 1]) + w[..., 2] * w[..., 2])
+    rates = gains.l_offset + gains.l_slope * speed[..., None]
+    return np.minimum(h_max, 0.1 / np.maximum(1.0, np.max(rates, axis=-1)))
+
+
 def trajectory_from_states(problem: CoupledProblem, t, Y, accepted=0, rejected=0) -> CoupledTrajectory:
     """Unpack kernel states ``(T, 6n + 6)`` into a :class:`CoupledTrajectory`."""
     n = problem.gains.n
@@ -752,7 +763,7 @@ def simulate(
         raise ValueError("t_out must start at 0 and increase strictly")
     y0 = initial_state(problem)
     args = _kernel_args(problem)
-    h0 = min(h_max, 0.1 / max(1.0, float(np.max(problem.gains.l(problem.omega_hat0)))))
+    h0 = float(first_step(problem.gains, problem.omega_hat0, h_max))
     Y, acc, rej, ok = integrate_coupled(y0, t_out, *args, rtol, atol, h0, h_max, max_steps)
     if not ok:
         raise RuntimeError(
