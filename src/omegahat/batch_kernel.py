@@ -292,16 +292,26 @@ def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, r
 
 
 @numba.njit(cache=True, inline="always")
-def _release_lane(w, good, run, acc, rej, idx, Y, accepted, rejected, ok):
-    """Lane ``w``'s run ends (``good``: it reached the last output time): its counters and flag go out, the
-    rows a failed run did not reach become NaN, and the lane is free."""
+def _release_lane(w, good, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok):
+    """Lane ``w``'s run ends (``good``: it reached the last output time): its counters (rows ``Racc``, ``Rrej``)
+    and flag go out, the rows a failed run did not reach become NaN, and the lane is free: it idles (its time
+    −∞, its step 0, no output due; :func:`_idle_lane`) until a run is loaded into it."""
     i = run[w]
-    accepted[i] = acc[w]
-    rejected[i] = rej[w]
+    accepted[i] = np.int64(S[Racc, w])
+    rejected[i] = np.int64(S[Rrej, w])
     ok[i] = good
     if not good:
         Y[i, idx[w]:] = np.nan
     run[w] = -1
+
+
+@numba.njit(cache=True, inline="always")
+def _idle_lane(S, w, Rt, Rh, Rnext):
+    """A lane without a run steps by h = 0 from t = −∞ and has no output due: its trials change nothing that
+    matters, and no test in the vectorised bookkeeping singles it out."""
+    S[Rt, w] = -np.inf
+    S[Rh, w] = 0.0
+    S[Rnext, w] = np.inf
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -354,19 +364,25 @@ def _lanes_worker(
     Rerr = Rh6 + 1  # the trial's error ratio
     Rfactor = Rerr + 1  # the next step over this one
     Rmask = Rfactor + 1  # all bits set where the trial was accepted (read through the int64 view Si)
-    S = np.zeros((Rmask + 1, LANES))
+    # the lanes' bookkeeping, as rows too, so that the common case is decided for all lanes at once
+    Rt = Rmask + 1  # the lane's time
+    Rt_new = Rt + 1  # the trial's end
+    Rh = Rt_new + 1  # the next trial's step, before h_max and the last step clip it
+    Rlast = Rh + 1  # 1 where the trial ends on the last output time
+    Racc = Rlast + 1  # accepted and rejected trials of the lane's run (exact in float64)
+    Rrej = Racc + 1
+    Rnext = Rrej + 1  # the lane's next output time (+∞: none)
+    Rflag = Rnext + 1  # 1 where the trial needs the per-lane code: an output time reached, a non-finite error
+    S = np.zeros((Rflag + 1, LANES))
     Si = S.view(np.int64)
-    for j in range(M):
-        for w in range(LANES):
+    for w in range(LANES):
+        _idle_lane(S, w, Rt, Rh, Rnext)
+        for j in range(M):
             S[Rcs + j, w] = 1.0
             S[Rcs_new + j, w] = 1.0
-    # ---- per-lane counters ---------------------------------------------------------------------------------
+    all_bits = np.array([-1], dtype=np.int64).view(np.float64)[0]  # the accepted-lane mask as a float64
+    # ---- per-lane run and output index -----------------------------------------------------------------------
     run = np.full(LANES, -1, dtype=np.int64)
-    t = np.zeros(LANES)
-    h = np.zeros(LANES)
-    last = np.zeros(LANES, dtype=np.bool_)
-    acc = np.zeros(LANES, dtype=np.int64)
-    rej = np.zeros(LANES, dtype=np.int64)
     idx = np.zeros(LANES, dtype=np.int64)
     fresh = np.zeros(LANES, dtype=np.bool_)
 
@@ -391,15 +407,16 @@ def _lanes_worker(
                 continue
             run[w] = i
             active += 1
-            t[w] = t_out[0]
-            h[w] = h0[i]
-            acc[w] = 0
-            rej[w] = 0
+            S[Rt, w] = t_out[0]
+            S[Rh, w] = h0[i]
+            S[Racc, w] = 0.0
+            S[Rrej, w] = 0.0
+            S[Rnext, w] = t_out[1]
             idx[w] = 1
             a_cos = ta[i] * np.cos(tp[i])
             a_sin = ta[i] * np.sin(tp[i])
-            s0 = np.sin(tf[i] * t[w])
-            c0 = np.cos(tf[i] * t[w])
+            s0 = np.sin(tf[i] * t_out[0])
+            c0 = np.cos(tf[i] * t_out[0])
             for d in range(3):
                 S[Rtc + d, w] = tc[i, d]
                 S[Rtau_fresh + d, w] = tc[i, d]
@@ -425,22 +442,24 @@ def _lanes_worker(
         if active == 0:
             break
 
-        # ---- step sizes (per lane); an idle lane steps by 0 ----------------------------------------------------
+        # ---- runs out of steps leave; step sizes for all lanes (an idle lane steps by 0) ------------------------
+        spent = 0
         for w in range(LANES):
-            S[Rhh, w] = 0.0
-            S[Rhalf, w] = 0.0
-            S[Rh6, w] = 0.0
-            last[w] = False
-            if run[w] < 0:
-                continue
-            if acc[w] + rej[w] >= max_steps:
-                _release_lane(w, False, run, acc, rej, idx, Y, accepted, rejected, ok)
-                active -= 1
-                continue
-            hw = min(h[w], h_max)
-            if t[w] + 1.01 * hw >= t_end:
-                hw = t_end - t[w]
-                last[w] = True
+            spent += S[Racc, w] + S[Rrej, w] >= max_steps
+        if spent > 0:
+            for w in range(LANES):
+                if run[w] >= 0 and S[Racc, w] + S[Rrej, w] >= max_steps:
+                    _release_lane(w, False, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok)
+                    _idle_lane(S, w, Rt, Rh, Rnext)
+                    active -= 1
+                elif run[w] < 0:  # an idle lane's counters grow without meaning: keep them from coming back here
+                    S[Racc, w] = 0.0
+                    S[Rrej, w] = 0.0
+        for w in range(LANES):
+            hw = min(S[Rh, w], h_max)
+            last = S[Rt, w] + 1.01 * hw >= t_end
+            hw = t_end - S[Rt, w] if last else hw
+            S[Rlast, w] = 1.0 if last else 0.0
             S[Rhh, w] = hw
             S[Rhalf, w] = 0.5 * hw
             S[Rh6, w] = hw / 6.0
@@ -504,39 +523,45 @@ def _lanes_worker(
             S[Rerr, w] = np.sqrt(S[Rerr, w])
             S[Rfactor, w] = _step_factor(S[Rerr, w])
 
-        # ---- acceptance, output times and counters (per lane) ------------------------------------------------
+        # ---- acceptance and counters for all lanes; output times and failures lane by lane -------------------
+        flagged = 0
         for w in range(LANES):
-            Si[Rmask, w] = 0
-            i = run[w]
-            if i < 0:
-                continue
             e = S[Rerr, w]
             hw = S[Rhh, w]
-            if not np.isfinite(e):
-                if hw < 1e-14:
-                    _release_lane(w, False, run, acc, rej, idx, Y, accepted, rejected, ok)
-                    active -= 1
+            finite = e < np.inf  # False for inf and NaN
+            accept = e <= 1.0
+            t_new = t_end if S[Rlast, w] != 0.0 else S[Rt, w] + hw
+            S[Rt_new, w] = t_new
+            S[Rmask, w] = all_bits if accept else 0.0
+            S[Racc, w] += 1.0 if accept else 0.0
+            S[Rrej, w] += 0.0 if accept else 1.0
+            S[Rh, w] = hw * S[Rfactor, w] if finite else 0.25 * hw
+            flag = (accept and S[Rnext, w] <= t_new) or not finite
+            S[Rflag, w] = 1.0 if flag else 0.0
+            flagged += flag
+        if flagged > 0:
+            for w in range(LANES):
+                i = run[w]
+                if S[Rflag, w] == 0.0 or i < 0:
                     continue
-                h[w] = 0.25 * hw
-                rej[w] += 1
-                continue
-            factor = S[Rfactor, w]
-            if e <= 1.0:
-                t_new = t_end if last[w] else t[w] + hw
+                hw = S[Rhh, w]
+                if not S[Rerr, w] < np.inf:  # rejected; below 1e-14 the run stops (this trial not counted)
+                    if hw < 1e-14:
+                        S[Rrej, w] -= 1.0
+                        _release_lane(w, False, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok)
+                        _idle_lane(S, w, Rt, Rh, Rnext)
+                        active -= 1
+                    continue
+                t_new = S[Rt_new, w]
                 while idx[w] < T and t_out[idx[w]] < t_new:
-                    theta = (t_out[idx[w]] - t[w]) / hw
+                    theta = (t_out[idx[w]] - S[Rt, w]) / hw
                     _dense_output_lane(S, n, Ry, RNu, RNa, RNb, RNc, Rlf, hw, theta, w, Y, i, idx[w])
                     idx[w] += 1
                 if idx[w] < T and t_out[idx[w]] == t_new:
                     for j in range(m):
                         Y[i, idx[w], j] = S[Ry_new + j, w]
                     idx[w] += 1
-                t[w] = t_new
-                acc[w] += 1
-                Si[Rmask, w] = -1
-            else:
-                rej[w] += 1
-            h[w] = hw * factor
+                S[Rnext, w] = t_out[idx[w]] if idx[w] < T else np.inf
 
         # ---- accepted lanes move to the new point (FSAL: N_new becomes Nu) ------------------------------------
         _select_rows(Si, Rmask, Ry, Ry_new, m)
@@ -544,11 +569,13 @@ def _lanes_worker(
         _select_rows(Si, Rmask, Rlf, Rlf_new, n)
         _select_rows(Si, Rmask, Rsn, Rsn_new, M)
         _select_rows(Si, Rmask, Rcs, Rcs_new, M)
+        _select_rows(Si, Rmask, Rt, Rt_new, 1)
 
         # ---- finished runs leave their lanes ---------------------------------------------------------------------
         for w in range(LANES):
             if run[w] >= 0 and idx[w] >= T:
-                _release_lane(w, True, run, acc, rej, idx, Y, accepted, rejected, ok)
+                _release_lane(w, True, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok)
+                _idle_lane(S, w, Rt, Rh, Rnext)
                 active -= 1
 
 
