@@ -4,11 +4,13 @@ The integrator is the one of :func:`omegahat.simulate.integrate_coupled` (ETDRK4
 embedded ETD3(4) error estimate, free steps, continuous extension of order 3 at the output times); only the
 memory layout differs. Every state component is a row of ``LANES`` lanes (``y[j, w]``: component ``j`` of the run in
 lane ``w``), so each line of the right-hand side becomes a loop over lanes without branches, which LLVM turns into
-SIMD instructions (AVX2: 4 doubles per instruction). Each lane carries its own run, time, step size, output
-index and counters; a lane whose run has ended takes the next run of its worker's queue, so the lanes stay full
-until the queue runs dry. What is not arithmetic on whole rows stays per lane, in scalar code: the
-exponentials of the φ-functions, sin and cos of large angles, step acceptance and the output times. Lane loops
-are written with the lanes outermost and the components inside (see ``docs/DEVELOPING.md``).
+SIMD instructions (on this machine AVX-512: 8 doubles per instruction). Each lane carries its own run, time,
+step size, output index and counters, as rows of the workspace too, so that step sizes, acceptance and
+counters are decided for all lanes at once; a lane whose run has ended takes the next run of its worker's queue,
+so the lanes stay full until the queue runs dry. Only what is rare or irregular stays per lane, in scalar code:
+the output times (the continuous extension), sin and cos of large angles, failed runs and loading new ones. The
+exponential is :func:`omegahat._exp.exp_kernel`, plain arithmetic that vectorises. Lane loops are written with
+the lanes outermost and the components inside (see ``docs/DEVELOPING.md``).
 
 **Same numbers as the single-run kernel.** For its run, a lane performs exactly the operations of
 :func:`~omegahat.simulate.integrate_coupled`, in the same order: no fast-math (so no reassociation and no fused
@@ -21,7 +23,8 @@ new run is evaluated for all lanes at once and kept for the new lane only.
 
 **Identical results everywhere.** No fused multiply-adds also means the bits do not depend on whether the CPU
 has them, so a campaign split over a cluster of different machines gives the numbers of the local run (as long
-as libm's ``exp``, ``sin`` and ``cos`` agree: the φ-functions, the torque's phases and large angles call them).
+as libm's ``sin`` and ``cos`` agree: the torque's phases and large angles call them; the exponential is the
+project's own).
 
 **Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads): 1.47e7 accepted steps/s, against
 4.3e6 for a ``prange`` over runs of the single-run kernel. In one thread a step costs about 140 ns: the four
