@@ -26,11 +26,12 @@ has them, so a campaign split over a cluster of different machines gives the num
 as libm's ``sin`` and ``cos`` agree: the torque's phases and large angles call them; the exponential is the
 project's own).
 
-**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads): 1.47e7 accepted steps/s, against
-4.3e6 for a ``prange`` over runs of the single-run kernel. In one thread a step costs about 140 ns: the four
-right-hand sides about 40 ns (≈ 230 floating-point operations each, close to AVX2's rate without fused
-multiply-adds), the rest the stage combinations, one exponential per step and lane, the dense output at output
-times and the per-lane bookkeeping.
+**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads, outputs into a reused buffer):
+2.4–2.6e7 accepted steps/s at best, 2.0–2.4e7 median on this drifting machine, against 4.3–4.6e6 for a ``prange``
+over runs of the single-run kernel. In one thread a step costs about 75 ns: the four right-hand sides about 22 ns
+(≈ 230 floating-point operations each, at the rate of the floating-point pipes), the continuous extension at
+output times 13 ns, stage combinations, error test and the accepted-lane select 27 ns (loads and stores through
+the workspace), the φ-weights 5 ns, the torque 3 ns, the bookkeeping 4 ns.
 """
 
 from __future__ import annotations
@@ -56,9 +57,10 @@ from omegahat.simulate import (
 
 __all__ = ["LANES", "integrate_coupled_lanes"]
 
-#: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count). Measured on this
-#: 2-core AVX2 machine, one thread, 512 theorem-gain runs: 155 ns per step with 32 lanes, 162 with 16, ~200 with 64
-#: (the workspace, 225 rows of lanes, then leaves the level-1 cache and a chunk's last runs leave more lanes idle).
+#: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count): 4 AVX-512 vectors per
+#: row. The workspace is 230 rows of lanes (59 KB with two directions and two torque terms), more than the 32 KB
+#: level-1 cache; 16 lanes fit it but give each lane loop half the work, and measured no faster (one thread, 1,024
+#: theorem-gain runs, within this machine's drift), nor did 24.
 LANES = 32
 
 # All per-lane arrays of a worker are rows of ONE workspace S (rows, LANES): every lane loop then reads and writes
@@ -67,10 +69,9 @@ LANES = 32
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
-def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy, rtmp):
+def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy):
     """:func:`omegahat.simulate._nonlinear` for every lane, the same operations in the same order: rows
-    ``rdy..rdy+m`` of S from the state rows ``ry..``, frozen rates ``rlf..rlf+n`` and torque ``rtau..rtau+3``.
-    Rows ``rtmp..rtmp+4`` are scratch (the sum J ż and |ω̂|)."""
+    ``rdy..rdy+m`` of S from the state rows ``ry..``, frozen rates ``rlf..rlf+n`` and torque ``rtau..rtau+3``."""
     iw = 3 * n
     iz = iw + 3
     ie = iz + 3
@@ -345,8 +346,7 @@ def _lanes_worker(
     Rcoef = Ryb + m  # φ-weights, 6 per direction
     Rlf = Rcoef + 6 * n  # rates l_i frozen at y
     Rlf_new = Rlf + n
-    Rtmp = Rlf_new + n  # 4 rows of scratch
-    Rtau = Rtmp + 4  # τ at t, t + h/2, t + h: row Rtau + 3 s + d
+    Rtau = Rlf_new + n  # τ at t, t + h/2, t + h: row Rtau + 3 s + d
     # newly loaded runs: their first right-hand side, rates and torque go to rows a trial overwrites anyway
     RN_fresh = RNa
     Rlf_fresh = Rlf_new
@@ -435,7 +435,7 @@ def _lanes_worker(
             any_fresh = True
         if any_fresh:
             _frozen_rates_lanes(S, n, l_off, l_slope, Ry, Rlf_fresh)
-            _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry, Rlf_fresh, Rtau_fresh, RN_fresh, Rtmp)
+            _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry, Rlf_fresh, Rtau_fresh, RN_fresh)
             for w in range(LANES):
                 if fresh[w]:
                     for j in range(m):
@@ -471,9 +471,9 @@ def _lanes_worker(
         _torque_stages_lanes(S, M, Rhh, Rtc, Racos, Rasin, Rtf, Rsn, Rcs, Rtau, Rsn_new, Rcs_new, Rsd, Rcd)
         _phi_coefficients_lanes(S, n, Rlf, Rhh, Rcoef)
         _half_stage_lanes(S, n, Ry, RNu, Rhalf, Rcoef, Rya)
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Rya, Rlf, Rtau + 3, RNa, Rtmp)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Rya, Rlf, Rtau + 3, RNa)
         _half_stage_lanes(S, n, Ry, RNa, Rhalf, Rcoef, Ryb)
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryb, Rlf, Rtau + 3, RNb, Rtmp)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryb, Rlf, Rtau + 3, RNb)
         for w in range(LANES):
             for j in range(ie):
                 S[Ryc + j, w] = S[Ry + j, w] + S[Rhh, w] * S[RNb + j, w]
@@ -481,7 +481,7 @@ def _lanes_worker(
                 c = Rcoef + 6 * i
                 for j in range(ie + 3 * i, ie + 3 * i + 3):
                     S[Ryc + j, w] = S[c + 1, w] * S[Rya + j, w] + S[c + 2, w] * (2.0 * S[RNb + j, w] - S[RNu + j, w])
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryc, Rlf, Rtau + 6, RNc, Rtmp)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryc, Rlf, Rtau + 6, RNc)
         for w in range(LANES):
             for j in range(ie):
                 S[Ry_new + j, w] = S[Ry + j, w] + S[Rh6, w] * (
@@ -497,7 +497,7 @@ def _lanes_worker(
                         + S[c + 5, w] * S[RNc + j, w]
                     )
         _frozen_rates_lanes(S, n, l_off, l_slope, Ry_new, Rlf_new)
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry_new, Rlf_new, Rtau + 6, RN_new, Rtmp)
+        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry_new, Rlf_new, Rtau + 6, RN_new)
 
         # ---- embedded error (simulate._embedded_error) -----------------------------------------------------------
         for w in range(LANES):
@@ -608,9 +608,10 @@ def _integrate_lanes_serial(
 
 def _outputs(out, N, T, m):
     """The kernel's outputs ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``: new arrays, or ``out``
-    checked. Allocated by NumPy, which asks the kernel for huge pages on large arrays: a chunk's states (59 MB
-    for 1024 runs of 401 output times) are then written without a page fault every 4 KiB (measured: 31 ms a
-    chunk in 4 KiB pages, 8 ms in huge pages, 2 ms into an array written before)."""
+    checked. A caller that integrates chunk after chunk passes the same arrays each time: a new chunk's states
+    (59 MB for 1024 runs of 401 output times) are memory written for the first time, page by page, which on this
+    machine cost 30 to 100 ms a chunk (measured in the kernel's run-loading phase), against nothing for memory
+    written before."""
     if out is None:
         return np.empty((N, T, m)), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64), np.empty(N, dtype=bool)
     want = (((N, T, m), np.float64), ((N,), np.int64), ((N,), np.int64), ((N,), np.bool_))
