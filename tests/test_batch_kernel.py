@@ -207,3 +207,17 @@ def test_outputs_written_into_given_arrays_are_the_fresh_ones_and_bad_ones_are_n
         integrate_coupled_lanes(*args, out=(out[0], out[1][::-1][::-1].astype(np.int32), *out[2:]))
     with pytest.raises(ValueError, match=r"out must be a tuple \(Y, accepted, rejected, ok\)"):
         integrate_coupled_lanes(*args, out=list(out))
+
+
+def test_non_diagonal_inertia_is_bit_identical_too():
+    # every other test here uses a diagonal J; a full J exercises the off-diagonal products of both kernels
+    R = np.array([[0.36, 0.48, -0.8], [-0.8, 0.6, 0.0], [0.48, 0.64, 0.6]])  # a rotation
+    J = R @ np.diag([3.0, 2.0, 1.0]) @ R.T
+    gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
+    problems = [
+        CoupledProblem(J=J, gains=gains, omega0=p.omega0, R0=p.R0, r_hat0=p.r_hat0, omega_hat0=p.omega_hat0,
+                       torque=p.torque)
+        for p in _problems(LANES + 2, 2, 2, seed=9, gains=theorem_gains(np.diag([3.0, 2.0, 1.0]), 3.0))
+    ]
+    _, acc, _, ok = _compare(problems, np.linspace(0.0, 1.0, 21))
+    assert ok.all() and acc.min() > 10
