@@ -403,11 +403,6 @@ def _lanes_worker(
             for j in range(m):
                 S[Ry + j, w] = Y0[i, j]
                 Y[i, 0, j] = Y0[i, j]
-            if T == 1:  # nothing to integrate
-                accepted[i] = 0
-                rejected[i] = 0
-                ok[i] = True
-                continue
             run[w] = i
             active += 1
             S[Rt, w] = t_out[0]
@@ -665,6 +660,12 @@ def integrate_coupled_lanes(
     if np.ndim(t_out) != 1 or np.size(t_out) < 1:
         raise ValueError(f"t_out must be a non-empty 1-D array; got shape {np.shape(t_out)}")
     results = _outputs(out, N, np.size(t_out), 6 * n + 6)
+    if np.size(t_out) == 1:  # nothing to integrate (the kernel needs a second output time)
+        results[0][:, 0] = Y0
+        results[1][:] = 0
+        results[2][:] = 0
+        results[3][:] = True
+        return results
     args = (
         f64(Y0), f64(t_out), int(n), f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
         f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps), *results, int(n_workers), int(M),
