@@ -10,16 +10,18 @@ cheaper steps: compare wall times too.
     /tmp/venv/bin/python benchmarks/montecarlo_throughput.py                 # 10,000 runs, gain set "theorem"
     /tmp/venv/bin/python benchmarks/montecarlo_throughput.py --runs 1000 --gains slope --loop-runs 200
 
-The lanes kernel and the campaign are timed ``--repeat`` times (default 5) over the same runs; the best and the
+The lanes kernels and the campaign are timed ``--repeat`` times (default 5) over the same runs; the best and the
 median are printed: on a shared virtual machine the same work takes up to 1.4 times as long from one minute to
 the next.
 
 Timings over the same runs (examples/campaign.toml, horizon 20 s, output every 0.05 s), chunk by chunk as a
 campaign cuts them (``--chunk``, default the campaign's):
-  lanes    omegahat.batch_kernel.integrate_coupled_lanes (what campaigns use): each thread steps its runs 32 at
-           a time in lockstep, SIMD over runs; chunk after chunk into one reused output buffer, as campaigns do;
+  lanes    omegahat.batch_kernel.integrate_diagnosed_lanes (what campaigns use): each thread steps its runs 32
+           at a time in lockstep, SIMD over runs, and diagnoses each run as it ends;
+  states   omegahat.batch_kernel.integrate_coupled_lanes: the same, returning every run's states instead (its
+           step counts must equal the lanes', its states the prange engine's, bit for bit);
   prange   omegahat.simulate.integrate_coupled_batch: a Numba prange over runs, each run the scalar single-run
-           kernel (the engine before the lockstep kernel); its results must equal the lanes' bit for bit;
+           kernel (the engine before the lockstep kernel);
   campaign run_campaign end to end (drawing the runs, the kernel, the diagnostics);
   loop     a Python loop calling omegahat.simulate.simulate once per run (one core).
 Kernel timings exclude drawing and packing the runs (done before the clock starts). The machine load
@@ -37,7 +39,7 @@ import numba
 import numpy as np
 
 from omegahat import montecarlo as mc
-from omegahat.batch_kernel import LANES, integrate_coupled_lanes
+from omegahat.batch_kernel import LANES, integrate_coupled_lanes, integrate_diagnosed_lanes
 from omegahat.simulate import integrate_coupled_batch, simulate
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,32 +97,40 @@ def main():
     integrate_coupled_lanes(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)
     integrate_coupled_batch(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)
 
-    kernels = [("lanes", integrate_coupled_lanes)] + ([] if args.skip_prange else [("prange", integrate_coupled_batch)])
-    buffer = mc.chunk_buffer(c)
+    def diagnosed(Y0, *a):
+        rho, _, ok, acc, rej = integrate_diagnosed_lanes(Y0, *a, float(c.rho_floor))
+        return rho[:, -1:], acc, rej, ok
+
+    kernels = [("lanes", diagnosed), ("states", integrate_coupled_lanes)]
+    kernels += [] if args.skip_prange else [("prange", integrate_coupled_batch)]
     results = {}
     for label, kernel in kernels:
         times = []
-        for _ in range(args.repeat if label == "lanes" else 1):
+        for _ in range(args.repeat if label != "prange" else 1):
             t0 = time.perf_counter()
             acc = rej = 0
             out = []
             for Y0, body, torque, h0 in packed:
-                kw = {"out": tuple(x[: Y0.shape[0]] for x in buffer)} if label == "lanes" else {}
-                Y, a, r, ok = kernel(Y0, t_out, *body, *torque, *tol, h0, *steps, workers, **kw)
+                Y, a, r, ok = kernel(Y0, t_out, *body, *torque, *tol, h0, *steps, workers)
                 acc += int(a.sum())
                 rej += int(r.sum())
-                out.append((Y[:, -1].copy(), a.copy(), r.copy(), ok.copy()))
+                out.append((Y[:, -1].copy(), a, r, ok))
             times.append(time.perf_counter() - t0)
         _report(label, times, acc, rej, c.runs)
         results[label] = (min(times), acc, out)
+    same_counts = all(
+        np.array_equal(u[1], v[1]) and np.array_equal(u[2], v[2])
+        for u, v in zip(results["lanes"][2], results["states"][2], strict=True)
+    )
+    print(f"lanes / states: step counts identical: {same_counts}")
     if "prange" in results:
         same = all(
             np.array_equal(x, y, equal_nan=True)
-            for u, v in zip(results["lanes"][2], results["prange"][2], strict=True)
+            for u, v in zip(results["states"][2], results["prange"][2], strict=True)
             for x, y in zip(u, v, strict=True)
         )
-        print(f"lanes / prange: {results['prange'][0] / results['lanes'][0]:.2f}x faster; final states, step "
-              f"counts and flags identical: {same}")
+        print(f"lanes / prange: {results['prange'][0] / results['lanes'][0]:.2f}x faster; states (final), step "
+              f"counts and flags of the states kernel and prange identical: {same}")
 
     times = []
     for _ in range(args.repeat):

@@ -9,7 +9,8 @@ from decimal import Decimal, getcontext
 import numpy as np
 import pytest
 
-from omegahat.batch_kernel import LANES, integrate_coupled_lanes
+from omegahat.batch_kernel import LANES, integrate_coupled_lanes, integrate_diagnosed_lanes
+from omegahat.envelope import diagnose_runs
 from omegahat.gains import ObserverGains, theorem_gains
 from omegahat.montecarlo import kernel_inputs
 from omegahat.simulate import (
@@ -184,29 +185,32 @@ def test_inconsistent_shapes_are_named_before_the_unchecked_kernel_runs():
         integrate_coupled_lanes(Y0, t[:0], *body, tc, ta, tf, tp, 1e-7, 1e-15, h0, 0.05, 100, 2)
 
 
-def test_outputs_written_into_given_arrays_are_the_fresh_ones_and_bad_ones_are_named():
+def test_diagnosed_in_the_kernel_equals_diagnosing_its_states():
+    """The campaign's kernel mode (each run diagnosed as it ends, from the lane's own rows) gives, run by run, what
+    diagnose_runs gives on the states of the plain mode: runs that finish, runs stopped by max_steps (NaN rows),
+    a non-finite start, more runs than lanes, in threads and serially, and a single output time."""
     J = np.diag([3.0, 2.0, 1.0])
     gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
-    Y0, body, torque, h0 = kernel_inputs(_problems(5, 2, 2, seed=8, gains=gains), 0.05)
-    t = np.linspace(0.0, 0.5, 6)
-    args = (Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, 10**6, 2)
-    fresh = integrate_coupled_lanes(*args)
-    # a reused buffer holding an earlier chunk's numbers (here: garbage) and a view of a larger one
-    big = np.full((8, 6, 18), 7.0)
-    out = (big[:5], np.full(5, -1, dtype=np.int64), np.full(5, -1, dtype=np.int64), np.zeros(5, dtype=bool))
-    got = integrate_coupled_lanes(*args, out=out)
-    assert all(g is o for g, o in zip(got, out, strict=True))
-    for a, b in zip(fresh, got, strict=True):
-        np.testing.assert_array_equal(a, b)
-    assert np.all(big[5:] == 7.0)  # nothing written outside the view
-    with pytest.raises(ValueError, match=r"out Y must be a writeable C-contiguous float64 array of shape \(5, 6, 18\)"):
-        integrate_coupled_lanes(*args, out=(big[:5, :5], *out[1:]))
-    with pytest.raises(ValueError, match="out ok must be"):
-        integrate_coupled_lanes(*args, out=(*out[:3], np.zeros(5)))
-    with pytest.raises(ValueError, match="out accepted must be"):
-        integrate_coupled_lanes(*args, out=(out[0], out[1][::-1][::-1].astype(np.int32), *out[2:]))
-    with pytest.raises(ValueError, match=r"out must be a tuple \(Y, accepted, rejected, ok\)"):
-        integrate_coupled_lanes(*args, out=list(out))
+    Y0, body, torque, h0 = kernel_inputs(_problems(LANES + 9, 2, 2, seed=10, gains=gains), 0.05)
+    Y0[4, 3 * 2 + 3] = np.nan  # z of run 4: rejected down to h < 1e-14, then stopped
+    flags = []
+    for t, max_steps in [(np.linspace(0.0, 1.0, 21), 10**6), (np.linspace(0.0, 1.0, 21), 150), (np.array([0.0]), 10)]:
+        args = (Y0, t, *body, *torque, 1e-7, 1e-15, h0, 0.05, max_steps, 2)
+        Y, acc, rej, ok = integrate_coupled_lanes(*args)
+        N, T = Y.shape[:2]
+        want = (np.empty((N, T)), np.empty((6, N)), np.empty(N, dtype=bool))
+        diagnose_runs(Y, 2, J, t, 1e-8, ok, *want)
+        for parallel in (True, False):
+            rho, out, ok_d, acc_d, rej_d = integrate_diagnosed_lanes(*args, 1e-8, parallel=parallel)
+            np.testing.assert_array_equal(acc_d, acc)
+            np.testing.assert_array_equal(rej_d, rej)
+            np.testing.assert_array_equal(ok_d, want[2])
+            np.testing.assert_array_equal(rho, want[0])
+            np.testing.assert_array_equal(out, want[1])
+        flags.append(want[2])
+    others = np.arange(LANES + 9) != 4
+    assert not any(f[4] for f in flags)  # the non-finite run fails in every case
+    assert flags[0][others].all() and not flags[1][others].all() and flags[2][others].all()  # max_steps bites
 
 
 def test_non_diagonal_inertia_is_bit_identical_too():

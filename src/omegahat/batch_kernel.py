@@ -41,6 +41,7 @@ import numpy as np
 from numba import literally
 
 from omegahat._exp import exp_kernel
+from omegahat.envelope import diagnose_run, diagnose_runs
 from omegahat.simulate import (
     _SINCOS_SMALL,
     _cross_into,
@@ -55,7 +56,7 @@ from omegahat.simulate import (
     _step_factor,
 )
 
-__all__ = ["LANES", "integrate_coupled_lanes"]
+__all__ = ["LANES", "integrate_coupled_lanes", "integrate_diagnosed_lanes"]
 
 #: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count): 4 AVX-512 vectors per
 #: row. The workspace is 230 rows of lanes (59 KB with two directions and two torque terms), more than the 32 KB
@@ -296,16 +297,22 @@ def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, r
 
 
 @numba.njit(cache=True, inline="always")
-def _release_lane(w, good, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok):
+def _release_lane(w, good, run, idx, S, Racc, Rrej, stage, out):
     """Lane ``w``'s run ends (``good``: it reached the last output time): its counters (rows ``Racc``, ``Rrej``)
-    and flag go out, the rows a failed run did not reach become NaN, and the lane is free: it idles (its time
+    go out, the rows a failed run did not reach become NaN, its states (``stage[w]``) go to ``Y`` or are
+    diagnosed (``out``: the worker's outputs, :func:`_lanes_worker`), and the lane is free: it idles (its time
     −∞, its step 0, no output due; :func:`_idle_lane`) until a run is loaded into it."""
+    Y, accepted, rejected, ok, diagnose, n, J, t_out, rho_floor, rho, dout = out
     i = run[w]
     accepted[i] = np.int64(S[Racc, w])
     rejected[i] = np.int64(S[Rrej, w])
-    ok[i] = good
     if not good:
-        Y[i, idx[w]:] = np.nan
+        stage[w, idx[w]:] = np.nan
+    if diagnose:
+        diagnose_run(stage[w], i, n, J, t_out, rho_floor, good, rho, dout, ok)
+    else:
+        ok[i] = good
+        Y[i] = stage[w]
     run[w] = -1
 
 
@@ -321,11 +328,13 @@ def _idle_lane(S, w, Rt, Rh, Rnext):
 @numba.njit(cache=True, error_model="numpy")
 def _lanes_worker(
     runs, Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps,
-    Y, accepted, rejected, ok, M,
+    Y, accepted, rejected, ok, diagnose, rho_floor, rho, dout, M,
 ):
-    """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes; results into
-    ``Y[run]``, ``accepted[run]``, ``rejected[run]``, ``ok[run]``; a failed run's rows from the failure on are
-    NaN."""
+    """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes. A lane writes its
+    run's states into its own rows ``stage[w]`` (the worker's, in cache), and when the run ends they go to
+    ``Y[run]`` (a failed run's rows from the failure on NaN), or, if ``diagnose``, only their diagnostics
+    (:func:`omegahat.envelope.diagnose_run`: ``rho[run]``, ``dout[:, run]``, ``ok[run]``, with ``rho_floor``);
+    ``accepted[run]``, ``rejected[run]`` either way."""
     m = 6 * n + 6
     T = t_out.shape[0]
     ie = 3 * n + 6
@@ -378,6 +387,8 @@ def _lanes_worker(
     Rflag = Rnext + 1  # 1 where the trial needs the per-lane code: an output time reached, a non-finite error
     S = np.zeros((Rflag + 1, LANES))
     Si = S.view(np.int64)
+    stage = np.empty((LANES, T, m))  # each lane's run's states, until the run ends
+    out = (Y, accepted, rejected, ok, diagnose, n, J, t_out, rho_floor, rho, dout)
     for w in range(LANES):
         _idle_lane(S, w, Rt, Rh, Rnext)
         for j in range(M):
@@ -402,7 +413,7 @@ def _lanes_worker(
             q += 1
             for j in range(m):
                 S[Ry + j, w] = Y0[i, j]
-                Y[i, 0, j] = Y0[i, j]
+                stage[w, 0, j] = Y0[i, j]
             run[w] = i
             active += 1
             S[Rt, w] = t_out[0]
@@ -447,7 +458,7 @@ def _lanes_worker(
         if spent > 0:
             for w in range(LANES):
                 if run[w] >= 0 and S[Racc, w] + S[Rrej, w] >= max_steps:
-                    _release_lane(w, False, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok)
+                    _release_lane(w, False, run, idx, S, Racc, Rrej, stage, out)
                     _idle_lane(S, w, Rt, Rh, Rnext)
                     active -= 1
                 elif run[w] < 0:  # an idle lane's counters grow without meaning: keep them from coming back here
@@ -546,18 +557,18 @@ def _lanes_worker(
                 if not S[Rerr, w] < np.inf:  # rejected; below 1e-14 the run stops (this trial not counted)
                     if hw < 1e-14:
                         S[Rrej, w] -= 1.0
-                        _release_lane(w, False, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok)
+                        _release_lane(w, False, run, idx, S, Racc, Rrej, stage, out)
                         _idle_lane(S, w, Rt, Rh, Rnext)
                         active -= 1
                     continue
                 t_new = S[Rt_new, w]
                 while idx[w] < T and t_out[idx[w]] < t_new:
                     theta = (t_out[idx[w]] - S[Rt, w]) / hw
-                    _dense_output_lane(S, n, Ry, RNu, RNa, RNb, RNc, Rlf, hw, theta, w, Y, i, idx[w])
+                    _dense_output_lane(S, n, Ry, RNu, RNa, RNb, RNc, Rlf, hw, theta, w, stage, w, idx[w])
                     idx[w] += 1
                 if idx[w] < T and t_out[idx[w]] == t_new:
                     for j in range(m):
-                        Y[i, idx[w], j] = S[Ry_new + j, w]
+                        stage[w, idx[w], j] = S[Ry_new + j, w]
                     idx[w] += 1
                 S[Rnext, w] = t_out[idx[w]] if idx[w] < T else np.inf
 
@@ -572,7 +583,7 @@ def _lanes_worker(
         # ---- finished runs leave their lanes ---------------------------------------------------------------------
         for w in range(LANES):
             if run[w] >= 0 and idx[w] >= T:
-                _release_lane(w, True, run, idx, S, Racc, Rrej, Y, accepted, rejected, ok)
+                _release_lane(w, True, run, idx, S, Racc, Rrej, stage, out)
                 _idle_lane(S, w, Rt, Rh, Rnext)
                 active -= 1
 
@@ -580,74 +591,38 @@ def _lanes_worker(
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _integrate_lanes(
     Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, Y, accepted,
-    rejected, ok, n_workers, M,
+    rejected, ok, diagnose, rho_floor, rho, dout, n_workers, M,
 ):
     for wk in numba.prange(n_workers):
         _lanes_worker(
             np.arange(wk, Y0.shape[0], n_workers), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf,
-            tp, rtol, atol, h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
+            tp, rtol, atol, h0, h_max, max_steps, Y, accepted, rejected, ok, diagnose, rho_floor, rho, dout,
+            literally(M),
         )
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _integrate_lanes_serial(
     Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, Y, accepted,
-    rejected, ok, n_workers, M,
+    rejected, ok, diagnose, rho_floor, rho, dout, n_workers, M,
 ):
     # the same on the calling thread (no Numba threading layer: callers that run several in threads, Dask)
     _lanes_worker(
         np.arange(Y0.shape[0]), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol,
-        h0, h_max, max_steps, Y, accepted, rejected, ok, literally(M),
+        h0, h_max, max_steps, Y, accepted, rejected, ok, diagnose, rho_floor, rho, dout, literally(M),
     )
-
-
-def _outputs(out, N, T, m):
-    """The kernel's outputs ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``: new arrays, or ``out``
-    checked. A caller that integrates chunk after chunk passes the same arrays each time: a new chunk's states
-    (59 MB for 1024 runs of 401 output times) are memory written for the first time, page by page, which on this
-    machine cost 30 to 100 ms a chunk (measured in the kernel's run-loading phase), against nothing for memory
-    written before."""
-    if out is None:
-        return np.empty((N, T, m)), np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64), np.empty(N, dtype=bool)
-    want = (((N, T, m), np.float64), ((N,), np.int64), ((N,), np.int64), ((N,), np.bool_))
-    if not isinstance(out, tuple) or len(out) != 4:
-        raise ValueError("out must be a tuple (Y, accepted, rejected, ok)")
-    for name, a, (shape, dtype) in zip(("Y", "accepted", "rejected", "ok"), out, want, strict=True):
-        good = (
-            isinstance(a, np.ndarray) and a.shape == shape and a.dtype == dtype and a.flags.c_contiguous
-            and a.flags.writeable
-        )
-        if not good:
-            got = (np.shape(a), getattr(a, "dtype", type(a).__name__))
-            raise ValueError(f"out {name} must be a writeable C-contiguous {np.dtype(dtype)} array of shape {shape}; "
-                             f"got {got}")
-    return out
 
 
 _COMPILED = {}  # (parallel, n, number of torque terms) -> the compiled kernel's entry point
 
 
-def integrate_coupled_lanes(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
-    parallel=True, out=None,
-):
-    """:func:`omegahat.simulate.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
-    computed in lockstep: run ``i`` goes to worker ``i mod n_workers``, each worker steps its runs ``LANES`` at a
-    time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``, written into
-    ``out`` when given (arrays of those shapes and dtypes, C-contiguous: a caller that integrates chunk after chunk
-    reuses them). ``parallel=False``: all runs on the calling thread, without Numba's threading layer
-    (``n_workers`` ignored).
-
-    The number of directions ``n`` and of torque terms are compiled in as constants (one compiled kernel per
-    pair, cached on disk): the workspace's row offsets are then constants and LLVM vectorises every lane loop.
-    The arguments are converted to the types the kernel was compiled for, and the compiled entry point is then
-    called directly (Numba's dispatch of literal arguments costs about 14 ms a call).
-    """
+def _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps):
+    """The kernel's inputs checked (the compiled kernel does not check bounds: every shape is checked here, by
+    name) and converted to the types it is compiled for; with ``N`` runs, ``T`` output times, ``M`` torque terms."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
     n = int(n)
     N = np.shape(Y0)[0] if np.ndim(Y0) == 2 else -1
     M = np.shape(tf)[1] if np.ndim(tf) == 2 else -1
-    # the compiled kernel does not check bounds: every shape is checked here, by name
     expected = {
         "Y0": (np.shape(Y0), (N, 6 * n + 6)), "J": (np.shape(J), (3, 3)), "Jinv": (np.shape(Jinv), (3, 3)),
         "k": (np.shape(k), (n,)), "l_off": (np.shape(l_off), (n,)), "l_slope": (np.shape(l_slope), (n,)),
@@ -659,25 +634,69 @@ def integrate_coupled_lanes(
             raise ValueError(f"{name} must have shape {want} (N runs, n = {n} directions, M torque terms); got {got}")
     if np.ndim(t_out) != 1 or np.size(t_out) < 1:
         raise ValueError(f"t_out must be a non-empty 1-D array; got shape {np.shape(t_out)}")
-    results = _outputs(out, N, np.size(t_out), 6 * n + 6)
-    if np.size(t_out) == 1:  # nothing to integrate (the kernel needs a second output time)
-        results[0][:, 0] = Y0
-        results[1][:] = 0
-        results[2][:] = 0
-        results[3][:] = True
-        return results
     args = (
-        f64(Y0), f64(t_out), int(n), f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
-        f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps), *results, int(n_workers), int(M),
+        f64(Y0), f64(t_out), n, f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
+        f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps),
     )
+    return args, N, np.size(t_out), M
+
+
+def _run(parallel, args):
+    """Call the compiled kernel for ``args``' (n, M): Numba's dispatch of literal arguments costs about 14 ms a
+    call, so after the first call (which compiles, or loads from the on-disk cache) its entry point is called
+    directly."""
     kernel = _integrate_lanes if parallel else _integrate_lanes_serial
     key = (bool(parallel), args[2], args[-1])
     entry = _COMPILED.get(key)
     if entry is not None:
         entry(*args)
-        return results
-    kernel(*args)  # compiles, or loads from the cache, the kernel for this (n, M)
+        return
+    kernel(*args)
     for sig, cres in kernel.overloads.items():
         if sig[2] == numba.types.literal(key[1]) and sig[-1] == numba.types.literal(key[2]):
             _COMPILED[key] = cres.entry_point
-    return results
+
+
+def integrate_coupled_lanes(
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
+    parallel=True,
+):
+    """:func:`omegahat.simulate.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
+    computed in lockstep: run ``i`` goes to worker ``i mod n_workers``, each worker steps its runs ``LANES`` at a
+    time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``.
+    ``parallel=False``: all runs on the calling thread, without Numba's threading layer (``n_workers`` ignored).
+
+    The number of directions ``n`` and of torque terms are compiled in as constants (one compiled kernel per
+    pair, cached on disk): the workspace's row offsets are then constants and LLVM vectorises every lane loop.
+    """
+    head, N, T, M = _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps)
+    Y = np.empty((N, T, head[0].shape[1]))
+    accepted, rejected, ok = np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64), np.ones(N, dtype=bool)
+    if T == 1:  # nothing to integrate (the kernel needs a second output time)
+        Y[:, 0] = head[0]
+    else:
+        _run(parallel, (*head, Y, accepted, rejected, ok, False, 0.0, np.empty((0, T)), np.empty((6, 0)),
+                        int(n_workers), M))
+    return Y, accepted, rejected, ok
+
+
+def integrate_diagnosed_lanes(
+    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
+    rho_floor, parallel=True,
+):
+    """:func:`integrate_coupled_lanes` for a campaign: instead of the states, each run's diagnostics
+    (:func:`omegahat.envelope.diagnose_run` with ``rho_floor``, J the body's inertia), taken by the worker as soon
+    as the run ends, from its states still in cache. Returns ``(rho (N, T), out (6, N), ok (N,), accepted (N,),
+    rejected (N,))``, the numbers :func:`omegahat.envelope.diagnose_runs` gives on
+    :func:`integrate_coupled_lanes`' states, while only the states of the runs in flight are ever held (a chunk
+    of 1024 runs of 401 output times would need 59 MB)."""
+    head, N, T, M = _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps)
+    rho, dout, ok = np.empty((N, T)), np.empty((6, N)), np.empty(N, dtype=bool)
+    accepted, rejected = np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64)
+    if T == 1:  # nothing to integrate: the initial states' diagnostics
+        diagnose_runs(head[0][:, None, :], head[2], head[3], head[1], float(rho_floor), np.ones(N, dtype=bool),
+                      rho, dout, ok)
+    else:
+        _run(parallel, (*head, np.empty((0, T, head[0].shape[1])), accepted, rejected, ok, True, float(rho_floor),
+                        rho, dout, int(n_workers), M))
+    return rho, dout, ok, accepted, rejected

@@ -75,7 +75,8 @@ from scipy.spatial.transform import Rotation
 
 from omegahat._seeds import generators
 from omegahat._validation import as_directions, as_inertia
-from omegahat.batch_kernel import integrate_coupled_lanes
+from omegahat.batch_kernel import integrate_coupled_lanes, integrate_diagnosed_lanes
+from omegahat.envelope import diagnose_runs, diagnose_runs_parallel
 from omegahat.gains import ObserverGains, check_gains, theorem_gains
 from omegahat.simulate import (
     CoupledProblem,
@@ -139,14 +140,18 @@ def _kernel_inputs(J, references, gains, runs: dict, h_max):
     return Y0, body, torque, h0
 
 
-def _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel, out=None) -> BatchResult:
+def _workers(n_workers) -> int:
     workers = numba.get_num_threads() if n_workers is None else int(n_workers)
     if workers < 1:
         raise ValueError(f"n_workers must be at least 1; got {n_workers!r}")
+    return workers
+
+
+def _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel) -> BatchResult:
     Y0, body, torque, h0 = inputs
     Y, acc, rej, ok = integrate_coupled_lanes(
-        Y0, t_out, *body, *torque, float(rtol), float(atol), h0, float(h_max), int(max_steps), workers,
-        parallel=parallel, out=out,
+        Y0, t_out, *body, *torque, float(rtol), float(atol), h0, float(h_max), int(max_steps), _workers(n_workers),
+        parallel=parallel,
     )
     return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
 
@@ -411,114 +416,38 @@ class GainSetResult:
         )
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _diagnose_row(Y, j, n, J, t, rho_floor, batch_ok, rho, out, ok):
-    # Run j of _diagnose_numpy with its floating-point operations in its order (norms as ((x0² + x1²) + x2²), sums
-    # over i from the first term, J z row by row as ((z0 J_i0 + z1 J_i1) + z2 J_i2)); only exp, log and BLAS's
-    # J z (non-diagonal J) may differ from NumPy's in the last bit. Writes rho[j], ok[j] and out[:, j] =
-    # (E0, omega_peak, lam, c_run, t_f, v_increase).
-    T = Y.shape[1]
-    V = np.empty(T)
-    finite = True
-    peak = np.nan  # nanmax: the largest non-NaN |ω|, NaN if there is none
-    E0 = np.nan
-    for k in range(T):
-        o = 3 * n
-        z0, z1, z2 = Y[j, k, o + 3], Y[j, k, o + 4], Y[j, k, o + 5]
-        e_sum = 0.0
-        e_sq = 0.0
-        for i in range(n):
-            a, b, c = Y[j, k, o + 6 + 3 * i], Y[j, k, o + 7 + 3 * i], Y[j, k, o + 8 + 3 * i]
-            e_norm = math.sqrt(a * a + b * b + c * c)
-            e_sum += e_norm
-            e_sq += e_norm * e_norm
-        E = math.sqrt(z0 * z0 + z1 * z1 + z2 * z2) + e_sum
-        if k == 0:
-            E0 = E
-        rho[j, k] = E / E0
-        finite = finite and math.isfinite(rho[j, k])
-        q0 = z0 * J[0, 0] + z1 * J[0, 1] + z2 * J[0, 2]
-        q1 = z0 * J[1, 0] + z1 * J[1, 1] + z2 * J[1, 2]
-        q2 = z0 * J[2, 0] + z1 * J[2, 1] + z2 * J[2, 2]
-        V[k] = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2) + 0.5 * e_sq
-        w0, w1, w2 = Y[j, k, o], Y[j, k, o + 1], Y[j, k, o + 2]
-        w = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-        if not math.isnan(w) and (math.isnan(peak) or w > peak):
-            peak = w
-    good = batch_ok[j] and finite
-    ok[j] = good
-    out[0, j] = E0
-    out[1, j] = peak if good else np.nan
-    # envelope_fit on ρ (1 everywhere for a failed run): t_f the last output time with ρ ≥ floor (the last one
-    # if none is), λ_run = −ln ρ(t_f) / t_f if t_f > 0, c_run = max_{k ≤ i_f} ρ e^{λ_run t_k} (NaN propagates)
-    i_f = T - 1
-    if good:
-        while i_f > 0 and not rho[j, i_f] >= rho_floor:
-            i_f -= 1
-        if i_f == 0 and not rho[j, 0] >= rho_floor:
-            i_f = T - 1
-    out[4, j] = t[i_f]
-    lam = np.nan
-    c_run = np.nan
-    v_increase = -np.inf
-    if good:
-        if t[i_f] > 0:
-            lam = -math.log(rho[j, i_f]) / t[i_f]
-        if math.isfinite(lam):
-            c_run = rho[j, 0] * math.exp(lam * t[0])
-            for k in range(1, i_f + 1):
-                x = rho[j, k] * math.exp(lam * t[k])
-                if not math.isnan(c_run) and (math.isnan(x) or x > c_run):
-                    c_run = x
-        # the largest relative increase of V between consecutive output times up to t_f (NaN propagates)
-        for k in range(1, i_f + 1):
-            x = (V[k] - V[k - 1]) / V[k - 1]
-            if not math.isnan(v_increase) and (math.isnan(x) or x > v_increase):
-                v_increase = x
-    out[2, j] = lam
-    out[3, j] = c_run
-    out[5, j] = v_increase
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _diagnose_rows(Y, n, J, t, rho_floor, batch_ok, rho, out, ok):
-    # on the calling thread (callers that run several in threads: Dask)
-    for j in range(Y.shape[0]):
-        _diagnose_row(Y, j, n, J, t, rho_floor, batch_ok, rho, out, ok)
-
-
-@numba.njit(cache=True, parallel=True, error_model="numpy")
-def _diagnose_rows_parallel(Y, n, J, t, rho_floor, batch_ok, rho, out, ok):
-    for j in numba.prange(Y.shape[0]):
-        _diagnose_row(Y, j, n, J, t, rho_floor, batch_ok, rho, out, ok)
-
-
 def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = True) -> GainSetResult:
     """Envelope, V and ω-bound diagnostics of a batch (module docstring): one compiled pass over ``batch.Y``,
-    run by run (Numba threads if ``parallel``; ``parallel=False`` stays on the calling thread, as in
-    :func:`simulate_batch`). Its numbers are those of the NumPy reference :func:`_diagnose_numpy` to the last bit
-    but for ``exp``, ``log`` and a non-diagonal ``J z``."""
+    run by run (:func:`omegahat.envelope.diagnose_runs`; Numba threads if ``parallel``, ``parallel=False`` stays
+    on the calling thread, as in :func:`simulate_batch`). Its numbers are those of the NumPy reference
+    :func:`_diagnose_numpy` to the last bit but for ``exp``, ``log`` and a non-diagonal ``J z``. A campaign
+    (:func:`run_chunk`) takes the same diagnostics inside the kernel, run by run as runs end."""
     Y = np.ascontiguousarray(batch.Y, dtype=float)
     t = np.ascontiguousarray(batch.t, dtype=float)
     N, T = Y.shape[:2]
     rho = np.empty((N, T))
     out = np.empty((6, N))
     ok = np.empty(N, dtype=bool)
-    kernel = _diagnose_rows_parallel if parallel else _diagnose_rows
+    kernel = diagnose_runs_parallel if parallel else diagnose_runs
     kernel(
         Y, campaign.references.shape[0], np.ascontiguousarray(campaign.J, dtype=float), t, float(campaign.rho_floor),
         np.ascontiguousarray(batch.ok, dtype=bool), rho, out, ok,
     )
+    return _from_diagnostics(campaign, indices, batch.accepted, batch.rejected, ok, rho, out)
+
+
+def _from_diagnostics(campaign, indices, accepted, rejected, ok, rho, out) -> GainSetResult:
+    # out: the rows (E0, omega_peak, lam, c_run, t_f, v_increase) of omegahat.envelope.diagnose_run
     E0, omega_peak, lam, c_run, t_f, v_increase = out
-    return _result(campaign, batch, indices, ok, omega_peak, rho=rho, E0=E0, lam=lam, c_run=c_run, t_f=t_f,
-                   v_increase=v_increase)
+    return _result(campaign, indices, accepted, rejected, ok, omega_peak, rho=rho, E0=E0, lam=lam, c_run=c_run,
+                   t_f=t_f, v_increase=v_increase)
 
 
-def _result(campaign, batch, indices, ok, omega_peak, **fields) -> GainSetResult:
+def _result(campaign, indices, accepted, rejected, ok, omega_peak, **fields) -> GainSetResult:
     # what diagnose and its reference assemble alike: the run indices, the ω bound and the step counts
     return GainSetResult(
         index=np.asarray(indices, dtype=np.int64), ok=ok, in_bound=ok & (omega_peak <= campaign.omega_max),
-        omega_peak=omega_peak, steps=batch.accepted.copy(), rejected=batch.rejected.copy(), **fields,
+        omega_peak=omega_peak, steps=accepted, rejected=rejected, **fields,
     )
 
 
@@ -543,44 +472,34 @@ def _diagnose_numpy(campaign: Campaign, batch: BatchResult, indices) -> GainSetR
     checked = np.arange(1, t.size)[None, :] <= i_f[:, None]
     v_increase = np.where(checked & ok[:, None], rel, -np.inf).max(axis=1)
     omega_peak = np.where(ok, np.nanmax(np.linalg.norm(w, axis=-1), axis=1), np.nan)
-    return _result(campaign, batch, indices, ok, omega_peak, rho=rho, E0=E0, lam=np.where(ok, lam, np.nan),
+    return _result(campaign, indices, batch.accepted, batch.rejected, ok, omega_peak, rho=rho, E0=E0,
+                   lam=np.where(ok, lam, np.nan),
                    c_run=np.where(ok, c_run, np.nan), t_f=t[i_f], v_increase=v_increase)
 
 
-def chunk_buffer(campaign: Campaign, chunk_size: int | None = None):
-    """Kernel outputs for a chunk of up to ``chunk_size`` runs (default the campaign's), for :func:`run_chunk`
-    to integrate into chunk after chunk: ``(Y, accepted, rejected, ok)`` as
-    :func:`omegahat.batch_kernel.integrate_coupled_lanes` returns them. Reusing them spares the kernel a fresh
-    59 MB of states per chunk of 1024 runs (401 output times), whose first writes fault page by page."""
-    size = campaign.chunk_size if chunk_size is None else int(chunk_size)
-    m = 6 * campaign.references.shape[0] + 6
-    return (np.empty((size, campaign.t_out.size, m)), np.empty(size, dtype=np.int64),
-            np.empty(size, dtype=np.int64), np.empty(size, dtype=bool))
-
-
-def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True, buffer=None) -> dict:
+def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict:
     """Runs ``start .. stop − 1`` of the campaign for every gain set: ``{gains name: GainSetResult}``.
 
     The unit of work of :func:`run_campaign` and of :mod:`omegahat.distributed`; its result depends on the run
     indices only, not on how the campaign is cut into chunks nor on ``parallel`` (see :func:`simulate_batch`).
-    ``buffer``: a :func:`chunk_buffer` of at least ``stop − start`` runs that the kernel writes into (the
-    result keeps nothing of it), instead of new arrays.
+    The kernel diagnoses each run as it ends (:func:`omegahat.batch_kernel.integrate_diagnosed_lanes`): the
+    same numbers as :func:`diagnose` on :func:`simulate_batch`'s states, without holding them.
     """
     if not (0 <= start < stop <= campaign.runs):
         raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")
     indices = np.arange(start, stop)
-    out = None if buffer is None else tuple(a[: stop - start] for a in buffer)
     runs = _draw_runs(campaign, indices)  # once per run, whatever the number of gain sets
     # J and the references as a CoupledProblem stores them (as draw_problem + simulate_batch would use them)
     J, references = as_inertia(campaign.J), as_directions(campaign.references)
+    workers = _workers(None)
     results = {}
     for name, gains in campaign.gains.items():
-        inputs = _kernel_inputs(J, references, gains, runs, campaign.h_max)
-        batch = _run_kernel(
-            inputs, campaign.t_out, campaign.rtol, campaign.atol, campaign.h_max, campaign.max_steps, None, parallel,
-            out,
+        Y0, body, torque, h0 = _kernel_inputs(J, references, gains, runs, campaign.h_max)
+        rho, out, ok, acc, rej = integrate_diagnosed_lanes(
+            Y0, campaign.t_out, *body, *torque, float(campaign.rtol), float(campaign.atol), h0, float(campaign.h_max),
+            int(campaign.max_steps), workers, float(campaign.rho_floor), parallel=parallel,
         )
-        results[name] = diagnose(campaign, batch, indices, parallel)
+        results[name] = _from_diagnostics(campaign, indices, acc, rej, ok, rho, out)
     return results
 
 
@@ -613,9 +532,8 @@ def run_campaign(campaign: Campaign, chunk_size: int | None = None, progress: bo
         from tqdm import tqdm
 
         bar = tqdm(total=campaign.runs, unit="run", desc="montecarlo")
-    buffer = chunk_buffer(campaign, max(stop - start for start, stop in spans))
     for start, stop in spans:
-        parts.append(run_chunk(campaign, start, stop, buffer=buffer))
+        parts.append(run_chunk(campaign, start, stop))
         if bar is not None:
             bar.update(stop - start)
     if bar is not None:
