@@ -16,7 +16,7 @@ the next.
 
 Timings over the same runs (examples/campaign.toml, horizon 20 s, output every 0.05 s), chunk by chunk as a
 campaign cuts them (``--chunk``, default the campaign's):
-  lanes    omegahat.batch_kernel.integrate_diagnosed_lanes (what campaigns use): each thread steps its runs 32
+  lanes    omegahat.batch_kernel.integrate_diagnosed_lanes (what campaigns use): each thread steps its runs 24
            at a time in lockstep, SIMD over runs, and diagnoses each run as it ends;
   states   omegahat.batch_kernel.integrate_coupled_lanes: the same, returning every run's states instead (its
            step counts must equal the lanes', its states the prange engine's, bit for bit);

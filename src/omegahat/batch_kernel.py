@@ -58,11 +58,12 @@ from omegahat.simulate import (
 
 __all__ = ["LANES", "integrate_coupled_lanes", "integrate_diagnosed_lanes"]
 
-#: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count): 4 AVX-512 vectors per
-#: row. The workspace is 230 rows of lanes (59 KB with two directions and two torque terms), more than the 32 KB
-#: level-1 cache; 16 lanes fit it but give each lane loop half the work, and measured no faster (one thread, 1,024
-#: theorem-gain runs, within this machine's drift), nor did 24.
-LANES = 32
+#: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count): 3 AVX-512 vectors per
+#: row. The workspace is 230 rows of lanes (44 KB with two directions and two torque terms). Measured in one process,
+#: alternating, 8 rounds (one thread, 2,048 theorem-gain runs): median 75.0 ns per step with 24 lanes, 81.9 with 32
+#: (59 KB, further from the 32 KB level-1 cache), 82.5 with 16 (each lane loop then has too little work); two
+#: threads, 10,000 runs: 73.7 against 80.2.
+LANES = 24
 
 # All per-lane arrays of a worker are rows of ONE workspace S (rows, LANES): every lane loop then reads and writes
 # a single base pointer at row offsets, and LLVM vectorises it. With the same loops over separate arrays it

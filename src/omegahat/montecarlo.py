@@ -2,11 +2,14 @@ r"""Monte-Carlo campaigns: many independent plant + observer runs, and what they
 
 **Batch engine.** :func:`simulate_batch` integrates ``N`` coupled problems (same body, references and gains;
 own initial conditions and torque) with :func:`omegahat.batch_kernel.integrate_coupled_lanes`: each of Numba's
-threads steps its share of the runs 32 at a time in lockstep (SIMD), each run with its own step sizes and
+threads steps its share of the runs 24 at a time in lockstep (SIMD), each run with its own step sizes and
 performing exactly the operations of the single-run kernel :func:`omegahat.simulate.integrate_coupled`, so every
 run is bit-for-bit what :func:`omegahat.simulate.simulate` gives for it, whatever the batch or chunk it sits in.
-The per-run diagnostics below (:func:`diagnose`) are one compiled pass over the batch's states; ``_diagnose_numpy``
-is their NumPy reference.
+The per-run diagnostics below (:mod:`omegahat.envelope`) are one compiled pass over a batch's states
+(:func:`diagnose`; ``_diagnose_numpy`` is their NumPy reference); a campaign (:func:`run_chunk`) has the kernel take
+them run by run as runs end (:func:`omegahat.batch_kernel.integrate_diagnosed_lanes`), the same numbers without
+holding every run's states. A run's generator comes from :mod:`omegahat._seeds` (SeedSequence's states for all
+runs of a chunk at once) and its draws are combined for all runs at once.
 
 **Seeds.** Run ``j`` of a campaign with seed ``s`` draws everything from
 ``numpy.random.default_rng(SeedSequence(s, spawn_key=(j,)))``: the ``j``-th child of
