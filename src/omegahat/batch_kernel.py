@@ -12,6 +12,13 @@ the output times (the continuous extension), sin and cos of large angles, failed
 exponential is :func:`omegahat._exp.exp_kernel`, plain arithmetic that vectorises. Lane loops are written with
 the lanes outermost and the components inside (see ``docs/DEVELOPING.md``).
 
+**Two outputs.** A lane writes its run's states at the output times into its own rows of the worker (``stage``,
+in cache); when the run ends they are copied to the run's row of ``Y``
+(:func:`integrate_coupled_lanes`), or a campaign's diagnostics are taken from them on the spot
+(:func:`integrate_diagnosed_lanes`, :func:`omegahat.envelope.diagnose_run`), so that a campaign never holds more
+than the states of the runs in flight. Both are one compiled kernel (the choice is a run-time flag read when a
+run ends).
+
 **Same numbers as the single-run kernel.** For its run, a lane performs exactly the operations of
 :func:`~omegahat.simulate.integrate_coupled`, in the same order: no fast-math (so no reassociation and no fused
 multiply-adds), the small-angle sin and cos by the same polynomial
