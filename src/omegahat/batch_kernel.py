@@ -33,12 +33,13 @@ has them, so a campaign split over a cluster of different machines gives the num
 as libm's ``sin`` and ``cos`` agree: the torque's phases and large angles call them; the exponential is the
 project's own).
 
-**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads, outputs into a reused buffer):
-2.4–2.6e7 accepted steps/s at best, 2.0–2.4e7 median on this drifting machine, against 4.3–4.6e6 for a ``prange``
-over runs of the single-run kernel. In one thread a step costs about 75 ns: the four right-hand sides about 22 ns
-(≈ 230 floating-point operations each, at the rate of the floating-point pipes), the continuous extension at
-output times 13 ns, stage combinations, error test and the accepted-lane select 27 ns (loads and stores through
-the workspace), the φ-weights 5 ns, the torque 3 ns, the bookkeeping 4 ns.
+**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads, diagnosed as in a campaign): 0.89–1.12
+s at best (2.1–2.7e7 accepted steps/s), medians 0.95–1.71 s on this drifting machine, against 4.6–5.4 s for a
+``prange`` over runs of the single-run kernel. In one thread a step costs about 70 ns: the four right-hand sides
+about 21 ns (≈ 230 floating-point operations each, at the rate of the floating-point pipes), the continuous
+extension at output times 12 ns, stage combinations, error test and the accepted-lane select 20 ns (loads and
+stores through the workspace), the φ-weights 4 ns, the run's diagnostics 3.5 ns, the torque 3 ns, the
+bookkeeping 3 ns.
 """
 
 from __future__ import annotations
