@@ -305,8 +305,8 @@ def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, r
             )
 
 
-@numba.njit(cache=True, inline="always")
-def _release_lane(w, good, run, idx, S, Racc, Rrej, stage, out):
+@numba.njit(cache=True)
+def _release_lane(w, good, run, idx, S, Racc, Rrej, stage, out):  # not inlined: rare, and 3 call sites
     """Lane ``w``'s run ends (``good``: it reached the last output time): its counters (rows ``Racc``, ``Rrej``)
     go out, the rows a failed run did not reach become NaN, its states (``stage[w]``) go to ``Y`` or are
     diagnosed (``out``: the worker's outputs, :func:`_lanes_worker`), and the lane is free: it idles (its time
