@@ -306,7 +306,7 @@ def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, r
 
 
 @numba.njit(cache=True)
-def _release_lane(w, good, run, idx, S, Racc, Rrej, stage, out):  # not inlined: rare, and 3 call sites
+def _release_lane(w, good, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out):  # not inlined: rare, 3 call sites
     """Lane ``w``'s run ends (``good``: it reached the last output time): its counters (rows ``Racc``, ``Rrej``)
     go out, the rows a failed run did not reach become NaN, its states (``stage[w]``) go to ``Y`` or are
     diagnosed (``out``: the worker's outputs, :func:`_lanes_worker`), and the lane is free: it idles (its time
@@ -323,6 +323,7 @@ def _release_lane(w, good, run, idx, S, Racc, Rrej, stage, out):  # not inlined:
         ok[i] = good
         Y[i] = stage[w]
     run[w] = -1
+    _idle_lane(S, w, Rt, Rh, Rnext)
 
 
 @numba.njit(cache=True, inline="always")
@@ -467,8 +468,7 @@ def _lanes_worker(
         if spent > 0:
             for w in range(LANES):
                 if run[w] >= 0 and S[Racc, w] + S[Rrej, w] >= max_steps:
-                    _release_lane(w, False, run, idx, S, Racc, Rrej, stage, out)
-                    _idle_lane(S, w, Rt, Rh, Rnext)
+                    _release_lane(w, False, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out)
                     active -= 1
                 elif run[w] < 0:  # an idle lane's counters grow without meaning: keep them from coming back here
                     S[Racc, w] = 0.0
@@ -566,8 +566,7 @@ def _lanes_worker(
                 if not S[Rerr, w] < np.inf:  # rejected; below 1e-14 the run stops (this trial not counted)
                     if hw < 1e-14:
                         S[Rrej, w] -= 1.0
-                        _release_lane(w, False, run, idx, S, Racc, Rrej, stage, out)
-                        _idle_lane(S, w, Rt, Rh, Rnext)
+                        _release_lane(w, False, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out)
                         active -= 1
                     continue
                 t_new = S[Rt_new, w]
@@ -592,8 +591,7 @@ def _lanes_worker(
         # ---- finished runs leave their lanes ---------------------------------------------------------------------
         for w in range(LANES):
             if run[w] >= 0 and idx[w] >= T:
-                _release_lane(w, True, run, idx, S, Racc, Rrej, stage, out)
-                _idle_lane(S, w, Rt, Rh, Rnext)
+                _release_lane(w, True, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out)
                 active -= 1
 
 
