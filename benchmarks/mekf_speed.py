@@ -52,8 +52,10 @@ def main(argv=None):
     t, tau, R_meas, b_meas = logs[5.0]
     make("dynamic", False).run(t[:5], R_meas[:5], tau[:5])  # compile / load the cache
 
-    print(f"{'model':<10} {'measurements':<13} {'rate Hz':>8} {'samples':>8} {'run us/sample':>14} "
-          f"{'update loop us/sample':>22} {'max rel diff':>13}")
+    print(
+        f"{'model':<10} {'measurements':<13} {'rate Hz':>8} {'samples':>8} {'run us/sample':>14} "
+        f"{'update loop us/sample':>22} {'max rel diff':>13}"
+    )
     for model in ("dynamic", "kinematic"):
         for directions in (False, True):
             for rate, (t, tau, R_meas, b_meas) in logs.items():
@@ -70,8 +72,10 @@ def main(argv=None):
                 ref = np.array([g.update(t[j], meas[j], tau[j]) for j in range(n)])
                 loop = time.perf_counter() - t0
                 diff = np.abs(W[:n] - ref).max() / np.abs(ref).max()
-                print(f"{model:<10} {'directions' if directions else 'attitude':<13} {rate:>8.1f} {t.size:>8d} "
-                      f"{best / t.size * 1e6:>14.1f} {loop / n * 1e6:>22.0f} {diff:>13.1e}")
+                print(
+                    f"{model:<10} {'directions' if directions else 'attitude':<13} {rate:>8.1f} {t.size:>8d} "
+                    f"{best / t.size * 1e6:>14.1f} {loop / n * 1e6:>22.0f} {diff:>13.1e}"
+                )
 
 
 if __name__ == "__main__":

@@ -76,8 +76,10 @@ def main():
     if args.chunk is not None:
         campaign = mc.replace(campaign, chunk_size=args.chunk)
     workers = numba.get_num_threads()
-    print(f"threads: {workers} (numba), cores: {os.cpu_count()}, lanes: {LANES}, chunk: {campaign.chunk_size}, "
-          f"load avg: {os.getloadavg()}")
+    print(
+        f"threads: {workers} (numba), cores: {os.cpu_count()}, lanes: {LANES}, chunk: {campaign.chunk_size}, "
+        f"load avg: {os.getloadavg()}"
+    )
     # compile (and load the on-disk cache) outside the timings
     warm = mc.replace(campaign, runs=2, horizon=0.2)
     mc.run_campaign(warm)
@@ -90,8 +92,9 @@ def main():
     # the kernels' inputs chunk by chunk, drawn and packed as run_chunk does
     t0 = time.perf_counter()
     gains = c.gains[args.gains]  # c.J and c.references are already checked arrays, as run_chunk uses them
-    packed = [mc._kernel_inputs(c.J, c.references, gains, mc._draw_runs(c, np.arange(a, b)), c.h_max)
-              for a, b in mc.chunks(c)]
+    packed = [
+        mc._kernel_inputs(c.J, c.references, gains, mc._draw_runs(c, np.arange(a, b)), c.h_max) for a, b in mc.chunks(c)
+    ]
     print(f"drawing and packing {c.runs} runs: {time.perf_counter() - t0:.2f} s")
     Y0w, bw, tw, hw = packed[0]
     integrate_coupled_lanes(Y0w[:2], t_out[:3], *bw, *(x[:2] for x in tw), *tol, hw[:2], *steps, workers)
@@ -129,8 +132,10 @@ def main():
             for u, v in zip(results["states"][2], results["prange"][2], strict=True)
             for x, y in zip(u, v, strict=True)
         )
-        print(f"lanes / prange: {results['prange'][0] / results['lanes'][0]:.2f}x faster; states (final), step "
-              f"counts and flags of the states kernel and prange identical: {same}")
+        print(
+            f"lanes / prange: {results['prange'][0] / results['lanes'][0]:.2f}x faster; states (final), step "
+            f"counts and flags of the states kernel and prange identical: {same}"
+        )
 
     times = []
     for _ in range(args.repeat):

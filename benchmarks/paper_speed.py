@@ -30,9 +30,7 @@ def main():
     reference = simulate_reference(problem, T_OUT, method="DOP853", rtol=1e-13, atol=1e-16)
     simulate(problem, t_out=T_OUT)  # compile / load the Numba cache before timing
     t_fast, fast = timed(lambda: simulate(problem, t_out=T_OUT), 21)
-    t_lsoda, lsoda = timed(
-        lambda: simulate_reference(problem, T_OUT, method="LSODA", rtol=1e-10, atol=1e-14), 3
-    )
+    t_lsoda, lsoda = timed(lambda: simulate_reference(problem, T_OUT, method="LSODA", rtol=1e-10, atol=1e-14), 3)
 
     def rel(traj):
         return np.abs(traj.error[CHECK] / reference.error[CHECK] - 1.0)
@@ -41,9 +39,7 @@ def main():
     print(f"reference (DOP853 rtol 1e-13): {', '.join(f'{v:.10e}' for v in reference.error[CHECK])}")
     print(f"{'method':<40}{'median wall time':>18}{'max rel. error':>16}")
     print(f"{'omegahat.simulate (ETDRK4, rtol 1e-9)':<40}{t_fast * 1e3:>15.2f} ms{rel(fast).max():>16.2e}")
-    print(
-        f"{'solve_ivp LSODA (rtol 1e-10, atol 1e-14)':<40}{t_lsoda * 1e3:>15.2f} ms{rel(lsoda).max():>16.2e}"
-    )
+    print(f"{'solve_ivp LSODA (rtol 1e-10, atol 1e-14)':<40}{t_lsoda * 1e3:>15.2f} ms{rel(lsoda).max():>16.2e}")
     print(f"speed-up: {t_lsoda / t_fast:.0f}x  (goal: at least 100x, both within 1e-6 relative)")
 
 

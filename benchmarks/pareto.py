@@ -45,9 +45,11 @@ def main():
             for goal in (0.01, 0.05):
                 try:
                     r = gs.recommend_gains(J, rate, sigma, max_noise=goal)
-                    print(f"  recommend_gains(max_noise={goal}): bandwidth {r.bandwidth_hz:.3g} Hz, k = "
-                          f"{r.gains.k[0]:.4g}, l = {r.gains.l_offset[0]:.4g}: t_c {r.convergence_time:.3g} s, "
-                          f"noise {r.noise_rms:.3g}")
+                    print(
+                        f"  recommend_gains(max_noise={goal}): bandwidth {r.bandwidth_hz:.3g} Hz, k = "
+                        f"{r.gains.k[0]:.4g}, l = {r.gains.l_offset[0]:.4g}: t_c {r.convergence_time:.3g} s, "
+                        f"noise {r.noise_rms:.3g}"
+                    )
                 except ValueError as exc:
                     print(f"  recommend_gains(max_noise={goal}): {exc}")
     ax = gs.plot_pareto(evs)

@@ -29,8 +29,25 @@ from omegahat import broad
 from omegahat.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.tuning import bandwidth_gains
 
-GRID = (100.0, 150.0, 200.0, 250.0, 300.0, 350.0, 400.0, 450.0, 500.0, 550.0, 600.0, 700.0, 1000.0, 1500.0,
-        2000.0, 5000.0, 10000.0)  # rad/s
+GRID = (
+    100.0,
+    150.0,
+    200.0,
+    250.0,
+    300.0,
+    350.0,
+    400.0,
+    450.0,
+    500.0,
+    550.0,
+    600.0,
+    700.0,
+    1000.0,
+    1500.0,
+    2000.0,
+    5000.0,
+    10000.0,
+)  # rad/s
 TUNING_TRIAL = "01"
 
 
@@ -60,8 +77,10 @@ def main() -> int:
     b_best = min(tuning, key=lambda b: tuning[b].rms)
     print(f"chosen b = {b_best:g} rad/s (k = {b_best / 2:g}, l = {10 * b_best:g})\n")
 
-    header = (f"| trial | gyro RMS | differencing (NOTICE) | shift | omegahat b={b_best:g} | shift | ratio | "
-              "samples scored | run time |")
+    header = (
+        f"| trial | gyro RMS | differencing (NOTICE) | shift | omegahat b={b_best:g} | shift | ratio | "
+        "samples scored | run time |"
+    )
     print(header)
     print("|" + " --- |" * (header.count("|") - 1))
     all_beat = True
@@ -71,9 +90,11 @@ def main() -> int:
         s = broad.score(trial, W)
         all_beat &= s.rms <= bar.rms
         notice = broad.NOTICE_DIFFERENCING_RMS[name]
-        print(f"| {name} | {s.gyro_rms:.3f} | {bar.rms:.4f} ({notice}) | {bar.shift:+d} | {s.rms:.4f} | "
-              f"{s.shift:+d} | {s.rms / bar.rms:.3f} | {s.n_samples} | "
-              f"{elapsed * 1e3:.0f} ms for {trial.t.size} samples |")
+        print(
+            f"| {name} | {s.gyro_rms:.3f} | {bar.rms:.4f} ({notice}) | {bar.shift:+d} | {s.rms:.4f} | "
+            f"{s.shift:+d} | {s.rms / bar.rms:.3f} | {s.n_samples} | "
+            f"{elapsed * 1e3:.0f} ms for {trial.t.size} samples |"
+        )
     print(f"\nmatches or beats differencing on every trial: {'yes' if all_beat else 'NO'}")
     return 0
 

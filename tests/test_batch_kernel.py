@@ -46,8 +46,14 @@ def _problems(n_runs, n_dirs, n_terms, seed, gains, freq=(0.5, 5.0)):
         )
         out.append(
             CoupledProblem(
-                J=J, gains=gains, omega0=rng.uniform(-1, 1, 3), R0=R0, references=refs,
-                r_hat0=rng.uniform(-3, 3, (n_dirs, 3)), omega_hat0=rng.uniform(-20, 20, 3), torque=torque,
+                J=J,
+                gains=gains,
+                omega0=rng.uniform(-1, 1, 3),
+                R0=R0,
+                references=refs,
+                r_hat0=rng.uniform(-3, 3, (n_dirs, 3)),
+                omega_hat0=rng.uniform(-20, 20, 3),
+                torque=torque,
             )
         )
     return out
@@ -75,8 +81,9 @@ def test_theorem_gains_more_runs_than_lanes_are_bit_identical_to_the_single_run_
 
 def test_unequal_small_gains_three_directions():
     # l_i differ per direction (no shared φ-weights) and are small, so −l h < 1/2: the Taylor branches
-    gains = ObserverGains(k=np.array([2.0, 3.0, 4.0]), l_offset=np.array([0.5, 1.0, 2.0]),
-                          l_slope=np.array([0.1, 0.0, 0.3]))
+    gains = ObserverGains(
+        k=np.array([2.0, 3.0, 4.0]), l_offset=np.array([0.5, 1.0, 2.0]), l_slope=np.array([0.1, 0.0, 0.3])
+    )
     problems = _problems(7, 3, 2, seed=2, gains=gains)  # fewer runs than lanes
     _, _, _, ok = _compare(problems, np.array([0.0, 0.3, 0.31, 1.5]), rtol=1e-8)
     assert ok.all()
@@ -166,7 +173,7 @@ def test_phi_functions_match_high_precision(x):
 
 def test_step_factor_is_the_clipped_fourth_root_rule():
     for err in (1e-12, 0.01, 0.5, 0.999, 1.0, 3.0, 1e6):
-        assert _step_factor(err) == pytest.approx(min(4.0, max(0.2, 0.9 * err ** -0.25)), rel=1e-15)
+        assert _step_factor(err) == pytest.approx(min(4.0, max(0.2, 0.9 * err**-0.25)), rel=1e-15)
     assert _step_factor(0.0) == 4.0
 
 
@@ -219,8 +226,9 @@ def test_non_diagonal_inertia_is_bit_identical_too():
     J = R @ np.diag([3.0, 2.0, 1.0]) @ R.T
     gains = theorem_gains(J, omega_max=3.0, margin=1.0, l0=1.0)
     problems = [
-        CoupledProblem(J=J, gains=gains, omega0=p.omega0, R0=p.R0, r_hat0=p.r_hat0, omega_hat0=p.omega_hat0,
-                       torque=p.torque)
+        CoupledProblem(
+            J=J, gains=gains, omega0=p.omega0, R0=p.R0, r_hat0=p.r_hat0, omega_hat0=p.omega_hat0, torque=p.torque
+        )
         for p in _problems(LANES + 2, 2, 2, seed=9, gains=theorem_gains(np.diag([3.0, 2.0, 1.0]), 3.0))
     ]
     _, acc, _, ok = _compare(problems, np.linspace(0.0, 1.0, 21))

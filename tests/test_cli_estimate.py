@@ -80,8 +80,9 @@ def test_direction_input_with_references(tmp_path, capsys):
     b = np.einsum("nji,kj->nki", R, v)  # b_k = Rᵀ v_k, unnormalised like real sensors
     src, dst = tmp_path / "dirs.npz", tmp_path / "out.csv"
     np.savez(src, t=t, b=b)
-    code, _, err = run_cli(capsys, "estimate", src, "-o", dst, "--references=0,0,9.83;-0.9,15.5,-41.3",
-                           "--bandwidth", "50")
+    code, _, err = run_cli(
+        capsys, "estimate", src, "-o", dst, "--references=0,0,9.83;-0.9,15.5,-41.3", "--bandwidth", "50"
+    )
     assert code == 0, err
     np.testing.assert_allclose(read_output(dst)[-50:, 1:], np.broadcast_to(OMEGA, (50, 3)), atol=1e-8)
 

@@ -43,7 +43,13 @@ def test_compare_writes_its_files_and_is_deterministic(tmp_path, capsys):
     with open(out1 / "results.csv") as f:
         rows = list(csv.DictReader(f))
     assert [r["method"] for r in rows] == [
-        "omegahat", "omegahat-cold", "diff-backward", "diff-central", "spline", "mekf-dynamic", "mekf-kinematic",
+        "omegahat",
+        "omegahat-cold",
+        "diff-backward",
+        "diff-central",
+        "spline",
+        "mekf-dynamic",
+        "mekf-kinematic",
     ]
     # The fixed point the table must agree with: on noise-free samples at 100 Hz, raw backward differencing is
     # first order, |error| ≈ h |ω̇| / 2 at t_k, i.e. well above 1e-4 and below 0.1 rad/s on the paper's body.

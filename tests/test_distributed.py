@@ -14,7 +14,13 @@ J = np.diag([3.0, 2.0, 1.0])
 
 def test_local_cluster_gives_the_local_numbers():
     c = mc.Campaign(
-        J=J, omega_max=3.0, runs=9, seed=31, chunk_size=4, horizon=1.0, dt_out=0.1,
+        J=J,
+        omega_max=3.0,
+        runs=9,
+        seed=31,
+        chunk_size=4,
+        horizon=1.0,
+        dt_out=0.1,
         gains={"theorem": theorem_gains(J, 3.0), "constant": ObserverGains.constant(14.5, 1.0)},
     )
     local = mc.run_campaign(c)
@@ -30,8 +36,9 @@ def test_local_cluster_gives_the_local_numbers():
 
 
 def test_merge_refuses_missing_chunks():
-    c = mc.Campaign(J=J, omega_max=3.0, runs=4, seed=1, horizon=0.2, dt_out=0.1,
-                    gains={"theorem": theorem_gains(J, 3.0)})
+    c = mc.Campaign(
+        J=J, omega_max=3.0, runs=4, seed=1, horizon=0.2, dt_out=0.1, gains={"theorem": theorem_gains(J, 3.0)}
+    )
     part = mc.run_chunk(c, 0, 2, parallel=False)
     with pytest.raises(ValueError, match="do not cover every run exactly once"):
         mc.merge(c, [part])

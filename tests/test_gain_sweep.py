@@ -51,8 +51,14 @@ def test_sweep_uses_common_noise_per_sensor_and_covers_the_grid():
     assert len(evs) == 4
     assert {(e.rate_hz, e.noise_std_rad) for e in evs} == {(50.0, 1e-3), (50.0, 5e-3)}
     # common random numbers: re-evaluating one point with its (rate, noise) seed gives the same number
-    again = gs.evaluate_gains(J, ObserverGains.constant(20.0, 50.0, n=3), 50.0, 5e-3,
-                              seed=np.random.SeedSequence(2, spawn_key=(0, 1)), horizon=3.0)
+    again = gs.evaluate_gains(
+        J,
+        ObserverGains.constant(20.0, 50.0, n=3),
+        50.0,
+        5e-3,
+        seed=np.random.SeedSequence(2, spawn_key=(0, 1)),
+        horizon=3.0,
+    )
     point = next(e for e in evs if e.noise_std_rad == 5e-3 and e.gains.k[0] == 20.0)
     assert again.noise_rms == point.noise_rms
     # noise scales with σ for the same gains (linear filter of the same noise shape)

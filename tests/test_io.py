@@ -90,10 +90,11 @@ def test_whitespace_around_names_and_values(tmp_path):
         ("t,qw,qx,qy\n0,1,0,0\n", r"line 1 \(header\): missing quaternion column\(s\) qz"),
         ("t,r11,r12,r13,r21,r22,r23,r31,r32\n", r"missing matrix column\(s\) r33"),
         ("t,qw,qx,qy,qz,r11\n", r"attitude given more than one way \(quaternion and matrix\)"),
-        ("t,qw,qx,qy,qz\n0,1,0,0,0\n0.2,1,0,0,0\n0.1,1,0,0,0\n",
-         r"line 4, column t: time 0\.1 is not after 0\.2 \(line 3\); times must increase strictly"),
-        ("t,qw,qx,qy,qz\n0,1,0,0,0\n0,1,0,0,0\n",
-         r"line 3, column t: time 0\.0 is not after 0\.0 \(line 2\)"),
+        (
+            "t,qw,qx,qy,qz\n0,1,0,0,0\n0.2,1,0,0,0\n0.1,1,0,0,0\n",
+            r"line 4, column t: time 0\.1 is not after 0\.2 \(line 3\); times must increase strictly",
+        ),
+        ("t,qw,qx,qy,qz\n0,1,0,0,0\n0,1,0,0,0\n", r"line 3, column t: time 0\.0 is not after 0\.0 \(line 2\)"),
         ("t,qw,qx,qy,qz\n0,1,0,0,0\n,1,0,0,0\n", r"line 3, column t: empty time"),
         ("t,qw,qx,qy,qz\nnan,1,0,0,0\n", r"line 2, column t: time nan is not finite"),
         ("time,qw,qx,qy,qz\n0,1,0,0,0\n", r"no time column 't' \(found: time, qw, qx, qy, qz\)"),
@@ -103,12 +104,10 @@ def test_whitespace_around_names_and_values(tmp_path):
         ("t,qw,qx,qy,qz,qx\n", r"duplicate column\(s\) qx"),
         ("t,qw,qx,qy,qz,tau_x,tau_y\n", r"torque needs tau_x, tau_y and tau_z; missing tau_z"),
         ("t,qw,qx,qy,qz,tau_x,tau_y,tau_z\n0,1,0,0,0,0,,0\n", r"line 2, column tau_y: empty torque"),
-        ("t,qw,qx,qy,qz,tau_x,tau_y,tau_z\n0,1,0,0,0,0,inf,0\n",
-         r"line 2, column tau_y: torque 'inf' is not finite"),
+        ("t,qw,qx,qy,qz,tau_x,tau_y,tau_z\n0,1,0,0,0,0,inf,0\n", r"line 2, column tau_y: torque 'inf' is not finite"),
         ("t,b1x,b1y,b1z\n", r"direction input needs at least 2 directions \(b1\*, b2\*\); got 1"),
         ("t,b1x,b1y,b1z,b2x,b2y\n", r"missing direction column\(s\) b2z"),
-        ("t,b1x,b1y,b1z,b3x,b3y,b3z\n",
-         r"directions must be numbered b1, b2, \.\.\. without gaps; got b1, b3"),
+        ("t,b1x,b1y,b1z,b3x,b3y,b3z\n", r"directions must be numbered b1, b2, \.\.\. without gaps; got b1, b3"),
     ],
 )
 def test_csv_errors_name_line_and_column(tmp_path, text, match):
@@ -136,8 +135,7 @@ def test_npz_columns_q_R_b_and_tau(tmp_path):
     q = rot.as_quat()
     tau = np.ones((6, 3))
     p = tmp_path / "cols.npz"
-    np.savez(p, t=t, qw=q[:, 3], qx=q[:, 0], qy=q[:, 1], qz=q[:, 2], tau_x=tau[:, 0], tau_y=tau[:, 1],
-             tau_z=tau[:, 2])
+    np.savez(p, t=t, qw=q[:, 3], qx=q[:, 0], qy=q[:, 1], qz=q[:, 2], tau_x=tau[:, 0], tau_y=tau[:, 1], tau_z=tau[:, 2])
     log = read_npz(p)
     np.testing.assert_array_equal(log.data, q)
     np.testing.assert_array_equal(log.torque, tau)
@@ -168,17 +166,21 @@ def test_npz_columns_q_R_b_and_tau(tmp_path):
         ({"q": np.zeros((3, 4))}, r"no array 't' \(found: q\)"),
         ({"t": np.arange(3.0), "q": np.zeros((3, 3))}, r"array q: expected shape \(3, 4\), got \(3, 3\)"),
         ({"t": np.arange(3.0), "R": np.zeros((3, 3))}, r"array R: expected shape \(3, 3, 3\), got \(3, 3\)"),
-        ({"t": np.arange(3.0), "q": np.zeros((3, 4)), "R": np.zeros((3, 3, 3))},
-         r"attitude given more than one way \(q, R\)"),
-        ({"t": np.array([0.0, 2.0, 1.0]), "q": np.zeros((3, 4))},
-         r"array t, index 2: time 1\.0 is not after 2\.0 \(index 1\)"),
+        (
+            {"t": np.arange(3.0), "q": np.zeros((3, 4)), "R": np.zeros((3, 3, 3))},
+            r"attitude given more than one way \(q, R\)",
+        ),
+        (
+            {"t": np.array([0.0, 2.0, 1.0]), "q": np.zeros((3, 4))},
+            r"array t, index 2: time 1\.0 is not after 2\.0 \(index 1\)",
+        ),
         ({"t": np.zeros((3, 1)), "q": np.zeros((3, 4))}, r"array t: expected shape \(T,\), got \(3, 1\)"),
-        ({"t": np.arange(3.0), "q": np.zeros((3, 4)), "tau": np.zeros(3)},
-         r"array tau: expected shape \(3, 3\)"),
-        ({"t": np.arange(2.0), "q": np.zeros((2, 4)), "tau": np.array([[0, 0, 0], [0, np.nan, 0]])},
-         r"torque at index 1: not finite"),
-        ({"t": np.arange(2.0), "qw": np.zeros(2), "qx": np.zeros(2)},
-         r"missing quaternion column\(s\) qy, qz"),
+        ({"t": np.arange(3.0), "q": np.zeros((3, 4)), "tau": np.zeros(3)}, r"array tau: expected shape \(3, 3\)"),
+        (
+            {"t": np.arange(2.0), "q": np.zeros((2, 4)), "tau": np.array([[0, 0, 0], [0, np.nan, 0]])},
+            r"torque at index 1: not finite",
+        ),
+        ({"t": np.arange(2.0), "qw": np.zeros(2), "qx": np.zeros(2)}, r"missing quaternion column\(s\) qy, qz"),
         ({"t": np.array(["a", "b"]), "q": np.zeros((2, 4))}, r"array t: expected numbers, got dtype <U1"),
     ],
 )

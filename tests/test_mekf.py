@@ -51,9 +51,7 @@ def error_rate(dx, model, eps=1e-5):
 def test_process_jacobian_matches_finite_differences(model):
     F, G = process_jacobian(W_HAT, J, J_INV, model)
     d = 1e-4
-    F_fd = np.column_stack(
-        [(error_rate(d * e, model) - error_rate(-d * e, model)) / (2 * d) for e in np.eye(6)]
-    )
+    F_fd = np.column_stack([(error_rate(d * e, model) - error_rate(-d * e, model)) / (2 * d) for e in np.eye(6)])
     np.testing.assert_allclose(F, F_fd, atol=1e-6)
     # G: torque noise enters through Euler's equations (ω̇ = J⁻¹(... + τ)); the kinematic noise is ω̇ itself.
     body = RigidBody(J)
@@ -145,8 +143,9 @@ def test_nees_within_chi2_bounds_near_linear(model, q):
         # Initial estimate drawn from the filter's own prior around the truth.
         R0 = R_true[0, n] @ Exp(rng.normal(0, sigma_th0, 3))
         w0 = w_true[0, n] + rng.normal(0, sigma_w0, 3)
-        f = MEKF(J_true, model, q=q, measurement_sigma=sigma, omega0=w0, sigma_omega0=sigma_w0,
-                 R0=R0, sigma_theta0=sigma_th0)
+        f = MEKF(
+            J_true, model, q=q, measurement_sigma=sigma, omega0=w0, sigma_omega0=sigma_w0, R0=R0, sigma_theta0=sigma_th0
+        )
         meas = R_true[:, n] @ Exp(rng.normal(0, sigma, (steps + 1, 3)))
         for k in range(steps + 1):
             f.update(times[k], meas[k])
@@ -286,8 +285,15 @@ def test_run_equals_update_loop(case):
     tq = tau if torque else None
 
     def make():
-        return MEKF(J_DYN if model == "dynamic" else None, model, q=1e-3, measurement_sigma=1e-3,
-                    references=REFS if directions else None, omega0=[0.5, 0.0, 0.0], sigma_omega0=1.0)
+        return MEKF(
+            J_DYN if model == "dynamic" else None,
+            model,
+            q=1e-3,
+            measurement_sigma=1e-3,
+            references=REFS if directions else None,
+            omega0=[0.5, 0.0, 0.0],
+            sigma_omega0=1.0,
+        )
 
     compiled, oracle = make(), make()
     out = compiled.run(times, meas, tq)
@@ -324,8 +330,9 @@ def test_run_accepts_quaternions_and_rotations_like_update():
     quat = Rotation.from_matrix(R_meas).as_quat()
     ref = MEKF(J_DYN).run(times, R_meas)
     np.testing.assert_allclose(MEKF(J_DYN).run(times, Rotation.from_matrix(R_meas)), ref, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(MEKF(J_DYN, scalar_first=True).run(times, np.roll(quat, 1, axis=1)), ref,
-                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        MEKF(J_DYN, scalar_first=True).run(times, np.roll(quat, 1, axis=1)), ref, rtol=0, atol=1e-12
+    )
     f = MEKF(J_DYN)
     np.testing.assert_allclose(update_loop(f, times, quat), ref, rtol=0, atol=1e-10)
     assert MEKF(J_DYN).run([], np.zeros((0, 3, 3))).shape == (0, 3)

@@ -122,13 +122,26 @@ def _draw_one(c, j):
     amplitudes = rng.uniform(-c.torque_amplitude, c.torque_amplitude, size=(M, 3))
     frequencies = rng.uniform(*c.torque_frequency, size=M)
     phases = rng.uniform(0.0, 2.0 * np.pi, size=(M, 3))
-    return dict(R0=R0, omega0=omega0, r_hat0=np.array(r_hat0), omega_hat0=omega_hat0, amplitudes=amplitudes,
-                frequencies=frequencies, phases=phases)
+    return dict(
+        R0=R0,
+        omega0=omega0,
+        r_hat0=np.array(r_hat0),
+        omega_hat0=omega_hat0,
+        amplitudes=amplitudes,
+        frequencies=frequencies,
+        phases=phases,
+    )
 
 
 def test_draws_follow_the_recipe_run_by_run():
-    c = _small(runs=40, p_zero=0.2, p_opposite=0.2, torque_terms=3, references=np.eye(3),
-               gains={"three": ObserverGains.constant(5.0, 2.0, n=3)})
+    c = _small(
+        runs=40,
+        p_zero=0.2,
+        p_opposite=0.2,
+        torque_terms=3,
+        references=np.eye(3),
+        gains={"three": ObserverGains.constant(5.0, 2.0, n=3)},
+    )
     indices = [0, 3, 17, 39, 38, 5]
     got = mc._draw_runs(c, indices)
     for row, j in enumerate(indices):
@@ -164,16 +177,22 @@ def test_run_chunk_equals_drawing_each_problem_per_gain_set():
         "slope": ObserverGains(k=[5.0, 5.0], l_offset=5.0, l_slope=2.0),
         "constant": ObserverGains.constant(14.5, 1.0),
     }
-    c = _small(runs=12, gains=gains, horizon=0.5, dt_out=0.05, p_zero=0.25, p_opposite=0.25,
-               references=[[1.0, 1.0, 0.0], [0.0, 1.0, 2.0]])
+    c = _small(
+        runs=12,
+        gains=gains,
+        horizon=0.5,
+        dt_out=0.05,
+        p_zero=0.25,
+        p_opposite=0.25,
+        references=[[1.0, 1.0, 0.0], [0.0, 1.0, 2.0]],
+    )
     for start, stop, parallel in [(0, 12, True), (3, 10, False)]:
         got = mc.run_chunk(c, start, stop, parallel=parallel)
         assert list(got) == list(gains)
         steps = []
         for name in gains:
             problems = [mc.draw_problem(c, j, name) for j in range(start, stop)]
-            batch = mc.simulate_batch(problems, c.t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max,
-                                      max_steps=c.max_steps)
+            batch = mc.simulate_batch(problems, c.t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max, max_steps=c.max_steps)
             want = mc.diagnose(c, batch, np.arange(start, stop))
             for f in dataclasses.fields(mc.GainSetResult):
                 a, b = getattr(got[name], f.name), getattr(want, f.name)
@@ -193,8 +212,17 @@ def test_compiled_diagnose_equals_numpy_reference():
         "slope": ObserverGains(k=[5.0, 5.0], l_offset=5.0, l_slope=2.0),
         "constant": ObserverGains.constant(14.5, 1.0),
     }
-    c = _small(runs=24, gains=gains, horizon=3.0, dt_out=0.05, omega0_fraction=1.0, torque_amplitude=1.0,
-               p_zero=0.25, p_opposite=0.25, max_steps=2100)
+    c = _small(
+        runs=24,
+        gains=gains,
+        horizon=3.0,
+        dt_out=0.05,
+        omega0_fraction=1.0,
+        torque_amplitude=1.0,
+        p_zero=0.25,
+        p_opposite=0.25,
+        max_steps=2100,
+    )
     indices = np.arange(c.runs)
     runs = mc._draw_runs(c, indices)
     seen = dict.fromkeys(["failed", "out of bound", "floor reached", "floor not reached", "V increased"], 0)
@@ -272,8 +300,17 @@ def test_worst_envelope_is_min_rate_and_max_constant():
     rho = np.stack([np.exp(-2.0 * t), (1 + 4 * t) * np.exp(-3.0 * t)])
     lam, c_run, i_f = mc.envelope_fit(t, rho, c.rho_floor)
     r = mc.GainSetResult(
-        index=np.arange(2), ok=np.ones(2, bool), in_bound=np.ones(2, bool), omega_peak=np.zeros(2), rho=rho,
-        E0=np.ones(2), lam=lam, c_run=c_run, t_f=t[i_f], v_increase=np.zeros(2), steps=np.zeros(2, int),
+        index=np.arange(2),
+        ok=np.ones(2, bool),
+        in_bound=np.ones(2, bool),
+        omega_peak=np.zeros(2),
+        rho=rho,
+        E0=np.ones(2),
+        lam=lam,
+        c_run=c_run,
+        t_f=t[i_f],
+        v_increase=np.zeros(2),
+        steps=np.zeros(2, int),
         rejected=np.zeros(2, int),
     )
     lam_star, c_star, slowest = mc.worst_envelope(c, r)
@@ -285,8 +322,14 @@ def test_worst_envelope_is_min_rate_and_max_constant():
 def test_theorem_gains_converge_and_v_decreases_on_wide_initial_conditions():
     """The claim itself on 12 runs with |ω̂₀| up to 100 and r̂ anywhere in the ball of radius 10, 0 and −r
     included (p = 0.25 each): every in-bound run converges and V never increases on the grid."""
-    c = _small(runs=12, gains={"theorem": theorem_gains(J, 3.0)}, horizon=4.0, p_zero=0.25, p_opposite=0.25,
-               converged_below=1e-6)
+    c = _small(
+        runs=12,
+        gains={"theorem": theorem_gains(J, 3.0)},
+        horizon=4.0,
+        p_zero=0.25,
+        p_opposite=0.25,
+        converged_below=1e-6,
+    )
     res = mc.run_campaign(c)
     s = mc.summarize(c, res)["gain_sets"]["theorem"]
     assert s["satisfies_theorem"]
@@ -316,8 +359,14 @@ def test_constant_small_l_fails_globally_and_counterexamples_replay():
 
 
 def test_out_of_bound_runs_are_set_aside():
-    c = _small(runs=6, gains={"theorem": theorem_gains(J, 3.0)}, omega0_fraction=1.0, torque_amplitude=3.0,
-               torque_frequency=(0.5, 0.6), horizon=2.0)
+    c = _small(
+        runs=6,
+        gains={"theorem": theorem_gains(J, 3.0)},
+        omega0_fraction=1.0,
+        torque_amplitude=3.0,
+        torque_frequency=(0.5, 0.6),
+        horizon=2.0,
+    )
     res = mc.run_campaign(c)["theorem"]
     s = mc.summarize(c, {"theorem": res})["gain_sets"]["theorem"]
     out = res.ok & (res.omega_peak > 3.0)

@@ -114,9 +114,7 @@ def test_lyapunov_function_decreases_along_paper_run(paper_run):
     assert V[0] > 8.0  # not a trivial run
     steps = np.diff(V)
     positive = V[1:] > 1e-300
-    assert np.all(steps[positive] < 0), (
-        f"V increased at t = {paper_run.t[1:][positive][steps[positive] >= 0]}"
-    )
+    assert np.all(steps[positive] < 0), f"V increased at t = {paper_run.t[1:][positive][steps[positive] >= 0]}"
 
 
 def test_assumption_a2_holds_along_paper_run(paper_run):

@@ -52,8 +52,13 @@ def dop853_reference(J, R0, omega0, t_eval, torque=lambda t, R, w: np.zeros(3)):
         return np.concatenate([(R @ W).ravel(), wdot])
 
     sol = solve_ivp(
-        rhs, (t_eval[0], t_eval[-1]), np.concatenate([R0.ravel(), omega0]), method="DOP853",
-        rtol=1e-13, atol=1e-13, t_eval=t_eval,
+        rhs,
+        (t_eval[0], t_eval[-1]),
+        np.concatenate([R0.ravel(), omega0]),
+        method="DOP853",
+        rtol=1e-13,
+        atol=1e-13,
+        t_eval=t_eval,
     )
     assert sol.success
     return sol.y[:9].T.reshape(-1, 3, 3), sol.y[9:].T
@@ -73,11 +78,13 @@ def test_euler_equations_component_form():
     body = RigidBody(J)
     w = np.array([0.7, -1.3, 2.1])
     tau = np.array([0.1, -0.2, 0.3])
-    expected = np.array([
-        ((J[1] - J[2]) * w[1] * w[2] + tau[0]) / J[0],
-        ((J[2] - J[0]) * w[2] * w[0] + tau[1]) / J[1],
-        ((J[0] - J[1]) * w[0] * w[1] + tau[2]) / J[2],
-    ])
+    expected = np.array(
+        [
+            ((J[1] - J[2]) * w[1] * w[2] + tau[0]) / J[0],
+            ((J[2] - J[0]) * w[2] * w[0] + tau[1]) / J[1],
+            ((J[0] - J[1]) * w[0] * w[1] + tau[2]) / J[2],
+        ]
+    )
     np.testing.assert_allclose(body.omega_dot(w, tau), expected, rtol=1e-14)
 
 
@@ -215,8 +222,7 @@ def test_state_torque_damping_decays_momentum_in_closed_form():
     body = RigidBody(PAPER_J)
     R0 = so3.exp([0.5, 0.1, -0.7])
     t = np.linspace(0.0, 5.0, 11)
-    traj = integrate(body, R0, PAPER_OMEGA0, t, torque=Torque.of_state(lambda s, R, w: -c * body.J @ w),
-                     max_step=5e-3)
+    traj = integrate(body, R0, PAPER_OMEGA0, t, torque=Torque.of_state(lambda s, R, w: -c * body.J @ w), max_step=5e-3)
     L0 = body.inertial_momentum(R0, PAPER_OMEGA0)
     L = body.inertial_momentum(traj.R, traj.omega)
     np.testing.assert_allclose(L, np.exp(-c * t)[:, None] * L0, rtol=0, atol=1e-9 * np.linalg.norm(L0))
@@ -228,8 +234,7 @@ def test_state_torque_damping_energy_for_unit_inertia():
     c = 0.7
     body = RigidBody(np.eye(3))
     t = np.linspace(0.0, 4.0, 9)
-    traj = integrate(body, np.eye(3), PAPER_OMEGA0, t, torque=Torque.of_state(lambda s, R, w: -c * w),
-                     max_step=1e-2)
+    traj = integrate(body, np.eye(3), PAPER_OMEGA0, t, torque=Torque.of_state(lambda s, R, w: -c * w), max_step=1e-2)
     E0 = body.kinetic_energy(PAPER_OMEGA0)
     np.testing.assert_allclose(body.kinetic_energy(traj.omega), E0 * np.exp(-2 * c * t), rtol=1e-9)
 

@@ -9,7 +9,15 @@ from omegahat import scenarios as S
 
 def test_registry_has_the_issue_scenarios():
     assert S.names() == [
-        "paper", "slew", "slew-J10", "slew-disturbance", "slew-1Hz", "tumble", "tumble-fast", "broad-01", "broad-06",
+        "paper",
+        "slew",
+        "slew-J10",
+        "slew-disturbance",
+        "slew-1Hz",
+        "tumble",
+        "tumble-fast",
+        "broad-01",
+        "broad-06",
         "broad-10",
     ]
     with pytest.raises(ValueError, match="unknown scenario 'nope'; known: paper, slew"):

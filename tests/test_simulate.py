@@ -116,25 +116,17 @@ def test_bad_arguments_are_named():
     with pytest.raises(ValueError, match="t_out must start at 0"):
         simulate(p, t_out=[0.0, 1.0, 0.5])
     with pytest.raises(TypeError, match="SinusoidalTorque"):
-        CoupledProblem(
-            J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], torque=lambda t: t
-        )
+        CoupledProblem(J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], torque=lambda t: t)
     with pytest.raises(ValueError, match="2 gains were given for 3 reference directions"):
-        CoupledProblem(
-            J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], references=np.eye(3)
-        )
+        CoupledProblem(J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], references=np.eye(3))
     with pytest.raises(ValueError, match="J must be positive definite"):
         CoupledProblem(J=[1.0, -1.0, 1.0], gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1])
     with pytest.raises(ValueError, match="r_hat0 must be finite"):
-        CoupledProblem(
-            J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], r_hat0=np.zeros(3)
-        )
+        CoupledProblem(J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], r_hat0=np.zeros(3))
 
 
 def test_sinusoidal_torque_evaluates_its_formula():
-    tq = SinusoidalTorque(
-        constant=[1.0, 0, 0], amplitudes=[[0, 2.0, 0]], frequencies=[3.0], phases=[[0, 0.5, 0]]
-    )
+    tq = SinusoidalTorque(constant=[1.0, 0, 0], amplitudes=[[0, 2.0, 0]], frequencies=[3.0], phases=[[0, 0.5, 0]])
     t = np.array([0.0, 0.7])
     expected = np.stack([np.ones(2), 2.0 * np.sin(3.0 * t + 0.5), np.zeros(2)], axis=1)
     np.testing.assert_allclose(tq(t), expected, atol=1e-15)

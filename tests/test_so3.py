@@ -31,8 +31,15 @@ def random_rotations(n, seed):
 # around the near-π switch of log at 2 rad, around π − 1e-2 (the old switch) and within 1e-9 of π.
 SMALL_ANGLES = [1e-12, 1e-10, 1e-8, 1e-6, 9.999e-5, 1e-4, 1.0001e-4, 1e-3]
 GENERIC_ANGLES = [0.1, 1.0, 2.0 - 1e-9, 2.0 + 1e-9, 3.0]
-NEAR_PI_ANGLES = [np.pi - 1e-1, np.pi - 1.01e-2, np.pi - 1e-2, np.pi - 0.99e-2, np.pi - 1e-5, np.pi - 1e-7,
-                  np.pi - 1e-9]
+NEAR_PI_ANGLES = [
+    np.pi - 1e-1,
+    np.pi - 1.01e-2,
+    np.pi - 1e-2,
+    np.pi - 0.99e-2,
+    np.pi - 1e-5,
+    np.pi - 1e-7,
+    np.pi - 1e-9,
+]
 
 finite = st.floats(-10.0, 10.0, allow_nan=False, allow_infinity=False)
 vectors = st.tuples(finite, finite, finite).map(np.array)

@@ -22,9 +22,7 @@ def as_inertia(J, name: str = "J") -> np.ndarray:
     elif a.shape == (9,):
         a = a.reshape(3, 3)
     if a.shape != (3, 3):
-        raise ValueError(
-            f"{name} must be 3 numbers (diagonal), 9 numbers or a 3x3 matrix; got shape {a.shape}"
-        )
+        raise ValueError(f"{name} must be 3 numbers (diagonal), 9 numbers or a 3x3 matrix; got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} must be finite; got {_fmt(a)}")
     if not np.allclose(a, a.T, rtol=1e-10, atol=1e-12 * np.abs(a).max()):
@@ -52,9 +50,7 @@ def as_positive(x, name: str, n: int | None = None) -> np.ndarray:
         if a.size == 1:
             a = np.full(n, a.item())
         elif a.shape != (n,):
-            raise ValueError(
-                f"{name} must be one number or {n} numbers (one per direction); got shape {a.shape}"
-            )
+            raise ValueError(f"{name} must be one number or {n} numbers (one per direction); got shape {a.shape}")
     if not np.all(np.isfinite(a)) or np.any(a <= 0):
         raise ValueError(f"{name} must be positive and finite; got {_fmt(a)}")
     return a

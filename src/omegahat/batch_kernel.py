@@ -291,9 +291,7 @@ def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, r
     ie = 3 * n + 6
     b1, b2, b4 = _dense_weights(h, theta, 0.5 * theta * theta, 0.5 * theta * theta * theta / 3.0)
     for j in range(ie):
-        Y[run, row, j] = (
-            S[ry + j, w] + b1 * S[rNu + j, w] + b2 * (S[rNa + j, w] + S[rNb + j, w]) + b4 * S[rNc + j, w]
-        )
+        Y[run, row, j] = S[ry + j, w] + b1 * S[rNu + j, w] + b2 * (S[rNa + j, w] + S[rNb + j, w]) + b4 * S[rNc + j, w]
     ex = 1.0
     for i in range(n):
         if i == 0 or S[rlf + i, w] != S[rlf + i - 1, w]:
@@ -316,7 +314,7 @@ def _release_lane(w, good, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out): 
     accepted[i] = np.int64(S[Racc, w])
     rejected[i] = np.int64(S[Rrej, w])
     if not good:
-        stage[w, idx[w]:] = np.nan
+        stage[w, idx[w] :] = np.nan
     if diagnose:
         diagnose_run(stage[w], i, n, J, t_out, rho_floor, good, rho, dout, ok)
     else:
@@ -337,8 +335,33 @@ def _idle_lane(S, w, Rt, Rh, Rnext):
 
 @numba.njit(cache=True, error_model="numpy")
 def _lanes_worker(
-    runs, Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps,
-    Y, accepted, rejected, ok, diagnose, rho_floor, rho, dout, M,
+    runs,
+    Y0,
+    t_out,
+    n,
+    J,
+    Jinv,
+    k,
+    l_off,
+    l_slope,
+    tc,
+    ta,
+    tf,
+    tp,
+    rtol,
+    atol,
+    h0,
+    h_max,
+    max_steps,
+    Y,
+    accepted,
+    rejected,
+    ok,
+    diagnose,
+    rho_floor,
+    rho,
+    dout,
+    M,
 ):
     """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes. A lane writes its
     run's states into its own rows ``stage[w]`` (the worker's, in cache), and when the run ends they go to
@@ -597,26 +620,125 @@ def _lanes_worker(
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def _integrate_lanes(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, Y, accepted,
-    rejected, ok, diagnose, rho_floor, rho, dout, n_workers, M,
+    Y0,
+    t_out,
+    n,
+    J,
+    Jinv,
+    k,
+    l_off,
+    l_slope,
+    tc,
+    ta,
+    tf,
+    tp,
+    rtol,
+    atol,
+    h0,
+    h_max,
+    max_steps,
+    Y,
+    accepted,
+    rejected,
+    ok,
+    diagnose,
+    rho_floor,
+    rho,
+    dout,
+    n_workers,
+    M,
 ):
     for wk in numba.prange(n_workers):
         _lanes_worker(
-            np.arange(wk, Y0.shape[0], n_workers), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf,
-            tp, rtol, atol, h0, h_max, max_steps, Y, accepted, rejected, ok, diagnose, rho_floor, rho, dout,
+            np.arange(wk, Y0.shape[0], n_workers),
+            Y0,
+            t_out,
+            literally(n),
+            J,
+            Jinv,
+            k,
+            l_off,
+            l_slope,
+            tc,
+            ta,
+            tf,
+            tp,
+            rtol,
+            atol,
+            h0,
+            h_max,
+            max_steps,
+            Y,
+            accepted,
+            rejected,
+            ok,
+            diagnose,
+            rho_floor,
+            rho,
+            dout,
             literally(M),
         )
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _integrate_lanes_serial(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, Y, accepted,
-    rejected, ok, diagnose, rho_floor, rho, dout, n_workers, M,
+    Y0,
+    t_out,
+    n,
+    J,
+    Jinv,
+    k,
+    l_off,
+    l_slope,
+    tc,
+    ta,
+    tf,
+    tp,
+    rtol,
+    atol,
+    h0,
+    h_max,
+    max_steps,
+    Y,
+    accepted,
+    rejected,
+    ok,
+    diagnose,
+    rho_floor,
+    rho,
+    dout,
+    n_workers,
+    M,
 ):
     # the same on the calling thread (no Numba threading layer: callers that run several in threads, Dask)
     _lanes_worker(
-        np.arange(Y0.shape[0]), Y0, t_out, literally(n), J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol,
-        h0, h_max, max_steps, Y, accepted, rejected, ok, diagnose, rho_floor, rho, dout, literally(M),
+        np.arange(Y0.shape[0]),
+        Y0,
+        t_out,
+        literally(n),
+        J,
+        Jinv,
+        k,
+        l_off,
+        l_slope,
+        tc,
+        ta,
+        tf,
+        tp,
+        rtol,
+        atol,
+        h0,
+        h_max,
+        max_steps,
+        Y,
+        accepted,
+        rejected,
+        ok,
+        diagnose,
+        rho_floor,
+        rho,
+        dout,
+        literally(M),
     )
 
 
@@ -631,10 +753,17 @@ def _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol
     N = np.shape(Y0)[0] if np.ndim(Y0) == 2 else -1
     M = np.shape(tf)[1] if np.ndim(tf) == 2 else -1
     expected = {
-        "Y0": (np.shape(Y0), (N, 6 * n + 6)), "J": (np.shape(J), (3, 3)), "Jinv": (np.shape(Jinv), (3, 3)),
-        "k": (np.shape(k), (n,)), "l_off": (np.shape(l_off), (n,)), "l_slope": (np.shape(l_slope), (n,)),
-        "tc": (np.shape(tc), (N, 3)), "ta": (np.shape(ta), (N, M, 3)), "tf": (np.shape(tf), (N, M)),
-        "tp": (np.shape(tp), (N, M, 3)), "h0": (np.shape(h0), (N,)),
+        "Y0": (np.shape(Y0), (N, 6 * n + 6)),
+        "J": (np.shape(J), (3, 3)),
+        "Jinv": (np.shape(Jinv), (3, 3)),
+        "k": (np.shape(k), (n,)),
+        "l_off": (np.shape(l_off), (n,)),
+        "l_slope": (np.shape(l_slope), (n,)),
+        "tc": (np.shape(tc), (N, 3)),
+        "ta": (np.shape(ta), (N, M, 3)),
+        "tf": (np.shape(tf), (N, M)),
+        "tp": (np.shape(tp), (N, M, 3)),
+        "h0": (np.shape(h0), (N,)),
     }
     for name, (got, want) in expected.items():
         if N < 0 or M < 0 or got != want:
@@ -642,8 +771,23 @@ def _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol
     if np.ndim(t_out) != 1 or np.size(t_out) < 1:
         raise ValueError(f"t_out must be a non-empty 1-D array; got shape {np.shape(t_out)}")
     args = (
-        f64(Y0), f64(t_out), n, f64(J), f64(Jinv), f64(k), f64(l_off), f64(l_slope), f64(tc), f64(ta), f64(tf),
-        f64(tp), float(rtol), float(atol), f64(h0), float(h_max), int(max_steps),
+        f64(Y0),
+        f64(t_out),
+        n,
+        f64(J),
+        f64(Jinv),
+        f64(k),
+        f64(l_off),
+        f64(l_slope),
+        f64(tc),
+        f64(ta),
+        f64(tf),
+        f64(tp),
+        float(rtol),
+        float(atol),
+        f64(h0),
+        float(h_max),
+        int(max_steps),
     )
     return args, N, np.size(t_out), M
 
@@ -665,7 +809,24 @@ def _run(parallel, args):
 
 
 def integrate_coupled_lanes(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
+    Y0,
+    t_out,
+    n,
+    J,
+    Jinv,
+    k,
+    l_off,
+    l_slope,
+    tc,
+    ta,
+    tf,
+    tp,
+    rtol,
+    atol,
+    h0,
+    h_max,
+    max_steps,
+    n_workers,
     parallel=True,
 ):
     """:func:`omegahat.simulate.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
@@ -682,14 +843,34 @@ def integrate_coupled_lanes(
     if T == 1:  # nothing to integrate (the kernel needs a second output time)
         Y[:, 0] = head[0]
     else:
-        _run(parallel, (*head, Y, accepted, rejected, ok, False, 0.0, np.empty((0, T)), np.empty((6, 0)),
-                        int(n_workers), M))
+        _run(
+            parallel,
+            (*head, Y, accepted, rejected, ok, False, 0.0, np.empty((0, T)), np.empty((6, 0)), int(n_workers), M),
+        )
     return Y, accepted, rejected, ok
 
 
 def integrate_diagnosed_lanes(
-    Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps, n_workers,
-    rho_floor, parallel=True,
+    Y0,
+    t_out,
+    n,
+    J,
+    Jinv,
+    k,
+    l_off,
+    l_slope,
+    tc,
+    ta,
+    tf,
+    tp,
+    rtol,
+    atol,
+    h0,
+    h_max,
+    max_steps,
+    n_workers,
+    rho_floor,
+    parallel=True,
 ):
     """:func:`integrate_coupled_lanes` for a campaign: instead of the states, each run's diagnostics
     (:func:`omegahat.envelope.diagnose_run` with ``rho_floor``, J the body's inertia), taken by the worker as soon
@@ -701,9 +882,24 @@ def integrate_diagnosed_lanes(
     rho, dout, ok = np.empty((N, T)), np.empty((6, N)), np.empty(N, dtype=bool)
     accepted, rejected = np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64)
     if T == 1:  # nothing to integrate: the initial states' diagnostics
-        diagnose_runs(head[0][:, None, :], head[2], head[3], head[1], float(rho_floor), np.ones(N, dtype=bool),
-                      rho, dout, ok)
+        diagnose_runs(
+            head[0][:, None, :], head[2], head[3], head[1], float(rho_floor), np.ones(N, dtype=bool), rho, dout, ok
+        )
     else:
-        _run(parallel, (*head, np.empty((0, T, head[0].shape[1])), accepted, rejected, ok, True, float(rho_floor),
-                        rho, dout, int(n_workers), M))
+        _run(
+            parallel,
+            (
+                *head,
+                np.empty((0, T, head[0].shape[1])),
+                accepted,
+                rejected,
+                ok,
+                True,
+                float(rho_floor),
+                rho,
+                dout,
+                int(n_workers),
+                M,
+            ),
+        )
     return rho, dout, ok, accepted, rejected

@@ -213,14 +213,16 @@ def _bridge(e, ok):
     return out
 
 
-def score(trial: Trial, estimate, cutoff_hz: float = 10.0, order: int = 4, gap_margin_s: float = 1.0,
-          max_shift: int = 5) -> Score:
+def score(
+    trial: Trial, estimate, cutoff_hz: float = 10.0, order: int = 4, gap_margin_s: float = 1.0, max_shift: int = 5
+) -> Score:
     """In-band RMS error of ``estimate (N, 3)`` (rad/s, one row per sample of ``trial``), module docstring."""
     w = np.asarray(estimate, dtype=float)
     N = trial.t.size
     if w.shape != (N, 3):
-        raise ValueError(f"estimate must have shape ({N}, 3), one row per sample of trial {trial.name!r}; "
-                         f"got {w.shape}")
+        raise ValueError(
+            f"estimate must have shape ({N}, 3), one row per sample of trial {trial.name!r}; got {w.shape}"
+        )
     if not 0 < cutoff_hz < trial.fs / 2:
         raise ValueError(f"cutoff_hz must be in (0, fs/2 = {trial.fs / 2:g}); got {cutoff_hz!r}")
     if int(order) != order or order < 1:

@@ -45,9 +45,7 @@ def run_campaign_dask(campaign, client, chunk_size: int | None = None, progress:
     distributed = _require_distributed()
     spans = montecarlo.chunks(campaign, chunk_size)
     scattered = client.scatter(campaign, broadcast=True)
-    futures = [
-        client.submit(montecarlo.run_chunk, scattered, start, stop, False, pure=False) for start, stop in spans
-    ]
+    futures = [client.submit(montecarlo.run_chunk, scattered, start, stop, False, pure=False) for start, stop in spans]
     bar = None
     if progress:
         from tqdm import tqdm

@@ -288,7 +288,17 @@ def reference_step(
 # Layout of the flat parameter vector: [J(9), J⁻¹(9), rotation_tol, quat_norm_tol, min_sin, max_angle,
 # scalar_first, has_r_hat0, n, warm_start, k(n), l_offset(n), l_slope(n), V(3n), r̂0(3n)].
 _P_J, _P_JI, _P_ROT, _P_QN, _P_SIN, _P_ANG, _P_SF, _P_HASR, _P_N, _P_WARM, _P_K = (
-    0, 9, 18, 19, 20, 21, 22, 23, 24, 25, 26
+    0,
+    9,
+    18,
+    19,
+    20,
+    21,
+    22,
+    23,
+    24,
+    25,
+    26,
 )
 
 
@@ -516,9 +526,7 @@ def _step_into(x, p, t, m, kind, tau, out, wk):
         return status, info
     if x[_INIT] == 1.0:  # warm start pending: ω̂ and r, e wait for the second valid sample
         if status == ms.OK:
-            w[0], w[1], w[2] = _warm_start(
-                J, J_inv, k, l_off, l_slope, x[_TAU : _TAU + 3], t - x[_TM], r, e, r_meas, A
-            )
+            w[0], w[1], w[2] = _warm_start(J, J_inv, k, l_off, l_slope, x[_TAU : _TAU + 3], t - x[_TM], r, e, r_meas, A)
             out[_INIT] = 2.0
             out[_TM] = t
         return status, info

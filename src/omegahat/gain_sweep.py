@@ -132,15 +132,20 @@ def sweep(J, k_values, l_values, rates_hz, noise_stds, seed: int = 0, **kwargs) 
     out = []
     J = as_inertia(J)
     for a, rate in enumerate(rates_hz):
-        truth = _truth(J, as_vector3(kwargs.get("omega0", DEFAULT_OMEGA0), "omega0"), float(rate),
-                       float(kwargs.get("horizon", 10.0)))
+        truth = _truth(
+            J,
+            as_vector3(kwargs.get("omega0", DEFAULT_OMEGA0), "omega0"),
+            float(rate),
+            float(kwargs.get("horizon", 10.0)),
+        )
         for b, sigma in enumerate(noise_stds):
             seq = np.random.SeedSequence(seed, spawn_key=(a, b))
             for k in k_values:
                 for l in l_values:
                     g = ObserverGains.constant(k, l, n=3)
-                    out.append(evaluate_gains(J, g, rate, sigma, seed=seq, truth=truth, label=f"k={k:g}, l={l:g}",
-                                              **kwargs))
+                    out.append(
+                        evaluate_gains(J, g, rate, sigma, seed=seq, truth=truth, label=f"k={k:g}, l={l:g}", **kwargs)
+                    )
     return out
 
 
@@ -170,8 +175,13 @@ def plot_pareto(evaluations, ax=None):
         x = np.array([e.convergence_time for e in evs])
         y = np.array([e.noise_rms for e in evs])
         front = pareto_front(x, y)
-        (line,) = ax.plot(x[front][np.argsort(x[front])], y[front][np.argsort(x[front])], "-o", ms=4,
-                          label=f"{rate:g} Hz, σ = {sigma:g} rad")
+        (line,) = ax.plot(
+            x[front][np.argsort(x[front])],
+            y[front][np.argsort(x[front])],
+            "-o",
+            ms=4,
+            label=f"{rate:g} Hz, σ = {sigma:g} rad",
+        )
         ax.plot(x[~front], y[~front], "x", color=line.get_color(), alpha=0.4, ms=4)
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -235,21 +245,35 @@ def recommend_gains(
     candidates = []
     for b in bws:
         g = tuning.sensor_gains(J, rate, sigma, bandwidth_hz=float(b), references=references)
-        ev = evaluate_gains(J, g, rate, sigma, seed=seq, horizon=horizon, omega0=truth.omega[0], truth=truth,
-                            label=f"{b:.4g} Hz", **kwargs)
+        ev = evaluate_gains(
+            J,
+            g,
+            rate,
+            sigma,
+            seed=seq,
+            horizon=horizon,
+            omega0=truth.omega[0],
+            truth=truth,
+            label=f"{b:.4g} Hz",
+            **kwargs,
+        )
         candidates.append((float(b), ev))
     if goal == "max_noise":
         ok = [(ev.convergence_time, b, ev) for b, ev in candidates if ev.noise_rms <= limit]
         if not ok:
             best = min(ev.noise_rms for _, ev in candidates)
-            raise ValueError(f"no candidate meets max_noise = {limit:g} rad/s; the least noisy gives {best:.4g} "
-                             f"rad/s (lower the bandwidths_hz, or accept more noise)")
+            raise ValueError(
+                f"no candidate meets max_noise = {limit:g} rad/s; the least noisy gives {best:.4g} "
+                f"rad/s (lower the bandwidths_hz, or accept more noise)"
+            )
         _, b, ev = min(ok, key=lambda x: x[0])
     else:
         ok = [(ev.noise_rms, b, ev) for b, ev in candidates if ev.convergence_time <= limit]
         if not ok:
             best = min(ev.convergence_time for _, ev in candidates)
-            raise ValueError(f"no candidate meets max_convergence_time = {limit:g} s; the fastest takes "
-                             f"{best:.4g} s (raise the bandwidths_hz or the sample rate)")
+            raise ValueError(
+                f"no candidate meets max_convergence_time = {limit:g} s; the fastest takes "
+                f"{best:.4g} s (raise the bandwidths_hz or the sample rate)"
+            )
         _, b, ev = min(ok, key=lambda x: x[0])
     return Recommendation(ev.gains, b, ev.convergence_time, ev.noise_rms, tuple(candidates))

@@ -99,9 +99,7 @@ def _l_factor(k, J_m):
     return 1.0 + (k / J_m) * (1.0 + 2.0 * k / J_m)
 
 
-def theorem_gains(
-    J, omega_max: float, references=None, margin: float = 1.0, l0: float = 1.0
-) -> ObserverGains:
+def theorem_gains(J, omega_max: float, references=None, margin: float = 1.0, l0: float = 1.0) -> ObserverGains:
     """Equal gains ``k_i = k`` with ``μ = J_M (ω_M + 3/2) + margin`` and the theorem's ``l_i(ω̂)``.
 
     ``references`` are the measured inertial directions (default: the first two rows of R, as in the paper).

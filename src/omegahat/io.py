@@ -80,8 +80,9 @@ class AttitudeLog:
 
 def _direction_columns(names) -> list[str]:
     """``b1x, b1y, b1z, b2x, …`` for every i such that some ``bi?`` column is present (checked later)."""
-    idx = sorted({int(nm[1:-1]) for nm in names if len(nm) >= 3 and nm[0] == "b" and nm[1:-1].isdigit()
-                  and nm[-1] in _AXES})
+    idx = sorted(
+        {int(nm[1:-1]) for nm in names if len(nm) >= 3 and nm[0] == "b" and nm[1:-1].isdigit() and nm[-1] in _AXES}
+    )
     return [f"b{i}{a}" for i in idx for a in _AXES]
 
 
@@ -110,8 +111,10 @@ def _choose_attitude(names, where: str) -> tuple[str, list[str]]:
         if missing:
             raise LogFormatError(f"{where}: missing direction column(s) {', '.join(missing)}")
         if [int(c[1:-1]) for c in cols[::3]] != list(range(1, n + 1)):
-            raise LogFormatError(f"{where}: directions must be numbered b1, b2, ... without gaps; got "
-                                 f"{', '.join(sorted({c[:-1] for c in cols}))}")
+            raise LogFormatError(
+                f"{where}: directions must be numbered b1, b2, ... without gaps; got "
+                f"{', '.join(sorted({c[:-1] for c in cols}))}"
+            )
     elif missing:
         raise LogFormatError(f"{where}: missing {kind} column(s) {', '.join(missing)}")
     return kind, cols
@@ -203,8 +206,7 @@ def read_csv(path, progress=None) -> AttitudeLog:
             continue  # blank line
         if len(row) != n_fields:
             raise LogFormatError(
-                f"{path}, line {line}: {len(row)} fields, but the header (line {header_line}) "
-                f"names {n_fields}"
+                f"{path}, line {line}: {len(row)} fields, but the header (line {header_line}) names {n_fields}"
             )
         t_field = row[i_t].strip()
         if not t_field:
@@ -225,9 +227,7 @@ def read_csv(path, progress=None) -> AttitudeLog:
                     )
                 value = _number(field, path, line, c)
                 if not np.isfinite(value):
-                    raise LogFormatError(
-                        f"{path}, line {line}, column {c}: torque {field!r} is not finite"
-                    )
+                    raise LogFormatError(f"{path}, line {line}, column {c}: torque {field!r} is not finite")
                 tv.append(value)
             tau.append(tv)
         lines.append(line)
@@ -282,9 +282,7 @@ def read_npz(path) -> AttitudeLog:
         whole = [n for n in ("q", "R", "b") if n in names]
         columns = [n for n in names if n in QUATERNION_COLUMNS + MATRIX_COLUMNS or _direction_columns([n])]
         if len(whole) + bool(columns) > 1:
-            raise LogFormatError(
-                f"{path}: attitude given more than one way ({', '.join(whole + columns)}); keep one"
-            )
+            raise LogFormatError(f"{path}: attitude given more than one way ({', '.join(whole + columns)}); keep one")
         if "q" in whole:
             q = get("q", f"({T}, 4)", lambda s: s == (T, 4))
             scalar_first = bool(z["scalar_first"]) if "scalar_first" in names else False
@@ -323,9 +321,7 @@ def read_log(path, progress=None) -> AttitudeLog:
         return read_csv(path, progress=progress)
     if ext == ".npz":
         return read_npz(path)
-    raise LogFormatError(
-        f"{os.fspath(path)}: unknown log format {ext or '(no extension)'!r}; use .csv or .npz"
-    )
+    raise LogFormatError(f"{os.fspath(path)}: unknown log format {ext or '(no extension)'!r}; use .csv or .npz")
 
 
 # --------------------------------------------------------------------------------------------------- output

@@ -134,9 +134,7 @@ def _kernel_inputs(J, references, gains, runs: dict, h_max):
     omega0, omega_hat0 = runs["omega0"], runs["omega_hat0"]
     N = omega0.shape[0]
     r0 = references @ runs["R0"]  # (N, n, 3): r_i = R0ᵀ v_i of each run
-    Y0 = np.concatenate(
-        [r0.reshape(N, -1), omega0, omega_hat0 - omega0, (runs["r_hat0"] - r0).reshape(N, -1)], axis=1
-    )
+    Y0 = np.concatenate([r0.reshape(N, -1), omega0, omega_hat0 - omega0, (runs["r_hat0"] - r0).reshape(N, -1)], axis=1)
     h0 = first_step(gains, omega_hat0, h_max)
     body = (gains.n, J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
     torque = (runs["constant"], runs["amplitudes"], runs["frequencies"], runs["phases"])
@@ -153,7 +151,16 @@ def _workers(n_workers) -> int:
 def _run_kernel(inputs, t_out, rtol, atol, h_max, max_steps, n_workers, parallel) -> BatchResult:
     Y0, body, torque, h0 = inputs
     Y, acc, rej, ok = integrate_coupled_lanes(
-        Y0, t_out, *body, *torque, float(rtol), float(atol), h0, float(h_max), int(max_steps), _workers(n_workers),
+        Y0,
+        t_out,
+        *body,
+        *torque,
+        float(rtol),
+        float(atol),
+        h0,
+        float(h_max),
+        int(max_steps),
+        _workers(n_workers),
         parallel=parallel,
     )
     return BatchResult(t=t_out, Y=Y, accepted=acc, rejected=rej, ok=ok)
@@ -342,8 +349,14 @@ def _draw_runs(campaign: Campaign, indices) -> dict:
     r0 = c.references @ R0
     r_hat0[opposite] = -r0[opposite]
     return {
-        "R0": R0, "omega0": omega0, "r_hat0": r_hat0, "omega_hat0": omega_hat0, "constant": np.zeros((N, 3)),
-        "amplitudes": amplitudes, "frequencies": frequencies, "phases": phases,
+        "R0": R0,
+        "omega0": omega0,
+        "r_hat0": r_hat0,
+        "omega_hat0": omega_hat0,
+        "constant": np.zeros((N, 3)),
+        "amplitudes": amplitudes,
+        "frequencies": frequencies,
+        "phases": phases,
     }
 
 
@@ -355,16 +368,28 @@ def draw_problem(campaign: Campaign, index: int, gains_name: str | None = None) 
     torque = SinusoidalTorque(amplitudes=d["amplitudes"][0], frequencies=d["frequencies"][0], phases=d["phases"][0])
     name = next(iter(c.gains)) if gains_name is None else gains_name
     return CoupledProblem(
-        J=c.J, gains=c.gains[name], omega0=d["omega0"][0], R0=d["R0"][0], references=c.references,
-        r_hat0=d["r_hat0"][0], omega_hat0=d["omega_hat0"][0], torque=torque,
+        J=c.J,
+        gains=c.gains[name],
+        omega0=d["omega0"][0],
+        R0=d["R0"][0],
+        references=c.references,
+        r_hat0=d["r_hat0"][0],
+        omega_hat0=d["omega_hat0"][0],
+        torque=torque,
     )
 
 
 def replay(campaign: Campaign, gains_name: str, index: int):
     """Run ``index`` again with :func:`omegahat.simulate.simulate` (identical to its campaign run)."""
     p = draw_problem(campaign, index, gains_name)
-    return simulate(p, t_out=campaign.t_out, rtol=campaign.rtol, atol=campaign.atol, h_max=campaign.h_max,
-                    max_steps=campaign.max_steps)
+    return simulate(
+        p,
+        t_out=campaign.t_out,
+        rtol=campaign.rtol,
+        atol=campaign.atol,
+        h_max=campaign.h_max,
+        max_steps=campaign.max_steps,
+    )
 
 
 # --------------------------------------------------------------------------------------------------------------
@@ -433,8 +458,15 @@ def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = T
     ok = np.empty(N, dtype=bool)
     kernel = diagnose_runs_parallel if parallel else diagnose_runs
     kernel(
-        Y, campaign.references.shape[0], np.ascontiguousarray(campaign.J, dtype=float), t, float(campaign.rho_floor),
-        np.ascontiguousarray(batch.ok, dtype=bool), rho, out, ok,
+        Y,
+        campaign.references.shape[0],
+        np.ascontiguousarray(campaign.J, dtype=float),
+        t,
+        float(campaign.rho_floor),
+        np.ascontiguousarray(batch.ok, dtype=bool),
+        rho,
+        out,
+        ok,
     )
     return _from_diagnostics(campaign, indices, batch.accepted, batch.rejected, ok, rho, out)
 
@@ -442,15 +474,32 @@ def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = T
 def _from_diagnostics(campaign, indices, accepted, rejected, ok, rho, out) -> GainSetResult:
     # out: the rows (E0, omega_peak, lam, c_run, t_f, v_increase) of omegahat.envelope.diagnose_run
     E0, omega_peak, lam, c_run, t_f, v_increase = out
-    return _result(campaign, indices, accepted, rejected, ok, omega_peak, rho=rho, E0=E0, lam=lam, c_run=c_run,
-                   t_f=t_f, v_increase=v_increase)
+    return _result(
+        campaign,
+        indices,
+        accepted,
+        rejected,
+        ok,
+        omega_peak,
+        rho=rho,
+        E0=E0,
+        lam=lam,
+        c_run=c_run,
+        t_f=t_f,
+        v_increase=v_increase,
+    )
 
 
 def _result(campaign, indices, accepted, rejected, ok, omega_peak, **fields) -> GainSetResult:
     # what diagnose and its reference assemble alike: the run indices, the ω bound and the step counts
     return GainSetResult(
-        index=np.asarray(indices, dtype=np.int64), ok=ok, in_bound=ok & (omega_peak <= campaign.omega_max),
-        omega_peak=omega_peak, steps=accepted, rejected=rejected, **fields,
+        index=np.asarray(indices, dtype=np.int64),
+        ok=ok,
+        in_bound=ok & (omega_peak <= campaign.omega_max),
+        omega_peak=omega_peak,
+        steps=accepted,
+        rejected=rejected,
+        **fields,
     )
 
 
@@ -475,9 +524,20 @@ def _diagnose_numpy(campaign: Campaign, batch: BatchResult, indices) -> GainSetR
     checked = np.arange(1, t.size)[None, :] <= i_f[:, None]
     v_increase = np.where(checked & ok[:, None], rel, -np.inf).max(axis=1)
     omega_peak = np.where(ok, np.nanmax(np.linalg.norm(w, axis=-1), axis=1), np.nan)
-    return _result(campaign, indices, batch.accepted, batch.rejected, ok, omega_peak, rho=rho, E0=E0,
-                   lam=np.where(ok, lam, np.nan),
-                   c_run=np.where(ok, c_run, np.nan), t_f=t[i_f], v_increase=v_increase)
+    return _result(
+        campaign,
+        indices,
+        batch.accepted,
+        batch.rejected,
+        ok,
+        omega_peak,
+        rho=rho,
+        E0=E0,
+        lam=np.where(ok, lam, np.nan),
+        c_run=np.where(ok, c_run, np.nan),
+        t_f=t[i_f],
+        v_increase=v_increase,
+    )
 
 
 def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict:
@@ -499,8 +559,18 @@ def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) 
     for name, gains in campaign.gains.items():
         Y0, body, torque, h0 = _kernel_inputs(J, references, gains, runs, campaign.h_max)
         rho, out, ok, acc, rej = integrate_diagnosed_lanes(
-            Y0, campaign.t_out, *body, *torque, float(campaign.rtol), float(campaign.atol), h0, float(campaign.h_max),
-            int(campaign.max_steps), workers, float(campaign.rho_floor), parallel=parallel,
+            Y0,
+            campaign.t_out,
+            *body,
+            *torque,
+            float(campaign.rtol),
+            float(campaign.atol),
+            h0,
+            float(campaign.h_max),
+            int(campaign.max_steps),
+            workers,
+            float(campaign.rho_floor),
+            parallel=parallel,
         )
         results[name] = _from_diagnostics(campaign, indices, acc, rej, ok, rho, out)
     return results
@@ -574,23 +644,25 @@ def _counterexamples(campaign: Campaign, name: str, r: GainSetResult) -> list:
     d = _draw_runs(campaign, [r.index[j] for j, _ in found])
     out = []
     for row, (j, reasons) in enumerate(found):
-        out.append({
-            "gains": name,
-            "index": int(r.index[j]),
-            "seed": {"entropy": int(campaign.seed), "spawn_key": [int(r.index[j])]},
-            "reasons": reasons,
-            "lambda_run": _float(r.lam[j]),
-            "rho_end": _float(rho_end[j]),
-            "omega0": d["omega0"][row].tolist(),
-            "R0": d["R0"][row].tolist(),
-            "r_hat0": d["r_hat0"][row].tolist(),
-            "omega_hat0": d["omega_hat0"][row].tolist(),
-            "torque": {
-                "amplitudes": d["amplitudes"][row].tolist(),
-                "frequencies": d["frequencies"][row].tolist(),
-                "phases": d["phases"][row].tolist(),
-            },
-        })
+        out.append(
+            {
+                "gains": name,
+                "index": int(r.index[j]),
+                "seed": {"entropy": int(campaign.seed), "spawn_key": [int(r.index[j])]},
+                "reasons": reasons,
+                "lambda_run": _float(r.lam[j]),
+                "rho_end": _float(rho_end[j]),
+                "omega0": d["omega0"][row].tolist(),
+                "R0": d["R0"][row].tolist(),
+                "r_hat0": d["r_hat0"][row].tolist(),
+                "omega_hat0": d["omega_hat0"][row].tolist(),
+                "torque": {
+                    "amplitudes": d["amplitudes"][row].tolist(),
+                    "frequencies": d["frequencies"][row].tolist(),
+                    "phases": d["phases"][row].tolist(),
+                },
+            }
+        )
     return out
 
 
@@ -640,8 +712,7 @@ def summarize(campaign: Campaign, results: dict) -> dict:
             "worst_c": _float(c_star),
             "slowest_run": slowest,
             "lambda_quantiles": {
-                q: _float(np.quantile(r.lam[use], float(q))) if use.any() else None
-                for q in ("0.01", "0.5", "0.99")
+                q: _float(np.quantile(r.lam[use], float(q))) if use.any() else None for q in ("0.01", "0.5", "0.99")
             },
             "max_c_run": _float(np.max(r.c_run[use])) if use.any() else None,
             "v_increased_runs": int((use & (r.v_increase > campaign.v_increase_tol)).sum()),
@@ -678,8 +749,13 @@ def plot_envelopes(campaign: Campaign, results: dict, summary: dict, max_lines: 
             ax.semilogy(t, np.maximum(r.rho[use].max(axis=0), floor), color="C3", lw=1.5, label="worst ρ(t)")
         if s["worst_lambda"] is not None:
             env = s["worst_c"] * np.exp(-s["worst_lambda"] * t)
-            ax.semilogy(t, np.maximum(env, floor), "k--", lw=1.2,
-                        label=f"c* e^(-λ* t): c* = {s['worst_c']:.3g}, λ* = {s['worst_lambda']:.3g}/s")
+            ax.semilogy(
+                t,
+                np.maximum(env, floor),
+                "k--",
+                lw=1.2,
+                label=f"c* e^(-λ* t): c* = {s['worst_c']:.3g}, λ* = {s['worst_lambda']:.3g}/s",
+            )
         ax.axhline(campaign.rho_floor, color="C0", lw=0.8, ls=":", label="ρ floor")
         ax.set_ylim(floor, None)
         ax.set_xlabel("t (s)")
@@ -733,29 +809,52 @@ def write_outputs(campaign: Campaign, results: dict, out_dir) -> dict:
 
 _SECTIONS = {
     "campaign": {
-        "runs": "runs", "seed": "seed", "chunk_size": "chunk_size", "horizon": "horizon", "dt_out": "dt_out",
-        "rtol": "rtol", "atol": "atol", "h_max": "h_max", "max_steps": "max_steps", "rho_floor": "rho_floor",
-        "converged_below": "converged_below", "v_increase_tol": "v_increase_tol",
+        "runs": "runs",
+        "seed": "seed",
+        "chunk_size": "chunk_size",
+        "horizon": "horizon",
+        "dt_out": "dt_out",
+        "rtol": "rtol",
+        "atol": "atol",
+        "h_max": "h_max",
+        "max_steps": "max_steps",
+        "rho_floor": "rho_floor",
+        "converged_below": "converged_below",
+        "v_increase_tol": "v_increase_tol",
     },
     "body": {"J": "J", "references": "references", "omega_max": "omega_max"},
     "initial": {
-        "omega0_fraction": "omega0_fraction", "r_hat_radius": "r_hat_radius", "p_zero": "p_zero",
-        "p_opposite": "p_opposite", "omega_hat_max": "omega_hat_max",
+        "omega0_fraction": "omega0_fraction",
+        "r_hat_radius": "r_hat_radius",
+        "p_zero": "p_zero",
+        "p_opposite": "p_opposite",
+        "omega_hat_max": "omega_hat_max",
     },
     "torque": {"terms": "torque_terms", "amplitude": "torque_amplitude", "frequency": "torque_frequency"},
 }
 _INTEGER = {"runs", "seed", "chunk_size", "max_steps", "torque_terms"}
 # (lower, lower inclusive, upper, upper inclusive) for scalar settings
 _RANGES = {
-    "runs": (1, True, math.inf, False), "seed": (0, True, math.inf, False),
-    "chunk_size": (1, True, math.inf, False), "max_steps": (1, True, math.inf, False),
-    "horizon": (0, False, math.inf, False), "dt_out": (0, False, math.inf, False),
-    "rtol": (0, False, 1, False), "atol": (0, False, math.inf, False), "h_max": (0, False, math.inf, False),
-    "rho_floor": (0, False, 1, False), "converged_below": (0, False, 1, False),
-    "v_increase_tol": (0, True, math.inf, False), "omega_max": (0, False, math.inf, False),
-    "omega0_fraction": (0, True, 1, True), "r_hat_radius": (0, True, math.inf, False),
-    "p_zero": (0, True, 1, True), "p_opposite": (0, True, 1, True), "omega_hat_max": (0, True, math.inf, False),
-    "torque_terms": (0, True, math.inf, False), "torque_amplitude": (0, True, math.inf, False),
+    "runs": (1, True, math.inf, False),
+    "seed": (0, True, math.inf, False),
+    "chunk_size": (1, True, math.inf, False),
+    "max_steps": (1, True, math.inf, False),
+    "horizon": (0, False, math.inf, False),
+    "dt_out": (0, False, math.inf, False),
+    "rtol": (0, False, 1, False),
+    "atol": (0, False, math.inf, False),
+    "h_max": (0, False, math.inf, False),
+    "rho_floor": (0, False, 1, False),
+    "converged_below": (0, False, 1, False),
+    "v_increase_tol": (0, True, math.inf, False),
+    "omega_max": (0, False, math.inf, False),
+    "omega0_fraction": (0, True, 1, True),
+    "r_hat_radius": (0, True, math.inf, False),
+    "p_zero": (0, True, 1, True),
+    "p_opposite": (0, True, 1, True),
+    "omega_hat_max": (0, True, math.inf, False),
+    "torque_terms": (0, True, math.inf, False),
+    "torque_amplitude": (0, True, math.inf, False),
 }
 _GAIN_KEYS = {
     "theorem": {"kind", "margin", "l0"},
@@ -787,8 +886,9 @@ def _gains_from_table(name: str, table: dict, J, omega_max, references) -> Obser
         raise ValueError(f"{where}: kind must be one of {sorted(_GAIN_KEYS)}; got {kind!r}")
     unknown = set(table) - _GAIN_KEYS[kind]
     if unknown:
-        raise ValueError(f"{where}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: "
-                         f"{sorted(_GAIN_KEYS[kind])}")
+        raise ValueError(
+            f"{where}: unknown key(s) {sorted(unknown)} for kind {kind!r}; allowed: {sorted(_GAIN_KEYS[kind])}"
+        )
     try:
         if kind == "theorem":
             return theorem_gains(J, omega_max, references, margin=table.get("margin", 1.0), l0=table.get("l0", 1.0))
@@ -825,9 +925,13 @@ def campaign_from_dict(config: dict, source: str = "config") -> Campaign:
                 except (ValueError, TypeError) as exc:
                     raise ValueError(f"{where}: {key} = {value!r}: {exc}") from None
             elif attr == "torque_frequency":
-                if (not isinstance(value, list) or len(value) != 2
-                        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
-                        or not 0 < value[0] <= value[1] or not math.isfinite(value[1])):
+                if (
+                    not isinstance(value, list)
+                    or len(value) != 2
+                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+                    or not 0 < value[0] <= value[1]
+                    or not math.isfinite(value[1])
+                ):
                     raise ValueError(f"{where}: frequency must be [low, high] with 0 < low <= high; got {value!r}")
                 kwargs[attr] = (float(value[0]), float(value[1]))
             else:
@@ -836,14 +940,17 @@ def campaign_from_dict(config: dict, source: str = "config") -> Campaign:
     if "omega_max" not in kwargs:
         raise ValueError(f"{source}: [body] omega_max is required (the bound |omega| <= omega_M of the theorem)")
     if kwargs.get("p_zero", 0.05) + kwargs.get("p_opposite", 0.05) > 1:
-        raise ValueError(f"{source} [initial]: p_zero + p_opposite must not exceed 1; got "
-                         f"{kwargs.get('p_zero', 0.05)} + {kwargs.get('p_opposite', 0.05)}")
+        raise ValueError(
+            f"{source} [initial]: p_zero + p_opposite must not exceed 1; got "
+            f"{kwargs.get('p_zero', 0.05)} + {kwargs.get('p_opposite', 0.05)}"
+        )
     J = kwargs.setdefault("J", np.diag([3.0, 2.0, 1.0]))
     refs = kwargs.setdefault("references", np.eye(3)[:2])
     gains_table = config.get("gains")
     if not isinstance(gains_table, dict) or not gains_table:
-        raise ValueError(f"{source}: at least one [gains.NAME] table is required (kind = \"theorem\", "
-                         "\"constant\" or \"affine\")")
+        raise ValueError(
+            f'{source}: at least one [gains.NAME] table is required (kind = "theorem", "constant" or "affine")'
+        )
     kwargs["gains"] = {
         name: _gains_from_table(name, t, J, kwargs["omega_max"], refs) for name, t in gains_table.items()
     }
@@ -863,7 +970,6 @@ def load_campaign(path) -> Campaign:
     """Read a campaign from a TOML file (see ``examples/campaign.toml``)."""
     path = Path(path)
     return campaign_from_toml(path.read_text(), str(path))
-
 
 
 def replace(campaign: Campaign, **changes) -> Campaign:

@@ -134,9 +134,7 @@ class Torque:
         raw = self.func(t) if self.kind == self.TIME else self.func(t, R, omega)
         tau = np.asarray(raw, dtype=float)
         if tau.shape != (3,) or not np.all(np.isfinite(tau)):
-            raise ValueError(
-                f"the torque function must return 3 finite numbers; at t = {float(t)} it returned {raw!r}"
-            )
+            raise ValueError(f"the torque function must return 3 finite numbers; at t = {float(t)} it returned {raw!r}")
         return tau
 
     def __repr__(self) -> str:
@@ -381,8 +379,7 @@ def _check_times(times) -> np.ndarray:
     if np.any(steps <= 0):
         bad = int(np.flatnonzero(steps <= 0)[0])
         raise ValueError(
-            f"times must be strictly increasing; times[{bad + 1}] = {t[bad + 1]} "
-            f"follows times[{bad}] = {t[bad]}"
+            f"times must be strictly increasing; times[{bad + 1}] = {t[bad + 1]} follows times[{bad}] = {t[bad]}"
         )
     return t
 

@@ -129,8 +129,15 @@ _TUMBLE = dict(
 )
 
 # Real data: 285.714 Hz optical attitude; σ assumed 0.05° (NOTICE.md: rest jitter 0.014°–0.085° RMS).
-_BROAD = dict(J_true=np.eye(3), J_model=np.eye(3), omega_max=10.0, converged_tol=0.1, steady_after=0.0,
-              rate_hz=2000.0 / 7.0, attitude_sigma=np.radians(0.05))
+_BROAD = dict(
+    J_true=np.eye(3),
+    J_model=np.eye(3),
+    omega_max=10.0,
+    converged_tol=0.1,
+    steady_after=0.0,
+    rate_hz=2000.0 / 7.0,
+    attitude_sigma=np.radians(0.05),
+)
 
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
@@ -148,21 +155,47 @@ SCENARIOS: dict[str, Scenario] = {
             steady_after=5.0,
         ),
         Scenario("slew", "spacecraft slew, star tracker 5 Hz, 10 arcsec/axis, known torques", **_SLEW),
-        Scenario("slew-J10", "as slew, estimators told principal moments +10/-10/+10 %",
-                 **{**_SLEW, "J_model": _J_SC_WRONG}),
-        Scenario("slew-disturbance", "as slew, unknown constant disturbance torque (4,-3,2) mN m",
-                 **{**_SLEW, "disturbance": np.array([4e-3, -3e-3, 2e-3])}),
+        Scenario(
+            "slew-J10", "as slew, estimators told principal moments +10/-10/+10 %", **{**_SLEW, "J_model": _J_SC_WRONG}
+        ),
+        Scenario(
+            "slew-disturbance",
+            "as slew, unknown constant disturbance torque (4,-3,2) mN m",
+            **{**_SLEW, "disturbance": np.array([4e-3, -3e-3, 2e-3])},
+        ),
         Scenario("slew-1Hz", "as slew, star tracker at 1 Hz", **{**_SLEW, "rate_hz": 1.0}),
-        Scenario("tumble", "tumbling spacecraft, |w| = 1 rad/s, attitude 0.1 deg/axis at 1 Hz, no torque",
-                 omega0=1.0 * _TUMBLE_AXIS, omega_max=1.5, **_TUMBLE),
-        Scenario("tumble-fast", "as tumble at |w| = 2 rad/s: 2 rad between fixes",
-                 omega0=2.0 * _TUMBLE_AXIS, omega_max=3.0, **_TUMBLE),
-        Scenario("broad-01", "BROAD trial 01 (slow rotation), optical attitude, J = I, tau = 0 stand-ins",
-                 broad_trial="01", **_BROAD),
-        Scenario("broad-06", "BROAD trial 06 (fast rotation), optical attitude, J = I, tau = 0 stand-ins",
-                 broad_trial="06", **_BROAD),
-        Scenario("broad-10", "BROAD trial 10 (slow translation), optical attitude, J = I, tau = 0 stand-ins",
-                 broad_trial="10", **_BROAD),
+        Scenario(
+            "tumble",
+            "tumbling spacecraft, |w| = 1 rad/s, attitude 0.1 deg/axis at 1 Hz, no torque",
+            omega0=1.0 * _TUMBLE_AXIS,
+            omega_max=1.5,
+            **_TUMBLE,
+        ),
+        Scenario(
+            "tumble-fast",
+            "as tumble at |w| = 2 rad/s: 2 rad between fixes",
+            omega0=2.0 * _TUMBLE_AXIS,
+            omega_max=3.0,
+            **_TUMBLE,
+        ),
+        Scenario(
+            "broad-01",
+            "BROAD trial 01 (slow rotation), optical attitude, J = I, tau = 0 stand-ins",
+            broad_trial="01",
+            **_BROAD,
+        ),
+        Scenario(
+            "broad-06",
+            "BROAD trial 06 (fast rotation), optical attitude, J = I, tau = 0 stand-ins",
+            broad_trial="06",
+            **_BROAD,
+        ),
+        Scenario(
+            "broad-10",
+            "BROAD trial 10 (slow translation), optical attitude, J = I, tau = 0 stand-ins",
+            broad_trial="10",
+            **_BROAD,
+        ),
     ]
 }
 

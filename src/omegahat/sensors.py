@@ -40,8 +40,7 @@ def _as_sigma(sigma, shape, name="sigma") -> np.ndarray:
 def _as_generator(rng) -> np.random.Generator:
     if not isinstance(rng, np.random.Generator):
         raise TypeError(
-            "rng must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed)); "
-            f"got {type(rng).__name__}"
+            f"rng must be a numpy.random.Generator (e.g. numpy.random.default_rng(seed)); got {type(rng).__name__}"
         )
     return rng
 

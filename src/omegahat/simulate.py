@@ -178,9 +178,7 @@ class CoupledProblem:
     @property
     def xi0(self) -> np.ndarray:
         """The observer's ξ₀ that gives ω̂₀ (the paper's ``ξ₀ = Σ k_i J⁻¹ (r̂_i0 × r_i0)`` when ω̂₀ = 0)."""
-        return sarras.xi_for_omega_hat(
-            self.omega_hat0, self.r0, self.r_hat0, self.gains.k, np.linalg.inv(self.J)
-        )
+        return sarras.xi_for_omega_hat(self.omega_hat0, self.r0, self.r_hat0, self.gains.k, np.linalg.inv(self.J))
 
 
 def paper_problem(torque=None) -> CoupledProblem:
@@ -253,10 +251,16 @@ def _sin_cos_small(x):
     |x| ≤ 1/4. Plain arithmetic, so the lockstep kernel (:mod:`omegahat.batch_kernel`) computes it for many
     runs at once and gets the very same bits."""
     x2 = x * x
-    s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (
-        1.0 / 362880.0 + x2 * (-1.0 / 39916800.0))))))
-    c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0 + x2 * (
-        -1.0 / 3628800.0 + x2 * (1.0 / 479001600.0))))))
+    s = x * (
+        1.0
+        + x2
+        * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362880.0 + x2 * (-1.0 / 39916800.0)))))
+    )
+    c = 1.0 + x2 * (
+        -0.5
+        + x2
+        * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0 + x2 * (-1.0 / 3628800.0 + x2 * (1.0 / 479001600.0)))))
+    )
     return s, c
 
 
@@ -555,9 +559,7 @@ def _dense_output(y, Nu, Na, Nb, Nc, l_frozen, h, theta, n, out):
 
 
 @numba.njit(cache=True)
-def integrate_coupled(
-    y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps
-):
+def integrate_coupled(y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps):
     """Integrate the coupled system from t_out[0] and return y at every t_out ``(T, len(y0))``.
 
     Steps are taken freely (the last one ends on ``t_out[-1]``); the other output times are filled from the
@@ -656,8 +658,23 @@ def integrate_coupled_batch(
     for w in numba.prange(n_workers):
         for i in range(w, N, n_workers):
             Yi, acc, rej, good = integrate_coupled(
-                Y0[i], t_out, n, J, Jinv, k, l_off, l_slope, tc[i], ta[i], tf[i], tp[i], rtol, atol, h0[i],
-                h_max, max_steps,
+                Y0[i],
+                t_out,
+                n,
+                J,
+                Jinv,
+                k,
+                l_off,
+                l_slope,
+                tc[i],
+                ta[i],
+                tf[i],
+                tp[i],
+                rtol,
+                atol,
+                h0[i],
+                h_max,
+                max_steps,
             )
             Y[i] = Yi
             accepted[i] = acc
@@ -818,9 +835,7 @@ def simulate_reference(
     omega = Y[:, 3 * n : 3 * n + 3]
     xi = Y[:, 3 * n + 3 : 3 * n + 6]
     r_hat = Y[:, 3 * n + 6 :].reshape(-1, n, 3)
-    omega_hat = xi + output_sign * np.einsum(
-        "ij,tj->ti", Jinv, np.einsum("i,tia->ta", g.k, np.cross(r, r_hat))
-    )
+    omega_hat = xi + output_sign * np.einsum("ij,tj->ti", Jinv, np.einsum("i,tia->ta", g.k, np.cross(r, r_hat)))
     return CoupledTrajectory(
         t=sol.t,
         omega=omega,

@@ -196,6 +196,5 @@ def as_matrix(attitude, scalar_first=False):
     if a.shape[-1:] == (4,):
         return from_quat(a, scalar_first=scalar_first)
     raise ValueError(
-        "an attitude must be a scipy Rotation, matrices (..., 3, 3) or quaternions (..., 4); "
-        f"got shape {a.shape}"
+        f"an attitude must be a scipy Rotation, matrices (..., 3, 3) or quaternions (..., 4); got shape {a.shape}"
     )

@@ -81,14 +81,17 @@ def _sarras(warm_start):
         # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
         gains = bandwidth_gains(sc.J_model, b_rel * sc.rate_hz)  # three rows: k = b tr(J)/6, l = 10 b
         return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0, warm_start=warm_start)
+
     return make
 
 
 def _mekf(model):
     def make(sc, sigma_a):
         q = (_jbar(sc) * sigma_a) ** 2 if model == "dynamic" else sigma_a**2
-        return MEKF(sc.J_model, model, q=q, measurement_sigma=_meas_sigma(sc), omega0=sc.omega_hat0,
-                    sigma_omega0=sc.omega_max)
+        return MEKF(
+            sc.J_model, model, q=q, measurement_sigma=_meas_sigma(sc), omega0=sc.omega_hat0, sigma_omega0=sc.omega_max
+        )
+
     return make
 
 
@@ -99,30 +102,56 @@ _BANDWIDTHS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
 _SARRAS_KNOB = "bandwidth b (x rate, rad/s per Hz; k = b*tr(J)/6, l = 10 b)"
 
 METHODS = (
-    Method("omegahat", True, _SARRAS_KNOB + "; warm start from the first two samples", _BANDWIDTHS, _sarras(True),
-           True),
-    Method("omegahat-cold", True, _SARRAS_KNOB + "; started from the scenario's w_hat0", _BANDWIDTHS,
-           _sarras(False), True),
-    Method("diff-backward", True, "low-pass cut-off (x rate; none = raw)", _CUTOFFS,
-           lambda sc, c: DifferencingEstimator("backward", None if c is None else c * sc.rate_hz)),
-    Method("diff-central", False, "low-pass cut-off (x rate; none = raw)", _CUTOFFS,
-           lambda sc, c: DifferencingEstimator("central", None if c is None else c * sc.rate_hz)),
+    Method(
+        "omegahat", True, _SARRAS_KNOB + "; warm start from the first two samples", _BANDWIDTHS, _sarras(True), True
+    ),
+    Method(
+        "omegahat-cold", True, _SARRAS_KNOB + "; started from the scenario's w_hat0", _BANDWIDTHS, _sarras(False), True
+    ),
+    Method(
+        "diff-backward",
+        True,
+        "low-pass cut-off (x rate; none = raw)",
+        _CUTOFFS,
+        lambda sc, c: DifferencingEstimator("backward", None if c is None else c * sc.rate_hz),
+    ),
+    Method(
+        "diff-central",
+        False,
+        "low-pass cut-off (x rate; none = raw)",
+        _CUTOFFS,
+        lambda sc, c: DifferencingEstimator("central", None if c is None else c * sc.rate_hz),
+    ),
     Method("spline", False, "none", (None,), lambda sc, _: SplineEstimator()),
-    Method("mekf-dynamic", True, "rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)", _SIGMA_A,
-           _mekf("dynamic"), True),
-    Method("mekf-kinematic", True, "rate noise sigma_a rad/s^1.5 (q = sigma_a^2)", _SIGMA_A, _mekf("kinematic"),
-           True),
+    Method(
+        "mekf-dynamic", True, "rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)", _SIGMA_A, _mekf("dynamic"), True
+    ),
+    Method("mekf-kinematic", True, "rate noise sigma_a rad/s^1.5 (q = sigma_a^2)", _SIGMA_A, _mekf("kinematic"), True),
 )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--scenario", action="append", choices=S.names(), metavar="NAME",
-                        help=f"scenario to run (repeatable; default: all). One of: {', '.join(S.names())}")
+    parser.add_argument(
+        "--scenario",
+        action="append",
+        choices=S.names(),
+        metavar="NAME",
+        help=f"scenario to run (repeatable; default: all). One of: {', '.join(S.names())}",
+    )
     parser.add_argument("--out", type=Path, default=Path("compare-out"), help="output folder (compare-out/)")
-    parser.add_argument("--duration", type=float, default=None,
-                        help="override every simulated scenario's horizon, s (quick looks and tests)")
-    parser.add_argument("--method", action="append", choices=[m.name for m in METHODS], metavar="NAME",
-                        help="method to run (repeatable; default: all)")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        help="override every simulated scenario's horizon, s (quick looks and tests)",
+    )
+    parser.add_argument(
+        "--method",
+        action="append",
+        choices=[m.name for m in METHODS],
+        metavar="NAME",
+        help="method to run (repeatable; default: all)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -277,8 +306,17 @@ def plot_errors(sc, t, curves):
     return fig
 
 
-COLUMNS = ("scenario", "method", "causal", "tuned", "first_below_s", "convergence_s", "steady_rms", "inband_rms",
-           "vs_omegahat")
+COLUMNS = (
+    "scenario",
+    "method",
+    "causal",
+    "tuned",
+    "first_below_s",
+    "convergence_s",
+    "steady_rms",
+    "inband_rms",
+    "vs_omegahat",
+)
 
 
 def markdown(rows, methods):
@@ -289,11 +327,15 @@ def markdown(rows, methods):
     ]
     for r in rows:
         lines.append("| " + " | ".join(_fmt(r[c]) if not isinstance(r[c], str) else r[c] for c in COLUMNS) + " |")
-    lines += ["", "Tuning: each method's one knob takes the grid value with the least steady-state RMS error on "
-              f"seed {TUNING_SEED}; the table is seed {SCORED_SEED}. Real data (broad-*): the grid value with the "
-              f"least in-band RMS on the first {REAL_TUNING_SECONDS:g} s of another trial "
-              f"({', '.join(f'{k} tuned on {v}' for k, v in REAL_TUNING_TRIAL.items())}); there the steady RMS "
-              "is against the raw bias-corrected gyroscope over the whole record. Knobs and grids:", ""]
+    lines += [
+        "",
+        "Tuning: each method's one knob takes the grid value with the least steady-state RMS error on "
+        f"seed {TUNING_SEED}; the table is seed {SCORED_SEED}. Real data (broad-*): the grid value with the "
+        f"least in-band RMS on the first {REAL_TUNING_SECONDS:g} s of another trial "
+        f"({', '.join(f'{k} tuned on {v}' for k, v in REAL_TUNING_TRIAL.items())}); there the steady RMS "
+        "is against the raw bias-corrected gyroscope over the whole record. Knobs and grids:",
+        "",
+    ]
     for m in methods:
         lines.append(f"- {m.name}: {m.knob}; grid {', '.join(_fmt(v) for v in m.grid)}")
     failed = [r for r in rows if r["failure"]]

@@ -64,25 +64,52 @@ def _directions(text: str) -> list[list[float]]:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, metavar="INPUT", help="attitude log, .csv or .npz")
     parser.add_argument("-o", "--output", type=Path, required=True, help="output CSV (t,wx,wy,wz)")
-    parser.add_argument("--inertia", type=float, nargs="+", metavar="J",
-                        help="inertia: 3 numbers (diagonal) or 9 (row-major); default identity")
+    parser.add_argument(
+        "--inertia",
+        type=float,
+        nargs="+",
+        metavar="J",
+        help="inertia: 3 numbers (diagonal) or 9 (row-major); default identity",
+    )
     parser.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     parser.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")
-    parser.add_argument("--bandwidth", type=float, metavar="B",
-                        help=f"error decay rate in rad/s, sets k and l (default {DEFAULT_BANDWIDTH:g})")
-    parser.add_argument("--references", type=_directions, metavar="X,Y,Z;X,Y,Z",
-                        help="known inertial directions, ';' between directions, written with '=' "
-                             "(--references=0,0,9.8;-0.9,15.5,-41.3) so a leading minus is not read as an "
-                             "option; required for b1x.. direction input; for attitude input default: the "
-                             "three inertial axes, i.e. the rows of R")
+    parser.add_argument(
+        "--bandwidth",
+        type=float,
+        metavar="B",
+        help=f"error decay rate in rad/s, sets k and l (default {DEFAULT_BANDWIDTH:g})",
+    )
+    parser.add_argument(
+        "--references",
+        type=_directions,
+        metavar="X,Y,Z;X,Y,Z",
+        help="known inertial directions, ';' between directions, written with '=' "
+        "(--references=0,0,9.8;-0.9,15.5,-41.3) so a leading minus is not read as an "
+        "option; required for b1x.. direction input; for attitude input default: the "
+        "three inertial axes, i.e. the rows of R",
+    )
     warm = parser.add_mutually_exclusive_group()
-    warm.add_argument("--warm-start", dest="warm_start", action="store_true", default=True,
-                      help="start the rate from the first two valid samples (default)")
-    warm.add_argument("--no-warm-start", dest="warm_start", action="store_false",
-                      help="start from omega_hat = 0 and let the observer converge at its gains' rate")
+    warm.add_argument(
+        "--warm-start",
+        dest="warm_start",
+        action="store_true",
+        default=True,
+        help="start the rate from the first two valid samples (default)",
+    )
+    warm.add_argument(
+        "--no-warm-start",
+        dest="warm_start",
+        action="store_false",
+        help="start from omega_hat = 0 and let the observer converge at its gains' rate",
+    )
     bar = parser.add_mutually_exclusive_group()
-    bar.add_argument("--progress", dest="progress", action="store_true", default=None,
-                     help=f"always show a progress bar (default: from {PROGRESS_MIN_SAMPLES} samples on)")
+    bar.add_argument(
+        "--progress",
+        dest="progress",
+        action="store_true",
+        default=None,
+        help=f"always show a progress bar (default: from {PROGRESS_MIN_SAMPLES} samples on)",
+    )
     bar.add_argument("--no-progress", dest="progress", action="store_false", help="never show one")
 
 
@@ -113,8 +140,10 @@ def _references(args, log) -> np.ndarray:
     if log.kind == "directions":
         n = log.data.shape[1]
         if args.references is None:
-            raise ValueError(f"{log.source} holds {n} body-frame directions (b1..b{n}): give their inertial "
-                             f"directions with --references X,Y,Z (one per direction)")
+            raise ValueError(
+                f"{log.source} holds {n} body-frame directions (b1..b{n}): give their inertial "
+                f"directions with --references X,Y,Z (one per direction)"
+            )
         if len(args.references) != n:
             raise ValueError(f"{log.source} holds {n} directions but --references gives {len(args.references)}")
     if args.references is None:
@@ -125,8 +154,15 @@ def _references(args, log) -> np.ndarray:
 def run(args) -> int:
     show = args.progress
     size = args.input.stat().st_size if args.input.exists() else 0
-    with tqdm(total=size, unit="B", unit_scale=True, desc="reading", disable=not (show or
-              (show is None and size > 40 * PROGRESS_MIN_SAMPLES)), file=sys.stderr) as bar:
+    with tqdm(
+        total=size,
+        unit="B",
+        unit_scale=True,
+        desc="reading",
+        disable=not (show or (show is None and size > 40 * PROGRESS_MIN_SAMPLES)),
+        file=sys.stderr,
+    ) as bar:
+
         def progress(done, total):
             bar.total = total
             bar.n = done
@@ -137,8 +173,9 @@ def run(args) -> int:
     references = _references(args, log)
     gains = _gains(args, J, references)
     measurement = "directions" if log.kind == "directions" else "attitude"
-    estimator = SarrasEstimator(J, gains=gains, references=references, measurement=measurement,
-                                warm_start=args.warm_start)
+    estimator = SarrasEstimator(
+        J, gains=gains, references=references, measurement=measurement, warm_start=args.warm_start
+    )
 
     T = log.t.size
     show_run = show if show is not None else T >= PROGRESS_MIN_SAMPLES
@@ -157,6 +194,8 @@ def run(args) -> int:
     l_text = np.array2string(gains.l_offset, precision=4)
     print(f"wrote {T} estimates to {args.output} (k = {k_text}, l = {l_text}, J diag = {np.diag(J).tolist()})")
     if skipped:
-        print(f"skipped {skipped} of {T} samples ({estimator.n_missing} missing, {estimator.n_collinear} with "
-              "nearly collinear directions): predicted through")
+        print(
+            f"skipped {skipped} of {T} samples ({estimator.n_missing} missing, {estimator.n_collinear} with "
+            "nearly collinear directions): predicted through"
+        )
     return 0

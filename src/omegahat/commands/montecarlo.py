@@ -29,7 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("montecarlo-out"), help="output folder (montecarlo-out/)")
     parser.add_argument("--runs", type=_positive_int, default=None, help="override [campaign] runs")
     parser.add_argument(
-        "--dask", metavar="ADDRESS", default=None,
+        "--dask",
+        metavar="ADDRESS",
+        default=None,
         help="run on a dask.distributed scheduler at ADDRESS (needs the 'dask' extra); 'local' starts a "
         "LocalCluster on this machine",
     )

@@ -29,9 +29,7 @@ def _positive_float(text: str) -> float:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--out", type=Path, default=Path("paper-figures"), help="output folder (paper-figures/)"
-    )
+    parser.add_argument("--out", type=Path, default=Path("paper-figures"), help="output folder (paper-figures/)")
     parser.add_argument("--horizon", type=_positive_float, default=10.0, help="simulated time in s (10)")
     parser.add_argument("--dt", type=_positive_float, default=1e-3, help="output sample period in s (0.001)")
 

@@ -110,9 +110,7 @@ def as_attitude_matrices(attitudes, scalar_first=False, tol=1e-4, name="attitude
         bad = np.flatnonzero(finite & (np.abs(norm - 1.0) > tol))
         if bad.size:
             j = int(bad[0])
-            raise ValueError(
-                f"{name}[{j}] is not a unit quaternion (norm {norm[j]:.6g}, tol = {tol:g}): {_fmt(a[j])}"
-            )
+            raise ValueError(f"{name}[{j}] is not a unit quaternion (norm {norm[j]:.6g}, tol = {tol:g}): {_fmt(a[j])}")
         R = so3.from_quat(np.where(finite[:, None], a, [0.0, 0.0, 0.0, 1.0]), scalar_first=scalar_first)
     else:
         raise ValueError(
@@ -131,9 +129,7 @@ def _check_times(times, n):
     steps = np.diff(t)
     if np.any(steps <= 0):
         j = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise ValueError(
-            f"times must increase strictly; times[{j}] = {t[j]!r} <= times[{j - 1}] = {t[j - 1]!r}"
-        )
+        raise ValueError(f"times must increase strictly; times[{j}] = {t[j]!r} <= times[{j - 1}] = {t[j - 1]!r}")
     return t
 
 
@@ -239,9 +235,7 @@ def lowpass(x, times, cutoff_hz):
     x = np.ascontiguousarray(x, dtype=float)
     t = np.ascontiguousarray(times, dtype=float)
     if x.ndim != 2 or x.shape[1] != 3 or t.shape != (x.shape[0],):
-        raise ValueError(
-            f"lowpass expects x of shape (T, 3) and times of shape (T,); got {x.shape} and {t.shape}"
-        )
+        raise ValueError(f"lowpass expects x of shape (T, 3) and times of shape (T,); got {x.shape} and {t.shape}")
     return _lowpass_kernel(x, t, c)
 
 

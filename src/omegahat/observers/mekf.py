@@ -410,8 +410,27 @@ def _update_c(R, omega, P, z, H, meas_var):
 
 
 @numba.njit(cache=True)
-def _run_kernel(times, meas, valid, torques, references, directions, dynamic, J, J_inv, q, meas_var, max_step,
-                R, j_init, omega, P, t_prev, has_t, tau):
+def _run_kernel(
+    times,
+    meas,
+    valid,
+    torques,
+    references,
+    directions,
+    dynamic,
+    J,
+    J_inv,
+    q,
+    meas_var,
+    max_step,
+    R,
+    j_init,
+    omega,
+    P,
+    t_prev,
+    has_t,
+    tau,
+):
     """:meth:`MEKF.update` over a checked log; the filter state goes in and comes out (``has_t`` says whether
     ``t_prev`` is set). ``meas`` is ``(T, 3, 3)`` attitudes or ``(T, n, 3)`` directions, ``valid`` marks the
     finite samples. ``R`` is the attitude, or, when it is not set yet, the first fix's attitude (computed by the
@@ -500,9 +519,7 @@ class MEKF(Estimator):
             raise ValueError(f"model must be one of {MODELS}; got {model!r}")
         self.model = model
         if model == "dynamic" and J is None:
-            raise ValueError(
-                "J must be given for the dynamic model (use model='kinematic' when it is unknown)"
-            )
+            raise ValueError("J must be given for the dynamic model (use model='kinematic' when it is unknown)")
         self.body = RigidBody(as_inertia(np.eye(3) if J is None else J))
         self.q = float(as_positive(q, "q")[0])
         self.measurement_sigma = float(as_positive(measurement_sigma, "measurement_sigma")[0])
@@ -552,9 +569,7 @@ class MEKF(Estimator):
         m = self._measurement(measurement)  # raises before any state changes
         R, omega, P = self.R, self.omega, self.P
         if self.t is not None and R is not None:
-            R, omega, P = propagate(
-                R, omega, P, t - self.t, self._tau, self.body, self.q, self.model, self.max_step
-            )
+            R, omega, P = propagate(R, omega, P, t - self.t, self._tau, self.body, self.q, self.model, self.max_step)
         if m is None:
             self.n_skipped += 1
         elif R is None:  # first fix initialises the attitude
@@ -627,12 +642,25 @@ class MEKF(Estimator):
             if first.size:
                 R = meas[j_init] if self.references is None else _wahba(meas[j_init], self.references)
         out, R, omega, P, n_skipped = _run_kernel(
-            np.ascontiguousarray(t), meas, valid, np.ascontiguousarray(tau), refs, self.references is not None,
-            self.model == "dynamic", np.ascontiguousarray(self.body.J), np.ascontiguousarray(self.body.J_inv),
-            self.q, self.measurement_sigma**2, self.max_step,
-            np.zeros((3, 3)) if R is None else np.array(R, dtype=float, order="C"), j_init,
-            np.ascontiguousarray(self.omega, dtype=float), np.ascontiguousarray(self.P, dtype=float),
-            0.0 if self.t is None else float(self.t), self.t is not None, np.ascontiguousarray(self._tau, dtype=float),
+            np.ascontiguousarray(t),
+            meas,
+            valid,
+            np.ascontiguousarray(tau),
+            refs,
+            self.references is not None,
+            self.model == "dynamic",
+            np.ascontiguousarray(self.body.J),
+            np.ascontiguousarray(self.body.J_inv),
+            self.q,
+            self.measurement_sigma**2,
+            self.max_step,
+            np.zeros((3, 3)) if R is None else np.array(R, dtype=float, order="C"),
+            j_init,
+            np.ascontiguousarray(self.omega, dtype=float),
+            np.ascontiguousarray(self.P, dtype=float),
+            0.0 if self.t is None else float(self.t),
+            self.t is not None,
+            np.ascontiguousarray(self._tau, dtype=float),
         )
         self.R = None if j_init >= T else R
         self.omega, self.P, self.t, self._tau = omega, P, float(t[-1]), tau[-1].copy()
