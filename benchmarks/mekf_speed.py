@@ -10,7 +10,7 @@ dynamic / kinematic model × attitude fixes / three direction measurements, at 5
 
 At 5 Hz a step of 0.2 s is propagated in 4 sub-steps (``max_step`` = 0.05 s), at 285.7 Hz in one.
 Data: J = diag(3, 2, 1) tumbling from ω₀ = (2, −1, 0.6) rad/s with a small constant known torque (truth from
-:func:`omegahat.rigid_body.integrate`), attitude noise 1e-3 rad, direction noise 1e-3; q = 1e-4.
+:func:`omegahat.simulation.rigid_body.integrate`), attitude noise 1e-3 rad, direction noise 1e-3; q = 1e-4.
 Compilation is done (and cached) before any timing. The machine may be shared: numbers vary by tens of percent.
 """
 
@@ -22,8 +22,8 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from omegahat.observers.mekf import MEKF
-from omegahat.rigid_body import RigidBody, integrate
+from omegahat.baselines.mekf import MEKF
+from omegahat.simulation.rigid_body import RigidBody, integrate
 
 J = np.diag([3.0, 2.0, 1.0])
 REFS = np.eye(3)

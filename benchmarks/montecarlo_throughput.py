@@ -1,6 +1,6 @@
 """Throughput of Monte-Carlo campaigns: the lockstep batch engine beside the per-run kernels.
 
-Unit: one **observer step** = one accepted step of the coupled integrator (``omegahat.simulate``): a trial that
+Unit: one **observer step** = one accepted step of the coupled integrator (``omegahat.simulation.coupled``): a trial that
 passed the error test and advanced plant + observer; it is one ETDRK4 step with its embedded error estimate and
 costs 4 evaluations of the right-hand side (three stages and the new point, which is also the next step's first
 stage; a rejected trial costs the same 4; one more per run at the start). Rejected trials are reported but not
@@ -16,14 +16,14 @@ the next.
 
 Timings over the same runs (examples/campaign.toml, horizon 20 s, output every 0.05 s), chunk by chunk as a
 campaign cuts them (``--chunk``, default the campaign's):
-  lanes    omegahat.batch_kernel.integrate_diagnosed_lanes (what campaigns use): each thread steps its runs 24
+  lanes    omegahat.simulation.engine.integrate_diagnosed_lanes (what campaigns use): each thread steps its runs 24
            at a time in lockstep, SIMD over runs, and diagnoses each run as it ends;
-  states   omegahat.batch_kernel.integrate_coupled_lanes: the same, returning every run's states instead (its
+  states   omegahat.simulation.engine.integrate_coupled_lanes: the same, returning every run's states instead (its
            step counts must equal the lanes', its states the prange engine's, bit for bit);
-  prange   omegahat.simulate.integrate_coupled_batch: a Numba prange over runs, each run the scalar single-run
+  prange   omegahat.simulation.coupled.integrate_coupled_batch: a Numba prange over runs, each run the scalar single-run
            kernel (the engine before the lockstep kernel);
   campaign run_campaign end to end (drawing the runs, the kernel, the diagnostics);
-  loop     a Python loop calling omegahat.simulate.simulate once per run (one core).
+  loop     a Python loop calling omegahat.simulation.coupled.simulate once per run (one core).
 Kernel timings exclude drawing and packing the runs (done before the clock starts). The machine load
 (os.getloadavg) is printed: on a shared machine the numbers are lower bounds.
 """
@@ -38,9 +38,9 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from omegahat import montecarlo as mc
-from omegahat.batch_kernel import LANES, integrate_coupled_lanes, integrate_diagnosed_lanes
-from omegahat.simulate import integrate_coupled_batch, simulate
+from omegahat.campaigns import runner as mc
+from omegahat.simulation.coupled import integrate_coupled_batch, simulate
+from omegahat.simulation.engine import LANES, integrate_coupled_lanes, integrate_diagnosed_lanes
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -5,7 +5,7 @@ Run: ``/tmp/venv/bin/python benchmarks/real_data.py`` (21 s on the shared 2-core
 
 Setup: attitude input (the three rows of the optical R), J = I and τ = 0 as stand-ins (the hand's inertia and
 torques are unknown), gains from one bandwidth b (``omegahat estimate --bandwidth``: k = b tr(J)/6, l = 10 b).
-Scoring: :func:`omegahat.broad.score` (error against the bias-corrected gyro, Butterworth order 4 at 10 Hz
+Scoring: :func:`omegahat.evaluation.broad.score` (error against the bias-corrected gyro, Butterworth order 4 at 10 Hz
 forward-backward, RMS of the norm over motion samples 1 s away from gaps, best integer shift within ±5 samples),
 the same for both methods.
 
@@ -25,9 +25,9 @@ import warnings
 
 import numpy as np
 
-from omegahat import broad
-from omegahat.estimator import SarrasEstimator, SkippedSamplesWarning
-from omegahat.tuning import bandwidth_gains
+from omegahat.evaluation import broad
+from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
+from omegahat.observer.tuning import bandwidth_gains
 
 GRID = (
     100.0,

@@ -1,8 +1,8 @@
 """Gap between the sampled estimator and the continuous-time observer as the sample period h → 0 (issue 3.1).
 
-Run: ``python benchmarks/sampled_convergence.py``. The paper's scenario (:func:`omegahat.simulate.paper_problem`:
+Run: ``python benchmarks/sampled_convergence.py``. The paper's scenario (:func:`omegahat.simulation.coupled.paper_problem`:
 J = diag(3, 2, 1), ω₀ = (2, −1, 0.6), two rows of R, r̂₀ = ((0,−1,0), (0,0,−1)), ω̂₀ = 0, theorem gains) is
-simulated once in continuous time (:func:`omegahat.simulate.simulate`, rtol 1e-10) with outputs on the finest
+simulated once in continuous time (:func:`omegahat.simulation.coupled.simulate`, rtol 1e-10) with outputs on the finest
 sample grid; the sampled estimator is fed the exact directions at period h and its ω̂ is compared with the
 continuous observer's ω̂ at the same times. Printed: the gap at t = 0.5 s and 1 s, its maximum over (0, 2] s,
 and the order fitted by least squares on log(gap) vs log(h).
@@ -18,8 +18,8 @@ import argparse
 import numpy as np
 from scipy.linalg import expm
 
-from omegahat.estimator import SarrasEstimator, reference_predict
-from omegahat.simulate import paper_problem, simulate
+from omegahat.observer.estimator import SarrasEstimator, reference_predict
+from omegahat.simulation.coupled import paper_problem, simulate
 
 
 def gaps(hs, horizon=2.0):

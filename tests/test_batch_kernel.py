@@ -9,11 +9,10 @@ from decimal import Decimal, getcontext
 import numpy as np
 import pytest
 
-from omegahat.batch_kernel import LANES, integrate_coupled_lanes, integrate_diagnosed_lanes
-from omegahat.envelope import diagnose_runs
-from omegahat.gains import ObserverGains, theorem_gains
-from omegahat.montecarlo import kernel_inputs
-from omegahat.simulate import (
+from omegahat.campaigns.diagnostics import diagnose_runs
+from omegahat.campaigns.runner import kernel_inputs
+from omegahat.observer.gains import ObserverGains, theorem_gains
+from omegahat.simulation.coupled import (
     CoupledProblem,
     SinusoidalTorque,
     _phi1_half_closed,
@@ -25,6 +24,7 @@ from omegahat.simulate import (
     integrate_coupled,
     integrate_coupled_batch,
 )
+from omegahat.simulation.engine import LANES, integrate_coupled_lanes, integrate_diagnosed_lanes
 
 
 def _problems(n_runs, n_dirs, n_terms, seed, gains, freq=(0.5, 5.0)):

@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import so3
 from omegahat.cli import main
-from omegahat.rigid_body import RigidBody, Torque, integrate
+from omegahat.simulation.rigid_body import RigidBody, Torque, integrate
 
 OMEGA = np.array([0.7, -0.4, 1.1])  # constant body rate (J = I, no torque)
 

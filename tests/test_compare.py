@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from omegahat.cli import main
-from omegahat.commands.compare import convergence_time, first_below, steady_rms
+from omegahat.cli.compare import convergence_time, first_below, steady_rms
 
 
 def test_convergence_time_and_steady_rms_on_hand_made_errors():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.observers.differencing import (
+from omegahat.baselines.differencing import (
     DifferencingEstimator,
     _lowpass_numpy,
     log_difference,

@@ -5,9 +5,9 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from omegahat import montecarlo as mc  # noqa: E402
-from omegahat.distributed import run_campaign_dask  # noqa: E402
-from omegahat.gains import ObserverGains, theorem_gains  # noqa: E402
+from omegahat.campaigns import runner as mc  # noqa: E402
+from omegahat.campaigns.distributed import run_campaign_dask  # noqa: E402
+from omegahat.observer.gains import ObserverGains, theorem_gains  # noqa: E402
 
 J = np.diag([3.0, 2.0, 1.0])
 

@@ -12,15 +12,15 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from omegahat.estimator import (
+from omegahat.measurements import MeasurementError
+from omegahat.observer.estimator import (
     EstimatorState,
     SarrasEstimator,
     SkippedSamplesWarning,
     reference_predict,
     reference_step,
 )
-from omegahat.gains import ObserverGains, theorem_gains
-from omegahat.measurements import MeasurementError
+from omegahat.observer.gains import ObserverGains, theorem_gains
 
 PAPER_J = np.diag([3.0, 2.0, 1.0])
 PAPER_W0 = np.array([2.0, -1.0, 0.6])
@@ -370,7 +370,7 @@ def test_constructor_errors():
         SarrasEstimator(np.eye(3), gains=g2, measurement="directions")
     with pytest.raises(ValueError, match=r"r_hat0 must be 2 finite directions, shape \(2, 3\)"):
         SarrasEstimator(np.eye(3), gains=g2, r_hat0=np.zeros(3))
-    with pytest.raises(TypeError, match=r"gains must be an omegahat.gains.ObserverGains; got dict"):
+    with pytest.raises(TypeError, match=r"gains must be an omegahat.observer.gains.ObserverGains; got dict"):
         SarrasEstimator(np.eye(3), gains={"k": 1})
     with pytest.raises(ValueError, match=r"rotation_tol must be positive and finite; got \[-1\.\]"):
         SarrasEstimator(np.eye(3), gains=g2, rotation_tol=-1)
@@ -392,7 +392,7 @@ def test_reset_and_uninitialised_output():
 
 def test_gap_to_the_continuous_observer_is_first_order_in_h():
     """Quick version of benchmarks/sampled_convergence.py: paper scenario, gap at t = 1 s for h = 4, 2, 1 ms."""
-    from omegahat.simulate import paper_problem, simulate
+    from omegahat.simulation.coupled import paper_problem, simulate
 
     prob = paper_problem()
     hs = [4e-3, 2e-3, 1e-3]

@@ -7,7 +7,7 @@ import numba
 import numpy as np
 import pytest
 
-from omegahat._exp import exp_kernel
+from omegahat.kernels.expfn import exp_kernel
 
 
 @numba.njit

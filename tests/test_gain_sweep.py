@@ -1,14 +1,14 @@
 """Gain sweeps: convergence time and Pareto front on hand-made data, measured trade-off against the linearised
-design of omegahat.tuning, and the recommendation's contract."""
+design of omegahat.observer.tuning, and the recommendation's contract."""
 
 import math
 
 import numpy as np
 import pytest
 
-from omegahat import gain_sweep as gs
-from omegahat import tuning
-from omegahat.gains import ObserverGains
+from omegahat.observer import gain_sweep as gs
+from omegahat.observer import tuning
+from omegahat.observer.gains import ObserverGains
 
 J = np.diag([3.0, 2.0, 1.0])
 

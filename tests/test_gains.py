@@ -5,7 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
-from omegahat.gains import GainConditionWarning, ObserverGains, check_gains, inertia_bounds, mu, theorem_gains
+from omegahat.observer.gains import GainConditionWarning, ObserverGains, check_gains, inertia_bounds, mu, theorem_gains
 
 J_PAPER = np.diag([3.0, 2.0, 1.0])
 

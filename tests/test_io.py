@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat import broad
+from omegahat.evaluation import broad
 from omegahat.io import AttitudeLog, LogFormatError, read_csv, read_log, read_npz, write_omega_csv
 
 BROAD = broad.data_dir()

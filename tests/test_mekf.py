@@ -8,7 +8,7 @@ import scipy.linalg
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from omegahat.observers.mekf import (
+from omegahat.baselines.mekf import (
     MEKF,
     attitude_innovation,
     discretize,
@@ -16,7 +16,7 @@ from omegahat.observers.mekf import (
     process_jacobian,
     vector_innovation,
 )
-from omegahat.rigid_body import RigidBody, integrate
+from omegahat.simulation.rigid_body import RigidBody, integrate
 
 J = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.0]])
 J_INV = np.linalg.inv(J)
@@ -380,7 +380,7 @@ def test_run_rejects_a_bad_sample_and_keeps_the_state():
 
 
 def test_compiled_pieces_match_numpy_and_scipy():
-    from omegahat.observers.mekf import _expm_block_upper, _quat_of_matrix, _solve_spd
+    from omegahat.baselines.mekf import _expm_block_upper, _quat_of_matrix, _solve_spd
 
     rng = np.random.default_rng(1)
     # Van Loan matrices (block upper triangular), one needing scaling and squaring.

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat import montecarlo as mc
+from omegahat.campaigns import runner as mc
 from omegahat.cli import main
-from omegahat.gains import ObserverGains, theorem_gains
-from omegahat.simulate import CoupledProblem, SinusoidalTorque, simulate
+from omegahat.observer.gains import ObserverGains, theorem_gains
+from omegahat.simulation.coupled import CoupledProblem, SinusoidalTorque, simulate
 
 J = np.diag([3.0, 2.0, 1.0])
 
@@ -101,7 +101,7 @@ def test_run_seed_is_the_spawned_child():
 
 
 def _draw_one(c, j):
-    # the sampler's recipe (module docstring of omegahat.montecarlo), written run by run with the generator's own
+    # the sampler's recipe (module docstring of omegahat.campaigns.runner), written run by run with the generator's own
     # distributions and norms summed left to right
     rng = np.random.default_rng(mc.run_seed(c.seed, j))
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from omegahat.observers.spline import SplineEstimator, spline_rate
+from omegahat.baselines.spline import SplineEstimator, spline_rate
 
 # Closed form (as in test_differencing): R(t) = Exp(a t) Exp(b t), ω(t) = Exp(−b t) a + b in the body frame.
 A = np.array([0.7, -0.3, 0.5])

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.estimator import SarrasEstimator
-from omegahat.tuning import predicted_noise_std, sensor_gains
+from omegahat.observer.estimator import SarrasEstimator
+from omegahat.observer.tuning import predicted_noise_std, sensor_gains
 
 
 def test_isotropic_prediction_equals_the_closed_form():
@@ -92,7 +92,7 @@ def test_convergence_time_is_met_noise_free():
 def test_bandwidth_gains_give_the_bandwidth_as_decay_rate_for_an_isotropic_body():
     """J = c I: the continuous linearised error ż = −J⁻¹ M z, M = Σ k (I − v vᵀ), decays at exactly b for three
     rows (all eigenvalues of J⁻¹ M equal b) and at least b for two orthogonal rows (smallest eigenvalue b)."""
-    from omegahat.tuning import bandwidth_gains
+    from omegahat.observer.tuning import bandwidth_gains
 
     J = 2.5 * np.eye(3)
     for refs, lam_min in ((np.eye(3), 40.0), (np.eye(3)[:2], 40.0)):

@@ -1,10 +1,10 @@
 """omegahat: gyro-free rigid-body angular velocity estimation from attitude measurements.
 
 The core is the continuous, globally exponential observer of I. Sarras, with the sign of its output map corrected
-(see :mod:`omegahat.observers.sarras`).
+(see :mod:`omegahat.observer.continuous`).
 """
 
-from omegahat.gains import ObserverGains, check_gains, theorem_gains
+from omegahat.observer.gains import ObserverGains, check_gains, theorem_gains
 
 __version__ = "0.1.0"
 

@@ -248,7 +248,7 @@ def _where(index: int, batch_shape: tuple[int, ...]) -> str:
 
 def as_references(references, n_default: int = 3) -> np.ndarray:
     """Inertial reference directions ``(n, 3)``, normalised; default the first ``n_default`` axes (rows of R)."""
-    from omegahat._validation import as_directions
+    from omegahat.validation import as_directions
 
     if references is None:
         return np.eye(3)[:n_default].copy()

@@ -1,0 +1,157 @@
+r"""Gains for sampled, noisy sensors: pick ``k_i`` and ``l_i`` from the sample rate, the attitude noise and the
+bandwidth (or convergence time) wanted, and predict the noise the estimate will carry.
+
+Beside the theorem's gains (:func:`omegahat.observer.gains.theorem_gains`: sufficient for global convergence, very stiff
+``l_i``) this module designs gains for the sampled estimator of :mod:`omegahat.observer.estimator` by linearisation.
+
+**Linearised error map.** Near the truth (``z = ω̂ − ω`` small, ``e_i ≈ 0``), neglecting the body's rotation over
+one sample (``h |ω| ≪ 1``) and the gyroscopic coupling (bandwidth ``≫ |ω|``), a sample at period ``h = 1/rate``
+maps the error as (estimator module docstring, step 3)::
+
+    z⁺ = G z + B (δ_{k+1} − δ_k),     G = (I + h J⁻¹ M)⁻¹,   B = G J⁻¹ M,   M = Σ k_i (I − r_i r_iᵀ)     (L)
+
+where ``δ_k`` is the attitude noise of sample k (``R_meas = R exp(δ×)``: a measured direction is then
+``r_i + r_i × δ`` and its innovation term ``Δ_i × r_i = (I − r_i r_iᵀ)(δ_{k+1} − δ_k)``). The noise enters
+differenced: the estimator differentiates the attitude.
+
+**Bandwidth.** The slowest mode of ``G`` contracts by ``1/(1 + h λ_min)`` per sample, ``λ_min`` the smallest
+eigenvalue of ``J⁻¹ M ≥ μ₁ k / J_M`` (``μ₁ = λ_min Σ (I − v_i v_iᵀ)`` for unit gains: 2 for three orthogonal
+directions, 1 for two). Equal gains ``k_i = k`` with::
+
+    k = J_M (exp(ω_b h) − 1) / (h μ₁)                                                                  (K)
+
+give every mode at least the continuous rate ``ω_b`` (rad/s): the error falls as ``exp(−ω_b t)`` or faster. The
+bandwidth asked for is ``ω_b = 2π bandwidth_hz`` or ``1 / convergence_time``. With ``angular_accel`` α (a typical
+|ω̇|, rad/s²) instead, ``ω_b`` balances the two errors of a first-order tracker: the lag ``α / ω_b`` (an
+unknown torque, or an unmodelled acceleration, is followed with that delay) against the noise ``≈ ω_b σ``
+(below): ``ω_b = √(α / σ)``, where both are equal.
+
+**The trade-off.** Larger ``k`` (bandwidth) means faster convergence and less lag, but more noise: for
+isotropic ``J⁻¹ M = λ I`` with white attitude noise of std σ per axis, (L) is a scalar recursion whose stationary
+std per axis is::
+
+    std(z) = σ (a / h) / (1 + a) · √(2 / (1 + g)),   a = h λ,  g = 1 / (1 + a)                         (N)
+
+≈ ``λ σ`` (≈ ``ω_b σ``) when ``a ≪ 1``, and ``√2 σ / h`` (raw differencing) when ``a ≫ 1``.
+:func:`predicted_noise_std` solves the general (anisotropic) case exactly as a discrete Lyapunov equation for
+the state ``(z_k, δ_k)``; ``tests/test_tuning.py`` checks it against simulated noisy runs.
+
+**l_i.** The sampled estimator integrates the decay of ``e_i = r̂_i − r_i`` exactly, so large ``l_i`` cost no
+stability. ``l_i = l_factor · k_i / J_m`` (default 10) keeps ``r̂_i`` close to ``r_i`` when the correction acts,
+which is what (L) assumes. These gains generally do not satisfy the theorem's conditions (``check_gains`` says by
+how much): the guarantee is then local, which is what a tuned filter offers anyway.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import solve_discrete_lyapunov
+
+from omegahat.observer.gains import ObserverGains, inertia_bounds
+from omegahat.validation import as_directions, as_inertia, as_positive
+
+__all__ = ["bandwidth_gains", "predicted_noise_std", "sensor_gains"]
+
+
+def _geometry(references) -> np.ndarray:
+    return as_directions(np.eye(3) if references is None else references)
+
+
+def bandwidth_gains(J, bandwidth: float, references=None, l_per_bandwidth: float = 10.0) -> ObserverGains:
+    """The simple rule used by ``omegahat estimate --bandwidth`` and ``omegahat compare``.
+
+    Equal ``k_i = b (tr J / 3) / μ₁`` with ``μ₁ = λ_min Σ (I − v_i v_iᵀ)`` (2 for the three rows of R, 1 for two
+    orthogonal rows) and ``l_i = l_per_bandwidth · b``: the continuous linearised error ``ż = −J⁻¹ M z`` then
+    decays at about ``b`` rad/s for a near-isotropic body. It ignores the sample rate; :func:`sensor_gains` is the
+    rate- and noise-aware design (slowest mode at least ``b``, using ``J_M``).
+    """
+    J = as_inertia(J)
+    b = float(as_positive(bandwidth, "bandwidth")[0])
+    v = _geometry(references)
+    mu1 = float(np.linalg.eigvalsh(np.eye(3) * v.shape[0] - v.T @ v)[0])
+    k = b * np.trace(J) / 3.0 / mu1
+    l = float(as_positive(l_per_bandwidth, "l_per_bandwidth")[0]) * b
+    return ObserverGains.constant(k, l, n=v.shape[0])
+
+
+def sensor_gains(
+    J,
+    rate_hz: float,
+    noise_std_rad: float,
+    bandwidth_hz: float | None = None,
+    convergence_time: float | None = None,
+    angular_accel: float | None = None,
+    references=None,
+    l_factor: float = 10.0,
+) -> ObserverGains:
+    """Equal gains for ``n`` directions from the sensor and the bandwidth wanted (module docstring: (K), l_i).
+
+    Give exactly one of ``bandwidth_hz`` (Hz, below Nyquist ``rate_hz / 2``), ``convergence_time`` (s, the
+    time constant of the slowest linearised mode) or ``angular_accel`` (rad/s², a typical |ω̇|: the bandwidth
+    then balances lag and noise). ``noise_std_rad`` is the attitude noise per axis (rad, white); ``references``
+    the inertial directions (default the three rows of R). See :func:`predicted_noise_std` for the noise the
+    result will give.
+    """
+    J = as_inertia(J)
+    J_m, J_M = inertia_bounds(J)
+    rate = float(as_positive(rate_hz, "rate_hz")[0])
+    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
+    given = {
+        name: v
+        for name, v in (
+            ("bandwidth_hz", bandwidth_hz),
+            ("convergence_time", convergence_time),
+            ("angular_accel", angular_accel),
+        )
+        if v is not None
+    }
+    if len(given) != 1:
+        raise ValueError(
+            "give exactly one of bandwidth_hz, convergence_time or angular_accel; got "
+            + (", ".join(f"{k}={v!r}" for k, v in given.items()) or "none")
+        )
+    ((name, value),) = given.items()
+    value = float(as_positive(value, name)[0])
+    if name == "bandwidth_hz":
+        omega_b = 2 * np.pi * value
+    elif name == "convergence_time":
+        omega_b = 1.0 / value
+    else:
+        omega_b = np.sqrt(value / sigma)
+    h = 1.0 / rate
+    if omega_b / (2 * np.pi) >= rate / 2:
+        raise ValueError(
+            f"the bandwidth {omega_b / (2 * np.pi):.6g} Hz (from {name} = {value!r}) must be below the Nyquist "
+            f"frequency rate_hz / 2 = {rate / 2:.6g} Hz"
+        )
+    v = _geometry(references)
+    mu1 = float(np.linalg.eigvalsh(np.eye(3) * v.shape[0] - v.T @ v)[0])  # λ_min Σ (I − v_i v_iᵀ)
+    k = J_M * np.expm1(omega_b * h) / (h * mu1)  # (K)
+    l_factor = float(as_positive(l_factor, "l_factor")[0])
+    n = v.shape[0]
+    return ObserverGains(k=np.full(n, k), l_offset=np.full(n, l_factor * k / J_m))
+
+
+def predicted_noise_std(J, gains: ObserverGains, rate_hz: float, noise_std_rad: float, references=None, R=None):
+    """Predicted stationary std of each component of ``ω̂ − ω`` (rad/s, body axes) for white attitude noise.
+
+    Solves (L) of the module docstring exactly: the stationary covariance of ``x_k = (z_k, δ_k)`` with
+    ``x⁺ = [[G, −B], [0, 0]] x + [B; I] δ_{k+1}`` from ``scipy.linalg.solve_discrete_lyapunov``. ``R`` is the
+    attitude at which ``M = Σ k_i (I − r_i r_iᵀ)``, ``r_i = Rᵀ v_i``, is evaluated (default identity; M does not
+    depend on it for three orthogonal directions with equal gains). Returns shape ``(3,)``.
+    """
+    J = as_inertia(J)
+    h = 1.0 / float(as_positive(rate_hz, "rate_hz")[0])
+    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
+    v = _geometry(references if references is not None else np.eye(3)[: gains.n])
+    if v.shape[0] != gains.n:
+        raise ValueError(f"{gains.n} gains were given for {v.shape[0]} reference directions")
+    r = v if R is None else v @ np.asarray(R, dtype=float)
+    M = sum(gains.k[i] * (np.eye(3) - np.outer(r[i], r[i])) for i in range(gains.n))
+    J_inv = np.linalg.inv(J)
+    G = np.linalg.inv(np.eye(3) + h * J_inv @ M)
+    B = G @ J_inv @ M
+    A = np.block([[G, -B], [np.zeros((3, 3)), np.zeros((3, 3))]])
+    C = np.vstack([B, np.eye(3)])
+    P = solve_discrete_lyapunov(A, sigma**2 * C @ C.T)
+    return np.sqrt(np.diag(P)[:3])

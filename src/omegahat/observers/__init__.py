@@ -1,1 +1,0 @@
-"""Angular-velocity estimators, one module each, each naming its source."""
