@@ -1,0 +1,69 @@
+"""3-vectors and 3×3 matrices as plain scalars, for the compiled kernels.
+
+Vectors are passed and returned as three floats and 3×3 matrices as a 9-tuple in row-major order (``mat3``):
+after inlining, LLVM keeps them in registers, vectorises the lane loops that call them, and hoists a matrix's
+loads out of a loop (it cannot prove that an array is not written through another array). Every function is
+``inline="always"`` and performs its operations in the order written, so kernels that call it get the same bits.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+
+__all__ = ["cross", "dot", "mat3", "matvec", "norm", "solve"]
+
+
+@numba.njit(cache=True, inline="always")
+def mat3(A):
+    """The 3×3 array ``A`` as a row-major 9-tuple."""
+    return (A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2], A[2, 0], A[2, 1], A[2, 2])
+
+
+@numba.njit(cache=True, inline="always")
+def cross(a0, a1, a2, b0, b1, b2):
+    """``a × b``."""
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@numba.njit(cache=True, inline="always")
+def dot(a0, a1, a2, b0, b1, b2):
+    """``a · b``, summed left to right."""
+    return a0 * b0 + a1 * b1 + a2 * b2
+
+
+@numba.njit(cache=True, inline="always")
+def norm(a0, a1, a2):
+    """``|a|``."""
+    return math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+
+
+@numba.njit(cache=True, inline="always")
+def matvec(M, x0, x1, x2):
+    """``M x`` for a 9-tuple ``M`` (:func:`mat3`), each row summed left to right."""
+    return (
+        M[0] * x0 + M[1] * x1 + M[2] * x2,
+        M[3] * x0 + M[4] * x1 + M[5] * x2,
+        M[6] * x0 + M[7] * x1 + M[8] * x2,
+    )
+
+
+@numba.njit(cache=True, inline="always")
+def solve(M, y0, y1, y2):
+    """``M⁻¹ y`` by the adjugate (Cramer's rule), for a well-conditioned 9-tuple ``M``."""
+    c00 = M[4] * M[8] - M[5] * M[7]
+    c01 = M[5] * M[6] - M[3] * M[8]
+    c02 = M[3] * M[7] - M[4] * M[6]
+    det = M[0] * c00 + M[1] * c01 + M[2] * c02
+    c10 = M[2] * M[7] - M[1] * M[8]
+    c11 = M[0] * M[8] - M[2] * M[6]
+    c12 = M[1] * M[6] - M[0] * M[7]
+    c20 = M[1] * M[5] - M[2] * M[4]
+    c21 = M[2] * M[3] - M[0] * M[5]
+    c22 = M[0] * M[4] - M[1] * M[3]
+    return (
+        (c00 * y0 + c10 * y1 + c20 * y2) / det,
+        (c01 * y0 + c11 * y1 + c21 * y2) / det,
+        (c02 * y0 + c12 * y1 + c22 * y2) / det,
+    )
