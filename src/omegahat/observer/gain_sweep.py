@@ -2,13 +2,13 @@ r"""Gain tuning by simulation: convergence time against steady-state noise, the 
 
 :mod:`omegahat.observer.tuning` designs gains from a linearisation (``sensor_gains``: bandwidth → k, l;
 ``predicted_noise_std``: the noise that bandwidth costs). This module *measures* both sides of the trade-off with
-the sampled estimator (:class:`omegahat.observer.estimator.SarrasEstimator`) on a simulated body, and picks gains from the
-measured front. It does not design gains itself: :func:`recommend_gains` evaluates ``tuning.sensor_gains`` over
-a range of bandwidths.
+the sampled estimator (:class:`omegahat.observer.estimator.SarrasEstimator`) on a simulated body, and picks
+gains from the measured front. It does not design gains itself: :func:`recommend_gains` evaluates
+``tuning.sensor_gains`` over a range of bandwidths.
 
 **One evaluation** (:func:`evaluate_gains`) of gains at a sample rate ``1/h`` and white attitude noise σ (rad per
-axis, ``R_meas = R exp(ν×)``, :func:`omegahat.simulation.sensors.noisy_attitudes`), on a torque-free body (J, ω₀, R₀ fixed
-by the caller; ground truth from :func:`omegahat.simulation.rigid_body.integrate`):
+axis, ``R_meas = R exp(ν×)``, :func:`omegahat.simulation.sensors.noisy_attitudes`), on a torque-free body (J, ω₀,
+R₀ fixed by the caller; ground truth from :func:`omegahat.simulation.rigid_body.integrate`):
 
 * **convergence time** ``t_c``: noise-free measurements, estimate started at ``ω̂₀ = ω₀ + Δ`` (``|Δ|`` =
   ``initial_error``, direction (1, 1, 1)/√3); ``t_c`` is the first sample time after which ``|ω̂ − ω|`` stays at or
@@ -95,7 +95,8 @@ def evaluate_gains(
     label: str = "",
 ) -> Evaluation:
     """Measure ``t_c`` and ``s`` of ``gains`` (module docstring). ``seed``: an int or a ``SeedSequence``;
-    ``truth``: a precomputed :func:`omegahat.simulation.rigid_body.integrate` trajectory at the sample times (for sweeps)."""
+    ``truth``: a precomputed :func:`omegahat.simulation.rigid_body.integrate` trajectory at the sample times
+    (for sweeps)."""
     J = as_inertia(J)
     rate = float(as_positive(rate_hz, "rate_hz")[0])
     sigma = float(noise_std_rad)

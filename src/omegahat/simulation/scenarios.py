@@ -2,8 +2,8 @@ r"""The comparison scenarios, as data: a registry shared by ``omegahat compare``
 
 A :class:`Scenario` says what the true body does (inertia, initial state, commanded and disturbance torques),
 what the sensor gives (attitude fixes at a rate, with Gaussian noise ``R_meas = R Exp(ν)``, ν ~ N(0, σ² I) per
-body axis: :func:`omegahat.simulation.sensors.noisy_attitudes`), and what the estimators are told (the model inertia, the
-known torque, an initial estimate and a bound on |ω|). Ground truth comes from
+body axis: :func:`omegahat.simulation.sensors.noisy_attitudes`), and what the estimators are told (the model
+inertia, the known torque, an initial estimate and a bound on |ω|). Ground truth comes from
 :func:`omegahat.simulation.rigid_body.integrate` (fourth-order Lie-group integrator) at every sample time.
 
 Registered scenarios (:data:`SCENARIOS`):
