@@ -1,106 +1,195 @@
-r"""Per-run diagnostics of a campaign, compiled: the envelope ratio ρ, V, the peak of |ω| and the envelope fit.
+r"""Per-run diagnostics of a campaign: the envelope ratio ρ, V, the peak of |ω| and the envelope fit.
 
-For one run's states on the output grid ``t_k`` (the kernel's layout ``[r (3n), ω, z, e (3n)]``),
-:func:`diagnose_run` computes what :mod:`omegahat.campaigns.runner` defines (module docstring there):
-``E = |z| + Σ|e_i|``, ``ρ = E/E(0)``, ``V = |J z| + ½ Σ|e_i|²``, the largest |ω|, the last output time ``t_f`` with
-``ρ ≥ rho_floor``, ``λ_run = −ln ρ(t_f)/t_f``, ``c_run = max_{t_k ≤ t_f} ρ e^{λ_run t_k}`` and the largest relative
-increase of V between consecutive output times up to ``t_f``. It performs the floating-point operations of the
-NumPy reference ``omegahat.campaigns.runner._diagnose_numpy``, in its order (norms as ((x0² + x1²) + x2²), sums over i
-from the first term, J z row by row as ((z0 J_i0 + z1 J_i1) + z2 J_i2)); only exp, log and BLAS's J z (a
-non-diagonal J) may differ from NumPy's in the last bit (``tests/test_montecarlo.py``).
+For one run's states on the output grid ``t_k`` (the engine's layout ``[r (3n), ω, z, e (3n)]``),
+:func:`diagnose_run` computes what :mod:`omegahat.campaigns` defines: ``E = |z| + Σ|e_i|``, ``ρ = E/E(0)``,
+``V = |J z| + ½ Σ|e_i|²``, the largest |ω|, the last output time ``t_f`` with ``ρ ≥ rho_floor``,
+``λ_run = −ln ρ(t_f)/t_f``, ``c_run = max_{t_k ≤ t_f} ρ e^{λ_run t_k}`` and the largest relative increase of V
+between consecutive output times up to ``t_f``. It is compiled, and performs the floating-point operations of
+the NumPy reference :func:`diagnose_reference` in its order (norms as ((x0² + x1²) + x2²), sums over i from the
+first term, J z row by row as ((z0 J_i0 + z1 J_i1) + z2 J_i2)); only exp, log and BLAS's J z (a non-diagonal J)
+may differ from NumPy's in the last bit (``tests/test_montecarlo.py``).
 
-It is called by :func:`omegahat.campaigns.runner.diagnose` on a batch's states, and by the lockstep kernel
-(:mod:`omegahat.simulation.engine`) on a run's states as soon as the run ends, so that a campaign never holds more
-than the states of the runs in flight.
+A campaign has the engine call it on a run's states as soon as the run ends (:func:`integrate_diagnosed`: the
+run's states stay in the worker's own rows, in cache), so that it never holds more than the runs in flight;
+:func:`diagnose` does the same on a batch's states.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
 
-__all__ = ["diagnose_run", "diagnose_runs", "diagnose_runs_parallel"]
+from omegahat.campaigns.config import Campaign
+from omegahat.simulation.coupled import BatchResult
+from omegahat.simulation.envelope import diagnose_run
 
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def diagnose_run(Yj, j, n, J, t, rho_floor, integrated, rho, out, ok):
-    """Diagnostics of one run from its states ``Yj (T, 6n + 6)`` on the grid ``t``; ``integrated``: the kernel
-    integrated it without failure. Writes ``rho[j]``, ``ok[j]`` and ``out[:, j]`` = (E0, omega_peak, lam, c_run,
-    t_f, v_increase)."""
-    T = Yj.shape[0]
-    V = np.empty(T)
-    finite = True
-    peak = np.nan  # nanmax: the largest non-NaN |ω|, NaN if there is none
-    E0 = np.nan
-    for k in range(T):
-        o = 3 * n
-        z0, z1, z2 = Yj[k, o + 3], Yj[k, o + 4], Yj[k, o + 5]
-        e_sum = 0.0
-        e_sq = 0.0
-        for i in range(n):
-            a, b, c = Yj[k, o + 6 + 3 * i], Yj[k, o + 7 + 3 * i], Yj[k, o + 8 + 3 * i]
-            e_norm = math.sqrt(a * a + b * b + c * c)
-            e_sum += e_norm
-            e_sq += e_norm * e_norm
-        E = math.sqrt(z0 * z0 + z1 * z1 + z2 * z2) + e_sum
-        if k == 0:
-            E0 = E
-        rho[j, k] = E / E0
-        finite = finite and math.isfinite(rho[j, k])
-        q0 = z0 * J[0, 0] + z1 * J[0, 1] + z2 * J[0, 2]
-        q1 = z0 * J[1, 0] + z1 * J[1, 1] + z2 * J[1, 2]
-        q2 = z0 * J[2, 0] + z1 * J[2, 1] + z2 * J[2, 2]
-        V[k] = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2) + 0.5 * e_sq
-        w0, w1, w2 = Yj[k, o], Yj[k, o + 1], Yj[k, o + 2]
-        w = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-        if not math.isnan(w) and (math.isnan(peak) or w > peak):
-            peak = w
-    good = integrated and finite
-    ok[j] = good
-    out[0, j] = E0
-    out[1, j] = peak if good else np.nan
-    # envelope_fit on ρ (1 everywhere for a failed run): t_f the last output time with ρ ≥ floor (the last one
-    # if none is), λ_run = −ln ρ(t_f) / t_f if t_f > 0, c_run = max_{k ≤ i_f} ρ e^{λ_run t_k} (NaN propagates)
-    i_f = T - 1
-    if good:
-        while i_f > 0 and not rho[j, i_f] >= rho_floor:
-            i_f -= 1
-        if i_f == 0 and not rho[j, 0] >= rho_floor:
-            i_f = T - 1
-    out[4, j] = t[i_f]
-    lam = np.nan
-    c_run = np.nan
-    v_increase = -np.inf
-    if good:
-        if t[i_f] > 0:
-            lam = -math.log(rho[j, i_f]) / t[i_f]
-        if math.isfinite(lam):
-            c_run = rho[j, 0] * math.exp(lam * t[0])
-            for k in range(1, i_f + 1):
-                x = rho[j, k] * math.exp(lam * t[k])
-                if not math.isnan(c_run) and (math.isnan(x) or x > c_run):
-                    c_run = x
-        # the largest relative increase of V between consecutive output times up to t_f (NaN propagates)
-        for k in range(1, i_f + 1):
-            x = (V[k] - V[k - 1]) / V[k - 1]
-            if not math.isnan(v_increase) and (math.isnan(x) or x > v_increase):
-                v_increase = x
-    out[2, j] = lam
-    out[3, j] = c_run
-    out[5, j] = v_increase
+__all__ = [
+    "GainSetResult",
+    "diagnose",
+    "diagnose_reference",
+    "diagnose_runs",
+    "diagnose_runs_parallel",
+    "envelope_fit",
+    "result_from_diagnostics",
+]
 
 
 @numba.njit(cache=True, error_model="numpy")
 def diagnose_runs(Y, n, J, t, rho_floor, batch_ok, rho, out, ok):
     """:func:`diagnose_run` for every run of ``Y (N, T, m)`` (``batch_ok (N,)``), on the calling thread."""
     for j in range(Y.shape[0]):
-        diagnose_run(Y[j], j, n, J, t, rho_floor, batch_ok[j], rho, out, ok)
+        diagnose_run(Y[j], j, n, J, t, rho_floor, batch_ok[j], rho, out, ok, np.empty(Y.shape[1]))
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
 def diagnose_runs_parallel(Y, n, J, t, rho_floor, batch_ok, rho, out, ok):
     """:func:`diagnose_runs` on Numba's threads."""
     for j in numba.prange(Y.shape[0]):
-        diagnose_run(Y[j], j, n, J, t, rho_floor, batch_ok[j], rho, out, ok)
+        diagnose_run(Y[j], j, n, J, t, rho_floor, batch_ok[j], rho, out, ok, np.empty(Y.shape[1]))
+
+
+def envelope_fit(t, rho, rho_floor):
+    """``(λ_run, c_run, i_f)`` of each run (module docstring) from ``ρ (N, T)`` on the grid ``t (T,)``.
+
+    ``i_f`` is the index of ``t_f``; a run that never leaves ρ = 1 has ``i_f = 0`` and ``λ_run = NaN``.
+    """
+    rho = np.asarray(rho, dtype=float)
+    above = rho >= rho_floor
+    T = t.size
+    i_f = T - 1 - np.argmax(above[:, ::-1], axis=1)  # last index with ρ ≥ floor (ρ(0) = 1 ≥ floor)
+    rows = np.arange(rho.shape[0])
+    t_f = t[i_f]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.where(t_f > 0, -np.log(rho[rows, i_f]) / np.where(t_f > 0, t_f, 1.0), np.nan)
+    c_run = np.array([_worst_constant(t, rho[j], i_f[j], lam[j]) for j in range(rho.shape[0])])
+    return lam, c_run, i_f
+
+
+def _worst_constant(t, rho_row, i_f, lam):
+    if not np.isfinite(lam):
+        return np.nan
+    return float(np.max(rho_row[: i_f + 1] * np.exp(lam * t[: i_f + 1])))
+
+
+@dataclass
+class GainSetResult:
+    """Per-run diagnostics of one gain set over a range of runs (arrays indexed by run)."""
+
+    index: np.ndarray  #: run indices
+    ok: np.ndarray  #: integrated without failure
+    in_bound: np.ndarray  #: max |ω| ≤ ω_M on the output grid
+    omega_peak: np.ndarray  #: max |ω| on the grid
+    rho: np.ndarray  #: (N, T) E(t)/E(0)
+    E0: np.ndarray  #: E(0)
+    lam: np.ndarray  #: λ_run
+    c_run: np.ndarray  #: c_run
+    t_f: np.ndarray  #: t_f
+    v_increase: np.ndarray  #: largest relative increase of V between output times (≤ 0: V never increased)
+    steps: np.ndarray  #: accepted steps
+    rejected: np.ndarray  #: rejected steps
+
+    @staticmethod
+    def concatenate(parts):
+        return GainSetResult(
+            **{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(GainSetResult)}
+        )
+
+
+def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = True) -> GainSetResult:
+    """Envelope, V and ω-bound diagnostics of a batch (module docstring): one compiled pass over ``batch.Y``,
+    run by run (:func:`omegahat.campaigns.diagnostics.diagnose_runs`; Numba threads if ``parallel``, ``parallel=False`` stays
+    on the calling thread, as in :func:`simulate_batch`). Its numbers are those of the NumPy reference
+    :func:`diagnose_reference` to the last bit but for ``exp``, ``log`` and a non-diagonal ``J z``. A campaign
+    (:func:`run_chunk`) takes the same diagnostics inside the kernel, run by run as runs end."""
+    Y = np.ascontiguousarray(batch.Y, dtype=float)
+    t = np.ascontiguousarray(batch.t, dtype=float)
+    N, T = Y.shape[:2]
+    rho = np.empty((N, T))
+    out = np.empty((6, N))
+    ok = np.empty(N, dtype=bool)
+    kernel = diagnose_runs_parallel if parallel else diagnose_runs
+    kernel(
+        Y,
+        campaign.references.shape[0],
+        np.ascontiguousarray(campaign.J, dtype=float),
+        t,
+        float(campaign.rho_floor),
+        np.ascontiguousarray(batch.ok, dtype=bool),
+        rho,
+        out,
+        ok,
+    )
+    return result_from_diagnostics(campaign, indices, batch.accepted, batch.rejected, ok, rho, out)
+
+
+def result_from_diagnostics(campaign, indices, accepted, rejected, ok, rho, out) -> GainSetResult:
+    # out: the rows (E0, omega_peak, lam, c_run, t_f, v_increase) of omegahat.campaigns.diagnostics.diagnose_run
+    E0, omega_peak, lam, c_run, t_f, v_increase = out
+    return _result(
+        campaign,
+        indices,
+        accepted,
+        rejected,
+        ok,
+        omega_peak,
+        rho=rho,
+        E0=E0,
+        lam=lam,
+        c_run=c_run,
+        t_f=t_f,
+        v_increase=v_increase,
+    )
+
+
+def _result(campaign, indices, accepted, rejected, ok, omega_peak, **fields) -> GainSetResult:
+    # what diagnose and its reference assemble alike: the run indices, the ω bound and the step counts
+    return GainSetResult(
+        index=np.asarray(indices, dtype=np.int64),
+        ok=ok,
+        in_bound=ok & (omega_peak <= campaign.omega_max),
+        omega_peak=omega_peak,
+        steps=accepted,
+        rejected=rejected,
+        **fields,
+    )
+
+
+def diagnose_reference(campaign: Campaign, batch: BatchResult, indices) -> GainSetResult:
+    """The NumPy reference of :func:`diagnose` (slower: ~0.1 s per 1024 runs of 401 output times)."""
+    n = campaign.references.shape[0]
+    Y = batch.Y
+    z = Y[:, :, 3 * n + 3 : 3 * n + 6]
+    e = Y[:, :, 3 * n + 6 :].reshape(Y.shape[0], Y.shape[1], n, 3)
+    w = Y[:, :, 3 * n : 3 * n + 3]
+    e_norm = np.linalg.norm(e, axis=-1)
+    E = np.linalg.norm(z, axis=-1) + e_norm.sum(axis=-1)
+    E0 = E[:, 0]
+    rho = E / E0[:, None]
+    V = np.linalg.norm(z @ campaign.J.T, axis=-1) + 0.5 * (e_norm**2).sum(axis=-1)
+    t = batch.t
+    ok = batch.ok & np.all(np.isfinite(rho), axis=1)
+    rho_safe = np.where(ok[:, None], rho, 1.0)
+    lam, c_run, i_f = envelope_fit(t, rho_safe, campaign.rho_floor)
+    # relative increases of V between consecutive output times, while ρ ≥ floor
+    rel = (V[:, 1:] - V[:, :-1]) / V[:, :-1]
+    checked = np.arange(1, t.size)[None, :] <= i_f[:, None]
+    v_increase = np.where(checked & ok[:, None], rel, -np.inf).max(axis=1)
+    omega_peak = np.where(ok, np.nanmax(np.linalg.norm(w, axis=-1), axis=1), np.nan)
+    return _result(
+        campaign,
+        indices,
+        batch.accepted,
+        batch.rejected,
+        ok,
+        omega_peak,
+        rho=rho,
+        E0=E0,
+        lam=np.where(ok, lam, np.nan),
+        c_run=np.where(ok, c_run, np.nan),
+        t_f=t[i_f],
+        v_increase=v_increase,
+    )

@@ -22,7 +22,7 @@ kernels once per worker process on first use (cached on disk afterwards).
 
 from __future__ import annotations
 
-from omegahat.campaigns import runner as montecarlo
+from omegahat.campaigns.runner import chunks, merge, run_chunk
 
 __all__ = ["run_campaign_dask", "run_campaign_on"]
 
@@ -43,9 +43,9 @@ def run_campaign_dask(campaign, client, chunk_size: int | None = None, progress:
     Returns what :func:`omegahat.campaigns.runner.run_campaign` returns, with identical numbers.
     """
     distributed = _require_distributed()
-    spans = montecarlo.chunks(campaign, chunk_size)
+    spans = chunks(campaign, chunk_size)
     scattered = client.scatter(campaign, broadcast=True)
-    futures = [client.submit(montecarlo.run_chunk, scattered, start, stop, False, pure=False) for start, stop in spans]
+    futures = [client.submit(run_chunk, scattered, start, stop, False, pure=False) for start, stop in spans]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -59,7 +59,7 @@ def run_campaign_dask(campaign, client, chunk_size: int | None = None, progress:
             bar.update(int(next(iter(part.values())).index.size))
     if bar is not None:
         bar.close()
-    return montecarlo.merge(campaign, parts)
+    return merge(campaign, parts)
 
 
 def run_campaign_on(campaign, address: str, chunk_size: int | None = None, progress: bool = False) -> dict:

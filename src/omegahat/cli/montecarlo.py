@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from omegahat.campaigns import runner as montecarlo
+from omegahat import campaigns
 
 HELP = (
     "Run a Monte-Carlo campaign (TOML config, see examples/campaign.toml) and write summary.json, "
@@ -39,18 +39,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    campaign = montecarlo.load_campaign(args.config)
+    campaign = campaigns.load_campaign(args.config)
     if args.runs is not None:
-        campaign = montecarlo.replace(campaign, runs=args.runs)
+        campaign = campaigns.replace(campaign, runs=args.runs)
     start = time.perf_counter()
     if args.dask is None:
-        results = montecarlo.run_campaign(campaign, progress=not args.no_progress)
+        results = campaigns.run_campaign(campaign, progress=not args.no_progress)
     else:
         from omegahat.campaigns import distributed
 
         results = distributed.run_campaign_on(campaign, args.dask, progress=not args.no_progress)
     elapsed = time.perf_counter() - start
-    summary = montecarlo.write_outputs(campaign, results, args.out)
+    summary = campaigns.write_outputs(campaign, results, args.out)
     print(f"{campaign.runs} runs in {elapsed:.1f} s; outputs in {args.out}/")
     for name, s in summary["gain_sets"].items():
         lam = "n/a" if s["worst_lambda"] is None else f"{s['worst_lambda']:.4g}/s"

@@ -11,7 +11,7 @@ import numpy as np
 
 from omegahat.observer.gains import check_gains
 from omegahat.plots import plot_direction, plot_filter_errors, plot_omega
-from omegahat.simulation.coupled import PAPER_OMEGA_MAX, CoupledTrajectory, paper_problem, simulate
+from omegahat.simulation import PAPER_OMEGA_MAX, CoupledTrajectory, paper_problem, simulate
 
 HELP = "Simulate the paper's scenario and write its four figures, trajectory.csv and a summary."
 

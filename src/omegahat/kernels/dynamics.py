@@ -33,7 +33,7 @@ from omegahat.kernels.vec3 import cross, matvec
 __all__ = ["cf4_increment", "euler_rate", "gyroscopic_difference"]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def euler_rate(J, Jinv, w0, w1, w2, t0, t1, t2):
     """``ω̇ = J⁻¹((J ω) × ω + τ)``: (D1)."""
     a0, a1, a2 = matvec(J, w0, w1, w2)
@@ -41,7 +41,7 @@ def euler_rate(J, Jinv, w0, w1, w2, t0, t1, t2):
     return matvec(Jinv, g0 + t0, g1 + t1, g2 + t2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def gyroscopic_difference(J, w0, w1, w2, z0, z1, z2):
     """``(J z) × ω + (J ω) × z + (J z) × z``: (D3), the model's share of ``J ż`` without cancellation."""
     Jw0, Jw1, Jw2 = matvec(J, w0, w1, w2)
@@ -52,7 +52,7 @@ def gyroscopic_difference(J, w0, w1, w2, z0, z1, z2):
     return s0 + (p0 + q0), s1 + (p1 + q1), s2 + (p2 + q2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def cf4_increment(J, Jinv, w0, w1, w2, h, tau0, tau_mid, tau1):
     """One CF4 step (D4) of size ``h`` from ω with the torque at t, t + h/2 and t + h (3-sequences).
 

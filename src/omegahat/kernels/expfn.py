@@ -84,7 +84,7 @@ def _float_of(typingctx, b):
     return types.float64(types.int64), codegen
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def exp_kernel(x):
     """e^x for x ≤ 709 by plain arithmetic (module docstring): the same bits wherever it is inlined."""
     x = x if not x < _X_MIN else _X_MIN  # NaN passes through
@@ -146,7 +146,7 @@ _PHI3_TAYLOR = np.array([1.0 / math.factorial(j + 3) for j in range(_PHI_DEGREE 
 PHI_TAYLOR_BELOW = 0.5  #: |x| below which the φ-functions are taken from their Taylor series
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def phi123_taylor(x):
     """φ₁, φ₂, φ₃ and exp of x by the Taylor series (Horner), for |x| < 1/2 where the closed forms cancel."""
     t1 = _PHI1_TAYLOR[_PHI_DEGREE]
@@ -176,7 +176,7 @@ def phi1_half_closed(x, ex2):
     return (ex2 - 1.0) * (2.0 * (1.0 / x))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def phi1_taylor(x):
     """φ₁ and exp of x by the Taylor series, as :func:`phi123_taylor`."""
     t1 = _PHI1_TAYLOR[_PHI_DEGREE]
@@ -196,7 +196,7 @@ def phi123(x):
 SINCOS_SMALL = 0.25  #: |x| up to which :func:`sin_cos_small` is accurate (first omitted terms below 3e-18)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def sin_cos_small(x):
     """sin x and cos x by their Taylor polynomials (degree 11 and 12, Horner in x²), accurate to rounding for
     |x| ≤ 1/4."""

@@ -32,13 +32,13 @@ from omegahat.kernels.vec3 import cross, matvec
 __all__ = ["decay_rate", "filter_rate", "innovation", "output_map", "stiffness"]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def decay_rate(l_offset, l_slope, speed):
     """``l_i(ω̂) = l_offset_i + l_slope_i |ω̂|`` (O4), with ``speed = |ω̂|``."""
     return l_offset + l_slope * speed
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def innovation(k, rh0, rh1, rh2, m0, m1, m2):
     """The observer's response to the mismatch ``m`` of one direction (O3), filter state ``r̂`` and gain k:
     its term ``k r̂ × m`` of ``J ω̂̇`` (O1) and its term ``m`` of ``ė`` (O2). Returns six floats."""
@@ -46,7 +46,7 @@ def innovation(k, rh0, rh1, rh2, m0, m1, m2):
     return k * a0, k * a1, k * a2, m0, m1, m2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def filter_rate(d0, d1, d2, e0, e1, e2, wh0, wh1, wh2, l):
     """``ė = d + e × ω̂ − l e`` (O2) given the innovation's term ``d`` and the decay rate ``l`` (a kernel that
     integrates part of the decay exactly passes the rest)."""
@@ -54,7 +54,7 @@ def filter_rate(d0, d1, d2, e0, e1, e2, wh0, wh1, wh2, l):
     return d0 + f0 - l * e0, d1 + f1 - l * e1, d2 + f2 - l * e2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def stiffness(k, r0, r1, r2):
     """One direction's share of ``M = Σ k_i (|r_i|² I − r_i r_iᵀ)`` (O6), as the six entries
     ``(M00, M11, M22, M01, M02, M12)`` of the symmetric matrix."""

@@ -44,7 +44,7 @@ __all__ = [
 SMALL_ANGLE = 1e-4  #: below this angle (rad) the coefficients of (R1) are Taylor series
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def store(M, out):
     """Write the 9-tuple ``M`` into the 3×3 array ``out``."""
     out[0, 0], out[0, 1], out[0, 2] = M[0], M[1], M[2]
@@ -52,7 +52,7 @@ def store(M, out):
     out[2, 0], out[2, 1], out[2, 2] = M[6], M[7], M[8]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def quat_from_rotvec(x, y, z):
     """Unit quaternion ``(x, y, z, w)`` of the rotation vector φ = (x, y, z): (R1)."""
     t2 = x * x + y * y + z * z
@@ -66,7 +66,7 @@ def quat_from_rotvec(x, y, z):
     return s * x, s * y, s * z, c
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def quat_multiply(px, py, pz, pw, qx, qy, qz, qw):
     """Hamilton product ``p ⊗ q`` (the rotation ``R(p) R(q)``)."""
     return (
@@ -77,7 +77,7 @@ def quat_multiply(px, py, pz, pw, qx, qy, qz, qw):
     )
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def matrix_from_quat(x, y, z, w):
     """Rotation matrix (9-tuple) of the unit quaternion ``(x, y, z, w)``: (R1). Quadratic in q, so q ≡ −q."""
     return (
@@ -93,7 +93,7 @@ def matrix_from_quat(x, y, z, w):
     )
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def exp_matrix(x, y, z):
     """``exp(φ×)`` (9-tuple) of the rotation vector φ = (x, y, z), through its quaternion: (R1)."""
     qx, qy, qz, qw = quat_from_rotvec(x, y, z)
@@ -113,7 +113,7 @@ def nearest_rotation(D):
     return A
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def orthogonality_error(R):
     """``‖RᵀR − I‖_F`` of a 3×3 array (0 for a rotation)."""
     err2 = 0.0
@@ -124,7 +124,7 @@ def orthogonality_error(R):
     return math.sqrt(err2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def det(R):
     """The determinant of a 3×3 array."""
     return (
@@ -170,7 +170,7 @@ def quat_from_matrix(D):
     return sign * q[0] / n, sign * q[1] / n, sign * q[2] / n, sign * q[3] / n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def rotvec_from_quat(x, y, z, w):
     """Rotation vector (|φ| ≤ π) of the unit quaternion ``(x, y, z, w)`` with ``w ≥ 0``: (R2)."""
     s = math.sqrt(x * x + y * y + z * z)
@@ -185,7 +185,7 @@ def rotvec_from_matrix(R):
     return rotvec_from_quat(x, y, z, w)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def dexpinv(u0, u1, u2, w0, w1, w2, hs):
     """``hs (w + ½ u × w + (1/12) u × (u × w))``: a stage of RKMK4, (R5)."""
     c0 = u1 * w2 - u2 * w1

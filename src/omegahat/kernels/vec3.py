@@ -15,31 +15,31 @@ import numba
 __all__ = ["cross", "dot", "mat3", "matvec", "norm", "solve"]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def mat3(A):
     """The 3×3 array ``A`` as a row-major 9-tuple."""
     return (A[0, 0], A[0, 1], A[0, 2], A[1, 0], A[1, 1], A[1, 2], A[2, 0], A[2, 1], A[2, 2])
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def cross(a0, a1, a2, b0, b1, b2):
     """``a × b``."""
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def dot(a0, a1, a2, b0, b1, b2):
     """``a · b``, summed left to right."""
     return a0 * b0 + a1 * b1 + a2 * b2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def norm(a0, a1, a2):
     """``|a|``."""
     return math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def matvec(M, x0, x1, x2):
     """``M x`` for a 9-tuple ``M`` (:func:`mat3`), each row summed left to right."""
     return (
@@ -49,7 +49,7 @@ def matvec(M, x0, x1, x2):
     )
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy")
 def solve(M, y0, y1, y2):
     """``M⁻¹ y`` by the adjugate (Cramer's rule), for a well-conditioned 9-tuple ``M``."""
     c00 = M[4] * M[8] - M[5] * M[7]

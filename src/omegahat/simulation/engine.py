@@ -1,905 +1,529 @@
-r"""Lockstep batch kernel: many coupled runs stepped together, a row of lanes at a time.
+r"""The lockstep engine: the one integrator of plant + observer, for one run or for many runs at once.
 
-The integrator is the one of :func:`omegahat.simulation.coupled.integrate_coupled` (ETDRK4 in error coordinates, the
-embedded ETD3(4) error estimate, free steps, continuous extension of order 3 at the output times); only the
-memory layout differs. Every state component is a row of ``LANES`` lanes (``y[j, w]``: component ``j`` of the run in
-lane ``w``), so each line of the right-hand side becomes a loop over lanes without branches, which LLVM turns into
-SIMD instructions (on this machine AVX-512: 8 doubles per instruction). Each lane carries its own run, time,
-step size, output index and counters, as rows of the workspace too, so that step sizes, acceptance and
-counters are decided for all lanes at once; a lane whose run has ended takes the next run of its worker's queue,
-so the lanes stay full until the queue runs dry. Only what is rare or irregular stays per lane, in scalar code:
-the output times (the continuous extension), sin and cos of large angles, failed runs and loading new ones. The
-exponential is :func:`omegahat.kernels.expfn.exp_kernel`, plain arithmetic that vectorises. Lane loops are written with
-the lanes outermost and the components inside (see ``docs/DEVELOPING.md``).
+Every simulation of the coupled system goes through this engine: :func:`omegahat.simulation.coupled.simulate`
+(one run, one lane), :func:`omegahat.simulation.coupled.simulate_batch` and the Monte-Carlo campaigns
+(:mod:`omegahat.campaigns`, many runs, ``LANES`` lanes per thread). The integrator is ETDRK4 with its embedded
+error estimate, free steps and a continuous extension at the output times (:mod:`omegahat.simulation.etd`); the
+right-hand side is :mod:`omegahat.simulation.rates`, built from :mod:`omegahat.kernels`.
 
-**Two outputs.** A lane writes its run's states at the output times into its own rows of the worker (``stage``,
-in cache); when the run ends they are copied to the run's row of ``Y``
-(:func:`integrate_coupled_lanes`), or a campaign's diagnostics are taken from them on the spot
-(:func:`integrate_diagnosed_lanes`, :func:`omegahat.campaigns.diagnostics.diagnose_run`), so that a campaign never holds more
-than the states of the runs in flight. Both are one compiled kernel (the choice is a run-time flag read when a
-run ends).
+**Layout.** Every state component is a row of lanes of one workspace ``S[row, lane]``: component ``j`` of the run
+in lane ``w`` is ``S[(rows.y + j) * lanes + w]`` (``rows``: the named row offsets, :class:`Rows`, generated from the number of
+directions n and of torque terms M). Each line of the right-hand side is then a loop over lanes without branches,
+which LLVM turns into SIMD instructions (AVX-512: 8 doubles per instruction). Each lane carries its own run, time,
+step size, output index and counters as rows too, so that step sizes, acceptance and counters are decided for all
+lanes at once; only what is rare stays per lane in scalar code: output times (the continuous extension), failed
+runs, loading a new run into a lane whose run has ended. A lane without a run steps on its last state with h = 0
+and its results are discarded. All per-lane data live in ONE array: with separate arrays LLVM gave up vectorising
+(too many run-time alias checks).
 
-**Same numbers as the single-run kernel.** For its run, a lane performs exactly the operations of
-:func:`~omegahat.simulation.coupled.integrate_coupled`, in the same order: no fast-math (so no reassociation and no fused
-multiply-adds), the small-angle sin and cos by the same polynomial
-(:func:`omegahat.simulation.coupled._sin_cos_small`), the φ-functions by the same routines. A run's result is therefore the
-same bits whichever lane, worker, batch or chunk it lands in (``tests/test_batch_kernel.py`` checks equality
-with the single-run kernel). Two consequences of the layout: a lane whose run has ended and whose queue is empty
-keeps stepping on its last state with ``h = 0`` (its results are discarded), and the initial right-hand side of a
-new run is evaluated for all lanes at once and kept for the new lane only.
+**A step, phase by phase** (:func:`lockstep`, one screen each): load runs into empty lanes; choose each lane's
+step; one ETDRK4 trial for all lanes (torque at the stage times, φ-weights, three stages, the new point's rates);
+the error ratios; acceptance and counters; output times and failures lane by lane; accepted lanes move to the
+new point (bitwise selects); runs that ended leave their lanes.
 
-**Identical results everywhere.** No fused multiply-adds also means the bits do not depend on whether the CPU
-has them, so a campaign split over a cluster of different machines gives the numbers of the local run (as long
-as libm's ``sin`` and ``cos`` agree: the torque's phases and large angles call them; the exponential is the
-project's own).
+**Same numbers in every lane.** For its run, a lane performs the same operations in the same order whatever the
+number of lanes, the lane, the worker, the batch or the chunk: no fast-math (no reassociation, no fused
+multiply-adds: the bits do not depend on whether the CPU has them), the exponential and the small-angle sine and
+cosine in plain arithmetic (:mod:`omegahat.kernels.expfn`). One run simulated alone (one lane) and in a campaign
+(24 lanes) gives the very same bits (``tests/test_engine.py``), on any machine as long as libm's ``sin`` and
+``cos`` agree (the torque's phases and large angles call them).
 
-**Cost** (``benchmarks/montecarlo_throughput.py``, 10,000 runs, two threads, diagnosed as in a campaign): 0.89–1.12
-s at best (2.1–2.7e7 accepted steps/s), medians 0.95–1.71 s on this drifting machine, against 4.6–5.4 s for a
-``prange`` over runs of the single-run kernel. In one thread a step costs about 70 ns: the four right-hand sides
-about 21 ns (≈ 230 floating-point operations each, at the rate of the floating-point pipes), the continuous
-extension at output times 12 ns, stage combinations, error test and the accepted-lane select 20 ns (loads and
-stores through the workspace), the φ-weights 4 ns, the run's diagnostics 3.5 ns, the torque 3 ns, the
-bookkeeping 3 ns.
+**What happens when a run ends** is the caller's: the generic :func:`lockstep` takes two compiled functions,
+``output_rows(sink, stage, lane, run)`` (where the run's states at the output times are written) and
+``finish_run(sink, states, run, good, accepted, rejected, n, t_out)``. :func:`integrate_states` writes every
+state into its output array; a campaign (:mod:`omegahat.campaigns.diagnostics`) keeps a run's states in the
+worker's own rows (in cache) and reduces them to its diagnostics as the run ends, so that it never holds more
+than the runs in flight. The functions are globals of the compiled entry points, so each entry is compiled (and
+cached) once; the number of lanes, n and M are compile-time constants of the many-lane entries.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numba import literally
 
-from omegahat.campaigns.diagnostics import diagnose_run, diagnose_runs
-from omegahat.kernels.expfn import exp_kernel
-from omegahat.simulation.coupled import (
-    _SINCOS_SMALL,
-    _cross_into,
-    _dense_weights,
-    _larger_ratio,
-    _phi1_half_closed,
-    _phi1_taylor,
-    _phi123,
-    _phi123_closed,
-    _phi123_taylor,
-    _sin_cos_small,
-    _step_factor,
-)
+from omegahat.simulation.envelope import diagnose_run
+from omegahat.simulation.etd import combine, dense_output, error_ratios, half_stage, last_stage, phi_weights
+from omegahat.simulation.layout import workspace_rows
+from omegahat.simulation.rates import coupled_rates, frozen_decay_rates, torque_stages
 
-__all__ = ["LANES", "integrate_coupled_lanes", "integrate_diagnosed_lanes"]
+__all__ = [
+    "LANES",
+    "Model",
+    "RunOutputs",
+    "RunSet",
+    "StepControl",
+    "check_inputs",
+    "integrate_envelopes",
+    "integrate_states",
+]
 
-#: Lanes per worker, a compile-time constant (LLVM then knows every lane loop's trip count): 3 AVX-512 vectors per
-#: row. The workspace is 230 rows of lanes (44 KB with two directions and two torque terms). Measured in one process,
-#: alternating, 8 rounds (one thread, 2,048 theorem-gain runs): median 75.0 ns per step with 24 lanes, 81.9 with 32
-#: (59 KB, further from the 32 KB level-1 cache), 82.5 with 16 (each lane loop then has too little work); two
-#: threads, 10,000 runs: 73.7 against 80.2.
+#: Lanes per worker of the many-lane entries, a compile-time constant: 3 AVX-512 vectors per row. Measured in one
+#: process, alternating (one thread, 2,048 theorem-gain runs): 24 lanes beat 32 (a workspace further from the 32 KB
+#: level-1 cache) and 16 (too little work per lane loop).
 LANES = 24
 
-# All per-lane arrays of a worker are rows of ONE workspace S (rows, LANES): every lane loop then reads and writes
-# a single base pointer at row offsets, and LLVM vectorises it. With the same loops over separate arrays it
-# gave up (too many run-time alias checks) and the direction loop of the right-hand side ran 4x slower.
+
+class Model(NamedTuple):
+    """What every run of a batch shares: the inertia, its inverse, and the observer's gains ``k_i``,
+    ``l_i(ω̂) = l_offset_i + l_slope_i |ω̂|`` (``(n,)`` each)."""
+
+    J: np.ndarray
+    Jinv: np.ndarray
+    k: np.ndarray
+    l_offset: np.ndarray
+    l_slope: np.ndarray
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy):
-    """:func:`omegahat.simulation.coupled._nonlinear` for every lane, the same operations in the same order: rows
-    ``rdy..rdy+m`` of S from the state rows ``ry..``, frozen rates ``rlf..rlf+n`` and torque ``rtau..rtau+3``."""
-    iw = 3 * n
-    iz = iw + 3
-    ie = iz + 3
-    J00, J01, J02 = J[0, 0], J[0, 1], J[0, 2]
-    J10, J11, J12 = J[1, 0], J[1, 1], J[1, 2]
-    J20, J21, J22 = J[2, 0], J[2, 1], J[2, 2]
-    K00, K01, K02 = Jinv[0, 0], Jinv[0, 1], Jinv[0, 2]
-    K10, K11, K12 = Jinv[1, 0], Jinv[1, 1], Jinv[1, 2]
-    K20, K21, K22 = Jinv[2, 0], Jinv[2, 1], Jinv[2, 2]
-    yw = ry + iw
-    yz = ry + iz
-    for w in range(LANES):  # n is a compile-time constant: the direction loop below unrolls, this one vectorises
-        w0, w1, w2 = S[yw, w], S[yw + 1, w], S[yw + 2, w]
-        z0, z1, z2 = S[yz, w], S[yz + 1, w], S[yz + 2, w]
-        wh0, wh1, wh2 = w0 + z0, w1 + z1, w2 + z2
-        norm_wh = np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
-        Jw0 = J00 * w0 + J01 * w1 + J02 * w2
-        Jw1 = J10 * w0 + J11 * w1 + J12 * w2
-        Jw2 = J20 * w0 + J21 * w1 + J22 * w2
-        Jz0 = J00 * z0 + J01 * z1 + J02 * z2
-        Jz1 = J10 * z0 + J11 * z1 + J12 * z2
-        Jz2 = J20 * z0 + J21 * z1 + J22 * z2
-        # plant: J ω̇ = (Jω) × ω + τ
-        g0, g1, g2 = _cross_into(Jw0, Jw1, Jw2, w0, w1, w2)
-        g0 += S[rtau, w]
-        g1 += S[rtau + 1, w]
-        g2 += S[rtau + 2, w]
-        S[rdy + iw, w] = K00 * g0 + K01 * g1 + K02 * g2
-        S[rdy + iw + 1, w] = K10 * g0 + K11 * g1 + K12 * g2
-        S[rdy + iw + 2, w] = K20 * g0 + K21 * g1 + K22 * g2
-        # error: J ż = (Jz) × ω + (Jω) × z + (Jz) × z + Σ k_i r̂_i × (r_i × z)
-        s0, s1, s2 = _cross_into(Jz0, Jz1, Jz2, w0, w1, w2)
-        p0, p1, p2 = _cross_into(Jw0, Jw1, Jw2, z0, z1, z2)
-        q0, q1, q2 = _cross_into(Jz0, Jz1, Jz2, z0, z1, z2)
-        s0 += p0 + q0
-        s1 += p1 + q1
-        s2 += p2 + q2
-        for i in range(n):
-            yr = ry + 3 * i
-            ye = ry + ie + 3 * i
-            dr = rdy + 3 * i
-            de = rdy + ie + 3 * i
-            r0, r1, r2 = S[yr, w], S[yr + 1, w], S[yr + 2, w]
-            e0, e1, e2 = S[ye, w], S[ye + 1, w], S[ye + 2, w]
-            # ṙ_i = r_i × ω
-            a0, a1, a2 = _cross_into(r0, r1, r2, w0, w1, w2)
-            S[dr, w] = a0
-            S[dr + 1, w] = a1
-            S[dr + 2, w] = a2
-            # r_i × z, then r̂_i × (r_i × z)
-            c0, c1, c2 = _cross_into(r0, r1, r2, z0, z1, z2)
-            d0, d1, d2 = _cross_into(r0 + e0, r1 + e1, r2 + e2, c0, c1, c2)
-            s0 += k[i] * d0
-            s1 += k[i] * d1
-            s2 += k[i] * d2
-            # ė_i = r_i × z + e_i × ω̂ − (l_i(ω̂) − l_frozen) e_i
-            f0, f1, f2 = _cross_into(e0, e1, e2, wh0, wh1, wh2)
-            dl = l_off[i] + l_slope[i] * norm_wh - S[rlf + i, w]
-            S[de, w] = c0 + f0 - dl * e0
-            S[de + 1, w] = c1 + f1 - dl * e1
-            S[de + 2, w] = c2 + f2 - dl * e2
-        S[rdy + iz, w] = K00 * s0 + K01 * s1 + K02 * s2
-        S[rdy + iz + 1, w] = K10 * s0 + K11 * s1 + K12 * s2
-        S[rdy + iz + 2, w] = K20 * s0 + K21 * s1 + K22 * s2
+class RunSet(NamedTuple):
+    """Each run's own data, stacked over ``N`` runs: the initial state ``y0 (N, 6n + 6)`` in the layout
+    ``[r (3n), ω, z, e (3n)]``, the first step ``h0 (N,)`` and the torque ``c + Σ_j a_j ∘ sin(ν_j t + φ_j)``:
+    ``torque_constant (N, 3)``, ``torque_amplitudes (N, M, 3)``, ``torque_frequencies (N, M)``,
+    ``torque_phases (N, M, 3)``."""
+
+    y0: np.ndarray
+    h0: np.ndarray
+    torque_constant: np.ndarray
+    torque_amplitudes: np.ndarray
+    torque_frequencies: np.ndarray
+    torque_phases: np.ndarray
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _frozen_rates_lanes(S, n, l_off, l_slope, ry, rout):
-    """:func:`omegahat.simulation.coupled._frozen_rates` for every lane: row ``rout + i`` = l_i(ω̂) at the state rows ``ry..``."""
-    iw = ry + 3 * n
-    for w in range(LANES):
-        wh0 = S[iw, w] + S[iw + 3, w]
-        wh1 = S[iw + 1, w] + S[iw + 4, w]
-        wh2 = S[iw + 2, w] + S[iw + 5, w]
-        norm_wh = np.sqrt(wh0 * wh0 + wh1 * wh1 + wh2 * wh2)
-        for i in range(n):
-            S[rout + i, w] = l_off[i] + l_slope[i] * norm_wh
+class StepControl(NamedTuple):
+    """Step-size control: the mixed tolerance per block, the longest step and the budget of trials per run."""
+
+    rtol: float
+    atol: float
+    h_max: float
+    max_steps: int
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _torque_stages_lanes(S, M, rhh, rtc, racos, rasin, rtf, rsn, rcs, rtau, rsn_end, rcs_end, rsd, rcd):
-    """:func:`omegahat.simulation.coupled._torque_stages` for every lane: τ at t + h/2 and t + h into rows
-    ``rtau + 3s + d`` (s = 1, 2; τ at t, s = 0, is not needed by a trial) and sin, cos of ν_j (t + h) into rows
-    ``rsn_end + j``, ``rcs_end + j``; rows ``rsd + j``, ``rcd + j`` hold sin, cos of ν_j h/2."""
-    large = 0
-    for w in range(LANES):
-        for j in range(M):
-            x = 0.5 * S[rtf + j, w] * S[rhh, w]
-            S[rsd + j, w], S[rcd + j, w] = _sin_cos_small(x)
-            large += abs(x) > _SINCOS_SMALL
-    if large > 0:  # large angles (not in a campaign with h_max ν ≤ 1/2): the library's sin and cos
-        for w in range(LANES):
-            for j in range(M):
-                x = 0.5 * S[rtf + j, w] * S[rhh, w]
-                if abs(x) > _SINCOS_SMALL:
-                    S[rsd + j, w] = np.sin(x)
-                    S[rcd + j, w] = np.cos(x)
-    for w in range(LANES):
-        for s in range(1, 3):
-            for d in range(3):
-                S[rtau + 3 * s + d, w] = S[rtc + d, w]
-        for j in range(M):
-            ac = racos + 3 * j
-            asn = rasin + 3 * j
-            a = S[rsn + j, w]
-            b = S[rcs + j, w]
-            sdw = S[rsd + j, w]
-            cdw = S[rcd + j, w]
-            for s in range(3):
-                if s > 0:
-                    for d in range(3):
-                        S[rtau + 3 * s + d, w] += S[ac + d, w] * a + S[asn + d, w] * b
-                if s < 2:
-                    a, b = a * cdw + b * sdw, b * cdw - a * sdw
-            S[rsn_end + j, w] = a
-            S[rcs_end + j, w] = b
+# ------------------------------------------------------------------------------------------------ the phases
+# Each phase is a compiled function of its own (LLVM inlines the small ones); the number of lanes, n and M arrive as
+# literal (compile-time) arguments in the many-lane entries, and each phase derives its row offsets from them.
+
+STATES = 0  #: output mode: every run's states at the output times
+ENVELOPES = 1  #: output mode: each run's envelope diagnostics (:mod:`omegahat.simulation.envelope`)
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _phi_coefficients_lanes(S, n, rlf, rhh, rcoef):
-    """The step's φ-weights of :func:`omegahat.simulation.coupled._etdrk4_step` for every lane: rows
-    ``rcoef + 6i .. rcoef + 6i + 6`` = E, E₂, Q, f₁, f₂, f₃ for direction i, on whole rows (one exponential,
-    e^{x/2}, per lane: :func:`omegahat.kernels.expfn.exp_kernel`, which vectorises). A direction whose rates equal the
-    previous one's in every lane (equal gains, the usual case) copies its weights."""
-    for i in range(n):
-        c = rcoef + 6 * i
-        if i > 0:
-            same = True
-            for w in range(LANES):
-                same = same and S[rlf + i, w] == S[rlf + i - 1, w]
-            if same:
-                for a in range(6):
-                    for w in range(LANES):
-                        S[c + a, w] = S[c - 6 + a, w]
-                continue
-        any_small = False
-        for w in range(LANES):
-            any_small = any_small or abs(S[rlf + i, w] * S[rhh, w]) < 1.0
-        # simulate._etdrk4_step's weights. Two loops, so that LLVM vectorises each without the other's work (in
-        # one loop it computed the Taylor series for every lane in every step and selected)
-        if not any_small:
-            for w in range(LANES):
-                h = S[rhh, w]
-                x = -S[rlf + i, w] * h
-                ex2 = exp_kernel(0.5 * x)
-                p1, p2, p3, ex = _phi123_closed(x, ex2 * ex2)
-                _store_weights(S, c, w, h, ex, ex2, _phi1_half_closed(x, ex2), p1, p2, p3)
-        else:  # the Taylor branches (|x| < 1/2, |x/2| < 1/2) too: both computed, one selected
-            for w in range(LANES):
-                h = S[rhh, w]
-                x = -S[rlf + i, w] * h
-                x2 = 0.5 * x
-                small = abs(x) < 0.5
-                small2 = abs(x2) < 0.5
-                t1, t2, t3, tex = _phi123_taylor(x)
-                u1, uex = _phi1_taylor(x2)
-                ex2 = uex if small2 else exp_kernel(x2)
-                q1 = u1 if small2 else _phi1_half_closed(x, ex2)
-                c1, c2, c3, cex = _phi123_closed(x, ex2 * ex2)
-                p1 = t1 if small else c1
-                p2 = t2 if small else c2
-                p3 = t3 if small else c3
-                ex = tex if small else cex
-                _store_weights(S, c, w, h, ex, ex2, q1, p1, p2, p3)
+class RunOutputs(NamedTuple):
+    """Where the engine puts what it keeps of each run: ``accepted``, ``rejected``, ``ok`` ``(N,)`` always; in mode
+    :data:`STATES` the states ``Y (N, T, 6n + 6)``; in mode :data:`ENVELOPES` the diagnostics ``rho (N, T)`` and
+    ``diagnostics (6, N)`` (E0, omega_peak, λ_run, c_run, t_f, v_increase) computed with ``J`` and
+    ``rho_floor``. Arrays a mode does not use are empty."""
+
+    accepted: np.ndarray
+    rejected: np.ndarray
+    ok: np.ndarray
+    Y: np.ndarray
+    rho: np.ndarray
+    diagnostics: np.ndarray
+    J: np.ndarray
+    rho_floor: float
 
 
 @numba.njit(cache=True, inline="always")
-def _store_weights(S, c, w, h, ex, ex2, q1, p1, p2, p3):
-    """Rows ``c .. c + 6`` of lane w: E, E₂, Q, f₁, f₂, f₃ of :func:`omegahat.simulation.coupled._etdrk4_step`."""
-    S[c, w] = ex
-    S[c + 1, w] = ex2
-    S[c + 2, w] = 0.5 * h * q1
-    S[c + 3, w] = h * (p1 - 3.0 * p2 + 4.0 * p3)
-    S[c + 4, w] = h * (2.0 * p2 - 4.0 * p3)
-    S[c + 5, w] = h * (4.0 * p3 - p2)
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _half_stage_lanes(S, n, ry, rN, rhalf, rcoef, rout):
-    """The first two stages of :func:`omegahat.simulation.coupled._etdrk4_step`: ``y + (h/2) N`` on (r, ω, z) and
-    ``E₂ e + Q N_e`` on each e_i, into rows ``rout..``."""
-    ie = 3 * n + 6
-    for w in range(LANES):  # lanes outside, components inside: see _nonlinear_lanes
-        for j in range(ie):
-            S[rout + j, w] = S[ry + j, w] + S[rhalf, w] * S[rN + j, w]
-        for i in range(n):
-            c = rcoef + 6 * i
-            for j in range(ie + 3 * i, ie + 3 * i + 3):
-                S[rout + j, w] = S[c + 1, w] * S[ry + j, w] + S[c + 2, w] * S[rN + j, w]
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _select_rows(Si, rmask, rdst, rsrc, count):
-    """Rows ``rdst .. rdst + count`` of the workspace take rows ``rsrc ..`` in the lanes whose mask (row
-    ``rmask``) is all ones: a bitwise select, exact, which LLVM vectorises (``a if c else b`` on two rows of S
-    became a select of addresses, lane by lane)."""
-    for w in range(LANES):
-        mk = Si[rmask, w]
-        for j in range(count):
-            Si[rdst + j, w] = (Si[rsrc + j, w] & mk) | (Si[rdst + j, w] & ~mk)
-
-
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def _dense_output_lane(S, n, ry, rNu, rNa, rNb, rNc, rlf, h, theta, w, Y, run, row):
-    """:func:`omegahat.simulation.coupled._dense_output` for lane ``w`` (scalar: one output time of one run), into
-    ``Y[run, row]``."""
-    ie = 3 * n + 6
-    b1, b2, b4 = _dense_weights(h, theta, 0.5 * theta * theta, 0.5 * theta * theta * theta / 3.0)
-    for j in range(ie):
-        Y[run, row, j] = S[ry + j, w] + b1 * S[rNu + j, w] + b2 * (S[rNa + j, w] + S[rNb + j, w]) + b4 * S[rNc + j, w]
-    ex = 1.0
-    for i in range(n):
-        if i == 0 or S[rlf + i, w] != S[rlf + i - 1, w]:
-            p1, p2, p3, ex = _phi123(-S[rlf + i, w] * h * theta)
-            b1, b2, b4 = _dense_weights(h, theta * p1, theta * theta * p2, theta * theta * theta * p3)
-        for j in range(ie + 3 * i, ie + 3 * i + 3):
-            Y[run, row, j] = (
-                ex * S[ry + j, w] + b1 * S[rNu + j, w] + b2 * (S[rNa + j, w] + S[rNb + j, w]) + b4 * S[rNc + j, w]
-            )
-
-
-@numba.njit(cache=True)
-def _release_lane(w, good, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out):  # not inlined: rare, 3 call sites
-    """Lane ``w``'s run ends (``good``: it reached the last output time): its counters (rows ``Racc``, ``Rrej``)
-    go out, the rows a failed run did not reach become NaN, its states (``stage[w]``) go to ``Y`` or are
-    diagnosed (``out``: the worker's outputs, :func:`_lanes_worker`), and the lane is free: it idles (its time
-    −∞, its step 0, no output due; :func:`_idle_lane`) until a run is loaded into it."""
-    Y, accepted, rejected, ok, diagnose, n, J, t_out, rho_floor, rho, dout = out
-    i = run[w]
-    accepted[i] = np.int64(S[Racc, w])
-    rejected[i] = np.int64(S[Rrej, w])
-    if not good:
-        stage[w, idx[w] :] = np.nan
-    if diagnose:
-        diagnose_run(stage[w], i, n, J, t_out, rho_floor, good, rho, dout, ok)
-    else:
-        ok[i] = good
-        Y[i] = stage[w]
-    run[w] = -1
-    _idle_lane(S, w, Rt, Rh, Rnext)
+def _idle(S, lanes, rows, w):
+    """A lane without a run steps by h = 0 from t = −∞ and has no output due."""
+    S[(rows.t) * lanes + w] = -np.inf
+    S[(rows.h) * lanes + w] = 0.0
+    S[(rows.next) * lanes + w] = np.inf
 
 
 @numba.njit(cache=True, inline="always")
-def _idle_lane(S, w, Rt, Rh, Rnext):
-    """A lane without a run steps by h = 0 from t = −∞ and has no output due: its trials change nothing that
-    matters, and no test in the vectorised bookkeeping singles it out."""
-    S[Rt, w] = -np.inf
-    S[Rh, w] = 0.0
-    S[Rnext, w] = np.inf
+def _output_rows(outputs, stage, mode, w, i):
+    """Where run i (in lane w) writes its states: straight into ``Y`` in mode STATES, else the worker's own rows
+    (in cache until the run ends)."""
+    return outputs.Y[i] if mode == STATES else stage[w]
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _lanes_worker(
-    runs,
-    Y0,
-    t_out,
-    n,
-    J,
-    Jinv,
-    k,
-    l_off,
-    l_slope,
-    tc,
-    ta,
-    tf,
-    tp,
-    rtol,
-    atol,
-    h0,
-    h_max,
-    max_steps,
-    Y,
-    accepted,
-    rejected,
-    ok,
-    diagnose,
-    rho_floor,
-    rho,
-    dout,
-    M,
-):
-    """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes. A lane writes its
-    run's states into its own rows ``stage[w]`` (the worker's, in cache), and when the run ends they go to
-    ``Y[run]`` (a failed run's rows from the failure on NaN), or, if ``diagnose``, only their diagnostics
-    (:func:`omegahat.campaigns.diagnostics.diagnose_run`: ``rho[run]``, ``dout[:, run]``, ``ok[run]``, with ``rho_floor``);
-    ``accepted[run]``, ``rejected[run]`` either way."""
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _load_runs(S, lanes, n, M, model, runs, t_out, queue, q, run, idx, fresh, outputs, stage, mode):
+    """Empty lanes take the next runs of the queue (from ``q``); their first rates are evaluated for all lanes at
+    once and kept for the new lanes only. Returns the new ``q`` and the number of runs loaded."""
+    rows = workspace_rows(n, M)
     m = 6 * n + 6
-    T = t_out.shape[0]
-    ie = 3 * n + 6
-    t_end = t_out[T - 1]
-    a2 = atol * atol
-    r2 = rtol * rtol
-    # ---- the workspace: row offsets of each per-lane quantity -------------------------------------------------
-    Ry = 0  # state y
-    Ry_new = Ry + m  # trial point
-    RNu = Ry_new + m  # nonlinear part at (t, y) with the rates frozen at y
-    RN_new = RNu + m  # at the trial point with its own rates: the next step's RNu (FSAL)
-    RNa = RN_new + m  # stages
-    RNb = RNa + m
-    RNc = RNb + m
-    Rya = RNc + m
-    Ryb = Rya + m  # also the third stage's point y_c: y_b is not needed once N_b is known
-    Ryc = Ryb
-    Rcoef = Ryb + m  # φ-weights, 6 per direction
-    Rlf = Rcoef + 6 * n  # rates l_i frozen at y
-    Rlf_new = Rlf + n
-    Rtau = Rlf_new + n  # τ at t, t + h/2, t + h: row Rtau + 3 s + d
-    # newly loaded runs: their first right-hand side, rates and torque go to rows a trial overwrites anyway
-    RN_fresh = RNa
-    Rlf_fresh = Rlf_new
-    Rtau_fresh = Rtau
-    Rtc = Rtau + 9  # the lane's torque: constant, a_j cos φ_j, a_j sin φ_j (row + 3 j + d), ν_j
-    Racos = Rtc + 3
-    Rasin = Racos + 3 * M
-    Rtf = Rasin + 3 * M
-    Rsn = Rtf + M  # sin ν_j t, cos ν_j t, and at t + h
-    Rcs = Rsn + M
-    Rsn_new = Rcs + M
-    Rcs_new = Rsn_new + M
-    Rsd = Rcs_new + M  # sin, cos of ν_j h/2
-    Rcd = Rsd + M
-    Rhh = Rcd + M  # the trial's step, h/2, h/6
-    Rhalf = Rhh + 1
-    Rh6 = Rhalf + 1
-    Rerr = Rh6 + 1  # the trial's error ratio
-    Rfactor = Rerr + 1  # the next step over this one
-    Rmask = Rfactor + 1  # all bits set where the trial was accepted (read through the int64 view Si)
-    # the lanes' bookkeeping, as rows too, so that the common case is decided for all lanes at once
-    Rt = Rmask + 1  # the lane's time
-    Rt_new = Rt + 1  # the trial's end
-    Rh = Rt_new + 1  # the next trial's step, before h_max and the last step clip it
-    Rlast = Rh + 1  # 1 where the trial ends on the last output time
-    Racc = Rlast + 1  # accepted and rejected trials of the lane's run (exact in float64)
-    Rrej = Racc + 1
-    Rnext = Rrej + 1  # the lane's next output time (+∞: none)
-    Rflag = Rnext + 1  # 1 where the trial needs the per-lane code: an output time reached, a non-finite error
-    S = np.zeros((Rflag + 1, LANES))
-    Si = S.view(np.int64)
-    stage = np.empty((LANES, T, m))  # each lane's run's states, until the run ends
-    out = (Y, accepted, rejected, ok, diagnose, n, J, t_out, rho_floor, rho, dout)
-    for w in range(LANES):
-        _idle_lane(S, w, Rt, Rh, Rnext)
+    loaded = 0
+    for w in range(lanes):
+        fresh[w] = False
+        if run[w] >= 0 or q >= queue.shape[0]:
+            continue
+        i = queue[q]
+        q += 1
+        out = _output_rows(outputs, stage, mode, w, i)
+        for j in range(m):
+            S[(rows.y + j) * lanes + w] = runs.y0[i, j]
+            out[0, j] = runs.y0[i, j]
+        run[w] = i
+        idx[w] = 1
+        S[(rows.t) * lanes + w] = t_out[0]
+        S[(rows.h) * lanes + w] = runs.h0[i]
+        S[(rows.acc) * lanes + w] = 0.0
+        S[(rows.rej) * lanes + w] = 0.0
+        S[(rows.next) * lanes + w] = t_out[1]
+        # torque terms a_j sin(ν_j t + φ_j) = (a_j cos φ_j) sin ν_j t + (a_j sin φ_j) cos ν_j t
+        for d in range(3):
+            S[(rows.tc + d) * lanes + w] = runs.torque_constant[i, d]
+            S[(rows.tau_fresh + d) * lanes + w] = runs.torque_constant[i, d]
         for j in range(M):
-            S[Rcs + j, w] = 1.0
-            S[Rcs_new + j, w] = 1.0
-    all_bits = np.array([-1], dtype=np.int64).view(np.float64)[0]  # the accepted-lane mask as a float64
-    # ---- per-lane run and output index -----------------------------------------------------------------------
-    run = np.full(LANES, -1, dtype=np.int64)
-    idx = np.zeros(LANES, dtype=np.int64)
-    fresh = np.zeros(LANES, dtype=np.bool_)
+            s0 = np.sin(runs.torque_frequencies[i, j] * t_out[0])
+            c0 = np.cos(runs.torque_frequencies[i, j] * t_out[0])
+            S[(rows.freq + j) * lanes + w] = runs.torque_frequencies[i, j]
+            S[(rows.sn + j) * lanes + w] = s0
+            S[(rows.cs + j) * lanes + w] = c0
+            for d in range(3):
+                a_cos = runs.torque_amplitudes[i, j, d] * np.cos(runs.torque_phases[i, j, d])
+                a_sin = runs.torque_amplitudes[i, j, d] * np.sin(runs.torque_phases[i, j, d])
+                S[(rows.acos + 3 * j + d) * lanes + w] = a_cos
+                S[(rows.asin + 3 * j + d) * lanes + w] = a_sin
+                S[(rows.tau_fresh + d) * lanes + w] += a_cos * s0 + a_sin * c0
+        fresh[w] = True
+        loaded += 1
+    if loaded > 0:
+        frozen_decay_rates(S, lanes, n, model, rows.y, rows.lf_fresh)
+        coupled_rates(S, lanes, n, model, rows.y, rows.lf_fresh, rows.tau_fresh, rows.N_fresh)
+        for w in range(lanes):
+            if fresh[w]:
+                for j in range(m):
+                    S[(rows.Nu + j) * lanes + w] = S[(rows.N_fresh + j) * lanes + w]
+                for i in range(n):
+                    S[(rows.lf + i) * lanes + w] = S[(rows.lf_fresh + i) * lanes + w]
+    return q, loaded
 
-    q = 0  # next run of the queue
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _choose_steps(S, lanes, n, M, h_max, t_end):
+    """Each lane's trial step: its next step, at most ``h_max``, stretched to end on the last output time when
+    within 1 % of it."""
+    rows = workspace_rows(n, M)
+    for w in range(lanes):
+        hw = min(S[(rows.h) * lanes + w], h_max)
+        last = S[(rows.t) * lanes + w] + 1.01 * hw >= t_end
+        hw = t_end - S[(rows.t) * lanes + w] if last else hw
+        S[(rows.last) * lanes + w] = 1.0 if last else 0.0
+        S[(rows.hh) * lanes + w] = hw
+        S[(rows.half) * lanes + w] = 0.5 * hw
+        S[(rows.h6) * lanes + w] = hw / 6.0
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _trial(S, lanes, n, M, model):
+    """One ETDRK4 trial for all lanes (:mod:`omegahat.simulation.etd`), then the rates at the new point."""
+    rows = workspace_rows(n, M)
+    torque_stages(S, lanes, n, M)
+    phi_weights(S, lanes, n, M)
+    half_stage(S, lanes, n, M, rows.Nu, rows.ya)
+    coupled_rates(S, lanes, n, model, rows.ya, rows.lf, rows.tau + 3, rows.Na)
+    half_stage(S, lanes, n, M, rows.Na, rows.yb)
+    coupled_rates(S, lanes, n, model, rows.yb, rows.lf, rows.tau + 3, rows.Nb)
+    last_stage(S, lanes, n, M)
+    coupled_rates(S, lanes, n, model, rows.yc, rows.lf, rows.tau + 6, rows.Nc)
+    combine(S, lanes, n, M)
+    frozen_decay_rates(S, lanes, n, model, rows.y_new, rows.lf_new)
+    coupled_rates(S, lanes, n, model, rows.y_new, rows.lf_new, rows.tau + 6, rows.N_new)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _accept(S, lanes, n, M, t_end, all_bits):
+    """Acceptance, counters and the next step for all lanes; returns how many lanes need the per-lane code (an
+    output time reached, or a non-finite error)."""
+    rows = workspace_rows(n, M)
+    flagged = 0
+    for w in range(lanes):
+        e = S[(rows.err) * lanes + w]
+        hw = S[(rows.hh) * lanes + w]
+        finite = e < np.inf  # False for inf and NaN
+        accept = e <= 1.0
+        t_new = t_end if S[(rows.last) * lanes + w] != 0.0 else S[(rows.t) * lanes + w] + hw
+        S[(rows.t_new) * lanes + w] = t_new
+        S[(rows.mask) * lanes + w] = all_bits if accept else 0.0
+        S[(rows.acc) * lanes + w] += 1.0 if accept else 0.0
+        S[(rows.rej) * lanes + w] += 0.0 if accept else 1.0
+        S[(rows.h) * lanes + w] = hw * S[(rows.factor) * lanes + w] if finite else 0.25 * hw
+        flag = (accept and S[(rows.next) * lanes + w] <= t_new) or not finite
+        S[(rows.flag) * lanes + w] = 1.0 if flag else 0.0
+        flagged += flag
+    return flagged
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _outputs_and_failures(S, lanes, n, M, run, idx, failed, t_out, outputs, stage, mode):
+    """Lane by lane where flagged: the output times inside the accepted step (continuous extension; the last one
+    exactly), or, for a non-finite error at a step below 1e-14, the run's failure (that trial not counted)."""
+    rows = workspace_rows(n, M)
+    T = t_out.shape[0]
+    m = 6 * n + 6
+    for w in range(lanes):
+        i = run[w]
+        if S[(rows.flag) * lanes + w] == 0.0 or i < 0:
+            continue
+        hw = S[(rows.hh) * lanes + w]
+        if not S[(rows.err) * lanes + w] < np.inf:
+            if hw < 1e-14:
+                S[(rows.rej) * lanes + w] -= 1.0
+                failed[w] = True
+            continue
+        t_new = S[(rows.t_new) * lanes + w]
+        out = _output_rows(outputs, stage, mode, w, i)
+        while idx[w] < T and t_out[idx[w]] < t_new:
+            dense_output(S, lanes, n, M, hw, (t_out[idx[w]] - S[(rows.t) * lanes + w]) / hw, w, out[idx[w]])
+            idx[w] += 1
+        if idx[w] < T and t_out[idx[w]] == t_new:
+            for j in range(m):
+                out[idx[w], j] = S[(rows.y_new + j) * lanes + w]
+            idx[w] += 1
+        S[(rows.next) * lanes + w] = t_out[idx[w]] if idx[w] < T else np.inf
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _select_rows(Si, lanes, rmask, rdst, rsrc, count):
+    """Rows ``rdst ..`` take rows ``rsrc ..`` where the mask is all ones: a bitwise select, exact, vectorised."""
+    for w in range(lanes):
+        mk = Si[(rmask) * lanes + w]
+        for j in range(count):
+            Si[(rdst + j) * lanes + w] = (Si[(rsrc + j) * lanes + w] & mk) | (Si[(rdst + j) * lanes + w] & ~mk)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _advance(Si, lanes, n, M):
+    """Accepted lanes move to the new point; its rates become the next step's first (first same as last)."""
+    rows = workspace_rows(n, M)
+    m = 6 * n + 6
+    _select_rows(Si, lanes, rows.mask, rows.y, rows.y_new, m)
+    _select_rows(Si, lanes, rows.mask, rows.Nu, rows.N_new, m)
+    _select_rows(Si, lanes, rows.mask, rows.lf, rows.lf_new, n)
+    _select_rows(Si, lanes, rows.mask, rows.sn, rows.sn_new, M)
+    _select_rows(Si, lanes, rows.mask, rows.cs, rows.cs_new, M)
+    _select_rows(Si, lanes, rows.mask, rows.t, rows.t_new, 1)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def _release_ended(S, lanes, n, M, run, idx, failed, max_steps, t_out, outputs, stage, mode, scratch):
+    """Runs that reached the last output time, failed, or spent their budget of trials leave their lanes: a failed
+    run's unreached rows become NaN, its counters go out, and in mode ENVELOPES its states are reduced to their
+    diagnostics. Returns how many left."""
+    rows = workspace_rows(n, M)
+    T = t_out.shape[0]
+    left = 0
+    for w in range(lanes):
+        i = run[w]
+        if i < 0:
+            continue
+        good = idx[w] >= T
+        if not (good or failed[w] or S[(rows.acc) * lanes + w] + S[(rows.rej) * lanes + w] >= max_steps):
+            continue
+        out = _output_rows(outputs, stage, mode, w, i)
+        if not good:
+            out[idx[w] :] = np.nan
+        outputs.accepted[i] = np.int64(S[(rows.acc) * lanes + w])
+        outputs.rejected[i] = np.int64(S[(rows.rej) * lanes + w])
+        if mode == STATES:
+            outputs.ok[i] = good
+        else:
+            diagnose_run(out, i, n, outputs.J, t_out, outputs.rho_floor, good, outputs.rho, outputs.diagnostics,
+                         outputs.ok, scratch)  # fmt: skip
+        run[w] = -1
+        failed[w] = False
+        _idle(S, lanes, rows, w)
+        left += 1
+    return left
+
+
+class Buffers(NamedTuple):
+    """A worker's own memory, allocated by the entry point: the workspace ``S (rows, lanes)``, each lane's
+    states while the run is in flight ``stage`` (mode ENVELOPES), the lanes' run, output index and flags, and a
+    scratch row for the diagnostics."""
+
+    S: np.ndarray
+    stage: np.ndarray
+    run: np.ndarray
+    idx: np.ndarray
+    failed: np.ndarray
+    fresh: np.ndarray
+    scratch: np.ndarray
+
+
+@numba.njit(cache=True, inline="always")
+def _buffers(lanes, n, M, T, mode):
+    rows = workspace_rows(n, M)
+    return Buffers(
+        np.zeros(rows.count * lanes), np.empty((lanes if mode == ENVELOPES else 0, T, 6 * n + 6)),
+        np.full(lanes, -1, dtype=np.int64), np.zeros(lanes, dtype=np.int64), np.zeros(lanes, dtype=np.bool_),
+        np.zeros(lanes, dtype=np.bool_), np.empty(T),
+    )  # fmt: skip
+
+
+# Compiled without Numba's reference counting (_nrt=False): every array here is owned by the entry point that
+# allocated it, and the phases' array arguments would otherwise cost atomic increments and decrements at every
+# call (measured: a fifth of a single run's time). Nothing below allocates.
+@numba.njit(cache=True, _nrt=False, error_model="numpy")
+def _lockstep(queue, t_out, model, runs, control, outputs, mode, buffers, all_bits, lanes, n, M):
+    """Integrate the runs ``queue`` (indices into ``runs``) on ``lanes`` lanes (module docstring), from
+    ``t_out[0]`` to ``t_out[-1]`` (at least two output times), keeping what ``mode`` says in ``outputs``."""
+    T = t_out.shape[0]
+    t_end = t_out[T - 1]
+    rows = workspace_rows(n, M)
+    S = buffers.S
+    Si = S.view(np.int64)
+    stage, run, idx, failed, fresh = buffers.stage, buffers.run, buffers.idx, buffers.failed, buffers.fresh
+    for w in range(lanes):
+        _idle(S, lanes, rows, w)
+        for j in range(M):
+            S[(rows.cs + j) * lanes + w] = 1.0
+            S[(rows.cs_new + j) * lanes + w] = 1.0
+    q = 0
     active = 0
     while True:
-        # ---- load new runs into empty lanes (integrate_coupled's preamble) ------------------------------------
-        any_fresh = False
-        for w in range(LANES):
-            fresh[w] = False
-            if run[w] >= 0 or q >= runs.shape[0]:
-                continue
-            i = runs[q]
-            q += 1
-            for j in range(m):
-                S[Ry + j, w] = Y0[i, j]
-                stage[w, 0, j] = Y0[i, j]
-            run[w] = i
-            active += 1
-            S[Rt, w] = t_out[0]
-            S[Rh, w] = h0[i]
-            S[Racc, w] = 0.0
-            S[Rrej, w] = 0.0
-            S[Rnext, w] = t_out[1]
-            idx[w] = 1
-            a_cos = ta[i] * np.cos(tp[i])
-            a_sin = ta[i] * np.sin(tp[i])
-            s0 = np.sin(tf[i] * t_out[0])
-            c0 = np.cos(tf[i] * t_out[0])
-            for d in range(3):
-                S[Rtc + d, w] = tc[i, d]
-                S[Rtau_fresh + d, w] = tc[i, d]
-            for j in range(M):
-                S[Rtf + j, w] = tf[i, j]
-                S[Rsn + j, w] = s0[j]
-                S[Rcs + j, w] = c0[j]
-                for d in range(3):
-                    S[Racos + 3 * j + d, w] = a_cos[j, d]
-                    S[Rasin + 3 * j + d, w] = a_sin[j, d]
-                    S[Rtau_fresh + d, w] += a_cos[j, d] * s0[j] + a_sin[j, d] * c0[j]
-            fresh[w] = True
-            any_fresh = True
-        if any_fresh:
-            _frozen_rates_lanes(S, n, l_off, l_slope, Ry, Rlf_fresh)
-            _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry, Rlf_fresh, Rtau_fresh, RN_fresh)
-            for w in range(LANES):
-                if fresh[w]:
-                    for j in range(m):
-                        S[RNu + j, w] = S[RN_fresh + j, w]
-                    for i in range(n):
-                        S[Rlf + i, w] = S[Rlf_fresh + i, w]
+        q, loaded = _load_runs(S, lanes, n, M, model, runs, t_out, queue, q, run, idx, fresh, outputs, stage, mode)
+        active += loaded
         if active == 0:
             break
+        _choose_steps(S, lanes, n, M, control.h_max, t_end)
+        _trial(S, lanes, n, M, model)
+        error_ratios(S, lanes, n, M, control.rtol, control.atol)
+        if _accept(S, lanes, n, M, t_end, all_bits) > 0:
+            _outputs_and_failures(S, lanes, n, M, run, idx, failed, t_out, outputs, stage, mode)
+        _advance(Si, lanes, n, M)
+        active -= _release_ended(
+            S, lanes, n, M, run, idx, failed, control.max_steps, t_out, outputs, stage, mode, buffers.scratch
+        )
 
-        # ---- runs out of steps leave; step sizes for all lanes (an idle lane steps by 0) ------------------------
-        spent = 0
-        for w in range(LANES):
-            spent += S[Racc, w] + S[Rrej, w] >= max_steps
-        if spent > 0:
-            for w in range(LANES):
-                if run[w] >= 0 and S[Racc, w] + S[Rrej, w] >= max_steps:
-                    _release_lane(w, False, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out)
-                    active -= 1
-                elif run[w] < 0:  # an idle lane's counters grow without meaning: keep them from coming back here
-                    S[Racc, w] = 0.0
-                    S[Rrej, w] = 0.0
-        for w in range(LANES):
-            hw = min(S[Rh, w], h_max)
-            last = S[Rt, w] + 1.01 * hw >= t_end
-            hw = t_end - S[Rt, w] if last else hw
-            S[Rlast, w] = 1.0 if last else 0.0
-            S[Rhh, w] = hw
-            S[Rhalf, w] = 0.5 * hw
-            S[Rh6, w] = hw / 6.0
 
-        # ---- one ETDRK4 trial for all lanes (simulate._etdrk4_step, then the new point's N) -------------------
-        _torque_stages_lanes(S, M, Rhh, Rtc, Racos, Rasin, Rtf, Rsn, Rcs, Rtau, Rsn_new, Rcs_new, Rsd, Rcd)
-        _phi_coefficients_lanes(S, n, Rlf, Rhh, Rcoef)
-        _half_stage_lanes(S, n, Ry, RNu, Rhalf, Rcoef, Rya)
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Rya, Rlf, Rtau + 3, RNa)
-        _half_stage_lanes(S, n, Ry, RNa, Rhalf, Rcoef, Ryb)
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryb, Rlf, Rtau + 3, RNb)
-        for w in range(LANES):
-            for j in range(ie):
-                S[Ryc + j, w] = S[Ry + j, w] + S[Rhh, w] * S[RNb + j, w]
-            for i in range(n):
-                c = Rcoef + 6 * i
-                for j in range(ie + 3 * i, ie + 3 * i + 3):
-                    S[Ryc + j, w] = S[c + 1, w] * S[Rya + j, w] + S[c + 2, w] * (2.0 * S[RNb + j, w] - S[RNu + j, w])
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ryc, Rlf, Rtau + 6, RNc)
-        for w in range(LANES):
-            for j in range(ie):
-                S[Ry_new + j, w] = S[Ry + j, w] + S[Rh6, w] * (
-                    S[RNu + j, w] + 2.0 * S[RNa + j, w] + 2.0 * S[RNb + j, w] + S[RNc + j, w]
-                )
-            for i in range(n):
-                c = Rcoef + 6 * i
-                for j in range(ie + 3 * i, ie + 3 * i + 3):
-                    S[Ry_new + j, w] = (
-                        S[c, w] * S[Ry + j, w]
-                        + S[c + 3, w] * S[RNu + j, w]
-                        + S[c + 4, w] * (S[RNa + j, w] + S[RNb + j, w])
-                        + S[c + 5, w] * S[RNc + j, w]
-                    )
-        _frozen_rates_lanes(S, n, l_off, l_slope, Ry_new, Rlf_new)
-        _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, Ry_new, Rlf_new, Rtau + 6, RN_new)
+# ----------------------------------------------------------------------------------------------- entry points
 
-        # ---- embedded error (simulate._embedded_error) -----------------------------------------------------------
-        for w in range(LANES):
-            worst_num = 0.0
-            worst_den = 1.0
-            for b in range(2 * n + 2):
-                j0 = 3 * b
-                if j0 >= ie:  # e_i: weight h(4φ₃ − φ₂), N(y_new) re-taken with the step's frozen rates
-                    i = b - n - 2
-                    wt = S[Rcoef + 6 * i + 5, w]
-                    shift = S[Rlf + i, w] - S[Rlf_new + i, w]
-                else:
-                    wt = S[Rh6, w]
-                    shift = 0.0
-                d0 = wt * (S[RNc + j0, w] - S[RN_new + j0, w] - shift * S[Ry_new + j0, w])
-                d1 = wt * (S[RNc + j0 + 1, w] - S[RN_new + j0 + 1, w] - shift * S[Ry_new + j0 + 1, w])
-                d2 = wt * (S[RNc + j0 + 2, w] - S[RN_new + j0 + 2, w] - shift * S[Ry_new + j0 + 2, w])
-                v0 = S[Ry_new + j0, w]
-                v1 = S[Ry_new + j0 + 1, w]
-                v2 = S[Ry_new + j0 + 2, w]
-                worst_num, worst_den = _larger_ratio(
-                    d0 * d0 + d1 * d1 + d2 * d2, a2 + r2 * (v0 * v0 + v1 * v1 + v2 * v2), worst_num, worst_den
-                )
-            S[Rerr, w] = worst_num / worst_den
-        for w in range(LANES):
-            S[Rerr, w] = np.sqrt(S[Rerr, w])
-            S[Rfactor, w] = _step_factor(S[Rerr, w])
 
-        # ---- acceptance and counters for all lanes; output times and failures lane by lane -------------------
-        flagged = 0
-        for w in range(LANES):
-            e = S[Rerr, w]
-            hw = S[Rhh, w]
-            finite = e < np.inf  # False for inf and NaN
-            accept = e <= 1.0
-            t_new = t_end if S[Rlast, w] != 0.0 else S[Rt, w] + hw
-            S[Rt_new, w] = t_new
-            S[Rmask, w] = all_bits if accept else 0.0
-            S[Racc, w] += 1.0 if accept else 0.0
-            S[Rrej, w] += 0.0 if accept else 1.0
-            S[Rh, w] = hw * S[Rfactor, w] if finite else 0.25 * hw
-            flag = (accept and S[Rnext, w] <= t_new) or not finite
-            S[Rflag, w] = 1.0 if flag else 0.0
-            flagged += flag
-        if flagged > 0:
-            for w in range(LANES):
-                i = run[w]
-                if S[Rflag, w] == 0.0 or i < 0:
-                    continue
-                hw = S[Rhh, w]
-                if not S[Rerr, w] < np.inf:  # rejected; below 1e-14 the run stops (this trial not counted)
-                    if hw < 1e-14:
-                        S[Rrej, w] -= 1.0
-                        _release_lane(w, False, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out)
-                        active -= 1
-                    continue
-                t_new = S[Rt_new, w]
-                while idx[w] < T and t_out[idx[w]] < t_new:
-                    theta = (t_out[idx[w]] - S[Rt, w]) / hw
-                    _dense_output_lane(S, n, Ry, RNu, RNa, RNb, RNc, Rlf, hw, theta, w, stage, w, idx[w])
-                    idx[w] += 1
-                if idx[w] < T and t_out[idx[w]] == t_new:
-                    for j in range(m):
-                        stage[w, idx[w], j] = S[Ry_new + j, w]
-                    idx[w] += 1
-                S[Rnext, w] = t_out[idx[w]] if idx[w] < T else np.inf
-
-        # ---- accepted lanes move to the new point (FSAL: N_new becomes Nu) ------------------------------------
-        _select_rows(Si, Rmask, Ry, Ry_new, m)
-        _select_rows(Si, Rmask, RNu, RN_new, m)
-        _select_rows(Si, Rmask, Rlf, Rlf_new, n)
-        _select_rows(Si, Rmask, Rsn, Rsn_new, M)
-        _select_rows(Si, Rmask, Rcs, Rcs_new, M)
-        _select_rows(Si, Rmask, Rt, Rt_new, 1)
-
-        # ---- finished runs leave their lanes ---------------------------------------------------------------------
-        for w in range(LANES):
-            if run[w] >= 0 and idx[w] >= T:
-                _release_lane(w, True, run, idx, S, Racc, Rrej, Rt, Rh, Rnext, stage, out)
-                active -= 1
+_ALL_BITS = np.array([-1], dtype=np.int64).view(np.float64)[0]  # the accepted-lane mask as a float64 (a NaN)
 
 
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def _integrate_lanes(
-    Y0,
-    t_out,
-    n,
-    J,
-    Jinv,
-    k,
-    l_off,
-    l_slope,
-    tc,
-    ta,
-    tf,
-    tp,
-    rtol,
-    atol,
-    h0,
-    h_max,
-    max_steps,
-    Y,
-    accepted,
-    rejected,
-    ok,
-    diagnose,
-    rho_floor,
-    rho,
-    dout,
-    n_workers,
-    M,
-):
+def _parallel(t_out, model, runs, control, outputs, mode, n_workers, lanes, n, M):
     for wk in numba.prange(n_workers):
-        _lanes_worker(
-            np.arange(wk, Y0.shape[0], n_workers),
-            Y0,
-            t_out,
-            literally(n),
-            J,
-            Jinv,
-            k,
-            l_off,
-            l_slope,
-            tc,
-            ta,
-            tf,
-            tp,
-            rtol,
-            atol,
-            h0,
-            h_max,
-            max_steps,
-            Y,
-            accepted,
-            rejected,
-            ok,
-            diagnose,
-            rho_floor,
-            rho,
-            dout,
-            literally(M),
-        )
+        queue = np.arange(wk, runs.y0.shape[0], n_workers)  # run i to worker i mod n_workers
+        buffers = _buffers(literally(lanes), literally(n), literally(M), t_out.shape[0], mode)
+        _lockstep(queue, t_out, model, runs, control, outputs, mode, buffers, _ALL_BITS, literally(lanes),
+                  literally(n), literally(M))  # fmt: skip
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _integrate_lanes_serial(
-    Y0,
-    t_out,
-    n,
-    J,
-    Jinv,
-    k,
-    l_off,
-    l_slope,
-    tc,
-    ta,
-    tf,
-    tp,
-    rtol,
-    atol,
-    h0,
-    h_max,
-    max_steps,
-    Y,
-    accepted,
-    rejected,
-    ok,
-    diagnose,
-    rho_floor,
-    rho,
-    dout,
-    n_workers,
-    M,
-):
-    # the same on the calling thread (no Numba threading layer: callers that run several in threads, Dask)
-    _lanes_worker(
-        np.arange(Y0.shape[0]),
-        Y0,
-        t_out,
-        literally(n),
-        J,
-        Jinv,
-        k,
-        l_off,
-        l_slope,
-        tc,
-        ta,
-        tf,
-        tp,
-        rtol,
-        atol,
-        h0,
-        h_max,
-        max_steps,
-        Y,
-        accepted,
-        rejected,
-        ok,
-        diagnose,
-        rho_floor,
-        rho,
-        dout,
-        literally(M),
-    )
+def _serial(t_out, model, runs, control, outputs, mode, n_workers, lanes, n, M):
+    buffers = _buffers(literally(lanes), literally(n), literally(M), t_out.shape[0], mode)
+    _lockstep(np.arange(runs.y0.shape[0]), t_out, model, runs, control, outputs, mode, buffers, _ALL_BITS,
+              literally(lanes), literally(n), literally(M))  # fmt: skip
 
 
-_COMPILED = {}  # (parallel, n, number of torque terms) -> the compiled kernel's entry point
+@numba.njit(cache=True, error_model="numpy")
+def _one_lane(t_out, model, runs, control, outputs, mode, n_workers, lanes, n, M):
+    # one lane: the torque's number of terms at run time (its loops are short and not vectorised anyway)
+    buffers = _buffers(literally(lanes), literally(n), M, t_out.shape[0], mode)
+    _lockstep(np.arange(runs.y0.shape[0]), t_out, model, runs, control, outputs, mode, buffers, _ALL_BITS,
+              literally(lanes), literally(n), M)  # fmt: skip
 
 
-def _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps):
-    """The kernel's inputs checked (the compiled kernel does not check bounds: every shape is checked here, by
-    name) and converted to the types it is compiled for; with ``N`` runs, ``T`` output times, ``M`` torque terms."""
+_ENTRIES: dict = {}  # (entry, lanes, n, M) -> the compiled entry point
+
+
+def _call(kernel, args: tuple, lanes: int, n: int, M: int) -> None:
+    """Call a compiled entry whose last three arguments are ``(lanes, n, M)``: Numba's dispatch of literal
+    arguments costs milliseconds a call, so after the first call (which compiles, or loads the on-disk cache) the
+    compiled entry point is called directly."""
+    literal_M = kernel is not _one_lane
+    key = (kernel, lanes, n, M if literal_M else -1)
+    entry = _ENTRIES.get(key)
+    if entry is not None:
+        entry(*args, lanes, n, M)
+        return
+    kernel(*args, lanes, n, M)
+    lit = numba.types.literal
+    for sig, cres in kernel.overloads.items():
+        if sig[-3] == lit(lanes) and sig[-2] == lit(n) and (not literal_M or sig[-1] == lit(M)):
+            _ENTRIES[key] = cres.entry_point
+
+
+def check_inputs(model: Model, runs: RunSet, t_out) -> tuple[Model, RunSet, np.ndarray, int, int]:
+    """The engine's inputs checked by name (the compiled engine does not check bounds) and converted to the types
+    it is compiled for; returns them with ``n`` and ``M``."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
-    n = int(n)
-    N = np.shape(Y0)[0] if np.ndim(Y0) == 2 else -1
-    M = np.shape(tf)[1] if np.ndim(tf) == 2 else -1
+    n = int(np.size(model.k))
+    N = np.shape(runs.y0)[0] if np.ndim(runs.y0) == 2 else -1
+    M = np.shape(runs.torque_frequencies)[1] if np.ndim(runs.torque_frequencies) == 2 else -1
     expected = {
-        "Y0": (np.shape(Y0), (N, 6 * n + 6)),
-        "J": (np.shape(J), (3, 3)),
-        "Jinv": (np.shape(Jinv), (3, 3)),
-        "k": (np.shape(k), (n,)),
-        "l_off": (np.shape(l_off), (n,)),
-        "l_slope": (np.shape(l_slope), (n,)),
-        "tc": (np.shape(tc), (N, 3)),
-        "ta": (np.shape(ta), (N, M, 3)),
-        "tf": (np.shape(tf), (N, M)),
-        "tp": (np.shape(tp), (N, M, 3)),
-        "h0": (np.shape(h0), (N,)),
-    }
-    for name, (got, want) in expected.items():
-        if N < 0 or M < 0 or got != want:
-            raise ValueError(f"{name} must have shape {want} (N runs, n = {n} directions, M torque terms); got {got}")
+        "J": (model.J, (3, 3)), "Jinv": (model.Jinv, (3, 3)), "k": (model.k, (n,)),
+        "l_offset": (model.l_offset, (n,)), "l_slope": (model.l_slope, (n,)), "y0": (runs.y0, (N, 6 * n + 6)),
+        "h0": (runs.h0, (N,)), "torque_constant": (runs.torque_constant, (N, 3)),
+        "torque_amplitudes": (runs.torque_amplitudes, (N, M, 3)), "torque_frequencies": (runs.torque_frequencies, (N, M)),
+        "torque_phases": (runs.torque_phases, (N, M, 3)),
+    }  # fmt: skip
+    for name, (value, want) in expected.items():
+        if N < 0 or M < 0 or np.shape(value) != want:
+            raise ValueError(
+                f"{name} must have shape {want} (N runs, n = {n} directions, M torque terms); got {np.shape(value)}"
+            )
     if np.ndim(t_out) != 1 or np.size(t_out) < 1:
         raise ValueError(f"t_out must be a non-empty 1-D array; got shape {np.shape(t_out)}")
-    args = (
-        f64(Y0),
-        f64(t_out),
-        n,
-        f64(J),
-        f64(Jinv),
-        f64(k),
-        f64(l_off),
-        f64(l_slope),
-        f64(tc),
-        f64(ta),
-        f64(tf),
-        f64(tp),
-        float(rtol),
-        float(atol),
-        f64(h0),
-        float(h_max),
-        int(max_steps),
-    )
-    return args, N, np.size(t_out), M
+    return Model(*map(f64, model)), RunSet(*map(f64, runs)), f64(t_out), n, M
 
 
-def _run(parallel, args):
-    """Call the compiled kernel for ``args``' (n, M): Numba's dispatch of literal arguments costs about 14 ms a
-    call, so after the first call (which compiles, or loads from the on-disk cache) its entry point is called
-    directly."""
-    kernel = _integrate_lanes if parallel else _integrate_lanes_serial
-    key = (bool(parallel), args[2], args[-1])
-    entry = _COMPILED.get(key)
-    if entry is not None:
-        entry(*args)
-        return
-    kernel(*args)
-    for sig, cres in kernel.overloads.items():
-        if sig[2] == numba.types.literal(key[1]) and sig[-1] == numba.types.literal(key[2]):
-            _COMPILED[key] = cres.entry_point
+def _integrate(model, runs, t_out, control, mode, rho_floor, n_workers, lanes, parallel) -> RunOutputs:
+    model, runs, t_out, n, M = check_inputs(model, runs, t_out)
+    N, T, m = runs.y0.shape[0], t_out.size, 6 * n + 6
+    states = mode == STATES
+    outputs = RunOutputs(
+        np.zeros(N, np.int64), np.zeros(N, np.int64), np.ones(N, np.bool_),
+        np.empty((N, T, m) if states else (0, 0, 0)), np.empty((0, 0) if states else (N, T)),
+        np.empty((6, 0) if states else (6, N)), model.J, float(rho_floor),
+    )  # fmt: skip
+    if T == 1:  # nothing to integrate (the engine needs a second output time): the initial states
+        for i in range(N):
+            if states:
+                outputs.Y[i, 0] = runs.y0[i]
+            else:
+                diagnose_run(runs.y0[i : i + 1], i, n, model.J, t_out, outputs.rho_floor, True, outputs.rho,
+                             outputs.diagnostics, outputs.ok, np.empty(1))  # fmt: skip
+        return outputs
+    control = StepControl(float(control.rtol), float(control.atol), float(control.h_max), int(control.max_steps))
+    args = (t_out, model, runs, control, outputs, mode, int(n_workers))
+    if lanes == 1:
+        _call(_one_lane, args, 1, n, M)
+    else:
+        _call(_parallel if parallel else _serial, args, int(lanes), n, M)
+    return outputs
 
 
-def integrate_coupled_lanes(
-    Y0,
+def integrate_states(
+    model: Model,
+    runs: RunSet,
     t_out,
-    n,
-    J,
-    Jinv,
-    k,
-    l_off,
-    l_slope,
-    tc,
-    ta,
-    tf,
-    tp,
-    rtol,
-    atol,
-    h0,
-    h_max,
-    max_steps,
-    n_workers,
-    parallel=True,
-):
-    """:func:`omegahat.simulation.coupled.integrate_coupled_batch`'s contract (same arguments, same results bit for bit)
-    computed in lockstep: run ``i`` goes to worker ``i mod n_workers``, each worker steps its runs ``LANES`` at a
-    time (module docstring). Returns ``(Y (N, T, m), accepted (N,), rejected (N,), ok (N,))``.
-    ``parallel=False``: all runs on the calling thread, without Numba's threading layer (``n_workers`` ignored).
+    control: StepControl,
+    n_workers: int = 1,
+    lanes: int = LANES,
+    parallel: bool = True,
+) -> RunOutputs:
+    """Integrate every run of ``runs``; return :class:`RunOutputs` with the states ``Y (N, T, 6n + 6)`` at
+    ``t_out`` (a failed run's rows from its failure on are NaN and its ``ok`` is False) and the counters.
 
-    The number of directions ``n`` and of torque terms are compiled in as constants (one compiled kernel per
-    pair, cached on disk): the workspace's row offsets are then constants and LLVM vectorises every lane loop.
+    ``lanes=1`` is the single-run path (:func:`omegahat.simulation.coupled.simulate`); otherwise ``lanes``
+    lanes per worker, run i on worker ``i mod n_workers`` (``parallel``: Numba's threads; ``parallel=False``: all
+    on the calling thread, for callers that run several batches in threads, e.g. Dask). Every run gets the same
+    bits whatever ``lanes``, ``n_workers`` and ``parallel``.
     """
-    head, N, T, M = _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps)
-    Y = np.empty((N, T, head[0].shape[1]))
-    accepted, rejected, ok = np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64), np.ones(N, dtype=bool)
-    if T == 1:  # nothing to integrate (the kernel needs a second output time)
-        Y[:, 0] = head[0]
-    else:
-        _run(
-            parallel,
-            (*head, Y, accepted, rejected, ok, False, 0.0, np.empty((0, T)), np.empty((6, 0)), int(n_workers), M),
-        )
-    return Y, accepted, rejected, ok
+    return _integrate(model, runs, t_out, control, STATES, 0.0, n_workers, lanes, parallel)
 
 
-def integrate_diagnosed_lanes(
-    Y0,
+def integrate_envelopes(
+    model: Model,
+    runs: RunSet,
     t_out,
-    n,
-    J,
-    Jinv,
-    k,
-    l_off,
-    l_slope,
-    tc,
-    ta,
-    tf,
-    tp,
-    rtol,
-    atol,
-    h0,
-    h_max,
-    max_steps,
-    n_workers,
-    rho_floor,
-    parallel=True,
-):
-    """:func:`integrate_coupled_lanes` for a campaign: instead of the states, each run's diagnostics
-    (:func:`omegahat.campaigns.diagnostics.diagnose_run` with ``rho_floor``, J the body's inertia), taken by the worker as soon
-    as the run ends, from its states still in cache. Returns ``(rho (N, T), out (6, N), ok (N,), accepted (N,),
-    rejected (N,))``, the numbers :func:`omegahat.campaigns.diagnostics.diagnose_runs` gives on
-    :func:`integrate_coupled_lanes`' states, while only the states of the runs in flight are ever held (a chunk
-    of 1024 runs of 401 output times would need 59 MB)."""
-    head, N, T, M = _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps)
-    rho, dout, ok = np.empty((N, T)), np.empty((6, N)), np.empty(N, dtype=bool)
-    accepted, rejected = np.zeros(N, dtype=np.int64), np.zeros(N, dtype=np.int64)
-    if T == 1:  # nothing to integrate: the initial states' diagnostics
-        diagnose_runs(
-            head[0][:, None, :], head[2], head[3], head[1], float(rho_floor), np.ones(N, dtype=bool), rho, dout, ok
-        )
-    else:
-        _run(
-            parallel,
-            (
-                *head,
-                np.empty((0, T, head[0].shape[1])),
-                accepted,
-                rejected,
-                ok,
-                True,
-                float(rho_floor),
-                rho,
-                dout,
-                int(n_workers),
-                M,
-            ),
-        )
-    return rho, dout, ok, accepted, rejected
+    control: StepControl,
+    rho_floor: float,
+    n_workers: int = 1,
+    lanes: int = LANES,
+    parallel: bool = True,
+) -> RunOutputs:
+    """:func:`integrate_states` keeping of each run only its envelope diagnostics
+    (:func:`omegahat.simulation.envelope.diagnose_run` with ``rho_floor``, J the body's inertia): ``rho (N, T)`` and
+    ``diagnostics (6, N)``, taken as the run ends from its states in the worker's own rows, so that no more than
+    the runs in flight are ever held (a campaign's chunk of 1024 runs of 401 output times would need 59 MB)."""
+    return _integrate(model, runs, t_out, control, ENVELOPES, rho_floor, n_workers, lanes, parallel)

@@ -38,7 +38,8 @@ from typing import NamedTuple
 import numpy as np
 
 from omegahat.simulation import sensors
-from omegahat.simulation.rigid_body import RigidBody, Torque, integrate
+from omegahat.simulation.rigid_body import RigidBody, integrate
+from omegahat.simulation.torque import Torque
 
 __all__ = ["SCENARIOS", "Run", "Scenario", "broad_data_dir", "get", "known_torque", "names", "simulate"]
 
