@@ -7,7 +7,7 @@ import pytest
 
 from omegahat.cli import main
 from omegahat.cli.paper import FIGURES, settling_time
-from omegahat.simulation.coupled import paper_problem, simulate
+from omegahat.simulation import paper_problem, simulate
 
 
 def test_paper_command_writes_figures_csv_and_summary(tmp_path, capsys):

@@ -5,7 +5,7 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from omegahat.campaigns import runner as mc  # noqa: E402
+from omegahat import campaigns as mc  # noqa: E402
 from omegahat.campaigns.distributed import run_campaign_dask  # noqa: E402
 from omegahat.observer.gains import ObserverGains, theorem_gains  # noqa: E402
 

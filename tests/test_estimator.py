@@ -392,7 +392,7 @@ def test_reset_and_uninitialised_output():
 
 def test_gap_to_the_continuous_observer_is_first_order_in_h():
     """Quick version of benchmarks/sampled_convergence.py: paper scenario, gap at t = 1 s for h = 4, 2, 1 ms."""
-    from omegahat.simulation.coupled import paper_problem, simulate
+    from omegahat.simulation import paper_problem, simulate
 
     prob = paper_problem()
     hs = [4e-3, 2e-3, 1e-3]

@@ -3,6 +3,7 @@ the paper's own (ξ, r̂) equations (omegahat.observer.continuous) and finite di
 
 The kernels are public names of the package (called here from Python: Numba compiles them for these calls)."""
 
+from decimal import Decimal, getcontext
 from fractions import Fraction
 
 import numpy as np
@@ -10,8 +11,9 @@ import pytest
 import scipy.linalg
 from scipy.spatial.transform import Rotation
 
-from omegahat.kernels import dynamics, linalg, observer, rotation, vec3
+from omegahat.kernels import dynamics, expfn, linalg, observer, rotation, vec3
 from omegahat.observer import continuous
+from omegahat.simulation.etd import step_factor
 
 RNG = np.random.default_rng(7)
 
@@ -214,3 +216,43 @@ def test_small_dense_matrices_against_numpy_and_scipy():
     M = np.zeros((12, 12))
     M[:6, :6], M[:6, 6:], M[6:, 6:] = A, B, -A.T
     assert np.allclose(linalg.expm_block_upper(M, 6), scipy.linalg.expm(M), rtol=1e-12, atol=1e-12)
+
+
+# -------------------------------------------------------------------------------------------------- expfn
+
+
+def test_small_angle_sin_cos_agree_with_numpy_to_rounding():
+    x = np.linspace(-0.25, 0.25, 20001)
+    s, c = np.array([expfn.sin_cos_small(v) for v in x]).T
+    # within one unit in the last place of libm's correctly rounded-or-nearly values
+    assert np.all(np.abs(s - np.sin(x)) <= np.spacing(np.abs(np.sin(x))))
+    assert np.all(np.abs(c - np.cos(x)) <= np.spacing(np.cos(x)))
+
+
+def _phi_exact(k, x):
+    # φ_k(x) = (e^x − Σ_{j<k} x^j/j!) / x^k in 60-digit decimal arithmetic
+    getcontext().prec = 60
+    X = Decimal(repr(x))
+    acc = X.exp()
+    term = Decimal(1)
+    for j in range(k):
+        acc -= term
+        term = term * X / (j + 1)
+    return float(acc / X**k)
+
+
+@pytest.mark.parametrize("x", [-1e-8, -0.1, -0.4999, -0.5, -0.5001, -2.0, -30.0, -800.0])
+def test_phi_functions_match_high_precision(x):
+    p1, p2, p3, ex = expfn.phi123(x)
+    # φ₁ at x as a step computes it for its half step x = (2x)/2: the Taylor series or (e^x − 1)·(2/(2x))
+    q1, ex1 = expfn.phi1_taylor(x) if abs(x) < 0.5 else (expfn.phi1_half_closed(2.0 * x, ex), ex)
+    for got, k in ((p1, 1), (p2, 2), (p3, 3), (q1, 1)):
+        want = _phi_exact(k, x)
+        assert abs(got - want) <= 4e-15 * abs(want), (k, x, got, want)
+    assert ex == ex1 and abs(ex - np.exp(x)) <= 4e-16 * np.exp(x)
+
+
+def test_step_factor_is_the_clipped_fourth_root_rule():
+    for err in (1e-12, 0.01, 0.5, 0.999, 1.0, 3.0, 1e6):
+        assert step_factor(err) == pytest.approx(min(4.0, max(0.2, 0.9 * err**-0.25)), rel=1e-15)
+    assert step_factor(0.0) == 4.0

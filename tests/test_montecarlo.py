@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.campaigns import runner as mc
+from omegahat import campaigns as mc
+from omegahat.campaigns.diagnostics import diagnose_reference
+from omegahat.campaigns.draws import draw_runs
 from omegahat.cli import main
 from omegahat.observer.gains import ObserverGains, theorem_gains
-from omegahat.simulation.coupled import CoupledProblem, SinusoidalTorque, simulate
+from omegahat.simulation import CoupledProblem, Torque, simulate, simulate_batch
 
 J = np.diag([3.0, 2.0, 1.0])
 
@@ -46,7 +48,7 @@ def _random_problems(gains, count, seed):
                 R0=Rotation.random(random_state=rng),
                 r_hat0=rng.normal(size=(2, 3)) * 3,
                 omega_hat0=rng.normal(size=3) * 20,
-                torque=SinusoidalTorque(
+                torque=Torque.sinusoidal(
                     constant=rng.normal(size=3) * 0.1,
                     amplitudes=rng.normal(size=(m, 3)) * 0.3,
                     frequencies=rng.uniform(0.5, 4.0, m),
@@ -61,7 +63,7 @@ def _random_problems(gains, count, seed):
 def test_batch_equals_loop_of_simulate(gains):
     problems = _random_problems(gains, 7, seed=5)
     t = np.linspace(0.0, 1.5, 16)
-    batch = mc.simulate_batch(problems, t, rtol=1e-8, n_workers=2)
+    batch = simulate_batch(problems, t, rtol=1e-8, n_workers=2)
     assert batch.ok.all()
     for j, p in enumerate(problems):
         single = simulate(p, t_out=t, rtol=1e-8)
@@ -75,21 +77,21 @@ def test_batch_equals_loop_of_simulate(gains):
 def test_batch_does_not_depend_on_workers_or_order():
     problems = _random_problems(theorem_gains(J, 3.0), 5, seed=9)
     t = np.linspace(0.0, 0.5, 6)
-    a = mc.simulate_batch(problems, t, rtol=1e-7, n_workers=1)
-    b = mc.simulate_batch(problems[::-1], t, rtol=1e-7, n_workers=3)
+    a = simulate_batch(problems, t, rtol=1e-7, n_workers=1)
+    b = simulate_batch(problems[::-1], t, rtol=1e-7, n_workers=3)
     np.testing.assert_array_equal(a.Y, b.Y[::-1])
 
 
 def test_batch_rejects_mixed_gains_and_bad_arguments():
     p = _random_problems(theorem_gains(J, 3.0), 1, 0) + _random_problems(ObserverGains.constant(1.0, 1.0), 1, 0)
     with pytest.raises(ValueError, match="problem 1 has another J, gains or references"):
-        mc.simulate_batch(p, [0.0, 1.0])
+        simulate_batch(p, [0.0, 1.0])
     with pytest.raises(ValueError, match="at least one problem"):
-        mc.simulate_batch([], [0.0, 1.0])
+        simulate_batch([], [0.0, 1.0])
     with pytest.raises(ValueError, match="t_out must start at 0"):
-        mc.simulate_batch(p[:1], [0.5, 1.0])
+        simulate_batch(p[:1], [0.5, 1.0])
     with pytest.raises(ValueError, match="n_workers must be at least 1; got 0"):
-        mc.simulate_batch(p[:1], [0.0, 1.0], n_workers=0)
+        simulate_batch(p[:1], [0.0, 1.0], n_workers=0)
 
 
 def test_run_seed_is_the_spawned_child():
@@ -143,7 +145,7 @@ def test_draws_follow_the_recipe_run_by_run():
         gains={"three": ObserverGains.constant(5.0, 2.0, n=3)},
     )
     indices = [0, 3, 17, 39, 38, 5]
-    got = mc._draw_runs(c, indices)
+    got = draw_runs(c, indices)
     for row, j in enumerate(indices):
         want = _draw_one(c, j)
         for key, value in want.items():
@@ -192,7 +194,7 @@ def test_run_chunk_equals_drawing_each_problem_per_gain_set():
         steps = []
         for name in gains:
             problems = [mc.draw_problem(c, j, name) for j in range(start, stop)]
-            batch = mc.simulate_batch(problems, c.t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max, max_steps=c.max_steps)
+            batch = simulate_batch(problems, c.t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max, max_steps=c.max_steps)
             want = mc.diagnose(c, batch, np.arange(start, stop))
             for f in dataclasses.fields(mc.GainSetResult):
                 a, b = getattr(got[name], f.name), getattr(want, f.name)
@@ -224,11 +226,10 @@ def test_compiled_diagnose_equals_numpy_reference():
         max_steps=2100,
     )
     indices = np.arange(c.runs)
-    runs = mc._draw_runs(c, indices)
     seen = dict.fromkeys(["failed", "out of bound", "floor reached", "floor not reached", "V increased"], 0)
     for name, g in gains.items():
-        inputs = mc._kernel_inputs(c.J, c.references, g, runs, c.h_max)
-        batch = mc._run_kernel(inputs, c.t_out, c.rtol, c.atol, c.h_max, c.max_steps, None, True)
+        problems = [mc.draw_problem(c, j, name) for j in indices]
+        batch = simulate_batch(problems, c.t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max, max_steps=c.max_steps)
         if name == "slope":
             Y = batch.Y.copy()
             Y[0, 7, 9] = np.nan  # z of run 0 (ok for the kernel): ok becomes False
@@ -236,7 +237,7 @@ def test_compiled_diagnose_equals_numpy_reference():
             Y[1, [0, 1, -1], 6] = np.nan  # ω of run 1 only: it stays ok, its peak is the largest finite |ω|
             Y[2, :, 9:] = 0.0  # z = e = 0: E(0) = 0, ρ = NaN
             batch = dataclasses.replace(batch, Y=Y)
-        want = mc._diagnose_numpy(c, batch, indices)
+        want = diagnose_reference(c, batch, indices)
         for parallel in (True, False):
             got = mc.diagnose(c, batch, indices, parallel=parallel)
             for f in dataclasses.fields(mc.GainSetResult):

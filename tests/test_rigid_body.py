@@ -12,7 +12,8 @@ from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
 from omegahat import so3
-from omegahat.simulation.rigid_body import RigidBody, Torque, as_torque, cf4_step, integrate
+from omegahat.simulation.rigid_body import RigidBody, cf4_step, integrate
+from omegahat.simulation.torque import Torque, as_torque
 from omegahat.simulation.sensors import directions, noisy_attitudes, noisy_directions
 
 PAPER_J = [3.0, 2.0, 1.0]

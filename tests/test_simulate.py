@@ -5,13 +5,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from omegahat.observer.gains import ObserverGains, theorem_gains
-from omegahat.simulation.coupled import (
-    CoupledProblem,
-    SinusoidalTorque,
-    paper_problem,
-    simulate,
-    simulate_reference,
-)
+from omegahat.simulation import CoupledProblem, Torque, paper_problem, simulate, simulate_reference
 
 
 def _relative(a, b):
@@ -51,7 +45,7 @@ def test_known_torque_and_three_general_directions_match_reference():
     Q = Rotation.random(random_state=rng).as_matrix()
     J = Q @ np.diag([1.5, 2.0, 3.5]) @ Q.T
     refs = np.array([[1.0, 0.2, 0.0], [0.3, 1.0, 0.5], [0.0, 0.4, 1.0]])
-    torque = SinusoidalTorque(
+    torque = Torque.sinusoidal(
         constant=[0.1, -0.2, 0.05],
         amplitudes=[[0.5, 0.2, -0.3], [0.1, 0.1, 0.4]],
         frequencies=[1.3, 4.0],
@@ -115,8 +109,12 @@ def test_bad_arguments_are_named():
         simulate(p, horizon=-1.0)
     with pytest.raises(ValueError, match="t_out must start at 0"):
         simulate(p, t_out=[0.0, 1.0, 0.5])
-    with pytest.raises(TypeError, match="SinusoidalTorque"):
+    with pytest.raises(TypeError, match=r"wrap it as Torque.of_time\(f\)"):
         CoupledProblem(J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], torque=lambda t: t)
+    with pytest.raises(TypeError, match="the compiled engine needs a torque given as data"):
+        CoupledProblem(
+            J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], torque=Torque.of_time(np.sin)
+        )
     with pytest.raises(ValueError, match="2 gains were given for 3 reference directions"):
         CoupledProblem(J=np.eye(3), gains=ObserverGains.constant(1.0, 1.0), omega0=[0, 0, 1], references=np.eye(3))
     with pytest.raises(ValueError, match="J must be positive definite"):
@@ -126,7 +124,7 @@ def test_bad_arguments_are_named():
 
 
 def test_sinusoidal_torque_evaluates_its_formula():
-    tq = SinusoidalTorque(constant=[1.0, 0, 0], amplitudes=[[0, 2.0, 0]], frequencies=[3.0], phases=[[0, 0.5, 0]])
+    tq = Torque.sinusoidal(constant=[1.0, 0, 0], amplitudes=[[0, 2.0, 0]], frequencies=[3.0], phases=[[0, 0.5, 0]])
     t = np.array([0.0, 0.7])
     expected = np.stack([np.ones(2), 2.0 * np.sin(3.0 * t + 0.5), np.zeros(2)], axis=1)
     np.testing.assert_allclose(tq(t), expected, atol=1e-15)

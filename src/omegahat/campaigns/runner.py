@@ -15,6 +15,7 @@ from omegahat.campaigns.diagnostics import GainSetResult, result_from_diagnostic
 from omegahat.campaigns.draws import draw_runs
 from omegahat.simulation.engine import LANES, RunSet, StepControl, integrate_envelopes
 from omegahat.simulation.problem import first_step, initial_states, model_of
+from omegahat.validation import as_directions, as_inertia
 
 __all__ = ["chunks", "merge", "run_campaign", "run_chunk"]
 
@@ -32,7 +33,10 @@ def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) 
         raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")
     indices = np.arange(start, stop)
     d = draw_runs(campaign, indices)  # once per run, whatever the number of gain sets
-    y0 = initial_states(campaign.references, d["R0"], d["omega0"], d["omega_hat0"], d["r_hat0"])
+    # J and the references as a CoupledProblem stores them (normalising twice may move a last bit): each run is then
+    # what draw_problem and simulate give for it
+    J, references = as_inertia(campaign.J), as_directions(campaign.references)
+    y0 = initial_states(references, d["R0"], d["omega0"], d["omega_hat0"], d["r_hat0"])
     control = StepControl(campaign.rtol, campaign.atol, campaign.h_max, campaign.max_steps)
     results = {}
     for name, gains in campaign.gains.items():
@@ -41,7 +45,7 @@ def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) 
             d["phases"],
         )  # fmt: skip
         out = integrate_envelopes(
-            model_of(campaign.J, gains), runs, campaign.t_out, control, campaign.rho_floor, numba.get_num_threads(),
+            model_of(J, gains), runs, campaign.t_out, control, campaign.rho_floor, numba.get_num_threads(),
             LANES, parallel,
         )  # fmt: skip
         results[name] = result_from_diagnostics(
