@@ -57,7 +57,7 @@ import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from omegahat import so3
+from omegahat import measurements as ms
 from omegahat.kernels.expfn import exp_kernel
 from omegahat.observer import continuous as sarras
 from omegahat.observer.gains import ObserverGains, theorem_gains
@@ -155,9 +155,7 @@ class CoupledProblem:
         refs = as_directions(np.eye(3)[: self.gains.n] if self.references is None else self.references)
         if refs.shape[0] != self.gains.n:
             raise ValueError(f"{self.gains.n} gains were given for {refs.shape[0]} reference directions")
-        R0 = so3.as_matrix(self.R0)
-        if R0.shape != (3, 3) or not so3.is_rotation(R0, tol=1e-9):
-            raise ValueError(f"R0 must be a rotation; got {R0!r}")
+        R0 = ms.as_rotation(self.R0, "R0")  # a problem definition: a rotation to rounding (measurements, policy P)
         r0 = refs @ R0  # r_i = R0ᵀ v_i, stacked as rows
         r_hat0 = r0.copy() if self.r_hat0 is None else np.asarray(self.r_hat0, dtype=float)
         if r_hat0.shape != r0.shape or not np.all(np.isfinite(r_hat0)):
