@@ -73,6 +73,7 @@ from omegahat.kernels.checks import (
     check_torque,
     convert_sample,
 )
+from omegahat.validation import as_directions, as_positive
 
 __all__ = [
     "COLLINEAR",
@@ -116,6 +117,7 @@ __all__ = [
     "rejection_error",
     "sample_array",
     "times_array",
+    "tolerances",
     "torque_vector",
     "torques_array",
 ]
@@ -232,8 +234,6 @@ def _raise_first(first_bad, status, info, batch):
 
 def as_references(references, n_default: int = 3) -> np.ndarray:
     """Inertial reference directions ``(n, 3)``, normalised; default the first ``n_default`` axes (rows of R)."""
-    from omegahat.validation import as_directions
-
     if references is None:
         return np.eye(3)[:n_default].copy()
     return np.ascontiguousarray(as_directions(references, name="references"))
@@ -281,6 +281,11 @@ def log_array(measurements, T: int, n: int | None = None) -> tuple[np.ndarray, i
         return np.ascontiguousarray(m), KIND_DIRECTIONS
     want = "(T, 3, 3) or (T, 4)" if n is None else f"(T, {n}, 3)"
     raise ValueError(f"measurements must have shape {want} with T = {T} samples; got shape {m.shape}")
+
+
+def tolerances(rotation_tol: float, quat_norm_tol: float) -> tuple[float, float]:
+    """An estimator's ``(rotation_tol, quat_norm_tol)`` (P), checked positive and finite."""
+    return float(as_positive(rotation_tol, "rotation_tol")[0]), float(as_positive(quat_norm_tol, "quat_norm_tol")[0])
 
 
 def times_array(times) -> np.ndarray:
@@ -406,10 +411,17 @@ def checked_sample(
 
 
 def as_rotation(
-    attitude, name: str = "R0", *, scalar_first: bool = False, tol: float = PROBLEM_ROTATION_TOL
+    attitude,
+    name: str = "R0",
+    *,
+    scalar_first: bool = False,
+    rotation_tol: float = PROBLEM_ROTATION_TOL,
+    quat_norm_tol: float = PROBLEM_ROTATION_TOL,
 ) -> np.ndarray:
-    """A problem definition's attitude (matrix, quaternion or Rotation) as a rotation matrix ``(3, 3)``, checked by
-    the same (M1)/(M2) with the tolerance ``tol`` (default :data:`PROBLEM_ROTATION_TOL`: a rotation to rounding)."""
+    """One attitude given as a setting, not a sample (a matrix, a quaternion or a Rotation), as a rotation matrix
+    ``(3, 3)``, checked by the same (M1)/(M2). Defaults :data:`PROBLEM_ROTATION_TOL`: a problem definition's
+    attitude (a simulation's ``R0``) must be a rotation to rounding; an estimator's initial attitude is checked
+    with the estimator's own tolerances."""
     m = np.ascontiguousarray(attitude.as_matrix() if isinstance(attitude, Rotation) else attitude, dtype=float)
     if m.shape not in ((3, 3), (4,)):
         raise ValueError(
@@ -417,19 +429,15 @@ def as_rotation(
         )
     kind = KIND_MATRIX if m.shape == (3, 3) else KIND_QUAT
     R = np.empty((3, 3))
-    status, info = convert_sample(m.reshape(-1, m.shape[-1]), kind, np.eye(3), scalar_first, tol, tol, 0.0, R, R.copy())
+    status, info = convert_sample(
+        m.reshape(-1, m.shape[-1]), kind, np.eye(3), scalar_first, rotation_tol, quat_norm_tol, 0.0, R, R.copy()
+    )
     if status == MISSING:
         raise ValueError(f"{name} must be finite; got {m.tolist()}")
     if status == NOT_ORTHOGONAL:
-        raise ValueError(
-            f"{name} must be a rotation matrix to rounding: ‖RᵀR − I‖_F = {info:.3g} exceeds {tol:g} "
-            "(PROBLEM_ROTATION_TOL)"
-        )
+        raise ValueError(f"{name} is not a rotation matrix: ‖RᵀR − I‖_F = {info:.3g} exceeds {rotation_tol:g}")
     if status == QUAT_NORM:
-        raise ValueError(
-            f"{name} must be a unit quaternion to rounding: ‖q‖ = {info:.6g}, |‖q‖ − 1| exceeds {tol:g} "
-            "(PROBLEM_ROTATION_TOL)"
-        )
+        raise ValueError(f"{name} is not a unit quaternion: ‖q‖ = {info:.6g}, |‖q‖ − 1| exceeds {quat_norm_tol:g}")
     if status != OK:
         raise rejection_error(status, info, name)
     return m.copy() if kind == KIND_MATRIX else R
