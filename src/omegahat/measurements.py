@@ -319,11 +319,22 @@ def torques_array(torques, T: int) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ the checks
 
 
+def _previous(t_prev: float | None) -> float:
+    return np.nan if t_prev is None else float(t_prev)
+
+
+def _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg) -> tuple:
+    """The converter's ``(V, scalar_first, rotation_tol, quat_norm_tol, min_sin)`` for attitudes (``n`` None;
+    ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape)."""
+    V = np.eye(3) if n is None else np.zeros((n, 3))
+    return V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), float(np.sin(np.radians(min_angle_deg)))
+
+
 def checked_times(times, *, t_prev: float | None = None, where: str = "sample {j}") -> np.ndarray:
     """Sample times ``(T,)`` through (T) alone, each after the one before (the first after ``t_prev``, None: no
     previous time); a rejected time raises :class:`MeasurementError` naming it as ``where.format(j=j)``."""
     t = times_array(times)
-    first_bad, status, info = check_times(t, np.nan if t_prev is None else float(t_prev))
+    first_bad, status, info = check_times(t, _previous(t_prev))
     if first_bad >= 0:
         raise rejection_error(status, info, where.format(j=first_bad), float(t[first_bad]))
     return t
@@ -352,20 +363,8 @@ def checked_log(
     n = None if references is None else as_references(references).shape[0]
     m, kind = log_array(measurements, t.size, n)
     taus = torques_array(torques, t.size)
-    V = np.eye(3) if n is None else np.zeros((n, 3))  # with V = I the directions are the rows of R: R itself
-    r, status, first_bad, info = check_batch(
-        t,
-        np.nan if t_prev is None else float(t_prev),
-        taus,
-        True,
-        m,
-        kind,
-        V,
-        bool(scalar_first),
-        float(rotation_tol),
-        float(quat_norm_tol),
-        float(np.sin(np.radians(min_angle_deg))),
-    )
+    conversion = _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    r, status, first_bad, info = check_batch(t, _previous(t_prev), taus, True, m, kind, *conversion)
     if first_bad >= 0:
         raise rejection_error(int(status[first_bad]), float(info), f"sample {first_bad}", float(t[first_bad]))
     return CheckedLog(t, r, taus, status)
@@ -389,20 +388,8 @@ def checked_sample(
     m, kind = sample_array(measurement, n)
     tau = torque_vector(torque)
     r = np.full((3 if n is None else n, 3), np.nan)
-    status, info = check_sample(
-        float(t),
-        np.nan if t_prev is None else float(t_prev),
-        tau,
-        m,
-        kind,
-        np.eye(3) if n is None else np.zeros((n, 3)),
-        bool(scalar_first),
-        float(rotation_tol),
-        float(quat_norm_tol),
-        float(np.sin(np.radians(min_angle_deg))),
-        r,
-        np.empty((3, 3)),
-    )
+    conversion = _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    status, info = check_sample(float(t), _previous(t_prev), tau, m, kind, *conversion, r, np.empty((3, 3)))
     if status >= ERROR:
         raise rejection_error(status, info, "the sample", t)
     if status != OK:

@@ -3,13 +3,13 @@ r"""Monte-Carlo campaigns: many independent plant + observer runs, and what they
 **Batch engine.** :func:`simulate_batch` integrates ``N`` coupled problems (same body, references and gains;
 own initial conditions and torque) with :func:`omegahat.simulation.engine.integrate_coupled_lanes`: each of Numba's
 threads steps its share of the runs 24 at a time in lockstep (SIMD), each run with its own step sizes and
-performing exactly the operations of the single-run kernel :func:`omegahat.simulation.coupled.integrate_coupled`, so every
-run is bit-for-bit what :func:`omegahat.simulation.coupled.simulate` gives for it, whatever the batch or chunk it sits in.
-The per-run diagnostics below (:mod:`omegahat.campaigns.diagnostics`) are one compiled pass over a batch's states
-(:func:`diagnose`; ``_diagnose_numpy`` is their NumPy reference); a campaign (:func:`run_chunk`) has the kernel take
-them run by run as runs end (:func:`omegahat.simulation.engine.integrate_diagnosed_lanes`), the same numbers without
-holding every run's states. A run's generator comes from :mod:`omegahat.campaigns.seeds` (SeedSequence's states for all
-runs of a chunk at once) and its draws are combined for all runs at once.
+performing exactly the operations of the single-run kernel :func:`omegahat.simulation.coupled.integrate_coupled`, so
+every run is bit-for-bit what :func:`omegahat.simulation.coupled.simulate` gives for it, whatever the batch or chunk
+it sits in. The per-run diagnostics below (:mod:`omegahat.campaigns.diagnostics`) are one compiled pass over a batch's
+states (:func:`diagnose`; ``_diagnose_numpy`` is their NumPy reference); a campaign (:func:`run_chunk`) has the kernel
+take them run by run as runs end (:func:`omegahat.simulation.engine.integrate_diagnosed_lanes`), the same numbers
+without holding every run's states. A run's generator comes from :mod:`omegahat.campaigns.seeds` (SeedSequence's
+states for all runs of a chunk at once) and its draws are combined for all runs at once.
 
 **Seeds.** Run ``j`` of a campaign with seed ``s`` draws everything from
 ``numpy.random.default_rng(SeedSequence(s, spawn_key=(j,)))``: the ``j``-th child of
@@ -26,8 +26,8 @@ globally exponentially, and the proof's ``V = |J z| + ½ Σ |e_i|²`` decreases.
   in the ball of radius ``r_hat_radius``;
 * ω̂₀ with a uniform direction and ``|ω̂₀|`` uniform in ``[0, omega_hat_max]`` (uniform in magnitude, not in
   volume, so small and large initial errors are equally represented);
-* a torque ``Σ_j a_j ∘ sin(ν_j t + φ_j)`` (:class:`~omegahat.simulation.coupled.SinusoidalTorque`, no constant term) with
-  ``a_j`` uniform in ``[−amplitude, amplitude]³``, ν_j uniform in ``frequency``, φ_j uniform in ``[0, 2π)``.
+* a torque ``Σ_j a_j ∘ sin(ν_j t + φ_j)`` (:class:`~omegahat.simulation.coupled.SinusoidalTorque`, no constant term)
+  with ``a_j`` uniform in ``[−amplitude, amplitude]³``, ν_j uniform in ``frequency``, φ_j uniform in ``[0, 2π)``.
 
 A run whose ``|ω|`` exceeds ω_M at an output time breaks the assumption: it is counted and **set aside**.
 
@@ -129,8 +129,8 @@ class BatchResult:
 def _kernel_inputs(J, references, gains, runs: dict, h_max):
     # The kernel's inputs packed from stacked runs (the arrays of _draw_runs: R0, omega0, r_hat0, omega_hat0 and
     # the torque's constant, amplitudes, frequencies, phases, padded to a common number of terms). Y0 is
-    # omegahat.simulation.coupled.initial_state and h0 the first step of omegahat.simulation.coupled.simulate, row by row with the
-    # same floating-point operations, so each run is what simulate gives for it.
+    # omegahat.simulation.coupled.initial_state and h0 the first step of omegahat.simulation.coupled.simulate, row by
+    # row with the same floating-point operations, so each run is what simulate gives for it.
     omega0, omega_hat0 = runs["omega0"], runs["omega_hat0"]
     N = omega0.shape[0]
     r0 = references @ runs["R0"]  # (N, n, 3): r_i = R0ᵀ v_i of each run
@@ -170,8 +170,9 @@ def kernel_inputs(problems, h_max: float = 0.05):
     """The batch kernels' inputs for ``problems`` (sharing J, gains and references): ``(Y0, body, torque, h0)``
     with ``body = (n, J, J⁻¹, k, l_offset, l_slope)`` and ``torque = (constant, amplitudes, frequencies,
     phases)`` stacked over runs (padded to a common number of terms), for
-    :func:`omegahat.simulation.engine.integrate_coupled_lanes` or :func:`omegahat.simulation.coupled.integrate_coupled_batch`
-    as ``kernel(Y0, t_out, *body, *torque, rtol, atol, h0, h_max, max_steps, n_workers)``."""
+    :func:`omegahat.simulation.engine.integrate_coupled_lanes` or
+    :func:`omegahat.simulation.coupled.integrate_coupled_batch` as ``kernel(Y0, t_out, *body, *torque, rtol, atol, h0,
+    h_max, max_steps, n_workers)``."""
     problems = list(problems)
     if not problems:
         raise ValueError("a batch needs at least one problem")
@@ -446,9 +447,9 @@ class GainSetResult:
 
 def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = True) -> GainSetResult:
     """Envelope, V and ω-bound diagnostics of a batch (module docstring): one compiled pass over ``batch.Y``,
-    run by run (:func:`omegahat.campaigns.diagnostics.diagnose_runs`; Numba threads if ``parallel``, ``parallel=False`` stays
-    on the calling thread, as in :func:`simulate_batch`). Its numbers are those of the NumPy reference
-    :func:`_diagnose_numpy` to the last bit but for ``exp``, ``log`` and a non-diagonal ``J z``. A campaign
+    run by run (:func:`omegahat.campaigns.diagnostics.diagnose_runs`; Numba threads if ``parallel``,
+    ``parallel=False`` stays on the calling thread, as in :func:`simulate_batch`). Its numbers are those of the NumPy
+    reference :func:`_diagnose_numpy` to the last bit but for ``exp``, ``log`` and a non-diagonal ``J z``. A campaign
     (:func:`run_chunk`) takes the same diagnostics inside the kernel, run by run as runs end."""
     Y = np.ascontiguousarray(batch.Y, dtype=float)
     t = np.ascontiguousarray(batch.t, dtype=float)

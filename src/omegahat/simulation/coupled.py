@@ -134,7 +134,8 @@ def _as_torque(torque) -> SinusoidalTorque:
 class CoupledProblem:
     """A rigid body, its measured directions and the observer, with initial conditions.
 
-    * ``J`` inertia (3×3 SPD, or 3 numbers for a diagonal); ``gains`` an :class:`~omegahat.observer.gains.ObserverGains`;
+    * ``J`` inertia (3×3 SPD, or 3 numbers for a diagonal); ``gains`` an
+      :class:`~omegahat.observer.gains.ObserverGains`;
     * ``references`` the known inertial directions ``v_i`` ``(n, 3)`` (default: the first two rows of R);
     * ``R0`` initial attitude (body → inertial; matrix, quaternion or ``Rotation``), ``omega0`` initial rate;
     * ``r_hat0`` initial filter states ``(n, 3)`` (default: the true directions), ``omega_hat0`` initial estimate;

@@ -15,17 +15,17 @@ the lanes outermost and the components inside (see ``docs/DEVELOPING.md``).
 **Two outputs.** A lane writes its run's states at the output times into its own rows of the worker (``stage``,
 in cache); when the run ends they are copied to the run's row of ``Y``
 (:func:`integrate_coupled_lanes`), or a campaign's diagnostics are taken from them on the spot
-(:func:`integrate_diagnosed_lanes`, :func:`omegahat.campaigns.diagnostics.diagnose_run`), so that a campaign never holds more
-than the states of the runs in flight. Both are one compiled kernel (the choice is a run-time flag read when a
-run ends).
+(:func:`integrate_diagnosed_lanes`, :func:`omegahat.campaigns.diagnostics.diagnose_run`), so that a campaign never
+holds more than the states of the runs in flight. Both are one compiled kernel (the choice is a run-time flag read
+when a run ends).
 
 **Same numbers as the single-run kernel.** For its run, a lane performs exactly the operations of
-:func:`~omegahat.simulation.coupled.integrate_coupled`, in the same order: no fast-math (so no reassociation and no fused
-multiply-adds), the small-angle sin and cos by the same polynomial
-(:func:`omegahat.simulation.coupled._sin_cos_small`), the φ-functions by the same routines. A run's result is therefore the
-same bits whichever lane, worker, batch or chunk it lands in (``tests/test_batch_kernel.py`` checks equality
-with the single-run kernel). Two consequences of the layout: a lane whose run has ended and whose queue is empty
-keeps stepping on its last state with ``h = 0`` (its results are discarded), and the initial right-hand side of a
+:func:`~omegahat.simulation.coupled.integrate_coupled`, in the same order: no fast-math (so no reassociation and no
+fused multiply-adds), the small-angle sin and cos by the same polynomial
+(:func:`omegahat.simulation.coupled._sin_cos_small`), the φ-functions by the same routines. A run's result is
+therefore the same bits whichever lane, worker, batch or chunk it lands in (``tests/test_batch_kernel.py`` checks
+equality with the single-run kernel). Two consequences of the layout: a lane whose run has ended and whose queue is
+empty keeps stepping on its last state with ``h = 0`` (its results are discarded), and the initial right-hand side of a
 new run is evaluated for all lanes at once and kept for the new lane only.
 
 **Identical results everywhere.** No fused multiply-adds also means the bits do not depend on whether the CPU
@@ -150,7 +150,8 @@ def _nonlinear_lanes(S, n, J, Jinv, k, l_off, l_slope, ry, rlf, rtau, rdy):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def _frozen_rates_lanes(S, n, l_off, l_slope, ry, rout):
-    """:func:`omegahat.simulation.coupled._frozen_rates` for every lane: row ``rout + i`` = l_i(ω̂) at the state rows ``ry..``."""
+    """:func:`omegahat.simulation.coupled._frozen_rates` for every lane: row ``rout + i`` = l_i(ω̂) at the state rows
+    ``ry..``."""
     iw = ry + 3 * n
     for w in range(LANES):
         wh0 = S[iw, w] + S[iw + 3, w]
@@ -366,8 +367,8 @@ def _lanes_worker(
     """Integrate the runs ``runs`` (indices into Y0, tc, …) in lockstep on ``LANES`` lanes. A lane writes its
     run's states into its own rows ``stage[w]`` (the worker's, in cache), and when the run ends they go to
     ``Y[run]`` (a failed run's rows from the failure on NaN), or, if ``diagnose``, only their diagnostics
-    (:func:`omegahat.campaigns.diagnostics.diagnose_run`: ``rho[run]``, ``dout[:, run]``, ``ok[run]``, with ``rho_floor``);
-    ``accepted[run]``, ``rejected[run]`` either way."""
+    (:func:`omegahat.campaigns.diagnostics.diagnose_run`: ``rho[run]``, ``dout[:, run]``, ``ok[run]``, with
+    ``rho_floor``); ``accepted[run]``, ``rejected[run]`` either way."""
     m = 6 * n + 6
     T = t_out.shape[0]
     ie = 3 * n + 6
@@ -873,9 +874,9 @@ def integrate_diagnosed_lanes(
     parallel=True,
 ):
     """:func:`integrate_coupled_lanes` for a campaign: instead of the states, each run's diagnostics
-    (:func:`omegahat.campaigns.diagnostics.diagnose_run` with ``rho_floor``, J the body's inertia), taken by the worker as soon
-    as the run ends, from its states still in cache. Returns ``(rho (N, T), out (6, N), ok (N,), accepted (N,),
-    rejected (N,))``, the numbers :func:`omegahat.campaigns.diagnostics.diagnose_runs` gives on
+    (:func:`omegahat.campaigns.diagnostics.diagnose_run` with ``rho_floor``, J the body's inertia), taken by the
+    worker as soon as the run ends, from its states still in cache. Returns ``(rho (N, T), out (6, N), ok (N,),
+    accepted (N,), rejected (N,))``, the numbers :func:`omegahat.campaigns.diagnostics.diagnose_runs` gives on
     :func:`integrate_coupled_lanes`' states, while only the states of the runs in flight are ever held (a chunk
     of 1024 runs of 401 output times would need 59 MB)."""
     head, N, T, M = _inputs(Y0, t_out, n, J, Jinv, k, l_off, l_slope, tc, ta, tf, tp, rtol, atol, h0, h_max, max_steps)
