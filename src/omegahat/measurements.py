@@ -128,6 +128,10 @@ MIN_ANGLE_DEG = 1.0  #: (M3) default: measured directions closer to collinear th
 PROBLEM_ROTATION_TOL = 1e-9  #: (P) bound for problem definitions (initial attitudes of simulations), matrix and quat
 
 
+_ZERO3 = np.zeros(3)
+_ZERO3.flags.writeable = False
+
+
 class MeasurementError(ValueError):
     """A sample that is present but invalid (not a rotation, a time going backwards, ...)."""
 
@@ -297,9 +301,10 @@ def times_array(times) -> np.ndarray:
 
 
 def torque_vector(torque) -> np.ndarray:
-    """The torque of one sample ``(3,)`` (None: zero), shape checked (values by :func:`check_torque`)."""
+    """The torque of one sample ``(3,)`` (None: a shared read-only zero), shape checked (values by
+    :func:`check_torque`)."""
     if torque is None:
-        return np.zeros(3)
+        return _ZERO3
     tau = np.ascontiguousarray(torque, dtype=float)
     if tau.shape != (3,):
         raise ValueError(f"torque must be a 3-vector; got shape {tau.shape}")

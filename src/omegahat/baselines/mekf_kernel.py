@@ -38,7 +38,7 @@ from omegahat.kernels.rotation import (
     store,
     wahba,
 )
-from omegahat.kernels.vec3 import mat3, matvec
+from omegahat.kernels.vec3 import mat3, matvec, matvec_transposed
 
 __all__ = ["attitude_fix", "nominal_step", "process_model", "propagate", "run_log", "update", "van_loan", "vector_fix"]
 
@@ -144,10 +144,11 @@ def vector_fix(R, b, references):
     n = references.shape[0]
     z = np.empty(3 * n)
     H = np.zeros((3 * n, 6))
+    M = mat3(R)
     bh = np.empty(3)
     for r in range(n):
-        for c in range(3):  # b̂ = R̂ᵀ v_r
-            bh[c] = references[r, 0] * R[0, c] + references[r, 1] * R[1, c] + references[r, 2] * R[2, c]
+        bh[0], bh[1], bh[2] = matvec_transposed(M, references[r, 0], references[r, 1], references[r, 2])  # R̂ᵀ v_r
+        for c in range(3):
             z[3 * r + c] = b[r, c] - bh[c]
         B = hat(bh)
         for c in range(3):

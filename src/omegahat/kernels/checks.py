@@ -21,7 +21,7 @@ import numba
 import numpy as np
 
 from omegahat.kernels import rotation as rot
-from omegahat.kernels.vec3 import cross, norm
+from omegahat.kernels.vec3 import cross, mat3, matvec_transposed, norm
 
 __all__ = [
     "COLLINEAR",
@@ -106,9 +106,9 @@ def _quat_matrix(q, scalar_first, tol, R):
 @numba.njit(cache=True)
 def _rows_from_matrix(V, R, r):
     """``r = V R``: row i is ``Rᵀ v_i``."""
+    M = mat3(R)
     for i in range(V.shape[0]):
-        for c in range(3):
-            r[i, c] = V[i, 0] * R[0, c] + V[i, 1] * R[1, c] + V[i, 2] * R[2, c]
+        r[i, 0], r[i, 1], r[i, 2] = matvec_transposed(M, V[i, 0], V[i, 1], V[i, 2])
 
 
 @numba.njit(cache=True)
