@@ -128,7 +128,7 @@ def log_difference(
     return _hold_skipped(est, valid, scheme)
 
 
-def lowpass_reference(x, times, cutoff_hz) -> np.ndarray:
+def lowpass_reference(x, times, cutoff_hz: float) -> np.ndarray:
     """(LP) on rows of ``x`` ``(T, 3)``, a plain loop: the readable oracle :func:`lowpass` is tested against. NaN
     rows pass through as NaN and leave the filter state unchanged; the state starts at the first finite row."""
     y = np.full_like(x, np.nan)
@@ -169,7 +169,7 @@ def _lowpass_kernel(x, times, cutoff_hz):  # pragma: no cover - compiled; tested
     return y
 
 
-def lowpass(x, times, cutoff_hz) -> np.ndarray:
+def lowpass(x, times, cutoff_hz: float) -> np.ndarray:
     """Causal first-order low-pass (LP) of a sampled vector signal ``x`` ``(T, 3)`` at ``times`` ``(T,)``.
 
     The filter's time of row k is ``times[k]``; NaN rows give NaN and are ignored by the filter.

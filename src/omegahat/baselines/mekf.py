@@ -80,7 +80,7 @@ def _hat(v) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def process_jacobian(omega_hat, J, J_inv, model):
+def process_jacobian(omega_hat, J, J_inv, model: str) -> tuple[np.ndarray, np.ndarray]:
     """F and G of (E3), shapes ``(6, 6)`` and ``(6, 3)``."""
     F = np.zeros((6, 6))
     G = np.zeros((6, 3))
@@ -94,7 +94,7 @@ def process_jacobian(omega_hat, J, J_inv, model):
     return F, G
 
 
-def expm_small(M):
+def expm_small(M) -> np.ndarray:
     """Matrix exponential by scaling and squaring with a degree-12 Taylor polynomial, in plain NumPy.
 
     Scaled so that ``‖M/2^s‖₁ ≤ 0.5``, where the truncation error is below ``0.5¹³/13! ≈ 2e-14`` relative.
@@ -116,7 +116,7 @@ def expm_small(M):
     return E
 
 
-def discretize(F, G, q, h):
+def discretize(F, G, q: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Van Loan (E4): transition Φ and process covariance Q_d over ``h`` for white noise of PSD ``q I``."""
     n = F.shape[0]
     M = np.zeros((2 * n, 2 * n))
@@ -129,7 +129,9 @@ def discretize(F, G, q, h):
     return Phi, 0.5 * (Qd + Qd.T)
 
 
-def propagate(R, omega, P, h, tau, body, q, model, max_step):
+def propagate(
+    R, omega, P, h: float, tau, body: RigidBody, q: float, model: str, max_step: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E4) over ``h`` seconds with the torque ``tau`` held; returns ``(R, omega, P)``.
 
     The nominal state of the dynamic model is advanced by :func:`omegahat.simulation.rigid_body.cf4_step` (RK4 for ω and
@@ -150,7 +152,7 @@ def propagate(R, omega, P, h, tau, body, q, model, max_step):
     return R, omega, 0.5 * (P + P.T)
 
 
-def attitude_innovation(R_hat, R_meas):
+def attitude_innovation(R_hat, R_meas) -> tuple[np.ndarray, np.ndarray]:
     """(E5): ``z = 2 dq_vec / dq_w`` of ``dq`` = quaternion of ``R̂ᵀ R_m`` (scalar ≥ 0), and ``H = [I, 0]``."""
     dq = Rotation.from_matrix(R_hat.T @ R_meas).as_quat(canonical=True)  # scalar last, w ≥ 0
     z = 2.0 * dq[:3] / dq[3]
@@ -158,7 +160,7 @@ def attitude_innovation(R_hat, R_meas):
     return z, H
 
 
-def vector_innovation(R_hat, b_meas, references):
+def vector_innovation(R_hat, b_meas, references) -> tuple[np.ndarray, np.ndarray]:
     """(E6): ``z = b − R̂ᵀ v`` stacked ``(3n,)`` and ``H`` ``(3n, 6)``."""
     b_hat = references @ R_hat  # rows: R̂ᵀ v_i
     z = (b_meas - b_hat).ravel()
@@ -168,7 +170,7 @@ def vector_innovation(R_hat, b_meas, references):
     return z, H
 
 
-def update(R, omega, P, z, H, meas_var):
+def update(R, omega, P, z, H, meas_var: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E7) then the reset (E8); returns ``(R, omega, P)``."""
     S = H @ P @ H.T + meas_var * np.eye(H.shape[0])
     K = np.linalg.solve(S, H @ P).T  # P Hᵀ S⁻¹ (S and P symmetric)

@@ -37,6 +37,7 @@ import csv
 import math
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import IO, TYPE_CHECKING
 
@@ -209,7 +210,9 @@ def _fmt(x, digits=3):
     return f"{x:.{digits}g}"
 
 
-def compare_scenario(sc, methods, duration: float | None = None) -> tuple[list[dict], np.ndarray, dict]:
+def compare_scenario(
+    sc: S.Scenario, methods: Sequence[Method], duration: float | None = None
+) -> tuple[list[dict], np.ndarray, dict[str, np.ndarray]]:
     """Tune (seed 1) and score (seed 2) every method on one scenario; returns rows and the scored errors."""
     if sc.real:
         # Real data has no seeds: tune on the first REAL_TUNING_SECONDS of another trial, score this one.
@@ -254,7 +257,7 @@ def compare_scenario(sc, methods, duration: float | None = None) -> tuple[list[d
     return rows, run.t, curves
 
 
-def plot_errors(sc, t, curves: dict) -> Figure:
+def plot_errors(sc: S.Scenario, t: np.ndarray, curves: dict[str, np.ndarray]) -> Figure:
     """|ω̂ − ω| against time for every method of a scenario (log scale), with the convergence tolerance."""
     from matplotlib.figure import Figure
 
@@ -285,7 +288,7 @@ COLUMNS = (
 )
 
 
-def markdown(rows: list[dict], methods) -> str:
+def markdown(rows: list[dict], methods: Sequence[Method]) -> str:
     """The results table, then the tuning procedure, every method's knob and grid, and the methods that diverged."""
     lines = [
         "| scenario | method | causal | tuned knob | first below tol. (s) | convergence (s) | steady RMS (rad/s) "
@@ -335,7 +338,7 @@ def write_cost_csv(f: IO[str], rows: list[dict]) -> None:
         w.writerow([r["scenario"], r["method"], f"{r['cost_us']:.6g}"])
 
 
-def unavailable(sc) -> str | None:
+def unavailable(sc: S.Scenario) -> str | None:
     """Why a scenario cannot be run here (a real-data scenario without its data or loader), or None."""
     if sc.real and not S.broad_data_dir().is_dir():
         return f"{sc.name}: data directory {S.broad_data_dir()} not found"
