@@ -1,7 +1,7 @@
 """Throughput of Monte-Carlo campaigns: the lockstep batch engine beside the per-run kernels.
 
-Unit: one **observer step** = one accepted step of the coupled integrator (``omegahat.simulation.coupled``): a trial that
-passed the error test and advanced plant + observer; it is one ETDRK4 step with its embedded error estimate and
+Unit: one **observer step** = one accepted step of the coupled integrator (``omegahat.simulation.coupled``): a trial
+that passed the error test and advanced plant + observer; it is one ETDRK4 step with its embedded error estimate and
 costs 4 evaluations of the right-hand side (three stages and the new point, which is also the next step's first
 stage; a rejected trial costs the same 4; one more per run at the start). Rejected trials are reported but not
 counted as steps. Also printed: right-hand-side evaluations/s. Steps/s alone flatters a scheme that takes more,

@@ -1,11 +1,12 @@
 """Gap between the sampled estimator and the continuous-time observer as the sample period h → 0 (issue 3.1).
 
-Run: ``python benchmarks/sampled_convergence.py``. The paper's scenario (:func:`omegahat.simulation.coupled.paper_problem`:
-J = diag(3, 2, 1), ω₀ = (2, −1, 0.6), two rows of R, r̂₀ = ((0,−1,0), (0,0,−1)), ω̂₀ = 0, theorem gains) is
-simulated once in continuous time (:func:`omegahat.simulation.coupled.simulate`, rtol 1e-10) with outputs on the finest
-sample grid; the sampled estimator is fed the exact directions at period h and its ω̂ is compared with the
-continuous observer's ω̂ at the same times. Printed: the gap at t = 0.5 s and 1 s, its maximum over (0, 2] s,
-and the order fitted by least squares on log(gap) vs log(h).
+Run: ``python benchmarks/sampled_convergence.py``. The paper's scenario
+(:func:`omegahat.simulation.coupled.paper_problem`: J = diag(3, 2, 1), ω₀ = (2, −1, 0.6), two rows of R, r̂₀ =
+((0,−1,0), (0,0,−1)), ω̂₀ = 0, theorem gains) is simulated once in continuous time
+(:func:`omegahat.simulation.coupled.simulate`, rtol 1e-10) with outputs on the finest sample grid; the sampled
+estimator is fed the exact directions at period h and its ω̂ is compared with the continuous observer's ω̂ at the same
+times. Printed: the gap at t = 0.5 s and 1 s, its maximum over (0, 2] s, and the order fitted by least squares on
+log(gap) vs log(h).
 
 ``--compare-phi1`` also runs, in plain NumPy, the exponential alternative to the implicit correction (C):
 ``ω̂ += (I − exp(−A)) A⁻¹ y`` with ``A = h J⁻¹ M_meas`` (exact for the linearised ``ż = −J⁻¹ M z``), on t ≤ 1 s.

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from omegahat.cli import main
-from omegahat.cli.paper import FIGURES, settling_time
+from omegahat.cli.paper import FIGURES
 from omegahat.simulation import paper_problem, simulate
 
 
@@ -40,10 +40,3 @@ def test_paper_command_rejects_a_bad_horizon(capsys):
         main(["paper", "--horizon", "-2"])
     assert exc.value.code == 2
     assert "expected a positive number, got '-2'" in capsys.readouterr().err
-
-
-def test_settling_time():
-    t = np.arange(6.0)
-    assert settling_time(t, np.array([5, 2, 1e-2, 1e-4, 1e-3, 1e-5]), 1e-3) == 5.0
-    assert settling_time(t, np.array([5, 2, 1e-2, 1e-4, 1e-4, 1e-5]), 1e-3) == 3.0
-    assert np.isnan(settling_time(t, np.ones(6), 1e-3))

@@ -1,28 +1,10 @@
 """``omegahat compare``: writes its files, is deterministic, and its metrics are what they say."""
 
 import csv
-import math
 
-import numpy as np
 import pytest
 
 from omegahat.cli import main
-from omegahat.cli.compare import convergence_time, first_below, steady_rms
-
-
-def test_convergence_time_and_steady_rms_on_hand_made_errors():
-    t = np.arange(10.0)
-    err = np.array([5.0, 3.0, 0.5, 2.0, 0.5, 0.4, 0.3, np.nan, 0.2, 0.1])
-    assert convergence_time(t, err, 1.0) == 4.0  # last excursion above 1 is at t = 3
-    assert first_below(t, err, 1.0) == 2.0  # ... but it first dips below at t = 2
-    assert first_below(t, err, 0.01) == math.inf
-    assert convergence_time(t, err, 10.0) == 0.0
-    assert convergence_time(t, np.full(10, 2.0), 1.0) == math.inf
-    assert convergence_time(t, np.r_[np.full(9, 0.5), 2.0], 1.0) == math.inf  # ends above: never settled
-    assert steady_rms(t, err, 8.0) == pytest.approx(np.sqrt((0.2**2 + 0.1**2) / 2))
-    diverged = np.r_[err[:5], np.full(5, np.inf)]  # NaN = no estimate, inf = a method that diverged
-    assert convergence_time(t, diverged, 1.0) == math.inf
-    assert steady_rms(t, diverged, 8.0) == math.inf
 
 
 def _run(tmp_path, name, capsys):

@@ -13,14 +13,6 @@ from omegahat.observer.gains import ObserverGains
 J = np.diag([3.0, 2.0, 1.0])
 
 
-def test_convergence_time_is_the_last_crossing():
-    t = np.arange(6.0)
-    assert gs.convergence_time(t, [5, 0.5, 2, 0.5, 0.1, 0.1], 1.0) == 3.0  # dips at t=1, settles at t=3
-    assert gs.convergence_time(t, [0.5] * 6, 1.0) == 0.0
-    assert gs.convergence_time(t, [0.5, 0.5, 0.5, 0.5, 0.5, 2.0], 1.0) == math.inf
-    assert gs.convergence_time(t, [0.5, np.nan, 0.5, 0.5, 0.5, 0.5], 1.0) == 2.0  # NaN counts as not settled
-
-
 def test_pareto_front_by_hand():
     times = [1.0, 2.0, 3.0, 2.0, 4.0, np.inf, 1.0]
     noise = [5.0, 3.0, 1.0, 4.0, 1.0, 0.1, 5.0]

@@ -33,6 +33,7 @@ def test_vec3_against_numpy():
         assert vec3.dot(*a, *b) == pytest.approx(a @ b, abs=1e-15)
         assert vec3.norm(*a) == pytest.approx(np.linalg.norm(a), rel=1e-15)
         assert np.allclose(vec3.matvec(vec3.mat3(M), *a), M @ a, rtol=1e-15, atol=1e-15)
+        assert np.allclose(vec3.matvec_transposed(vec3.mat3(M), *a), M.T @ a, rtol=1e-15, atol=1e-15)
         assert np.allclose(vec3.solve(vec3.mat3(M), *a), np.linalg.solve(M, a), rtol=1e-13, atol=1e-14)
 
 

@@ -14,6 +14,9 @@ from omegahat.measurements import (
     attitude_directions,
     attitude_matrices,
     body_directions,
+    checked_log,
+    checked_sample,
+    checked_times,
 )
 
 ROT = Rotation.random(12, random_state=3)
@@ -100,3 +103,47 @@ def test_body_directions_normalise_flag_collinear_and_reject_zero():
     assert body_directions(b[1], min_angle_deg=0.001).status == OK
     with pytest.raises(MeasurementError, match=r"sample 1: measured direction 0 has zero norm"):
         body_directions(np.array([[[1.0, 0, 0], [0, 1, 0]], [[0.0, 0, 0], [0, 1, 0]]]))
+
+
+def test_checked_log_reports_the_first_bad_sample_whatever_is_wrong_with_it():
+    times = np.array([0.0, 0.5, 0.25, 1.0])
+    R = ROT.as_matrix()[:4]
+    R[3] = -R[3]  # a reflection after the time going backwards: the time, at sample 2, is reported
+    with pytest.raises(MeasurementError, match=r"^sample 2: time t = 0.25 is not after the previous sample's t = 0.5"):
+        checked_log(times, R)
+    times[2] = 0.75
+    with pytest.raises(MeasurementError, match=r"^sample 3 \(t = 1.0\) is a reflection, not a rotation: det R = -1"):
+        checked_log(times, R)
+    # within one sample: time first, then the torque, then the measurement
+    with pytest.raises(MeasurementError, match=r"^the sample: time t = 0.5 is not after the previous sample's t = 1.0"):
+        checked_sample(0.5, -np.eye(3), [np.nan, 0, 0], t_prev=1.0)
+    with pytest.raises(MeasurementError, match=r"^the sample \(t = 2.0\): torque must be finite; got nan$"):
+        checked_sample(2.0, -np.eye(3), [np.nan, 0, 0], t_prev=1.0)
+
+
+def test_checked_log_continues_a_chunked_log_and_marks_skipped_samples():
+    q = ROT.as_quat()[:5]
+    q[1, 2] = np.nan
+    log = checked_log(np.arange(5.0), q, t_prev=-1.0)
+    assert list(log.status) == [OK, MISSING, OK, OK, OK] and list(log.valid) == [True, False, True, True, True]
+    assert np.isnan(log.values[1]).all()
+    np.testing.assert_allclose(log.values[[0, 2, 3, 4]], ROT[[0, 2, 3, 4]].as_matrix(), atol=1e-15)
+    np.testing.assert_array_equal(log.torques, np.zeros((5, 3)))
+    with pytest.raises(MeasurementError, match=r"^sample 0: time t = 0.0 is not after the previous sample's t = 0.0"):
+        checked_log(np.arange(5.0), q, t_prev=0.0)
+    b = np.array([[[0.0, 0.0, 9.8], [20.0, 0.0, -40.0]], [[0.0, 0.0, 9.8], [0.0, 1e-3, 5.0]]])
+    log = checked_log([0.0, 0.1], b, references=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    assert list(log.status) == [OK, COLLINEAR] and np.isnan(log.values[1]).all()
+    np.testing.assert_allclose(log.values[0, 1], np.array([1.0, 0, -2.0]) / np.sqrt(5), rtol=1e-15)
+    s = checked_sample(0.2, b[0], [1.0, 2.0, 3.0], references=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], t_prev=0.1)
+    assert s.status == OK and s.t == 0.2
+    np.testing.assert_array_equal(s.torque, [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(s.value, log.values[0])
+
+
+def test_checked_times_names_the_time():
+    np.testing.assert_array_equal(checked_times([0.0, 1.0]), [0.0, 1.0])
+    with pytest.raises(MeasurementError, match=r"^times\[1\]: time t = inf is not finite$"):
+        checked_times([0.0, np.inf], where="times[{j}]")
+    with pytest.raises(ValueError, match=r"^times must have shape \(T,\); got shape \(1, 2\)$"):
+        checked_times([[0.0, 1.0]])

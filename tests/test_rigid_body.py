@@ -289,14 +289,22 @@ def test_torque_constructors_check_their_input():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"R0": np.diag([1.0, 1.0, -1.0])}, r"R0 must be a rotation matrix .* det = -1"),
-        ({"R0": 1.01 * np.eye(3)}, r"R0 must be a rotation matrix .* \|R\^T R - I\| = 0.0348"),
-        ({"R0": np.eye(2)}, r"R0 must be a 3x3 rotation matrix; got shape \(2, 2\)"),
+        ({"R0": np.diag([1.0, 1.0, -1.0])}, r"R0 is a reflection, not a rotation: det R = -1"),
+        ({"R0": 1.01 * np.eye(3)}, r"R0 is not a rotation matrix: ‖RᵀR − I‖_F = 0.0348 exceeds 1e-09"),
+        ({"R0": [0.0, 0.0, 0.0, 1.001]}, r"R0 is not a unit quaternion: ‖q‖ = 1.001, \|‖q‖ − 1\| exceeds 1e-09"),
+        (
+            {"R0": np.eye(2)},
+            r"R0 must be a rotation matrix \(3, 3\), a quaternion \(4,\) or a Rotation; got shape \(2, 2\)",
+        ),
         ({"omega0": [1.0, 2.0]}, r"omega0 must be a 3-vector; got shape \(2,\)"),
         ({"omega0": [1.0, np.nan, 2.0]}, "omega0 must be finite"),
-        ({"times": [0.0, 1.0, 1.0]}, r"strictly increasing; times\[2\] = 1.0 follows times\[1\] = 1.0"),
-        ({"times": [0.0, np.inf]}, r"times must be finite; times\[1\] = inf"),
-        ({"times": [[0.0, 1.0]]}, r"times must be a 1-D array .* shape \(1, 2\)"),
+        (
+            {"times": [0.0, 1.0, 1.0]},
+            r"times\[2\]: time t = 1.0 is not after the previous sample's t = 1.0 \(timestamps must increase",
+        ),
+        ({"times": [0.0, np.inf]}, r"times\[1\]: time t = inf is not finite"),
+        ({"times": [[0.0, 1.0]]}, r"times must have shape \(T,\); got shape \(1, 2\)"),
+        ({"times": []}, r"times must hold at least one time; got none"),
         ({"max_step": 0.0}, "max_step must be positive and finite"),
     ],
 )

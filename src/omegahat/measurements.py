@@ -1,74 +1,139 @@
-r"""Checked conversion of user input into the measured body-frame directions the observer works with.
+r"""The one input path: every estimator's samples, times and torques are checked here, the same way.
 
-The observer (``observer.md``) works with ``n ≥ 2`` known inertial directions ``v_i`` seen in the body,
-``r_i = Rᵀ v_i`` (``R`` maps body to inertial). With ``V`` the ``(n, 3)`` matrix whose rows are the ``v_i``, the
-rows of ``r = V R`` are the ``r_i``; for ``V = I`` they are the rows of R. A measurement is one of
+The Sarras estimator, the MEKF, differencing and the spline all validate their input through this module, so a log
+rejected by one is rejected by all, with the same message (``tests/test_input_path.py``).
 
-* a rotation matrix ``(3, 3)``: accepted when ``‖RᵀR − I‖_F ≤ rotation_tol`` and ``det R > 0`` (used as given,
-  not re-projected: within the tolerance the rows are unit to the same accuracy);
+**Measurements.** The observer (``observer.md``) works with ``n ≥ 2`` known inertial directions ``v_i`` seen in the
+body, ``r_i = Rᵀ v_i`` (``R`` maps body to inertial). With ``V`` the ``(n, 3)`` matrix whose rows are the ``v_i``,
+the rows of ``r = V R`` are the ``r_i``; for ``V = I`` they are the rows of R (R itself). A measurement is one of
+
+* a rotation matrix ``(3, 3)``: accepted when ``‖RᵀR − I‖_F ≤ rotation_tol`` and ``det R > 0``  (M1)
+  (used as given, not re-projected: within the tolerance the rows are unit to the same accuracy);
 * a quaternion ``(4,)`` in SciPy's order, scalar last ``(x, y, z, w)`` unless ``scalar_first=True``: accepted
-  when ``|‖q‖ − 1| ≤ quat_norm_tol``, then normalised. ``q`` and ``−q`` give the same matrix (every entry of
-  the matrix is quadratic in q), so a log that mixes both signs needs no unwrapping;
+  when ``|‖q‖ − 1| ≤ quat_norm_tol`` (M2), then normalised. ``q`` and ``−q`` give the same matrix (every entry
+  of the matrix is quadratic in q), so a log that mixes both signs needs no unwrapping;
 * a :class:`scipy.spatial.transform.Rotation` (converted with ``as_matrix``);
-* body-frame measurements ``b_i ≈ Rᵀ v_i`` of the known directions, ``(n, 3)`` (for example an accelerometer and a
-  magnetometer): each row is normalised (a zero row is an error). If the largest angle between two measured
-  directions is below ``min_angle_deg`` the sample is **flagged and skipped** (status :data:`COLLINEAR`), not an
-  error: the references are checked non-collinear when the estimator is built, so collinear measurements mean a
-  disturbed sensor at that instant (a magnetometer near iron, an accelerometer during a strong push), and a
-  stream should ride through such a sample the way it rides through a missing one.
+* body-frame measurements ``b_i ≈ Rᵀ v_i`` of the known directions, ``(n, 3)`` (an accelerometer and a
+  magnetometer, say): each row is normalised (a zero row is an error). If the largest angle between two measured
+  directions is below ``min_angle_deg`` (M3) the sample is **flagged and skipped** (status :data:`COLLINEAR`),
+  not an error: the references are checked non-collinear when an estimator is built, so collinear measurements
+  mean a disturbed sensor at that instant, and a stream rides through such a sample as through a missing one.
 
 Any non-finite number in a sample (NaN, ±inf) marks it **missing** (status :data:`MISSING`), never an error: the
-estimator skips it and keeps predicting. Everything else that is wrong raises :class:`MeasurementError`
-(a ``ValueError``) naming the sample, the quantity and its value; wrong shapes raise naming the shape.
+estimators skip it. Everything else that is wrong raises :class:`MeasurementError` (a ``ValueError``) naming the
+sample, its time, the quantity and its value; wrong shapes raise ``ValueError`` naming the shape.
 
-The per-sample checks are compiled (Numba) so that the estimator can validate and step in one compiled call;
-:func:`attitude_directions` and :func:`body_directions` apply exactly the same checks to whole arrays with leading
-batch axes.
+**Times and torques (T).** A sample's time must be finite and strictly after the previous sample's (the previous
+one in the log, or the estimator's last time for the first sample of a log fed in chunks); a torque given with a
+sample must be finite. The checks of one sample run in the order time finite, time order, torque, measurement,
+and a log is checked sample by sample, so the error names the first sample with anything wrong, whatever it is.
+
+**Tolerance policy (P)**, the tolerances named here and nowhere else:
+
+* measured attitudes: :data:`ROTATION_TOL` and :data:`QUAT_NORM_TOL` (1e-3) by default; every estimator takes
+  ``rotation_tol``, ``quat_norm_tol`` and ``scalar_first`` with these defaults. Matrices read from text with ~6
+  significant digits are orthogonal to ~1e-6, and a quaternion written with 4 digits has ``|‖q‖ − 1|`` up to ~1e-4:
+  the defaults accept honest rounding and reject what is not a rotation at all;
+* problem definitions (a simulation's ``R0``, the rigid-body integrator's ``R0``): :func:`as_rotation` with
+  :data:`PROBLEM_ROTATION_TOL` (1e-9): an exact problem must start on SO(3) to rounding, since the integrators
+  carry the attitude without re-projecting it.
+
+The per-sample checks are compiled (Numba, :mod:`omegahat.kernels.checks`, re-exported here with their status
+codes): :func:`check_sample` (:func:`check_time`, :func:`check_torque`, :func:`convert_sample`) is what an
+estimator's compiled step calls; :func:`checked_log` and :func:`checked_sample` are the Python faces for whole logs
+and for one sample; :func:`describe_rejection` turns any rejection status into its message.
 """
 
 from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from omegahat.kernels.checks import (
+    COLLINEAR,
+    ERROR,
+    KIND_DIRECTIONS,
+    KIND_MATRIX,
+    KIND_QUAT,
+    MISSING,
+    NOT_ORTHOGONAL,
+    NOT_PROPER,
+    OK,
+    QUAT_NORM,
+    TIME_NOT_FINITE,
+    TIME_ORDER,
+    TORQUE_NOT_FINITE,
+    ZERO_DIRECTION,
+    check_batch,
+    check_sample,
+    check_time,
+    check_times,
+    check_torque,
+    convert_sample,
+)
+from omegahat.validation import as_directions, as_positive
+
 __all__ = [
     "COLLINEAR",
+    "ERROR",
+    "KIND_DIRECTIONS",
+    "KIND_MATRIX",
+    "KIND_QUAT",
+    "MIN_ANGLE_DEG",
     "MISSING",
+    "NOT_ORTHOGONAL",
+    "NOT_PROPER",
     "OK",
+    "PROBLEM_ROTATION_TOL",
+    "QUAT_NORM",
+    "QUAT_NORM_TOL",
+    "ROTATION_TOL",
+    "TIME_NOT_FINITE",
+    "TIME_ORDER",
+    "TORQUE_NOT_FINITE",
+    "ZERO_DIRECTION",
+    "CheckedLog",
+    "CheckedSample",
     "Directions",
     "MeasurementError",
+    "as_references",
+    "as_rotation",
     "attitude_directions",
     "attitude_matrices",
     "body_directions",
+    "check_batch",
+    "check_sample",
+    "check_time",
+    "check_times",
+    "check_torque",
+    "checked_log",
+    "checked_sample",
+    "checked_times",
+    "convert_sample",
+    "describe_rejection",
+    "log_array",
+    "rejection_error",
+    "sample_array",
+    "times_array",
+    "tolerances",
+    "torque_vector",
+    "torques_array",
 ]
 
-# Default tolerances (documented in the estimator): rotation matrices read from text logs with ~6 significant
-# digits are orthogonal to ~1e-6; a quaternion written with 4 digits has |‖q‖ − 1| up to ~1e-4.
-ROTATION_TOL = 1e-3
-QUAT_NORM_TOL = 1e-3
-MIN_ANGLE_DEG = 1.0
+ROTATION_TOL = 1e-3  #: (P) default bound on ‖RᵀR − I‖_F of a measured rotation matrix (M1)
+QUAT_NORM_TOL = 1e-3  #: (P) default bound on |‖q‖ − 1| of a measured quaternion (M2)
+MIN_ANGLE_DEG = 1.0  #: (M3) default: measured directions closer to collinear than this are skipped
+PROBLEM_ROTATION_TOL = 1e-9  #: (P) bound for problem definitions (initial attitudes of simulations), matrix and quat
 
-# Per-sample status codes. Below ERROR the sample is usable or skipped; from ERROR on it is rejected.
-OK = 0  #: a valid sample
-MISSING = 1  #: NaN or inf somewhere in the sample: skipped, the estimator keeps predicting
-COLLINEAR = 2  #: measured directions nearly collinear: skipped like a missing sample, counted separately
-ERROR = 10
-NOT_ORTHOGONAL = 10  #: info = ‖RᵀR − I‖_F
-NOT_PROPER = 11  #: info = det R (a reflection)
-QUAT_NORM = 12  #: info = ‖q‖
-ZERO_DIRECTION = 13  #: info = index of the zero row
 
-# Measurement kinds understood by the compiled converters.
-KIND_MATRIX = 0
-KIND_QUAT = 1
-KIND_DIRECTIONS = 2
+_ZERO3 = np.zeros(3)
+_ZERO3.flags.writeable = False
 
 
 class MeasurementError(ValueError):
-    """A measurement that is present but invalid (not a rotation, quaternion far from unit norm, ...)."""
+    """A sample that is present but invalid (not a rotation, a time going backwards, ...)."""
 
 
 class Directions(NamedTuple):
@@ -83,160 +148,77 @@ class Directions(NamedTuple):
         return self.status == OK
 
 
+class CheckedLog(NamedTuple):
+    """A checked log: ``times (T,)``; ``values`` the rotation matrices ``(T, 3, 3)`` (attitude input) or the unit
+    directions ``(T, n, 3)`` (direction input), NaN where a sample is skipped; ``torques (T, 3)``; ``status (T,)``
+    (:data:`OK`, :data:`MISSING` or :data:`COLLINEAR`)."""
+
+    times: np.ndarray
+    values: np.ndarray
+    torques: np.ndarray
+    status: np.ndarray
+
+    @property
+    def valid(self) -> np.ndarray:
+        """True where the sample is usable (status :data:`OK`)."""
+        return self.status == OK
+
+
+class CheckedSample(NamedTuple):
+    """One checked sample: its time, ``value`` (a rotation matrix or the unit directions; NaN when skipped), the
+    torque ``(3,)`` and the status."""
+
+    t: float
+    value: np.ndarray
+    torque: np.ndarray
+    status: int
+
+
 # ----------------------------------------------------------------------------------------------- compiled checks
 
 
-@numba.njit(cache=True)
-def _all_finite(a):
-    for x in a.flat:
-        if not np.isfinite(x):
-            return False
-    return True
+# ------------------------------------------------------------------------------------------------ messages
 
 
-@numba.njit(cache=True)
-def _check_matrix(R, tol):
-    """``(status, info)`` of one 3×3 matrix: MISSING, NOT_ORTHOGONAL (info ‖RᵀR−I‖_F), NOT_PROPER (det) or OK."""
-    if not _all_finite(R):
-        return MISSING, np.nan
-    err2 = 0.0
-    for a in range(3):
-        for b in range(3):
-            s = R[0, a] * R[0, b] + R[1, a] * R[1, b] + R[2, a] * R[2, b] - (1.0 if a == b else 0.0)
-            err2 += s * s
-    err = np.sqrt(err2)
-    if err > tol:
-        return NOT_ORTHOGONAL, err
-    det = (
-        R[0, 0] * (R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1])
-        - R[0, 1] * (R[1, 0] * R[2, 2] - R[1, 2] * R[2, 0])
-        + R[0, 2] * (R[1, 0] * R[2, 1] - R[1, 1] * R[2, 0])
-    )
-    if det < 0.0:
-        return NOT_PROPER, det
-    return OK, 0.0
+def describe_rejection(status: int, info: float, where: str, t: float | None = None) -> str:
+    """The message for a rejected sample, the same whichever estimator rejects it.
 
-
-@numba.njit(cache=True)
-def _quat_matrix(q, scalar_first, tol, R):
-    """Write the rotation matrix of quaternion ``q`` into ``R``; return ``(status, info)`` (QUAT_NORM: info ‖q‖)."""
-    if not _all_finite(q):
-        return MISSING, np.nan
-    if scalar_first:
-        w, x, y, z = q[0], q[1], q[2], q[3]
-    else:
-        x, y, z, w = q[0], q[1], q[2], q[3]
-    norm = np.sqrt(x * x + y * y + z * z + w * w)
-    if abs(norm - 1.0) > tol:
-        return QUAT_NORM, norm
-    x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    # Hamilton unit quaternion to matrix (the same formula as so3.from_quat); quadratic in q, so q ≡ −q.
-    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    R[0, 1] = 2.0 * (x * y - z * w)
-    R[0, 2] = 2.0 * (x * z + y * w)
-    R[1, 0] = 2.0 * (x * y + z * w)
-    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    R[1, 2] = 2.0 * (y * z - x * w)
-    R[2, 0] = 2.0 * (x * z - y * w)
-    R[2, 1] = 2.0 * (y * z + x * w)
-    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
-    return OK, 0.0
-
-
-@numba.njit(cache=True)
-def _rows_from_matrix(V, R, r):
-    """``r = V R``: row i is ``Rᵀ v_i``."""
-    for i in range(V.shape[0]):
-        for c in range(3):
-            r[i, c] = V[i, 0] * R[0, c] + V[i, 1] * R[1, c] + V[i, 2] * R[2, c]
-
-
-@numba.njit(cache=True)
-def _normalise_directions(b, min_sin, r):
-    """Normalise the rows of ``b`` into ``r``; ``(status, info)``: MISSING, ZERO_DIRECTION, COLLINEAR or OK."""
-    if not _all_finite(b):
-        return MISSING, np.nan
-    n = b.shape[0]
-    for i in range(n):
-        norm = np.sqrt(b[i, 0] ** 2 + b[i, 1] ** 2 + b[i, 2] ** 2)
-        if norm == 0.0:
-            return ZERO_DIRECTION, float(i)
-        for c in range(3):
-            r[i, c] = b[i, c] / norm
-    # Largest sine of the angle between two measured directions.
-    best = 0.0
-    for i in range(n):
-        for j in range(i + 1, n):
-            cx = r[i, 1] * r[j, 2] - r[i, 2] * r[j, 1]
-            cy = r[i, 2] * r[j, 0] - r[i, 0] * r[j, 2]
-            cz = r[i, 0] * r[j, 1] - r[i, 1] * r[j, 0]
-            best = max(best, np.sqrt(cx * cx + cy * cy + cz * cz))
-    if best < min_sin:
-        return COLLINEAR, np.degrees(np.arcsin(min(best, 1.0)))
-    return OK, 0.0
-
-
-@numba.njit(cache=True)
-def convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work):
-    """One sample of any kind to directions ``r (n, 3)`` (written in place); returns ``(status, info)``.
-
-    ``m`` is 2-D: a matrix ``(3, 3)``, a quaternion ``(1, 4)`` or directions ``(n, 3)``.
+    ``where`` names the sample (``"sample 3"``, ``"the sample"``); ``t`` is its time (needed for the time checks;
+    for the others it is printed after ``where`` when given, e.g. ``"sample 3 (t = 0.01) is not a rotation
+    matrix: ..."``).
     """
-    if kind == KIND_MATRIX:
-        status, info = _check_matrix(m, rotation_tol)
-        if status == OK:
-            _rows_from_matrix(V, m, r)
-        return status, info
-    if kind == KIND_QUAT:
-        status, info = _quat_matrix(m[0], scalar_first, quat_norm_tol, R_work)
-        if status == OK:
-            _rows_from_matrix(V, R_work, r)
-        return status, info
-    return _normalise_directions(m, min_sin, r)
-
-
-@numba.njit(cache=True)
-def _convert_batch(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
-    """:func:`convert_sample` over a flat batch ``m (T, a, b)``; stops at the first rejected sample.
-
-    Returns ``(r (T, n, 3), status (T,), first_bad, info)``; ``first_bad = −1`` when nothing was rejected.
-    """
-    T = m.shape[0]
-    n = V.shape[0]
-    r = np.full((T, n, 3), np.nan)
-    status = np.zeros(T, dtype=np.int64)
-    R_work = np.empty((3, 3))
-    for j in range(T):
-        s, info = convert_sample(m[j], kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r[j], R_work)
-        if s >= ERROR:
-            status[j] = s
-            return r, status, j, info
-        if s != OK:
-            r[j, :, :] = np.nan
-        status[j] = s
-    return r, status, -1, 0.0
-
-
-# ------------------------------------------------------------------------------------------------ Python layer
-
-
-def describe_rejection(status: int, info: float, where: str) -> str:
-    """The error message for a rejected sample (``where`` names it, e.g. ``"sample 3 (t = 0.01)"``)."""
+    info = float(info)
+    label = where if t is None else f"{where} (t = {float(t)!r})"
+    t_text = repr(float(info if t is None else t))
+    if status == TIME_ORDER:
+        return (
+            f"{where}: time t = {t_text} is not after the previous sample's t = {info!r} "
+            "(timestamps must increase strictly)"
+        )
+    if status == TIME_NOT_FINITE:
+        return f"{where}: time t = {t_text} is not finite"
+    if status == TORQUE_NOT_FINITE:
+        return f"{label}: torque must be finite; got {info!r}"
     if status == NOT_ORTHOGONAL:
         return (
-            f"{where} is not a rotation matrix: ‖RᵀR − I‖ = {info:.3g} exceeds rotation_tol "
+            f"{label} is not a rotation matrix: ‖RᵀR − I‖ = {info:.3g} exceeds rotation_tol "
             "(pass rotation_tol to accept it, or fix the data)"
         )
     if status == NOT_PROPER:
-        return f"{where} is a reflection, not a rotation: det R = {info:.6g} < 0"
+        return f"{label} is a reflection, not a rotation: det R = {info:.6g} < 0"
     if status == QUAT_NORM:
         return (
-            f"{where} is a quaternion far from unit norm: ‖q‖ = {info:.6g} "
+            f"{label} is a quaternion far from unit norm: ‖q‖ = {info:.6g} "
             "(|‖q‖ − 1| exceeds quat_norm_tol; is it a quaternion at all, and in which order?)"
         )
     if status == ZERO_DIRECTION:
-        return f"{where}: measured direction {int(info)} has zero norm"
-    return f"{where}: rejected (status {status})"
+        return f"{label}: measured direction {int(info)} has zero norm"
+    return f"{label}: rejected (status {status})"
+
+
+def rejection_error(status: int, info: float, where: str, t: float | None = None) -> MeasurementError:
+    """:class:`MeasurementError` carrying :func:`describe_rejection`'s message (raise it)."""
+    return MeasurementError(describe_rejection(status, info, where, t))
 
 
 def _where(index: int, batch_shape: tuple[int, ...]) -> str:
@@ -246,22 +228,221 @@ def _where(index: int, batch_shape: tuple[int, ...]) -> str:
     return f"sample {idx[0] if len(idx) == 1 else tuple(int(i) for i in idx)}"
 
 
+def _raise_first(first_bad, status, info, batch):
+    if first_bad >= 0:
+        raise rejection_error(int(status[first_bad]), float(info), _where(first_bad, batch))
+
+
+# ------------------------------------------------------------------------------------------------ shapes
+
+
 def as_references(references, n_default: int = 3) -> np.ndarray:
     """Inertial reference directions ``(n, 3)``, normalised; default the first ``n_default`` axes (rows of R)."""
-    from omegahat.validation import as_directions
-
     if references is None:
         return np.eye(3)[:n_default].copy()
     return np.ascontiguousarray(as_directions(references, name="references"))
 
 
-def _attitude_array(attitudes, scalar_first: bool) -> tuple[np.ndarray, int, tuple[int, ...]]:
+def sample_array(measurement, n: int | None = None) -> tuple[np.ndarray, int]:
+    """One sample as ``(m 2-D, kind)`` for :func:`convert_sample`, shape checked (values are not): an attitude
+    (``n`` None: a matrix, a quaternion or a single Rotation) or ``n`` body-frame directions ``(n, 3)``."""
+    if isinstance(measurement, Rotation):
+        if not measurement.single:
+            raise ValueError(f"update takes one sample; got a Rotation holding {len(measurement)}")
+        return measurement.as_matrix(), KIND_MATRIX
+    m = np.ascontiguousarray(measurement, dtype=float)
+    if n is None:
+        if m.shape == (3, 3):
+            return m, KIND_MATRIX
+        if m.shape == (4,):
+            return m.reshape(1, 4), KIND_QUAT
+        raise ValueError(
+            f"an attitude sample must be a 3x3 matrix, a quaternion (4,) or a Rotation; got shape {m.shape}"
+        )
+    if m.shape != (n, 3):
+        raise ValueError(f"a direction sample must have shape ({n}, 3) (one row per reference); got shape {m.shape}")
+    return m, KIND_DIRECTIONS
+
+
+def log_array(measurements, T: int, n: int | None = None) -> tuple[np.ndarray, int]:
+    """A log of ``T`` samples as ``(m (T, a, b), kind)``, shape checked: attitudes (``n`` None: matrices
+    ``(T, 3, 3)``, quaternions ``(T, 4)``, a Rotation of T or a list of T Rotations) or directions ``(T, n, 3)``."""
+    if isinstance(measurements, list | tuple) and measurements and all(isinstance(x, Rotation) for x in measurements):
+        measurements = Rotation.concatenate(measurements)
+    if isinstance(measurements, Rotation):
+        m = np.atleast_3d(measurements.as_matrix()).reshape(-1, 3, 3)
+        if n is not None:
+            raise ValueError(f"measurements must have shape (T, {n}, 3) with T = {T} samples; got a Rotation")
+        if m.shape[0] != T:
+            raise ValueError(f"{m.shape[0]} measurements for {T} times")
+        return np.ascontiguousarray(m), KIND_MATRIX
+    m = np.asarray(measurements, dtype=float)
+    if n is None and m.shape == (T, 3, 3):
+        return np.ascontiguousarray(m), KIND_MATRIX
+    if n is None and m.shape == (T, 4):
+        return np.ascontiguousarray(m.reshape(T, 1, 4)), KIND_QUAT
+    if n is not None and m.shape == (T, n, 3):
+        return np.ascontiguousarray(m), KIND_DIRECTIONS
+    want = "(T, 3, 3) or (T, 4)" if n is None else f"(T, {n}, 3)"
+    raise ValueError(f"measurements must have shape {want} with T = {T} samples; got shape {m.shape}")
+
+
+def tolerances(rotation_tol: float, quat_norm_tol: float) -> tuple[float, float]:
+    """An estimator's ``(rotation_tol, quat_norm_tol)`` (P), checked positive and finite."""
+    return float(as_positive(rotation_tol, "rotation_tol")[0]), float(as_positive(quat_norm_tol, "quat_norm_tol")[0])
+
+
+def times_array(times) -> np.ndarray:
+    """Sample times as a C-contiguous float array ``(T,)`` (shape checked; values by :func:`check_time`)."""
+    t = np.ascontiguousarray(times, dtype=float)
+    if t.ndim != 1:
+        raise ValueError(f"times must have shape (T,); got shape {t.shape}")
+    return t
+
+
+def torque_vector(torque) -> np.ndarray:
+    """The torque of one sample ``(3,)`` (None: a shared read-only zero), shape checked (values by
+    :func:`check_torque`)."""
+    if torque is None:
+        return _ZERO3
+    tau = np.ascontiguousarray(torque, dtype=float)
+    if tau.shape != (3,):
+        raise ValueError(f"torque must be a 3-vector; got shape {tau.shape}")
+    return tau
+
+
+def torques_array(torques, T: int) -> np.ndarray:
+    """The torques of a log ``(T, 3)`` (None: zeros), shape checked (values by :func:`check_torque`)."""
+    if torques is None:
+        return np.zeros((T, 3))
+    taus = np.ascontiguousarray(torques, dtype=float)
+    if taus.shape != (T, 3):
+        raise ValueError(f"torques must have shape ({T}, 3); got shape {taus.shape}")
+    return taus
+
+
+# ------------------------------------------------------------------------------------------------ the checks
+
+
+def _previous(t_prev: float | None) -> float:
+    return np.nan if t_prev is None else float(t_prev)
+
+
+def _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg) -> tuple:
+    """The converter's ``(V, scalar_first, rotation_tol, quat_norm_tol, min_sin)`` for attitudes (``n`` None;
+    ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape)."""
+    V = np.eye(3) if n is None else np.zeros((n, 3))
+    return V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), float(np.sin(np.radians(min_angle_deg)))
+
+
+def checked_times(times, *, t_prev: float | None = None, where: str = "sample {j}") -> np.ndarray:
+    """Sample times ``(T,)`` through (T) alone, each after the one before (the first after ``t_prev``, None: no
+    previous time); a rejected time raises :class:`MeasurementError` naming it as ``where.format(j=j)``."""
+    t = times_array(times)
+    first_bad, status, info = check_times(t, _previous(t_prev))
+    if first_bad >= 0:
+        raise rejection_error(status, info, where.format(j=first_bad), float(t[first_bad]))
+    return t
+
+
+def checked_log(
+    times,
+    measurements,
+    torques=None,
+    *,
+    references=None,
+    t_prev: float | None = None,
+    scalar_first: bool = False,
+    rotation_tol: float = ROTATION_TOL,
+    quat_norm_tol: float = QUAT_NORM_TOL,
+    min_angle_deg: float = MIN_ANGLE_DEG,
+) -> CheckedLog:
+    """A whole log through (M1)–(M3) and (T): the estimators' batch input path.
+
+    ``measurements``: attitudes (references None) as in :func:`log_array`, giving rotation matrices, or the body
+    directions ``(T, n, 3)`` of the ``references`` ``(n, 3)``, giving unit directions. ``t_prev`` is the time of
+    the sample before ``times[0]`` (None: there is none). Raises :class:`MeasurementError` at the first rejected
+    sample, named ``"sample j (t = ...)"`` (j its index in this call), and ``ValueError`` for wrong shapes.
+    """
+    t = times_array(times)
+    n = None if references is None else as_references(references).shape[0]
+    m, kind = log_array(measurements, t.size, n)
+    taus = torques_array(torques, t.size)
+    conversion = _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    r, status, first_bad, info = check_batch(t, _previous(t_prev), taus, True, m, kind, *conversion)
+    if first_bad >= 0:
+        raise rejection_error(int(status[first_bad]), float(info), f"sample {first_bad}", float(t[first_bad]))
+    return CheckedLog(t, r, taus, status)
+
+
+def checked_sample(
+    t: float,
+    measurement,
+    torque=None,
+    *,
+    references=None,
+    t_prev: float | None = None,
+    scalar_first: bool = False,
+    rotation_tol: float = ROTATION_TOL,
+    quat_norm_tol: float = QUAT_NORM_TOL,
+    min_angle_deg: float = MIN_ANGLE_DEG,
+) -> CheckedSample:
+    """One sample through (M1)–(M3) and (T) against the previous time ``t_prev``: the estimators' streaming input
+    path (:func:`checked_log` for one sample, named ``"the sample"``)."""
+    n = None if references is None else as_references(references).shape[0]
+    m, kind = sample_array(measurement, n)
+    tau = torque_vector(torque)
+    r = np.full((3 if n is None else n, 3), np.nan)
+    conversion = _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    status, info = check_sample(float(t), _previous(t_prev), tau, m, kind, *conversion, r, np.empty((3, 3)))
+    if status >= ERROR:
+        raise rejection_error(status, info, "the sample", t)
+    if status != OK:
+        r[:] = np.nan
+    return CheckedSample(float(t), r, tau, int(status))
+
+
+def as_rotation(
+    attitude,
+    name: str = "R0",
+    *,
+    scalar_first: bool = False,
+    rotation_tol: float = PROBLEM_ROTATION_TOL,
+    quat_norm_tol: float = PROBLEM_ROTATION_TOL,
+) -> np.ndarray:
+    """One attitude given as a setting, not a sample (a matrix, a quaternion or a Rotation), as a rotation matrix
+    ``(3, 3)``, checked by the same (M1)/(M2). Defaults :data:`PROBLEM_ROTATION_TOL`: a problem definition's
+    attitude (a simulation's ``R0``) must be a rotation to rounding; an estimator's initial attitude is checked
+    with the estimator's own tolerances."""
+    m = np.ascontiguousarray(attitude.as_matrix() if isinstance(attitude, Rotation) else attitude, dtype=float)
+    if m.shape not in ((3, 3), (4,)):
+        raise ValueError(
+            f"{name} must be a rotation matrix (3, 3), a quaternion (4,) or a Rotation; got shape {m.shape}"
+        )
+    kind = KIND_MATRIX if m.shape == (3, 3) else KIND_QUAT
+    R = np.empty((3, 3))
+    status, info = convert_sample(
+        m.reshape(-1, m.shape[-1]), kind, np.eye(3), scalar_first, rotation_tol, quat_norm_tol, 0.0, R, R.copy()
+    )
+    if status == MISSING:
+        raise ValueError(f"{name} must be finite; got {m.tolist()}")
+    if status == NOT_ORTHOGONAL:
+        raise ValueError(f"{name} is not a rotation matrix: ‖RᵀR − I‖_F = {info:.3g} exceeds {rotation_tol:g}")
+    if status == QUAT_NORM:
+        raise ValueError(f"{name} is not a unit quaternion: ‖q‖ = {info:.6g}, |‖q‖ − 1| exceeds {quat_norm_tol:g}")
+    if status != OK:
+        raise rejection_error(status, info, name)
+    return m.copy() if kind == KIND_MATRIX else R
+
+
+# ------------------------------------------------------------------------------------------ arrays, no times
+
+
+def _attitude_array(attitudes) -> tuple[np.ndarray, int, tuple[int, ...]]:
     """``(m (T, a, b), kind, batch_shape)`` for matrices, quaternions or a Rotation; shape errors named."""
     if isinstance(attitudes, Rotation):
         a = np.asarray(attitudes.as_matrix(), dtype=float)
-        kind = KIND_MATRIX
-        batch = a.shape[:-2]
-        return np.ascontiguousarray(a.reshape(-1, 3, 3)), kind, batch
+        return np.ascontiguousarray(a.reshape(-1, 3, 3)), KIND_MATRIX, a.shape[:-2]
     a = np.asarray(attitudes, dtype=float)
     if a.ndim >= 2 and a.shape[-2:] == (3, 3):
         return np.ascontiguousarray(a.reshape(-1, 3, 3)), KIND_MATRIX, a.shape[:-2]
@@ -273,9 +454,11 @@ def _attitude_array(attitudes, scalar_first: bool) -> tuple[np.ndarray, int, tup
     )
 
 
-def _raise_first(first_bad, status, info, batch):
-    if first_bad >= 0:
-        raise MeasurementError(describe_rejection(int(status[first_bad]), float(info), _where(first_bad, batch)))
+def _convert(m, kind, V, scalar_first=False, rotation_tol=0.0, quat_norm_tol=0.0, min_sin=0.0):
+    empty = np.empty(0)
+    return check_batch(
+        empty, np.nan, np.empty((0, 3)), False, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin
+    )
 
 
 def attitude_directions(
@@ -286,7 +469,7 @@ def attitude_directions(
     rotation_tol: float = ROTATION_TOL,
     quat_norm_tol: float = QUAT_NORM_TOL,
 ) -> Directions:
-    """Checked body-frame directions ``r_i = Rᵀ v_i`` from attitudes with leading batch axes.
+    """Checked body-frame directions ``r_i = Rᵀ v_i`` from attitudes with leading batch axes (no times).
 
     ``attitudes``: matrices ``(*B, 3, 3)``, quaternions ``(*B, 4)`` or a ``Rotation``; ``references`` the inertial
     ``v_i`` ``(n, 3)`` (default the three axes, so ``r`` holds the rows of R). Returns :class:`Directions`
@@ -294,10 +477,8 @@ def attitude_directions(
     :class:`MeasurementError` at the first sample that is not a rotation or not a unit quaternion.
     """
     V = as_references(references)
-    m, kind, batch = _attitude_array(attitudes, scalar_first)
-    r, status, first_bad, info = _convert_batch(
-        m, kind, V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), 0.0
-    )
+    m, kind, batch = _attitude_array(attitudes)
+    r, status, first_bad, info = _convert(m, kind, V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol))
     _raise_first(first_bad, status, info, batch)
     return Directions(r.reshape(batch + V.shape), status.reshape(batch))
 
@@ -313,20 +494,18 @@ def attitude_matrices(
 
 
 def body_directions(measured, n: int | None = None, *, min_angle_deg: float = MIN_ANGLE_DEG) -> Directions:
-    """Checked, normalised body-frame direction measurements ``(*B, n, 3)`` (``n ≥ 2``).
+    """Checked, normalised body-frame direction measurements ``(*B, n, 3)`` (``n ≥ 2``), no times.
 
     Status :data:`MISSING` where a sample has a non-finite entry, :data:`COLLINEAR` where its directions are
-    within ``min_angle_deg`` of collinear (both skipped by the estimator); a zero row raises.
+    within ``min_angle_deg`` of collinear (both skipped by the estimators); a zero row raises.
     """
     a = np.asarray(measured, dtype=float)
     if a.ndim < 2 or a.shape[-1] != 3 or a.shape[-2] < 2 or (n is not None and a.shape[-2] != n):
         want = "(..., n, 3) with n >= 2" if n is None else f"(..., {n}, 3)"
         raise ValueError(f"direction measurements must have shape {want}; got shape {a.shape}")
     batch = a.shape[:-2]
-    V = np.eye(3)[: a.shape[-2]] if a.shape[-2] <= 3 else np.zeros((a.shape[-2], 3))  # only its shape is used
+    V = np.zeros((a.shape[-2], 3))  # only its shape is used
     m = np.ascontiguousarray(a.reshape((-1, *a.shape[-2:])))
-    r, status, first_bad, info = _convert_batch(
-        m, KIND_DIRECTIONS, V, False, 0.0, 0.0, float(np.sin(np.radians(min_angle_deg)))
-    )
+    r, status, first_bad, info = _convert(m, KIND_DIRECTIONS, V, min_sin=float(np.sin(np.radians(min_angle_deg))))
     _raise_first(first_bad, status, info, batch)
     return Directions(r.reshape(a.shape), status.reshape(batch))

@@ -42,13 +42,12 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.interface import Estimator
-from omegahat.validation import _fmt
 
-__all__ = ["SCHEMES", "DifferencingEstimator", "as_attitude_matrices", "log_difference", "lowpass"]
+__all__ = ["SCHEMES", "DifferencingEstimator", "log_difference", "lowpass", "lowpass_reference"]
 
 SCHEMES = ("backward", "central")
 
@@ -66,71 +65,6 @@ def _check_cutoff_hz(cutoff_hz):
     if not np.isfinite(c) or c <= 0:
         raise ValueError(f"cutoff_hz must be a positive finite frequency in Hz or None; got {cutoff_hz!r}")
     return c
-
-
-def as_attitude_sample(measurement, scalar_first=False, tol=1e-4):
-    """One checked attitude sample as a rotation matrix, or None when it is not finite (a missing sample)."""
-    if isinstance(measurement, Rotation):
-        return measurement.as_matrix()
-    a = np.asarray(measurement, dtype=float)
-    if a.shape not in ((3, 3), (4,)):
-        raise ValueError(
-            f"measurement must be a rotation matrix (3, 3), a quaternion (4,) or a scipy Rotation; got shape {a.shape}"
-        )
-    if not np.all(np.isfinite(a)):
-        return None
-    return as_attitude_matrices(a[None], scalar_first, tol, name="measurement")[0]
-
-
-def as_attitude_matrices(attitudes, scalar_first=False, tol=1e-4, name="attitudes"):
-    """Rotation matrices ``(T, 3, 3)`` from a log of attitudes; rows that are not finite become NaN.
-
-    Accepts a ``Rotation``, matrices ``(T, 3, 3)`` or quaternions ``(T, 4)`` (scalar last unless
-    ``scalar_first``). Finite rows must be rotations within ``tol`` (``‖RᵀR − I‖_F`` for matrices,
-    ``|‖q‖ − 1|`` for quaternions); otherwise ``ValueError`` names the first bad row and its value.
-    """
-    if isinstance(attitudes, Rotation):
-        return np.atleast_3d(attitudes.as_matrix()).reshape(-1, 3, 3)
-    a = np.asarray(attitudes, dtype=float)
-    if a.ndim == 3 and a.shape[1:] == (3, 3):
-        finite = np.all(np.isfinite(a), axis=(1, 2))
-        err = np.where(finite, so3.orthogonality_error(np.where(finite[:, None, None], a, np.eye(3))), 0.0)
-        det = np.linalg.det(np.where(finite[:, None, None], a, np.eye(3)))
-        bad = np.flatnonzero((err > tol) | (det <= 0))
-        if bad.size:
-            j = int(bad[0])
-            raise ValueError(
-                f"{name}[{j}] is not a rotation matrix (|R^T R - I| = {err[j]:.3g} > tol = {tol:g}, "
-                f"det = {det[j]:.3g}): {_fmt(a[j])}"
-            )
-        R = a.copy()
-    elif a.ndim == 2 and a.shape[1] == 4:
-        finite = np.all(np.isfinite(a), axis=1)
-        norm = np.linalg.norm(np.where(finite[:, None], a, 1.0), axis=1)
-        bad = np.flatnonzero(finite & (np.abs(norm - 1.0) > tol))
-        if bad.size:
-            j = int(bad[0])
-            raise ValueError(f"{name}[{j}] is not a unit quaternion (norm {norm[j]:.6g}, tol = {tol:g}): {_fmt(a[j])}")
-        R = so3.from_quat(np.where(finite[:, None], a, [0.0, 0.0, 0.0, 1.0]), scalar_first=scalar_first)
-    else:
-        raise ValueError(
-            f"{name} must be a scipy Rotation, matrices (T, 3, 3) or quaternions (T, 4); got shape {a.shape}"
-        )
-    R[~finite] = np.nan
-    return R
-
-
-def _check_times(times, n):
-    t = np.asarray(times, dtype=float)
-    if t.shape != (n,):
-        raise ValueError(f"times must have shape ({n},) to match the attitudes; got shape {t.shape}")
-    if not np.all(np.isfinite(t)):
-        raise ValueError(f"times must be finite; got {_fmt(t)}")
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        j = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise ValueError(f"times must increase strictly; times[{j}] = {t[j]!r} <= times[{j - 1}] = {t[j - 1]!r}")
-    return t
 
 
 def _hold(values, valid):
@@ -172,22 +106,31 @@ def _hold_skipped(est, valid, scheme):
     return out
 
 
-def log_difference(times, attitudes, scheme="backward", scalar_first=False, tol=1e-4):
+def log_difference(
+    times,
+    attitudes,
+    scheme: str = "backward",
+    scalar_first: bool = False,
+    rotation_tol: float = ms.ROTATION_TOL,
+    quat_norm_tol: float = ms.QUAT_NORM_TOL,
+) -> np.ndarray:
     """ω̂ at every sample by (D1) or (D2), shape ``(T, 3)``, row k for ``times[k]``.
 
-    NaN before the first estimate (and, for ``"central"``, from the last valid sample on); skipped non-finite
-    samples hold the last estimate. ``attitudes`` as in :func:`as_attitude_matrices`.
+    ``attitudes``: a ``Rotation``, matrices ``(T, 3, 3)`` or quaternions ``(T, 4)``, checked with the times by
+    :func:`omegahat.measurements.checked_log` (the tolerances are its). NaN before the first estimate (and, for
+    ``"central"``, from the last valid sample on); skipped non-finite samples hold the last estimate.
     """
     _check_scheme(scheme)
-    R = as_attitude_matrices(attitudes, scalar_first=scalar_first, tol=tol)
-    t = _check_times(times, R.shape[0])
-    est, valid = _differences(t, R, scheme)
+    log = ms.checked_log(
+        times, attitudes, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
+    )
+    est, valid = _differences(log.times, log.values, scheme)
     return _hold_skipped(est, valid, scheme)
 
 
-def _lowpass_numpy(x, times, cutoff_hz):
-    """(LP) on rows of ``x`` ``(T, 3)``, a plain loop (the oracle of the compiled kernel). NaN rows pass
-    through as NaN and leave the filter state unchanged; the state starts at the first finite row."""
+def lowpass_reference(x, times, cutoff_hz: float) -> np.ndarray:
+    """(LP) on rows of ``x`` ``(T, 3)``, a plain loop: the readable oracle :func:`lowpass` is tested against. NaN
+    rows pass through as NaN and leave the filter state unchanged; the state starts at the first finite row."""
     y = np.full_like(x, np.nan)
     state = None
     t_prev = 0.0
@@ -205,7 +148,7 @@ def _lowpass_numpy(x, times, cutoff_hz):
 
 
 @numba.njit(cache=True)
-def _lowpass_kernel(x, times, cutoff_hz):  # pragma: no cover - compiled; tested against _lowpass_numpy
+def _lowpass_kernel(x, times, cutoff_hz):  # pragma: no cover - compiled; tested against lowpass_reference
     y = np.full_like(x, np.nan)
     state = np.empty(3)
     started = False
@@ -226,7 +169,7 @@ def _lowpass_kernel(x, times, cutoff_hz):  # pragma: no cover - compiled; tested
     return y
 
 
-def lowpass(x, times, cutoff_hz):
+def lowpass(x, times, cutoff_hz: float) -> np.ndarray:
     """Causal first-order low-pass (LP) of a sampled vector signal ``x`` ``(T, 3)`` at ``times`` ``(T,)``.
 
     The filter's time of row k is ``times[k]``; NaN rows give NaN and are ignored by the filter.
@@ -247,18 +190,25 @@ class DifferencingEstimator(Estimator):
     scheme : ``"backward"`` (causal) or ``"central"`` (one sample of delay: ``update`` returns ω̂ for the
         previous sample time, see the module docstring).
     cutoff_hz : cut-off of the first-order low-pass in Hz, or ``None`` for raw differences.
-    scalar_first : quaternion order of the measurements (SciPy's scalar-last by default).
-    tol : how far a finite measurement may be from a rotation (see :func:`as_attitude_matrices`).
+    scalar_first, rotation_tol, quat_norm_tol : quaternion order and the tolerances of the input checks
+        (:mod:`omegahat.measurements`, the same for every estimator).
 
     Attributes after ``update``: ``estimate_time`` (the time the returned ω̂ is for), ``n_skipped`` (non-finite
     samples skipped so far).
     """
 
-    def __init__(self, scheme="backward", cutoff_hz=None, scalar_first=False, tol=1e-4):
+    def __init__(
+        self,
+        scheme: str = "backward",
+        cutoff_hz: float | None = None,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+    ):
         self.scheme = _check_scheme(scheme)
         self.cutoff_hz = _check_cutoff_hz(cutoff_hz)
         self.scalar_first = bool(scalar_first)
-        self.tol = float(tol)
+        self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
         self.causal = scheme == "backward"
         self.reset()
 
@@ -272,23 +222,25 @@ class DifferencingEstimator(Estimator):
         self._t = []
         self._y = np.full(3, np.nan)  # last output (after the low-pass)
         self._y_time = None
+        self._t_last = None  # the last sample's time, skipped or not (the time check's previous time)
         self.estimate_time = None
         self.n_skipped = 0
 
-    def _attitude(self, measurement):
-        return as_attitude_sample(measurement, self.scalar_first, self.tol)
+    def _checks(self) -> dict:
+        return {
+            "scalar_first": self.scalar_first,
+            "rotation_tol": self.rotation_tol,
+            "quat_norm_tol": self.quat_norm_tol,
+        }
 
     def update(self, t, measurement, torque=None) -> np.ndarray:
         """Take the attitude sampled at ``t``; return ω̂ (for ``t`` if backward, for the previous sample time
         if central), shape ``(3,)``; NaN until enough samples. A non-finite sample is skipped (held
         output)."""
-        t = float(t)
-        if not np.isfinite(t):
-            raise ValueError(f"t must be finite; got {t!r}")
-        if self._t and t <= self._t[-1]:
-            raise ValueError(f"t must increase strictly; got t = {t!r} after t = {self._t[-1]!r}")
-        R = self._attitude(measurement)  # raises before any state changes
-        if R is None:
+        sample = ms.checked_sample(t, measurement, t_prev=self._t_last, **self._checks())  # raises: state kept
+        t, R = sample.t, sample.value
+        self._t_last = t
+        if sample.status != ms.OK:
             self.n_skipped += 1
             return self._y.copy()
         raw, when = None, None
@@ -321,8 +273,8 @@ class DifferencingEstimator(Estimator):
         not delayed, and the last is NaN). Vectorised differences, compiled low-pass; on the valid samples it
         equals feeding ``update`` (shifted by ``delay_samples``). Starts afresh and leaves the streaming state
         as if the log had been fed through ``update``."""
-        R = as_attitude_matrices(measurements, self.scalar_first, self.tol)
-        t = _check_times(times, R.shape[0])
+        log = ms.checked_log(times, measurements, **self._checks())
+        t, R = log.times, log.values
         est, valid = _differences(t, R, self.scheme)
         if self.cutoff_hz is not None:
             est = lowpass(est, t, self.cutoff_hz)  # NaN rows are ignored by the filter
@@ -334,6 +286,7 @@ class DifferencingEstimator(Estimator):
         self._R = [R[j] for j in iv[-keep:]]
         self._t = [float(t[j]) for j in iv[-keep:]]
         self.n_skipped = int(t.size - iv.size)
+        self._t_last = float(t[-1]) if t.size else None
         if self.scheme == "backward" and iv.size >= 2:
             self._y, self._y_time = est[iv[-1]].copy(), float(t[iv[-1]])
         elif self.scheme == "central" and iv.size >= 3:

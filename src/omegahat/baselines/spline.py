@@ -3,8 +3,9 @@ r"""Angular velocity from SciPy's rotation spline (offline; a peer no one here w
 Reference: ``shared/design/baselines.md`` §2 and SciPy's ``scipy.spatial.transform.RotationSpline``: a
 cubic spline of rotation vectors with continuous angular rate and acceleration, interpolating the samples.
 ``RotationSpline(times, rotations)(t, 1)`` is the body-frame rate (checked in ``tests/test_spline.py``
-against a closed-form trajectory). This module only calls SciPy: it drops non-finite samples, fits the
-spline through the others, and evaluates its first derivative at every sample time.
+against a closed-form trajectory). This module only calls SciPy: it checks the log through the one input path
+(:func:`omegahat.measurements.checked_log`), drops the skipped (non-finite) samples, fits the spline through the
+others, and evaluates its first derivative at every sample time.
 
 It needs the whole record (``causal = False``, no ``update``) and interpolates rather than smooths, so
 attitude noise passes through to the rate, amplified like differencing.
@@ -15,38 +16,54 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from omegahat.baselines.differencing import _check_times, as_attitude_matrices
+from omegahat import measurements as ms
 from omegahat.interface import Estimator
 
 __all__ = ["SplineEstimator", "spline_rate"]
 
 
-def spline_rate(times, attitudes, scalar_first=False, tol=1e-4):
+def spline_rate(
+    times,
+    attitudes,
+    scalar_first: bool = False,
+    rotation_tol: float = ms.ROTATION_TOL,
+    quat_norm_tol: float = ms.QUAT_NORM_TOL,
+) -> np.ndarray:
     """Body-frame ω̂ ``(T, 3)`` at ``times`` from ``RotationSpline`` through the finite samples.
 
     ``attitudes``: a ``Rotation``, matrices ``(T, 3, 3)`` or quaternions ``(T, 4)`` (scalar last unless
-    ``scalar_first``); non-finite samples are left out of the fit (the spline bridges them). Needs at least
-    two finite samples. A ``Rotation`` is handed to SciPy untouched.
+    ``scalar_first``), checked with the times by :func:`omegahat.measurements.checked_log`; non-finite samples are
+    left out of the fit (the spline bridges them). Needs at least two finite samples. A ``Rotation`` is handed to
+    SciPy untouched.
     """
+    log = ms.checked_log(
+        times, attitudes, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
+    )
     if isinstance(attitudes, Rotation):
-        return RotationSpline(_check_times(times, len(attitudes)), attitudes)(times, 1)
-    R = as_attitude_matrices(attitudes, scalar_first=scalar_first, tol=tol)
-    t = _check_times(times, R.shape[0])
-    valid = np.all(np.isfinite(R), axis=(1, 2))
+        return RotationSpline(log.times, attitudes)(log.times, 1)
+    valid = log.valid
     if valid.sum() < 2:
         raise ValueError(f"the spline needs at least 2 finite attitude samples; got {int(valid.sum())}")
-    spline = RotationSpline(t[valid], Rotation.from_matrix(R[valid]))
-    return spline(t, 1)
+    spline = RotationSpline(log.times[valid], Rotation.from_matrix(log.values[valid]))
+    return spline(log.times, 1)
 
 
 class SplineEstimator(Estimator):
-    """``RotationSpline`` behind the estimator interface: offline only (``run``), ``causal = False``."""
+    """``RotationSpline`` behind the estimator interface: offline only (``run``), ``causal = False``.
+
+    ``scalar_first``, ``rotation_tol``, ``quat_norm_tol``: the input checks of :mod:`omegahat.measurements`.
+    """
 
     causal = False
 
-    def __init__(self, scalar_first=False, tol=1e-4):
+    def __init__(
+        self,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+    ):
         self.scalar_first = bool(scalar_first)
-        self.tol = float(tol)
+        self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
     def update(self, t, measurement, torque=None):
         raise NotImplementedError(
@@ -55,7 +72,7 @@ class SplineEstimator(Estimator):
 
     def run(self, times, measurements, torques=None) -> np.ndarray:
         """ω̂ at every sample time, ``(T, 3)`` (``torques`` are ignored)."""
-        return spline_rate(times, measurements, self.scalar_first, self.tol)
+        return spline_rate(times, measurements, self.scalar_first, self.rotation_tol, self.quat_norm_tol)
 
     def reset(self) -> None:
         """Nothing to forget: ``run`` is stateless."""

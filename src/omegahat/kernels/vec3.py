@@ -12,7 +12,7 @@ import math
 
 import numba
 
-__all__ = ["cross", "dot", "mat3", "matvec", "norm", "solve"]
+__all__ = ["cross", "dot", "mat3", "matvec", "matvec_transposed", "norm", "solve"]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -46,6 +46,17 @@ def matvec(M, x0, x1, x2):
         M[0] * x0 + M[1] * x1 + M[2] * x2,
         M[3] * x0 + M[4] * x1 + M[5] * x2,
         M[6] * x0 + M[7] * x1 + M[8] * x2,
+    )
+
+
+@numba.njit(cache=True, error_model="numpy")
+def matvec_transposed(M, x0, x1, x2):
+    """``Mᵀ x`` for a 9-tuple ``M``, each component summed left to right (``r_i = Rᵀ v_i``: a direction seen in
+    the body)."""
+    return (
+        M[0] * x0 + M[3] * x1 + M[6] * x2,
+        M[1] * x0 + M[4] * x1 + M[7] * x2,
+        M[2] * x0 + M[5] * x1 + M[8] * x2,
     )
 
 

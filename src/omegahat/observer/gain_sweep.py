@@ -12,7 +12,8 @@ R₀ fixed by the caller; ground truth from :func:`omegahat.simulation.rigid_bod
 
 * **convergence time** ``t_c``: noise-free measurements, estimate started at ``ω̂₀ = ω₀ + Δ`` (``|Δ|`` =
   ``initial_error``, direction (1, 1, 1)/√3); ``t_c`` is the first sample time after which ``|ω̂ − ω|`` stays at or
-  below ``settle · |Δ|`` (default 1 %) up to the horizon (∞ if it never settles);
+  below ``settle · |Δ|`` (default 1 %) up to the horizon (∞ if it never settles; a non-finite estimate counts as
+  diverged): :func:`omegahat.evaluation.metrics.convergence_time`, (S1);
 * **steady-state noise** ``s``: noisy measurements, estimate started at the truth; ``s = √(mean |ω̂ − ω|²)``
   (rad/s, the norm over the three axes) over the samples after the burn-in ``min(5 t_c, horizon/2)``.
 
@@ -30,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.observer import tuning
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
@@ -40,7 +42,6 @@ from omegahat.validation import as_inertia, as_positive, as_vector3
 __all__ = [
     "Evaluation",
     "Recommendation",
-    "convergence_time",
     "evaluate_gains",
     "pareto_front",
     "plot_pareto",
@@ -62,17 +63,6 @@ class Evaluation:
     noise_rms: float
     predicted_noise_rms: float  #: tuning.predicted_noise_std (norm over the axes), the linearised prediction
     label: str = ""
-
-
-def convergence_time(t, err, threshold) -> float:
-    """First ``t[i]`` with ``err[j] ≤ threshold`` for every ``j ≥ i``; ``inf`` if the last sample is above."""
-    t = np.asarray(t, dtype=float)
-    above = np.flatnonzero(~(np.asarray(err, dtype=float) <= threshold))
-    if above.size == 0:
-        return float(t[0])
-    if above[-1] == t.size - 1:
-        return math.inf
-    return float(t[above[-1] + 1])
 
 
 def _truth(J, omega0, rate_hz, horizon):
@@ -111,14 +101,13 @@ def evaluate_gains(
     tr = _truth(J, omega0, rate, horizon) if truth is None else truth
     delta = float(as_positive(initial_error, "initial_error")[0]) * np.ones(3) / np.sqrt(3.0)
     est = SarrasEstimator(J, gains=gains, omega_hat0=omega0 + delta)
-    err = np.linalg.norm(est.run(tr.t, tr.R) - tr.omega, axis=1)
+    err = estimate_errors(est.run(tr.t, tr.R), tr.omega, always_estimates=True)  # a NaN estimate: diverged
     t_c = convergence_time(tr.t, err, settle * np.linalg.norm(delta))
     rng = np.random.default_rng(seed)
     R_meas = sensors.noisy_attitudes(tr.R, sigma, rng)
     est = SarrasEstimator(J, gains=gains, omega_hat0=omega0)
-    err = np.linalg.norm(est.run(tr.t, R_meas) - tr.omega, axis=1)
-    burn = min(5 * t_c, 0.5 * horizon)
-    s = float(np.sqrt(np.mean(err[tr.t >= burn] ** 2)))
+    err = estimate_errors(est.run(tr.t, R_meas), tr.omega, always_estimates=True)
+    s = steady_rms(tr.t, err, min(5 * t_c, 0.5 * horizon))
     predicted = np.nan
     if sigma > 0:
         predicted = float(np.linalg.norm(tuning.predicted_noise_std(J, gains, rate, sigma)))

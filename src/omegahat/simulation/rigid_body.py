@@ -42,6 +42,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.kernels.dynamics import cf4_increment
 from omegahat.kernels.rotation import matrix_from_quat, quat_multiply, store
@@ -167,35 +168,6 @@ def _cf4_kernel(q0, w0, J, J_inv, h, tau_stages, record):
 # ------------------------------------------------------------------------------------------------------------
 
 
-def _check_times(times) -> np.ndarray:
-    t = np.asarray(times, dtype=float)
-    if t.ndim != 1 or t.size < 1:
-        raise ValueError(f"times must be a 1-D array with at least one time; got shape {t.shape}")
-    if not np.all(np.isfinite(t)):
-        bad = int(np.flatnonzero(~np.isfinite(t))[0])
-        raise ValueError(f"times must be finite; times[{bad}] = {t[bad]}")
-    steps = np.diff(t)
-    if np.any(steps <= 0):
-        bad = int(np.flatnonzero(steps <= 0)[0])
-        raise ValueError(
-            f"times must be strictly increasing; times[{bad + 1}] = {t[bad + 1]} follows times[{bad}] = {t[bad]}"
-        )
-    return t
-
-
-def _check_attitude(R0) -> np.ndarray:
-    R = np.asarray(R0, dtype=float)
-    if R.shape != (3, 3):
-        raise ValueError(f"R0 must be a 3x3 rotation matrix; got shape {R.shape}")
-    err = float(so3.orthogonality_error(R))
-    if not np.isfinite(err) or err > 1e-9 or np.linalg.det(R) <= 0:
-        raise ValueError(
-            f"R0 must be a rotation matrix (|R^T R - I| <= 1e-9, det > 0); got |R^T R - I| = {err:.3g}, "
-            f"det = {np.linalg.det(R):.6g}"
-        )
-    return R
-
-
 def integrate(body: RigidBody, R0, omega0, times, torque=None, max_step: float = 1e-3) -> Trajectory:
     """Integrate the body from ``(R0, omega0)`` at ``times[0]``; sample it at every time in ``times``.
 
@@ -208,9 +180,11 @@ def integrate(body: RigidBody, R0, omega0, times, torque=None, max_step: float =
     """
     if not isinstance(body, RigidBody):
         raise TypeError(f"body must be a RigidBody; got {type(body).__name__}")
-    R = _check_attitude(R0)
+    R = ms.as_rotation(R0, "R0")  # a problem definition: a rotation to rounding (measurements, policy P)
     w = as_vector3(omega0, "omega0")
-    t = _check_times(times)
+    t = ms.checked_times(times, where="times[{j}]")
+    if t.size < 1:
+        raise ValueError("times must hold at least one time; got none")
     max_step = float(as_positive(max_step, "max_step")[0])
     tq = as_torque(torque)
 
