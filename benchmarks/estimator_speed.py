@@ -5,7 +5,7 @@ Run: ``python benchmarks/estimator_speed.py [--samples N]``. Prints
 * the median cost of one ``SarrasEstimator.update`` called from Python (goal ≤ 5 µs), for a rotation matrix and
   a quaternion sample (each call timed on its own with ``perf_counter_ns``; median over many calls);
 * the throughput of ``run`` on whole arrays (goal ≥ 1e6 samples/s on one core; best of 3);
-* the throughput of the plain NumPy per-sample oracle (:func:`omegahat.observer.estimator.reference_step`) on a shorter
+* the throughput of the plain NumPy per-sample oracle (:func:`omegahat.observer.reference.reference_step`) on a shorter
   log, and the largest difference between the two on that log.
 
 Data: the paper's body J = diag(3, 2, 1) tumbling from ω₀ = (2, −1, 0.6) rad/s, sampled at 1 kHz (ground truth from
@@ -22,7 +22,8 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from omegahat.observer.estimator import EstimatorState, SarrasEstimator, reference_step
+from omegahat.observer.estimator import EstimatorState, SarrasEstimator
+from omegahat.observer.reference import reference_step
 from omegahat.observer.gains import theorem_gains
 from omegahat.simulation.rigid_body import RigidBody, integrate
 

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from omegahat.simulation.coupled import paper_problem, simulate, simulate_reference
+from omegahat.simulation import paper_problem, simulate, simulate_reference
 
 T_OUT = np.array([0.0, 0.5, 1.0, 2.0, 5.0, 10.0])
 CHECK = [1, 2, 3]  # t = 0.5, 1, 2 s

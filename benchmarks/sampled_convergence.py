@@ -20,7 +20,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from omegahat.observer.estimator import SarrasEstimator, reference_predict
-from omegahat.simulation.coupled import paper_problem, simulate
+from omegahat.simulation import paper_problem, simulate
 
 
 def gaps(hs, horizon=2.0):

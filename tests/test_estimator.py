@@ -13,13 +13,8 @@ from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
 from omegahat.measurements import MeasurementError
-from omegahat.observer.estimator import (
-    EstimatorState,
-    SarrasEstimator,
-    SkippedSamplesWarning,
-    reference_predict,
-    reference_step,
-)
+from omegahat.observer.estimator import EstimatorState, SarrasEstimator, SkippedSamplesWarning
+from omegahat.observer.reference import reference_predict, reference_step
 from omegahat.observer.gains import ObserverGains, theorem_gains
 
 PAPER_J = np.diag([3.0, 2.0, 1.0])

@@ -23,7 +23,7 @@ from omegahat.baselines.mekf import MEKF
 from omegahat.baselines.spline import SplineEstimator
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
-from omegahat.simulation.coupled import CoupledProblem
+from omegahat.simulation import CoupledProblem
 from omegahat.simulation.rigid_body import RigidBody, integrate
 
 J = np.diag([3.0, 2.0, 1.0])

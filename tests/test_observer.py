@@ -7,7 +7,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.observer import continuous as sarras
 from omegahat.observer.gains import ObserverGains
-from omegahat.simulation.coupled import PAPER_OMEGA_MAX, CoupledProblem, paper_problem, simulate, simulate_reference
+from omegahat.simulation import PAPER_OMEGA_MAX, CoupledProblem, paper_problem, simulate, simulate_reference
 
 J_PAPER = np.diag([3.0, 2.0, 1.0])
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from omegahat import so3
+from omegahat import measurements as ms
 from omegahat.kernels.observer import output_map
 from omegahat.kernels.vec3 import mat3
 from omegahat.observer.gains import ObserverGains, theorem_gains
@@ -72,9 +72,7 @@ class CoupledProblem:
         refs = as_directions(np.eye(3)[: self.gains.n] if self.references is None else self.references)
         if refs.shape[0] != self.gains.n:
             raise ValueError(f"{self.gains.n} gains were given for {refs.shape[0]} reference directions")
-        R0 = so3.as_matrix(self.R0)
-        if R0.shape != (3, 3) or not so3.is_rotation(R0, tol=1e-9):
-            raise ValueError(f"R0 must be a rotation; got {R0!r}")
+        R0 = ms.as_rotation(self.R0, "R0")  # a problem definition: a rotation to rounding (the measurements' policy)
         r0 = refs @ R0  # r_i = R0ᵀ v_i, stacked as rows
         r_hat0 = r0.copy() if self.r_hat0 is None else np.asarray(self.r_hat0, dtype=float)
         if r_hat0.shape != r0.shape or not np.all(np.isfinite(r_hat0)):

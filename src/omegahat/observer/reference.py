@@ -1,0 +1,103 @@
+r"""The sampled estimator written plainly in NumPy and SciPy: the test oracle of the compiled step.
+
+The same realisation as :mod:`omegahat.observer.sampled` (steps (P), (I), (C), (R) and the warm start (W) of
+:mod:`omegahat.observer.estimator`), written from the equations with vectors and matrices, independent of the
+compiled kernels: rotations by SciPy's ``Rotation`` (exp, log, and Wahba's problem by ``align_vectors``), the
+observer's terms spelled out with ``np.cross``. Slow (a thousand samples a second); tests compare the compiled
+estimator with it sample by sample.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from omegahat.observer.gains import ObserverGains
+from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, MAX_SUBSTEPS, EstimatorState
+
+__all__ = ["reference_predict", "reference_step"]
+
+
+def _substeps(h, omega_hat, J_inv, tau, max_angle) -> int:
+    angle = h * (np.linalg.norm(omega_hat) + h * np.linalg.norm(J_inv @ tau))
+    return int(min(MAX_SUBSTEPS, max(1, math.ceil(angle / max_angle))))
+
+
+def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, max_angle=MAX_SUBSTEP_ANGLE):
+    """(P) over ``h``: returns ``(ω̂, r_pred, e_pred)``."""
+    f = lambda w: J_inv @ (np.cross(J @ w, w) + tau)  # Euler's equations  # noqa: E731
+    dexpinv = lambda u, w: w + 0.5 * np.cross(u, w) + np.cross(u, np.cross(u, w)) / 12.0  # noqa: E731
+    n_sub = _substeps(h, omega_hat, J_inv, tau, max_angle)
+    hs = h / n_sub
+    w = np.array(omega_hat, dtype=float)
+    D = np.eye(3)  # ΔR̂
+    int_abs_w = 0.0  # ∫ |ω̂| dt
+    for _ in range(n_sub):  # RKMK4
+        w1 = w
+        K1, L1 = hs * w1, hs * f(w1)
+        w2 = w + L1 / 2
+        K2, L2 = hs * dexpinv(K1 / 2, w2), hs * f(w2)
+        w3 = w + L2 / 2
+        K3, L3 = hs * dexpinv(K2 / 2, w3), hs * f(w3)
+        w4 = w + L3
+        K4, L4 = hs * dexpinv(K3, w4), hs * f(w4)
+        int_abs_w += (
+            hs * (np.linalg.norm(w1) + 2 * np.linalg.norm(w2) + 2 * np.linalg.norm(w3) + np.linalg.norm(w4)) / 6
+        )
+        D = D @ Rotation.from_rotvec((K1 + 2 * K2 + 2 * K3 + K4) / 6).as_matrix()
+        w = w + (L1 + 2 * L2 + 2 * L3 + L4) / 6
+    decay = np.exp(-(gains.l_offset * h + gains.l_slope * int_abs_w))  # the exact decay of the filter errors
+    return w, r @ D, decay[:, None] * (e @ D)  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
+
+
+def reference_step(
+    state: EstimatorState,
+    t,
+    r_meas,
+    tau,
+    J,
+    gains: ObserverGains,
+    r_hat0=None,
+    omega_hat0=None,
+    max_angle=MAX_SUBSTEP_ANGLE,
+    warm_start=False,
+) -> EstimatorState:
+    """One sample of directions ``r_meas (n, 3)`` (None: a skipped sample), no checks. ``tau`` is the torque given
+    with this sample (held from ``t`` on); the interval uses ``state.torque``."""
+    tau = np.zeros(3) if tau is None else np.asarray(tau, dtype=float)
+    if not state.initialised:
+        if r_meas is None:
+            return EstimatorState(float(t), False, state.t_meas, state.omega_hat, tau, state.r, state.e)
+        r_meas = np.asarray(r_meas, dtype=float)
+        w0 = np.zeros(3) if omega_hat0 is None else np.asarray(omega_hat0, float)
+        e0 = np.zeros_like(r_meas) if r_hat0 is None else np.asarray(r_hat0, float) - r_meas
+        return EstimatorState(float(t), True, float(t), w0, tau, r_meas.copy(), e0, warm_start)
+    J_inv = np.linalg.inv(J)
+    if state.warm_pending:
+        if r_meas is None:
+            return EstimatorState(float(t), True, state.t_meas, state.omega_hat, tau, state.r, state.e, True)
+        r_meas = np.asarray(r_meas, dtype=float)
+        h = t - state.t_meas
+        # (W): A = argmin Σ k_i |m_i − A r_i|², ω_avg = log(Aᵀ)/h, then half a step of Euler's equations
+        A = Rotation.align_vectors(r_meas, state.r, weights=gains.k)[0].as_matrix()
+        w_avg = Rotation.from_matrix(A.T).as_rotvec() / h
+        w = w_avg + 0.5 * h * J_inv @ (np.cross(J @ w_avg, w_avg) + state.torque)
+        decay = np.exp(-(gains.l_offset * h + gains.l_slope * np.linalg.norm(w_avg) * h))
+        r_pred, e_pred = state.r @ A.T, decay[:, None] * (state.e @ A.T)
+        return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - (r_meas - r_pred))
+    w, r_pred, e_pred = reference_predict(
+        state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle
+    )
+    if r_meas is None:
+        return EstimatorState(float(t), True, state.t_meas, w, tau, r_pred, e_pred)
+    r_meas = np.asarray(r_meas, dtype=float)
+    delta = r_meas - r_pred  # (I)
+    r_hat = r_pred + e_pred
+    k = gains.k
+    y = J_inv @ np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # the plain jump of the output map
+    M = sum(k[i] * (r_meas[i] @ r_meas[i] * np.eye(3) - np.outer(r_meas[i], r_meas[i])) for i in range(k.size))
+    h = t - state.t_meas  # since the last valid sample
+    w = w + np.linalg.solve(np.eye(3) + h * J_inv @ M, y)  # (C)
+    return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - delta)  # (R)

@@ -1,0 +1,370 @@
+r"""The sampled estimator's compiled step: one sample in, the state advanced, in one Numba call.
+
+The realisation is explained in :mod:`omegahat.observer.estimator` (``docs/sampled.md``): between samples the
+prediction (P) — ω̂ by Euler's equations, the attitude increment ``ΔR̂`` along ω̂ by RKMK4, the filter errors
+rotated and decayed exactly — then, at a valid sample, the innovation ``Δ_i`` (I), the implicit correction (C)
+and the reset (R); the warm start (W) at the second valid sample. Each step is a function of its own here, built
+from :mod:`omegahat.kernels` (Euler's equations, the observer's innovation and stiffness, exp and dexp⁻¹ on SO(3),
+Wahba's problem) and the input checks of :mod:`omegahat.kernels.checks`.
+
+**The state** is one flat array (a ``SarrasEstimator`` hands it to the compiled code and back, and a flat array
+crosses that boundary in a fraction of a microsecond where a named tuple of arrays costs more than the step). Its
+layout is named: :data:`STATE` (offsets of the fixed part; ``r`` then ``e``, ``3n`` each, follow) and the stage
+codes :data:`UNINITIALISED`, :data:`WARM_PENDING`, :data:`RUNNING`. The parameters likewise: :data:`PARAMS`, built by
+:func:`pack_params`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from omegahat.kernels import checks
+from omegahat.kernels.dynamics import euler_rate
+from omegahat.kernels.observer import innovation, stiffness
+from omegahat.kernels.rotation import dexpinv, exp_matrix, rotvec_from_matrix, wahba
+from omegahat.kernels.vec3 import mat3, matvec, solve
+
+__all__ = [
+    "MAX_SUBSTEPS",
+    "MAX_SUBSTEP_ANGLE",
+    "PARAMS",
+    "RUNNING",
+    "STATE",
+    "UNINITIALISED",
+    "WARM_PENDING",
+    "EstimatorState",
+    "ParamLayout",
+    "StateLayout",
+    "initial_state_vector",
+    "pack_params",
+    "run",
+    "step",
+]
+
+MAX_SUBSTEP_ANGLE = 0.05  #: rad: default bound on a prediction substep's angle h_sub (|ω̂| + h |J⁻¹τ|)
+MAX_SUBSTEPS = 1_000_000  #: cap on substeps per interval (a gap of hours at a fast spin)
+
+
+class StateLayout(NamedTuple):
+    """Offsets in the flat state: time of the last sample, stage, time of the last valid sample, ω̂ (3), the torque
+    held since the last sample (3); then the directions ``r`` (3n) and the filter errors ``e = r̂ − r`` (3n)."""
+
+    t: int
+    stage: int
+    t_meas: int
+    omega_hat: int
+    torque: int
+    r: int
+
+
+STATE = StateLayout(t=0, stage=1, t_meas=2, omega_hat=3, torque=6, r=9)
+UNINITIALISED = 0.0  #: stage before the first valid sample
+WARM_PENDING = 1.0  #: stage after it while a warm start waits for the second
+RUNNING = 2.0  #: stage from then on
+
+
+class ParamLayout(NamedTuple):
+    """Offsets in the flat parameters; ``k``, ``l_offset``, ``l_slope`` (n each), the references ``V`` (3n) and
+    the initial ``r̂`` (3n) follow from ``k`` on."""
+
+    J: int
+    Jinv: int
+    rotation_tol: int
+    quat_norm_tol: int
+    min_sin: int
+    max_angle: int
+    scalar_first: int
+    has_r_hat0: int
+    n: int
+    warm_start: int
+    k: int
+
+
+PARAMS = ParamLayout(
+    J=0, Jinv=9, rotation_tol=18, quat_norm_tol=19, min_sin=20, max_angle=21, scalar_first=22, has_r_hat0=23, n=24,
+    warm_start=25, k=26,
+)  # fmt: skip
+
+
+def pack_params(J, gains, references, r_hat0, rotation_tol, quat_norm_tol, min_angle_deg, max_angle, scalar_first,
+                warm_start) -> np.ndarray:  # fmt: skip
+    """The flat parameters (:data:`PARAMS`) of an estimator."""
+    n = gains.n
+    return np.concatenate([
+        np.asarray(J, dtype=float).ravel(),
+        np.linalg.inv(J).ravel(),
+        [rotation_tol, quat_norm_tol, math.sin(math.radians(min_angle_deg)), max_angle, float(scalar_first),
+         float(r_hat0 is not None), float(n), float(warm_start)],
+        gains.k, gains.l_offset, gains.l_slope,
+        np.asarray(references, dtype=float).ravel(),
+        np.zeros(3 * n) if r_hat0 is None else np.asarray(r_hat0, dtype=float).ravel(),
+    ])  # fmt: skip
+
+
+@dataclass(frozen=True)
+class EstimatorState:
+    """A readable copy of the state (``n`` directions).
+
+    ``t`` time of the last sample (NaN before any), ``initialised`` whether a valid sample has set ``r``,
+    ``t_meas`` time of the last valid (not skipped) sample, ``omega_hat (3,)``, ``torque (3,)`` held since ``t``,
+    ``r (n, 3)`` the directions at ``t`` (the last measurement or its prediction), ``e (n, 3) = r̂ − r``,
+    ``warm_pending`` whether a warm start waits for the second valid sample (``r`` is then the first sample's
+    measurement).
+    """
+
+    t: float
+    initialised: bool
+    t_meas: float
+    omega_hat: np.ndarray
+    torque: np.ndarray
+    r: np.ndarray
+    e: np.ndarray
+    warm_pending: bool = False
+
+    @property
+    def r_hat(self) -> np.ndarray:
+        """The observer's filtered directions ``r̂ = r + e``, ``(n, 3)``."""
+        return self.r + self.e
+
+    @classmethod
+    def from_vector(cls, x: np.ndarray) -> EstimatorState:
+        n = (x.size - STATE.r) // 6
+        return cls(
+            t=float(x[STATE.t]),
+            initialised=bool(x[STATE.stage] != UNINITIALISED),
+            t_meas=float(x[STATE.t_meas]),
+            omega_hat=x[STATE.omega_hat : STATE.omega_hat + 3].copy(),
+            torque=x[STATE.torque : STATE.torque + 3].copy(),
+            r=x[STATE.r : STATE.r + 3 * n].reshape(n, 3).copy(),
+            e=x[STATE.r + 3 * n :].reshape(n, 3).copy(),
+            warm_pending=bool(x[STATE.stage] == WARM_PENDING),
+        )
+
+    def to_vector(self) -> np.ndarray:
+        stage = UNINITIALISED if not self.initialised else WARM_PENDING if self.warm_pending else RUNNING
+        return np.concatenate(
+            [[self.t, stage, self.t_meas], self.omega_hat, self.torque, self.r.ravel(), self.e.ravel()]
+        )
+
+
+def initial_state_vector(n: int, omega_hat0) -> np.ndarray:
+    """The state before any sample: time NaN, uninitialised, ω̂ = ω̂₀."""
+    x = np.zeros(STATE.r + 6 * n)
+    x[STATE.t] = np.nan
+    x[STATE.t_meas] = np.nan
+    x[STATE.omega_hat : STATE.omega_hat + 3] = omega_hat0
+    return x
+
+
+# ------------------------------------------------------------------------------------------------ the steps
+
+
+@numba.njit(cache=True)
+def _predict_rate(Jm, Jinv, max_angle, w, tau, h, D):
+    """(P) for ω̂ and ΔR̂ over h with the torque held: ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3); returns
+    ``∫|ω̂| dt``. RKMK4 in substeps of angle ``h_sub (|ω̂| + h|J⁻¹τ|) ≤ max_angle``: classical RK4 for ω̂, for
+    ``ΔR̂ = exp(u)`` the stages ``u̇ = dexp⁻¹(ω̂)`` (R5), and ``∫|ω̂|`` with the same weights. Exact (ΔR̂ = exp(h ω̂))
+    for a constant ω̂."""
+    t0, t1, t2 = tau[0], tau[1], tau[2]
+    f0, f1, f2 = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, t0, t1, t2)  # J⁻¹τ
+    w0, w1, w2 = w[0], w[1], w[2]
+    angle = h * (math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) + h * math.sqrt(f0 * f0 + f1 * f1 + f2 * f2))
+    n_sub = max(1, min(MAX_SUBSTEPS, math.ceil(angle / max_angle)))
+    hs = h / n_sub
+    int_abs = 0.0
+    d = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    for _ in range(n_sub):
+        L1 = euler_rate(Jm, Jinv, w0, w1, w2, t0, t1, t2)
+        K1 = (hs * w0, hs * w1, hs * w2)
+        n1 = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        s0, s1, s2 = w0 + 0.5 * hs * L1[0], w1 + 0.5 * hs * L1[1], w2 + 0.5 * hs * L1[2]
+        n2 = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        K2 = dexpinv(0.5 * K1[0], 0.5 * K1[1], 0.5 * K1[2], s0, s1, s2, hs)
+        L2 = euler_rate(Jm, Jinv, s0, s1, s2, t0, t1, t2)
+        s0, s1, s2 = w0 + 0.5 * hs * L2[0], w1 + 0.5 * hs * L2[1], w2 + 0.5 * hs * L2[2]
+        n3 = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        K3 = dexpinv(0.5 * K2[0], 0.5 * K2[1], 0.5 * K2[2], s0, s1, s2, hs)
+        L3 = euler_rate(Jm, Jinv, s0, s1, s2, t0, t1, t2)
+        s0, s1, s2 = w0 + hs * L3[0], w1 + hs * L3[1], w2 + hs * L3[2]
+        n4 = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        K4 = dexpinv(K3[0], K3[1], K3[2], s0, s1, s2, hs)
+        L4 = euler_rate(Jm, Jinv, s0, s1, s2, t0, t1, t2)
+        int_abs += hs * (n1 + 2.0 * n2 + 2.0 * n3 + n4) / 6.0
+        w0 += hs * (L1[0] + 2.0 * L2[0] + 2.0 * L3[0] + L4[0]) / 6.0
+        w1 += hs * (L1[1] + 2.0 * L2[1] + 2.0 * L3[1] + L4[1]) / 6.0
+        w2 += hs * (L1[2] + 2.0 * L2[2] + 2.0 * L3[2] + L4[2]) / 6.0
+        E = exp_matrix(
+            (K1[0] + 2.0 * K2[0] + 2.0 * K3[0] + K4[0]) / 6.0,
+            (K1[1] + 2.0 * K2[1] + 2.0 * K3[1] + K4[1]) / 6.0,
+            (K1[2] + 2.0 * K2[2] + 2.0 * K3[2] + K4[2]) / 6.0,
+        )
+        d = (  # ΔR̂ ← ΔR̂ exp(u)
+            d[0] * E[0] + d[1] * E[3] + d[2] * E[6], d[0] * E[1] + d[1] * E[4] + d[2] * E[7],
+            d[0] * E[2] + d[1] * E[5] + d[2] * E[8], d[3] * E[0] + d[4] * E[3] + d[5] * E[6],
+            d[3] * E[1] + d[4] * E[4] + d[5] * E[7], d[3] * E[2] + d[4] * E[5] + d[5] * E[8],
+            d[6] * E[0] + d[7] * E[3] + d[8] * E[6], d[6] * E[1] + d[7] * E[4] + d[8] * E[7],
+            d[6] * E[2] + d[7] * E[5] + d[8] * E[8],
+        )  # fmt: skip
+    w[0], w[1], w[2] = w0, w1, w2
+    for a in range(3):
+        for b in range(3):
+            D[a, b] = d[3 * a + b]
+    return int_abs
+
+
+@numba.njit(cache=True)
+def _predict_directions(r, e, D, decay, i):
+    """(P) for direction i: ``r ← ΔR̂ᵀ r`` and ``e ← decay ΔR̂ᵀ e`` (row form ``rᵀ ΔR̂``), in place."""
+    p0 = r[i, 0] * D[0, 0] + r[i, 1] * D[1, 0] + r[i, 2] * D[2, 0]
+    p1 = r[i, 0] * D[0, 1] + r[i, 1] * D[1, 1] + r[i, 2] * D[2, 1]
+    p2 = r[i, 0] * D[0, 2] + r[i, 1] * D[1, 2] + r[i, 2] * D[2, 2]
+    e0 = decay * (e[i, 0] * D[0, 0] + e[i, 1] * D[1, 0] + e[i, 2] * D[2, 0])
+    e1 = decay * (e[i, 0] * D[0, 1] + e[i, 1] * D[1, 1] + e[i, 2] * D[2, 1])
+    e2 = decay * (e[i, 0] * D[0, 2] + e[i, 1] * D[1, 2] + e[i, 2] * D[2, 2])
+    r[i, 0], r[i, 1], r[i, 2] = p0, p1, p2
+    e[i, 0], e[i, 1], e[i, 2] = e0, e1, e2
+
+
+@numba.njit(cache=True)
+def _correct(Jinv, k, h, w, r, e, r_meas):
+    """(I), (C) and (R) at a valid sample, ``h`` after the last valid one: ``Δ_i = r_i,meas − r_i,pred``; the
+    innovation accumulated over the interval, ``y = J⁻¹ Σ innovation(k_i, r̂_i, −Δ_i)`` (O1 with the mismatch
+    ``−Δ_i``); ``ω̂ += (I + h J⁻¹ M_meas)⁻¹ y`` with the stiffness (O6) at the measured directions; then
+    ``e ← e − Δ`` and ``r ← r_meas`` (r̂ continuous)."""
+    y0 = y1 = y2 = 0.0
+    M00 = M11 = M22 = M01 = M02 = M12 = 0.0
+    for i in range(r.shape[0]):
+        m0, m1, m2 = r_meas[i, 0], r_meas[i, 1], r_meas[i, 2]
+        d0, d1, d2 = m0 - r[i, 0], m1 - r[i, 1], m2 - r[i, 2]  # (I): Δ_i
+        a0, a1, a2, b0, b1, b2 = innovation(
+            k[i], r[i, 0] + e[i, 0], r[i, 1] + e[i, 1], r[i, 2] + e[i, 2], -d0, -d1, -d2
+        )
+        y0 += a0
+        y1 += a1
+        y2 += a2
+        s = stiffness(k[i], m0, m1, m2)
+        M00 += s[0]
+        M11 += s[1]
+        M22 += s[2]
+        M01 += s[3]
+        M02 += s[4]
+        M12 += s[5]
+        e[i, 0], e[i, 1], e[i, 2] = e[i, 0] + b0, e[i, 1] + b1, e[i, 2] + b2  # (R): e ← e − Δ
+        r[i, 0], r[i, 1], r[i, 2] = m0, m1, m2
+    # (C): (I + h J⁻¹ M) ω̂_jump = J⁻¹ y
+    c0 = matvec(Jinv, M00, M01, M02)  # columns of J⁻¹ M (M symmetric)
+    c1 = matvec(Jinv, M01, M11, M12)
+    c2 = matvec(Jinv, M02, M12, M22)
+    T = (1.0 + h * c0[0], h * c1[0], h * c2[0], h * c0[1], 1.0 + h * c1[1], h * c2[1], h * c0[2], h * c1[2],
+         1.0 + h * c2[2])  # fmt: skip
+    z0, z1, z2 = matvec(Jinv, y0, y1, y2)
+    dw0, dw1, dw2 = solve(T, z0, z1, z2)
+    w[0] += dw0
+    w[1] += dw1
+    w[2] += dw2
+
+
+@numba.njit(cache=True)
+def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
+    """(W) at the second valid sample, ``h`` after the first: Wahba's rotation A carrying the first sample's
+    directions onto the second's (R6), ω_avg = log(Aᵀ)/h, half a step of Euler's equations to the sample's time;
+    r, e advanced like (P), (I) and (R) with ΔR̂ = Aᵀ."""
+    A = wahba(k, r_meas, r)
+    p0, p1, p2 = rotvec_from_matrix(A.T.copy())  # ΔR̂ = Aᵀ = exp(h ω_avg)
+    u0, u1, u2 = p0 / h, p1 / h, p2 / h
+    f0, f1, f2 = euler_rate(Jm, Jinv, u0, u1, u2, tau[0], tau[1], tau[2])
+    int_abs = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2) * h  # ∫|ω̂| dt along the constant ω_avg
+    D = A.T.copy()
+    for i in range(r.shape[0]):
+        _predict_directions(r, e, D, math.exp(-(l_off[i] * h + l_slope[i] * int_abs)), i)
+        for a in range(3):  # (R): r̂ continuous, r jumps to the measurement
+            e[i, a] -= r_meas[i, a] - r[i, a]
+            r[i, a] = r_meas[i, a]
+    w[0], w[1], w[2] = u0 + 0.5 * h * f0, u1 + 0.5 * h * f1, u2 + 0.5 * h * f2  # midpoint rate → the sample's
+
+
+@numba.njit(cache=True)
+def step_into(x, p, t, m, kind, tau, out, wk):
+    """Check one sample and advance the state ``x`` into ``out``; returns ``(status, info)`` (the codes of
+    :mod:`omegahat.kernels.checks`). On a rejection ``out`` is unspecified and ``x`` untouched. ``wk``: scratch
+    ``(n + 6, 3)``."""
+    n = int(p[PARAMS.n])
+    Jm, Jinv = mat3(p[PARAMS.J : PARAMS.J + 9].reshape(3, 3)), mat3(p[PARAMS.Jinv : PARAMS.Jinv + 9].reshape(3, 3))
+    k = p[PARAMS.k : PARAMS.k + n]
+    l_off = p[PARAMS.k + n : PARAMS.k + 2 * n]
+    l_slope = p[PARAMS.k + 2 * n : PARAMS.k + 3 * n]
+    V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
+    r_meas, D, R_work = wk[:n], wk[n : n + 3], wk[n + 3 : n + 6]
+    status, info = checks.check_sample(
+        t, x[STATE.t], tau, m, kind, V, p[PARAMS.scalar_first] != 0.0, p[PARAMS.rotation_tol],
+        p[PARAMS.quat_norm_tol], p[PARAMS.min_sin], r_meas, R_work,
+    )  # fmt: skip
+    if status >= checks.ERROR:
+        return status, info
+    out[:] = x
+    out[STATE.t] = t
+    out[STATE.torque : STATE.torque + 3] = tau
+    w = out[STATE.omega_hat : STATE.omega_hat + 3]
+    r = out[STATE.r : STATE.r + 3 * n].reshape(n, 3)
+    e = out[STATE.r + 3 * n : STATE.r + 6 * n].reshape(n, 3)
+    valid = status == checks.OK
+    stage = x[STATE.stage]
+    if stage == UNINITIALISED:
+        if valid:  # the first valid sample sets r; e from the given r̂₀ (default: r̂ = r)
+            out[STATE.stage] = WARM_PENDING if p[PARAMS.warm_start] != 0.0 else RUNNING
+            out[STATE.t_meas] = t
+            r[:, :] = r_meas
+            if p[PARAMS.has_r_hat0] != 0.0:
+                e[:, :] = p[PARAMS.k + 6 * n : PARAMS.k + 9 * n].reshape(n, 3) - r_meas
+            else:
+                e[:, :] = 0.0
+        return status, info
+    held = x[STATE.torque : STATE.torque + 3]
+    if stage == WARM_PENDING:
+        if valid:
+            _warm_start(Jm, Jinv, k, l_off, l_slope, held, t - x[STATE.t_meas], w, r, e, r_meas)
+            out[STATE.stage] = RUNNING
+            out[STATE.t_meas] = t
+        return status, info
+    h_pred = t - x[STATE.t]
+    int_abs = _predict_rate(Jm, Jinv, p[PARAMS.max_angle], w, held, h_pred, D)
+    for i in range(n):
+        _predict_directions(r, e, D, math.exp(-(l_off[i] * h_pred + l_slope[i] * int_abs)), i)
+    if valid:  # the correction's interval: since the last valid sample (a skipped one only adds substeps)
+        _correct(Jinv, k, t - x[STATE.t_meas], w, r, e, r_meas)
+        out[STATE.t_meas] = t
+    return status, info
+
+
+@numba.njit(cache=True)
+def step(x, p, t, m, kind, tau):
+    """The pure step: ``(new state, status, info)``; ``x`` is not modified. ``m`` is 2-D (a matrix ``(3, 3)``, a
+    quaternion ``(1, 4)`` or directions ``(n, 3)``), ``kind`` one of the ``KIND_*`` codes."""
+    out = np.empty_like(x)
+    status, info = step_into(x, p, t, m, kind, tau, out, np.empty((int(p[PARAMS.n]) + 6, 3)))
+    return out, status, info
+
+
+@numba.njit(cache=True)
+def run(x, p, times, m, kind, taus):
+    """:func:`step_into` over a log: ``(final state, ω̂ (T, 3), status (T,), first_bad, info)``; at the first
+    rejected sample it stops and returns the state it started from (``first_bad`` its index, else −1)."""
+    T = times.size
+    W = np.empty((T, 3))
+    status = np.zeros(T, dtype=np.int64)
+    cur = x.copy()
+    nxt = np.empty_like(x)
+    wk = np.empty((int(p[PARAMS.n]) + 6, 3))
+    for j in range(T):
+        s, info = step_into(cur, p, times[j], m[j], kind, taus[j], nxt, wk)
+        status[j] = s
+        if s >= checks.ERROR:
+            return x, W, status, j, info
+        cur, nxt = nxt, cur
+        W[j, 0], W[j, 1], W[j, 2] = cur[STATE.omega_hat], cur[STATE.omega_hat + 1], cur[STATE.omega_hat + 2]
+    return cur, W, status, -1, 0.0
