@@ -18,7 +18,7 @@ from omegahat.baselines.mekf import (
 )
 from omegahat.simulation.rigid_body import RigidBody, integrate
 
-J = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.0]])
+J = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.2]])  # a real body: J1 + J2 >= J3
 J_INV = np.linalg.inv(J)
 W_HAT = np.array([0.8, -1.3, 0.5])
 

@@ -43,6 +43,7 @@ __all__ = [
     "attitude_directions",
     "attitude_matrices",
     "body_directions",
+    "sample_status",
 ]
 
 # Default tolerances (documented in the estimator): rotation matrices read from text logs with ~6 significant
@@ -217,6 +218,21 @@ def _convert_batch(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_si
     return r, status, -1, 0.0
 
 
+@numba.njit(cache=True)
+def _status_batch(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
+    """:func:`convert_sample`'s ``(status, info)`` for every sample of ``m (T, a, b)``, without stopping."""
+    T = m.shape[0]
+    status = np.zeros(T, dtype=np.int64)
+    info = np.zeros(T)
+    r = np.empty((V.shape[0], 3))
+    R_work = np.empty((3, 3))
+    for j in range(T):
+        status[j], info[j] = convert_sample(
+            m[j], kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work
+        )
+    return status, info
+
+
 # ------------------------------------------------------------------------------------------------ Python layer
 
 
@@ -310,6 +326,37 @@ def attitude_matrices(
         attitudes, np.eye(3), scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
     )
     return r  # with V = I the directions are the rows of R, i.e. R itself
+
+
+def sample_status(
+    samples,
+    *,
+    directions: bool = False,
+    scalar_first: bool = False,
+    rotation_tol: float = ROTATION_TOL,
+    quat_norm_tol: float = QUAT_NORM_TOL,
+    min_angle_deg: float = MIN_ANGLE_DEG,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The status of every sample of a batch, never raising on a bad one: ``(status (T,), info (T,))``.
+
+    ``samples``: matrices ``(T, 3, 3)`` or quaternions ``(T, 4)`` (``directions=False``), or body-frame directions
+    ``(T, n, 3)`` (``directions=True``). Statuses and ``info`` are those of the compiled checks the estimator
+    runs (:data:`OK`, :data:`MISSING`, :data:`COLLINEAR`, and from ``ERROR`` on a rejection, described by
+    :func:`describe_rejection`), so a caller can drop or report bad samples before estimating.
+    """
+    a = np.asarray(samples, dtype=float)
+    if directions:
+        if a.ndim != 3 or a.shape[-1] != 3 or a.shape[1] < 2:
+            raise ValueError(f"direction samples must have shape (T, n, 3) with n >= 2; got shape {a.shape}")
+        m, kind, V = np.ascontiguousarray(a), KIND_DIRECTIONS, np.zeros((a.shape[1], 3))
+    else:
+        m, kind, _ = _attitude_array(a, scalar_first)
+        if m.shape[0] != (a.shape[0] if a.ndim else 0):
+            raise ValueError(f"attitude samples must have shape (T, 3, 3) or (T, 4); got shape {a.shape}")
+        V = np.eye(3)
+    return _status_batch(
+        m, kind, V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), float(np.sin(np.radians(min_angle_deg)))
+    )
 
 
 def body_directions(measured, n: int | None = None, *, min_angle_deg: float = MIN_ANGLE_DEG) -> Directions:
