@@ -38,7 +38,7 @@ from tqdm import tqdm
 from omegahat import measurements as ms
 from omegahat.io import LogFormatError, OmegaWriter, ReadOptions, check_output_path, open_log
 from omegahat.io.output import CORRECTED, PREDICTED, UNAVAILABLE
-from omegahat.io.registry import ROTATIONS, TIME_UNITS
+from omegahat.io.registry import ROTATIONS, TIME_UNITS, prefetch
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
@@ -380,7 +380,7 @@ def run(args) -> int:
     J = np.eye(3) if args.inertia is None else as_inertia(np.array(args.inertia), name="--inertia")
     refs = _references(args, stream)
     bad = _Bad(args, stream)
-    chunks = stream.chunks()
+    chunks = prefetch(stream.chunks())
     head, n_head = _head(stream, chunks)
     for c in head:
         bad.check(c)
@@ -429,7 +429,10 @@ def run(args) -> int:
             disable=not show, file=sys.stderr,
         ) as bar:
             job = _Run(est, stream, writer, bad, args.start, motion.h)
-            for chunk in [*head, *chunks]:
+            del t_h, data_h, tau_h, tv, rot, motion
+            while head:  # the head first (releasing it as it goes), then the rest of the stream
+                job.feed(head.pop(0))
+            for chunk in chunks:
                 job.feed(chunk)
                 bar.n = min(stream.done, stream.size) if stream.label == "line" else job.rows
                 bar.refresh()

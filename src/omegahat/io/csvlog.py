@@ -39,8 +39,6 @@ from omegahat.io.registry import LogChunk, LogStream, ReadOptions
 __all__ = ["open_csv"]
 
 _DELIMITERS = {",": "','", ";": "';'", "\t": "tab"}
-_BLANKS = np.zeros(256, dtype=bool)
-_BLANKS[[9, 10, 13, 32, 34]] = True  # tab, LF, CR, space, double quote: not content
 
 
 def _source_blocks(path: str, block: int, stream: LogStream) -> Iterator[bytes]:
@@ -123,29 +121,31 @@ class _Parser:
         index = {n: i for i, n in enumerate(names)}
         self.cols = [f"c{index[c]}" for c in lay.columns]
         self.decimal_comma = delim != ","
-        self.blank = _BLANKS.copy()
-        self.blank[ord(delim)] = True
 
     # -- line bookkeeping ------------------------------------------------------------------------------------
 
     def _line_table(self, buf: bytes, first_line: int):
-        """Line numbers of the rows PyArrow will produce, and which of them hold no content at all."""
+        """Line numbers of the rows PyArrow will produce (it skips empty lines) with their byte spans, or
+        ``None`` when a quoted field spans lines (then Python's csv takes over); and the number of lines."""
         a = np.frombuffer(buf, dtype=np.uint8)
         nl = np.flatnonzero(a == 10)
         ends = nl if buf.endswith(b"\n") else np.append(nl, a.size)
         starts = np.concatenate([[0], nl[: ends.size - 1] + 1])
         length = ends - starts
         cr = (length > 0) & (a[np.maximum(ends - 1, 0)] == 13)
-        empty = (length - cr) == 0
-        content = np.concatenate([[0], np.cumsum(~self.blank[a])])
-        has_content = (content[ends] - content[starts]) > 0
+        keep = (length - cr) > 0
+        if b'"' in buf:  # each row must close its quotes on its own line
+            qpos = np.flatnonzero(a == 34)
+            if np.any((np.searchsorted(qpos, ends) - np.searchsorted(qpos, starts)) % 2):
+                return None, ends.size
         numbers = first_line + np.arange(ends.size)
-        if 34 in buf:  # quotes: each row must close its quotes on its own line, else Python's csv takes over
-            q = np.concatenate([[0], np.cumsum(a == 34)])
-            if np.any((q[ends] - q[starts]) % 2):
-                return None, None, ends.size
-        keep = ~empty
-        return numbers[keep], ~has_content[keep], ends.size
+        return (numbers[keep], starts[keep], ends[keep]), ends.size
+
+    def _blank_rows(self, buf: bytes, spans, candidates: np.ndarray) -> np.ndarray:
+        """Which of the candidate rows (no needed field filled) hold nothing at all (only delimiters, blanks)."""
+        _, starts, ends = spans
+        strip = b" \t\r\"'" + self.delim.encode()
+        return np.array([not buf[starts[i] : ends[i]].strip(strip) for i in candidates], dtype=bool)
 
     # -- the tiers -------------------------------------------------------------------------------------------
 
@@ -212,9 +212,10 @@ class _Parser:
 
     def parse(self, buf: bytes, first_line: int) -> tuple[LogChunk | None, int]:
         """``(chunk or None if no rows, number of lines in buf)``."""
-        lines, blank, n_lines = self._line_table(buf, first_line)
+        spans, n_lines = self._line_table(buf, first_line)
         values = None
-        if lines is not None:
+        if spans is not None:
+            lines = spans[0]
             try:
                 table = self._arrow(buf, as_text=False)
                 if table.num_rows == lines.size:
@@ -222,27 +223,30 @@ class _Parser:
             except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
                 try:
                     table = self._arrow(buf, as_text=True)
-                    if table.num_rows == lines.size:
-                        values = {
-                            c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.cols
-                        }  # raises naming the field
+                    if table.num_rows == lines.size:  # _numbers raises naming the first field that is no number
+                        values = {c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.cols}
                 except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
                     values = None
         if values is None:
             text, lines = self._python_rows(buf, first_line)
             values = {c: self._numbers(pa.array(v, pa.string()), lines, c) for c, v in text.items()}
-            blank = np.zeros(lines.size, dtype=bool)
+            spans = None
         null = {}
         arrays = {}
         for c, v in values.items():
             arr = v.combine_chunks() if isinstance(v, pa.ChunkedArray) else v
             null[c] = arr.is_null().to_numpy(zero_copy_only=False) if arr.null_count else np.zeros(len(arr), bool)
             arrays[c] = arr.to_numpy(zero_copy_only=False).astype(float, copy=False)
-        if blank.any():
-            keep = ~blank
-            lines = lines[keep]
-            arrays = {c: a[keep] for c, a in arrays.items()}
-            null = {c: a[keep] for c, a in null.items()}
+        all_null = np.logical_and.reduce([null[c] for c in self.cols])
+        if all_null.any() and spans is not None:  # rows of nothing but delimiters are blank lines
+            cand = np.flatnonzero(all_null)
+            blank = np.zeros(lines.size, dtype=bool)
+            blank[cand] = self._blank_rows(buf, spans, cand)
+            if blank.any():
+                keep = ~blank
+                lines = lines[keep]
+                arrays = {c: a[keep] for c, a in arrays.items()}
+                null = {c: a[keep] for c, a in null.items()}
         if lines.size == 0:
             return None, n_lines
         return self._chunk(arrays, null, lines), n_lines

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +61,8 @@ def check_output_path(output, inputs=()) -> Path:
 
 class OmegaWriter:
     """Chunked, atomic writer of ``t,wx,wy,wz,status`` (module docstring). Use as a context manager:
-    the file appears on a clean exit, never on an exception."""
+    the file appears on a clean exit, never on an exception. Each chunk is formatted and written by a
+    background thread (PyArrow releases the GIL) while the caller computes the next; at most one chunk waits."""
 
     def __init__(self, path):
         self.path = Path(path)
@@ -72,6 +74,8 @@ class OmegaWriter:
         self.rows = 0
         self._words = pa.array(STATUS_WORDS)
         self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
+        self._pending = None
 
     def write(self, t: np.ndarray, omega: np.ndarray, status: np.ndarray) -> None:
         """Append rows: ``t (m,)``, ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
@@ -85,11 +89,21 @@ class OmegaWriter:
                 "status": pa.DictionaryArray.from_arrays(codes, self._words),
             }
         )
-        pacsv.write_csv(table, self._f, self._options)
+        self._wait()
+        self._pending = self._pool.submit(pacsv.write_csv, table, self._f, self._options)
         self.rows += len(t)
+
+    def _wait(self) -> None:
+        if self._pending is not None:
+            pending, self._pending = self._pending, None
+            pending.result()  # re-raises a failed write here
 
     def commit(self) -> None:
         """Close the temporary file and move it onto the target (readable as the umask allows)."""
+        try:
+            self._wait()
+        finally:
+            self._pool.shutdown()
         self._f.close()
         umask = os.umask(0)
         os.umask(umask)
@@ -98,6 +112,11 @@ class OmegaWriter:
 
     def abort(self) -> None:
         """Close and remove the temporary file; the target is left as it was."""
+        try:
+            self._wait()
+        except Exception:  # noqa: BLE001 (already failing: the first error is the one reported)
+            pass
+        self._pool.shutdown()
         if not self._f.closed:
             self._f.close()
         self._tmp.unlink(missing_ok=True)

@@ -21,6 +21,8 @@ the torque, and ``labels``: the line number (CSV) or the index (NPZ) of each row
 from __future__ import annotations
 
 import os
+import queue
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
@@ -35,6 +37,7 @@ __all__ = [
     "LogStream",
     "ReadOptions",
     "open_log",
+    "prefetch",
     "register_format",
     "registered_extensions",
 ]
@@ -51,7 +54,7 @@ class ReadOptions:
     quaternion_order: str | None = None  # None: the names say it (qw..), else the format's documented default
     rotation: str = "body-to-inertial"
     time_column: str = "t"
-    chunk_bytes: int = 1 << 23  # CSV: bytes per chunk (memory stays proportional to this, not to the log)
+    chunk_bytes: int = 1 << 21  # CSV: bytes per chunk (memory stays proportional to this, not to the log)
 
     def __post_init__(self):
         if self.time_unit not in TIME_UNITS:
@@ -180,3 +183,39 @@ def open_log(path, options: ReadOptions | None = None, fmt: str | None = None) -
     if options.time_unit != "s":
         stream.notes.append(f"time unit: {options.time_unit} (converted to s)")
     return stream
+
+
+def prefetch(chunks: Iterator[LogChunk], depth: int = 2) -> Iterator[LogChunk]:
+    """The same chunks, produced by a background thread up to ``depth`` ahead (PyArrow parses without the
+    GIL, so reading overlaps estimating); an exception in the reader is raised here, in order."""
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    done = object()
+    stop = threading.Event()
+
+    def work():
+        try:
+            for c in chunks:
+                if stop.is_set():
+                    return
+                q.put(c)
+            q.put(done)
+        except BaseException as exc:  # noqa: BLE001 (handed to the consumer)
+            q.put(exc)
+
+    thread = threading.Thread(target=work, name="omegahat-reader", daemon=True)
+    thread.start()
+    try:
+        while True:
+            item = q.get()
+            if item is done:
+                return
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+    finally:
+        stop.set()
+        while thread.is_alive():  # let a reader blocked on a full queue finish
+            try:
+                q.get_nowait()
+            except queue.Empty:
+                thread.join(0.01)

@@ -69,7 +69,7 @@ __all__ = [
     "structure_table",
 ]
 
-HEAD_SAMPLES = 1 << 17  # samples analysed at most (the CLI passes the head of a longer log)
+HEAD_SAMPLES = 1 << 15  # samples analysed at most (the CLI passes the head of a longer log)
 SIGMA_FLOOR = 1e-9  # rad: below any real sensor (float32 quaternions carry ~6e-8); keeps (E) well posed
 CHI2_3_MEDIAN = 2.3660
 MAX_PAIRS = 20_000  # window pairs per structure-function evaluation (subsampled beyond)
@@ -150,7 +150,9 @@ def measure_motion(t, rot: Rotation, J=None, torque=None) -> LogMotion:
         raise ValueError(f"at least 2 valid samples are needed to choose gains; got {t.size}")
     h_all = np.diff(t)
     h = float(np.median(h_all))
-    phi = (rot[:-1].inv() * rot[1:]).as_rotvec()
+    quat = rot.as_quat()
+    idx = np.arange(t.size - 1)
+    phi = _rel_rotvec(quat, idx, idx + 1)
     sigma = SIGMA_FLOOR
     if phi.shape[0] >= 3:
         regular = np.abs(h_all / h - 1.0) < 0.05
@@ -168,9 +170,7 @@ def measure_motion(t, rot: Rotation, J=None, torque=None) -> LogMotion:
         # exact for τ held: ∫ over [t_j, t_j+1] of C(t) = C_j h + τ_j h²/2
         step = tint[:-1] * h_all[:, None] + 0.5 * torque[:-1] * h_all[:, None] ** 2
         tint2 = np.concatenate([np.zeros((1, 3)), np.cumsum(step, axis=0)])
-    return LogMotion(
-        1.0 / h, sigma, phi[0] / h_all[0], t, rot, J, torque, rot.as_quat(), max_window, tint, tint2
-    )
+    return LogMotion(1.0 / h, sigma, phi[0] / h_all[0], t, rot, J, torque, quat, max_window, tint, tint2)
 
 
 def _structure(motion: LogMotion, m_delta: int, m_w: int) -> float | None:
@@ -272,7 +272,8 @@ def initial_rate(t, rot: Rotation, window: float, J=None, torque=None) -> np.nda
     window (with two it is the first increment's rate)."""
     t = np.asarray(t, dtype=float)
     n = max(2, int(np.searchsorted(t, t[0] + window, side="right")))
-    phi = (rot[: n - 1].inv() * rot[1:n]).as_rotvec()
+    idx = np.arange(n - 1)
+    phi = _rel_rotvec(rot[:n].as_quat(), idx, idx + 1)
     h = np.diff(t[:n])
     L = t[n - 1] - t[0]
     s = 0.5 * (t[: n - 1] + t[1:n]) - t[0]

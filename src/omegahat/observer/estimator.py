@@ -638,7 +638,8 @@ class SarrasEstimator(Estimator):
     max_substep_angle : bound on the prediction's substep angle (rad).
     warm_start : if True, ω̂ is not taken from ``omega_hat0`` but computed from the first two valid samples (W,
         module docstring): the estimate is right from the second sample on instead of converging at the gains'
-        rate. Default False: the observer as published, started from ``omega_hat0``.
+        rate. Default (None): True unless ``omega_hat0`` or ``r_hat0`` is given (an initial state given is used);
+        False: the observer as published, started from ``omega_hat0``.
     """
 
     def __init__(
@@ -655,7 +656,7 @@ class SarrasEstimator(Estimator):
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
         min_angle_deg: float = ms.MIN_ANGLE_DEG,
         max_substep_angle: float = MAX_SUBSTEP_ANGLE,
-        warm_start: bool = False,
+        warm_start: bool | None = None,
     ):
         self.J = as_inertia(J)
         if not isinstance(gains, ObserverGains):
@@ -695,7 +696,7 @@ class SarrasEstimator(Estimator):
             raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
         self.rotation_tol, self.quat_norm_tol, self.max_substep_angle = (float(v) for v in tols)
         self.min_angle_deg = float(min_angle_deg)
-        self.warm_start = bool(warm_start)
+        self.warm_start = (omega_hat0 is None and r_hat0 is None) if warm_start is None else bool(warm_start)
         self._params = np.concatenate(
             [
                 self.J.ravel(),
