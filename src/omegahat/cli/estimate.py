@@ -188,12 +188,6 @@ def _references(args, stream) -> np.ndarray:
     return as_directions(np.array(args.references), name="--references")
 
 
-def _columns(stream) -> str:
-    if stream.label != "line":
-        return "the attitude"
-    return {"quaternion": "qw,qx,qy,qz", "matrix": "r11..r33"}.get(stream.kind, f"b1x..b{stream.n_directions}z")
-
-
 def _rejection(status: int, info: float, args) -> str:
     if status == ms.NOT_ORTHOGONAL:
         return (f"not a rotation matrix: |R^T R - I| = {info:.3g} exceeds --rotation-tol {args.rotation_tol:g} "
@@ -228,7 +222,7 @@ class _Bad:
         k = int(bad[0])
         text = _rejection(int(st[k]), float(info[k]), self.args)
         if not self.args.skip_bad_samples:
-            raise LogFormatError(f"{self.stream.where(int(chunk.labels[k]), _columns(self.stream))}: {text}")
+            raise LogFormatError(f"{self.stream.where(int(chunk.labels[k]), self.stream.attitude_name)}: {text}")
         chunk.data[bad] = np.nan
         self.count += bad.size
         for j in bad[: max(0, 5 - len(self.first))]:
@@ -246,11 +240,11 @@ def _gains(args, J, refs, motion, duration, start):
     if args.k is not None:
         g = ObserverGains(k=_per_direction(args.k, n, "k"), l_offset=_per_direction(args.l, n, "l"))
         M = sum(g.k[i] * (np.eye(3) - np.outer(refs[i], refs[i])) for i in range(n))
-        lam = float(np.linalg.eigvals(np.linalg.solve(J, M)).real.min())
-        omega_b = np.log1p(lam / rate) * rate  # the slowest mode's decay per sample, as a rate
+        lam = float(np.linalg.eigvals(np.linalg.solve(J, M)).real.min())  # slowest continuous mode, rad/s
+        omega_b = np.log1p(lam / rate) * rate  # what the implicit correction makes of it per sample
         noise = float(np.linalg.norm(predicted_noise_std(J, g, rate, motion.sigma, refs)))
-        text = f"k, l given: slowest mode {omega_b / (2 * np.pi):.3g} Hz, predicted noise {noise:.2g} rad/s"
-        if omega_b / (2 * np.pi) >= rate / 2:
+        text = f"k, l given: slowest mode {lam / (2 * np.pi):.3g} Hz, predicted noise {noise:.2g} rad/s"
+        if lam / (2 * np.pi) >= rate / 2:
             text += (f"\nwarning: these gains act faster than the Nyquist frequency {rate / 2:.4g} Hz of this log: the "
                      "estimate is close to raw differencing of the attitude; the automatic gains would filter it")
         return g, text, omega_b
@@ -292,8 +286,14 @@ def _announce_compilation(est_args, chunk, stream, args) -> float:
     )
     t0 = time.perf_counter()
     timer.start()
+    with warnings.catch_warnings():
+        return _warm_up(est_args, chunk, stream, timer, t0)
+
+
+def _warm_up(est_args, chunk, stream, timer, t0) -> float:
     try:
         m = min(3, len(chunk))
+        warnings.simplefilter("ignore", SkippedSamplesWarning)
         ms.sample_status(chunk.data[:m], directions=stream.kind == "directions")
         SarrasEstimator(**est_args).run(chunk.t[:m], chunk.data[:m], None if chunk.torque is None else chunk.torque[:m])
     except ValueError:
@@ -351,7 +351,7 @@ class _Run:
         if big.size:
             j = int(big[np.argmax(dt[big])])
             if dt[j] > self.largest[0]:
-                self.largest = (float(dt[j]), int(chunk.labels[j + (0 if self.t_prev is None else 0)]))
+                self.largest = (float(dt[j]), int(chunk.labels[j + 1 if self.t_prev is None else j]))
         self.t_prev = float(chunk.t[-1])
 
 
@@ -436,6 +436,8 @@ def run(args) -> int:
                 job.feed(chunk)
                 bar.n = min(stream.done, stream.size) if stream.label == "line" else job.rows
                 bar.refresh()
+            bar.n = bar.total
+            bar.refresh()
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

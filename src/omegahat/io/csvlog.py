@@ -316,6 +316,11 @@ def open_csv(path, options: ReadOptions) -> LogStream:
     names = [normalise_name(n) for n in next(csv.reader([header], delimiter=delim))]
     lay = layout(names, where, options.time_column, options.quaternion_order)
     stream.kind, stream.has_torque, stream.n_directions = lay.kind, lay.torque is not None, lay.n_directions
+    stream.attitude_name = {"quaternion": "qw,qx,qy,qz", "matrix": "r11..r33"}.get(
+        lay.kind, f"b1x..b{lay.n_directions}z"
+    )
+    if lay.kind == "quaternion" and not lay.quaternion_named:
+        stream.attitude_name = ",".join(sorted(lay.attitude))
     if lay.kind == "quaternion" and options.quaternion_order and lay.quaternion_named:
         stream.notes.append(
             f"--quaternion-order {options.quaternion_order} not needed: the header names qw,qx,qy,qz say which is "

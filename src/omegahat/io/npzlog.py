@@ -87,15 +87,15 @@ def open_npz(path, options: ReadOptions) -> LogStream:
             q = get("q", f"({T}, 4)", lambda s: s == (T, 4))
             sf, note = _scalar_first(z, path, options.quaternion_order)
             notes += [note] if note else []
-            data, kind = (np.roll(q, -1, axis=1) if sf else q), "quaternion"
+            data, kind, name = (np.roll(q, -1, axis=1) if sf else q), "quaternion", "q"
         elif "R" in whole:
-            data, kind = get("R", f"({T}, 3, 3)", lambda s: s == (T, 3, 3)), "matrix"
+            data, kind, name = get("R", f"({T}, 3, 3)", lambda s: s == (T, 3, 3)), "matrix", "R"
         elif "b" in whole:
             ok = lambda s: len(s) == 3 and s[0] == T and s[1] >= 2 and s[2] == 3  # noqa: E731
-            data, kind = get("b", f"({T}, n, 3) with n >= 2", ok), "directions"
+            data, kind, name = get("b", f"({T}, n, 3) with n >= 2", ok), "directions", "b"
         else:
             lay = layout([n for n in names if n not in ("tau",)], path, "t", options.quaternion_order)
-            kind = lay.kind
+            kind, name = lay.kind, ",".join(lay.attitude)
             flat = np.column_stack([get(c, f"({T},)", lambda s: s == (T,)) for c in lay.attitude])
             data = flat.reshape(T, 3, 3) if kind == "matrix" else flat.reshape(T, -1, 3) if kind == "directions" else flat
         data = np.array(data, dtype=float)
@@ -118,4 +118,6 @@ def open_npz(path, options: ReadOptions) -> LogStream:
             yield LogChunk(t[a:b], data[a:b], None if torque is None else torque[a:b], np.arange(a, b))
 
     n_dir = data.shape[1] if kind == "directions" else 0
-    return LogStream(path, kind, n_dir, torque is not None, "index", chunks, size=T, n_rows_hint=T, notes=notes)
+    return LogStream(
+        path, kind, n_dir, torque is not None, "index", chunks, size=T, n_rows_hint=T, notes=notes, attitude_name=name
+    )

@@ -98,6 +98,7 @@ class LogStream:
     n_rows_hint: int | None = None
     notes: list[str] = field(default_factory=list)
     done: int = 0
+    attitude_name: str = ""  # the columns or array holding the attitude, for messages ("qw,qx,qy,qz", "q", ...)
 
     def where(self, label: int, column: str | None = None) -> str:
         """``"path, line 17, column qx"`` (text) or ``"path, array q, index 17"``: the place of a row."""

@@ -266,9 +266,10 @@ def initial_rate(t, rot: Rotation, window: float, J=None, torque=None) -> np.nda
     (no unwrapping, any turn) is the mean rate over the window, which belongs to its centre; half a window of
     Euler's equations (``f`` of (D), with ``J`` and the mean ``torque`` of the window) moves it to ``t₀``::
 
-        ω_c = Σ w_j φ_j / Σ w_j h_j,  w_j = (s_j − t₀)(t₀ + L − s_j);   ω̂₀ = ω_c − (L/2) f(ω_c, τ̄)          (F)
+        ω_c = Σ c_j φ_j / Σ c_j h_j,  c_j = Σ_{k>j} (t_k − t̄);   ω̂₀ = ω_c − (L/2) f(ω_c, τ̄)             (F)
 
-    with ``s_j`` the midpoint of increment j; exact for a constant rate. Needs at least two samples in the
+    (the ordinary least-squares slope of the cumulated angle, rearranged onto the increments; for even spacing
+    ``c_j`` is the parabola ``(j+1)(n−1−j) h/2``); exact for a constant rate. Needs at least two samples in the
     window (with two it is the first increment's rate)."""
     t = np.asarray(t, dtype=float)
     n = max(2, int(np.searchsorted(t, t[0] + window, side="right")))
@@ -276,8 +277,8 @@ def initial_rate(t, rot: Rotation, window: float, J=None, torque=None) -> np.nda
     phi = _rel_rotvec(rot[:n].as_quat(), idx, idx + 1)
     h = np.diff(t[:n])
     L = t[n - 1] - t[0]
-    s = 0.5 * (t[: n - 1] + t[1:n]) - t[0]
-    w = s * (L - s) if n > 2 else np.ones(1)
+    dev = t[:n] - np.mean(t[:n])
+    w = np.cumsum(dev[::-1])[::-1][1:]  # c_j = Σ_{k>j} (t_k − t̄): the line fit's weight on increment j
     w_c = (w @ phi) / (w @ h)
     if J is None and torque is None:
         return w_c
@@ -335,24 +336,31 @@ def choose_gains(
 
 def convention_check(motion: LogMotion) -> tuple[float, float]:
     """RMS residual of Euler's equations ``J ω̇ − (Jω) × ω − τ`` (N·m) with the attitudes as given and inverted
-    (the other rotation convention), each at the time scale where it stands out of the noise best."""
-    results = []
-    for rot in (motion.rot, motion.rot.inv()):
-        best = (np.inf, 0.0)
-        m = 1
-        while 4 * m < motion.t.size:
-            k = np.arange(0, motion.t.size - 2 * m, max(1, (motion.t.size - 2 * m) // MAX_PAIRS))
-            a = (rot[k].inv() * rot[k + m]).as_rotvec() / (motion.t[k + m] - motion.t[k])[:, None]
-            b = (rot[k + m].inv() * rot[k + 2 * m]).as_rotvec() / (motion.t[k + 2 * m] - motion.t[k + m])[:, None]
-            span = (0.5 * (motion.t[k + 2 * m] - motion.t[k]))[:, None]
+    (the other rotation convention), at the shortest time scale (doubling from one sample) where the noise's
+    share (``√18 σ J_M / Δ²``) is below a fifth of the larger residual; ``τ`` is averaged over the same span."""
+    N = motion.t.size
+    J_M = float(np.linalg.eigvalsh(motion.J)[-1])
+    q_given = motion.quat
+    q_other = motion.quat * np.array([-1.0, -1.0, -1.0, 1.0])
+    m, last = 1, (np.inf, np.inf)
+    while 2 * m + 1 < N:
+        k = np.arange(0, N - 2 * m, max(1, (N - 2 * m) // MAX_PAIRS))
+        span = (0.5 * (motion.t[k + 2 * m] - motion.t[k]))[:, None]
+        if motion.torque_integral is None:
+            tau = 0.0
+        else:
+            c = motion.torque_integral
+            tau = (c[k + m + m // 2] - c[k + m // 2]) / span
+        res = []
+        for q in (q_given, q_other):
+            a = _rel_rotvec(q, k, k + m) / (motion.t[k + m] - motion.t[k])[:, None]
+            b = _rel_rotvec(q, k + m, k + 2 * m) / (motion.t[k + 2 * m] - motion.t[k + m])[:, None]
             w = 0.5 * (a + b)
-            tau = np.zeros_like(w) if motion.torque is None else motion.torque[k + m]
             r = (b - a) / span @ motion.J.T - np.cross(w @ motion.J.T, w) - tau
-            resid = float(np.sqrt(np.mean(np.sum(r**2, axis=1))))
-            noise = float(np.sqrt(18.0) * motion.sigma / (m * motion.h) ** 2 * np.linalg.eigvalsh(motion.J)[-1])
-            score = noise / max(resid, 1e-300)
-            if score < best[0]:
-                best = (score, resid)
-            m *= 2
-        results.append(best[1])
-    return results[0], results[1]
+            res.append(float(np.sqrt(np.mean(np.sum(r**2, axis=1)))))
+        last = (res[0], res[1])
+        noise = float(np.sqrt(18.0) * motion.sigma * J_M / (m * motion.h) ** 2)
+        if noise < 0.2 * max(res):
+            return last
+        m *= 2
+    return last
