@@ -30,7 +30,10 @@ import pyarrow.csv as pacsv
 
 RESULTS = Path(__file__).with_name("RESULTS.md")
 SECTION = "## Big logs: `omegahat estimate` end to end (benchmarks/big_log.py)"
-HEADER = "# Benchmark results\n\nEach section below is written by its own script in `benchmarks/`; rerun the script to update it.\n"
+HEADER = (
+    "# Benchmark results\n\nEach section below is written by its own script in `benchmarks/`; rerun the script to "
+    "update it.\n"
+)
 
 
 def write_log(path: Path, rows: int, rate: float = 100.0, sigma: float = 1e-3, block: int = 1_000_000) -> None:
@@ -97,7 +100,8 @@ def main() -> None:
         f"{platform.python_version()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC. Command: `python benchmarks/big_log.py "
         f"--rows {args.rows} --big-rows {args.big_rows} --repeat {args.repeat}` (each run: `omegahat estimate LOG -o "
         "OUT --no-progress` as a child process, after one untimed run that loads the compiled kernels).\n\n"
-        "| rows | CSV size | wall time, best / median | peak memory (max RSS) | runs |\n| --- | --- | --- | --- | --- |\n"
+        "| rows | CSV size | wall time, best / median | peak memory (max RSS) | runs |\n"
+        "| --- | --- | --- | --- | --- |\n"
         + "\n".join(lines)
         + "\n\nTargets (issue 12): 2 M rows in at most 4 s and 300 MB; 20 M rows in constant memory.\n"
     )

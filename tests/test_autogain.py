@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from logmaker import constant_rate
 from scipy.spatial.transform import Rotation
 
+from logmaker import constant_rate
 from omegahat import measurements as ms
 from omegahat.observer import autogain
 

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from logmaker import Angle, attitude, constant_rate, noisy, read_output, rms, torque, write_csv
 from scipy.spatial.transform import Rotation
 
+from logmaker import Angle, attitude, constant_rate, noisy, read_output, rms, torque, write_csv
 from omegahat.cli import main
 
 OMEGA = np.array([0.1, -0.2, 0.3])
@@ -23,7 +23,7 @@ def run(capsys, *argv) -> tuple[int, str, str]:
 
 
 def error_of(capsys, src, dst, truth, *extra) -> float:
-    code, out, err = run(capsys, "estimate", src, "-o", dst, "--no-progress", *extra)
+    code, _, err = run(capsys, "estimate", src, "-o", dst, "--no-progress", *extra)
     assert code == 0, err
     _, w, _ = read_output(dst)
     return rms(w - truth)
@@ -100,7 +100,10 @@ def test_time_in_milliseconds(tmp_path, capsys):
     src, dst = write_csv(tmp_path / "ms.csv", t, constant_rate(t, OMEGA), t_scale=1000.0), tmp_path / "o.csv"
     code, out, _ = run(capsys, "estimate", src, "-o", dst)
     assert code == 0
-    assert "warning: samples are 10 s apart (0.1 Hz) with --time-unit s; if the times are in ms, pass --time-unit ms" in out
+    assert (
+        "warning: samples are 10 s apart (0.1 Hz) with --time-unit s; if the times are in ms, pass --time-unit ms"
+        in out
+    )
     code, out, _ = run(capsys, "estimate", src, "-o", dst, "--time-unit", "ms")
     assert code == 0 and "warning" not in out
     t_out, w, _ = read_output(dst)
@@ -132,7 +135,9 @@ def test_wrong_convention_is_flagged_by_eulers_equations(tmp_path, capsys):
     code, out, _ = run(capsys, "estimate", src, "-o", dst, "--inertia", "3", "2", "1.5")
     assert code == 0
     assert "better with the attitude inverted" in out and "pass --rotation inertial-to-body" in out
-    code, out, _ = run(capsys, "estimate", src, "-o", dst, "--inertia", "3", "2", "1.5", "--rotation", "inertial-to-body")
+    code, out, _ = run(
+        capsys, "estimate", src, "-o", dst, "--inertia", "3", "2", "1.5", "--rotation", "inertial-to-body"
+    )
     assert code == 0 and "attitude inverted" not in out
 
 
@@ -185,7 +190,9 @@ def test_the_references_example_survives_a_shell(tmp_path, capsys):
 
     with pytest.raises(SystemExit):
         main(["estimate", "--help"])
-    example = next(line for line in capsys.readouterr().out.splitlines() if "--references=" in line and "omegahat" in line)
+    example = next(
+        line for line in capsys.readouterr().out.splitlines() if "--references=" in line and "omegahat" in line
+    )
     argv = shlex.split(example)[1:]  # as a POSIX shell splits the pasted line
     t = np.arange(400) * 0.005
     rot = constant_rate(t, OMEGA)

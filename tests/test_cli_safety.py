@@ -7,8 +7,8 @@ import os
 
 import numpy as np
 import pytest
-from logmaker import constant_rate, read_output, write_csv
 
+from logmaker import constant_rate, read_output, write_csv
 from omegahat.cli import main
 from omegahat.io import ReadOptions, read_log
 from omegahat.observer import estimator as estimator_module
@@ -130,7 +130,9 @@ def test_tolerances_are_options(tmp_path, capsys):
     t = np.arange(50) / 100.0
     q = constant_rate(t, OMEGA).as_quat() * 1.004  # written with 3 digits too few: |q| = 1.004
     src = tmp_path / "q.csv"
-    src.write_text("t,qx,qy,qz,qw\n" + "".join(",".join(repr(float(x)) for x in (t[k], *q[k])) + "\n" for k in range(50)))
+    src.write_text(
+        "t,qx,qy,qz,qw\n" + "".join(",".join(repr(float(x)) for x in (t[k], *q[k])) + "\n" for k in range(50))
+    )
     code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
     assert code == 2 and "pass --quat-norm-tol 0.008 to accept it" in err
     assert run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--quat-norm-tol", "0.008")[0] == 0
@@ -144,7 +146,10 @@ def test_tolerances_are_options(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("inertia", "match"),
     [
-        (["1", "1", "5"], r"--inertia is not the inertia of a rigid body: .* violate the triangle inequality J1 \+ J2 >= J3"),
+        (
+            ["1", "1", "5"],
+            r"--inertia is not the inertia of a rigid body: .* violate the triangle inequality J1 \+ J2 >= J3",
+        ),
         (["1", "-1", "1"], r"--inertia must be positive definite"),
     ],
 )
@@ -224,6 +229,8 @@ def test_an_unknown_delimiter_is_named(tmp_path):
 
 def test_time_column_option(tmp_path):
     src = _dialect(tmp_path, "Time,qw,qx,qy,qz\n0,1,0,0,0\n")
-    with pytest.raises(ValueError, match=r"no time column 't' \(found: time, qw, qx, qy, qz\); pass --time-column time"):
+    with pytest.raises(
+        ValueError, match=r"no time column 't' \(found: time, qw, qx, qy, qz\); pass --time-column time"
+    ):
         read_log(src)
     assert read_log(src, options=ReadOptions(time_column="time")).t.tolist() == [0.0]

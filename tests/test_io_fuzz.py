@@ -5,6 +5,7 @@ leaves a partial output file."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -69,7 +70,7 @@ def reference(raw: bytes, encoding: str, delim: str):
             att = [math.nan] * 4
         t.append(vals[0])
         q.append([att[1], att[2], att[3], att[0]])
-    if not t or any(b <= a for a, b in zip(t, t[1:], strict=False)):
+    if not t or any(b <= a for a, b in itertools.pairwise(t)):
         return None
     return np.array(t), np.array(q)
 
@@ -83,16 +84,14 @@ def fmt(x: float, style: int, delim: str) -> str:
 def logs(draw):
     delim = draw(st.sampled_from([",", ";", "\t"]))
     encoding = draw(st.sampled_from(ENCODINGS))
-    order = draw(st.permutations(list(NAMES) + ["note"]))
-    header = delim.join(
-        draw(st.sampled_from([n, n.upper(), f" {n} ", n.capitalize()])) for n in order
-    )
+    order = draw(st.permutations([*NAMES, "note"]))
+    header = delim.join(draw(st.sampled_from([n, n.upper(), f" {n} ", n.capitalize()])) for n in order)
     n = draw(st.integers(1, 12))
     rows = []
     t = 0.0
     for _ in range(n):
         t += draw(st.sampled_from([0.01, 0.25, 1.0, -0.5, 0.0])) if draw(st.integers(0, 9)) == 0 else 0.01
-        q = np.array(draw(st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4))) + [0, 0, 0, 2]
+        q = np.array(draw(st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4))) + np.array([0, 0, 0, 2])
         q = q / np.linalg.norm(q)
         vals = {"t": t, "qx": q[0], "qy": q[1], "qz": q[2], "qw": q[3]}
         fields = []
@@ -117,7 +116,9 @@ def logs(draw):
     return raw, encoding, delim
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture]
+)
 @given(case=logs())
 def test_reader_gives_the_right_values_or_its_own_error(tmp_path, case):
     raw, encoding, delim = case
@@ -134,7 +135,9 @@ def test_reader_gives_the_right_values_or_its_own_error(tmp_path, case):
     np.testing.assert_array_equal(log.data, ref[1])
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture]
+)
 @given(case=logs())
 def test_the_command_writes_a_whole_file_or_none(tmp_path, case, capsys):
     raw, encoding, delim = case

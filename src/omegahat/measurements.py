@@ -355,7 +355,13 @@ def sample_status(
             raise ValueError(f"attitude samples must have shape (T, 3, 3) or (T, 4); got shape {a.shape}")
         V = np.eye(3)
     return _status_batch(
-        m, kind, V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), float(np.sin(np.radians(min_angle_deg)))
+        m,
+        kind,
+        V,
+        bool(scalar_first),
+        float(rotation_tol),
+        float(quat_norm_tol),
+        float(np.sin(np.radians(min_angle_deg))),
     )
 
 

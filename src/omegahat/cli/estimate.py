@@ -110,8 +110,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     model = parser.add_argument_group("model and gains")
     model.add_argument(
-        "--inertia", type=float, nargs="+", metavar="J", help="inertia: 3 numbers (diagonal) or 9 (row-major); "
-        "default identity (then the model is a constant rate)"
+        "--inertia",
+        type=float,
+        nargs="+",
+        metavar="J",
+        help="inertia: 3 numbers (diagonal) or 9 (row-major); default identity (then the model is a constant rate)",
     )
     model.add_argument(
         "--bandwidth",
@@ -138,9 +141,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "two samples, as SarrasEstimator(warm_start=True)) or zero",
     )
     model.add_argument("--warm-start", dest="start", action="store_const", const="warm", help="same as --start warm")
-    model.add_argument(
-        "--no-warm-start", dest="start", action="store_const", const="zero", help="same as --start zero"
-    )
+    model.add_argument("--no-warm-start", dest="start", action="store_const", const="zero", help="same as --start zero")
     bad = parser.add_argument_group("bad samples")
     bad.add_argument(
         "--skip-bad-samples",
@@ -149,11 +150,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "count and report them, instead of stopping at the first",
     )
     bad.add_argument(
-        "--rotation-tol", type=float, default=ms.ROTATION_TOL, metavar="TOL",
+        "--rotation-tol",
+        type=float,
+        default=ms.ROTATION_TOL,
+        metavar="TOL",
         help=f"accept matrices with |R^T R - I| <= TOL (default {ms.ROTATION_TOL:g})",
     )
     bad.add_argument(
-        "--quat-norm-tol", type=float, default=ms.QUAT_NORM_TOL, metavar="TOL",
+        "--quat-norm-tol",
+        type=float,
+        default=ms.QUAT_NORM_TOL,
+        metavar="TOL",
         help=f"accept quaternions with |norm - 1| <= TOL (default {ms.QUAT_NORM_TOL:g})",
     )
     bar = parser.add_mutually_exclusive_group()
@@ -190,14 +197,18 @@ def _references(args, stream) -> np.ndarray:
 
 def _rejection(status: int, info: float, args) -> str:
     if status == ms.NOT_ORTHOGONAL:
-        return (f"not a rotation matrix: |R^T R - I| = {info:.3g} exceeds --rotation-tol {args.rotation_tol:g} "
-                f"(pass --rotation-tol {2 * info:.2g} to accept it, or --skip-bad-samples to skip such samples)")
+        return (
+            f"not a rotation matrix: |R^T R - I| = {info:.3g} exceeds --rotation-tol {args.rotation_tol:g} "
+            f"(pass --rotation-tol {2 * info:.2g} to accept it, or --skip-bad-samples to skip such samples)"
+        )
     if status == ms.NOT_PROPER:
         return f"a reflection, not a rotation: det R = {info:.6g} < 0 (--skip-bad-samples skips such samples)"
     if status == ms.QUAT_NORM:
-        return (f"a quaternion far from unit norm: |q| = {info:.6g}, |(|q| - 1)| exceeds --quat-norm-tol "
-                f"{args.quat_norm_tol:g} (pass --quat-norm-tol {2 * abs(info - 1):.2g} to accept it, "
-                "--skip-bad-samples to skip such samples, or check --quaternion-order)")
+        return (
+            f"a quaternion far from unit norm: |q| = {info:.6g}, |(|q| - 1)| exceeds --quat-norm-tol "
+            f"{args.quat_norm_tol:g} (pass --quat-norm-tol {2 * abs(info - 1):.2g} to accept it, "
+            "--skip-bad-samples to skip such samples, or check --quaternion-order)"
+        )
     if status == ms.ZERO_DIRECTION:
         return f"measured direction b{int(info) + 1} has zero length (--skip-bad-samples skips such samples)"
     return f"rejected (status {status})"
@@ -245,8 +256,10 @@ def _gains(args, J, refs, motion, duration, start):
         noise = float(np.linalg.norm(predicted_noise_std(J, g, rate, motion.sigma, refs)))
         text = f"k, l given: slowest mode {lam / (2 * np.pi):.3g} Hz, predicted noise {noise:.2g} rad/s"
         if lam / (2 * np.pi) >= rate / 2:
-            text += (f"\nwarning: these gains act faster than the Nyquist frequency {rate / 2:.4g} Hz of this log: the "
-                     "estimate is close to raw differencing of the attitude; the automatic gains would filter it")
+            text += (
+                f"\nwarning: these gains act faster than the Nyquist frequency {rate / 2:.4g} Hz of this log: the "
+                "estimate is close to raw differencing of the attitude; the automatic gains would filter it"
+            )
         return g, text, omega_b
     if args.bandwidth is not None:
         b = args.bandwidth
@@ -259,8 +272,10 @@ def _gains(args, J, refs, motion, duration, start):
             )
         g = autogain.gains_for_bandwidth(J, rate, b, refs, motion.sigma)
         noise, lag, st = autogain.expected_error(motion, g, 2 * np.pi * b, duration, start, refs)
-        text = (f"bandwidth {b:g} Hz given; expected RMS error {np.sqrt(noise**2 + lag**2 + st**2):.2g} rad/s "
-                f"(noise {noise:.2g}, lag {lag:.2g}, start-up {st:.2g})")
+        text = (
+            f"bandwidth {b:g} Hz given; expected RMS error {np.sqrt(noise**2 + lag**2 + st**2):.2g} rad/s "
+            f"(noise {noise:.2g}, lag {lag:.2g}, start-up {st:.2g})"
+        )
         return g, text, 2 * np.pi * b
     choice = autogain.choose_gains(motion, duration, start, refs)
     return choice.gains, "gains: " + choice.explain(), 2 * np.pi * choice.bandwidth_hz
@@ -270,11 +285,11 @@ def _time_unit_warning(args, h: float, t0: float) -> str | None:
     rate = 1.0 / h
     if abs(t0) > 1e11 or not (0.5 <= rate <= 5000.0):
         scale = TIME_UNITS[args.time_unit]
-        better = [
-            u for u, f in TIME_UNITS.items() if u != args.time_unit and 0.5 <= 1.0 / (h / scale * f) <= 5000.0
-        ]
-        tip = "".join(f"; if the times are in {u}, pass --time-unit {u} ({1.0 / (h / scale * TIME_UNITS[u]):.4g} Hz)"
-                      for u in better[:1])
+        better = [u for u, f in TIME_UNITS.items() if u != args.time_unit and 0.5 <= 1.0 / (h / scale * f) <= 5000.0]
+        tip = "".join(
+            f"; if the times are in {u}, pass --time-unit {u} ({1.0 / (h / scale * TIME_UNITS[u]):.4g} Hz)"
+            for u in better[:1]
+        )
         return f"warning: samples are {h:.4g} s apart ({rate:.4g} Hz) with --time-unit {args.time_unit}{tip}"
     return None
 
@@ -371,7 +386,9 @@ def run(args) -> int:
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     out = check_output_path(args.output, [args.input])
     options = ReadOptions(
-        time_unit=args.time_unit, quaternion_order=args.quaternion_order, rotation=args.rotation,
+        time_unit=args.time_unit,
+        quaternion_order=args.quaternion_order,
+        rotation=args.rotation,
         time_column=args.time_column,
     )
     stream = open_log(args.input, options)
@@ -389,8 +406,10 @@ def run(args) -> int:
     tau_h = np.concatenate([c.torque for c in head]) if stream.has_torque else None
     ok = np.all(np.isfinite(data_h.reshape(t_h.size, -1)), axis=1)
     if ok.sum() < 3:
-        raise LogFormatError(f"{stream.source}: only {int(ok.sum())} usable samples in the first {n_head}; at least 3 "
-                             "are needed to estimate a rate")
+        raise LogFormatError(
+            f"{stream.source}: only {int(ok.sum())} usable samples in the first {n_head}; at least 3 "
+            "are needed to estimate a rate"
+        )
     tv, rot = autogain.log_rotations(t_h, data_h, stream.kind, refs)
     motion = autogain.measure_motion(tv, rot, J, None if tau_h is None else tau_h[ok])
     finished = n_head < autogain.HEAD_SAMPLES or stream.n_rows_hint == n_head
@@ -407,27 +426,43 @@ def run(args) -> int:
         given, other = autogain.convention_check(motion)
         if other < 0.5 * given:
             flip = ROTATIONS[1 - ROTATIONS.index(args.rotation)]
-            print(f"warning: Euler's equations with this J and torque fit the data {given / other:.1f}x better with "
-                  f"the attitude inverted (residual {other:.3g} against {given:.3g} N m): is the log {flip}? "
-                  f"(pass --rotation {flip})")
+            print(
+                f"warning: Euler's equations with this J and torque fit the data {given / other:.1f}x better with "
+                f"the attitude inverted (residual {other:.3g} against {given:.3g} N m): is the log {flip}? "
+                f"(pass --rotation {flip})"
+            )
     omega0 = None
     if args.start == "fit":
         window = autogain.fit_window(omega_b, motion.rate_hz)
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
     est_args = dict(
-        J=J, gains=gains, references=refs, measurement="directions" if stream.kind == "directions" else "attitude",
-        warm_start=args.start == "warm", omega_hat0=omega0, rotation_tol=args.rotation_tol,
+        J=J,
+        gains=gains,
+        references=refs,
+        measurement="directions" if stream.kind == "directions" else "attitude",
+        warm_start=args.start == "warm",
+        omega_hat0=omega0,
+        rotation_tol=args.rotation_tol,
         quat_norm_tol=args.quat_norm_tol,
     )
     compile_s = _announce_compilation(est_args, head[0], stream, args)
     est = SarrasEstimator(**est_args)
     show = args.progress if args.progress is not None else stream.size >= PROGRESS_MIN_BYTES and stream.label == "line"
-    previous = signal.signal(signal.SIGTERM, _terminate) if threading.current_thread() is threading.main_thread() else None
+    previous = (
+        signal.signal(signal.SIGTERM, _terminate) if threading.current_thread() is threading.main_thread() else None
+    )
     try:
-        with OmegaWriter(out) as writer, tqdm(
-            total=stream.size, unit="B" if stream.label == "line" else " rows", unit_scale=True, desc="estimating",
-            disable=not show, file=sys.stderr,
-        ) as bar:
+        with (
+            OmegaWriter(out) as writer,
+            tqdm(
+                total=stream.size,
+                unit="B" if stream.label == "line" else " rows",
+                unit_scale=True,
+                desc="estimating",
+                disable=not show,
+                file=sys.stderr,
+            ) as bar,
+        ):
             job = _Run(est, stream, writer, bad, args.start, motion.h)
             del t_h, data_h, tau_h, tv, rot, motion
             while head:  # the head first (releasing it as it goes), then the rest of the stream
@@ -452,15 +487,21 @@ def _terminate(signum, frame):
 
 
 def _summary(job, est, bad, out, compile_s) -> None:
-    print(f"wrote {job.rows} estimates to {out} (t,wx,wy,wz,status; rad/s in body axes); estimated in "
-          f"{job.elapsed:.2f} s" + (f" (kernels compiled once in {compile_s:.1f} s before)" if compile_s > 0.5 else ""))
+    print(
+        f"wrote {job.rows} estimates to {out} (t,wx,wy,wz,status; rad/s in body axes); estimated in "
+        f"{job.elapsed:.2f} s" + (f" (kernels compiled once in {compile_s:.1f} s before)" if compile_s > 0.5 else "")
+    )
     skipped = est.n_missing + est.n_collinear
     if skipped:
-        print(f"skipped {skipped} of {job.rows} samples ({est.n_missing} missing, {est.n_collinear} with nearly "
-              "collinear directions): predicted through (status 'predicted')")
+        print(
+            f"skipped {skipped} of {job.rows} samples ({est.n_missing} missing, {est.n_collinear} with nearly "
+            "collinear directions): predicted through (status 'predicted')"
+        )
     if bad.count:
         lines = "; ".join(f"{job.stream.label} {lab}: {why.split(' (')[0]}" for lab, why in bad.first)
         print(f"--skip-bad-samples: {bad.count} bad samples treated as missing (first: {lines})")
     if job.gaps:
-        print(f"gaps: {job.gaps} intervals longer than twice the median spacing; the longest {job.largest[0]:.4g} s "
-              f"before {job.stream.label} {job.largest[1]} (predicted through)")
+        print(
+            f"gaps: {job.gaps} intervals longer than twice the median spacing; the longest {job.largest[0]:.4g} s "
+            f"before {job.stream.label} {job.largest[1]} (predicted through)"
+        )

@@ -258,7 +258,9 @@ class _Parser:
         empty_t = np.flatnonzero(null[tc])
         if empty_t.size:
             k = int(empty_t[0])
-            raise LogFormatError(f"{self.path}, line {int(lines[k])}, column {lay.time}: empty time (every row needs one)")
+            raise LogFormatError(
+                f"{self.path}, line {int(lines[k])}, column {lay.time}: empty time (every row needs one)"
+            )
         att = np.column_stack([arrays[f"c{self.names.index(c)}"] for c in lay.attitude])
         att[~np.all(np.isfinite(att), axis=1)] = np.nan  # one empty or non-finite field: the whole sample missing
         torque = None

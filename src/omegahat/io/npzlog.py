@@ -41,13 +41,15 @@ def _scalar_first(z, path: str, option: str | None) -> tuple[bool, str]:
             )
         sf = bool(a)
         if option is not None and sf != (option == "wxyz"):
-            raise _Err(
-                f"{path}, array scalar_first: {sf} contradicts --quaternion-order {option}; drop one of them"
-            )
+            raise _Err(f"{path}, array scalar_first: {sf} contradicts --quaternion-order {option}; drop one of them")
         return sf, ""
     if option is not None:
         return option == "wxyz", ""
-    return False, f"quaternion order of array q: x, y, z, w (SciPy's default; pass --quaternion-order wxyz if {path}'s q is scalar first)"
+    return (
+        False,
+        f"quaternion order of array q: x, y, z, w (SciPy's default; pass --quaternion-order wxyz if {path}'s q is "
+        "scalar first)",
+    )
 
 
 def open_npz(path, options: ReadOptions) -> LogStream:
@@ -97,7 +99,9 @@ def open_npz(path, options: ReadOptions) -> LogStream:
             lay = layout([n for n in names if n not in ("tau",)], path, "t", options.quaternion_order)
             kind, name = lay.kind, ",".join(lay.attitude)
             flat = np.column_stack([get(c, f"({T},)", lambda s: s == (T,)) for c in lay.attitude])
-            data = flat.reshape(T, 3, 3) if kind == "matrix" else flat.reshape(T, -1, 3) if kind == "directions" else flat
+            data = (
+                flat.reshape(T, 3, 3) if kind == "matrix" else flat.reshape(T, -1, 3) if kind == "directions" else flat
+            )
         data = np.array(data, dtype=float)
         data[~np.all(np.isfinite(data.reshape(T, -1)), axis=1)] = np.nan
         torque = None

@@ -114,7 +114,7 @@ class OmegaWriter:
         """Close and remove the temporary file; the target is left as it was."""
         try:
             self._wait()
-        except Exception:  # noqa: BLE001 (already failing: the first error is the one reported)
+        except Exception:
             pass
         self._pool.shutdown()
         if not self._f.closed:

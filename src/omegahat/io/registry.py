@@ -200,7 +200,7 @@ def prefetch(chunks: Iterator[LogChunk], depth: int = 2) -> Iterator[LogChunk]:
                     return
                 q.put(c)
             q.put(done)
-        except BaseException as exc:  # noqa: BLE001 (handed to the consumer)
+        except BaseException as exc:
             q.put(exc)
 
     thread = threading.Thread(target=work, name="omegahat-reader", daemon=True)

@@ -38,8 +38,8 @@ rate over the first ``L = Δ`` seconds, which an offline tool holding the log ca
 ``√(36 σ² / (n L²))`` (n samples in the window) and its bias ``a L / 2`` (``D(L)/4``). A warm start's ``e₀`` is
 large at a high sample rate (0.25 rad/s at 100 Hz and 1 mrad) and, decaying at ``ω_b``, it dominates (E) unless
 the bandwidth is high; the fit removes that dilemma, so the bandwidth is then set by noise against lag alone.
-The bandwidth of least ``E`` on a logarithmic grid below Nyquist is chosen. Everything is measured on the samples given (the CLI
-passes the first ``HEAD_SAMPLES`` of the log and the duration of the whole log).
+The bandwidth of least ``E`` on a logarithmic grid below Nyquist is chosen. Everything is measured on the samples
+given (the CLI passes the first ``HEAD_SAMPLES`` of the log and the duration of the whole log).
 
 :func:`convention_check` fits Euler's equations with the given J and τ under both rotation conventions and says
 whether the other one fits markedly better (a log written inertial → body read as body → inertial).
