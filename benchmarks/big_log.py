@@ -28,12 +28,10 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-RESULTS = Path(__file__).with_name("RESULTS.md")
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_md import write_section
+
 SECTION = "## Big logs: `omegahat estimate` end to end (benchmarks/big_log.py)"
-HEADER = (
-    "# Benchmark results\n\nEach section below is written by its own script in `benchmarks/`; rerun the script to "
-    "update it.\n"
-)
 
 
 def write_log(path: Path, rows: int, rate: float = 100.0, sigma: float = 1e-3, block: int = 1_000_000) -> None:
@@ -54,8 +52,17 @@ def write_log(path: Path, rows: int, rate: float = 100.0, sigma: float = 1e-3, b
 
 
 def measure(cmd: list[str]) -> tuple[float, float, str]:
-    """``(wall s, peak RSS MB, stdout)`` of one child process."""
+    """``(wall s, peak RSS MB, stdout)`` of one run, timed by ``/usr/bin/time`` (a small process forks the command,
+    so the peak is the command's own, not inherited from this one) or else by ``os.wait4``."""
+    timer = shutil.which("time") if Path("/usr/bin/time").exists() else None
     t0 = time.perf_counter()
+    if timer:
+        p = subprocess.run(["/usr/bin/time", "-f", "%e %M", *cmd], capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        if p.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)} failed:\n{p.stdout}\n{p.stderr}")
+        _, rss_kb = p.stderr.strip().splitlines()[-1].split()
+        return wall, float(rss_kb) / 1024.0, p.stdout
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     out = p.stdout.read()
     err = p.stderr.read()
@@ -105,14 +112,7 @@ def main() -> None:
         + "\n".join(lines)
         + "\n\nTargets (issue 12): 2 M rows in at most 4 s and 300 MB; 20 M rows in constant memory.\n"
     )
-    text = RESULTS.read_text() if RESULTS.exists() else HEADER
-    if SECTION in text:
-        start = text.index(SECTION)
-        nxt = text.find("\n## ", start + 1)
-        text = text[:start] + body + (text[nxt + 1 :] if nxt >= 0 else "")
-    else:
-        text = text.rstrip("\n") + "\n\n" + body
-    RESULTS.write_text(text)
+    write_section(SECTION, body[len(SECTION) :])
 
 
 if __name__ == "__main__":

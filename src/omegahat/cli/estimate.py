@@ -336,14 +336,19 @@ class _Run:
         self.t_prev = None
         self.elapsed = 0.0
 
+    def _estimate(self, chunk) -> np.ndarray:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SkippedSamplesWarning)  # counted and reported once, at the end
+            return self.est.run(chunk.t, chunk.data, chunk.torque)
+
     def feed(self, chunk) -> None:
-        self.bad.check(chunk)
         t0 = time.perf_counter()
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", SkippedSamplesWarning)  # counted and reported once, at the end
-                W = self.est.run(chunk.t, chunk.data, chunk.torque)
-        except ValueError as exc:  # not expected after the reader's and the status checks; name the line anyway
+            W = self._estimate(chunk)
+        except ms.MeasurementError:  # a sample is not a rotation: find it (line, column), skip it or stop there
+            self.bad.check(chunk)  # run() is atomic: the estimator is as before the call
+            W = self._estimate(chunk)
+        except ValueError as exc:  # not expected after the reader's checks; name the line anyway
             lab = chunk.labels
             raise ValueError(
                 re.sub(r"sample (\d+)", lambda m: f"{self.stream.label} {lab[int(m.group(1))]}", str(exc))
