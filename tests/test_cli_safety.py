@@ -234,3 +234,45 @@ def test_time_column_option(tmp_path):
     ):
         read_log(src)
     assert read_log(src, options=ReadOptions(time_column="time")).t.tolist() == [0.0]
+
+
+def test_a_bad_sample_after_the_head_is_found_too(tmp_path, capsys):
+    # Past the samples analysed for the gains, a rejected sample is located when the estimator meets it.
+    from omegahat.observer.autogain import HEAD_SAMPLES
+
+    n = HEAD_SAMPLES + 2000
+    t = np.arange(n) / 100.0
+    src = write_csv(tmp_path / "long.csv", t, constant_rate(t, OMEGA))
+    lines = src.read_text().splitlines()
+    k = HEAD_SAMPLES + 1000  # row index; the file line is k + 2
+    lines[k + 1] = lines[k + 1].split(",")[0] + ",0.5,0,0,0"
+    src.write_text("\n".join(lines) + "\n")
+    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 2
+    assert f"long.csv, line {k + 2}, columns qw,qx,qy,qz: a quaternion far from unit norm: |q| = 0.5" in err
+    assert not (tmp_path / "o.csv").exists()
+    code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--skip-bad-samples")
+    assert code == 0 and f"1 bad samples treated as missing (first: line {k + 2}" in out
+    _, _, status = read_output(tmp_path / "o.csv")
+    assert status[k] == "predicted"
+
+
+def test_slow_first_run_is_announced_and_not_counted(log, tmp_path, capsys, monkeypatch):
+    import time
+
+    real_run = estimator_module.SarrasEstimator.run
+    calls = {"n": 0}
+
+    def slow_first(self, *a):
+        calls["n"] += 1
+        if calls["n"] == 1:  # the warm-up call, standing in for a compilation
+            time.sleep(0.8)
+        return real_run(self, *a)
+
+    monkeypatch.setattr(estimator_module.SarrasEstimator, "run", slow_first)
+    code, out, err = run(capsys, "estimate", log, "-o", tmp_path / "o.csv")
+    assert code == 0
+    assert "compiling kernels, once (later runs load them from the cache)" in err
+    assert "(kernels compiled once in 0.8 s before)" in out
+    estimated = float(out.split("estimated in ")[1].split(" s")[0])
+    assert estimated < 0.5

@@ -129,9 +129,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--references",
         type=_directions,
         metavar="X,Y,Z;X,Y,Z",
-        help="known inertial directions, ';' between directions; quote it and write it with '=' "
-        '("--references=0,0,9.8;-0.9,15.5,-41.3"): unquoted, a shell takes ; as the end of the command; '
-        "required for b1x.. direction input; for attitude input default: the three rows of R",
+        help="known inertial directions, ';' between directions, quoted and written with '=' (example below: "
+        "unquoted, a shell takes ; as the end of the command); required for b1x.. direction input; for attitude "
+        "input default: the three rows of R",
     )
     model.add_argument(
         "--start",

@@ -318,10 +318,16 @@ def expected_error(
 def choose_gains(
     motion: LogMotion, duration: float | None = None, start: str = "fit", references=None, n_grid: int = 40
 ) -> GainChoice:
-    """The bandwidth of least expected error (E) on a log grid from ``1/(20 T)`` Hz to 0.45 × the rate."""
+    """The bandwidth of least expected error (E) on a log grid up to 0.45 × the rate.
+
+    The grid starts at ``1/(1000 T)`` Hz when ``motion`` covers the whole log (its slow motion has then been
+    measured up to a third of the log: a bandwidth that slow just keeps the initial fit, right when nothing was
+    found to follow), else at ``1/(2π T_a)`` with ``T_a`` the span analysed (no trust in constancy beyond it)."""
     T = float(motion.t[-1] - motion.t[0]) if duration is None else float(duration)
     f_hi = 0.45 * motion.rate_hz
-    f_lo = min(f_hi / 1e4, max(f_hi / 1e6, 1.0 / (20.0 * max(T, motion.h))))
+    span = float(motion.t[-1] - motion.t[0])
+    f_lo = 1.0 / (1000.0 * max(T, motion.h)) if T <= span * (1 + 1e-9) else 1.0 / (2 * np.pi * max(span, motion.h))
+    f_lo = min(f_lo, f_hi / 1e3)
     best, rows, table = None, [], structure_table(motion)
     for f in np.geomspace(f_lo, f_hi, n_grid):
         g = gains_for_bandwidth(motion.J, motion.rate_hz, f, references, motion.sigma)
