@@ -294,25 +294,33 @@ def _time_unit_warning(args, h: float, t0: float) -> str | None:
     return None
 
 
-def _announce_compilation(est_args, chunk, stream, args) -> float:
-    """Compile (or load from the cache) the kernels on three samples; say so if it takes long. Returns seconds."""
+def _check_head(head, stream, refs, bad, args) -> float:
+    """Validate the head of the log with the estimator's own compiled checks (a throwaway estimator: this also
+    compiles, or loads from the cache, the kernels the run needs, and says so if it takes long); only if it
+    rejects a sample are the samples checked one by one (:class:`_Bad`). Returns the seconds it took."""
     timer = threading.Timer(
         0.5, lambda: print("compiling kernels, once (later runs load them from the cache) ...", file=sys.stderr)
     )
     t0 = time.perf_counter()
     timer.start()
-    with warnings.catch_warnings():
-        return _warm_up(est_args, chunk, stream, timer, t0)
-
-
-def _warm_up(est_args, chunk, stream, timer, t0) -> float:
     try:
-        m = min(3, len(chunk))
-        warnings.simplefilter("ignore", SkippedSamplesWarning)
-        ms.sample_status(chunk.data[:m], directions=stream.kind == "directions")
-        SarrasEstimator(**est_args).run(chunk.t[:m], chunk.data[:m], None if chunk.torque is None else chunk.torque[:m])
-    except ValueError:
-        pass  # bad samples are handled, with their line, in the real run
+        probe = SarrasEstimator(
+            np.eye(3),
+            gains=ObserverGains.constant(1.0, 1.0, n=refs.shape[0]),
+            references=refs,
+            measurement="directions" if stream.kind == "directions" else "attitude",
+            warm_start=False,
+            rotation_tol=args.rotation_tol,
+            quat_norm_tol=args.quat_norm_tol,
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SkippedSamplesWarning)
+            for c in head:
+                try:
+                    probe.run(c.t, c.data, c.torque)
+                except ms.MeasurementError:
+                    bad.check(c)  # raises naming the line, or (--skip-bad-samples) turns bad samples into missing
+                    probe.run(c.t, c.data, c.torque)
     finally:
         timer.cancel()
     return time.perf_counter() - t0
@@ -404,8 +412,7 @@ def run(args) -> int:
     bad = _Bad(args, stream)
     chunks = prefetch(stream.chunks())
     head, n_head = _head(stream, chunks)
-    for c in head:
-        bad.check(c)
+    compile_s = _check_head(head, stream, refs, bad, args)
     t_h = np.concatenate([c.t for c in head])
     data_h = np.concatenate([c.data for c in head])
     tau_h = np.concatenate([c.torque for c in head]) if stream.has_torque else None
@@ -450,7 +457,6 @@ def run(args) -> int:
         rotation_tol=args.rotation_tol,
         quat_norm_tol=args.quat_norm_tol,
     )
-    compile_s = _announce_compilation(est_args, head[0], stream, args)
     est = SarrasEstimator(**est_args)
     show = args.progress if args.progress is not None else stream.size >= PROGRESS_MIN_BYTES and stream.label == "line"
     previous = (
