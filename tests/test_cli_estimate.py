@@ -35,8 +35,8 @@ def write_quaternion_csv(path, t, R, blank=()):
 
 def read_output(path):
     lines = path.read_text().splitlines()
-    assert lines[0] == "t,wx,wy,wz"
-    return np.loadtxt(path, delimiter=",", skiprows=1)
+    assert lines[0] == "t,wx,wy,wz,status"
+    return np.loadtxt(path, delimiter=",", skiprows=1, usecols=(0, 1, 2, 3))
 
 
 def run_cli(capsys, *argv):
@@ -81,7 +81,7 @@ def test_direction_input_with_references(tmp_path, capsys):
     src, dst = tmp_path / "dirs.npz", tmp_path / "out.csv"
     np.savez(src, t=t, b=b)
     code, _, err = run_cli(
-        capsys, "estimate", src, "-o", dst, "--references=0,0,9.83;-0.9,15.5,-41.3", "--bandwidth", "50"
+        capsys, "estimate", src, "-o", dst, "--references=0,0,9.83;-0.9,15.5,-41.3", "--bandwidth", "8"
     )
     assert code == 0, err
     np.testing.assert_allclose(read_output(dst)[-50:, 1:], np.broadcast_to(OMEGA, (50, 3)), atol=1e-8)
@@ -99,7 +99,7 @@ def test_known_torque_and_inertia(tmp_path, capsys):
     ]
     src, dst = tmp_path / "tq.csv", tmp_path / "out.csv"
     src.write_text("\n".join(rows) + "\n")
-    code, _, err = run_cli(capsys, "estimate", src, "-o", dst, "--inertia", "3", "2", "1", "--bandwidth", "100")
+    code, _, err = run_cli(capsys, "estimate", src, "-o", dst, "--inertia", "3", "2", "1", "--bandwidth", "16")
     assert code == 0, err
     w = read_output(dst)[:, 1:]
     err_end = np.abs(w[-250:] - truth.omega[-250:]).max()
@@ -108,7 +108,7 @@ def test_known_torque_and_inertia(tmp_path, capsys):
     # Without the torque (wrong model) the estimate lags visibly: the CLI really passed the torque.
     src_no = tmp_path / "notq.csv"
     src_no.write_text("\n".join(line.rsplit(",", 3)[0] for line in rows) + "\n")
-    code, _, _ = run_cli(capsys, "estimate", src_no, "-o", dst, "--inertia", "3", "2", "1", "--bandwidth", "100")
+    code, _, _ = run_cli(capsys, "estimate", src_no, "-o", dst, "--inertia", "3", "2", "1", "--bandwidth", "16")
     assert code == 0
     assert np.abs(read_output(dst)[-250:, 1:] - truth.omega[-250:]).max() > 10 * err_end
 
@@ -120,7 +120,7 @@ def test_progress_bar_on_request(tmp_path, capsys):
     code, _, err = run_cli(capsys, "estimate", src, "-o", dst, "--progress")
     assert code == 0
     assert "estimating" in err
-    assert "50/50" in err
+    assert "100%" in err
 
 
 # ----------------------------------------------------------------------------------------------- errors
@@ -141,7 +141,7 @@ def good_csv(tmp_path):
         (["--k", "10", "--l", "1", "--bandwidth", "5"], r"either --bandwidth or --k and --l, not both"),
         (["--k", "1", "2", "--l", "1"], r"--k takes one number or 3 \(one per direction\); got 2"),
         (["--k", "-1", "--l", "1"], r"k must be positive and finite"),
-        (["--bandwidth", "-5"], r"--bandwidth must be a positive number of rad/s; got -5\.0"),
+        (["--bandwidth", "-5"], r"--bandwidth must be a positive number of Hz; got -5\.0"),
         (["--inertia", "1", "2"], r"--inertia must be 3 numbers \(diagonal\), 9 numbers or a 3x3 matrix"),
         (["--inertia", "1", "-1", "1"], r"--inertia must be positive definite"),
         (["--references=0,0,1;0,0,2"], r"--references are nearly collinear"),
@@ -177,7 +177,8 @@ def test_non_unit_quaternion_is_rejected_naming_the_sample(tmp_path, capsys):
     src.write_text("t,qw,qx,qy,qz\n0,1,0,0,0\n0.1,2,0,0,0\n")
     code, _, err = run_cli(capsys, "estimate", src, "-o", tmp_path / "o.csv")
     assert code == 2
-    assert "sample 1 (t = 0.1)" in err and "quaternion" in err
+    assert "q.csv, line 3, columns qw,qx,qy,qz: a quaternion far from unit norm: |q| = 2" in err
+    assert "--quat-norm-tol" in err and "--skip-bad-samples" in err
 
 
 def test_direction_input_needs_matching_references(tmp_path, capsys):
@@ -185,7 +186,7 @@ def test_direction_input_needs_matching_references(tmp_path, capsys):
     np.savez(src, t=np.arange(3.0), b=np.tile(np.eye(3)[:2], (3, 1, 1)))
     code, _, err = run_cli(capsys, "estimate", src, "-o", tmp_path / "o.csv")
     assert code == 2
-    assert "holds 2 body-frame directions (b1..b2): give their inertial directions with --references" in err
+    assert 'holds 2 body-frame directions (b1..b2): give their inertial directions with "--references=X,Y,Z' in err
     code, _, err = run_cli(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--references=1,0,0")
     assert code == 2
     assert "holds 2 directions but --references gives 1" in err
@@ -205,14 +206,21 @@ def test_output_option_is_required(good_csv, capsys):
     assert "-o/--output" in capsys.readouterr().err
 
 
-def test_warm_start_is_the_default_and_can_be_turned_off(tmp_path, capsys):
+def test_fit_start_is_the_default_warm_and_zero_on_request(tmp_path, capsys):
     t = np.arange(50) * 0.01
     src = tmp_path / "in.npz"
     np.savez(src, t=t, R=constant_rate_attitudes(t))
-    warm, cold = tmp_path / "warm.csv", tmp_path / "cold.csv"
-    assert run_cli(capsys, "estimate", src, "-o", warm)[0] == 0
-    assert run_cli(capsys, "estimate", src, "-o", cold, "--no-warm-start")[0] == 0
-    # warm: the rate is exact from the second sample on (constant rate, J = I); cold: it starts at 0
-    np.testing.assert_allclose(read_output(warm)[1:, 1:], np.broadcast_to(OMEGA, (49, 3)), atol=1e-12)
+    fit, warm, cold = tmp_path / "fit.csv", tmp_path / "warm.csv", tmp_path / "cold.csv"
+    assert run_cli(capsys, "estimate", src, "-o", fit)[0] == 0
+    assert run_cli(capsys, "estimate", src, "-o", warm, "--warm-start")[0] == 0
+    assert run_cli(capsys, "estimate", src, "-o", cold, "--no-warm-start", "--bandwidth", "1")[0] == 0
+    # fit: the least-squares rate of the first window is exact at constant rate, from the first row on
+    np.testing.assert_allclose(read_output(fit)[:, 1:], np.broadcast_to(OMEGA, (50, 3)), atol=1e-12)
+    # warm: exact from the second sample on; the first has no estimate (nan, never 0)
+    w_warm = read_output(warm)
+    assert np.all(np.isnan(w_warm[0, 1:]))
+    np.testing.assert_allclose(w_warm[1:, 1:], np.broadcast_to(OMEGA, (49, 3)), atol=1e-12)
+    # zero: starts from rest and converges at the gains' rate (1 Hz: slowly)
     w_cold = read_output(cold)
+    assert np.all(np.isnan(w_cold[0, 1:]))
     assert np.linalg.norm(w_cold[1, 1:] - OMEGA) > 0.1 * np.linalg.norm(OMEGA)

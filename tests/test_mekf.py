@@ -21,7 +21,7 @@ from omegahat.baselines.mekf import (
 from omegahat.kernels import linalg, rotation
 from omegahat.simulation.rigid_body import RigidBody, integrate
 
-J = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.0]])
+J = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.2]])  # a real body: J1 + J2 >= J3
 J_INV = np.linalg.inv(J)
 W_HAT = np.array([0.8, -1.3, 0.5])
 
@@ -237,7 +237,7 @@ def test_errors_and_state_kept_after_rejection():
 # ------------------------------------------------------------------------------------------------------------
 # The compiled MEKF.run against the NumPy reference path (a loop of MEKF.update)
 
-J_DYN = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.0]])
+J_DYN = np.array([[3.0, 0.2, -0.1], [0.2, 2.0, 0.15], [-0.1, 0.15, 1.2]])  # a real body: J1 + J2 >= J3
 REFS = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0], [1.0, 0.0, 0.0]])
 
 

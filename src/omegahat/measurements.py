@@ -72,6 +72,7 @@ from omegahat.kernels.checks import (
     check_times,
     check_torque,
     convert_sample,
+    status_batch,
 )
 from omegahat.validation import as_directions, as_positive
 
@@ -115,6 +116,7 @@ __all__ = [
     "describe_rejection",
     "log_array",
     "rejection_error",
+    "sample_status",
     "sample_array",
     "times_array",
     "tolerances",
@@ -459,6 +461,31 @@ def _convert(m, kind, V, scalar_first=False, rotation_tol=0.0, quat_norm_tol=0.0
     return check_batch(
         empty, np.nan, np.empty((0, 3)), False, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin
     )
+
+
+def sample_status(
+    samples,
+    *,
+    directions: bool = False,
+    scalar_first: bool = False,
+    rotation_tol: float = ROTATION_TOL,
+    quat_norm_tol: float = QUAT_NORM_TOL,
+    min_angle_deg: float = MIN_ANGLE_DEG,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The status of every sample of a batch, never raising on a bad one: ``(status (T,), info (T,))``, so that a
+    caller can drop or report bad samples before estimating. ``samples``: attitudes ``(T, 3, 3)`` or ``(T, 4)``,
+    or body-frame directions ``(T, n, 3)`` (``directions=True``); the statuses of (M1)–(M3)."""
+    a = np.asarray(samples, dtype=float)
+    if directions:
+        if a.ndim != 3 or a.shape[-1] != 3 or a.shape[1] < 2:
+            raise ValueError(f"direction samples must have shape (T, n, 3) with n >= 2; got shape {a.shape}")
+        m, kind = np.ascontiguousarray(a), KIND_DIRECTIONS
+    else:
+        m, kind, batch = _attitude_array(a)
+        if len(batch) != 1:
+            raise ValueError(f"attitude samples must have shape (T, 3, 3) or (T, 4); got shape {a.shape}")
+    conv = _conversion(a.shape[1] if directions else None, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    return status_batch(m, kind, *conv)
 
 
 def attitude_directions(

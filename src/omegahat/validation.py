@@ -12,9 +12,13 @@ def _fmt(x) -> str:
 
 
 def as_inertia(J, name: str = "J") -> np.ndarray:
-    """Inertia as a symmetric positive-definite 3×3 matrix.
+    """Inertia of a rigid body as a symmetric positive-definite 3×3 matrix.
 
-    Accepts a 3×3 matrix, 3 numbers (a diagonal) or 9 numbers (a full matrix, row-major).
+    Accepts a 3×3 matrix, 3 numbers (a diagonal) or 9 numbers (a full matrix, row-major). Besides positive
+    definiteness, the principal moments ``J₁ ≤ J₂ ≤ J₃`` of any real body satisfy the triangle inequality
+    ``J₁ + J₂ ≥ J₃`` (``J₁ + J₂ − J₃ = 2 ∫ z² dm ≥ 0`` about the third principal axis); a matrix that violates it
+    (e.g. ``diag(1, 1, 5)``) is not an inertia, most often a typing error, and is refused. Relative slack of
+    ``1e-9`` admits the limit of a flat plate (``J₁ + J₂ = J₃``) given with rounding.
     """
     a = np.asarray(J, dtype=float)
     if a.shape in ((3,), (1, 3), (3, 1)):
@@ -30,6 +34,11 @@ def as_inertia(J, name: str = "J") -> np.ndarray:
     eig = np.linalg.eigvalsh(a)
     if eig[0] <= 0:
         raise ValueError(f"{name} must be positive definite; its eigenvalues are {_fmt(eig)}")
+    if eig[0] + eig[1] < eig[2] * (1 - 1e-9):
+        raise ValueError(
+            f"{name} is not the inertia of a rigid body: its principal moments {_fmt(eig)} violate the triangle "
+            f"inequality J1 + J2 >= J3 ({eig[0]:.6g} + {eig[1]:.6g} < {eig[2]:.6g}); check the numbers and units"
+        )
     return 0.5 * (a + a.T)
 
 

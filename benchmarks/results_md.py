@@ -1,0 +1,24 @@
+"""``benchmarks/RESULTS.md``: each benchmark script replaces its own section (created with a header if absent)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+RESULTS = Path(__file__).with_name("RESULTS.md")
+HEADER = (
+    "# Benchmark results\n\nEach section below is written by its own script in `benchmarks/`; rerun the script to "
+    "update it.\n"
+)
+
+
+def write_section(title: str, body: str) -> None:
+    """Replace (or append) the section whose first line is ``title`` with ``title`` + ``body``."""
+    text = RESULTS.read_text() if RESULTS.exists() else HEADER
+    block = f"{title}\n\n{body.strip()}\n"
+    if title in text:
+        start = text.index(title)
+        nxt = text.find("\n## ", start + 1)
+        text = text[:start] + block + (text[nxt:] if nxt >= 0 else "")
+    else:
+        text = text.rstrip("\n") + "\n\n" + block
+    RESULTS.write_text(text)

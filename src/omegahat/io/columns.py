@@ -1,0 +1,147 @@
+"""Which columns (or arrays) of a log hold what: one place for the naming rules every reader follows.
+
+Names are compared after :func:`normalise_name`: surrounding whitespace, quotes and a UTF-8 byte-order mark
+removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups, each by name and in any order:
+
+* time: ``t`` (or the name given as ``time_column``);
+* quaternion: ``qw, qx, qy, qz`` (the names say which is the scalar part), or the ambiguous ``q0, q1, q2, q3`` /
+  ``q1, q2, q3, q4``, whose scalar part only the ``quaternion_order`` option can say;
+* rotation matrix ``r11 … r33`` (``rij`` = row i, column j);
+* body-frame directions ``b1x, b1y, b1z, b2x, …`` (n ≥ 2, numbered without gaps);
+* torque ``tau_x, tau_y, tau_z``.
+
+Exactly one attitude group may be present. A reader (CSV, NPZ, or a format registered in
+:mod:`omegahat.io.registry`) calls :func:`layout` on its names and gets a :class:`Layout`: the time column, the
+attitude kind and its columns in storage order (quaternions scalar **last**, SciPy's order), the torque columns.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "MATRIX_COLUMNS",
+    "QUATERNION_COLUMNS",
+    "QUATERNION_ORDERS",
+    "TORQUE_COLUMNS",
+    "Layout",
+    "LogFormatError",
+    "direction_columns",
+    "layout",
+    "normalise_name",
+]
+
+QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")  # stored in this order: SciPy's scalar-last
+MATRIX_COLUMNS = tuple(f"r{i}{j}" for i in range(1, 4) for j in range(1, 4))
+TORQUE_COLUMNS = ("tau_x", "tau_y", "tau_z")
+QUATERNION_ORDERS = ("wxyz", "xyzw")
+_AXES = ("x", "y", "z")
+# Numbered quaternion columns whose scalar part the header does not say: storage order (x, y, z, w) per option.
+_NUMBERED = {
+    ("q0", "q1", "q2", "q3"): {"wxyz": ("q1", "q2", "q3", "q0"), "xyzw": ("q0", "q1", "q2", "q3")},
+    ("q1", "q2", "q3", "q4"): {"wxyz": ("q2", "q3", "q4", "q1"), "xyzw": ("q1", "q2", "q3", "q4")},
+}
+
+
+class LogFormatError(ValueError):
+    """A log that cannot be read as documented in :mod:`omegahat.io`; the message says where and what to do."""
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where a log's quantities are: names as found (normalised), attitude columns in storage order."""
+
+    time: str
+    kind: str  # "quaternion", "matrix" or "directions"
+    attitude: tuple[str, ...]
+    torque: tuple[str, ...] | None
+    quaternion_named: bool = True  # False for q0..q3 / q1..q4 (order from the option)
+
+    @property
+    def n_directions(self) -> int:
+        return len(self.attitude) // 3 if self.kind == "directions" else 0
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Every column read, time first."""
+        return (self.time, *self.attitude, *(self.torque or ()))
+
+
+def normalise_name(name: str) -> str:
+    """Column name as compared: BOM, quotes and surrounding whitespace removed, lower case."""
+    return name.replace("\ufeff", "").strip().strip('"').strip("'").strip().lower()
+
+
+def direction_columns(names) -> list[str]:
+    """``b1x, b1y, b1z, b2x, …`` for every i such that some ``bi?`` column is present (checked by :func:`layout`)."""
+    idx = sorted(
+        {int(nm[1:-1]) for nm in names if len(nm) >= 3 and nm[0] == "b" and nm[1:-1].isdigit() and nm[-1] in _AXES}
+    )
+    return [f"b{i}{a}" for i in idx for a in _AXES]
+
+
+def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
+    for cols in _NUMBERED:
+        if set(cols) <= present:
+            return cols
+    return None
+
+
+def layout(names, where: str, time_column: str = "t", quaternion_order: str | None = None) -> Layout:
+    """The :class:`Layout` of a log whose columns are ``names`` (normalised); ``where`` prefixes every message.
+
+    Raises :class:`LogFormatError` for a missing time column, no or several attitude groups, incomplete groups,
+    and numbered quaternion columns without ``quaternion_order``.
+    """
+    names = [normalise_name(n) for n in names]
+    present = set(names)
+    dup = sorted({n for n in names if names.count(n) > 1 and n})
+    if dup:
+        raise LogFormatError(f"{where}: duplicate column(s) {', '.join(dup)} (names are compared ignoring case)")
+    time_column = normalise_name(time_column)
+    if time_column not in present:
+        hint = [n for n in names if n in ("time", "timestamp", "times", "time_s", "stamp", "sec", "seconds")]
+        tip = f"; pass --time-column {hint[0]}" if hint else "; name it t or pass --time-column NAME"
+        raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(names)}){tip}")
+    numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
+    groups = {
+        "quaternion": list(numbered or QUATERNION_COLUMNS),
+        "matrix": list(MATRIX_COLUMNS),
+        "directions": direction_columns(names),
+    }
+    touched = {kind: cols for kind, cols in groups.items() if cols and present & set(cols)}
+    if not touched:
+        raise LogFormatError(
+            f"{where}: no attitude columns; expected qw,qx,qy,qz or r11..r33 or b1x,b1y,b1z,b2x,... "
+            f"(found: {', '.join(names)})"
+        )
+    if len(touched) > 1:
+        raise LogFormatError(f"{where}: attitude given more than one way ({' and '.join(touched)}); keep one")
+    kind, cols = next(iter(touched.items()))
+    missing = [c for c in cols if c not in present]
+    if kind == "directions":
+        n = len(cols) // 3
+        if n < 2:
+            raise LogFormatError(f"{where}: direction input needs at least 2 directions (b1*, b2*); got {n}")
+        if missing:
+            raise LogFormatError(f"{where}: missing direction column(s) {', '.join(missing)}")
+        if [int(c[1:-1]) for c in cols[::3]] != list(range(1, n + 1)):
+            raise LogFormatError(
+                f"{where}: directions must be numbered b1, b2, ... without gaps; got "
+                f"{', '.join(sorted({c[:-1] for c in cols}))}"
+            )
+    elif missing:
+        raise LogFormatError(f"{where}: missing {kind} column(s) {', '.join(missing)}")
+    if numbered is not None:
+        if quaternion_order not in QUATERNION_ORDERS:
+            raise LogFormatError(
+                f"{where}: columns {', '.join(numbered)} do not say which is the scalar part of the quaternion; "
+                f"pass --quaternion-order wxyz ({numbered[0]} is the scalar) or --quaternion-order xyzw "
+                f"({numbered[3]} is the scalar)"
+            )
+        cols = list(_NUMBERED[numbered][quaternion_order])
+    torque = [c for c in TORQUE_COLUMNS if c in present]
+    if torque and len(torque) != 3:
+        lacking = [c for c in TORQUE_COLUMNS if c not in present]
+        raise LogFormatError(f"{where}: torque needs tau_x, tau_y and tau_z; missing {', '.join(lacking)}")
+    return Layout(time_column, kind, tuple(cols), tuple(torque) if torque else None, numbered is None)

@@ -1,0 +1,131 @@
+"""The estimate's output file: checked before any work, written in chunks, whole or absent.
+
+:func:`check_output_path` runs before the input is read: the output's directory must exist and be writable, the
+output must not be a directory, and it must not be the input (compared as files, so ``./log.csv``,
+``../dir/log.csv`` and a symbolic link to it are all caught).
+
+:class:`OmegaWriter` writes ``t,wx,wy,wz,status`` (s, rad/s in body axes, one word) chunk by chunk into a
+temporary file *in the target directory* and renames it over the target only when every row is written
+(``os.replace`` is atomic within a directory): a run that fails or is interrupted leaves the target as it was
+(absent, or the previous complete file) and removes its temporary file. ``status`` says what each row is:
+
+* ``corrected``: the estimate after a measured sample;
+* ``predicted``: no usable sample at that time (missing, skipped, nearly collinear directions): the estimate was
+  predicted through;
+* ``unavailable``: no estimate yet (before the first valid sample, and at it: one attitude gives no rate; with a
+  warm start until the second); the rate columns are ``nan`` there, never 0.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+
+__all__ = ["CORRECTED", "PREDICTED", "STATUS_WORDS", "UNAVAILABLE", "OmegaWriter", "check_output_path"]
+
+UNAVAILABLE, CORRECTED, PREDICTED = 0, 1, 2
+STATUS_WORDS = ("unavailable", "corrected", "predicted")
+HEADER = "t,wx,wy,wz,status"
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.normcase(os.path.realpath(a)) == os.path.normcase(os.path.realpath(b))
+
+
+def check_output_path(output, inputs=()) -> Path:
+    """Refuse, before any work, an output that cannot be written or that is one of ``inputs`` (module docstring)."""
+    out = Path(output)
+    for src in inputs:
+        if _same_file(out, Path(src)):
+            raise ValueError(f"the output {out} is the input log {src}; write the estimate to another file")
+    if out.is_dir():
+        raise ValueError(f"the output {out} is a directory; give a file name, e.g. {out / 'omega.csv'}")
+    parent = out.parent if str(out.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"the output's directory {parent} does not exist; create it first (mkdir -p {parent})")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"the output's directory {parent} is not writable")
+    if out.exists() and not os.access(out, os.W_OK):
+        raise ValueError(f"the output {out} exists and is not writable")
+    return out
+
+
+class OmegaWriter:
+    """Chunked, atomic writer of ``t,wx,wy,wz,status`` (module docstring). Use as a context manager:
+    the file appears on a clean exit, never on an exception. Each chunk is formatted and written by a
+    background thread (PyArrow releases the GIL) while the caller computes the next; at most one chunk waits."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        parent = self.path.parent if str(self.path.parent) else Path(".")
+        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=parent)
+        self._tmp = Path(tmp)
+        self._f = os.fdopen(fd, "wb")
+        self._f.write((HEADER + "\n").encode())
+        self.rows = 0
+        self._words = pa.array(STATUS_WORDS)
+        self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
+        self._pending = None
+
+    def write(self, t: np.ndarray, omega: np.ndarray, status: np.ndarray) -> None:
+        """Append rows: ``t (m,)``, ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
+        codes = pa.array(np.asarray(status, dtype=np.int8))
+        table = pa.table(
+            {
+                "t": np.ascontiguousarray(t, dtype=float),
+                "wx": np.ascontiguousarray(omega[:, 0]),
+                "wy": np.ascontiguousarray(omega[:, 1]),
+                "wz": np.ascontiguousarray(omega[:, 2]),
+                "status": pa.DictionaryArray.from_arrays(codes, self._words),
+            }
+        )
+        self._wait()
+        self._pending = self._pool.submit(pacsv.write_csv, table, self._f, self._options)
+        self.rows += len(t)
+
+    def _wait(self) -> None:
+        if self._pending is not None:
+            pending, self._pending = self._pending, None
+            pending.result()  # re-raises a failed write here
+
+    def commit(self) -> None:
+        """Close the temporary file and move it onto the target (readable as the umask allows)."""
+        try:
+            self._wait()
+        finally:
+            self._pool.shutdown()
+        self._f.close()
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(self._tmp, 0o666 & ~umask)
+        os.replace(self._tmp, self.path)
+
+    def abort(self) -> None:
+        """Close and remove the temporary file; the target is left as it was."""
+        try:
+            self._wait()
+        except Exception:
+            pass
+        self._pool.shutdown()
+        if not self._f.closed:
+            self._f.close()
+        self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> OmegaWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.abort()

@@ -1,0 +1,278 @@
+"""Issue 12, the output-safety and error cases: output whole or absent, messages that name line, column and an
+option that exists, the input dialects real tools write."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from logmaker import constant_rate, read_output, write_csv
+from omegahat.cli import main
+from omegahat.io import ReadOptions, read_log
+from omegahat.observer import estimator as estimator_module
+
+OMEGA = np.array([0.1, -0.2, 0.3])
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def log(tmp_path):
+    t = np.arange(400) / 100.0
+    return write_csv(tmp_path / "log.csv", t, constant_rate(t, OMEGA, sigma=1e-4))
+
+
+def leftovers(folder) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
+
+
+# ------------------------------------------------------------------------------------------------ output
+
+
+def test_output_equal_to_input_is_refused_in_any_spelling(log, tmp_path, capsys):
+    before = log.read_bytes()
+    (tmp_path / "sub").mkdir()
+    os.symlink(log, tmp_path / "link.csv")
+    for out in (log, tmp_path / "sub" / ".." / "log.csv", tmp_path / "link.csv"):
+        code, _, err = run(capsys, "estimate", log, "-o", out)
+        assert code == 2
+        assert "is the input log" in err and "write the estimate to another file" in err
+    assert log.read_bytes() == before
+
+
+def test_missing_output_directory_is_found_before_reading(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,qw,qx,qy,qz\n0,1,0,0,0\n0.1,1,zero,0,0\n")  # a format error the reader would report
+    code, _, err = run(capsys, "estimate", bad, "-o", tmp_path / "nodir" / "o.csv")
+    assert code == 2
+    assert "the output's directory" in err and "nodir does not exist" in err and "mkdir -p" in err
+    assert "zero" not in err  # the input was not read
+
+
+def test_a_failure_midway_leaves_no_output_and_no_temporary_file(log, tmp_path, capsys, monkeypatch):
+    dst = tmp_path / "o.csv"
+    dst.write_text("previous complete result\n")
+    calls = {"n": 0}
+    real_run = estimator_module.SarrasEstimator.run
+
+    def failing(self, *a):
+        calls["n"] += 1
+        if calls["n"] == 4:  # after three chunks have been written
+            raise OSError("disk full (simulated)")
+        return real_run(self, *a)
+
+    monkeypatch.setattr(estimator_module.SarrasEstimator, "run", failing)
+    import omegahat.cli.estimate as cli_estimate
+
+    small = lambda **kw: ReadOptions(chunk_bytes=4096, **kw)  # noqa: E731  (many chunks)
+    monkeypatch.setattr(cli_estimate, "ReadOptions", small)
+    code, _, err = run(capsys, "estimate", log, "-o", dst)
+    assert code == 2 and "disk full (simulated)" in err
+    assert calls["n"] == 4
+    assert dst.read_text() == "previous complete result\n"  # untouched: the new result is whole or absent
+    assert leftovers(tmp_path) == []
+
+
+def test_output_status_column_and_nan_before_the_first_estimate(tmp_path, capsys):
+    t = np.arange(300) / 100.0
+    src = write_csv(tmp_path / "g.csv", t, constant_rate(t, OMEGA))
+    lines = src.read_text().splitlines()
+    for k in (1, 2, 150, 151):  # rows 0, 1 (no attitude yet) and 149, 150 (a glitch): empty attitude fields
+        lines[k] = lines[k].split(",")[0] + ",,,,"
+    src.write_text("\n".join(lines) + "\n")
+    code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--warm-start")
+    assert code == 0
+    _, w, status = read_output(tmp_path / "o.csv")
+    # rows 0, 1 have no sample; row 2 is the first valid sample (warm start: no rate from one sample)
+    assert status[:3] == ["unavailable"] * 3 and np.all(np.isnan(w[:3]))
+    assert status[3] == "corrected" and status[149:151] == ["predicted", "predicted"]
+    np.testing.assert_allclose(w[3:], np.broadcast_to(OMEGA, (297, 3)), atol=1e-9)
+    assert "skipped 4 of 300 samples (4 missing" in out
+
+
+def test_gaps_are_reported(tmp_path, capsys):
+    t = np.concatenate([np.arange(100), np.arange(130, 300)]) / 100.0  # 0.31 s without samples
+    src = write_csv(tmp_path / "gap.csv", t, constant_rate(t, OMEGA))
+    code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 0
+    assert "gaps: 1 intervals longer than twice the median spacing; the longest 0.31 s before line 102" in out
+
+
+# ------------------------------------------------------------------------------------------------ errors
+
+
+def test_a_bad_sample_names_its_line_and_the_options(tmp_path, capsys):
+    t = np.arange(50) / 100.0
+    src = write_csv(tmp_path / "q.csv", t, constant_rate(t, OMEGA))
+    lines = src.read_text().splitlines()
+    lines[6] = lines[6].split(",")[0] + ",2,0,0,0"  # line 7 of the file: |q| = 2
+    src.write_text("\n".join(lines) + "\n")
+    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 2
+    assert "q.csv, line 7, columns qw,qx,qy,qz: a quaternion far from unit norm: |q| = 2" in err
+    assert "--quat-norm-tol" in err and "--skip-bad-samples" in err and "sample 5" not in err
+    assert not (tmp_path / "o.csv").exists()
+    code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--skip-bad-samples")
+    assert code == 0
+    assert "--skip-bad-samples: 1 bad samples treated as missing (first: line 7: a quaternion far from unit norm" in out
+    _, w, status = read_output(tmp_path / "o.csv")
+    assert status[5] == "predicted"
+    np.testing.assert_allclose(w, np.broadcast_to(OMEGA, (50, 3)), atol=1e-9)
+
+
+def test_tolerances_are_options(tmp_path, capsys):
+    t = np.arange(50) / 100.0
+    q = constant_rate(t, OMEGA).as_quat() * 1.004  # written with 3 digits too few: |q| = 1.004
+    src = tmp_path / "q.csv"
+    src.write_text(
+        "t,qx,qy,qz,qw\n" + "".join(",".join(repr(float(x)) for x in (t[k], *q[k])) + "\n" for k in range(50))
+    )
+    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 2 and "pass --quat-norm-tol 0.008 to accept it" in err
+    assert run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--quat-norm-tol", "0.008")[0] == 0
+    R = constant_rate(t, OMEGA).as_matrix() * 1.001
+    np.savez(tmp_path / "r.npz", t=t, R=R)
+    code, _, err = run(capsys, "estimate", tmp_path / "r.npz", "-o", tmp_path / "o.csv")
+    assert code == 2 and "r.npz, array R, index 0: not a rotation matrix" in err and "--rotation-tol" in err
+    assert run(capsys, "estimate", tmp_path / "r.npz", "-o", tmp_path / "o.csv", "--rotation-tol", "0.01")[0] == 0
+
+
+@pytest.mark.parametrize(
+    ("inertia", "match"),
+    [
+        (
+            ["1", "1", "5"],
+            r"--inertia is not the inertia of a rigid body: .* violate the triangle inequality J1 \+ J2 >= J3",
+        ),
+        (["1", "-1", "1"], r"--inertia must be positive definite"),
+    ],
+)
+def test_inertia_is_physically_checked(log, tmp_path, capsys, inertia, match):
+    code, _, err = run(capsys, "estimate", log, "-o", tmp_path / "o.csv", "--inertia", *inertia)
+    assert code == 2
+    assert pytest.importorskip("re").search(match, err), err
+
+
+def test_a_flat_plate_is_a_body():
+    from omegahat.validation import as_inertia
+
+    np.testing.assert_array_equal(as_inertia([1.0, 2.0, 3.0]), np.diag([1.0, 2.0, 3.0]))  # J1 + J2 = J3: a plate
+    with pytest.raises(ValueError, match=r"J is not the inertia of a rigid body"):
+        as_inertia([1.0, 2.0, 3.01])
+
+
+def test_npz_scalar_first_must_be_a_real_boolean(tmp_path, capsys):
+    t = np.arange(20) / 100.0
+    q = constant_rate(t, OMEGA).as_quat(scalar_first=True)
+    for bad in ("False", 0):
+        np.savez(tmp_path / "q.npz", t=t, q=q, scalar_first=bad)
+        code, _, err = run(capsys, "estimate", tmp_path / "q.npz", "-o", tmp_path / "o.csv")
+        assert code == 2
+        assert "q.npz, array scalar_first: must be a single boolean (numpy True or False)" in err
+    np.savez(tmp_path / "q.npz", t=t, q=q, scalar_first=True)
+    code, _, err = run(capsys, "estimate", tmp_path / "q.npz", "-o", tmp_path / "o.csv", "--quaternion-order", "xyzw")
+    assert code == 2 and "array scalar_first: True contradicts --quaternion-order xyzw" in err
+
+
+def test_npz_errors_name_the_array(tmp_path, capsys):
+    np.savez(tmp_path / "x.npz", t=np.arange(3.0), q=np.zeros((3, 3)))
+    code, _, err = run(capsys, "estimate", tmp_path / "x.npz", "-o", tmp_path / "o.csv")
+    assert code == 2 and "x.npz, array q: expected shape (3, 4), got (3, 3)" in err
+
+
+# ----------------------------------------------------------------------------------------------- dialects
+
+
+def _dialect(tmp_path, text: str, encoding="utf-8", name="d.csv"):
+    p = tmp_path / name
+    p.write_bytes(text.encode(encoding))
+    return p
+
+
+def _rows(sep=",", decimal="."):
+    t = np.arange(30) / 100.0
+    q = constant_rate(t, OMEGA).as_quat()
+    fmt = lambda x: repr(float(x)).replace(".", decimal)  # noqa: E731
+    return t, "".join(sep.join(fmt(x) for x in (t[k], q[k, 3], *q[k, :3])) + "\r\n" for k in range(30))
+
+
+@pytest.mark.parametrize(
+    ("header", "sep", "decimal", "encoding"),
+    [
+        ("t,qw,qx,qy,qz", ",", ".", "utf-8-sig"),  # spreadsheet export with a byte-order mark
+        ("T,QW,QX,QY,QZ", ",", ".", "utf-8"),  # upper-case names
+        (" t ; qw ; qx ; qy ; qz", ";", ",", "utf-8"),  # European spreadsheet: ';' and decimal comma
+        ("t\tqw\tqx\tqy\tqz", "\t", ".", "utf-16"),  # "Unicode text" export: UTF-16, tab-separated
+    ],
+)
+def test_dialects_real_tools_write(tmp_path, capsys, header, sep, decimal, encoding):
+    t, body = _rows(sep, decimal)
+    src = _dialect(tmp_path, header + "\r\n" + body, encoding)
+    log = read_log(src)
+    np.testing.assert_array_equal(log.t, t)
+    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 0, err
+    np.testing.assert_allclose(read_output(tmp_path / "o.csv")[1], np.broadcast_to(OMEGA, (30, 3)), atol=1e-9)
+
+
+def test_an_unknown_delimiter_is_named(tmp_path):
+    src = _dialect(tmp_path, "t qw qx qy qz\n0 1 0 0 0\n")
+    with pytest.raises(ValueError, match=r"no ',' ';' or tab between the column names 't qw qx qy qz' \(it has spaces"):
+        read_log(src)
+
+
+def test_time_column_option(tmp_path):
+    src = _dialect(tmp_path, "Time,qw,qx,qy,qz\n0,1,0,0,0\n")
+    with pytest.raises(
+        ValueError, match=r"no time column 't' \(found: time, qw, qx, qy, qz\); pass --time-column time"
+    ):
+        read_log(src)
+    assert read_log(src, options=ReadOptions(time_column="time")).t.tolist() == [0.0]
+
+
+def test_a_bad_sample_after_the_head_is_found_too(tmp_path, capsys):
+    # Past the samples analysed for the gains, a rejected sample is located when the estimator meets it.
+    from omegahat.observer.autogain import HEAD_SAMPLES
+
+    n = HEAD_SAMPLES + 2000
+    t = np.arange(n) / 100.0
+    src = write_csv(tmp_path / "long.csv", t, constant_rate(t, OMEGA))
+    lines = src.read_text().splitlines()
+    k = HEAD_SAMPLES + 1000  # row index; the file line is k + 2
+    lines[k + 1] = lines[k + 1].split(",")[0] + ",0.5,0,0,0"
+    src.write_text("\n".join(lines) + "\n")
+    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 2
+    assert f"long.csv, line {k + 2}, columns qw,qx,qy,qz: a quaternion far from unit norm: |q| = 0.5" in err
+    assert not (tmp_path / "o.csv").exists()
+    code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--skip-bad-samples")
+    assert code == 0 and f"1 bad samples treated as missing (first: line {k + 2}" in out
+    _, _, status = read_output(tmp_path / "o.csv")
+    assert status[k] == "predicted"
+
+
+def test_slow_first_run_is_announced_and_not_counted(log, tmp_path, capsys, monkeypatch):
+    import time
+
+    real_run = estimator_module.SarrasEstimator.run
+    calls = {"n": 0}
+
+    def slow_first(self, *a):
+        calls["n"] += 1
+        if calls["n"] == 1:  # the warm-up call, standing in for a compilation
+            time.sleep(0.8)
+        return real_run(self, *a)
+
+    monkeypatch.setattr(estimator_module.SarrasEstimator, "run", slow_first)
+    code, out, err = run(capsys, "estimate", log, "-o", tmp_path / "o.csv")
+    assert code == 0
+    assert "compiling kernels, once (later runs load them from the cache)" in err
+    assert "(kernels compiled once in 0.8 s before)" in out
+    estimated = float(out.split("estimated in ")[1].split(" s")[0])
+    assert estimated < 0.5
