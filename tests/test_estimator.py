@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.measurements import MeasurementError
 from omegahat.observer.estimator import EstimatorState, SarrasEstimator, SkippedSamplesWarning
-from omegahat.observer.reference import reference_predict, reference_step
 from omegahat.observer.gains import ObserverGains, theorem_gains
+from omegahat.observer.reference import reference_predict, reference_step
 
 PAPER_J = np.diag([3.0, 2.0, 1.0])
 PAPER_W0 = np.array([2.0, -1.0, 0.6])

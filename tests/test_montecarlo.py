@@ -227,7 +227,7 @@ def test_compiled_diagnose_equals_numpy_reference():
     )
     indices = np.arange(c.runs)
     seen = dict.fromkeys(["failed", "out of bound", "floor reached", "floor not reached", "V increased"], 0)
-    for name, g in gains.items():
+    for name in gains:
         problems = [mc.draw_problem(c, j, name) for j in indices]
         batch = simulate_batch(problems, c.t_out, rtol=c.rtol, atol=c.atol, h_max=c.h_max, max_steps=c.max_steps)
         if name == "slope":

@@ -13,8 +13,8 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import so3
 from omegahat.simulation.rigid_body import RigidBody, cf4_step, integrate
-from omegahat.simulation.torque import Torque, as_torque
 from omegahat.simulation.sensors import directions, noisy_attitudes, noisy_directions
+from omegahat.simulation.torque import Torque, as_torque
 
 PAPER_J = [3.0, 2.0, 1.0]
 PAPER_OMEGA0 = np.array([2.0, -1.0, 0.6])

@@ -1,11 +1,53 @@
-"""omegahat: gyro-free rigid-body angular velocity estimation from attitude measurements.
+"""omegahat: the angular velocity of a rigid body without gyroscopes, from attitude measurements.
 
 The core is the continuous, globally exponential observer of I. Sarras, with the sign of its output map corrected
-(see :mod:`omegahat.observer.continuous`).
+(``docs/observer.md``), realised for sampled, noisy data by :class:`SarrasEstimator`. The names below are the
+public API; they are imported on first use, so that ``import omegahat`` (and the command line) stays light.
+
+Packages: :mod:`omegahat.kernels` (compiled primitives), :mod:`omegahat.observer`, :mod:`omegahat.simulation`,
+:mod:`omegahat.campaigns`, :mod:`omegahat.baselines`, :mod:`omegahat.evaluation`, :mod:`omegahat.io`,
+:mod:`omegahat.cli`; modules :mod:`omegahat.so3`, :mod:`omegahat.measurements`.
 """
 
-from omegahat.observer.gains import ObserverGains, check_gains, theorem_gains
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = ["ObserverGains", "__version__", "check_gains", "theorem_gains"]
+#: public name -> the module that defines it
+_PUBLIC = {
+    "SarrasEstimator": "omegahat.observer.estimator",
+    "ObserverGains": "omegahat.observer.gains",
+    "check_gains": "omegahat.observer.gains",
+    "theorem_gains": "omegahat.observer.gains",
+    "bandwidth_gains": "omegahat.observer.tuning",
+    "sensor_gains": "omegahat.observer.tuning",
+    "predicted_noise_std": "omegahat.observer.tuning",
+    "CoupledProblem": "omegahat.simulation.problem",
+    "paper_problem": "omegahat.simulation.problem",
+    "simulate": "omegahat.simulation.coupled",
+    "simulate_batch": "omegahat.simulation.coupled",
+    "Torque": "omegahat.simulation.torque",
+    "RigidBody": "omegahat.simulation.rigid_body",
+    "MEKF": "omegahat.baselines.mekf",
+    "DifferencingEstimator": "omegahat.baselines.differencing",
+    "SplineEstimator": "omegahat.baselines.spline",
+    "MeasurementError": "omegahat.measurements",
+    "read_log": "omegahat.io",
+}
+
+__all__ = ["__version__", *sorted(_PUBLIC)]
+
+
+def __getattr__(name: str):
+    module = _PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module 'omegahat' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_PUBLIC])

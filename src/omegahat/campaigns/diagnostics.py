@@ -17,7 +17,6 @@ run's states stay in the worker's own rows, in cache), so that it never holds mo
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numba
@@ -101,8 +100,8 @@ class GainSetResult:
 
 def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = True) -> GainSetResult:
     """Envelope, V and ω-bound diagnostics of a batch (module docstring): one compiled pass over ``batch.Y``,
-    run by run (:func:`omegahat.campaigns.diagnostics.diagnose_runs`; Numba threads if ``parallel``, ``parallel=False`` stays
-    on the calling thread, as in :func:`simulate_batch`). Its numbers are those of the NumPy reference
+    run by run (:func:`diagnose_runs`; Numba threads if ``parallel``, ``parallel=False`` stays on the calling
+    thread, as in :func:`omegahat.simulation.simulate_batch`). Its numbers are those of the NumPy reference
     :func:`diagnose_reference` to the last bit but for ``exp``, ``log`` and a non-diagonal ``J z``. A campaign
     (:func:`run_chunk`) takes the same diagnostics inside the kernel, run by run as runs end."""
     Y = np.ascontiguousarray(batch.Y, dtype=float)

@@ -44,6 +44,7 @@ __all__ = [
     "check_times",
     "check_torque",
     "convert_sample",
+    "status_batch",
 ]
 
 # Per-sample status codes. Below ERROR the sample is usable or skipped; from ERROR on it is rejected.
@@ -231,3 +232,18 @@ def check_batch(times, t_prev, taus, timed, m, kind, V, scalar_first, rotation_t
         if s != OK:
             r[j, :, :] = np.nan
     return r, status, -1, 0.0
+
+
+@numba.njit(cache=True)
+def status_batch(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
+    """:func:`convert_sample`'s ``(status, info)`` for every sample of ``m (T, a, b)``, without stopping."""
+    T = m.shape[0]
+    status = np.zeros(T, dtype=np.int64)
+    info = np.zeros(T)
+    r = np.empty((V.shape[0], 3))
+    R_work = np.empty((3, 3))
+    for j in range(T):
+        status[j], info[j] = convert_sample(
+            m[j], kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work
+        )
+    return status, info

@@ -2,39 +2,36 @@ r"""The lockstep engine: the one integrator of plant + observer, for one run or 
 
 Every simulation of the coupled system goes through this engine: :func:`omegahat.simulation.coupled.simulate`
 (one run, one lane), :func:`omegahat.simulation.coupled.simulate_batch` and the Monte-Carlo campaigns
-(:mod:`omegahat.campaigns`, many runs, ``LANES`` lanes per thread). The integrator is ETDRK4 with its embedded
+(:mod:`omegahat.campaigns`, many runs, :data:`LANES` lanes per thread). The integrator is ETDRK4 with its embedded
 error estimate, free steps and a continuous extension at the output times (:mod:`omegahat.simulation.etd`); the
 right-hand side is :mod:`omegahat.simulation.rates`, built from :mod:`omegahat.kernels`.
 
-**Layout.** Every state component is a row of lanes of one workspace ``S[row, lane]``: component ``j`` of the run
-in lane ``w`` is ``S[(rows.y + j) * lanes + w]`` (``rows``: the named row offsets, :class:`Rows`, generated from the number of
-directions n and of torque terms M). Each line of the right-hand side is then a loop over lanes without branches,
-which LLVM turns into SIMD instructions (AVX-512: 8 doubles per instruction). Each lane carries its own run, time,
-step size, output index and counters as rows too, so that step sizes, acceptance and counters are decided for all
-lanes at once; only what is rare stays per lane in scalar code: output times (the continuous extension), failed
-runs, loading a new run into a lane whose run has ended. A lane without a run steps on its last state with h = 0
-and its results are discarded. All per-lane data live in ONE array: with separate arrays LLVM gave up vectorising
-(too many run-time alias checks).
+**Layout.** Every per-lane quantity is a row of lanes of one flat workspace: row ``r`` of lane ``w`` is
+``S[r * lanes + w]``, the rows named by :func:`omegahat.simulation.layout.workspace_rows` from the number of
+directions n and of torque terms M. With the number of lanes, n and M compile-time constants every offset is a
+constant, each line of the right-hand side is a loop over lanes without branches, and LLVM turns it into SIMD
+instructions (AVX-512 here: 8 doubles at once). Each lane carries its own run, time, step, output index and
+counters as rows too, so that step sizes, acceptance and counters are decided for all lanes at once; only what is
+rare stays per lane in scalar code: output times (the continuous extension), failures, loading a new run into a
+lane whose run has ended (a lane without a run steps on with h = 0 and its results are discarded).
 
-**A step, phase by phase** (:func:`lockstep`, one screen each): load runs into empty lanes; choose each lane's
-step; one ETDRK4 trial for all lanes (torque at the stage times, φ-weights, three stages, the new point's rates);
-the error ratios; acceptance and counters; output times and failures lane by lane; accepted lanes move to the
-new point (bitwise selects); runs that ended leave their lanes.
+**A step, phase by phase** (:func:`_lockstep`, each phase a screen of its own): load runs into empty lanes;
+choose each lane's step; one ETDRK4 trial for all lanes (torque at the stage times, φ-weights, three stages, the
+new point's rates); the error ratios; acceptance and counters; output times and failures lane by lane; accepted
+lanes move to the new point (bitwise selects); runs that ended leave their lanes.
 
-**Same numbers in every lane.** For its run, a lane performs the same operations in the same order whatever the
+**Same numbers in every lane.** A lane performs, for its run, the same operations in the same order whatever the
 number of lanes, the lane, the worker, the batch or the chunk: no fast-math (no reassociation, no fused
 multiply-adds: the bits do not depend on whether the CPU has them), the exponential and the small-angle sine and
 cosine in plain arithmetic (:mod:`omegahat.kernels.expfn`). One run simulated alone (one lane) and in a campaign
 (24 lanes) gives the very same bits (``tests/test_engine.py``), on any machine as long as libm's ``sin`` and
 ``cos`` agree (the torque's phases and large angles call them).
 
-**What happens when a run ends** is the caller's: the generic :func:`lockstep` takes two compiled functions,
-``output_rows(sink, stage, lane, run)`` (where the run's states at the output times are written) and
-``finish_run(sink, states, run, good, accepted, rejected, n, t_out)``. :func:`integrate_states` writes every
-state into its output array; a campaign (:mod:`omegahat.campaigns.diagnostics`) keeps a run's states in the
-worker's own rows (in cache) and reduces them to its diagnostics as the run ends, so that it never holds more
-than the runs in flight. The functions are globals of the compiled entry points, so each entry is compiled (and
-cached) once; the number of lanes, n and M are compile-time constants of the many-lane entries.
+**What is kept of a run** is the caller's choice of mode: every state at the output times
+(:func:`integrate_states`), or, for a campaign, each run's envelope diagnostics taken as the run ends from its
+states still in the worker's own rows (:func:`integrate_envelopes`, :mod:`omegahat.simulation.envelope`), so that
+a campaign never holds more than the runs in flight. The many-lane entries are compiled once per (lanes, n, M)
+and cached on disk; the one-lane entry once per n.
 """
 
 from __future__ import annotations
@@ -453,8 +450,8 @@ def check_inputs(model: Model, runs: RunSet, t_out) -> tuple[Model, RunSet, np.n
         "J": (model.J, (3, 3)), "Jinv": (model.Jinv, (3, 3)), "k": (model.k, (n,)),
         "l_offset": (model.l_offset, (n,)), "l_slope": (model.l_slope, (n,)), "y0": (runs.y0, (N, 6 * n + 6)),
         "h0": (runs.h0, (N,)), "torque_constant": (runs.torque_constant, (N, 3)),
-        "torque_amplitudes": (runs.torque_amplitudes, (N, M, 3)), "torque_frequencies": (runs.torque_frequencies, (N, M)),
-        "torque_phases": (runs.torque_phases, (N, M, 3)),
+        "torque_amplitudes": (runs.torque_amplitudes, (N, M, 3)),
+        "torque_frequencies": (runs.torque_frequencies, (N, M)), "torque_phases": (runs.torque_phases, (N, M, 3)),
     }  # fmt: skip
     for name, (value, want) in expected.items():
         if N < 0 or M < 0 or np.shape(value) != want:

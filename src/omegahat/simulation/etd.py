@@ -19,7 +19,9 @@ re-taken with the step's frozen rate: ``N(y; l) = f(y) + l e``. **Continuous ext
 with the weights of order 3 at θ (``A = θφ₁(θx)``, ``B = θ²φ₂(θx)``, ``C = θ³φ₃(θx)``, ``b₁ = h(A − 3B + 4C)``,
 ``b₂ = b₃ = h(2B − 4C)``, ``b₄ = h(4C − B)``, and ``e^{θx}`` on the state), exact on the decay.
 
-Every function works on the engine's workspace ``S[row, lane]`` (row offsets: :func:`omegahat.simulation.layout.workspace_rows`), lanes outermost, components inside.
+Every function works on the engine's workspace (one flat array: the quantity in row ``r`` of lane ``w`` is
+``S[r * lanes + w]``, row offsets from :func:`omegahat.simulation.layout.workspace_rows`), lanes outermost and the
+components inside.
 """
 
 from __future__ import annotations
@@ -27,7 +29,6 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from omegahat.simulation.layout import workspace_rows
 from omegahat.kernels.expfn import (
     PHI_TAYLOR_BELOW,
     exp_kernel,
@@ -37,14 +38,15 @@ from omegahat.kernels.expfn import (
     phi123_closed,
     phi123_taylor,
 )
+from omegahat.simulation.layout import workspace_rows
 
 __all__ = [
     "combine",
     "dense_output",
     "error_ratios",
     "half_stage",
-    "last_stage",
     "larger_ratio",
+    "last_stage",
     "phi_weights",
     "step_factor",
 ]

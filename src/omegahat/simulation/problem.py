@@ -200,7 +200,7 @@ def batch_inputs(problems, h_max: float) -> tuple[Model, RunSet]:
     M = max(p.torque.frequencies.size for p in problems)
     amplitudes, frequencies, phases = np.zeros((N, M, 3)), np.zeros((N, M)), np.zeros((N, M, 3))
     for j, p in enumerate(problems):
-        c, a, f, ph = p.torque.sinusoid()
+        _, a, f, ph = p.torque.sinusoid()
         amplitudes[j, : f.size], frequencies[j, : f.size], phases[j, : f.size] = a, f, ph
     runs = RunSet(
         y0=initial_states(

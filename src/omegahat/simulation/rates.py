@@ -94,13 +94,13 @@ def frozen_decay_rates(S, lanes, n, model, ry, rout):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def torque_stages(S, lanes, n, M):
-    """The torque ``τ(t) = c + Σ_j a_j sin(ν_j t + φ_j)`` at t + h/2 and t + h into rows ``rows.tau + 3s + d``
-    (s = 1, 2), and sin, cos of ``ν_j (t + h)`` into rows ``rows.sn_new + j``, ``rows.cs_new + j``.
+    """The torque ``τ(t) = c + Σ_j a_j sin(ν_j t + φ_j)`` at t + h/2 and t + h into rows ``tau + 3s + d``
+    (s = 1, 2), and sin, cos of ``ν_j (t + h)`` into rows ``sn_new + j``, ``cs_new + j``.
 
     Written ``(a_j cos φ_j) sin ν_j t + (a_j sin φ_j) cos ν_j t`` from the carried ``sin ν_j t``, ``cos ν_j t``
-    (rows ``sn``, ``cs`` of :func:`omegahat.simulation.layout.workspace_rows`); the later times by the angle-addition rotation by ``ν_j h/2``, whose sine and
-    cosine (rows ``rows.sd``, ``rows.cd``) are polynomials for small angles (plain arithmetic, vectorised) and
-    libm's otherwise (never in a campaign, whose steps keep ``ν_j h/2 ≤ 1/4``)."""
+    (rows ``sn``, ``cs``); the later times by the angle-addition rotation by ``ν_j h/2``, whose sine and cosine
+    (rows ``sd``, ``cd``) are polynomials for small angles (plain arithmetic, vectorised) and libm's otherwise
+    (never in a campaign, whose steps keep ``ν_j h/2 ≤ 1/4``)."""
     rows = workspace_rows(n, M)
     large = 0
     for w in range(lanes):

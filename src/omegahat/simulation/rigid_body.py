@@ -29,7 +29,8 @@ it as a unit quaternion (``R exp(A) exp(B)`` is ``q ⊗ q(A) ⊗ q(B)``) and res
 which leaves the rotation unchanged: a product of matrices instead drifts from orthogonality by about 4e-17
 per step (4e-12 after 1e5 steps, paper's body over 100 s), the quaternion form stays at 2e-15.
 
-Torque: a :class:`~omegahat.simulation.torque.Torque` says explicitly what it depends on (nothing, a constant, time, or time and state).
+Torque: a :class:`~omegahat.simulation.torque.Torque` says explicitly what it depends on (nothing, a constant, a
+sinusoid, time, or time and state).
 When it does not depend on the state the whole integration runs in a compiled kernel (Numba), with the torque
 tabulated beforehand at every stage time; :func:`cf4_step` is the plain NumPy step, the readable oracle the
 kernel is tested against and the path used for state-dependent torques.
