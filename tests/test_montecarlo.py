@@ -339,6 +339,21 @@ def test_theorem_gains_converge_and_v_decreases_on_wide_initial_conditions():
     assert s["worst_lambda"] > 3.0  # measured 4.86 on 10,000 runs of examples/campaign.toml
 
 
+def test_campaign_runs_match_the_papers_equations_integrated_by_scipy():
+    """The campaign's envelope ρ(t) of three runs against the same runs in the observer's own (ξ, r̂) coordinates
+    (omegahat.observer.continuous, the paper's equations) integrated by solve_ivp: an independent check of what
+    the campaign's engine integrates, not only that it agrees with itself."""
+    from omegahat.simulation import simulate_reference
+
+    c = _small(runs=3, gains={"slope": ObserverGains(k=[5.0, 5.0], l_offset=5.0, l_slope=2.0)}, horizon=2.0,
+               rtol=1e-9)  # fmt: skip
+    res = mc.run_campaign(c)["slope"]
+    for j in range(c.runs):
+        ref = simulate_reference(mc.draw_problem(c, j), c.t_out, method="DOP853", rtol=1e-12, atol=1e-14)
+        E = np.linalg.norm(ref.z, axis=-1) + np.linalg.norm(ref.e, axis=-1).sum(axis=-1)
+        np.testing.assert_allclose(res.rho[j], E / E[0], rtol=1e-6, atol=1e-9, err_msg=f"run {j}")
+
+
 def test_constant_small_l_fails_globally_and_counterexamples_replay():
     """With constant l = 1 a large initial estimate gets stuck: run saved with its seed, replayed identically."""
     c = _small(runs=6, gains={"constant": ObserverGains.constant(14.5, 1.0)}, horizon=3.0, omega_hat_max=100.0)
