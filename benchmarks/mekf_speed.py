@@ -24,6 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.mekf import MEKF
 from omegahat.simulation.rigid_body import RigidBody, integrate
+from results_md import machine_line, write_section
 
 J = np.diag([3.0, 2.0, 1.0])
 REFS = np.eye(3)
@@ -52,10 +53,11 @@ def main(argv=None):
     t, tau, R_meas, b_meas = logs[5.0]
     make("dynamic", False).run(t[:5], R_meas[:5], tau[:5])  # compile / load the cache
 
-    print(
-        f"{'model':<10} {'measurements':<13} {'rate Hz':>8} {'samples':>8} {'run us/sample':>14} "
-        f"{'update loop us/sample':>22} {'max rel diff':>13}"
-    )
+    lines = [
+        "| model | measurements | rate (Hz) | samples | `run`, us per sample | `update` loop, us per sample | "
+        "largest relative difference |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for model in ("dynamic", "kinematic"):
         for directions in (False, True):
             for rate, (t, tau, R_meas, b_meas) in logs.items():
@@ -72,10 +74,17 @@ def main(argv=None):
                 ref = np.array([g.update(t[j], meas[j], tau[j]) for j in range(n)])
                 loop = time.perf_counter() - t0
                 diff = np.abs(W[:n] - ref).max() / np.abs(ref).max()
-                print(
-                    f"{model:<10} {'directions' if directions else 'attitude':<13} {rate:>8.1f} {t.size:>8d} "
-                    f"{best / t.size * 1e6:>14.1f} {loop / n * 1e6:>22.0f} {diff:>13.1e}"
+                lines.append(
+                    f"| {model} | {'directions' if directions else 'attitude'} | {rate:.1f} | {t.size} | "
+                    f"{best / t.size * 1e6:.1f} | {loop / n * 1e6:.0f} | {diff:.1e} |"
                 )
+    table = "\n".join(lines)
+    print(table)
+    write_section(
+        "## The gyro-less MEKF (benchmarks/mekf_speed.py)",
+        f"{machine_line()} Command: `python benchmarks/mekf_speed.py --seconds {args.seconds:g}` (`run` best of 3; the "
+        f"NumPy `update` loop, the oracle, over the first {args.oracle_samples} samples).\n\n" + table,
+    )
 
 
 if __name__ == "__main__":

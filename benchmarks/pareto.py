@@ -20,6 +20,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from omegahat.observer import gain_sweep as gs
+from results_md import machine_line, write_section
 
 J = np.diag([3.0, 2.0, 1.0])
 
@@ -34,30 +35,45 @@ def main():
     noises = [1e-3, 1e-2]
     t0 = time.perf_counter()
     evs = gs.sweep(J, ks, ls, rates, noises, seed=0, horizon=10.0)
-    print(f"{len(evs)} evaluations in {time.perf_counter() - t0:.1f} s")
+    elapsed = time.perf_counter() - t0
+    print(f"{len(evs)} evaluations in {elapsed:.1f} s")
+    report = []
     for rate in rates:
         for sigma in noises:
             group = [e for e in evs if e.rate_hz == rate and e.noise_std_rad == sigma]
             front = gs.pareto_front([e.convergence_time for e in group], [e.noise_rms for e in group])
-            print(f"\n{rate:g} Hz, sigma = {sigma:g} rad: Pareto front (t_c s, noise rad/s RMS, predicted)")
+            report += [
+                f"\n{rate:g} Hz, σ = {sigma:g} rad — the Pareto front:\n",
+                "| gains | convergence time (s) | noise RMS (rad/s) | predicted |",
+                "| --- | --- | --- | --- |",
+            ]
             for e in sorted((e for e, f in zip(group, front, strict=True) if f), key=lambda e: e.convergence_time):
-                print(f"  {e.label:18s} {e.convergence_time:7.3f} {e.noise_rms:10.4g} {e.predicted_noise_rms:10.4g}")
+                report.append(
+                    f"| {e.label} | {e.convergence_time:.3f} | {e.noise_rms:.4g} | {e.predicted_noise_rms:.4g} |"
+                )
+            report.append("")
             for goal in (0.01, 0.05):
                 try:
                     r = gs.recommend_gains(J, rate, sigma, max_noise=goal)
-                    print(
-                        f"  recommend_gains(max_noise={goal}): bandwidth {r.bandwidth_hz:.3g} Hz, k = "
+                    report.append(
+                        f"- `recommend_gains(max_noise={goal})`: bandwidth {r.bandwidth_hz:.3g} Hz, k = "
                         f"{r.gains.k[0]:.4g}, l = {r.gains.l_offset[0]:.4g}: t_c {r.convergence_time:.3g} s, "
                         f"noise {r.noise_rms:.3g}"
                     )
                 except ValueError as exc:
-                    print(f"  recommend_gains(max_noise={goal}): {exc}")
+                    report.append(f"- `recommend_gains(max_noise={goal})`: {exc}")
     ax = gs.plot_pareto(evs)
     ax.set_title("sampled estimator: k in [1, 300], l in {1, 10, 100, 1000}")
     ax.figure.tight_layout()
     ax.figure.savefig(args.out, dpi=120)
     plt.close(ax.figure)
+    print("\n".join(report))
     print(f"\nfigure: {args.out}")
+    write_section(
+        "## Gain tuning: convergence time against noise (benchmarks/pareto.py)",
+        f"{machine_line()} Command: `python benchmarks/pareto.py --out {args.out}` ({len(evs)} evaluations of "
+        f"constant gains on the paper's body, {elapsed:.0f} s).\n" + "\n".join(report),
+    )
 
 
 if __name__ == "__main__":
