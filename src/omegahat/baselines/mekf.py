@@ -98,9 +98,9 @@ def expm_small(M) -> np.ndarray:
     """Matrix exponential by scaling and squaring with a degree-12 Taylor polynomial, in plain NumPy.
 
     Scaled so that ``‖M/2^s‖₁ ≤ 0.5``, where the truncation error is below ``0.5¹³/13! ≈ 2e-14`` relative.
-    Used instead of ``scipy.linalg.expm`` because, on a machine whose cores are busy, SciPy's compiled Padé
-    step for a 12 × 12 matrix was measured at 2 ms per call against 20 µs single-threaded; this takes about
-    50 µs either way. Tested against ``scipy.linalg.expm``. The compiled twin used by :meth:`MEKF.run` is
+    Used instead of ``scipy.linalg.expm`` because SciPy's compiled Padé step for a matrix this small slows down
+    by two orders of magnitude when the machine's other cores are busy; this one does not. Tested against
+    ``scipy.linalg.expm``. The compiled twin used by :meth:`MEKF.run` is
     :func:`omegahat.kernels.linalg.expm_block_upper` (the same polynomial, scaling and squarings).
     """
     norm = np.abs(M).sum(axis=0).max()

@@ -1,10 +1,10 @@
 r"""The generators of many campaign runs at once: ``SeedSequence(seed, spawn_key=(j,))`` for every run j.
 
 A campaign's run j draws from ``numpy.random.default_rng(SeedSequence(seed, spawn_key=(j,)))``. Building that
-SeedSequence and hashing it into PCG64's state costs 14 µs a run in NumPy (its mixing loops run one word at a
-time), as much as all the run's draws together. :func:`seed_words` computes the same 128-bit state and increment
-words for all runs at once, with NumPy's element-wise integer arithmetic over the runs, and :func:`generators`
-hands them to PCG64 through a seed sequence that returns them (1.6 µs a run). ``tests/test_seeds.py`` checks the
+SeedSequence and hashing it into PCG64's state costs, in NumPy, as much as all the run's draws together (its
+mixing loops run one word at a time). :func:`seed_words` computes the same 128-bit state and increment words for all
+runs at once, with NumPy's element-wise integer arithmetic over the runs, and :func:`generators` hands them to PCG64
+through a seed sequence that returns them. ``tests/test_seeds.py`` checks the
 words against ``SeedSequence.generate_state(4, numpy.uint64)`` itself.
 
 NumPy's SeedSequence (``numpy/random/bit_generator.pyx``, O'Neill's seed_seq_fe with a pool of four 32-bit

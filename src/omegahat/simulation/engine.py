@@ -67,9 +67,8 @@ __all__ = [
     "integrate_states",
 ]
 
-#: Lanes per worker of the many-lane entries, a compile-time constant: 3 AVX-512 vectors per row. Measured in one
-#: process, alternating (one thread, 2,048 theorem-gain runs): 24 lanes beat 32 (a workspace further from the 32 KB
-#: level-1 cache) and 16 (too little work per lane loop).
+#: Lanes per worker of the many-lane entries, a compile-time constant: 3 AVX-512 vectors per row. 24 lanes beat 32
+#: (whose workspace no longer fits the 32 KB level-1 cache) and 16 (too little work per lane loop).
 LANES = 24
 
 
@@ -311,7 +310,7 @@ def _buffers(lanes, n, M, T, mode):
 
 # Compiled without Numba's reference counting (_nrt=False): every array here is owned by the entry point that
 # allocated it, and the phases' array arguments would otherwise cost atomic increments and decrements at every
-# call (measured: a fifth of a single run's time). Nothing below allocates.
+# call (a fifth of a single run's time). Nothing below allocates.
 @numba.njit(cache=True, _nrt=False, error_model="numpy")
 def _lockstep(queue, t_out, model, runs, control, outputs, mode, buffers, all_bits, lanes, n, M):
     """Integrate the runs ``queue`` (indices into ``runs``) on ``lanes`` lanes (module docstring), from
