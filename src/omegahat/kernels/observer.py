@@ -54,7 +54,7 @@ def filter_rate(d0, d1, d2, e0, e1, e2, wh0, wh1, wh2, l):
     return d0 + f0 - l * e0, d1 + f1 - l * e1, d2 + f2 - l * e2
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def stiffness(k, r0, r1, r2):
     """One direction's share of ``M = Σ k_i (|r_i|² I − r_i r_iᵀ)`` (O6), as the six entries
     ``(M00, M11, M22, M01, M02, M12)`` of the symmetric matrix."""

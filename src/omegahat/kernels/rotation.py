@@ -52,7 +52,7 @@ def store(M, out):
     out[2, 0], out[2, 1], out[2, 2] = M[6], M[7], M[8]
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def quat_from_rotvec(x, y, z):
     """Unit quaternion ``(x, y, z, w)`` of the rotation vector φ = (x, y, z): (R1)."""
     t2 = x * x + y * y + z * z
@@ -77,7 +77,7 @@ def quat_multiply(px, py, pz, pw, qx, qy, qz, qw):
     )
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def matrix_from_quat(x, y, z, w):
     """Rotation matrix (9-tuple) of the unit quaternion ``(x, y, z, w)``: (R1). Quadratic in q, so q ≡ −q."""
     return (
@@ -93,7 +93,7 @@ def matrix_from_quat(x, y, z, w):
     )
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def exp_matrix(x, y, z):
     """``exp(φ×)`` (9-tuple) of the rotation vector φ = (x, y, z), through its quaternion: (R1)."""
     qx, qy, qz, qw = quat_from_rotvec(x, y, z)
@@ -185,7 +185,7 @@ def rotvec_from_matrix(R):
     return rotvec_from_quat(x, y, z, w)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def dexpinv(u0, u1, u2, w0, w1, w2, hs):
     """``hs (w + ½ u × w + (1/12) u × (u × w))``: a stage of RKMK4, (R5)."""
     c0 = u1 * w2 - u2 * w1

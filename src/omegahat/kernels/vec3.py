@@ -60,7 +60,7 @@ def matvec_transposed(M, x0, x1, x2):
     )
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def solve(M, y0, y1, y2):
     """``M⁻¹ y`` by the adjugate (Cramer's rule), for a well-conditioned 9-tuple ``M``."""
     c00 = M[4] * M[8] - M[5] * M[7]

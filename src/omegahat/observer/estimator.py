@@ -69,6 +69,9 @@ from omegahat.validation import as_inertia, as_positive, as_vector3
 __all__ = ["EstimatorState", "SarrasEstimator", "SkippedSamplesWarning"]
 
 
+_OMEGA_HAT = slice(STATE.omega_hat, STATE.omega_hat + 3)  # ω̂ in the flat state
+
+
 class SkippedSamplesWarning(UserWarning):
     """``run`` skipped samples (missing or collinear); their times are in ``estimator.skipped_times``."""
 
@@ -165,7 +168,7 @@ class SarrasEstimator(Estimator):
 
     @property
     def omega_hat(self) -> np.ndarray:
-        return self._x[STATE.omega_hat : STATE.omega_hat + 3].copy()
+        return self._x[_OMEGA_HAT].copy()
 
     # -- estimation -------------------------------------------------------------------------------------------
 
@@ -183,7 +186,7 @@ class SarrasEstimator(Estimator):
             self._note_skipped(status, t)
         if t - t_prev > self.largest_interval:  # NaN before the first sample: comparison False
             self.largest_interval = t - t_prev
-        return x[STATE.omega_hat : STATE.omega_hat + 3].copy()
+        return x[_OMEGA_HAT].copy()
 
     def _note_skipped(self, status, t):
         if status == ms.MISSING:
