@@ -12,10 +12,19 @@ body-frame measurements of known inertial directions ``(n, 3)``.
 from __future__ import annotations
 
 import abc
+from collections.abc import Sequence
+from typing import TypeAlias, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
 
-__all__ = ["Estimator"]
+__all__ = ["Estimator", "Measurement", "Measurements"]
+
+#: One sample: a rotation matrix ``(3, 3)``, a quaternion ``(4,)``, a single ``Rotation``, or ``(n, 3)`` directions.
+Measurement: TypeAlias = ArrayLike | Rotation
+#: A log of T samples: ``(T, 3, 3)``, ``(T, 4)``, ``(T, n, 3)``, a ``Rotation`` of T or a sequence of T Rotations.
+Measurements: TypeAlias = ArrayLike | Rotation | Sequence[Rotation]
 
 
 class Estimator(abc.ABC):
@@ -25,16 +34,18 @@ class Estimator(abc.ABC):
     causal: bool = True
 
     @abc.abstractmethod
-    def update(self, t: float, measurement, torque=None) -> np.ndarray:
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
         """Take the sample at time ``t`` and return ω̂(t), shape ``(3,)``."""
 
-    def run(self, times, measurements, torques=None) -> np.ndarray:
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample of a log, shape ``(T, 3)``; the default loops over :meth:`update`."""
         times = np.asarray(times, dtype=float)
         out = np.empty((times.size, 3))
+        samples = cast("Sequence[Measurement]", measurements)  # indexable: an array, a Rotation or a sequence
+        taus = cast("Sequence[ArrayLike] | None", torques)
         for j, t in enumerate(times):
-            tau = None if torques is None else torques[j]
-            out[j] = self.update(t, measurements[j], tau)
+            tau = None if taus is None else taus[j]
+            out[j] = self.update(t, samples[j], tau)
         return out
 
     @abc.abstractmethod

@@ -49,8 +49,10 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from omegahat.interface import Measurement, Measurements
 from omegahat.kernels.checks import (
     COLLINEAR,
     ERROR,
@@ -238,14 +240,14 @@ def _raise_first(first_bad, status, info, batch):
 # ------------------------------------------------------------------------------------------------ shapes
 
 
-def as_references(references, n_default: int = 3) -> np.ndarray:
+def as_references(references: ArrayLike | None, n_default: int = 3) -> np.ndarray:
     """Inertial reference directions ``(n, 3)``, normalised; default the first ``n_default`` axes (rows of R)."""
     if references is None:
         return np.eye(3)[:n_default].copy()
     return np.ascontiguousarray(as_directions(references, name="references"))
 
 
-def sample_array(measurement, n: int | None = None) -> tuple[np.ndarray, int]:
+def sample_array(measurement: Measurement, n: int | None = None) -> tuple[np.ndarray, int]:
     """One sample as ``(m 2-D, kind)`` for :func:`convert_sample`, shape checked (values are not): an attitude
     (``n`` None: a matrix, a quaternion or a single Rotation) or ``n`` body-frame directions ``(n, 3)``."""
     if isinstance(measurement, Rotation):
@@ -266,7 +268,7 @@ def sample_array(measurement, n: int | None = None) -> tuple[np.ndarray, int]:
     return m, KIND_DIRECTIONS
 
 
-def log_array(measurements, T: int, n: int | None = None) -> tuple[np.ndarray, int]:
+def log_array(measurements: Measurements, T: int, n: int | None = None) -> tuple[np.ndarray, int]:
     """A log of ``T`` samples as ``(m (T, a, b), kind)``, shape checked: attitudes (``n`` None: matrices
     ``(T, 3, 3)``, quaternions ``(T, 4)``, a Rotation of T or a list of T Rotations) or directions ``(T, n, 3)``."""
     if isinstance(measurements, list | tuple) and measurements and all(isinstance(x, Rotation) for x in measurements):
@@ -294,7 +296,7 @@ def tolerances(rotation_tol: float, quat_norm_tol: float) -> tuple[float, float]
     return float(as_positive(rotation_tol, "rotation_tol")[0]), float(as_positive(quat_norm_tol, "quat_norm_tol")[0])
 
 
-def times_array(times) -> np.ndarray:
+def times_array(times: ArrayLike) -> np.ndarray:
     """Sample times as a C-contiguous float array ``(T,)`` (shape checked; values by :func:`check_time`)."""
     t = np.ascontiguousarray(times, dtype=float)
     if t.ndim != 1:
@@ -302,7 +304,7 @@ def times_array(times) -> np.ndarray:
     return t
 
 
-def torque_vector(torque) -> np.ndarray:
+def torque_vector(torque: ArrayLike | None) -> np.ndarray:
     """The torque of one sample ``(3,)`` (None: a shared read-only zero), shape checked (values by
     :func:`check_torque`)."""
     if torque is None:
@@ -313,7 +315,7 @@ def torque_vector(torque) -> np.ndarray:
     return tau
 
 
-def torques_array(torques, T: int) -> np.ndarray:
+def torques_array(torques: ArrayLike | None, T: int) -> np.ndarray:
     """The torques of a log ``(T, 3)`` (None: zeros), shape checked (values by :func:`check_torque`)."""
     if torques is None:
         return np.zeros((T, 3))
@@ -330,14 +332,16 @@ def _previous(t_prev: float | None) -> float:
     return np.nan if t_prev is None else float(t_prev)
 
 
-def _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg) -> tuple:
+def _conversion(
+    n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg
+) -> tuple[np.ndarray, bool, float, float, float]:
     """The converter's ``(V, scalar_first, rotation_tol, quat_norm_tol, min_sin)`` for attitudes (``n`` None;
     ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape)."""
     V = np.eye(3) if n is None else np.zeros((n, 3))
     return V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), float(np.sin(np.radians(min_angle_deg)))
 
 
-def checked_times(times, *, t_prev: float | None = None, where: str = "sample {j}") -> np.ndarray:
+def checked_times(times: ArrayLike, *, t_prev: float | None = None, where: str = "sample {j}") -> np.ndarray:
     """Sample times ``(T,)`` through (T) alone, each after the one before (the first after ``t_prev``, None: no
     previous time); a rejected time raises :class:`MeasurementError` naming it as ``where.format(j=j)``."""
     t = times_array(times)
@@ -348,11 +352,11 @@ def checked_times(times, *, t_prev: float | None = None, where: str = "sample {j
 
 
 def checked_log(
-    times,
-    measurements,
-    torques=None,
+    times: ArrayLike,
+    measurements: Measurements,
+    torques: ArrayLike | None = None,
     *,
-    references=None,
+    references: ArrayLike | None = None,
     t_prev: float | None = None,
     scalar_first: bool = False,
     rotation_tol: float = ROTATION_TOL,
@@ -379,10 +383,10 @@ def checked_log(
 
 def checked_sample(
     t: float,
-    measurement,
-    torque=None,
+    measurement: Measurement,
+    torque: ArrayLike | None = None,
     *,
-    references=None,
+    references: ArrayLike | None = None,
     t_prev: float | None = None,
     scalar_first: bool = False,
     rotation_tol: float = ROTATION_TOL,
@@ -405,7 +409,7 @@ def checked_sample(
 
 
 def as_rotation(
-    attitude,
+    attitude: ArrayLike | Rotation,
     name: str = "R0",
     *,
     scalar_first: bool = False,
@@ -464,7 +468,7 @@ def _convert(m, kind, V, scalar_first=False, rotation_tol=0.0, quat_norm_tol=0.0
 
 
 def sample_status(
-    samples,
+    samples: ArrayLike,
     *,
     directions: bool = False,
     scalar_first: bool = False,
@@ -489,8 +493,8 @@ def sample_status(
 
 
 def attitude_directions(
-    attitudes,
-    references=None,
+    attitudes: ArrayLike | Rotation,
+    references: ArrayLike | None = None,
     *,
     scalar_first: bool = False,
     rotation_tol: float = ROTATION_TOL,
@@ -511,7 +515,11 @@ def attitude_directions(
 
 
 def attitude_matrices(
-    attitudes, *, scalar_first: bool = False, rotation_tol: float = ROTATION_TOL, quat_norm_tol: float = QUAT_NORM_TOL
+    attitudes: ArrayLike | Rotation,
+    *,
+    scalar_first: bool = False,
+    rotation_tol: float = ROTATION_TOL,
+    quat_norm_tol: float = QUAT_NORM_TOL,
 ) -> np.ndarray:
     """Checked rotation matrices ``(*B, 3, 3)`` from matrices, quaternions or a Rotation; NaN where missing."""
     r, _ = attitude_directions(
@@ -520,7 +528,7 @@ def attitude_matrices(
     return r  # with V = I the directions are the rows of R, i.e. R itself
 
 
-def body_directions(measured, n: int | None = None, *, min_angle_deg: float = MIN_ANGLE_DEG) -> Directions:
+def body_directions(measured: ArrayLike, n: int | None = None, *, min_angle_deg: float = MIN_ANGLE_DEG) -> Directions:
     """Checked, normalised body-frame direction measurements ``(*B, n, 3)`` (``n ≥ 2``), no times.
 
     Status :data:`MISSING` where a sample has a non-finite entry, :data:`COLLINEAR` where its directions are

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
 
 __all__ = ["ESTIMATE_COLOR", "TRUE_COLOR", "plot_direction", "plot_filter_errors", "plot_omega"]
 
@@ -20,7 +21,7 @@ def _component_axes(title: str):
     return fig, axes
 
 
-def plot_omega(t, omega, omega_hat) -> Figure:
+def plot_omega(t: ArrayLike, omega: np.ndarray, omega_hat: np.ndarray) -> Figure:
     """Figure 1 of the paper: components of the true ω (blue) and the estimate ω̂ (red)."""
     fig, axes = _component_axes("Angular velocity: true (blue) and estimated (red)")
     for a, ax in enumerate(axes):
@@ -33,7 +34,7 @@ def plot_omega(t, omega, omega_hat) -> Figure:
     return fig
 
 
-def plot_direction(t, r, r_hat, index: int) -> Figure:
+def plot_direction(t: ArrayLike, r: np.ndarray, r_hat: np.ndarray, index: int) -> Figure:
     """Figures 2 and 3 of the paper: components of the measured direction r_i (blue) and the filter r̂_i (red)."""
     i = index + 1
     fig, axes = _component_axes(f"Direction $r_{i}$ (blue) and its filter $\\hat r_{i}$ (red)")
@@ -47,7 +48,7 @@ def plot_direction(t, r, r_hat, index: int) -> Figure:
     return fig
 
 
-def plot_filter_errors(t, filter_errors, omega_error=None) -> Figure:
+def plot_filter_errors(t: ArrayLike, filter_errors: np.ndarray, omega_error: ArrayLike | None = None) -> Figure:
     """Figure 4 of the paper: |r̂_i − r_i| on a log scale (optionally with |ω̂ − ω| for the second time scale)."""
     fig = Figure(figsize=(7.0, 4.0), layout="constrained")
     ax = fig.subplots()

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat.kernels import rotation as rot
@@ -102,7 +103,7 @@ def _project_rows(M, out):
 # --------------------------------------------------------------------------------------------------- public
 
 
-def hat(v) -> np.ndarray:
+def hat(v: ArrayLike) -> np.ndarray:
     """Skew-symmetric matrix of ``v``: ``hat(v) @ x == np.cross(v, x)``. ``(*B, 3) -> (*B, 3, 3)``."""
     v = _check_vectors(v, "hat")
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
@@ -110,13 +111,13 @@ def hat(v) -> np.ndarray:
     return np.stack([np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], axis=-2)
 
 
-def vee(S) -> np.ndarray:
+def vee(S: ArrayLike) -> np.ndarray:
     """Inverse of :func:`hat` (the antisymmetric part is read off; ``(*B, 3, 3) -> (*B, 3)``)."""
     S = _check_matrices(S, "vee")
     return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0], S[..., 1, 0] - S[..., 0, 1]], -1)
 
 
-def exp(phi) -> np.ndarray:
+def exp(phi: ArrayLike) -> np.ndarray:
     """Rotation matrix ``exp(φ×)`` of a rotation vector ``φ``. ``(*B, 3) -> (*B, 3, 3)``."""
     phi = _check_vectors(phi, "exp")
     out = np.empty((*phi.shape[:-1], 3, 3))
@@ -124,7 +125,7 @@ def exp(phi) -> np.ndarray:
     return out
 
 
-def log(R) -> np.ndarray:
+def log(R: ArrayLike) -> np.ndarray:
     """Rotation vector ``φ`` with ``exp(φ) = R`` and ``|φ| ≤ π``. ``(*B, 3, 3) -> (*B, 3)``.
 
     At exactly θ = π both ``±π a`` are valid; the one returned is the one with a non-negative quaternion scalar
@@ -136,7 +137,7 @@ def log(R) -> np.ndarray:
     return out
 
 
-def orthogonality_error(R) -> np.ndarray:
+def orthogonality_error(R: ArrayLike) -> np.ndarray:
     """Frobenius norm of ``RᵀR − I`` (0 for an exact rotation). ``(*B, 3, 3) -> (*B,)``."""
     R = _check_matrices(R, "orthogonality_error")
     err, det = np.empty(R.shape[:-2]), np.empty(R.shape[:-2])
@@ -144,7 +145,7 @@ def orthogonality_error(R) -> np.ndarray:
     return err
 
 
-def is_rotation(R, tol: float = 1e-6) -> np.ndarray:
+def is_rotation(R: ArrayLike, tol: float = 1e-6) -> np.ndarray:
     """True where ``‖RᵀR − I‖_F ≤ tol`` and ``det R > 0``. ``(*B, 3, 3) -> (*B,)`` booleans."""
     R = _check_matrices(R, "is_rotation")
     err, det = np.empty(R.shape[:-2]), np.empty(R.shape[:-2])
@@ -152,7 +153,7 @@ def is_rotation(R, tol: float = 1e-6) -> np.ndarray:
     return (err <= tol) & (det > 0)
 
 
-def project(M) -> np.ndarray:
+def project(M: ArrayLike) -> np.ndarray:
     """Nearest rotation to ``M`` in the Frobenius norm (special orthogonal polar factor, by SVD)."""
     M = _check_matrices(M, "project")
     out = np.empty(M.shape)
@@ -160,7 +161,7 @@ def project(M) -> np.ndarray:
     return out
 
 
-def from_quat(q, scalar_first: bool = False) -> np.ndarray:
+def from_quat(q: ArrayLike, scalar_first: bool = False) -> np.ndarray:
     """Rotation matrix of quaternion(s) ``q`` (normalised here). ``(*B, 4) -> (*B, 3, 3)``."""
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (4,):
@@ -172,7 +173,7 @@ def from_quat(q, scalar_first: bool = False) -> np.ndarray:
     return out
 
 
-def to_quat(R, scalar_first: bool = False) -> np.ndarray:
+def to_quat(R: ArrayLike, scalar_first: bool = False) -> np.ndarray:
     """Unit quaternion of rotation matrix ``R``, scalar part ≥ 0 (SciPy's rules). ``(*B,3,3) -> (*B,4)``."""
     R = _check_matrices(R, "to_quat")
     out = np.empty((*R.shape[:-2], 4))
@@ -180,7 +181,7 @@ def to_quat(R, scalar_first: bool = False) -> np.ndarray:
     return np.roll(out, 1, axis=-1) if scalar_first else out
 
 
-def as_matrix(attitude, scalar_first: bool = False) -> np.ndarray:
+def as_matrix(attitude: ArrayLike | Rotation, scalar_first: bool = False) -> np.ndarray:
     """Rotation matrices from a ``Rotation``, matrices ``(*B, 3, 3)`` or quaternions ``(*B, 4)``.
 
     No validation beyond the shape: see :mod:`omegahat.measurements` for checked conversion of user input.

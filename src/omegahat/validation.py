@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["as_directions", "as_inertia", "as_positive", "as_vector3"]
 
@@ -11,7 +12,7 @@ def _fmt(x) -> str:
     return np.array2string(np.asarray(x), precision=6, threshold=12)
 
 
-def as_inertia(J, name: str = "J") -> np.ndarray:
+def as_inertia(J: ArrayLike, name: str = "J") -> np.ndarray:
     """Inertia of a rigid body as a symmetric positive-definite 3×3 matrix.
 
     Accepts a 3×3 matrix, 3 numbers (a diagonal) or 9 numbers (a full matrix, row-major). Besides positive
@@ -42,7 +43,7 @@ def as_inertia(J, name: str = "J") -> np.ndarray:
     return 0.5 * (a + a.T)
 
 
-def as_vector3(v, name: str) -> np.ndarray:
+def as_vector3(v: ArrayLike, name: str) -> np.ndarray:
     """A finite 3-vector."""
     a = np.asarray(v, dtype=float)
     if a.shape != (3,):
@@ -52,7 +53,7 @@ def as_vector3(v, name: str) -> np.ndarray:
     return a
 
 
-def as_positive(x, name: str, n: int | None = None) -> np.ndarray:
+def as_positive(x: ArrayLike, name: str, n: int | None = None) -> np.ndarray:
     """Strictly positive finite numbers, broadcast to length ``n`` when given."""
     a = np.atleast_1d(np.asarray(x, dtype=float))
     if n is not None:
@@ -65,7 +66,7 @@ def as_positive(x, name: str, n: int | None = None) -> np.ndarray:
     return a
 
 
-def as_directions(v, name: str = "references", min_angle_deg: float = 1.0) -> np.ndarray:
+def as_directions(v: ArrayLike, name: str = "references", min_angle_deg: float = 1.0) -> np.ndarray:
     """``n ≥ 2`` inertial directions ``(n, 3)``, normalised, two of them at least ``min_angle_deg`` apart."""
     a = np.asarray(v, dtype=float)
     if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] < 2:

@@ -42,10 +42,12 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.interface import Estimator
+from omegahat.interface import Estimator, Measurement, Measurements
 
 __all__ = ["SCHEMES", "DifferencingEstimator", "log_difference", "lowpass", "lowpass_reference"]
 
@@ -107,8 +109,8 @@ def _hold_skipped(est, valid, scheme):
 
 
 def log_difference(
-    times,
-    attitudes,
+    times: ArrayLike,
+    attitudes: ArrayLike | Rotation,
     scheme: str = "backward",
     scalar_first: bool = False,
     rotation_tol: float = ms.ROTATION_TOL,
@@ -128,7 +130,7 @@ def log_difference(
     return _hold_skipped(est, valid, scheme)
 
 
-def lowpass_reference(x, times, cutoff_hz: float) -> np.ndarray:
+def lowpass_reference(x: np.ndarray, times: np.ndarray, cutoff_hz: float) -> np.ndarray:
     """(LP) on rows of ``x`` ``(T, 3)``, a plain loop: the readable oracle :func:`lowpass` is tested against. NaN
     rows pass through as NaN and leave the filter state unchanged; the state starts at the first finite row."""
     y = np.full_like(x, np.nan)
@@ -169,7 +171,7 @@ def _lowpass_kernel(x, times, cutoff_hz):  # pragma: no cover - compiled; tested
     return y
 
 
-def lowpass(x, times, cutoff_hz: float) -> np.ndarray:
+def lowpass(x: ArrayLike, times: ArrayLike, cutoff_hz: float) -> np.ndarray:
     """Causal first-order low-pass (LP) of a sampled vector signal ``x`` ``(T, 3)`` at ``times`` ``(T,)``.
 
     The filter's time of row k is ``times[k]``; NaN rows give NaN and are ignored by the filter.
@@ -218,12 +220,12 @@ class DifferencingEstimator(Estimator):
         return 0 if self.scheme == "backward" else 1
 
     def reset(self) -> None:
-        self._R = []  # the last valid attitudes, at most 2 kept: [R_{k-1}, R_k]
-        self._t = []
+        self._R: list[np.ndarray] = []  # the last valid attitudes, at most 2 kept: [R_{k-1}, R_k]
+        self._t: list[float] = []
         self._y = np.full(3, np.nan)  # last output (after the low-pass)
-        self._y_time = None
-        self._t_last = None  # the last sample's time, skipped or not (the time check's previous time)
-        self.estimate_time = None
+        self._y_time: float | None = None
+        self._t_last: float | None = None  # the last sample's time, skipped or not (the time check's previous time)
+        self.estimate_time: float | None = None
         self.n_skipped = 0
 
     def _checks(self) -> dict:
@@ -233,7 +235,7 @@ class DifferencingEstimator(Estimator):
             "quat_norm_tol": self.quat_norm_tol,
         }
 
-    def update(self, t, measurement, torque=None) -> np.ndarray:
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
         """Take the attitude sampled at ``t``; return ω̂ (for ``t`` if backward, for the previous sample time
         if central), shape ``(3,)``; NaN until enough samples. A non-finite sample is skipped (held
         output)."""
@@ -243,7 +245,7 @@ class DifferencingEstimator(Estimator):
         if sample.status != ms.OK:
             self.n_skipped += 1
             return self._y.copy()
-        raw, when = None, None
+        raw, when = None, np.nan  # the new estimate, if any, and its time (set together)
         if self.scheme == "backward":
             if self._t:
                 raw = so3.log(self._R[-1].T @ R) / (t - self._t[-1])  # (D1)
@@ -268,7 +270,7 @@ class DifferencingEstimator(Estimator):
             self.estimate_time = when
         return self._y.copy()
 
-    def run(self, times, measurements, torques=None) -> np.ndarray:
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ for every sample time, ``(T, 3)``, row k for ``times[k]`` (for ``"central"`` too: rows are
         not delayed, and the last is NaN). Vectorised differences, compiled low-pass; on the valid samples it
         equals feeding ``update`` (shifted by ``delay_samples``). Starts afresh and leaves the streaming state

@@ -47,11 +47,12 @@ skipped when nearly collinear (``min_angle_deg``); a non-finite sample is skippe
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat.baselines import mekf_kernel as kernel
-from omegahat.interface import Estimator
+from omegahat.interface import Estimator, Measurement, Measurements
 from omegahat.simulation.rigid_body import RigidBody, Torque, cf4_step
 from omegahat.validation import as_directions, as_inertia, as_positive, as_vector3
 
@@ -80,7 +81,9 @@ def _hat(v) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def process_jacobian(omega_hat, J, J_inv, model: str) -> tuple[np.ndarray, np.ndarray]:
+def process_jacobian(
+    omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, model: str
+) -> tuple[np.ndarray, np.ndarray]:
     """F and G of (E3), shapes ``(6, 6)`` and ``(6, 3)``."""
     F = np.zeros((6, 6))
     G = np.zeros((6, 3))
@@ -94,7 +97,7 @@ def process_jacobian(omega_hat, J, J_inv, model: str) -> tuple[np.ndarray, np.nd
     return F, G
 
 
-def expm_small(M) -> np.ndarray:
+def expm_small(M: np.ndarray) -> np.ndarray:
     """Matrix exponential by scaling and squaring with a degree-12 Taylor polynomial, in plain NumPy.
 
     Scaled so that ``‖M/2^s‖₁ ≤ 0.5``, where the truncation error is below ``0.5¹³/13! ≈ 2e-14`` relative.
@@ -116,7 +119,7 @@ def expm_small(M) -> np.ndarray:
     return E
 
 
-def discretize(F, G, q: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+def discretize(F: np.ndarray, G: np.ndarray, q: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Van Loan (E4): transition Φ and process covariance Q_d over ``h`` for white noise of PSD ``q I``."""
     n = F.shape[0]
     M = np.zeros((2 * n, 2 * n))
@@ -130,7 +133,15 @@ def discretize(F, G, q: float, h: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def propagate(
-    R, omega, P, h: float, tau, body: RigidBody, q: float, model: str, max_step: float
+    R: np.ndarray,
+    omega: np.ndarray,
+    P: np.ndarray,
+    h: float,
+    tau: ArrayLike,
+    body: RigidBody,
+    q: float,
+    model: str,
+    max_step: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E4) over ``h`` seconds with the torque ``tau`` held; returns ``(R, omega, P)``.
 
@@ -152,7 +163,7 @@ def propagate(
     return R, omega, 0.5 * (P + P.T)
 
 
-def attitude_innovation(R_hat, R_meas) -> tuple[np.ndarray, np.ndarray]:
+def attitude_innovation(R_hat: np.ndarray, R_meas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(E5): ``z = 2 dq_vec / dq_w`` of ``dq`` = quaternion of ``R̂ᵀ R_m`` (scalar ≥ 0), and ``H = [I, 0]``."""
     dq = Rotation.from_matrix(R_hat.T @ R_meas).as_quat(canonical=True)  # scalar last, w ≥ 0
     z = 2.0 * dq[:3] / dq[3]
@@ -160,7 +171,7 @@ def attitude_innovation(R_hat, R_meas) -> tuple[np.ndarray, np.ndarray]:
     return z, H
 
 
-def vector_innovation(R_hat, b_meas, references) -> tuple[np.ndarray, np.ndarray]:
+def vector_innovation(R_hat: np.ndarray, b_meas: np.ndarray, references: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(E6): ``z = b − R̂ᵀ v`` stacked ``(3n,)`` and ``H`` ``(3n, 6)``."""
     b_hat = references @ R_hat  # rows: R̂ᵀ v_i
     z = (b_meas - b_hat).ravel()
@@ -170,7 +181,9 @@ def vector_innovation(R_hat, b_meas, references) -> tuple[np.ndarray, np.ndarray
     return z, H
 
 
-def update(R, omega, P, z, H, meas_var: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def update(
+    R: np.ndarray, omega: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, meas_var: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E7) then the reset (E8); returns ``(R, omega, P)``."""
     S = H @ P @ H.T + meas_var * np.eye(H.shape[0])
     K = np.linalg.solve(S, H @ P).T  # P Hᵀ S⁻¹ (S and P symmetric)
@@ -180,7 +193,7 @@ def update(R, omega, P, z, H, meas_var: float) -> tuple[np.ndarray, np.ndarray, 
     return R @ _exp(dx[:3]), omega + dx[3:], 0.5 * (P + P.T)
 
 
-def initial_attitude(b, references) -> np.ndarray:
+def initial_attitude(b: ArrayLike, references: ArrayLike) -> np.ndarray:
     """The first fix from directions: Wahba's least-squares attitude ``argmin_R Σ |v_i − R b_i|²`` (SciPy's
     ``align_vectors``, unit weights) for unit body directions ``b`` and references ``v`` ``(n, 3)``."""
     return Rotation.align_vectors(references, b)[0].as_matrix()
@@ -209,14 +222,14 @@ class MEKF(Estimator):
 
     def __init__(
         self,
-        J=None,
+        J: ArrayLike | None = None,
         model: str = "dynamic",
         q: float = 1e-4,
         measurement_sigma: float = 1e-3,
-        references=None,
-        omega0=(0.0, 0.0, 0.0),
+        references: ArrayLike | None = None,
+        omega0: ArrayLike = (0.0, 0.0, 0.0),
         sigma_omega0: float = 1.0,
-        R0=None,
+        R0: ArrayLike | Rotation | None = None,
         sigma_theta0: float | None = None,
         max_step: float = 0.05,
         scalar_first: bool = False,
@@ -240,7 +253,7 @@ class MEKF(Estimator):
         if not 0 <= min_angle_deg < 90:
             raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
         self.min_angle_deg = float(min_angle_deg)
-        self.R0 = None
+        self.R0: np.ndarray | None = None
         if R0 is not None:
             tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
             self.R0 = ms.as_rotation(R0, "R0", scalar_first=self.scalar_first, **tols)
@@ -251,10 +264,10 @@ class MEKF(Estimator):
         self.reset()
 
     def reset(self) -> None:
-        self.R = None if self.R0 is None else self.R0.copy()
+        self.R: np.ndarray | None = None if self.R0 is None else self.R0.copy()
         self.omega = self.omega0.copy()
         self.P = np.diag([self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3)
-        self.t = None
+        self.t: float | None = None
         self._tau = np.zeros(3)
         self.n_skipped = 0
 
@@ -269,7 +282,7 @@ class MEKF(Estimator):
             "min_angle_deg": self.min_angle_deg,
         }
 
-    def update(self, t, measurement, torque=None) -> np.ndarray:
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
         """Propagate to ``t`` (with the previous sample's torque held), fuse the sample, return ω̂(t) ``(3,)``.
 
         The NumPy path (the oracle of :meth:`run`). A skipped sample (non-finite, or nearly collinear
@@ -296,7 +309,7 @@ class MEKF(Estimator):
         self.R, self.omega, self.P, self.t, self._tau = R, omega, P, sample.t, sample.torque.copy()
         return self.omega.copy()
 
-    def run(self, times, measurements, torques=None) -> np.ndarray:
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample of a log, ``(T, 3)``: the same as calling :meth:`update` sample by sample (it
         continues from the current state, does not reset, and leaves the state as ``update`` would), but in one
         compiled call (:mod:`omegahat.baselines.mekf_kernel`). The whole log is checked first

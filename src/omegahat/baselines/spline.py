@@ -13,18 +13,21 @@ attitude noise passes through to the rate, amplified like differencing.
 
 from __future__ import annotations
 
+from typing import NoReturn
+
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimator
+from omegahat.interface import Estimator, Measurement, Measurements
 
 __all__ = ["SplineEstimator", "spline_rate"]
 
 
 def spline_rate(
-    times,
-    attitudes,
+    times: ArrayLike,
+    attitudes: ArrayLike | Rotation,
     scalar_first: bool = False,
     rotation_tol: float = ms.ROTATION_TOL,
     quat_norm_tol: float = ms.QUAT_NORM_TOL,
@@ -65,12 +68,12 @@ class SplineEstimator(Estimator):
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
-    def update(self, t, measurement, torque=None):
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
         raise NotImplementedError(
             "SplineEstimator is offline (the spline needs the whole record): call run(times, measurements)"
         )
 
-    def run(self, times, measurements, torques=None) -> np.ndarray:
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample time, ``(T, 3)`` (``torques`` are ignored)."""
         return spline_rate(times, measurements, self.scalar_first, self.rotation_tol, self.quat_norm_tol)
 

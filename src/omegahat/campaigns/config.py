@@ -11,9 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -185,7 +187,7 @@ def campaign_from_dict(config: dict, source: str = "config") -> Campaign:
     unknown = set(config) - set(_SECTIONS) - {"gains"}
     if unknown:
         raise ValueError(f"{source}: unknown section(s) {sorted(unknown)}; allowed: {[*_SECTIONS, 'gains']}")
-    kwargs = {}
+    kwargs: dict[str, Any] = {}
     for section, keys in _SECTIONS.items():
         table = config.get(section, {})
         if not isinstance(table, dict):
@@ -243,12 +245,12 @@ def campaign_from_toml(text: str, source: str = "config") -> Campaign:
     return campaign_from_dict(config, source)
 
 
-def load_campaign(path) -> Campaign:
+def load_campaign(path: str | os.PathLike[str]) -> Campaign:
     """Read a campaign from a TOML file (see ``examples/campaign.toml``)."""
     path = Path(path)
     return campaign_from_toml(path.read_text(), str(path))
 
 
-def replace(campaign: Campaign, **changes) -> Campaign:
+def replace(campaign: Campaign, **changes: Any) -> Campaign:
     """A copy of ``campaign`` with some settings changed (``dataclasses.replace``)."""
     return dataclasses.replace(campaign, **changes)

@@ -17,10 +17,12 @@ run's states stay in the worker's own rows, in cache), so that it never holds mo
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.campaigns.config import Campaign
 from omegahat.simulation.coupled import BatchResult
@@ -51,7 +53,7 @@ def diagnose_runs_parallel(Y, n, J, t, rho_floor, batch_ok, rho, out, ok):
         diagnose_run(Y[j], j, n, J, t, rho_floor, batch_ok[j], rho, out, ok, np.empty(Y.shape[1]))
 
 
-def envelope_fit(t, rho, rho_floor):
+def envelope_fit(t: np.ndarray, rho: ArrayLike, rho_floor: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(λ_run, c_run, i_f)`` of each run (module docstring) from ``ρ (N, T)`` on the grid ``t (T,)``.
 
     ``i_f`` is the index of ``t_f``; a run that never leaves ρ = 1 has ``i_f = 0`` and ``λ_run = NaN``.
@@ -92,13 +94,13 @@ class GainSetResult:
     rejected: np.ndarray  #: rejected steps
 
     @staticmethod
-    def concatenate(parts):
+    def concatenate(parts: Sequence[GainSetResult]) -> GainSetResult:
         return GainSetResult(
             **{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in dataclasses.fields(GainSetResult)}
         )
 
 
-def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = True) -> GainSetResult:
+def diagnose(campaign: Campaign, batch: BatchResult, indices: ArrayLike, parallel: bool = True) -> GainSetResult:
     """Envelope, V and ω-bound diagnostics of a batch (module docstring): one compiled pass over ``batch.Y``,
     run by run (:func:`diagnose_runs`; Numba threads if ``parallel``, ``parallel=False`` stays on the calling
     thread, as in :func:`omegahat.simulation.simulate_batch`). Its numbers are those of the NumPy reference
@@ -125,7 +127,15 @@ def diagnose(campaign: Campaign, batch: BatchResult, indices, parallel: bool = T
     return result_from_diagnostics(campaign, indices, batch.accepted, batch.rejected, ok, rho, out)
 
 
-def result_from_diagnostics(campaign, indices, accepted, rejected, ok, rho, out) -> GainSetResult:
+def result_from_diagnostics(
+    campaign: Campaign,
+    indices: ArrayLike,
+    accepted: np.ndarray,
+    rejected: np.ndarray,
+    ok: np.ndarray,
+    rho: np.ndarray,
+    out: np.ndarray,
+) -> GainSetResult:
     # out: the rows (E0, omega_peak, lam, c_run, t_f, v_increase) of omegahat.campaigns.diagnostics.diagnose_run
     E0, omega_peak, lam, c_run, t_f, v_increase = out
     return _result(
@@ -157,7 +167,7 @@ def _result(campaign, indices, accepted, rejected, ok, omega_peak, **fields) -> 
     )
 
 
-def diagnose_reference(campaign: Campaign, batch: BatchResult, indices) -> GainSetResult:
+def diagnose_reference(campaign: Campaign, batch: BatchResult, indices: ArrayLike) -> GainSetResult:
     """The NumPy reference of :func:`diagnose`, written with whole-array operations (slower)."""
     n = campaign.references.shape[0]
     Y = batch.Y

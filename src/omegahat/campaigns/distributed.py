@@ -22,12 +22,20 @@ kernels once per worker process on first use (cached on disk afterwards).
 
 from __future__ import annotations
 
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+from omegahat.campaigns.config import Campaign
+from omegahat.campaigns.diagnostics import GainSetResult
 from omegahat.campaigns.runner import chunks, merge, run_chunk
+
+if TYPE_CHECKING:  # the optional "dask" extra: imported when a campaign runs (_require_distributed)
+    import distributed
 
 __all__ = ["run_campaign_dask", "run_campaign_on"]
 
 
-def _require_distributed():
+def _require_distributed() -> ModuleType:
     try:
         import distributed
     except ModuleNotFoundError as exc:  # pragma: no cover - exercised only without the extra
@@ -37,7 +45,9 @@ def _require_distributed():
     return distributed
 
 
-def run_campaign_dask(campaign, client, chunk_size: int | None = None, progress: bool = False) -> dict:
+def run_campaign_dask(
+    campaign: Campaign, client: distributed.Client, chunk_size: int | None = None, progress: bool = False
+) -> dict[str, GainSetResult]:
     """Run ``campaign`` on a ``distributed.Client``: one task per chunk, merged by run index.
 
     Returns what :func:`omegahat.campaigns.runner.run_campaign` returns, with identical numbers.
@@ -62,7 +72,9 @@ def run_campaign_dask(campaign, client, chunk_size: int | None = None, progress:
     return merge(campaign, parts)
 
 
-def run_campaign_on(campaign, address: str, chunk_size: int | None = None, progress: bool = False) -> dict:
+def run_campaign_on(
+    campaign: Campaign, address: str, chunk_size: int | None = None, progress: bool = False
+) -> dict[str, GainSetResult]:
     """Connect to the scheduler at ``address`` (``"local"``: start a ``LocalCluster`` here) and run there."""
     distributed = _require_distributed()
     if address == "local":

@@ -21,12 +21,13 @@ Each run draws, always in this order from its own generator:
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat.campaigns.config import Campaign
 from omegahat.campaigns.seeds import generators
 from omegahat.simulation.coupled import simulate
-from omegahat.simulation.problem import CoupledProblem
+from omegahat.simulation.problem import CoupledProblem, CoupledTrajectory
 from omegahat.simulation.torque import Torque
 
 __all__ = ["draw_problem", "draw_runs", "replay"]
@@ -41,7 +42,7 @@ def _unit_rows(v):
     return v / np.sqrt(sq)[:, None]
 
 
-def draw_runs(campaign: Campaign, indices) -> dict:
+def draw_runs(campaign: Campaign, indices: ArrayLike) -> dict[str, np.ndarray]:
     """Runs ``indices`` drawn once each (module docstring), stacked by run: ``R0 (N, 3, 3)``, ``omega0 (N, 3)``,
     ``r_hat0 (N, n, 3)``, ``omega_hat0 (N, 3)`` and the torque's ``constant (N, 3)`` (zero), ``amplitudes
     (N, M, 3)``, ``frequencies (N, M)``, ``phases (N, M, 3)``."""
@@ -120,7 +121,7 @@ def draw_problem(campaign: Campaign, index: int, gains_name: str | None = None) 
     )
 
 
-def replay(campaign: Campaign, gains_name: str, index: int):
+def replay(campaign: Campaign, gains_name: str, index: int) -> CoupledTrajectory:
     """Run ``index`` again with :func:`omegahat.simulation.coupled.simulate` (identical to its campaign run)."""
     p = draw_problem(campaign, index, gains_name)
     return simulate(

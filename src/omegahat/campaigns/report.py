@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,6 +19,9 @@ from omegahat.campaigns.config import Campaign
 from omegahat.campaigns.diagnostics import GainSetResult
 from omegahat.campaigns.draws import draw_runs
 from omegahat.observer.gains import check_gains
+
+if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_envelopes", "plot_rates", "summarize", "worst_envelope", "write_outputs"]
 
@@ -68,7 +73,7 @@ def _counterexamples(campaign: Campaign, name: str, r: GainSetResult) -> list:
     return out
 
 
-def worst_envelope(campaign: Campaign, r: GainSetResult):
+def worst_envelope(campaign: Campaign, r: GainSetResult) -> tuple[float, float, int]:
     """``(λ*, c*, index of the slowest run)`` over the in-bound runs (module docstring)."""
     use = r.in_bound & np.isfinite(r.lam)
     if not np.any(use):
@@ -81,7 +86,7 @@ def worst_envelope(campaign: Campaign, r: GainSetResult):
     return lam_star, c_star, slowest
 
 
-def summarize(campaign: Campaign, results: dict) -> dict:
+def summarize(campaign: Campaign, results: dict[str, GainSetResult]) -> dict[str, Any]:
     """A JSON-ready summary: per gain set the envelope, counts, counterexamples and step statistics."""
     summary = {
         "runs": campaign.runs,
@@ -127,7 +132,9 @@ def summarize(campaign: Campaign, results: dict) -> dict:
     return summary
 
 
-def plot_envelopes(campaign: Campaign, results: dict, summary: dict, max_lines: int = 100):
+def plot_envelopes(
+    campaign: Campaign, results: dict[str, GainSetResult], summary: dict[str, Any], max_lines: int = 100
+) -> Figure:
     """One panel per gain set: ρ(t) of up to ``max_lines`` in-bound runs, the pointwise worst ρ over all of them
     and the envelope ``c* e^{−λ* t}`` (log scale). Returns the figure."""
     import matplotlib.pyplot as plt
@@ -163,7 +170,7 @@ def plot_envelopes(campaign: Campaign, results: dict, summary: dict, max_lines: 
     return fig
 
 
-def plot_rates(campaign: Campaign, results: dict):
+def plot_rates(campaign: Campaign, results: dict[str, GainSetResult]) -> Figure:
     """Histogram of the per-run rates λ_run, one colour per gain set. Returns the figure."""
     import matplotlib.pyplot as plt
 
@@ -179,7 +186,9 @@ def plot_rates(campaign: Campaign, results: dict):
     return fig
 
 
-def write_outputs(campaign: Campaign, results: dict, out_dir) -> dict:
+def write_outputs(
+    campaign: Campaign, results: dict[str, GainSetResult], out_dir: str | os.PathLike[str]
+) -> dict[str, Any]:
     """Write ``summary.json``, ``counterexamples.json``, ``envelopes.png`` and ``rates.png``; return the summary
     (without the counterexample lists, which are in their own file)."""
     import matplotlib.pyplot as plt

@@ -7,6 +7,8 @@ run indices only, so a campaign gives the same numbers, bit for bit, however it 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numba
 import numpy as np
 
@@ -20,7 +22,7 @@ from omegahat.validation import as_directions, as_inertia
 __all__ = ["chunks", "merge", "run_campaign", "run_chunk"]
 
 
-def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict:
+def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict[str, GainSetResult]:
     """Runs ``start .. stop − 1`` of the campaign for every gain set: ``{gains name: GainSetResult}``.
 
     The unit of work of :func:`run_campaign` and of :mod:`omegahat.campaigns.distributed`; its result depends on
@@ -54,7 +56,7 @@ def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) 
     return results
 
 
-def chunks(campaign: Campaign, chunk_size: int | None = None):
+def chunks(campaign: Campaign, chunk_size: int | None = None) -> list[tuple[int, int]]:
     """``(start, stop)`` pairs covering the campaign's runs."""
     size = campaign.chunk_size if chunk_size is None else int(chunk_size)
     if size < 1:
@@ -62,7 +64,7 @@ def chunks(campaign: Campaign, chunk_size: int | None = None):
     return [(s, min(s + size, campaign.runs)) for s in range(0, campaign.runs, size)]
 
 
-def merge(campaign: Campaign, parts) -> dict:
+def merge(campaign: Campaign, parts: Iterable[dict[str, GainSetResult]]) -> dict[str, GainSetResult]:
     """Chunk results (any order) into one ``{gains name: GainSetResult}`` ordered by run index."""
     merged = {}
     first = next(iter(campaign.gains))
@@ -74,7 +76,7 @@ def merge(campaign: Campaign, parts) -> dict:
     return merged
 
 
-def run_campaign(campaign: Campaign, chunk_size: int | None = None, progress: bool = False) -> dict:
+def run_campaign(campaign: Campaign, chunk_size: int | None = None, progress: bool = False) -> dict[str, GainSetResult]:
     """All runs of the campaign, chunk by chunk on this machine (Numba threads): ``{name: GainSetResult}``."""
     parts = []
     spans = chunks(campaign, chunk_size)

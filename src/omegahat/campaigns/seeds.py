@@ -25,9 +25,12 @@ own SeedSequence, one at a time.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 from numpy.random import PCG64, Generator, SeedSequence
 from numpy.random.bit_generator import ISeedSequence
+from numpy.typing import ArrayLike
 
 __all__ = ["generators", "seed_words"]
 
@@ -69,7 +72,7 @@ def _words32(value: int) -> list:
             return words
 
 
-def seed_words(seed: int, indices) -> np.ndarray:
+def seed_words(seed: int, indices: ArrayLike) -> np.ndarray:
     """``SeedSequence(seed, spawn_key=(j,)).generate_state(4, numpy.uint64)`` for every j of ``indices``:
     ``(N, 4)`` uint64."""
     seed = int(seed)
@@ -115,9 +118,9 @@ class _Words(ISeedSequence):
         return self.words
 
 
-def generators(seed: int, indices):
+def generators(seed: int, indices: ArrayLike) -> Iterator[Generator]:
     """``numpy.random.default_rng(SeedSequence(seed, spawn_key=(j,)))`` for every j of ``indices``, the same
     generators (same PCG64 state), built from :func:`seed_words`."""
     words = seed_words(seed, indices)
     for row in range(words.shape[0]):
-        yield Generator(PCG64(_Words(words[row])))
+        yield Generator(PCG64(_Words(words[row])))  # type: ignore[arg-type]  # numpy's stubs omit ISeedSequence

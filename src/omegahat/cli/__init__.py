@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from collections.abc import Collection
 
 # Subcommand name -> module in omegahat.cli.
 SUBCOMMANDS = {
@@ -15,7 +16,7 @@ SUBCOMMANDS = {
 }
 
 
-def build_parser(commands=None) -> argparse.ArgumentParser:
+def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
     """The parser; ``commands`` limits the subcommand modules imported (``omegahat estimate`` need not load the
     plotting and simulation stacks of the others: half a second and 40 MB)."""
     from omegahat import __version__

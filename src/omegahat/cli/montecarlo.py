@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     campaign = campaigns.load_campaign(args.config)
     if args.runs is not None:
         campaign = campaigns.replace(campaign, runs=args.runs)

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.io
+from numpy.typing import ArrayLike
 from scipy.ndimage import binary_dilation
 from scipy.signal import butter, sosfiltfilt
 
@@ -128,7 +129,7 @@ def _resolve(name_or_path, directory) -> Path:
     return p
 
 
-def load_trial(name_or_path, directory=None) -> Trial:
+def load_trial(name_or_path: str | os.PathLike[str], directory: str | os.PathLike[str] | None = None) -> Trial:
     """Load a ``.mat`` trial: by short name (``"01"``, ``"06"``, ``"10"``) from ``directory`` (default
     :func:`data_dir`), or by path."""
     path = _resolve(name_or_path, directory)
@@ -156,7 +157,7 @@ def load_trial(name_or_path, directory=None) -> Trial:
     )
 
 
-def load_csv_cut(path=None) -> Trial:
+def load_csv_cut(path: str | os.PathLike[str] | None = None) -> Trial:
     """The 60 s CSV cut of trial 01 (``t, qw, qx, qy, qz, gyr_x, gyr_y, gyr_z``; empty fields in gaps).
 
     It has no movement labels, so :func:`score` needs them from elsewhere (or use the ``.mat`` trial).
@@ -214,7 +215,12 @@ def _bridge(e, ok):
 
 
 def score(
-    trial: Trial, estimate, cutoff_hz: float = 10.0, order: int = 4, gap_margin_s: float = 1.0, max_shift: int = 5
+    trial: Trial,
+    estimate: ArrayLike,
+    cutoff_hz: float = 10.0,
+    order: int = 4,
+    gap_margin_s: float = 1.0,
+    max_shift: int = 5,
 ) -> Score:
     """In-band RMS error of ``estimate (N, 3)`` (rad/s, one row per sample of ``trial``), module docstring."""
     w = np.asarray(estimate, dtype=float)
@@ -246,13 +252,13 @@ def score(
         raise ValueError(f"no motion sample of trial {trial.name!r} is {gap_margin_s} s away from gaps")
 
     sos = butter(int(order), cutoff_hz, fs=trial.fs, output="sos")
-    by_shift = {}
+    by_shift: dict[int, float] = {}
     for s in range(-int(max_shift), int(max_shift) + 1):
         e = _shifted(w, s) - ref
         ok = np.all(np.isfinite(e), axis=1)
         e_f = sosfiltfilt(sos, _bridge(e, ok), axis=0)
         by_shift[s] = float(np.sqrt(np.mean(np.sum(e_f[scored] ** 2, axis=1))))
-    best = min(by_shift, key=by_shift.get)
+    best = min(by_shift, key=by_shift.__getitem__)
     gyro_rms = float(np.sqrt(np.mean(np.sum(ref[scored] ** 2, axis=1))))
     return Score(by_shift[best], best, int(scored.sum()), by_shift, gyro_rms)
 

@@ -216,7 +216,7 @@ def compare_scenario(
     """Tune (seed 1) and score (seed 2) every method on one scenario; returns rows and the scored errors."""
     if sc.real:
         # Real data has no seeds: tune on the first REAL_TUNING_SECONDS of another trial, score this one.
-        tune_run = _load_trial(REAL_TUNING_TRIAL[sc.broad_trial], REAL_TUNING_SECONDS)
+        tune_run = _load_trial(REAL_TUNING_TRIAL[sc.broad_trial], REAL_TUNING_SECONDS)  # type: ignore[index]
         run = _load(sc, None, None)
     else:
         tune_run = _load(sc, TUNING_SEED, duration)
@@ -234,14 +234,14 @@ def compare_scenario(
                 score = steady_rms(tune_run.t, estimate_errors(w, tune_run.omega), t_steady)
             if best is None or (np.isfinite(score) and not score >= best[1]):
                 best = (value, score)
-        w, cost, failure = _run_method(m, sc, best[0], run)
+        w, cost, failure = _run_method(m, sc, best[0], run)  # type: ignore[index]  # None if m.grid is empty
         err = estimate_errors(w, run.omega)
         row = {
             "scenario": sc.name,
             "method": m.name,
             "causal": "yes" if m.causal else "no",
             "knob": m.knob,
-            "tuned": _fmt(best[0]),
+            "tuned": _fmt(best[0]),  # type: ignore[index]
             "first_below_s": first_below(run.t, err, sc.converged_tol),
             "convergence_s": convergence_time(run.t, err, sc.converged_tol),
             "steady_rms": steady_rms(run.t, err, t_steady),

@@ -30,11 +30,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = ["convergence_time", "estimate_errors", "first_below", "steady_rms"]
 
 
-def estimate_errors(estimate, truth, *, always_estimates: bool = False) -> np.ndarray:
+def estimate_errors(estimate: ArrayLike, truth: ArrayLike, *, always_estimates: bool = False) -> np.ndarray:
     """``e_k = |ω̂_k − ω_k|`` for ``(T, 3)`` arrays: NaN where a row of ``estimate`` holds a NaN (no estimate), inf
     where it holds an inf (diverged). For a method that ``always_estimates`` (a recursive filter) every
     non-finite row is divergence: inf."""
@@ -45,7 +46,7 @@ def estimate_errors(estimate, truth, *, always_estimates: bool = False) -> np.nd
     return err
 
 
-def convergence_time(t, err, tol: float) -> float:
+def convergence_time(t: ArrayLike, err: ArrayLike, tol: float) -> float:
     """(S1): the first sample time after which ``err`` stays ≤ ``tol``; ``inf`` if never (module docstring:
     NaN rows are left out, inf rows are above any tolerance)."""
     t = np.asarray(t, dtype=float)
@@ -60,14 +61,14 @@ def convergence_time(t, err, tol: float) -> float:
     return float(t[after[0]]) if after.size else math.inf
 
 
-def first_below(t, err, tol: float) -> float:
+def first_below(t: ArrayLike, err: ArrayLike, tol: float) -> float:
     """(S2): the first sample time at which ``err`` ≤ ``tol`` (``inf`` if never): how fast the initial error is
     removed, whether or not the noise floor lets it stay below (that is :func:`convergence_time`)."""
     hit = np.flatnonzero(np.asarray(err, dtype=float) <= tol)
     return float(np.asarray(t, dtype=float)[hit[0]]) if hit.size else math.inf
 
 
-def steady_rms(t, err, t0: float) -> float:
+def steady_rms(t: ArrayLike, err: ArrayLike, t0: float) -> float:
     """(S3): the RMS of ``err`` over ``t ≥ t0``, NaN rows left out; ``inf`` if the method diverged there, NaN if
     no sample there has an estimate."""
     err = np.asarray(err, dtype=float)

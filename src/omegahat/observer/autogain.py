@@ -50,6 +50,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat.observer.gains import ObserverGains
@@ -76,7 +77,9 @@ MAX_PAIRS = 20_000  # window pairs per structure-function evaluation (subsampled
 MAX_WINDOW_ANGLE = 1.0  # rad: windows are kept short enough that the body turns less than this within one
 
 
-def log_rotations(t, data, kind: str, references=None) -> tuple[np.ndarray, Rotation]:
+def log_rotations(
+    t: ArrayLike, data: ArrayLike, kind: str, references: ArrayLike | None = None
+) -> tuple[np.ndarray, Rotation]:
     """``(times, Rotation)`` of the valid samples: quaternions ``(T, 4)`` scalar last, matrices ``(T, 3, 3)``
     (body → inertial), or directions ``(T, n, 3)`` solved for the attitude by Wahba's problem (SVD) against the
     inertial ``references (n, 3)``. Samples with a non-finite entry are left out."""
@@ -90,7 +93,7 @@ def log_rotations(t, data, kind: str, references=None) -> tuple[np.ndarray, Rota
         return t[keep], Rotation.from_quat(data[keep])
     if kind == "matrix":
         return t, Rotation.from_matrix(data)
-    V = as_directions(references)
+    V = as_directions(references)  # type: ignore[arg-type]  # None: as_directions says (n, 3) is needed
     b = data / np.linalg.norm(data, axis=2, keepdims=True)
     B = np.einsum("ni,tnj->tij", V, b)  # Σ v_i b_iᵀ: R = argmin Σ |R b_i − v_i|²
     U, _, Vt = np.linalg.svd(B)
@@ -143,7 +146,9 @@ def _euler_rhs(J, J_inv, w, tau):
     return out @ J_inv.T
 
 
-def measure_motion(t, rot: Rotation, J=None, torque=None) -> LogMotion:
+def measure_motion(
+    t: ArrayLike, rot: Rotation, J: ArrayLike | None = None, torque: ArrayLike | None = None
+) -> LogMotion:
     """Sample rate and noise (S) of a rotation sequence; ``torque (T, 3)`` aligned with ``t`` or None."""
     t = np.asarray(t, dtype=float)
     if t.size < 2:
@@ -181,7 +186,7 @@ def _structure(motion: LogMotion, m_delta: int, m_w: int) -> float | None:
         return None
     k = np.arange(0, n_pos, max(1, n_pos // MAX_PAIRS))
     q, t = motion.quat, motion.t
-    va, vb = _rel_rotvec(q, k, k + m_w), _rel_rotvec(q, k + m_delta, k + m_delta + m_w)
+    va, vb = _rel_rotvec(q, k, k + m_w), _rel_rotvec(q, k + m_delta, k + m_delta + m_w)  # type: ignore[arg-type]
     wa = va / (t[k + m_w] - t[k])[:, None]
     wb = vb / (t[k + m_delta + m_w] - t[k + m_delta])[:, None]
     span = (t[k + m_delta] - t[k])[:, None]
@@ -246,7 +251,9 @@ class GainChoice:
         )
 
 
-def gains_for_bandwidth(J, rate_hz: float, bandwidth_hz: float, references=None, sigma: float = SIGMA_FLOOR):
+def gains_for_bandwidth(
+    J: ArrayLike, rate_hz: float, bandwidth_hz: float, references: ArrayLike | None = None, sigma: float = SIGMA_FLOOR
+) -> ObserverGains:
     """``tuning.sensor_gains`` at ``bandwidth_hz`` (Hz, below Nyquist ``rate_hz/2``, else ValueError)."""
     return sensor_gains(J, rate_hz, max(sigma, SIGMA_FLOOR), bandwidth_hz=bandwidth_hz, references=references)
 
@@ -259,7 +266,9 @@ def fit_window(omega_b: float, rate_hz: float) -> float:
     return max(np.sqrt(2.0) / omega_b, 2.0 / rate_hz)
 
 
-def initial_rate(t, rot: Rotation, window: float, J=None, torque=None) -> np.ndarray:
+def initial_rate(
+    t: ArrayLike, rot: Rotation, window: float, J: ArrayLike | None = None, torque: ArrayLike | None = None
+) -> np.ndarray:
     """Initial rate (rad/s, body axes) from a least-squares fit of the attitude over ``[t₀, t₀ + window]``.
 
     The slope of a line fitted to the attitude relative to the first sample, written on the increments ``φ_j``
@@ -293,7 +302,7 @@ def expected_error(
     omega_b: float,
     duration: float,
     start: str = "fit",
-    references=None,
+    references: ArrayLike | None = None,
     table: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[float, float, float]:
     """``(noise, lag, start-up)`` RMS parts of (E) for ``gains`` whose slowest mode decays at ``omega_b``
@@ -316,7 +325,11 @@ def expected_error(
 
 
 def choose_gains(
-    motion: LogMotion, duration: float | None = None, start: str = "fit", references=None, n_grid: int = 40
+    motion: LogMotion,
+    duration: float | None = None,
+    start: str = "fit",
+    references: ArrayLike | None = None,
+    n_grid: int = 40,
 ) -> GainChoice:
     """The bandwidth of least expected error (E) on a log grid up to 0.45 × the rate.
 
@@ -336,7 +349,7 @@ def choose_gains(
         rows.append((float(f), total))
         if best is None or total < best[1]:
             best = (float(f), total, g, parts)
-    f, total, g, (noise, lag, startup) = best
+    f, total, g, (noise, lag, startup) = best  # type: ignore[misc]  # None if n_grid < 1 (fails here)
     return GainChoice(g, f, total, noise, lag, startup, motion.rate_hz, motion.sigma, tuple(rows))
 
 
@@ -346,8 +359,8 @@ def convention_check(motion: LogMotion) -> tuple[float, float]:
     share (``√18 σ J_M / Δ²``) is below a fifth of the larger residual; ``τ`` is averaged over the same span."""
     N = motion.t.size
     J_M = float(np.linalg.eigvalsh(motion.J)[-1])
-    q_given = motion.quat
-    q_other = motion.quat * np.array([-1.0, -1.0, -1.0, 1.0])
+    q_given: np.ndarray = motion.quat  # type: ignore[assignment]  # measure_motion sets it (None fails here)
+    q_other = q_given * np.array([-1.0, -1.0, -1.0, 1.0])
     m, last = 1, (np.inf, np.inf)
     while 2 * m + 1 < N:
         k = np.arange(0, N - 2 * m, max(1, (N - 2 * m) // MAX_PAIRS))

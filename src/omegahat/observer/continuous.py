@@ -32,6 +32,7 @@ simulator (:mod:`omegahat.simulation.coupled`) and the sampled estimator are tes
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "OUTPUT_SIGN_CORRECTED",
@@ -48,22 +49,47 @@ OUTPUT_SIGN_CORRECTED = 1.0  #: ω̂ = ξ + J⁻¹ Σ k_i r_i × r̂_i (observer
 OUTPUT_SIGN_PRINTED = -1.0  #: ω̂ = ξ + J⁻¹ Σ k_i r̂_i × r_i (the paper's theorem: wrong)
 
 
-def gain_l(omega_hat, l_offset, l_slope):
+def gain_l(omega_hat: ArrayLike, l_offset: ArrayLike, l_slope: ArrayLike) -> np.ndarray:
     """``l_i(ω̂) = l_offset_i + l_slope_i |ω̂|``, shape ``(n,)``."""
     return np.asarray(l_offset, float) + np.asarray(l_slope, float) * np.linalg.norm(omega_hat)
 
 
-def output_map(xi, r, r_hat, k, J_inv, sign=OUTPUT_SIGN_CORRECTED):
+def output_map(
+    xi: np.ndarray,
+    r: np.ndarray,
+    r_hat: np.ndarray,
+    k: ArrayLike,
+    J_inv: np.ndarray,
+    sign: float = OUTPUT_SIGN_CORRECTED,
+) -> np.ndarray:
     """ω̂ = ξ + sign · J⁻¹ Σ k_i r_i × r̂_i (β of the paper, corrected for ``sign = +1``)."""
     return xi + sign * (J_inv @ np.sum(np.asarray(k)[:, None] * np.cross(r, r_hat), axis=0))
 
 
-def xi_for_omega_hat(omega_hat, r, r_hat, k, J_inv, sign=OUTPUT_SIGN_CORRECTED):
+def xi_for_omega_hat(
+    omega_hat: ArrayLike,
+    r: np.ndarray,
+    r_hat: np.ndarray,
+    k: ArrayLike,
+    J_inv: np.ndarray,
+    sign: float = OUTPUT_SIGN_CORRECTED,
+) -> np.ndarray:
     """The ξ that makes the output map give ``omega_hat`` (the paper's initialisation uses ω̂₀ = 0)."""
     return np.asarray(omega_hat, float) - output_map(np.zeros(3), r, r_hat, k, J_inv, sign)
 
 
-def observer_rhs(xi, r_hat, r, tau, J, J_inv, k, l_offset, l_slope, sign=OUTPUT_SIGN_CORRECTED):
+def observer_rhs(
+    xi: np.ndarray,
+    r_hat: np.ndarray,
+    r: np.ndarray,
+    tau: ArrayLike,
+    J: np.ndarray,
+    J_inv: np.ndarray,
+    k: ArrayLike,
+    l_offset: ArrayLike,
+    l_slope: ArrayLike,
+    sign: float = OUTPUT_SIGN_CORRECTED,
+) -> tuple[np.ndarray, np.ndarray]:
     """Right-hand side ``(ξ̇, r̂̇)`` of the observer, term by term as in observer.md.
 
     ``sign`` selects the output map (the ξ̇ and r̂̇ equations are the same for both).
@@ -81,7 +107,17 @@ def observer_rhs(xi, r_hat, r, tau, J, J_inv, k, l_offset, l_slope, sign=OUTPUT_
     return xi_dot, r_hat_dot
 
 
-def error_dynamics(z, e, r, omega, J, J_inv, k, l_offset, l_slope):
+def error_dynamics(
+    z: np.ndarray,
+    e: np.ndarray,
+    r: np.ndarray,
+    omega: np.ndarray,
+    J: np.ndarray,
+    J_inv: np.ndarray,
+    k: ArrayLike,
+    l_offset: ArrayLike,
+    l_slope: ArrayLike,
+) -> tuple[np.ndarray, np.ndarray]:
     """``(ż, ė)`` of observer.md at error ``z = ω̂ − ω``, ``e_i = r̂_i − r_i`` and true ``r``, ``ω``."""
     k = np.asarray(k, float)
     omega_hat = omega + z
@@ -96,7 +132,7 @@ def error_dynamics(z, e, r, omega, J, J_inv, k, l_offset, l_slope):
     return z_dot, e_dot
 
 
-def lyapunov(z, e, J):
+def lyapunov(z: ArrayLike, e: ArrayLike, J: ArrayLike) -> np.ndarray:
     """The proof's ``V = |J z| + ½ Σ |e_i|²``; broadcasts over leading axes (``z (*B,3)``, ``e (*B,n,3)``)."""
     z = np.asarray(z, float)
     e = np.asarray(e, float)

@@ -58,9 +58,10 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimator
+from omegahat.interface import Estimator, Measurement, Measurements
 from omegahat.observer import sampled
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, STATE, EstimatorState
@@ -97,13 +98,13 @@ class SarrasEstimator(Estimator):
 
     def __init__(
         self,
-        J,
+        J: ArrayLike,
         *,
         gains: ObserverGains,
-        references=None,
+        references: ArrayLike | None = None,
         measurement: str | None = None,
-        omega_hat0=None,
-        r_hat0=None,
+        omega_hat0: ArrayLike | None = None,
+        r_hat0: ArrayLike | None = None,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
@@ -172,7 +173,7 @@ class SarrasEstimator(Estimator):
 
     # -- estimation -------------------------------------------------------------------------------------------
 
-    def update(self, t, measurement, torque=None) -> np.ndarray:
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
         """Take the sample at time ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""
         m, kind = ms.sample_array(measurement, self._n_directions)
         tau = ms.torque_vector(torque)
@@ -195,7 +196,7 @@ class SarrasEstimator(Estimator):
             self.n_collinear += 1
         self.skipped_times.append(float(t))
 
-    def run(self, times, measurements, torques=None) -> np.ndarray:
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample of a log ``(T, 3)``, continuing from the current state (:meth:`reset` first for
         a fresh start). Same compiled step as :meth:`update`; atomic on rejection (see the module docstring).
 

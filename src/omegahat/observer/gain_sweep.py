@@ -27,17 +27,23 @@ when another is no worse in both and better in one).
 from __future__ import annotations
 
 import math
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.observer import tuning
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.simulation import sensors
-from omegahat.simulation.rigid_body import RigidBody, integrate
+from omegahat.simulation.rigid_body import RigidBody, Trajectory, integrate
 from omegahat.validation import as_inertia, as_positive, as_vector3
+
+if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn
+    from matplotlib.axes import Axes
 
 __all__ = [
     "Evaluation",
@@ -72,16 +78,16 @@ def _truth(J, omega0, rate_hz, horizon):
 
 
 def evaluate_gains(
-    J,
+    J: ArrayLike,
     gains: ObserverGains,
     rate_hz: float,
     noise_std_rad: float,
-    seed=0,
+    seed: int | np.random.SeedSequence = 0,
     horizon: float = 10.0,
-    omega0=DEFAULT_OMEGA0,
+    omega0: ArrayLike = DEFAULT_OMEGA0,
     initial_error: float = 1.0,
     settle: float = 0.01,
-    truth=None,
+    truth: Trajectory | None = None,
     label: str = "",
 ) -> Evaluation:
     """Measure ``t_c`` and ``s`` of ``gains`` (module docstring). ``seed``: an int or a ``SeedSequence``;
@@ -102,7 +108,7 @@ def evaluate_gains(
     delta = float(as_positive(initial_error, "initial_error")[0]) * np.ones(3) / np.sqrt(3.0)
     est = SarrasEstimator(J, gains=gains, omega_hat0=omega0 + delta)
     err = estimate_errors(est.run(tr.t, tr.R), tr.omega, always_estimates=True)  # a NaN estimate: diverged
-    t_c = convergence_time(tr.t, err, settle * np.linalg.norm(delta))
+    t_c = convergence_time(tr.t, err, float(settle * np.linalg.norm(delta)))
     rng = np.random.default_rng(seed)
     R_meas = sensors.noisy_attitudes(tr.R, sigma, rng)
     est = SarrasEstimator(J, gains=gains, omega_hat0=omega0)
@@ -114,7 +120,15 @@ def evaluate_gains(
     return Evaluation(gains, rate, sigma, t_c, s, predicted, label)
 
 
-def sweep(J, k_values, l_values, rates_hz, noise_stds, seed: int = 0, **kwargs) -> list[Evaluation]:
+def sweep(
+    J: ArrayLike,
+    k_values: Collection[float],
+    l_values: Collection[float],
+    rates_hz: Collection[float],
+    noise_stds: Collection[float],
+    seed: int = 0,
+    **kwargs: Any,
+) -> list[Evaluation]:
     """Evaluate constant gains ``ObserverGains.constant(k, l, n=3)`` for every k, l, rate and noise level.
 
     Every (k, l) at rate index a and noise index b uses the noise of ``SeedSequence(seed, spawn_key=(a, b))``.
@@ -140,7 +154,7 @@ def sweep(J, k_values, l_values, rates_hz, noise_stds, seed: int = 0, **kwargs) 
     return out
 
 
-def pareto_front(times, noises) -> np.ndarray:
+def pareto_front(times: ArrayLike, noises: ArrayLike) -> np.ndarray:
     """Boolean mask of the points not dominated in (time, noise), both minimised; non-finite points excluded."""
     x = np.asarray(times, dtype=float)
     y = np.asarray(noises, dtype=float)
@@ -152,14 +166,14 @@ def pareto_front(times, noises) -> np.ndarray:
     return mask
 
 
-def plot_pareto(evaluations, ax=None):
+def plot_pareto(evaluations: Iterable[Evaluation], ax: Axes | None = None) -> Axes:
     """Convergence time against steady-state noise, one colour per (rate, noise) pair, front joined by a line.
     Returns the axes."""
     import matplotlib.pyplot as plt
 
     if ax is None:
         _, ax = plt.subplots(figsize=(6.5, 4.5))
-    groups = {}
+    groups: dict[tuple[float, float], list[Evaluation]] = {}
     for e in evaluations:
         groups.setdefault((e.rate_hz, e.noise_std_rad), []).append(e)
     for (rate, sigma), evs in groups.items():
@@ -194,16 +208,16 @@ class Recommendation:
 
 
 def recommend_gains(
-    J,
+    J: ArrayLike,
     rate_hz: float,
     noise_std_rad: float,
     max_noise: float | None = None,
     max_convergence_time: float | None = None,
-    bandwidths_hz=None,
+    bandwidths_hz: ArrayLike | None = None,
     seed: int = 0,
     horizon: float | None = None,
-    references=None,
-    **kwargs,
+    references: ArrayLike | None = None,
+    **kwargs: Any,
 ) -> Recommendation:
     """Gains for an attitude sensor sampled at ``rate_hz`` with noise ``noise_std_rad`` (rad per axis).
 
@@ -223,7 +237,8 @@ def recommend_gains(
             f"max_convergence_time={max_convergence_time!r}"
         )
     goal = "max_noise" if max_noise is not None else "max_convergence_time"
-    limit = float(as_positive(max_noise if max_noise is not None else max_convergence_time, goal)[0])
+    given = max_noise if max_noise is not None else max_convergence_time  # not None: exactly one was given
+    limit = float(as_positive(given, goal)[0])  # type: ignore[arg-type]
     if bandwidths_hz is None:
         bws = np.geomspace(min(0.05, rate / 500), rate / 5, 16)
     else:

@@ -21,6 +21,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.validation import as_directions, as_inertia, as_positive
 
@@ -45,7 +46,7 @@ class ObserverGains:
 
     k: np.ndarray
     l_offset: np.ndarray
-    l_slope: np.ndarray = field(default=None)  # type: ignore[assignment]
+    l_slope: np.ndarray = field(default=None)  # type: ignore[arg-type]
 
     def __post_init__(self):
         k = as_positive(self.k, "k")
@@ -64,7 +65,7 @@ class ObserverGains:
         object.__setattr__(self, "l_slope", l_slope)
 
     @classmethod
-    def constant(cls, k, l, n: int = 2) -> ObserverGains:
+    def constant(cls, k: ArrayLike, l: ArrayLike, n: int = 2) -> ObserverGains:
         """Constant gains ``k_i = k``, ``l_i = l`` (scalars are repeated for ``n`` directions)."""
         k = np.atleast_1d(np.asarray(k, dtype=float))
         if k.size == 1:
@@ -75,18 +76,18 @@ class ObserverGains:
     def n(self) -> int:
         return self.k.size
 
-    def l(self, omega_hat) -> np.ndarray:
+    def l(self, omega_hat: ArrayLike) -> np.ndarray:
         """``l_i(ω̂)`` for each direction."""
         return self.l_offset + self.l_slope * np.linalg.norm(omega_hat)
 
 
-def inertia_bounds(J) -> tuple[float, float]:
+def inertia_bounds(J: ArrayLike) -> tuple[float, float]:
     """``(J_m, J_M)``: the smallest and largest eigenvalues of J."""
     eig = np.linalg.eigvalsh(as_inertia(J))
     return float(eig[0]), float(eig[-1])
 
 
-def mu(k, references) -> float:
+def mu(k: ArrayLike, references: ArrayLike) -> float:
     """``λ_min(Σ k_i (I − v_i v_iᵀ))`` for the normalised inertial directions ``v_i``."""
     v = as_directions(references, min_angle_deg=0.0)
     k = as_positive(k, "k", v.shape[0])
@@ -99,7 +100,9 @@ def _l_factor(k, J_m):
     return 1.0 + (k / J_m) * (1.0 + 2.0 * k / J_m)
 
 
-def theorem_gains(J, omega_max: float, references=None, margin: float = 1.0, l0: float = 1.0) -> ObserverGains:
+def theorem_gains(
+    J: ArrayLike, omega_max: float, references: ArrayLike | None = None, margin: float = 1.0, l0: float = 1.0
+) -> ObserverGains:
     """Equal gains ``k_i = k`` with ``μ = J_M (ω_M + 3/2) + margin`` and the theorem's ``l_i(ω̂)``.
 
     ``references`` are the measured inertial directions (default: the first two rows of R, as in the paper).
@@ -139,7 +142,9 @@ class GainCheck:
         return "; ".join(self.failures)
 
 
-def check_gains(gains: ObserverGains, J, omega_max: float, references=None, warn: bool = True) -> GainCheck:
+def check_gains(
+    gains: ObserverGains, J: ArrayLike, omega_max: float, references: ArrayLike | None = None, warn: bool = True
+) -> GainCheck:
     """Check ``gains`` against the theorem's conditions; warn (:class:`GainConditionWarning`) naming each failure.
 
     A failure does not mean the observer diverges, only that the theorem no longer guarantees global exponential

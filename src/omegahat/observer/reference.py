@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat.observer.gains import ObserverGains
@@ -25,7 +26,17 @@ def _substeps(h, omega_hat, J_inv, tau, max_angle) -> int:
     return int(min(MAX_SUBSTEPS, max(1, math.ceil(angle / max_angle))))
 
 
-def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, max_angle=MAX_SUBSTEP_ANGLE):
+def reference_predict(
+    omega_hat: ArrayLike,
+    r: np.ndarray,
+    e: np.ndarray,
+    tau: np.ndarray,
+    h: float,
+    J: np.ndarray,
+    J_inv: np.ndarray,
+    gains: ObserverGains,
+    max_angle: float = MAX_SUBSTEP_ANGLE,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(P) over ``h``: returns ``(ω̂, r_pred, e_pred)``."""
     f = lambda w: J_inv @ (np.cross(J @ w, w) + tau)  # Euler's equations  # noqa: E731
     dexpinv = lambda u, w: w + 0.5 * np.cross(u, w) + np.cross(u, np.cross(u, w)) / 12.0  # noqa: E731
@@ -33,7 +44,7 @@ def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, m
     hs = h / n_sub
     w = np.array(omega_hat, dtype=float)
     D = np.eye(3)  # ΔR̂
-    int_abs_w = 0.0  # ∫ |ω̂| dt
+    int_abs_w: float | np.floating = 0.0  # ∫ |ω̂| dt
     for _ in range(n_sub):  # RKMK4
         w1 = w
         K1, L1 = hs * w1, hs * f(w1)
@@ -54,15 +65,15 @@ def reference_predict(omega_hat, r, e, tau, h, J, J_inv, gains: ObserverGains, m
 
 def reference_step(
     state: EstimatorState,
-    t,
-    r_meas,
-    tau,
-    J,
+    t: float,
+    r_meas: ArrayLike | None,
+    tau: ArrayLike | None,
+    J: np.ndarray,
     gains: ObserverGains,
-    r_hat0=None,
-    omega_hat0=None,
-    max_angle=MAX_SUBSTEP_ANGLE,
-    warm_start=False,
+    r_hat0: ArrayLike | None = None,
+    omega_hat0: ArrayLike | None = None,
+    max_angle: float = MAX_SUBSTEP_ANGLE,
+    warm_start: bool = False,
 ) -> EstimatorState:
     """One sample of directions ``r_meas (n, 3)`` (None: a skipped sample), no checks. ``tau`` is the torque given
     with this sample (held from ``t`` on); the interval uses ``state.torque``."""

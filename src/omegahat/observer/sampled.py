@@ -22,12 +22,14 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.kernels import checks
 from omegahat.kernels.dynamics import euler_rate
 from omegahat.kernels.observer import innovation, stiffness
 from omegahat.kernels.rotation import dexpinv, exp_matrix, rotvec_from_matrix, wahba
 from omegahat.kernels.vec3 import mat3, matvec, solve
+from omegahat.observer.gains import ObserverGains
 
 __all__ = [
     "MAX_SUBSTEPS",
@@ -91,8 +93,10 @@ PARAMS = ParamLayout(
 )  # fmt: skip
 
 
-def pack_params(J, gains, references, r_hat0, rotation_tol, quat_norm_tol, min_angle_deg, max_angle, scalar_first,
-                warm_start) -> np.ndarray:  # fmt: skip
+def pack_params(
+    J: np.ndarray, gains: ObserverGains, references: ArrayLike, r_hat0: ArrayLike | None, rotation_tol: float,
+    quat_norm_tol: float, min_angle_deg: float, max_angle: float, scalar_first: bool, warm_start: bool,
+) -> np.ndarray:  # fmt: skip
     """The flat parameters (:data:`PARAMS`) of an estimator."""
     n = gains.n
     return np.concatenate([
@@ -152,7 +156,7 @@ class EstimatorState:
         )
 
 
-def initial_state_vector(n: int, omega_hat0) -> np.ndarray:
+def initial_state_vector(n: int, omega_hat0: ArrayLike) -> np.ndarray:
     """The state before any sample: time NaN, uninitialised, ω̂ = ω̂₀."""
     x = np.zeros(STATE.r + 6 * n)
     x[STATE.t] = np.nan

@@ -45,6 +45,7 @@ how much): the guarantee is then local, which is what a tuned filter offers anyw
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.linalg import solve_discrete_lyapunov
 
 from omegahat.observer.gains import ObserverGains, inertia_bounds
@@ -53,11 +54,13 @@ from omegahat.validation import as_directions, as_inertia, as_positive
 __all__ = ["bandwidth_gains", "predicted_noise_std", "sensor_gains"]
 
 
-def _geometry(references) -> np.ndarray:
+def _geometry(references: ArrayLike | None) -> np.ndarray:
     return as_directions(np.eye(3) if references is None else references)
 
 
-def bandwidth_gains(J, bandwidth: float, references=None, l_per_bandwidth: float = 10.0) -> ObserverGains:
+def bandwidth_gains(
+    J: ArrayLike, bandwidth: float, references: ArrayLike | None = None, l_per_bandwidth: float = 10.0
+) -> ObserverGains:
     """The simple rule used by ``omegahat estimate --bandwidth`` and ``omegahat compare``.
 
     Equal ``k_i = b (tr J / 3) / μ₁`` with ``μ₁ = λ_min Σ (I − v_i v_iᵀ)`` (2 for the three rows of R, 1 for two
@@ -75,13 +78,13 @@ def bandwidth_gains(J, bandwidth: float, references=None, l_per_bandwidth: float
 
 
 def sensor_gains(
-    J,
+    J: ArrayLike,
     rate_hz: float,
     noise_std_rad: float,
     bandwidth_hz: float | None = None,
     convergence_time: float | None = None,
     angular_accel: float | None = None,
-    references=None,
+    references: ArrayLike | None = None,
     l_factor: float = 10.0,
 ) -> ObserverGains:
     """Equal gains for ``n`` directions from the sensor and the bandwidth wanted (module docstring: (K), l_i).
@@ -132,7 +135,14 @@ def sensor_gains(
     return ObserverGains(k=np.full(n, k), l_offset=np.full(n, l_factor * k / J_m))
 
 
-def predicted_noise_std(J, gains: ObserverGains, rate_hz: float, noise_std_rad: float, references=None, R=None):
+def predicted_noise_std(
+    J: ArrayLike,
+    gains: ObserverGains,
+    rate_hz: float,
+    noise_std_rad: float,
+    references: ArrayLike | None = None,
+    R: ArrayLike | None = None,
+) -> np.ndarray:
     """Predicted stationary std of each component of ``ω̂ − ω`` (rad/s, body axes) for white attitude noise.
 
     Solves (L) of the module docstring exactly: the stationary covariance of ``x_k = (z_k, δ_k)`` with

@@ -12,10 +12,12 @@ r"""Simulate plant and observer together: one run, many runs, and an independent
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from omegahat.observer import continuous as sarras
@@ -41,7 +43,7 @@ def output_times(horizon: float, dt_out: float) -> np.ndarray:
     return np.append(t_out, horizon) if t_out[-1] < horizon else t_out
 
 
-def _checked_times(t_out) -> np.ndarray:
+def _checked_times(t_out: ArrayLike) -> np.ndarray:
     t_out = np.asarray(t_out, dtype=float)
     if t_out.ndim != 1 or t_out.size < 1 or t_out[0] != 0.0 or np.any(np.diff(t_out) <= 0):
         raise ValueError("t_out must start at 0 and increase strictly")
@@ -52,7 +54,7 @@ def simulate(
     problem: CoupledProblem,
     horizon: float = 10.0,
     dt_out: float = 1e-3,
-    t_out=None,
+    t_out: ArrayLike | None = None,
     rtol: float = 1e-9,
     atol: float = 1e-15,
     h_max: float = 0.05,
@@ -89,8 +91,8 @@ class BatchResult:
 
 
 def simulate_batch(
-    problems,
-    t_out,
+    problems: Iterable[CoupledProblem],
+    t_out: ArrayLike,
     rtol: float = 1e-9,
     atol: float = 1e-15,
     h_max: float = 0.05,
@@ -118,7 +120,7 @@ def simulate_batch(
 
 def simulate_reference(
     problem: CoupledProblem,
-    t_eval,
+    t_eval: ArrayLike,
     method: str = "Radau",
     rtol: float = 1e-10,
     atol: float = 1e-14,

@@ -41,6 +41,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 from numba import literally
+from numpy.typing import ArrayLike
 
 from omegahat.simulation.envelope import diagnose_run
 from omegahat.simulation.etd import combine, dense_output, error_ratios, half_stage, last_stage, phi_weights
@@ -311,7 +312,7 @@ def _buffers(lanes, n, M, T, mode):
 # Compiled without Numba's reference counting (_nrt=False): every array here is owned by the entry point that
 # allocated it, and the phases' array arguments would otherwise cost atomic increments and decrements at every
 # call (a fifth of a single run's time). Nothing below allocates.
-@numba.njit(cache=True, _nrt=False, error_model="numpy")
+@numba.njit(cache=True, _nrt=False, error_model="numpy")  # type: ignore[call-overload]  # _nrt: not in the stubs
 def _lockstep(queue, t_out, model, runs, control, outputs, mode, buffers, all_bits, lanes, n, M):
     """Integrate the runs ``queue`` (indices into ``runs``) on ``lanes`` lanes (module docstring), from
     ``t_out[0]`` to ``t_out[-1]`` (at least two output times), keeping what ``mode`` says in ``outputs``."""
@@ -423,7 +424,7 @@ def _integrate(model, runs, t_out, control, mode, rho_floor, n_workers, lanes, p
 def integrate_states(
     model: Model,
     runs: RunSet,
-    t_out,
+    t_out: ArrayLike,
     control: StepControl,
     n_workers: int = 1,
     lanes: int = LANES,
@@ -443,7 +444,7 @@ def integrate_states(
 def integrate_envelopes(
     model: Model,
     runs: RunSet,
-    t_out,
+    t_out: ArrayLike,
     control: StepControl,
     rho_floor: float,
     n_workers: int = 1,

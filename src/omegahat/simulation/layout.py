@@ -16,6 +16,7 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "ENVELOPES",
@@ -84,7 +85,7 @@ class RunOutputs(NamedTuple):
     rho_floor: float
 
 
-def check_inputs(model: Model, runs: RunSet, t_out) -> tuple[Model, RunSet, np.ndarray, int, int]:
+def check_inputs(model: Model, runs: RunSet, t_out: ArrayLike) -> tuple[Model, RunSet, np.ndarray, int, int]:
     """The engine's inputs checked by name (the compiled engine does not check bounds) and converted to the types
     it is compiled for; returns them with ``n`` and ``M``."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
@@ -152,7 +153,7 @@ class Rows(NamedTuple):
     rej: int
     next: int  # the lane's next output time (+∞: none)
     flag: int  # 1 where the trial needs the per-lane code: an output time reached, a non-finite error
-    count: int
+    count: int  # type: ignore[assignment]  # the field hides the method tuple.count, never used on Rows
 
 
 @numba.njit(cache=True, inline="always")

@@ -17,10 +17,12 @@ output map ``ω̂ = ξ + J⁻¹ Σ k_i r_i × r̂_i`` (O5 of :mod:`omegahat.kern
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat.kernels.observer import output_map
@@ -62,10 +64,11 @@ class CoupledProblem:
     gains: ObserverGains
     omega0: np.ndarray
     R0: np.ndarray = field(default_factory=lambda: np.eye(3))
-    references: np.ndarray | None = None
-    r_hat0: np.ndarray | None = None
+    # None (the defaults) and the other accepted inputs are replaced by arrays and a Torque in __post_init__
+    references: np.ndarray = None  # type: ignore[assignment]
+    r_hat0: np.ndarray = None  # type: ignore[assignment]
     omega_hat0: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    torque: Torque | None = None
+    torque: Torque = None  # type: ignore[assignment]
 
     def __post_init__(self):
         J = as_inertia(self.J)
@@ -99,7 +102,7 @@ class CoupledProblem:
         return self.omega_hat0 - np.array(beta)
 
 
-def paper_problem(torque=None) -> CoupledProblem:
+def paper_problem(torque: Torque | ArrayLike | None = None) -> CoupledProblem:
     """Section 4 of the paper, typos fixed: J = diag(3, 2, 1), ω₀ = (2, −1, 0.6), ω_M = 3, R(0) = I, two rows
     measured, r̂_10 = (0, −1, 0), r̂_20 = (0, 0, −1), ω̂₀ = 0, the theorem's gains (k = 14.5, l_i0 = 1);
     torque-free unless a torque is given."""
@@ -109,7 +112,7 @@ def paper_problem(torque=None) -> CoupledProblem:
         gains=theorem_gains(J, omega_max=PAPER_OMEGA_MAX, margin=1.0, l0=1.0),
         omega0=np.array([2.0, -1.0, 0.6]),
         r_hat0=np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0]]),
-        torque=torque,
+        torque=as_torque(torque),
     )
 
 
@@ -147,7 +150,9 @@ def _seen_in_body(references, R):
     return r + V[None, :, 2, None] * R[:, None, 2, :]
 
 
-def initial_states(references, R0, omega0, omega_hat0, r_hat0) -> np.ndarray:
+def initial_states(
+    references: ArrayLike, R0: ArrayLike, omega0: np.ndarray, omega_hat0: np.ndarray, r_hat0: ArrayLike
+) -> np.ndarray:
     """The engine's states ``[r (3n), ω, z, e (3n)]`` at t = 0 for runs stacked on the first axis: ``R0 (N, 3, 3)``,
     ``omega0``, ``omega_hat0 (N, 3)``, ``r_hat0 (N, n, 3)``. ``r_i = R0ᵀ v_i`` is summed element-wise, left to right
     (no BLAS, whose order depends on the CPU), so that a run starts from the same bits alone or in any batch."""
@@ -166,7 +171,7 @@ def initial_state(problem: CoupledProblem) -> np.ndarray:
     return initial_states(p.references, p.R0[None], p.omega0[None], p.omega_hat0[None], p.r_hat0[None])[0]
 
 
-def first_step(gains: ObserverGains, omega_hat0, h_max: float):
+def first_step(gains: ObserverGains, omega_hat0: ArrayLike, h_max: float) -> np.ndarray:
     """The engine's first step for runs starting at ω̂₀ ``(..., 3)``: ``0.1 / max(1, max_i l_i(ω̂₀))``, at most
     ``h_max`` (a tenth of the fastest decay's time constant). |ω̂₀| is summed element-wise, left to right, so that
     a run starts with the same step alone or in a batch, on any machine."""
@@ -176,12 +181,12 @@ def first_step(gains: ObserverGains, omega_hat0, h_max: float):
     return np.minimum(h_max, 0.1 / np.maximum(1.0, np.max(rates, axis=-1)))
 
 
-def model_of(J, gains: ObserverGains) -> Model:
+def model_of(J: np.ndarray, gains: ObserverGains) -> Model:
     """The engine's :class:`~omegahat.simulation.engine.Model` for inertia J and the gains."""
     return Model(J, np.linalg.inv(J), gains.k, gains.l_offset, gains.l_slope)
 
 
-def batch_inputs(problems, h_max: float) -> tuple[Model, RunSet]:
+def batch_inputs(problems: Iterable[CoupledProblem], h_max: float) -> tuple[Model, RunSet]:
     """The engine's inputs for ``problems`` (all with the same J, gains and references; each its own initial
     state and torque, padded with zero-amplitude terms to a common number, which adds exactly 0.0)."""
     problems = list(problems)
@@ -225,7 +230,9 @@ def _output_map_rows(Jinv, k, r, r_hat, out):
         out[t, 0], out[t, 1], out[t, 2] = output_map(Jinv, k, r[t], r_hat[t])
 
 
-def trajectory_from_states(problem: CoupledProblem, t, Y, accepted=0, rejected=0) -> CoupledTrajectory:
+def trajectory_from_states(
+    problem: CoupledProblem, t: ArrayLike, Y: np.ndarray, accepted: int = 0, rejected: int = 0
+) -> CoupledTrajectory:
     """Unpack engine states ``(T, 6n + 6)`` into a :class:`CoupledTrajectory` (ξ by the output map)."""
     n = problem.gains.n
     r = Y[:, : 3 * n].reshape(-1, n, 3)

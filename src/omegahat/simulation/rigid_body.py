@@ -42,6 +42,8 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
@@ -57,14 +59,14 @@ __all__ = ["RigidBody", "Trajectory", "cf4_step", "integrate"]
 class RigidBody:
     """A rigid body with inertia ``J`` (symmetric positive definite; 3 numbers = diagonal, 9 = full)."""
 
-    def __init__(self, J):
+    def __init__(self, J: ArrayLike) -> None:
         self.J = as_inertia(J)
         self.J_inv = np.linalg.inv(self.J)
 
     def __repr__(self) -> str:
         return f"RigidBody(J={self.J.tolist()})"
 
-    def omega_dot(self, omega, torque=None):
+    def omega_dot(self, omega: ArrayLike, torque: ArrayLike | None = None) -> np.ndarray:
         """ω̇ = J⁻¹((Jω) × ω + τ). ``omega (*B, 3)``, ``torque`` broadcastable to it (None = 0)."""
         omega = np.asarray(omega, dtype=float)
         Jw = omega @ self.J.T
@@ -73,16 +75,16 @@ class RigidBody:
             rhs = rhs + np.asarray(torque, dtype=float)
         return rhs @ self.J_inv.T
 
-    def kinetic_energy(self, omega):
+    def kinetic_energy(self, omega: ArrayLike) -> np.ndarray:
         """½ ωᵀ J ω. ``(*B, 3) -> (*B,)``."""
         omega = np.asarray(omega, dtype=float)
         return 0.5 * np.einsum("...i,ij,...j->...", omega, self.J, omega)
 
-    def momentum_norm(self, omega):
+    def momentum_norm(self, omega: ArrayLike) -> np.ndarray:
         """|J ω|, the norm of the angular momentum (same in body and inertial axes). ``(*B, 3) -> (*B,)``."""
         return np.linalg.norm(np.asarray(omega, dtype=float) @ self.J.T, axis=-1)
 
-    def inertial_momentum(self, R, omega):
+    def inertial_momentum(self, R: ArrayLike, omega: ArrayLike) -> np.ndarray:
         """L = R J ω, the angular momentum in inertial axes. ``(*B, 3, 3), (*B, 3) -> (*B, 3)``."""
         Jw = np.asarray(omega, dtype=float) @ self.J.T
         return np.einsum("...ij,...j->...i", np.asarray(R, dtype=float), Jw)
@@ -101,7 +103,9 @@ class Trajectory(NamedTuple):
 # Plain NumPy step (the oracle)
 
 
-def cf4_step(body: RigidBody, R, omega, t: float, h: float, torque: Torque):
+def cf4_step(
+    body: RigidBody, R: ArrayLike, omega: ArrayLike, t: float, h: float, torque: Torque
+) -> tuple[np.ndarray, np.ndarray]:
     """One CF4 step of size h from ``(t, R, omega)`` (module docstring), returns ``(R⁺, ω⁺)``."""
     R = np.asarray(R, dtype=float)
     w1 = np.asarray(omega, dtype=float)
@@ -169,7 +173,14 @@ def _cf4_kernel(q0, w0, J, J_inv, h, tau_stages, record):
 # ------------------------------------------------------------------------------------------------------------
 
 
-def integrate(body: RigidBody, R0, omega0, times, torque=None, max_step: float = 1e-3) -> Trajectory:
+def integrate(
+    body: RigidBody,
+    R0: ArrayLike | Rotation,
+    omega0: ArrayLike,
+    times: ArrayLike,
+    torque: Torque | ArrayLike | None = None,
+    max_step: float = 1e-3,
+) -> Trajectory:
     """Integrate the body from ``(R0, omega0)`` at ``times[0]``; sample it at every time in ``times``.
 
     Each interval between consecutive requested times is split into equal CF4 steps no longer than

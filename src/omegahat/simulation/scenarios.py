@@ -33,9 +33,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.simulation import sensors
 from omegahat.simulation.rigid_body import RigidBody, integrate
@@ -89,7 +90,7 @@ class Run(NamedTuple):
 _BANG_BANG = ((0.0, (0.5, -0.5, 0.5)), (60.0, (-0.5, 0.5, -0.5)), (120.0, (0.0, 0.0, 0.0)))
 
 
-def known_torque(scenario: Scenario, t) -> np.ndarray:
+def known_torque(scenario: Scenario, t: ArrayLike) -> np.ndarray:
     """The commanded torque at times ``t`` ``(T,)``, shape ``(T, 3)``."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
     out = np.zeros((t.size, 3))
@@ -101,7 +102,7 @@ def known_torque(scenario: Scenario, t) -> np.ndarray:
 _J_SC = np.array([[300.0, -12.0, 8.0], [-12.0, 250.0, 5.0], [8.0, 5.0, 200.0]])
 _J_SC_WRONG = _J_SC.copy()
 _J_SC_WRONG[np.diag_indices(3)] *= [1.1, 0.9, 1.1]
-_SLEW = dict(
+_SLEW: dict[str, Any] = dict(
     J_true=_J_SC,
     J_model=_J_SC,
     omega0=np.array([0.02, -0.015, 0.01]),
@@ -118,7 +119,7 @@ _SLEW = dict(
 # A tumbling spacecraft (same inertia), torque-free, coarse attitude fixes at 1 Hz: the initial error is the whole
 # rate, and the body turns by |ω| h = 1 (tumble) or 2 (tumble-fast) rad between fixes.
 _TUMBLE_AXIS = np.array([0.6, -0.5, 0.62]) / np.linalg.norm([0.6, -0.5, 0.62])
-_TUMBLE = dict(
+_TUMBLE: dict[str, Any] = dict(
     J_true=_J_SC,
     J_model=_J_SC,
     omega_hat0=np.zeros(3),
@@ -130,7 +131,7 @@ _TUMBLE = dict(
 )
 
 # Real data: 285.714 Hz optical attitude; σ assumed 0.05° (NOTICE.md: rest jitter 0.014°–0.085° RMS).
-_BROAD = dict(
+_BROAD: dict[str, Any] = dict(
     J_true=np.eye(3),
     J_model=np.eye(3),
     omega_max=10.0,

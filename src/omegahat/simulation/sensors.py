@@ -14,6 +14,7 @@ Randomness comes only from the ``numpy.random.Generator`` the caller passes (no 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat import so3
 from omegahat.validation import as_directions
@@ -45,7 +46,7 @@ def _as_generator(rng) -> np.random.Generator:
     return rng
 
 
-def directions(R, references) -> np.ndarray:
+def directions(R: ArrayLike, references: ArrayLike) -> np.ndarray:
     """``r_i = Rᵀ v_i`` for the unit inertial ``references (n, 3)``. ``R (*B, 3, 3) -> (*B, n, 3)``."""
     R = _as_rotations(R)
     v = as_directions(references, min_angle_deg=0.0)
@@ -53,7 +54,7 @@ def directions(R, references) -> np.ndarray:
     return np.einsum("...ba,ib->...ia", R, v)
 
 
-def noisy_attitudes(R, sigma, rng) -> np.ndarray:
+def noisy_attitudes(R: ArrayLike, sigma: ArrayLike, rng: np.random.Generator) -> np.ndarray:
     """``R exp(ν)`` with ``ν ~ N(0, diag σ²)`` per sample (σ in rad, one number or per body axis).
 
     ``R (*B, 3, 3) -> (*B, 3, 3)``.
@@ -64,7 +65,7 @@ def noisy_attitudes(R, sigma, rng) -> np.ndarray:
     return R @ so3.exp(nu)
 
 
-def noisy_directions(R, references, sigma, rng) -> np.ndarray:
+def noisy_directions(R: ArrayLike, references: ArrayLike, sigma: ArrayLike, rng: np.random.Generator) -> np.ndarray:
     """``Rᵀ v_i + n_i`` with ``n_i ~ N(0, σ² I)``; ``sigma`` one number or one per direction ``(n,)``.
 
     ``R (*B, 3, 3) -> (*B, n, 3)``.

@@ -21,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.validation import as_vector3
 
@@ -61,17 +62,24 @@ class Torque:
         return cls("none")
 
     @classmethod
-    def constant(cls, tau) -> Torque:
+    def constant(cls, tau: ArrayLike) -> Torque:
         """A constant body torque."""
         return cls("constant", constant_term=as_vector3(tau, "torque"))
 
     @classmethod
-    def sinusoidal(cls, constant=(0.0, 0.0, 0.0), amplitudes=(), frequencies=(), phases=()) -> Torque:
+    def sinusoidal(
+        cls,
+        constant: ArrayLike = (0.0, 0.0, 0.0),
+        amplitudes: ArrayLike = (),
+        frequencies: ArrayLike = (),
+        phases: ArrayLike = (),
+    ) -> Torque:
         """``τ(t) = constant + Σ_j amplitudes[j] ∘ sin(frequencies[j] t + phases[j])``; amplitudes and phases
         ``(M, 3)`` (phases broadcast), frequencies ``(M,)`` in rad/s."""
         a = np.asarray(amplitudes, dtype=float).reshape(-1, 3)
-        p = np.zeros((a.shape[0], 3)) if np.size(phases) == 0 else phases
-        return cls("sinusoidal", constant_term=constant, amplitudes=a, frequencies=frequencies, phases=p)
+        p = np.zeros((a.shape[0], 3)) if np.size(phases) == 0 else np.asarray(phases, dtype=float)
+        c, f = np.asarray(constant, dtype=float), np.asarray(frequencies, dtype=float)  # as __post_init__ would
+        return cls("sinusoidal", constant_term=c, amplitudes=a, frequencies=f, phases=p)
 
     @classmethod
     def of_time(cls, func: Callable) -> Torque:
@@ -115,12 +123,13 @@ class Torque:
         self._require_data("the compiled engine")
         return self.constant_term, self.amplitudes, self.frequencies, self.phases
 
-    def __call__(self, t, R=None, omega=None) -> np.ndarray:
+    def __call__(self, t: float | np.ndarray, R: ArrayLike | None = None, omega: ArrayLike | None = None) -> np.ndarray:
         if self.is_data:
             t = np.asarray(t, dtype=float)
             terms = self.amplitudes * np.sin(self.frequencies[:, None] * t[..., None, None] + self.phases)
             return self.constant_term + terms.sum(axis=-2)
-        raw = self.func(t) if self.kind == "time" else self.func(t, R, omega)
+        func: Callable = self.func  # type: ignore[assignment]  # "time" and "state" carry one (__post_init__)
+        raw = func(t) if self.kind == "time" else func(t, R, omega)
         tau = np.asarray(raw, dtype=float)
         if tau.shape != (3,) or not np.all(np.isfinite(tau)):
             raise ValueError(f"the torque function must return 3 finite numbers; at t = {float(t)} it returned {raw!r}")
@@ -136,7 +145,7 @@ class Torque:
         return f"Torque.{'of_time' if self.kind == 'time' else 'of_state'}({self.func!r})"
 
 
-def as_torque(torque) -> Torque:
+def as_torque(torque: Torque | ArrayLike | None) -> Torque:
     """None → no torque, a 3-vector → constant, a :class:`Torque` → itself. A bare function is refused."""
     if torque is None:
         return Torque.none()
