@@ -4,8 +4,9 @@ The core is the continuous, globally exponential observer of I. Sarras, with the
 (see :mod:`omegahat.observer.continuous`).
 """
 
+from omegahat.io.frames import estimate_frame
 from omegahat.observer.gains import ObserverGains, check_gains, theorem_gains
 
 __version__ = "0.1.0"
 
-__all__ = ["ObserverGains", "__version__", "check_gains", "theorem_gains"]
+__all__ = ["ObserverGains", "__version__", "check_gains", "estimate_frame", "theorem_gains"]

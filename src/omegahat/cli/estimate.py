@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from omegahat.io import read_log, write_omega_csv
+from omegahat.cli import recording_options
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.tuning import bandwidth_gains
@@ -62,8 +62,8 @@ def _directions(text: str) -> list[list[float]]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("input", type=Path, metavar="INPUT", help="attitude log, .csv or .npz")
-    parser.add_argument("-o", "--output", type=Path, required=True, help="output CSV (t,wx,wy,wz)")
+    parser.add_argument("input", type=Path, metavar="INPUT", help=recording_options.INPUT_HELP)
+    parser.add_argument("-o", "--output", type=Path, required=True, help="output: .csv (t,wx,wy,wz); for a bag input also .bag (ROS 1) or a name without extension (ROS 2)")
     parser.add_argument(
         "--inertia",
         type=float,
@@ -111,6 +111,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"always show a progress bar (default: from {PROGRESS_MIN_SAMPLES} samples on)",
     )
     bar.add_argument("--no-progress", dest="progress", action="store_false", help="never show one")
+    recording_options.add_arguments(parser)  # bags, Motive/Vicon/C3D exports: omegahat.io (issue 15)
 
 
 def _per_direction(values, n: int, name: str) -> np.ndarray:
@@ -168,7 +169,8 @@ def run(args) -> int:
             bar.n = done
             bar.refresh()
 
-        log = read_log(args.input, progress=progress)
+        recording = recording_options.read_input(args, progress=progress)
+    log = recording.log
     J = np.eye(3) if args.inertia is None else as_inertia(np.array(args.inertia), name="--inertia")
     references = _references(args, log)
     gains = _gains(args, J, references)
@@ -188,7 +190,7 @@ def run(args) -> int:
                 tau = None if log.torque is None else log.torque[a:b]
                 W[a:b] = estimator.run(log.t[a:b], log.data[a:b], tau)
                 bar.update(b - a)
-    write_omega_csv(args.output, log.t, W)
+    recording_options.write_output(args, recording, W)
     skipped = estimator.n_missing + estimator.n_collinear
     k_text = np.array2string(gains.k, precision=4)
     l_text = np.array2string(gains.l_offset, precision=4)
