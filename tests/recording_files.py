@@ -107,9 +107,7 @@ def write_vicon_csv(path, frames, rate, objects: dict, *, unit="deg", title="Seg
         labels.append("RX,RY,RZ,TX,TY,TZ")
         units.append(",".join([unit] * 3 + ["mm"] * 3))
     lines = [title, f"{rate:g}", "".join(names), ",".join(labels), ",".join(units)]
-    rotvecs = {
-        name: Rotation.from_matrix(R).as_rotvec(degrees=(unit == "deg")) for name, R in objects.items()
-    }
+    rotvecs = {name: Rotation.from_matrix(R).as_rotvec(degrees=(unit == "deg")) for name, R in objects.items()}
     for k, frame in enumerate(frames):
         row = [str(int(frame)), "0"]
         for name in objects:

@@ -63,7 +63,13 @@ def _directions(text: str) -> list[list[float]]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("input", type=Path, metavar="INPUT", help=recording_options.INPUT_HELP)
-    parser.add_argument("-o", "--output", type=Path, required=True, help="output: .csv (t,wx,wy,wz); for a bag input also .bag (ROS 1) or a name without extension (ROS 2)")
+    parser.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        help="output: .csv (t,wx,wy,wz); for a bag input also .bag (ROS 1) or a name without extension (ROS 2)",
+    )
     parser.add_argument(
         "--inertia",
         type=float,

@@ -37,7 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="header",
         help="bag time: the messages' header stamps (default) or the time the recorder received them",
     )
-    g.add_argument("--body", metavar="NAME", help="rigid body / object / segment to read from a Motive, Vicon or C3D file")
+    g.add_argument(
+        "--body", metavar="NAME", help="rigid body / object / segment to read from a Motive, Vicon or C3D file"
+    )
     g.add_argument(
         "--output-topic",
         metavar="TOPIC",

@@ -108,7 +108,7 @@ def _float_times(values: np.ndarray, name: str) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
         k = int(bad[0])
-        raise LogFormatError(f"DataFrame, row {k}, column {name}: time {values[k]!r} is not a finite number")
+        raise LogFormatError(f"DataFrame, row {k}, column {name}: time {float(values[k])!r} is not a finite number")
     return values
 
 

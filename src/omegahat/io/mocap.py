@@ -92,13 +92,13 @@ def _number(field: str, path: str, line: int, column: str) -> float:
         raise LogFormatError(f"{path}, line {line}, column {column}: {field!r} is not a number") from None
 
 
-def _choose(names: list[str], body: str | None, path: str, what: str) -> str:
+def _choose(names: list[str], body: str | None, path: str, what: str, plural: str) -> str:
     if not names:
         raise LogFormatError(f"{path}: no {what} with a rotation found")
     if body is None:
         if len(names) > 1:
             raise LogFormatError(
-                f"{path}: {len(names)} {what}s with rotations ({', '.join(names)}); choose one with --body NAME "
+                f"{path}: {len(names)} {plural} with rotations ({', '.join(names)}); choose one with --body NAME "
                 "(body= in Python)"
             )
         return names[0]
@@ -158,7 +158,7 @@ def read_motive_csv(path, body: str | None = None) -> Recording:
             f"{path}: no rigid body with quaternion columns X,Y,Z,W (column types found: {', '.join(found) or 'none'})"
             "; omegahat needs rigid-body rotations: define a rigid body in Motive and export it"
         )
-    name = _choose(complete, body, path, "rigid body")
+    name = _choose(complete, body, path, "rigid body", "rigid bodies")
     cols = [bodies[name][a] for a in "XYZW"]
     ids = header.get("ID", (0, []))[1]
     body_id = cell(ids, cols[0])
@@ -270,7 +270,7 @@ def read_vicon_csv(path, body: str | None = None) -> Recording:
             "rotation: export the 'Segments' section from Nexus (a subject with segments), or the objects' "
             "rotations from Tracker"
         )
-    name = _choose([c[1] for c in candidates], body, path, "object/segment")
+    name = _choose([c[1] for c in candidates], body, path, "object/segment", "objects/segments")
     sec, _, cols = next(c for c in candidates if c[1] == name)
     units_row = rows[sec["labels"] + 1]
     unit = units_row[cols["RX"]] if cols["RX"] < len(units_row) else ""

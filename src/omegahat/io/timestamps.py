@@ -49,13 +49,13 @@ class TidyResult:
     keep: np.ndarray
     source_of: np.ndarray
     n_duplicates: int
-    n_reordered: int
+    n_reordered: int  #: samples that came after one with a later time (late arrivals)
 
     def notes(self) -> list[str]:
         """Human-readable lines for what was changed (empty when nothing was)."""
         out = []
         if self.n_reordered:
-            out.append(f"sorted {self.n_reordered} sample(s) that arrived out of time order")
+            out.append(f"{self.n_reordered} sample(s) arrived after a later-stamped one: sorted by time")
         if self.n_duplicates:
             out.append(f"dropped {self.n_duplicates} duplicated sample(s) (same time, same attitude)")
         return out
@@ -113,7 +113,7 @@ def tidy_samples(
             raise LogFormatError(f"{label(int(bad[0]))}: time {float(times[bad[0]])!r} is not finite")
     if sort:
         order = np.argsort(times, kind="stable")
-        n_reordered = int(np.count_nonzero(order != np.arange(T)))
+        n_reordered = int(np.count_nonzero(times[1:] < np.maximum.accumulate(times)[:-1]))  # late arrivals
     else:
         back = np.flatnonzero(np.diff(times) < 0)
         if back.size:
