@@ -7,13 +7,13 @@ import numpy as np
 import pandas as pd
 import polars as pl
 import pytest
-from recording_files import J_AXI, flip_signs, torque_free_axisymmetric
 from scipy.spatial.transform import Rotation
 
 import omegahat
 from omegahat.io import LogFormatError
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.tuning import bandwidth_gains
+from recording_files import J_AXI, flip_signs, torque_free_axisymmetric
 
 N = 200
 RATE = 100.0

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from recording_files import J_AXI, flip_signs, torque_free_axisymmetric, write_motive_csv, write_vicon_csv
 from scipy.spatial.transform import Rotation
 
 from omegahat.cli import main
 from omegahat.io import LogFormatError, detect_format, read_recording
+from recording_files import J_AXI, flip_signs, torque_free_axisymmetric, write_motive_csv, write_vicon_csv
 
 RATE = 120.0
 CLI = ["--inertia", "1", "1", "1.6", "--bandwidth", "30", "--no-progress"]

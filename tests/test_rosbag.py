@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from recording_files import J_AXI, flip_signs, read_twist_bag, torque_free_axisymmetric, write_bag
 from scipy.spatial.transform import Rotation
 
 from omegahat.cli import main
 from omegahat.io import LogFormatError, detect_format, read_recording, write_estimates
+from recording_files import J_AXI, flip_signs, read_twist_bag, torque_free_axisymmetric, write_bag
 
 T0_NS = 1_700_000_000_123_456_789  # a realistic epoch stamp (float seconds would round it)
 RATE = 100.0

@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from recording_files import J_AXI, noisy, torque_free_axisymmetric
 from scipy.spatial.transform import Rotation
 
 from omegahat import estimate_frame
 from omegahat.io import LogFormatError, tidy_samples
 from omegahat.observer.tuning import predicted_noise_std, sensor_gains
+from recording_files import J_AXI, noisy, torque_free_axisymmetric
 
 
 def label(k):
