@@ -150,7 +150,8 @@ def tidy_samples(
         if differs or torque_differs:
             what = _angle_text(kind, rows[kept], rows[pos]) if differs else "different torques"
             raise LogFormatError(
-                f"{label(int(a))} and {label(int(b))}: two samples at the same time {_time_text(times[a])} with {what}. "
+                f"{label(int(a))} and {label(int(b))}: two samples at the same time {_time_text(times[a])} "
+                f"with {what}. "
                 "Duplicated timestamps must carry the same attitude (omegahat drops those); conflicting ones "
                 "mean a broken time source: fix the time column (for a ROS bag, try the receive time: "
                 "--stamp receive)"
