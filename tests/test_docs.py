@@ -73,7 +73,8 @@ def test_site_builds_strictly_with_the_generated_references(tmp_path):
     ):
         assert f'id="{name}"' in api, name  # rendered from the docstrings
     tutorial = (site / "tutorials" / "spacecraft" / "index.html").read_text()
-    assert "sensor_gains" in tutorial and "predicted_noise_std" in tutorial  # the script itself is on the page
+    assert "classical Runge-Kutta, 4 steps per fix" in tutorial  # the script itself is on the page (a comment of it)
+    assert 'tutorials/spacecraft.py"' not in tutorial  # not the include directive left unexpanded
     assert "predicted noise per axis" in tutorial  # and so is its output
     assert (site / "img" / "fig1_omega.png").is_file()
 
