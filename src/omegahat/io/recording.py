@@ -10,7 +10,7 @@ ROS bags, the stamps and frame names needed to write the result back as messages
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,7 +50,6 @@ class Recording:
     t0: float = 0.0
     bag: BagStamps | None = None
     format: str = ""
-    extra: dict = field(default_factory=dict)
 
     @property
     def absolute_times(self) -> np.ndarray:

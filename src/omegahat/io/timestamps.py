@@ -32,7 +32,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from omegahat import so3
 from omegahat.io.logs import LogFormatError
 
 __all__ = ["DUPLICATE_TOL", "TidyResult", "tidy_samples"]
@@ -65,6 +64,8 @@ def _comparable(kind: str, data: np.ndarray) -> np.ndarray:
     """Flat rows in which two equal attitudes are equal: matrices for quaternions (q ≡ −q), else the data."""
     T = data.shape[0]
     if kind == "quaternion":
+        from omegahat import so3  # compiled kernels: imported only when duplicates need comparing
+
         with np.errstate(invalid="ignore", divide="ignore"):
             return so3.from_quat(data).reshape(T, 9)
     return np.asarray(data, dtype=float).reshape(T, -1)
