@@ -222,6 +222,13 @@ def write_bag(path, version, topics: dict, *, receive_delay_ns=2_000_000):
     return path
 
 
+def read_omega_csv(path):
+    """``(table (T, 4) of t, wx, wy, wz; status words (T,))`` of an ``omegahat estimate`` CSV output."""
+    table = np.loadtxt(path, delimiter=",", skiprows=1, usecols=(0, 1, 2, 3), ndmin=2)
+    status = np.loadtxt(path, delimiter=",", skiprows=1, usecols=4, dtype=str, ndmin=1)
+    return table, status
+
+
 def read_twist_bag(path):
     """``(topic, header stamps ns, receive ns, frame_ids, angular (T, 3), linear (T, 3))`` from a bag, read
     with rosbags directly."""

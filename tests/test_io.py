@@ -92,9 +92,12 @@ def test_whitespace_around_names_and_values(tmp_path):
         ("t,qw,qx,qy,qz,r11\n", r"attitude given more than one way \(quaternion and matrix\)"),
         (
             "t,qw,qx,qy,qz\n0,1,0,0,0\n0.2,1,0,0,0\n0.1,1,0,0,0\n",
-            r"line 4, column t: time 0\.1 is not after 0\.2 \(line 3\); times must increase strictly",
+            r"line 4, column t: time 0\.1 is not after 0\.2 \(line 3\); times must increase",
         ),
-        ("t,qw,qx,qy,qz\n0,1,0,0,0\n0,1,0,0,0\n", r"line 3, column t: time 0\.0 is not after 0\.0 \(line 2\)"),
+        (  # equal times with the same attitude are one sample (omegahat.io.timestamps); with different ones, an error
+            "t,qw,qx,qy,qz\n0,1,0,0,0\n0,0,1,0,0\n",
+            r"log\.csv, line 2 and line 3: two samples at the same time 0\.0 with attitudes 180° apart",
+        ),
         ("t,qw,qx,qy,qz\n0,1,0,0,0\n,1,0,0,0\n", r"line 3, column t: empty time"),
         ("t,qw,qx,qy,qz\nnan,1,0,0,0\n", r"line 2, column t: time nan is not finite"),
         ("time,qw,qx,qy,qz\n0,1,0,0,0\n", r"no time column 't' \(found: time, qw, qx, qy, qz\)"),
@@ -195,7 +198,9 @@ def test_not_an_npz_and_unknown_extension(tmp_path):
     p = write(tmp_path, "hello", "x.npz")
     with pytest.raises(LogFormatError, match=r"x\.npz: not a readable \.npz file"):
         read_log(p)
-    with pytest.raises(LogFormatError, match=r"unknown log format '\.txt'; use \.csv or \.npz"):
+    with pytest.raises(
+        LogFormatError, match=r"unknown log format '\.txt'; use \.bag or \.c3d or \.csv or \.db3 or \.mcap or \.npz"
+    ):
         read_log(write(tmp_path, "t\n", "x.txt"))
 
 

@@ -8,7 +8,8 @@ as invalid and read as a missing sample.
 
 Time is ``(first_frame + i) / rate`` with the rotations' rate. A file with markers only (no ``ROTATION`` data)
 is refused with a message saying what is needed: the rotations themselves; omegahat does not fit rigid bodies to
-markers. Timestamps follow :mod:`omegahat.io.timestamps`.
+markers. ``ReadOptions.body`` (``--body``) names the body, optional when there is one. The stream is labelled by
+frame number, so the timestamp policy (:mod:`omegahat.io.timestamps`) names frames.
 """
 
 from __future__ import annotations
@@ -17,10 +18,11 @@ import os
 
 import numpy as np
 
-from omegahat.io.logs import LogFormatError
-from omegahat.io.recording import Recording, build_recording
+from omegahat.io.columns import LogFormatError
+from omegahat.io.mocap import choose_body
+from omegahat.io.registry import LogStream, ReadOptions
 
-__all__ = ["read_c3d"]
+__all__ = ["open_c3d"]
 
 
 def _ezc3d():
@@ -38,10 +40,11 @@ def _value(group: dict, name: str, default=None):
     return entry["value"]
 
 
-def read_c3d(path, body: str | None = None) -> Recording:
-    """Read one rigid body's rotations from a C3D file (module docstring); ``body`` names it (a label of the
+def open_c3d(path, options: ReadOptions) -> LogStream:
+    """One rigid body's rotations from a C3D file (module docstring); ``options.body`` names it (a label of the
     ``ROTATION`` group), optional when there is one."""
     path = os.fspath(path)
+    body = options.body
     ezc3d = _ezc3d()
     try:
         c = ezc3d.c3d(path)
@@ -63,19 +66,7 @@ def read_c3d(path, body: str | None = None) -> Recording:
     labels = [str(x) for x in (_value(group, "LABELS", []) or [])]
     if len(labels) != rot.shape[2]:
         labels = [f"rotation {i + 1}" for i in range(rot.shape[2])]
-    if body is None:
-        if len(labels) > 1:
-            raise LogFormatError(
-                f"{path}: {len(labels)} rigid bodies with rotations ({', '.join(labels)}); choose one with --body NAME"
-            )
-        index = 0
-    else:
-        matches = [i for i, n in enumerate(labels) if n == body] or [
-            i for i, n in enumerate(labels) if n.casefold() == body.casefold()
-        ]
-        if len(matches) != 1:
-            raise LogFormatError(f"{path}: no rigid body named {body!r}; the file has {', '.join(labels)}")
-        index = matches[0]
+    index = labels.index(choose_body(labels, body, path, "rigid body", "rigid bodies"))
     header = c["header"]["rotations"]
     rate = float(header.get("frame_rate", 0.0))
     if not rate > 0:
@@ -91,14 +82,6 @@ def read_c3d(path, body: str | None = None) -> Recording:
         f"C3D file: rigid body {labels[index]!r} from the ROTATION group ({rot.shape[2]} bodies), "
         f"{T} frames at {rate:g} Hz, 3x3 rotation blocks (body to laboratory)"
     )
-    rec, _ = build_recording(
-        frames / rate,
-        "matrix",
-        R,
-        source=path,
-        description=description,
-        label=lambda k: f"{path}, frame {frames[k]}",
-        sort=False,
-        format="c3d",
+    return LogStream.from_arrays(
+        path, "matrix", frames / rate, R, labels=frames, label="frame", description=description, time_name=None
     )
-    return rec

@@ -19,11 +19,14 @@ converted here with the exponential map; its wrap-around at 180° changes the ve
 causes no spike. Time is ``Frame / rate`` (frame numbers may skip: dropped frames). A file with marker
 trajectories only is refused with a message saying which export holds rotations.
 
-**Selection.** ``body`` names the rigid body (Motive) or object/segment (Vicon); with a single one it may be
-omitted, with several the error lists them. Detection (:func:`sniff_csv`) looks only at the first lines:
-``Format Version`` first → Motive; a one-word title line, a number, then a ``Frame,Sub Frame`` row → Vicon;
-anything else is omegahat's own CSV (:mod:`omegahat.io.logs`). Every error names the file, the line and the column.
-Timestamps follow :mod:`omegahat.io.timestamps` (rows in time order; exact duplicates dropped; conflicts refused).
+**Selection.** ``ReadOptions.body`` (``--body``) names the rigid body (Motive) or object/segment (Vicon); with a
+single one it may be omitted, with several the error lists them. Detection looks only at the first lines
+(:func:`is_motive`, :func:`is_vicon`, the sniffers registered for ``.csv`` in :mod:`omegahat.io`): ``Format
+Version`` first → Motive; a one-word title line, a number, then a ``Frame,Sub Frame`` row → Vicon; anything else
+is omegahat's own CSV (:mod:`omegahat.io.csvlog`). Every error names the file, the line and the column. The
+openers return a :class:`~omegahat.io.registry.LogStream` labelled by line, so the timestamp policy
+(:mod:`omegahat.io.timestamps`: rows in time order; exact duplicates dropped; conflicts refused) names lines too.
+These exports are read whole with Python's :mod:`csv` (a take of minutes at a few hundred Hz is a few MB).
 """
 
 from __future__ import annotations
@@ -33,11 +36,10 @@ import os
 
 import numpy as np
 
-from omegahat import so3
-from omegahat.io.logs import LogFormatError
-from omegahat.io.recording import Recording, build_recording
+from omegahat.io.columns import LogFormatError
+from omegahat.io.registry import LogStream, ReadOptions
 
-__all__ = ["read_motive_csv", "read_vicon_csv", "sniff_csv"]
+__all__ = ["choose_body", "is_motive", "is_vicon", "open_motive_csv", "open_vicon_csv"]
 
 _SNIFF_LINES = 12
 
@@ -58,9 +60,7 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def sniff_csv(path) -> str:
-    """``"motive"``, ``"vicon"`` or ``"log"`` (omegahat's own columns) from the first lines of a CSV file."""
-    path = os.fspath(path)
+def _head(path: str) -> list[list[str]]:
     head: list[list[str]] = []
     try:
         with open(path, newline="", encoding="utf-8-sig", errors="replace") as f:
@@ -68,21 +68,33 @@ def sniff_csv(path) -> str:
                 head.append([x.strip() for x in row])
                 if len(head) >= _SNIFF_LINES:
                     break
-    except OSError:
-        return "log"  # the log reader reports the problem
-    if head and head[0] and head[0][0] == "Format Version":
-        return "motive"
-    for i in range(len(head) - 3):
-        title = [x for x in head[i] if x]
-        if (
-            len(title) == 1
-            and not _is_number(title[0])
-            and head[i + 1][:1]
-            and _is_number(head[i + 1][0])
-            and head[i + 3][:2] == ["Frame", "Sub Frame"]
-        ):
-            return "vicon"
-    return "log"
+    except (OSError, csv.Error):
+        return []  # the plain CSV reader reports the problem
+    return head
+
+
+def is_motive(path) -> bool:
+    """Whether a CSV file is a Motive export: its first field is ``Format Version``."""
+    head = _head(os.fspath(path))
+    return bool(head and head[0] and head[0][0] == "Format Version")
+
+
+def _vicon_title(rows: list[list[str]], i: int) -> bool:
+    """Whether a Vicon section starts at row ``i``: a one-word title, a rate, names, then ``Frame,Sub Frame``."""
+    title = [x for x in rows[i] if x]
+    return (
+        len(title) == 1
+        and not _is_number(title[0])
+        and bool(rows[i + 1][:1])
+        and _is_number(rows[i + 1][0])
+        and rows[i + 3][:2] == ["Frame", "Sub Frame"]
+    )
+
+
+def is_vicon(path) -> bool:
+    """Whether a CSV file is a Vicon export: a section title, a rate, names, then ``Frame,Sub Frame``."""
+    head = _head(os.fspath(path))
+    return any(_vicon_title(head, i) for i in range(len(head) - 3))
 
 
 def _number(field: str, path: str, line: int, column: str) -> float:
@@ -92,7 +104,9 @@ def _number(field: str, path: str, line: int, column: str) -> float:
         raise LogFormatError(f"{path}, line {line}, column {column}: {field!r} is not a number") from None
 
 
-def _choose(names: list[str], body: str | None, path: str, what: str, plural: str) -> str:
+def choose_body(names: list[str], body: str | None, path: str, what: str, plural: str) -> str:
+    """The name in ``names`` that ``body`` selects (exact, else ignoring case; optional when there is one name);
+    the errors list the names."""
     if not names:
         raise LogFormatError(f"{path}: no {what} with a rotation found")
     if body is None:
@@ -113,9 +127,10 @@ def _choose(names: list[str], body: str | None, path: str, what: str, plural: st
 # ---------------------------------------------------------------------------------------------------- Motive
 
 
-def read_motive_csv(path, body: str | None = None) -> Recording:
-    """Read one rigid body's attitude from an OptiTrack Motive CSV export (module docstring)."""
+def open_motive_csv(path, options: ReadOptions) -> LogStream:
+    """One rigid body's attitude from an OptiTrack Motive CSV export (module docstring)."""
     path = os.fspath(path)
+    body = options.body
     rows = _rows(path)
     meta_row = rows[0] if rows else []
     if not meta_row or meta_row[0] != "Format Version":
@@ -158,7 +173,7 @@ def read_motive_csv(path, body: str | None = None) -> Recording:
             f"{path}: no rigid body with quaternion columns X,Y,Z,W (column types found: {', '.join(found) or 'none'})"
             "; omegahat needs rigid-body rotations: define a rigid body in Motive and export it"
         )
-    name = _choose(complete, body, path, "rigid body", "rigid bodies")
+    name = choose_body(complete, body, path, "rigid body", "rigid bodies")
     cols = [bodies[name][a] for a in "XYZW"]
     ids = header.get("ID", (0, []))[1]
     body_id = cell(ids, cols[0])
@@ -187,21 +202,28 @@ def read_motive_csv(path, body: str | None = None) -> Recording:
         + f", quaternions X,Y,Z,W (scalar last), time from column {axes[time_col]!r}, {len(times)} frames"
         + (f" at {float(meta['Export Frame Rate']):g} Hz" if _is_number(meta.get("Export Frame Rate", "")) else "")
     )
-    notes = ()
-    if len(complete) > 1:
-        notes = (f"other rigid bodies in the file: {', '.join(n for n in complete if n != name)}",)
-    rec, _ = build_recording(
-        np.array(times),
-        "quaternion",
-        np.array(quats, dtype=float),
-        source=path,
-        description=description,
-        label=lambda k: f"{path}, line {lines[k]}",
-        sort=False,
-        format="motive",
-        notes=notes,
+    notes = (
+        [f"other rigid bodies in the file: {', '.join(n for n in complete if n != name)}"] if len(complete) > 1 else []
     )
-    return rec
+    return _stream(path, "quaternion", times, quats, lines, description, notes, axes[time_col], f"{name} Rotation")
+
+
+def _stream(path, kind, times, data, lines, description, notes, time_name, attitude_name) -> LogStream:
+    size = os.path.getsize(path)
+    return LogStream.from_arrays(
+        path,
+        kind,
+        np.asarray(times, dtype=float),
+        np.asarray(data, dtype=float),
+        labels=np.asarray(lines),
+        label="line",
+        size=size,
+        done=size,
+        description=description,
+        notes=notes,
+        time_name=time_name,
+        attitude_name=attitude_name,
+    )
 
 
 # ---------------------------------------------------------------------------------------------------- Vicon
@@ -212,14 +234,8 @@ def _vicon_sections(rows: list[list[str]], path: str) -> list[dict]:
     sections = []
     i = 0
     while i < len(rows) - 4:
-        title = [x for x in rows[i] if x]
-        if (
-            len(title) == 1
-            and not _is_number(title[0])
-            and rows[i + 1][:1]
-            and _is_number(rows[i + 1][0])
-            and rows[i + 3][:2] == ["Frame", "Sub Frame"]
-        ):
+        if _vicon_title(rows, i):
+            title = [x for x in rows[i] if x]
             start = i + 5
             end = start
             while end < len(rows) and any(rows[end]):
@@ -251,9 +267,10 @@ def _vicon_objects(rows, sec) -> dict[str, dict[str, int]]:
     return objects
 
 
-def read_vicon_csv(path, body: str | None = None) -> Recording:
-    """Read one object's or segment's attitude from a Vicon Nexus or Tracker CSV export (module docstring)."""
+def open_vicon_csv(path, options: ReadOptions) -> LogStream:
+    """One object's or segment's attitude from a Vicon Nexus or Tracker CSV export (module docstring)."""
     path = os.fspath(path)
+    body = options.body
     rows = _rows(path)
     sections = _vicon_sections(rows, path)
     if not sections:
@@ -270,7 +287,7 @@ def read_vicon_csv(path, body: str | None = None) -> Recording:
             "rotation: export the 'Segments' section from Nexus (a subject with segments), or the objects' "
             "rotations from Tracker"
         )
-    name = _choose([c[1] for c in candidates], body, path, "object/segment", "objects/segments")
+    name = choose_body([c[1] for c in candidates], body, path, "object/segment", "objects/segments")
     sec, _, cols = next(c for c in candidates if c[1] == name)
     units_row = rows[sec["labels"] + 1]
     unit = units_row[cols["RX"]] if cols["RX"] < len(units_row) else ""
@@ -306,21 +323,13 @@ def read_vicon_csv(path, body: str | None = None) -> Recording:
         raise LogFormatError(f"{path}, line {start}: the {sec['title']} section has no data rows")
     frames = np.array(frames)
     rotvec = np.array(vecs) * scale
-    with np.errstate(invalid="ignore"):
-        R = so3.exp(np.nan_to_num(rotvec))
-    R[~np.all(np.isfinite(rotvec), axis=1)] = np.nan
+    from scipy.spatial.transform import Rotation  # SciPy's transforms load in 0.1 s: only for Vicon files
+
+    valid = np.all(np.isfinite(rotvec), axis=1)
+    R = np.full((frames.size, 3, 3), np.nan)
+    R[valid] = Rotation.from_rotvec(rotvec[valid]).as_matrix()
     description = (
         f"Vicon CSV, section {sec['title']!r} at {rate:g} Hz: {name!r}, helical angles RX,RY,RZ in {unit} "
         f"(rotation vector into the global frame), time = Frame / {rate:g}, {frames.size} frames"
     )
-    rec, _ = build_recording(
-        frames / rate,
-        "matrix",
-        R,
-        source=path,
-        description=description,
-        label=lambda k: f"{path}, line {lines[k]}",
-        sort=False,
-        format="vicon",
-    )
-    return rec
+    return _stream(path, "matrix", frames / rate, R, lines, description, [], None, f"{name} RX,RY,RZ")

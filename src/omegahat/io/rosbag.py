@@ -23,17 +23,20 @@ omegahat's ``R`` (body → inertial), so the estimate is the body's rate **in th
 ``Imu`` whose ``orientation_covariance[0]`` is ``−1`` carries no orientation (REP 145) and is refused.
 
 Times are the messages' **header stamps** (the time of capture, which network delivery does not delay) unless
-``stamp="receive"`` (the time the recorder received the message), which helps when a driver leaves the header
-stamp at zero. Stamps are integer nanoseconds: the log's times are seconds since the first stamp (as floats since
-1970 they would be rounded to 0.24 µs). Messages are sorted by stamp and duplicates handled as
-:mod:`omegahat.io.timestamps` says.
+``ReadOptions.stamp`` is ``"receive"`` (``--stamp receive``: the time the recorder received the message), which
+helps when a driver leaves the header stamp at zero. Stamps are integer nanoseconds: the stream's times are
+seconds since the first stamp (``LogStream.t0``; as floats since 1970 they would be rounded to 0.24 µs), and the
+stamps themselves travel with each row (``LogChunk.extra``) to the output. Messages are sorted by stamp
+(:func:`omegahat.io.timestamps.sort_by_time`); duplicates are handled by the timestamp policy of
+:func:`omegahat.io.registry.open_log`, which names messages by their index in the bag.
 
-**Output** (:func:`write_twist_bag`): ``geometry_msgs/TwistStamped`` on one topic (default ``/omegahat/twist``),
-one message per estimate, ``twist.angular`` the body-frame rate in rad/s, ``header.frame_id`` the body frame,
-``header.stamp`` copied from the input message the estimate belongs to, recorded at that message's receive time;
-``twist.linear`` is NaN (not estimated). A ``.bag`` path gives a ROS 1 bag, any other path a ROS 2 bag directory
-(SQLite storage). The bag is written under a temporary name beside the target and renamed when complete, so the
-output is whole or absent; an existing output is never overwritten.
+**Output** (:class:`TwistBagWriter`): ``geometry_msgs/TwistStamped`` on one topic (default ``/omegahat/twist``),
+one message per estimate, ``twist.angular`` the body-frame rate in rad/s (NaN where no estimate exists yet),
+``header.frame_id`` the body frame, ``header.stamp`` copied from the input message the estimate belongs to,
+recorded at that message's receive time; ``twist.linear`` is NaN (not estimated). A ``.bag`` path gives a ROS 1
+bag, a name without extension a ROS 2 bag directory (SQLite storage). The bag is written under a temporary name
+beside the target and renamed when complete, so the output is whole or absent; an existing output is never
+overwritten (a ROS 2 bag is a directory, which cannot be replaced atomically).
 """
 
 from __future__ import annotations
@@ -45,10 +48,12 @@ from pathlib import Path
 
 import numpy as np
 
-from omegahat.io.logs import LogFormatError
-from omegahat.io.recording import BagStamps, Recording, build_recording
+from omegahat.io.columns import LogFormatError
+from omegahat.io.output import AtomicOutput
+from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.timestamps import sort_by_time
 
-__all__ = ["DEFAULT_TWIST_TOPIC", "SUPPORTED_TYPES", "bag_path", "read_bag", "write_twist_bag"]
+__all__ = ["DEFAULT_TWIST_TOPIC", "SUPPORTED_TYPES", "TwistBagWriter", "bag_path", "is_ros2_bag", "open_bag"]
 
 DEFAULT_TWIST_TOPIC = "/omegahat/twist"
 
@@ -83,6 +88,12 @@ def bag_path(path) -> Path | None:
     if p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").is_file():
         return p.parent
     return None
+
+
+def is_ros2_bag(path) -> bool:
+    """Whether ``path`` is a ROS 2 bag: a directory with ``metadata.yaml``, or its ``.db3``/``.mcap`` storage."""
+    p = bag_path(path)
+    return p is not None and p.is_dir()
 
 
 def _frame(name: str | None) -> str | None:
@@ -141,27 +152,19 @@ def _describe_topics(connections) -> str:
     return ", ".join(f"{t} ({m.replace('/msg/', '/')})" for t, m in sorted(seen.items()))
 
 
-def read_bag(
-    path,
-    topic: str | None = None,
-    *,
-    parent_frame: str | None = None,
-    child_frame: str | None = None,
-    stamp: str = "header",
-) -> Recording:
-    """Read the orientation on ``topic`` from a ROS 1 or ROS 2 bag (module docstring).
+def open_bag(path, options: ReadOptions) -> LogStream:
+    """The orientation on ``options.topic`` in a ROS 1 or ROS 2 bag (module docstring).
 
-    ``topic`` may be omitted when one topic has a supported type. For ``/tf`` (``tf2_msgs/TFMessage``) and
-    other transform topics, ``parent_frame`` and ``child_frame`` select the transform (needed when several are
-    present; the error lists them). ``stamp``: ``"header"`` (default) or ``"receive"``. Raises
-    :class:`~omegahat.io.LogFormatError` naming the bag, topic and message.
+    The topic may be omitted when one topic has a supported type. For ``/tf`` (``tf2_msgs/TFMessage``) and
+    other transform topics, ``options.parent_frame`` and ``child_frame`` select the transform (needed when several
+    are present; the error lists them). Raises :class:`~omegahat.io.LogFormatError` naming the bag, topic and
+    message. The whole topic is read now (to sort it by stamp) and handed on in chunks.
     """
     _rosbags()
     from rosbags.highlevel import AnyReader, AnyReaderError
     from rosbags.typesys import Stores, get_typestore
 
-    if stamp not in ("header", "receive"):
-        raise ValueError(f"stamp must be 'header' or 'receive'; got {stamp!r}")
+    topic, parent_frame, child_frame, stamp = options.topic, options.parent_frame, options.child_frame, options.stamp
     p = bag_path(path)
     if p is None:
         raise LogFormatError(
@@ -237,6 +240,8 @@ def read_bag(
             "receive time instead: --stamp receive (stamp='receive' in Python)"
         )
     times = header_ns if stamp == "header" else receive_ns
+    order, n_late = sort_by_time(times)
+    times = times[order]
     version = 2 if p.is_dir() else 1
     frames = f"{parent} -> {child}" if parent and child else (f"frame {child or parent}" if child or parent else "")
     description = (
@@ -244,24 +249,33 @@ def read_bag(
         + (f", {frames}" if frames else "")
         + f"), {idx.size} orientations, quaternions x,y,z,w, time = {stamp} stamps"
     )
-    rec, tidy = build_recording(
-        times,
+    notes = [f"{n_late} message(s) arrived after a later-stamped one: sorted by time"] if n_late else []
+    base = int(times[0])
+    return LogStream.from_arrays(
+        os.fspath(p),
         "quaternion",
-        q,
-        source=os.fspath(p),
+        (times - base).astype(np.float64) * 1e-9,
+        q[order],
+        labels=msg_index[order],
+        extra={"header_ns": header_ns[order], "receive_ns": receive_ns[order]},
+        label="message",
+        context=f", topic {topic}",
+        time_name=None,
+        t0=base * 1e-9,
         description=description,
-        label=lambda k: f"{p}, topic {topic}, message {msg_index[k]}",
-        sort=True,
-        format=f"rosbag{version}",
+        notes=notes,
+        meta={"topic": topic, "parent": parent, "child": child, "ros_version": version},
+        attitude_name="orientation",
     )
-    bag = BagStamps(header_ns[tidy.keep], receive_ns[tidy.keep], parent, child, topic, version)
-    return Recording(rec.log, rec.description, rec.notes, rec.tidy, rec.t0, bag, rec.format)
 
 
 # --------------------------------------------------------------------------------------------------- output
 
 
-def _twist_messages(typestore, header_ns, omega, frame_id: str, ros_version: int):
+_TWIST = "geometry_msgs/msg/TwistStamped"
+
+
+def _twist_messages(typestore, header_ns, omega, frame_id: str, ros_version: int, first_seq: int = 0):
     Time = typestore.types["builtin_interfaces/msg/Time"]
     Header = typestore.types["std_msgs/msg/Header"]
     Vector3 = typestore.types["geometry_msgs/msg/Vector3"]
@@ -272,7 +286,7 @@ def _twist_messages(typestore, header_ns, omega, frame_id: str, ros_version: int
         sec, nsec = divmod(int(header_ns[k]), 1_000_000_000)
         stamp = Time(sec=sec, nanosec=nsec)
         header = (
-            Header(seq=k, stamp=stamp, frame_id=frame_id)
+            Header(seq=first_seq + k, stamp=stamp, frame_id=frame_id)
             if ros_version == 1
             else Header(stamp=stamp, frame_id=frame_id)
         )
@@ -282,62 +296,65 @@ def _twist_messages(typestore, header_ns, omega, frame_id: str, ros_version: int
         )
 
 
-def write_twist_bag(
-    path,
-    header_ns,
-    receive_ns,
-    omega,
-    *,
-    frame_id: str,
-    topic: str = DEFAULT_TWIST_TOPIC,
-) -> Path:
-    """Write ``geometry_msgs/TwistStamped`` messages (module docstring): ``header_ns (T,)`` the stamps to copy,
-    ``receive_ns (T,)`` the record times, ``omega (T, 3)`` rad/s in the body frame named ``frame_id``.
+class TwistBagWriter(AtomicOutput):
+    """Chunked, atomic writer of ``geometry_msgs/TwistStamped`` (module docstring), with the interface of
+    :class:`omegahat.io.output.OmegaWriter`: ``write(chunk, omega, status)`` takes the stamps from the chunk's
+    ``extra`` (``header_ns``, ``receive_ns``: rows of a bag's stream), the bag appears on a clean exit of the
+    ``with`` block, never on an exception. ``path`` ending in ``.bag``: ROS 1, otherwise a ROS 2 bag directory."""
 
-    ``path`` ending in ``.bag``: ROS 1; otherwise a ROS 2 bag directory. Refuses to overwrite; writes under a
-    temporary name and renames, so the bag is whole or absent. Returns the path written.
-    """
-    _rosbags()
-    from rosbags.typesys import Stores, get_typestore
+    def __init__(self, path, *, frame_id: str, topic: str = DEFAULT_TWIST_TOPIC):
+        _rosbags()
+        from rosbags.typesys import Stores, get_typestore
 
-    path = Path(path)
-    header_ns = np.asarray(header_ns, dtype=np.int64)
-    receive_ns = np.asarray(receive_ns, dtype=np.int64)
-    omega = np.asarray(omega, dtype=float)
-    T = header_ns.shape[0]
-    if header_ns.shape != (T,) or receive_ns.shape != (T,) or omega.shape != (T, 3):
-        raise ValueError(
-            f"write_twist_bag needs header_ns (T,), receive_ns (T,), omega (T, 3); got {header_ns.shape}, "
-            f"{receive_ns.shape}, {omega.shape}"
-        )
-    if not frame_id:
-        raise ValueError("write_twist_bag needs the body frame's name (frame_id)")
-    if path.exists():
-        raise FileExistsError(f"{path} exists; omegahat does not overwrite a bag (choose another output)")
-    if not path.parent.is_dir():
-        raise FileNotFoundError(f"{path.parent} is not a directory (the output's folder must exist)")
-    ros_version = 1 if path.suffix == ".bag" else 2
-    staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent))
-    target = staging / path.name
-    msgtype = "geometry_msgs/msg/TwistStamped"
-    try:
-        if ros_version == 1:
-            from rosbags.rosbag1 import Writer
+        self.path = Path(path)
+        if not frame_id:
+            raise ValueError("a TwistStamped output needs the body frame's name (frame_id)")
+        if self.path.exists():
+            raise FileExistsError(f"{self.path} exists; omegahat does not overwrite a bag (choose another output)")
+        self.ros_version = 1 if self.path.suffix == ".bag" else 2
+        self.frame_id, self.topic, self.rows = frame_id, topic, 0
+        self._staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".partial", dir=self.path.parent))
+        target = self._staging / self.path.name
+        try:
+            if self.ros_version == 1:
+                from rosbags.rosbag1 import Writer
 
-            ts = get_typestore(Stores.ROS1_NOETIC)
-            with Writer(target) as writer:
-                conn = writer.add_connection(topic, msgtype, typestore=ts)
-                for k, msg in enumerate(_twist_messages(ts, header_ns, omega, frame_id, 1)):
-                    writer.write(conn, int(receive_ns[k]), ts.serialize_ros1(msg, msgtype))
-        else:
-            from rosbags.rosbag2 import Writer
+                self._ts = get_typestore(Stores.ROS1_NOETIC)
+                self._serialize = self._ts.serialize_ros1
+                self._writer = Writer(target)
+            else:
+                from rosbags.rosbag2 import Writer
 
-            ts = get_typestore(Stores.LATEST)
-            with Writer(target, version=8) as writer:
-                conn = writer.add_connection(topic, msgtype, typestore=ts)
-                for k, msg in enumerate(_twist_messages(ts, header_ns, omega, frame_id, 2)):
-                    writer.write(conn, int(receive_ns[k]), ts.serialize_cdr(msg, msgtype))
-        os.rename(target, path)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-    return path
+                self._ts = get_typestore(Stores.LATEST)
+                self._serialize = self._ts.serialize_cdr
+                self._writer = Writer(target, version=8)
+            self._writer.open()
+            self._conn = self._writer.add_connection(topic, _TWIST, typestore=self._ts)
+        except BaseException:
+            shutil.rmtree(self._staging, ignore_errors=True)
+            raise
+        self._target = target
+
+    def write(self, chunk, omega: np.ndarray, status: np.ndarray) -> None:
+        """One message per row of ``chunk`` (stamps from ``chunk.extra``), ``omega (m, 3)`` rad/s."""
+        if chunk.extra is None or "header_ns" not in chunk.extra:
+            raise ValueError("a TwistStamped output needs the input messages' stamps (a bag input)")
+        header_ns, receive_ns = chunk.extra["header_ns"], chunk.extra["receive_ns"]
+        messages = _twist_messages(self._ts, header_ns, omega, self.frame_id, self.ros_version, self.rows)
+        for k, msg in enumerate(messages):
+            self._writer.write(self._conn, int(receive_ns[k]), self._serialize(msg, _TWIST))
+        self.rows += len(chunk)
+
+    def commit(self) -> None:
+        self._writer.close()
+        try:
+            os.rename(self._target, self.path)
+        finally:
+            shutil.rmtree(self._staging, ignore_errors=True)
+
+    def abort(self) -> None:
+        try:
+            self._writer.close()
+        except Exception:
+            pass
+        shutil.rmtree(self._staging, ignore_errors=True)
