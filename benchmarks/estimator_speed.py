@@ -23,8 +23,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from omegahat.observer.estimator import EstimatorState, SarrasEstimator
-from omegahat.observer.reference import reference_step
 from omegahat.observer.gains import theorem_gains
+from omegahat.observer.reference import reference_step
 from omegahat.simulation.rigid_body import RigidBody, integrate
 
 J = np.diag([3.0, 2.0, 1.0])

@@ -19,7 +19,8 @@ import argparse
 import numpy as np
 from scipy.linalg import expm
 
-from omegahat.observer.estimator import SarrasEstimator, reference_predict
+from omegahat.observer.estimator import SarrasEstimator
+from omegahat.observer.reference import reference_predict
 from omegahat.simulation import paper_problem, simulate
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import importlib
 import io
 import os
 import re
@@ -24,6 +25,16 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 TUTORIALS = ROOT / "docs" / "tutorials"
 NAMES = ["spacecraft", "motion_capture", "directions"]
+PACKAGE_PAGES = {
+    "omegahat.observer": "observer",
+    "omegahat.simulation": "simulation",
+    "omegahat.campaigns": "campaigns",
+    "omegahat.baselines": "baselines",
+    "omegahat.evaluation": "evaluation",
+    "omegahat.io": "io",
+    "omegahat.so3": "so3",
+    "omegahat.measurements": "measurements",
+}
 _TIMING = re.compile(r"(estimated in|compiled once in) \d+\.\d+ s")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 
@@ -69,11 +80,22 @@ def test_site_builds_strictly_with_the_generated_references(tmp_path):
         assert text in cli, text  # generated from omegahat.cli.build_parser at build time
     api = (site / "reference" / "io" / "index.html").read_text()
     for name in (
-        "omegahat.io.rosbag.read_bag",
-        "omegahat.io.mocap.read_motive_csv",
+        "omegahat.io.rosbag.open_bag",
+        "omegahat.io.mocap.open_motive_csv",
         "omegahat.io.frames.estimate_frame",
+        "omegahat.io.pipeline.estimate_stream",
     ):
         assert f'id="{name}"' in api, name  # rendered from the docstrings
+    for package, page in PACKAGE_PAGES.items():  # each package page documents the package's public names
+        html = (site / "reference" / page / "index.html").read_text()
+        for name in importlib.import_module(package).__all__:
+            if not name.startswith("_"):
+                assert f'id="{package}.{name}"' in html, f"{package}.{name}"
+    top = (site / "reference" / "omegahat" / "index.html").read_text()
+    import omegahat
+
+    for name in omegahat._PUBLIC:  # linked to where it is rendered (--strict fails on a dangling link)
+        assert f"<code>omegahat.{name}</code>" in top, name
     tutorial = (site / "tutorials" / "spacecraft" / "index.html").read_text()
     assert "classical Runge-Kutta, 4 steps per fix" in tutorial  # the script itself is on the page (a comment of it)
     assert 'tutorials/spacecraft.py"' not in tutorial  # not the include directive left unexpanded

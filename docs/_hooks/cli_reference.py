@@ -4,6 +4,10 @@
   marker ``<!-- omegahat-cli-reference -->`` gets, in its place, the ``--help`` text of ``omegahat`` and of every
   subcommand, produced by :func:`omegahat.cli.build_parser` itself, so the reference cannot drift from the options
   the program accepts.
+* The top-level API, generated from ``omegahat._PUBLIC`` (the table the package's lazy ``__getattr__`` reads, which
+  static documentation tools cannot see): the marker ``<!-- omegahat-public-api -->`` becomes a table of every
+  public name with a cross-reference to where its package's page documents it; ``mkdocs build --strict`` fails if
+  one of them is not rendered there.
 * The docstrings' Sphinx roles (``:func:`name```, ``:mod:`name```), which mkdocstrings renders as the role's
   name followed by the code, are shown as the code alone.
 """
@@ -15,6 +19,7 @@ import os
 import re
 
 MARKER = "<!-- omegahat-cli-reference -->"
+API_MARKER = "<!-- omegahat-public-api -->"
 _ROLE = re.compile(r":(?:mod|func|class|meth|data|attr|exc|obj|const):(?=<code)")
 
 
@@ -37,9 +42,21 @@ def cli_reference() -> str:
     return "\n".join(parts)
 
 
+def public_api() -> str:
+    """Markdown: one row per name of ``omegahat._PUBLIC``, linked to its documentation in the package pages."""
+    import omegahat
+
+    rows = ["| name | defined in |", "| --- | --- |"]
+    for name, module in sorted(omegahat._PUBLIC.items(), key=lambda kv: (kv[1], kv[0])):
+        rows.append(f"| [`omegahat.{name}`][{module}.{name}] | `{module}` |")
+    return "\n".join(rows)
+
+
 def on_page_markdown(markdown: str, page, config, files) -> str:
     if MARKER in markdown:
-        return markdown.replace(MARKER, cli_reference())
+        markdown = markdown.replace(MARKER, cli_reference())
+    if API_MARKER in markdown:
+        markdown = markdown.replace(API_MARKER, public_api())
     return markdown
 
 
