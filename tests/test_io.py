@@ -239,3 +239,42 @@ def test_reads_the_broad_60s_csv():
     np.testing.assert_allclose(np.linalg.norm(log.data[ok], axis=1), 1.0, atol=1e-6)
     # First row of the file: qw = 0.999728671, qx = -0.019640312 (scalar first in the file, last here)
     np.testing.assert_array_equal(log.data[0, [3, 0]], [0.999728671, -0.019640312])
+
+
+# ---------------------------------------------------------------------------------------------------- plug-ins
+
+
+def test_a_registered_format_gets_the_one_path(tmp_path):
+    """A format registered with a sniffer is recognised before the plain CSV of its extension, refuses options it
+    does not take, and its stream gets the conventions and the timestamp policy of open_log like the built-in ones."""
+    from omegahat.io import LogStream, ReadOptions, detect_format, register_format
+    from omegahat.io.registry import unregister_format
+
+    def sniff(path):
+        with open(path) as f:
+            return f.readline().startswith("#toy")
+
+    def opener(path, options):
+        rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)  # t, then a rotation vector
+        q = Rotation.from_rotvec(rows[:, 1:]).as_quat()
+        return LogStream.from_arrays(path, "quaternion", rows[:, 0], q, labels=np.arange(2, rows.shape[0] + 2),
+                                     label="line", description="a toy log")  # fmt: skip
+
+    register_format(".csv", opener, name="toy", title="a toy log", sniff=sniff, options=("time_unit",))
+    try:
+        p = write(tmp_path, "#toy\n0,0,0,0\n10,0,0,0.5\n10,0,0,0.5\n20,0,0,1.0\n", "toy.csv")
+        assert detect_format(p).name == "toy"
+        assert detect_format(write(tmp_path, "t,qx,qy,qz,qw\n0,0,0,0,1\n", "plain.csv")).name == "csv"
+        log = read_log(p, time_unit="ms")
+        assert log.description == "a toy log"
+        np.testing.assert_array_equal(log.t, [0.0, 0.01, 0.02])  # ms → s; the repeated line dropped
+        np.testing.assert_array_equal(log.labels, [2, 3, 5])
+        assert "dropped 1 duplicated sample(s) (same time, same attitude)" in log.notes
+        with pytest.raises(ValueError, match=r"toy\.csv is a toy log: --body applies only to an OptiTrack Motive"):
+            read_log(p, options=ReadOptions(body="x"))
+        write(tmp_path, "#toy\n0,0,0,0\n10,0,0,0.5\n5,0,0,1\n", "back.csv")
+        with pytest.raises(LogFormatError, match=r"back\.csv, line 4, column t: time 5\.0 is not after 10\.0"):
+            read_log(tmp_path / "back.csv")
+    finally:
+        unregister_format("toy")
+    assert detect_format(p).name == "csv"

@@ -219,6 +219,9 @@ def test_outputs_are_never_overwritten_and_bags_need_bag_inputs(tmp_path, capsys
     assert "a bag output needs a bag input" in capsys.readouterr().err
     assert run_cli(tmp_path / "run.bag", "-o", tmp_path / "o.txt") == 2
     assert "unknown output type '.txt'" in capsys.readouterr().err
+    assert run_cli(tmp_path / "run.bag", "-o", tmp_path / "o.csv", "--frame-id", "drone") == 2
+    assert "--frame-id and --output-topic apply to bag outputs only" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["exists.bag", "log.csv", "run.bag"]
 
 
 def test_estimates_match_the_estimator_fed_directly(tmp_path):

@@ -262,10 +262,8 @@ def run(args) -> int:
     )
     by_bytes = stream.label == "line" and stream.n_rows_hint is None
     show = args.progress if args.progress is not None else by_bytes and stream.size >= PROGRESS_MIN_BYTES
-    bar = tqdm(
-        total=stream.size, unit="B" if by_bytes else " rows", unit_scale=True, desc="estimating", disable=not show,
-        file=sys.stderr,
-    )  # fmt: skip
+    unit = "B" if by_bytes else " rows"
+    bar = tqdm(total=stream.size, unit=unit, unit_scale=True, desc="estimating", disable=not show, file=sys.stderr)
 
     def progress(rows: int) -> None:
         bar.n = min(stream.done, stream.size) if by_bytes else rows
@@ -285,15 +283,6 @@ def run(args) -> int:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
     compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
-    if kind == "csv":
-        wrote = f"wrote {summary.rows} estimates to {out} (t,wx,wy,wz,status; rad/s in body axes)"
-    else:
-        frame = args.frame_id or stream.meta.get("child") or "body"
-        wrote = (
-            f"wrote {summary.rows} geometry_msgs/TwistStamped to ROS {kind[-1]} bag {out}, topic "
-            f"{args.output_topic or DEFAULT_TWIST_TOPIC}, frame_id {frame!r} (body frame), header stamps copied from "
-            f"{stream.meta.get('topic')}"
-        )
-    print(f"{wrote}; estimated in {summary.elapsed:.2f} s{compiled}")
+    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
     print("\n".join(summary.lines))
     return 0

@@ -87,7 +87,7 @@ def open_output(output, kind: str, stream, *, frame_id: str | None = None, topic
     from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
 
     frame = frame_id or stream.meta.get("child") or "body"
-    return TwistBagWriter(output, frame_id=frame, topic=topic or DEFAULT_TWIST_TOPIC)
+    return TwistBagWriter(output, frame_id=frame, topic=topic or DEFAULT_TWIST_TOPIC, source=stream.meta.get("topic"))
 
 
 def check_output(output, input_path, *, frame_id: str | None = None, topic: str | None = None) -> tuple[Path, str]:
@@ -99,6 +99,8 @@ def check_output(output, input_path, *, frame_id: str | None = None, topic: str 
     kind = output_kind(output, detect_format(input_path).name)
     if kind == "csv" and (frame_id is not None or topic is not None):
         raise ValueError("--frame-id and --output-topic apply to bag outputs only")
+    if kind != "csv" and Path(output).exists():
+        raise FileExistsError(f"{output} exists; omegahat does not overwrite a bag (choose another output)")
     return check_output_path(output, [input_path]), kind
 
 
@@ -182,6 +184,10 @@ class OmegaWriter(AtomicOutput):
         if self._pending is not None:
             pending, self._pending = self._pending, None
             pending.result()  # re-raises a failed write here
+
+    def describe(self) -> str:
+        """What was written, for the command's closing line."""
+        return f"{self.rows} estimates to {self.path} (t,wx,wy,wz,status; rad/s in body axes)"
 
     def commit(self) -> None:
         """Close the temporary file and move it onto the target (readable as the umask allows)."""

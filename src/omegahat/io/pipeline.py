@@ -104,9 +104,11 @@ class RunSummary:
     """What :func:`estimate_stream` did: ``rows`` written, the ``gains`` and the ``gains_text`` saying why,
     ``n_missing``/``n_collinear`` samples skipped by the estimator, ``n_bad`` treated as missing
     (``skip_bad_samples``), ``gaps`` and the ``largest_gap`` ``(seconds, label after it)``, ``elapsed`` seconds
-    estimating, ``compile_s`` seconds checking the head (compilation included), and ``lines``: the report."""
+    estimating, ``compile_s`` seconds checking the head (compilation included), ``output``: what the writer says
+    it wrote (its ``describe()``), and ``lines``: the report."""
 
     rows: int = 0
+    output: str = ""
     gains: ObserverGains | None = None
     gains_text: str = ""
     n_missing: int = 0
@@ -396,6 +398,8 @@ def estimate_stream(
             job.feed(chunk)
             if progress is not None:
                 progress(summary.rows)
+    describe = getattr(writer, "describe", None)
+    summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_missing, summary.n_collinear, summary.n_bad = est.n_missing, est.n_collinear, bad.count
     summary.lines = _summary_lines(summary, stream, bad, J, settings, stream.notes[n_notes:])
     return summary

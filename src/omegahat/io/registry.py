@@ -62,6 +62,7 @@ __all__ = [
     "prefetch",
     "register_format",
     "registered_extensions",
+    "unregister_format",
     "with_options",
 ]
 
@@ -244,6 +245,12 @@ def register_format(
     _FORMATS[:] = [f for f in _FORMATS if f.name != name]
     _FORMATS.append(fmt)
     return fmt
+
+
+def unregister_format(name: str) -> None:
+    """Remove the format registered under ``name`` (a plug-in's, or to replace a built-in one)."""
+    get_format(name)
+    _FORMATS[:] = [f for f in _FORMATS if f.name != name]
 
 
 def registered_extensions() -> list[str]:

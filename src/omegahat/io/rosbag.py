@@ -302,7 +302,7 @@ class TwistBagWriter(AtomicOutput):
     ``extra`` (``header_ns``, ``receive_ns``: rows of a bag's stream), the bag appears on a clean exit of the
     ``with`` block, never on an exception. ``path`` ending in ``.bag``: ROS 1, otherwise a ROS 2 bag directory."""
 
-    def __init__(self, path, *, frame_id: str, topic: str = DEFAULT_TWIST_TOPIC):
+    def __init__(self, path, *, frame_id: str, topic: str = DEFAULT_TWIST_TOPIC, source: str | None = None):
         _rosbags()
         from rosbags.typesys import Stores, get_typestore
 
@@ -312,7 +312,7 @@ class TwistBagWriter(AtomicOutput):
         if self.path.exists():
             raise FileExistsError(f"{self.path} exists; omegahat does not overwrite a bag (choose another output)")
         self.ros_version = 1 if self.path.suffix == ".bag" else 2
-        self.frame_id, self.topic, self.rows = frame_id, topic, 0
+        self.frame_id, self.topic, self.source, self.rows = frame_id, topic, source, 0
         self._staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".partial", dir=self.path.parent))
         target = self._staging / self.path.name
         try:
@@ -344,6 +344,14 @@ class TwistBagWriter(AtomicOutput):
         for k, msg in enumerate(messages):
             self._writer.write(self._conn, int(receive_ns[k]), self._serialize(msg, _TWIST))
         self.rows += len(chunk)
+
+    def describe(self) -> str:
+        """What was written, for the command's closing line."""
+        return (
+            f"{self.rows} geometry_msgs/TwistStamped to ROS {self.ros_version} bag {self.path}, topic {self.topic}, "
+            f"frame_id {self.frame_id!r} (body frame)"
+            + (f", header stamps copied from {self.source}" if self.source else ", header stamps copied")
+        )
 
     def commit(self) -> None:
         self._writer.close()
