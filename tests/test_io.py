@@ -92,9 +92,12 @@ def test_whitespace_around_names_and_values(tmp_path):
         ("t,qw,qx,qy,qz,r11\n", r"attitude given more than one way \(quaternion and matrix\)"),
         (
             "t,qw,qx,qy,qz\n0,1,0,0,0\n0.2,1,0,0,0\n0.1,1,0,0,0\n",
-            r"line 4, column t: time 0\.1 is not after 0\.2 \(line 3\); times must increase strictly",
+            r"line 4, column t: time 0\.1 is not after 0\.2 \(line 3\); times must increase",
         ),
-        ("t,qw,qx,qy,qz\n0,1,0,0,0\n0,1,0,0,0\n", r"line 3, column t: time 0\.0 is not after 0\.0 \(line 2\)"),
+        (  # equal times with the same attitude are one sample (omegahat.io.timestamps); with different ones, an error
+            "t,qw,qx,qy,qz\n0,1,0,0,0\n0,0,1,0,0\n",
+            r"log\.csv, line 2 and line 3: two samples at the same time 0\.0 with attitudes 180° apart",
+        ),
         ("t,qw,qx,qy,qz\n0,1,0,0,0\n,1,0,0,0\n", r"line 3, column t: empty time"),
         ("t,qw,qx,qy,qz\nnan,1,0,0,0\n", r"line 2, column t: time nan is not finite"),
         ("time,qw,qx,qy,qz\n0,1,0,0,0\n", r"no time column 't' \(found: time, qw, qx, qy, qz\)"),
@@ -195,7 +198,9 @@ def test_not_an_npz_and_unknown_extension(tmp_path):
     p = write(tmp_path, "hello", "x.npz")
     with pytest.raises(LogFormatError, match=r"x\.npz: not a readable \.npz file"):
         read_log(p)
-    with pytest.raises(LogFormatError, match=r"unknown log format '\.txt'; use \.csv or \.npz"):
+    with pytest.raises(
+        LogFormatError, match=r"unknown log format '\.txt'; use \.bag or \.c3d or \.csv or \.db3 or \.mcap or \.npz"
+    ):
         read_log(write(tmp_path, "t\n", "x.txt"))
 
 
@@ -234,3 +239,42 @@ def test_reads_the_broad_60s_csv():
     np.testing.assert_allclose(np.linalg.norm(log.data[ok], axis=1), 1.0, atol=1e-6)
     # First row of the file: qw = 0.999728671, qx = -0.019640312 (scalar first in the file, last here)
     np.testing.assert_array_equal(log.data[0, [3, 0]], [0.999728671, -0.019640312])
+
+
+# ---------------------------------------------------------------------------------------------------- plug-ins
+
+
+def test_a_registered_format_gets_the_one_path(tmp_path):
+    """A format registered with a sniffer is recognised before the plain CSV of its extension, refuses options it
+    does not take, and its stream gets the conventions and the timestamp policy of open_log like the built-in ones."""
+    from omegahat.io import LogStream, ReadOptions, detect_format, register_format
+    from omegahat.io.registry import unregister_format
+
+    def sniff(path):
+        with open(path) as f:
+            return f.readline().startswith("#toy")
+
+    def opener(path, options):
+        rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)  # t, then a rotation vector
+        q = Rotation.from_rotvec(rows[:, 1:]).as_quat()
+        return LogStream.from_arrays(path, "quaternion", rows[:, 0], q, labels=np.arange(2, rows.shape[0] + 2),
+                                     label="line", description="a toy log")  # fmt: skip
+
+    register_format(".csv", opener, name="toy", title="a toy log", sniff=sniff, options=("time_unit",))
+    try:
+        p = write(tmp_path, "#toy\n0,0,0,0\n10,0,0,0.5\n10,0,0,0.5\n20,0,0,1.0\n", "toy.csv")
+        assert detect_format(p).name == "toy"
+        assert detect_format(write(tmp_path, "t,qx,qy,qz,qw\n0,0,0,0,1\n", "plain.csv")).name == "csv"
+        log = read_log(p, time_unit="ms")
+        assert log.description == "a toy log"
+        np.testing.assert_array_equal(log.t, [0.0, 0.01, 0.02])  # ms → s; the repeated line dropped
+        np.testing.assert_array_equal(log.labels, [2, 3, 5])
+        assert "dropped 1 duplicated sample(s) (same time, same attitude)" in log.notes
+        with pytest.raises(ValueError, match=r"toy\.csv is a toy log: --body applies only to an OptiTrack Motive"):
+            read_log(p, options=ReadOptions(body="x"))
+        write(tmp_path, "#toy\n0,0,0,0\n10,0,0,0.5\n5,0,0,1\n", "back.csv")
+        with pytest.raises(LogFormatError, match=r"back\.csv, line 4, column t: time 5\.0 is not after 10\.0"):
+            read_log(tmp_path / "back.csv")
+    finally:
+        unregister_format("toy")
+    assert detect_format(p).name == "csv"

@@ -1,17 +1,17 @@
 """Property-based fuzz of the CSV reader (Hypothesis): random headers, delimiters, encodings, number formats, NaNs,
-glitches and truncations. Every input either parses to the values an independent reference parser (plain Python,
-below) reads from the same text, or raises :class:`LogFormatError`; never another exception; and the command never
-leaves a partial output file."""
+repeated rows and times (the timestamp policy), glitches and truncations. Every input either parses to the values an
+independent reference parser (plain Python, below) reads from the same text, or raises :class:`LogFormatError`;
+never another exception; and the command never leaves a partial output file."""
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
 
 from omegahat.cli import main
 from omegahat.io import LogFormatError, read_log
@@ -70,9 +70,33 @@ def reference(raw: bytes, encoding: str, delim: str):
             att = [math.nan] * 4
         t.append(vals[0])
         q.append([att[1], att[2], att[3], att[0]])
-    if not t or any(b <= a for a, b in itertools.pairwise(t)):
+    if not t:
         return None
-    return np.array(t), np.array(q)
+    return _timestamp_policy(t, q)
+
+
+def _timestamp_policy(t, q):
+    """The documented policy (omegahat.io.timestamps), written out independently: times must not decrease; at an
+    equal time the same rotation (matrices within 1e-6, SciPy's) is dropped, a missing sample gives way to a valid
+    one, different rotations refuse the file."""
+    keep_t, keep_q = [], []
+    for ti, qi in zip(t, q, strict=True):
+        if keep_t and ti < keep_t[-1]:
+            return None
+        if keep_t and ti == keep_t[-1]:
+            prev = keep_q[-1]
+            if not all(math.isfinite(v) for v in qi):
+                continue
+            if not all(math.isfinite(v) for v in prev):
+                keep_q[-1] = qi
+                continue
+            Ra, Rb = Rotation.from_quat(prev).as_matrix(), Rotation.from_quat(qi).as_matrix()
+            if np.linalg.norm(Ra - Rb) <= 1e-6:
+                continue
+            return None
+        keep_t.append(ti)
+        keep_q.append(qi)
+    return np.array(keep_t), np.array(keep_q)
 
 
 def fmt(x: float, style: int, delim: str) -> str:
@@ -89,10 +113,15 @@ def logs(draw):
     n = draw(st.integers(1, 12))
     rows = []
     t = 0.0
+    q = None
     for _ in range(n):
-        t += draw(st.sampled_from([0.01, 0.25, 1.0, -0.5, 0.0])) if draw(st.integers(0, 9)) == 0 else 0.01
-        q = np.array(draw(st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4))) + np.array([0, 0, 0, 2])
-        q = q / np.linalg.norm(q)
+        if q is not None and draw(st.integers(0, 9)) == 0:  # the same sample again (delivered twice)
+            pass
+        else:
+            t += draw(st.sampled_from([0.01, 0.25, 1.0, -0.5, 0.0])) if draw(st.integers(0, 9)) == 0 else 0.01
+            q = np.array(draw(st.lists(st.floats(-1, 1, allow_nan=False), min_size=4, max_size=4)))
+            q = q + np.array([0, 0, 0, 2])
+            q = q / np.linalg.norm(q)
         vals = {"t": t, "qx": q[0], "qy": q[1], "qz": q[2], "qw": q[3]}
         fields = []
         for name in order:

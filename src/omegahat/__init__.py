@@ -35,6 +35,7 @@ _PUBLIC = {
     "SplineEstimator": "omegahat.baselines.spline",
     "MeasurementError": "omegahat.measurements",
     "read_log": "omegahat.io",
+    "estimate_frame": "omegahat.io.frames",
 }
 
 __all__ = ["__version__", *sorted(_PUBLIC)]

@@ -1,31 +1,75 @@
-"""Attitude logs in, angular-velocity estimates out (see :mod:`omegahat.io.logs`).
+"""Attitude data in, angular-velocity estimates out: one path for every format.
 
-Formats are registered by extension in :mod:`omegahat.io.registry` (CSV: :mod:`omegahat.io.csvlog`, NPZ:
-:mod:`omegahat.io.npzlog`); a new format registers an opener with :func:`register_format`.
+1. **Formats** are registered here with :func:`register_format` (:mod:`omegahat.io.registry`) and recognised
+   from the file (:func:`detect_format`): omegahat's CSV (:mod:`omegahat.io.csvlog`) and NPZ
+   (:mod:`omegahat.io.npzlog`) logs, OptiTrack Motive and Vicon CSV exports (:mod:`omegahat.io.mocap`, recognised
+   from their first lines), C3D files (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`);
+   pandas and Polars DataFrames enter the same path through :func:`omegahat.io.frames.open_frame`.
+2. :func:`open_log` opens any of them as a :class:`LogStream` of :class:`LogChunk` and applies, in one place,
+   the time unit, the rotation convention and the timestamp policy (:mod:`omegahat.io.timestamps`);
+   :func:`read_log` reads a whole stream into an :class:`AttitudeLog`.
+3. :func:`omegahat.io.pipeline.estimate_stream` runs a stream through the estimator with automatic gains and
+   writes the result through :func:`open_output` (:mod:`omegahat.io.output`: CSV with a status column, or
+   ``geometry_msgs/TwistStamped`` bags), whole or absent. ``omegahat estimate`` and :func:`estimate_frame` are
+   thin shells over it.
 """
 
+from omegahat.io.c3d import open_c3d
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, LogFormatError
 from omegahat.io.csvlog import open_csv
+from omegahat.io.frames import estimate_frame, open_frame
 from omegahat.io.logs import AttitudeLog, read_csv, read_log, read_npz, write_omega_csv
+from omegahat.io.mocap import is_motive, is_vicon, open_motive_csv, open_vicon_csv
 from omegahat.io.npzlog import open_npz
-from omegahat.io.output import OmegaWriter, check_output_path
-from omegahat.io.registry import LogChunk, LogStream, ReadOptions, open_log, register_format
+from omegahat.io.output import OmegaWriter, check_output, check_output_path, open_output, output_kind
+from omegahat.io.registry import (
+    DIRECTORY,
+    Format,
+    LogChunk,
+    LogStream,
+    ReadOptions,
+    detect_format,
+    open_log,
+    register_format,
+)
+from omegahat.io.rosbag import is_ros2_bag, open_bag
+from omegahat.io.timestamps import DUPLICATE_TOL
 
-register_format(".csv", open_csv)
-register_format(".npz", open_npz)
+_BAG = ("topic", "parent_frame", "child_frame", "stamp")
+# Sniffing formats before the plain one of their extension (registry.detect_format): the order below is the order
+# in which .csv files are asked.
+register_format(
+    ".csv", open_motive_csv, name="motive", title="an OptiTrack Motive CSV export", sniff=is_motive, options=("body",)
+)
+register_format(".csv", open_vicon_csv, name="vicon", title="a Vicon CSV export", sniff=is_vicon, options=("body",))
+register_format(".csv", open_csv, name="csv", title="an omegahat CSV log")
+register_format(".npz", open_npz, name="npz", title="an omegahat NPZ log")
+register_format(".c3d", open_c3d, name="c3d", title="a C3D file", options=("body",))
+register_format(".bag", open_bag, name="rosbag1", title="a ROS 1 bag", options=_BAG)
+register_format(
+    (DIRECTORY, ".db3", ".mcap"), open_bag, name="rosbag2", title="a ROS 2 bag", sniff=is_ros2_bag, options=_BAG
+)
 
 __all__ = [
+    "DUPLICATE_TOL",
     "MATRIX_COLUMNS",
     "QUATERNION_COLUMNS",
     "TORQUE_COLUMNS",
     "AttitudeLog",
+    "Format",
     "LogChunk",
     "LogFormatError",
     "LogStream",
     "OmegaWriter",
     "ReadOptions",
+    "check_output",
     "check_output_path",
+    "detect_format",
+    "estimate_frame",
+    "open_frame",
     "open_log",
+    "open_output",
+    "output_kind",
     "read_csv",
     "read_log",
     "read_npz",

@@ -63,8 +63,8 @@ class Layout:
 
     @property
     def columns(self) -> tuple[str, ...]:
-        """Every column read, time first."""
-        return (self.time, *self.attitude, *(self.torque or ()))
+        """Every column read, time first (when it is a column)."""
+        return (*((self.time,) if self.time else ()), *self.attitude, *(self.torque or ()))
 
 
 def normalise_name(name: str) -> str:
@@ -87,8 +87,9 @@ def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
     return None
 
 
-def layout(names, where: str, time_column: str = "t", quaternion_order: str | None = None) -> Layout:
+def layout(names, where: str, time_column: str | None = "t", quaternion_order: str | None = None) -> Layout:
     """The :class:`Layout` of a log whose columns are ``names`` (normalised); ``where`` prefixes every message.
+    ``time_column`` None: the time is not among the columns (a DataFrame's index); ``Layout.time`` is then ``""``.
 
     Raises :class:`LogFormatError` for a missing time column, no or several attitude groups, incomplete groups,
     and numbered quaternion columns without ``quaternion_order``.
@@ -98,8 +99,8 @@ def layout(names, where: str, time_column: str = "t", quaternion_order: str | No
     dup = sorted({n for n in names if names.count(n) > 1 and n})
     if dup:
         raise LogFormatError(f"{where}: duplicate column(s) {', '.join(dup)} (names are compared ignoring case)")
-    time_column = normalise_name(time_column)
-    if time_column not in present:
+    time_column = "" if time_column is None else normalise_name(time_column)
+    if time_column and time_column not in present:
         hint = [n for n in names if n in ("time", "timestamp", "times", "time_s", "stamp", "sec", "seconds")]
         tip = f"; pass --time-column {hint[0]}" if hint else "; name it t or pass --time-column NAME"
         raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(names)}){tip}")

@@ -318,6 +318,7 @@ def open_csv(path, options: ReadOptions) -> LogStream:
     names = [normalise_name(n) for n in next(csv.reader([header], delimiter=delim))]
     lay = layout(names, where, options.time_column, options.quaternion_order)
     stream.kind, stream.has_torque, stream.n_directions = lay.kind, lay.torque is not None, lay.n_directions
+    stream.time_name = lay.time
     stream.attitude_name = {"quaternion": "qw,qx,qy,qz", "matrix": "r11..r33"}.get(
         lay.kind, f"b1x..b{lay.n_directions}z"
     )

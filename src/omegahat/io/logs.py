@@ -20,19 +20,21 @@ parsed fast) and :mod:`omegahat.io.npzlog` (NPZ: ``q``/``R``/``b`` arrays, the q
 Every error names where the problem is: for a CSV the line number (1 = the first line) and the column, e.g.
 ``line 17, column qx: 'abc' is not a number``; for an NPZ the array.
 
-This module reads a whole log into an :class:`AttitudeLog` (the streams of :mod:`omegahat.io.registry` read
-it chunk by chunk, which is what ``omegahat estimate`` does). Output: :func:`write_omega_csv` writes
+This module reads a whole log, in any registered format (ROS bags, Motive, Vicon and C3D exports too), into an
+:class:`AttitudeLog` (the streams of :mod:`omegahat.io.registry` read it chunk by chunk, which is what
+``omegahat estimate`` does; both go through
+:func:`omegahat.io.registry.open_log`). Output: :func:`write_omega_csv` writes
 ``t,wx,wy,wz`` (rad/s, body axes); :mod:`omegahat.io.output` writes the CLI's chunked, atomic output.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, LogFormatError
-from omegahat.io.registry import ReadOptions, open_log
+from omegahat.io.registry import ReadOptions, open_log, with_options
 
 __all__ = [
     "MATRIX_COLUMNS",
@@ -49,11 +51,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class AttitudeLog:
-    """A log read from a file.
+    """A log read from a file, whole (the samples the timestamp policy kept, in time order).
 
-    ``t (T,)`` in seconds; ``kind`` is ``"quaternion"`` (``data (T, 4)``, scalar **last**, SciPy's order),
-    ``"matrix"`` (``data (T, 3, 3)``) or ``"directions"`` (``data (T, n, 3)``); ``torque (T, 3)`` or None;
-    ``labels (T,)`` the line number (CSV) or index (NPZ) of each sample. Missing samples are rows of NaN.
+    ``t (T,)`` in seconds since ``t0`` (0 unless the format counts from its first stamp, as bags do);
+    ``kind`` is ``"quaternion"`` (``data (T, 4)``, scalar **last**, SciPy's order), ``"matrix"``
+    (``data (T, 3, 3)``) or ``"directions"`` (``data (T, n, 3)``); ``torque (T, 3)`` or None; ``labels (T,)`` the
+    line number (CSV), index (NPZ), message (bag), frame (C3D) of each sample. Missing samples are rows of NaN.
+    ``format``, ``description``, ``notes``, ``meta`` and ``extra`` are the stream's
+    (:class:`~omegahat.io.registry.LogStream`): what was recognised and changed, and a bag's stamps and frames.
     """
 
     t: np.ndarray
@@ -62,6 +67,17 @@ class AttitudeLog:
     torque: np.ndarray | None = None
     source: str = ""
     labels: np.ndarray | None = None
+    format: str = ""
+    description: str = ""
+    notes: tuple[str, ...] = ()
+    t0: float = 0.0
+    meta: dict = field(default_factory=dict)
+    extra: dict[str, np.ndarray] | None = None
+
+    @property
+    def absolute_times(self) -> np.ndarray:
+        """``t0 + t``: the times as the file states them (seconds)."""
+        return self.t0 + self.t
 
     @property
     def missing(self) -> np.ndarray:
@@ -72,13 +88,17 @@ class AttitudeLog:
         return self.t.size
 
 
-def read_log(path, progress=None, options: ReadOptions | None = None, fmt: str | None = None) -> AttitudeLog:
-    """Read a whole log, its format chosen by the file name's extension or by ``fmt`` (e.g. ``".csv"``).
+def read_log(
+    path, progress=None, options: ReadOptions | None = None, fmt: str | None = None, **option_values
+) -> AttitudeLog:
+    """Read a whole log, its format recognised from the file (:func:`omegahat.io.registry.detect_format`) or
+    given by ``fmt`` (a format's name such as ``"motive"``, or an extension such as ``".csv"``).
 
-    ``progress``: a callable ``progress(done, total)``, called after each chunk with the bytes (CSV) or rows
-    (NPZ) read so far and the total. Raises :class:`LogFormatError` naming the line and column (or array).
+    ``option_values`` set fields of :class:`ReadOptions` (``read_log("run.bag", topic="/pose")``). ``progress``: a
+    callable ``progress(done, total)``, called after each chunk with the bytes (CSV) or rows read so far and
+    the total. Raises :class:`LogFormatError` naming the line and column (or array, message, frame).
     """
-    stream = open_log(path, options, fmt)
+    stream = open_log(path, with_options(options, **option_values), fmt)
     parts = []
     for chunk in stream.chunks():
         parts.append(chunk)
@@ -86,11 +106,27 @@ def read_log(path, progress=None, options: ReadOptions | None = None, fmt: str |
             progress(min(stream.done, stream.size), stream.size)
     if progress is not None:
         progress(stream.size, stream.size)
+    if not parts:
+        raise LogFormatError(f"{stream.source}: no samples")
     t = np.concatenate([c.t for c in parts])
     data = np.concatenate([c.data for c in parts])
     torque = np.concatenate([c.torque for c in parts]) if stream.has_torque else None
     labels = np.concatenate([c.labels for c in parts])
-    return AttitudeLog(t, stream.kind, data, torque, stream.source, labels)
+    extra = None if parts[0].extra is None else {k: np.concatenate([c.extra[k] for c in parts]) for k in parts[0].extra}
+    return AttitudeLog(
+        t,
+        stream.kind,
+        data,
+        torque,
+        stream.source,
+        labels,
+        stream.format,
+        stream.description,
+        tuple(stream.notes),
+        stream.t0,
+        dict(stream.meta),
+        extra,
+    )
 
 
 def read_csv(path, progress=None, options: ReadOptions | None = None) -> AttitudeLog:

@@ -10,7 +10,8 @@ the string ``"False"`` or the number 0 are refused rather than guessed); the ``q
 (``--quaternion-order``); else SciPy's scalar-last ``(x, y, z, w)``, and the stream's notes say it was assumed.
 A file entry and an option that disagree are an error.
 
-NPZ files are read whole (``numpy.load`` of each array) and handed on in chunks of ``CHUNK_ROWS`` rows.
+NPZ files are read whole (``numpy.load`` of each array) and handed on in chunks
+(:meth:`~omegahat.io.registry.LogStream.from_arrays`).
 """
 
 from __future__ import annotations
@@ -22,11 +23,9 @@ import numpy as np
 
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, direction_columns, layout
 from omegahat.io.columns import LogFormatError as _Err
-from omegahat.io.registry import LogChunk, LogStream, ReadOptions
+from omegahat.io.registry import LogStream, ReadOptions
 
-__all__ = ["CHUNK_ROWS", "open_npz"]
-
-CHUNK_ROWS = 1 << 17
+__all__ = ["open_npz"]
 
 
 def _scalar_first(z, path: str, option: str | None) -> tuple[bool, str]:
@@ -116,12 +115,4 @@ def open_npz(path, options: ReadOptions) -> LogStream:
             k = int(np.flatnonzero(~np.all(np.isfinite(torque), axis=1))[0])
             raise _Err(f"{path}, torque at index {k}: not finite ({torque[k].tolist()})")
 
-    def chunks():
-        for a in range(0, T, CHUNK_ROWS):
-            b = min(T, a + CHUNK_ROWS)
-            yield LogChunk(t[a:b], data[a:b], None if torque is None else torque[a:b], np.arange(a, b))
-
-    n_dir = data.shape[1] if kind == "directions" else 0
-    return LogStream(
-        path, kind, n_dir, torque is not None, "index", chunks, size=T, n_rows_hint=T, notes=notes, attitude_name=name
-    )
+    return LogStream.from_arrays(path, kind, t, data, torque, notes=notes, attitude_name=name)

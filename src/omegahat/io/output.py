@@ -1,8 +1,11 @@
-"""The estimate's output file: checked before any work, written in chunks, whole or absent.
+"""The estimate's output file: its kind said by its name, checked before any work, written in chunks, whole or absent.
 
-:func:`check_output_path` runs before the input is read: the output's directory must exist and be writable, the
-output must not be a directory, and it must not be the input (compared as files, so ``./log.csv``,
-``../dir/log.csv`` and a symbolic link to it are all caught).
+:func:`output_kind` says what a name asks for: ``.csv`` a CSV (below); for a ROS bag input also ``.bag`` (a ROS 1
+bag) or a name without extension (a ROS 2 bag directory) of ``geometry_msgs/TwistStamped``
+(:class:`omegahat.io.rosbag.TwistBagWriter`, which needs the input messages' stamps). Anything else is refused
+rather than guessed. :func:`check_output_path` runs before the input is read: the output's directory must exist
+and be writable, the output must not be a directory, and it must not be the input (compared as files, so
+``./log.csv``, ``../dir/log.csv`` and a symbolic link to it are all caught). :func:`open_output` makes the writer.
 
 :class:`OmegaWriter` writes ``t,wx,wy,wz,status`` (s, rad/s in body axes, one word) chunk by chunk into a
 temporary file *in the target directory* and renames it over the target only when every row is written
@@ -27,7 +30,18 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
-__all__ = ["CORRECTED", "PREDICTED", "STATUS_WORDS", "UNAVAILABLE", "OmegaWriter", "check_output_path"]
+__all__ = [
+    "CORRECTED",
+    "PREDICTED",
+    "STATUS_WORDS",
+    "UNAVAILABLE",
+    "AtomicOutput",
+    "OmegaWriter",
+    "check_output",
+    "check_output_path",
+    "open_output",
+    "output_kind",
+]
 
 UNAVAILABLE, CORRECTED, PREDICTED = 0, 1, 2
 STATUS_WORDS = ("unavailable", "corrected", "predicted")
@@ -39,6 +53,55 @@ def _same_file(a: Path, b: Path) -> bool:
         return os.path.samefile(a, b)
     except OSError:
         return os.path.normcase(os.path.realpath(a)) == os.path.normcase(os.path.realpath(b))
+
+
+BAG_FORMATS = ("rosbag1", "rosbag2")
+
+
+def output_kind(output, input_format: str = "") -> str:
+    """``"csv"``, ``"rosbag1"`` or ``"rosbag2"`` for an output name, given the input's format name (module
+    docstring); raises ValueError for a name that says neither."""
+    out = Path(output)
+    suffix = out.suffix.lower()
+    bag_input = input_format in BAG_FORMATS
+    if suffix == ".csv":
+        return "csv"
+    if suffix == ".bag" or (suffix == "" and bag_input):
+        if not bag_input:
+            raise ValueError(f"{out}: a bag output needs a bag input (its stamps and frames); write a .csv instead")
+        return "rosbag1" if suffix == ".bag" else "rosbag2"
+    raise ValueError(
+        f"{out}: unknown output type {suffix or '(no extension)'!r}; use .csv"
+        + (", .bag (ROS 1) or a name without extension (ROS 2 bag directory)" if bag_input else "")
+    )
+
+
+def open_output(output, kind: str, stream, *, frame_id: str | None = None, topic: str | None = None):
+    """The writer for an output of ``kind`` (:func:`output_kind`) of ``stream``'s estimates: an
+    :class:`OmegaWriter` (times ``stream.t0 + t``: as the file states them) or a
+    :class:`~omegahat.io.rosbag.TwistBagWriter` (``frame_id`` default: the body frame the input names, else
+    ``"body"``; ``topic`` default ``/omegahat/twist``). Both are context managers with ``write(chunk, omega,
+    status)``: whole or absent."""
+    if kind == "csv":
+        return OmegaWriter(output, t0=stream.t0)
+    from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+
+    frame = frame_id or stream.meta.get("child") or "body"
+    return TwistBagWriter(output, frame_id=frame, topic=topic or DEFAULT_TWIST_TOPIC, source=stream.meta.get("topic"))
+
+
+def check_output(output, input_path, *, frame_id: str | None = None, topic: str | None = None) -> tuple[Path, str]:
+    """``(path, kind)`` of an output for the input at ``input_path``, checked before any work: its kind from its
+    name and the input's format (:func:`output_kind`), the path (:func:`check_output_path`), and that bag-only
+    settings (``frame_id``, ``topic``: ``--frame-id``, ``--output-topic``) come with a bag output."""
+    from omegahat.io.registry import detect_format
+
+    kind = output_kind(output, detect_format(input_path).name)
+    if kind == "csv" and (frame_id is not None or topic is not None):
+        raise ValueError("--frame-id and --output-topic apply to bag outputs only")
+    if kind != "csv" and Path(output).exists():
+        raise FileExistsError(f"{output} exists; omegahat does not overwrite a bag (choose another output)")
+    return check_output_path(output, [input_path]), kind
 
 
 def check_output_path(output, inputs=()) -> Path:
@@ -59,13 +122,35 @@ def check_output_path(output, inputs=()) -> Path:
     return out
 
 
-class OmegaWriter:
+class AtomicOutput:
+    """A writer that is a context manager: :meth:`commit` on a clean exit (the output appears whole), :meth:`abort`
+    on an exception (nothing appears). Subclasses implement ``write(chunk, omega, status)``, ``commit`` and
+    ``abort``."""
+
+    def commit(self) -> None:
+        raise NotImplementedError
+
+    def abort(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.abort()
+
+
+class OmegaWriter(AtomicOutput):
     """Chunked, atomic writer of ``t,wx,wy,wz,status`` (module docstring). Use as a context manager:
     the file appears on a clean exit, never on an exception. Each chunk is formatted and written by a
     background thread (PyArrow releases the GIL) while the caller computes the next; at most one chunk waits."""
 
-    def __init__(self, path):
+    def __init__(self, path, t0: float = 0.0):
         self.path = Path(path)
+        self.t0 = t0
         parent = self.path.parent if str(self.path.parent) else Path(".")
         fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".part", dir=parent)
         self._tmp = Path(tmp)
@@ -77,9 +162,11 @@ class OmegaWriter:
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
         self._pending = None
 
-    def write(self, t: np.ndarray, omega: np.ndarray, status: np.ndarray) -> None:
-        """Append rows: ``t (m,)``, ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
+    def write(self, chunk, omega: np.ndarray, status: np.ndarray) -> None:
+        """Append rows: the times of ``chunk`` (:class:`~omegahat.io.registry.LogChunk`, plus ``t0``),
+        ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
         codes = pa.array(np.asarray(status, dtype=np.int8))
+        t = chunk.t + self.t0 if self.t0 else chunk.t
         table = pa.table(
             {
                 "t": np.ascontiguousarray(t, dtype=float),
@@ -91,12 +178,16 @@ class OmegaWriter:
         )
         self._wait()
         self._pending = self._pool.submit(pacsv.write_csv, table, self._f, self._options)
-        self.rows += len(t)
+        self.rows += len(chunk)
 
     def _wait(self) -> None:
         if self._pending is not None:
             pending, self._pending = self._pending, None
             pending.result()  # re-raises a failed write here
+
+    def describe(self) -> str:
+        """What was written, for the command's closing line."""
+        return f"{self.rows} estimates to {self.path} (t,wx,wy,wz,status; rad/s in body axes)"
 
     def commit(self) -> None:
         """Close the temporary file and move it onto the target (readable as the umask allows)."""
@@ -120,12 +211,3 @@ class OmegaWriter:
         if not self._f.closed:
             self._f.close()
         self._tmp.unlink(missing_ok=True)
-
-    def __enter__(self) -> OmegaWriter:
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            self.commit()
-        else:
-            self.abort()

@@ -1,21 +1,33 @@
-r"""Log formats by extension, read as a stream of chunks with the conventions applied and the times checked.
+r"""Input formats, recognised from the file, read as a stream of chunks through one checked path.
 
-A format is a function ``opener(path, options) -> LogStream`` registered for one or more file extensions with
-:func:`register_format` (CSV and NPZ are registered by :mod:`omegahat.io`; other formats plug in the same way).
-:func:`open_log` picks the opener by extension and wraps the stream so that every format gets, from one place:
+A format is a :class:`Format`: a name, the file extensions it claims (a directory's is :data:`DIRECTORY`), an
+``opener(path, options) -> LogStream``, optionally a ``sniff(path) -> bool`` that recognises it from the file's
+content (several formats share ``.csv``: omegahat's columns, Motive and Vicon exports), and the reading options it
+accepts. :mod:`omegahat.io` registers csv, npz, motive, vicon, c3d, rosbag1 and rosbag2; another format plugs in
+the same way with :func:`register_format`.
 
-* **time unit** (``ReadOptions.time_unit``, ``s | ms | us | ns``): times are scaled to seconds;
+**Detection** (:func:`detect_format`): among the formats claiming the path's extension, those with a sniffer are
+asked first, in registration order, and the first that recognises the file wins; else the one without a sniffer
+(for ``.csv``: omegahat's own columns, whose reader names what it expects).
+
+**The one path** (:func:`open_log`): detect, refuse options the format does not take (``--topic`` for a CSV,
+``--time-unit`` for a bag: loud rather than ignored), open, and wrap the stream (:func:`checked_stream`, which
+:func:`omegahat.estimate_frame` uses for DataFrames too) so that every format gets, from one place:
+
+* **time unit** (``ReadOptions.time_unit``, ``s | ms | us | ns``, for formats whose times carry no unit):
+  times are scaled to seconds;
 * **rotation convention** (``ReadOptions.rotation``): ``body-to-inertial`` (default: ``v_inertial = R v_body``,
-  the convention of :mod:`omegahat.so3`) or ``inertial-to-body`` (``R`` maps inertial to body, as much spacecraft
-  software stores it): then every matrix is transposed and every quaternion conjugated, so that the chunks
-  handed on are always body → inertial and the rate comes out in body axes. Direction input is body-frame by
-  definition and takes no rotation convention;
-* **time checks**: finite and strictly increasing across chunk boundaries, every message naming the line (or
-  array index) of both samples.
+  the convention of :mod:`omegahat.so3`, of ROS and of motion-capture exports) or ``inertial-to-body`` (``R`` maps
+  inertial to body, as much spacecraft software stores it): then every matrix is transposed and every quaternion
+  conjugated, so that the chunks handed on are always body → inertial and the rate comes out in body axes.
+  Direction input is body-frame by definition and takes no rotation convention;
+* **times**: finite, and the timestamp policy of :mod:`omegahat.io.timestamps` (in order; exact duplicates
+  dropped; conflicting ones refused), across chunk boundaries, every message naming the line (array index,
+  message, frame or row) of both samples.
 
-A :class:`LogChunk` carries ``t`` (s), the attitude in storage order (quaternions scalar last, SciPy's order),
-the torque, and ``labels``: the line number (CSV) or the index (NPZ) of each row, so that every later message
-(a rejected sample, a gap) can name the place in the file.
+A :class:`LogChunk` carries ``t`` (s, relative to the stream's ``t0``), the attitude in storage order (quaternions
+scalar last, SciPy's order), the torque, ``labels`` (the line number, index, message or frame of each row, so that
+every later message can name the place in the file) and ``extra`` per-row columns a writer needs (a bag's stamps).
 """
 
 from __future__ import annotations
@@ -24,36 +36,74 @@ import os
 import queue
 import threading
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
 from omegahat.io.columns import QUATERNION_ORDERS, LogFormatError
+from omegahat.io.timestamps import TimePolicy
 
 __all__ = [
+    "CHUNK_ROWS",
+    "COLUMN_OPTIONS",
+    "DIRECTORY",
+    "OPTION_FLAGS",
     "ROTATIONS",
+    "STAMPS",
     "TIME_UNITS",
+    "Format",
     "LogChunk",
     "LogStream",
     "ReadOptions",
+    "checked_stream",
+    "detect_format",
+    "get_format",
     "open_log",
     "prefetch",
     "register_format",
     "registered_extensions",
+    "unregister_format",
+    "with_options",
 ]
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ROTATIONS = ("body-to-inertial", "inertial-to-body")
+STAMPS = ("header", "receive")
+DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)
+CHUNK_ROWS = 1 << 17  #: rows per chunk of formats read whole (NPZ, bags, exports, DataFrames)
+#: options for logs whose columns are named by omegahat's rules (CSV, NPZ): the default of register_format
+COLUMN_OPTIONS = ("time_unit", "quaternion_order", "time_column")
+#: option -> its name on the command line (messages say both where it matters)
+OPTION_FLAGS = {
+    "time_unit": "--time-unit",
+    "quaternion_order": "--quaternion-order",
+    "time_column": "--time-column",
+    "body": "--body",
+    "topic": "--topic",
+    "parent_frame": "--parent-frame",
+    "child_frame": "--child-frame",
+    "stamp": "--stamp",
+}
 
 
 @dataclass(frozen=True)
 class ReadOptions:
-    """How to read a log: conventions the file itself may not state (module docstring)."""
+    """How to read a log: conventions the file itself may not state, and which body or topic to read.
+
+    ``time_unit``, ``quaternion_order``, ``time_column``: omegahat's CSV and NPZ logs (module docstring);
+    ``rotation``: every attitude format; ``body``: the rigid body of a Motive, Vicon or C3D file; ``topic``,
+    ``parent_frame``, ``child_frame``, ``stamp`` (``header`` or ``receive`` time): ROS bags. A format refuses the
+    options it does not take when they differ from their defaults."""
 
     time_unit: str = "s"
     quaternion_order: str | None = None  # None: the names say it (qw..), else the format's documented default
     rotation: str = "body-to-inertial"
     time_column: str = "t"
+    body: str | None = None
+    topic: str | None = None
+    parent_frame: str | None = None
+    child_frame: str | None = None
+    stamp: str = "header"
     chunk_bytes: int = 1 << 21  # CSV: bytes per chunk (memory stays proportional to this, not to the log)
 
     def __post_init__(self):
@@ -63,17 +113,30 @@ class ReadOptions:
             raise ValueError(f"quaternion order must be wxyz or xyzw; got {self.quaternion_order!r}")
         if self.rotation not in ROTATIONS:
             raise ValueError(f"rotation must be {' or '.join(ROTATIONS)}; got {self.rotation!r}")
+        if self.stamp not in STAMPS:
+            raise ValueError(f"stamp must be {' or '.join(STAMPS)}; got {self.stamp!r}")
+
+    def given(self) -> list[str]:
+        """The selection options (:data:`OPTION_FLAGS`) set to something other than their defaults."""
+        defaults = ReadOptions()
+        return [
+            f.name
+            for f in fields(self)
+            if f.name in OPTION_FLAGS and getattr(self, f.name) != getattr(defaults, f.name)
+        ]
 
 
 @dataclass
 class LogChunk:
     """Consecutive rows of a log: ``t (m,)`` s, ``data`` ``(m, 4)`` / ``(m, 3, 3)`` / ``(m, n, 3)`` (NaN rows are
-    missing samples), ``torque (m, 3)`` or None, ``labels (m,)`` line numbers or indices."""
+    missing samples), ``torque (m, 3)`` or None, ``labels (m,)`` line numbers or indices, ``extra`` per-row
+    arrays for the writer (or None)."""
 
     t: np.ndarray
     data: np.ndarray
     torque: np.ndarray | None
     labels: np.ndarray
+    extra: dict[str, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return self.t.size
@@ -83,9 +146,14 @@ class LogChunk:
 class LogStream:
     """An open log: what it holds, and its rows chunk by chunk (:meth:`chunks`, once).
 
-    ``label`` is ``"line"`` (text formats) or ``"index"``; ``notes`` are conventions the reader had to assume
-    (printed by the CLI so that an assumption is never silent); ``size`` and ``done`` measure progress (bytes or
-    rows); ``n_rows_hint`` the number of rows if known in advance (else None).
+    ``label`` is the word for a row's place: ``"line"`` (text formats), ``"index"`` (NPZ arrays), ``"message"``
+    (bags), ``"frame"`` (C3D) or ``"row"`` (DataFrames); ``notes`` are conventions the reader had to assume and
+    what the timestamp policy changed (printed by the CLI so that nothing is silent); ``description`` says what
+    was recognised (empty for omegahat's own logs); ``size`` and ``done`` measure progress (bytes for text
+    formats, else rows); ``n_rows_hint`` the number of rows if known in advance (else None); ``t0`` the time
+    (s) the chunks' times count from (a bag's first stamp: seconds since 1970 would lose precision as floats);
+    ``context`` follows the source in messages (``", topic /pose"``); ``meta`` holds what a writer needs (a
+    bag's topic, frames and ROS version); ``options`` the :class:`ReadOptions` it was opened with.
     """
 
     source: str
@@ -99,29 +167,142 @@ class LogStream:
     notes: list[str] = field(default_factory=list)
     done: int = 0
     attitude_name: str = ""  # the columns or array holding the attitude, for messages ("qw,qx,qy,qz", "q", ...)
+    time_name: str | None = "t"  # the time column or array, for messages (None: not named)
+    description: str = ""
+    t0: float = 0.0
+    context: str = ""
+    meta: dict = field(default_factory=dict)
+    format: str = ""
+    options: ReadOptions | None = None
 
     def where(self, label: int, column: str | None = None) -> str:
-        """``"path, line 17, column qx"`` (text) or ``"path, array q, index 17"``: the place of a row."""
-        if self.label == "line":
-            word = "columns" if column and ("," in column or ".." in column) else "column"
-            return f"{self.source}, line {label}" + (f", {word} {column}" if column else "")
-        return f"{self.source}, " + (f"array {column}, " if column else "") + f"index {label}"
+        """``"path, line 17, column qx"``, ``"path, array q, index 17"``, ``"bag, topic /p, message 17"``: the
+        place of a row (and column) in messages."""
+        head = f"{self.source}{self.context}"
+        if self.label == "index":
+            return f"{head}, " + (f"array {column}, " if column else "") + f"index {label}"
+        word = "columns" if column and ("," in column or ".." in column) else "column"
+        return f"{head}, {self.label} {label}" + (f", {word} {column}" if column else "")
 
     def chunks(self) -> Iterator[LogChunk]:
         return self._chunks()
 
+    @classmethod
+    def from_arrays(cls, source: str, kind: str, t, data, torque=None, labels=None, extra=None, **fields_):
+        """A stream over whole arrays (formats read at once), handed on in chunks of :data:`CHUNK_ROWS` rows;
+        ``labels`` default to the indices, ``fields_`` set the other attributes (``label``, ``description`` ...)."""
+        T = len(t)
+        labels = np.arange(T) if labels is None else np.asarray(labels)
 
-_FORMATS: dict[str, Callable[[str, ReadOptions], LogStream]] = {}
+        def chunks() -> Iterator[LogChunk]:
+            for a in range(0, T, CHUNK_ROWS):
+                b = min(T, a + CHUNK_ROWS)
+                part = None if extra is None else {k: v[a:b] for k, v in extra.items()}
+                yield LogChunk(t[a:b], data[a:b], None if torque is None else torque[a:b], labels[a:b], part)
+                if by_rows:
+                    stream.done = b
+
+        n_dir = data.shape[1] if kind == "directions" else 0
+        by_rows = "size" not in fields_  # progress in rows, unless the format measures it otherwise (bytes)
+        fields_.setdefault("label", "index")
+        fields_.setdefault("size", T)
+        fields_.setdefault("n_rows_hint", T)
+        stream = cls(source, kind, n_dir, torque is not None, _chunks=chunks, **fields_)
+        return stream
 
 
-def register_format(extensions, opener: Callable[[str, ReadOptions], LogStream]) -> None:
-    """Register ``opener(path, options) -> LogStream`` for file extensions such as ``".csv"`` (case-insensitive)."""
-    for ext in [extensions] if isinstance(extensions, str) else extensions:
-        _FORMATS[ext.lower()] = opener
+@dataclass(frozen=True)
+class Format:
+    """A readable format (module docstring): ``title`` names it in messages ("an OptiTrack Motive CSV export")."""
+
+    name: str
+    title: str
+    extensions: tuple[str, ...]
+    opener: Callable[[str, ReadOptions], LogStream]
+    sniff: Callable[[str], bool] | None = None
+    options: tuple[str, ...] = COLUMN_OPTIONS
+
+
+_FORMATS: list[Format] = []
+
+
+def register_format(
+    extensions,
+    opener: Callable[[str, ReadOptions], LogStream],
+    *,
+    name: str | None = None,
+    title: str | None = None,
+    sniff: Callable[[str], bool] | None = None,
+    options: tuple[str, ...] = COLUMN_OPTIONS,
+) -> Format:
+    """Register ``opener(path, options) -> LogStream`` for file extensions such as ``".csv"`` (case-insensitive;
+    :data:`DIRECTORY` for directories). ``sniff(path)``: recognise the format from the file's content (asked
+    before the extension's plain format); ``options``: the :class:`ReadOptions` selection fields it takes. A
+    format of the same name is replaced."""
+    exts = tuple(e.lower() for e in ([extensions] if isinstance(extensions, str) else extensions))
+    name = name or exts[0].lstrip(".")
+    fmt = Format(name, title or f"a {name} file", exts, opener, sniff, tuple(options))
+    _FORMATS[:] = [f for f in _FORMATS if f.name != name]
+    _FORMATS.append(fmt)
+    return fmt
+
+
+def unregister_format(name: str) -> None:
+    """Remove the format registered under ``name`` (a plug-in's, or to replace a built-in one)."""
+    get_format(name)
+    _FORMATS[:] = [f for f in _FORMATS if f.name != name]
 
 
 def registered_extensions() -> list[str]:
-    return sorted(_FORMATS)
+    return sorted({e for f in _FORMATS for e in f.extensions if e != DIRECTORY})
+
+
+def get_format(name: str) -> Format:
+    """The format registered under ``name``."""
+    for f in _FORMATS:
+        if f.name == name:
+            return f
+    raise ValueError(f"no format named {name!r}; known: {', '.join(f.name for f in _FORMATS)}")
+
+
+def _unknown(path: str, ext: str) -> LogFormatError:
+    listing = "; ".join(f"{', '.join(e for e in f.extensions if e != DIRECTORY)} {f.title}" for f in _FORMATS)
+    if ext == DIRECTORY:
+        return LogFormatError(f"{path} is a directory, and no format reads it ({listing})")
+    known = " or ".join(registered_extensions())
+    return LogFormatError(f"{path}: unknown log format {ext or '(no extension)'!r}; use {known} ({listing})")
+
+
+def detect_format(path, fmt: str | None = None) -> Format:
+    """The :class:`Format` of ``path`` (module docstring), or of ``fmt``: a format's name (``"motive"``) or an
+    extension (``".csv"``: that extension's plain format, whatever the file's name)."""
+    path = os.fspath(path)
+    if fmt is not None and not fmt.startswith("."):
+        return get_format(fmt)
+    ext = (fmt or (DIRECTORY if os.path.isdir(path) else os.path.splitext(path)[1])).lower()
+    candidates = [f for f in _FORMATS if ext in f.extensions]
+    if fmt is None:
+        for f in candidates:
+            if f.sniff is not None and f.sniff(path):
+                return f
+    plain = [f for f in candidates if f.sniff is None]
+    if plain:
+        return plain[0]
+    if len(candidates) == 1 and fmt is not None:
+        return candidates[0]
+    raise _unknown(path, ext)
+
+
+def _refuse_options(path: str, fmt: Format, options: ReadOptions) -> None:
+    wrong = [o for o in options.given() if o not in fmt.options]
+    if not wrong:
+        return
+    takers = [f.title for f in _FORMATS if all(o in f.options for o in wrong)]
+    flags = ", ".join(OPTION_FLAGS[o] for o in wrong)
+    raise ValueError(
+        f"{path} is {fmt.title}: {flags} appl{'ies' if len(wrong) == 1 else 'y'} only to "
+        + (" and ".join(takers) if takers else "other formats")
+    )
 
 
 def _conjugate(q: np.ndarray) -> np.ndarray:
@@ -138,52 +319,69 @@ def _checked(stream: LogStream, raw, options: ReadOptions) -> Iterator[LogChunk]
             f"{stream.source}: --rotation applies to attitude input; body-frame directions (b1x, ...) are already "
             "in body axes (leave --rotation out)"
         )
-    prev_t, prev_label = np.nan, None
-    tcol = options.time_column if stream.label == "line" else "t"
+    policy = TimePolicy(stream.kind, stream.where, stream.label, stream.time_name)
     for chunk in raw():
-        t = chunk.t * scale if scale != 1.0 else chunk.t
+        t = chunk.t * scale if scale != 1.0 else np.asarray(chunk.t, dtype=float)
         bad = np.flatnonzero(~np.isfinite(t))
         if bad.size:
             k = int(bad[0])
             raise LogFormatError(
-                f"{stream.where(int(chunk.labels[k]), tcol)}: time {float(chunk.t[k])!r} is not finite"
-            )
-        full = np.concatenate([[prev_t], t]) if prev_label is not None else t
-        bad = np.flatnonzero(np.diff(full) <= 0)
-        if bad.size:
-            k = int(bad[0]) + (0 if prev_label is not None else 1)  # index in this chunk of the later sample
-            before = chunk.labels[k - 1] if k > 0 else prev_label
-            t_before = float(chunk.t[k - 1]) if k > 0 else prev_t / scale
-            raise LogFormatError(
-                f"{stream.where(int(chunk.labels[k]), tcol)}: time {float(chunk.t[k])!r} is not after "
-                f"{t_before!r} ({stream.label} {before}); times must increase strictly"
+                f"{stream.where(int(chunk.labels[k]), stream.time_name)}: time {float(chunk.t[k])!r} is not finite"
             )
         data = chunk.data
         if invert:
             data = _conjugate(data) if stream.kind == "quaternion" else np.swapaxes(data, 1, 2).copy()
-        if t.size:
-            prev_t, prev_label = float(t[-1]), int(chunk.labels[-1])
-        yield LogChunk(t, data, chunk.torque, chunk.labels)
+        arrays, keep = policy.feed((t, chunk.t, data, chunk.torque, chunk.labels, chunk.extra))
+        part = _chunk(arrays, keep)
+        if len(part):
+            yield part
+    held = policy.finish()
+    if held is not None:
+        yield _chunk(held, slice(None))
+    stream.notes.extend(policy.notes())
 
 
-def open_log(path, options: ReadOptions | None = None, fmt: str | None = None) -> LogStream:
-    """Open a log by its extension, or as format ``fmt`` (an extension such as ``".csv"``); the stream's chunks
-    are converted and checked (module docstring)."""
-    options = ReadOptions() if options is None else options
-    path = os.fspath(path)
-    ext = (fmt or os.path.splitext(path)[1]).lower()
-    opener = _FORMATS.get(ext)
-    if opener is None:
-        known = " or ".join(registered_extensions())
-        raise LogFormatError(f"{path}: unknown log format {ext or '(no extension)'!r}; use {known}")
-    stream = opener(path, options)
+def _chunk(arrays: tuple, sel) -> LogChunk:
+    """The rows ``sel`` (a slice or indices) of ``arrays`` = (t, raw t, data, torque, labels, extra)."""
+    t, _, data, torque, labels, extra = arrays
+    return LogChunk(
+        t[sel],
+        data[sel],
+        None if torque is None else torque[sel],
+        labels[sel],
+        None if extra is None else {k: v[sel] for k, v in extra.items()},
+    )
+
+
+def checked_stream(stream: LogStream, options: ReadOptions) -> LogStream:
+    """Wrap a format's raw stream in the conversions and checks of the module docstring (done by
+    :func:`open_log`; formats not read from a path, e.g. DataFrames, call it themselves)."""
     raw = stream._chunks
     stream._chunks = lambda: _checked(stream, raw, options)
+    stream.options = options
     if options.rotation == "inertial-to-body" and stream.kind != "directions":
         stream.notes.append("rotation: inertial-to-body (inverted to body-to-inertial; rates in body axes)")
     if options.time_unit != "s":
         stream.notes.append(f"time unit: {options.time_unit} (converted to s)")
     return stream
+
+
+def open_log(path, options: ReadOptions | None = None, fmt: str | None = None) -> LogStream:
+    """Open a log in the format :func:`detect_format` finds (or ``fmt``: a format's name or an extension such as
+    ``".csv"``); the stream's chunks are converted and checked (module docstring)."""
+    options = ReadOptions() if options is None else options
+    path = os.fspath(path)
+    form = detect_format(path, fmt)
+    _refuse_options(path, form, options)
+    stream = form.opener(path, options)
+    stream.format = form.name
+    return checked_stream(stream, options)
+
+
+def with_options(options: ReadOptions | None, **changes) -> ReadOptions:
+    """``options`` (default :class:`ReadOptions`) with ``changes`` applied (keyword conveniences of the readers)."""
+    base = ReadOptions() if options is None else options
+    return replace(base, **changes) if changes else base
 
 
 def prefetch(chunks: Iterator[LogChunk], depth: int = 2) -> Iterator[LogChunk]:

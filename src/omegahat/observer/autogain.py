@@ -41,6 +41,9 @@ the bandwidth is high; the fit removes that dilemma, so the bandwidth is then se
 The bandwidth of least ``E`` on a logarithmic grid below Nyquist is chosen. Everything is measured on the samples
 given (the CLI passes the first ``HEAD_SAMPLES`` of the log and the duration of the whole log).
 
+:func:`select_gains` is what ``omegahat estimate`` and :func:`omegahat.estimate_frame` call: gains given or a
+bandwidth given (each checked against the log's rate, with its expected error said), else :func:`choose_gains`.
+
 :func:`convention_check` fits Euler's equations with the given J and τ under both rotation conventions and says
 whether the other one fits markedly better (a log written inertial → body read as body → inertial).
 """
@@ -67,6 +70,7 @@ __all__ = [
     "initial_rate",
     "log_rotations",
     "measure_motion",
+    "select_gains",
     "structure_table",
 ]
 
@@ -383,3 +387,59 @@ def convention_check(motion: LogMotion) -> tuple[float, float]:
             return last
         m *= 2
     return last
+
+
+def select_gains(
+    motion: LogMotion,
+    duration: float,
+    start: str = "fit",
+    references=None,
+    *,
+    gains: ObserverGains | None = None,
+    bandwidth_hz: float | None = None,
+    flag: str = "--bandwidth",
+) -> tuple[ObserverGains, str, float]:
+    """``(gains, text, ω_b)``: the gains to run with, a line saying what they are and why, and the bandwidth
+    (rad/s) that sets the fit start's window (:func:`fit_window`).
+
+    ``gains`` given: used as they are; the text states their slowest mode (of the linearised error map
+    ``J⁻¹ M``) and predicted noise, and warns when they act faster than the Nyquist frequency (then the estimate is
+    close to raw differencing). ``bandwidth_hz`` given (``flag`` names it in messages): refused unless positive
+    and below Nyquist; the text states its expected error (E). Neither: :func:`choose_gains`."""
+    refs = np.eye(3) if references is None else as_directions(references)
+    rate = motion.rate_hz
+    if gains is not None and bandwidth_hz is not None:
+        raise ValueError(f"give either {flag} or the gains, not both")
+    if gains is not None:
+        n = refs.shape[0]
+        if gains.k.shape != (n,):
+            raise ValueError(f"the gains have {gains.k.size} k_i, but the input has {n} directions")
+        M = sum(gains.k[i] * (np.eye(3) - np.outer(refs[i], refs[i])) for i in range(n))
+        lam = float(np.linalg.eigvals(np.linalg.solve(motion.J, M)).real.min())  # slowest continuous mode, rad/s
+        omega_b = np.log1p(lam / rate) * rate  # what the implicit correction makes of it per sample
+        noise = float(np.linalg.norm(predicted_noise_std(motion.J, gains, rate, motion.sigma, refs)))
+        text = f"k, l given: slowest mode {lam / (2 * np.pi):.3g} Hz, predicted noise {noise:.2g} rad/s"
+        if lam / (2 * np.pi) >= rate / 2:
+            text += (
+                f"\nwarning: these gains act faster than the Nyquist frequency {rate / 2:.4g} Hz of this log: the "
+                "estimate is close to raw differencing of the attitude; the automatic gains would filter it"
+            )
+        return gains, text, omega_b
+    if bandwidth_hz is not None:
+        b = bandwidth_hz
+        if not (np.isfinite(b) and b > 0):
+            raise ValueError(f"{flag} must be a positive number of Hz; got {b!r}")
+        if b >= rate / 2:
+            raise ValueError(
+                f"{flag} {b:g} Hz is not below the Nyquist frequency {rate / 2:.4g} Hz of this log ({rate:.4g} Hz "
+                f"samples); choose a lower one, or leave {flag} out for gains chosen from the log"
+            )
+        g = gains_for_bandwidth(motion.J, rate, b, refs, motion.sigma)
+        noise, lag, st = expected_error(motion, g, 2 * np.pi * b, duration, start, refs)
+        text = (
+            f"bandwidth {b:g} Hz given; expected RMS error {np.sqrt(noise**2 + lag**2 + st**2):.2g} rad/s "
+            f"(noise {noise:.2g}, lag {lag:.2g}, start-up {st:.2g})"
+        )
+        return g, text, 2 * np.pi * b
+    choice = choose_gains(motion, duration, start, refs)
+    return choice.gains, "gains: " + choice.explain(), 2 * np.pi * choice.bandwidth_hz

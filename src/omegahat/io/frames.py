@@ -1,0 +1,271 @@
+r"""DataFrames in, angular velocity out: :func:`estimate_frame` for pandas and Polars.
+
+The frame holds one sample per row with the column names of omegahat's logs (:mod:`omegahat.io.columns`: any
+case): a quaternion ``qx, qy, qz, qw`` (or the names given by ``quaternion=``, in ``x, y, z, w`` order), or a
+rotation matrix ``r11 … r33``, or body-frame directions ``b1x, b1y, b1z, b2x, …`` with ``references=``;
+optionally the torque ``tau_x, tau_y, tau_z``. Time is the column ``t`` (seconds, or ``time_unit``) or the one
+named by ``time=``; for pandas, without such a column, a ``DatetimeIndex``, ``TimedeltaIndex`` or floating-point
+index. Datetime and duration times are used as integer nanoseconds, so that equal stamps compare exactly.
+
+:func:`open_frame` turns the frame into a :class:`~omegahat.io.registry.LogStream` (rows in time order, labelled by
+their position in the frame) and passes it through :func:`~omegahat.io.registry.checked_stream`, so a frame gets
+exactly what a file gets: the rotation convention, the timestamp policy of :mod:`omegahat.io.timestamps` (rows in
+any order are sorted; exact duplicates dropped; conflicting ones refused, naming both rows), and then, in
+:func:`estimate_frame`, the path of ``omegahat estimate`` (:func:`omegahat.io.pipeline.estimate_stream`):
+automatic gains by default, the fit start, bad samples named by row.
+
+Missing values (NaN, ``None``, ``pd.NA``, Polars nulls) in the attitude make the sample missing: skipped and
+predicted through. The output is **indexed like the input**: for pandas a frame with the input's index and
+columns ``wx, wy, wz`` (rad/s, body axes) and ``status`` (``corrected``, ``predicted``, ``unavailable``, as in
+the command's output; join it to the input with ``df.join(out)``), for Polars a frame with the input's rows in the
+input's order, the time column (when there is one) and the same columns. A dropped duplicate row gets the estimate
+of the row kept in its place.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name
+from omegahat.io.output import STATUS_WORDS
+from omegahat.io.registry import LogStream, ReadOptions, checked_stream
+from omegahat.io.timestamps import sort_by_time
+
+if TYPE_CHECKING:  # the observer package loads the compiled kernels: imported when estimate_frame runs
+    from omegahat.observer.gains import ObserverGains
+
+__all__ = ["estimate_frame", "open_frame"]
+
+
+def _kind_of_frame(df) -> str:
+    module = type(df).__module__.split(".")[0]
+    if module in ("pandas", "polars"):
+        return module
+    raise TypeError(f"estimate_frame takes a pandas or Polars DataFrame; got {type(df).__module__}.{type(df).__name__}")
+
+
+def _pandas_times(df, time: str | None):
+    import pandas as pd
+
+    if time is not None or "t" in df.columns:
+        name = time or "t"
+        if name not in df.columns:
+            raise LogFormatError(f"DataFrame: no time column {name!r} (found: {', '.join(map(str, df.columns))})")
+        s = df[name]
+        if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
+            return _nanoseconds(s.to_numpy(), name), name
+        return s.to_numpy(dtype=float, na_value=np.nan), name
+    idx = df.index
+    if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
+        return _nanoseconds(idx.to_numpy(), "index"), None
+    if pd.api.types.is_float_dtype(idx):
+        return idx.to_numpy(dtype=float), None
+    raise LogFormatError(
+        "DataFrame: no time: give a column 't' (seconds) or time='column', or use a DatetimeIndex, TimedeltaIndex "
+        f"or float index in seconds (the index is {type(idx).__name__} of {idx.dtype})"
+    )
+
+
+def _nanoseconds(values: np.ndarray, name: str) -> np.ndarray:
+    if np.isnat(values).any():
+        k = int(np.flatnonzero(np.isnat(values))[0])
+        raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
+    return values.astype("datetime64[ns]" if values.dtype.kind == "M" else "timedelta64[ns]").astype(np.int64)
+
+
+def _polars_times(df, time: str | None):
+    import polars as pl
+
+    name = time or "t"
+    if name not in df.columns:
+        raise LogFormatError(f"DataFrame: no time column {name!r}; give time='column' (found: {', '.join(df.columns)})")
+    s = df.get_column(name)
+    if s.null_count():
+        k = int(np.flatnonzero(s.is_null().to_numpy())[0])
+        raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
+    if s.dtype.is_temporal():
+        if isinstance(s.dtype, pl.Datetime | pl.Duration):
+            scale = {"ns": 1, "us": 1_000, "ms": 1_000_000}[s.dtype.time_unit]
+            return s.to_physical().to_numpy().astype(np.int64) * scale, name
+        raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
+    return s.cast(pl.Float64).to_numpy(), name
+
+
+def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
+    if frame_kind == "pandas":
+        return df[cols].to_numpy(dtype=float, na_value=np.nan)
+    import polars as pl
+
+    return df.select([pl.col(c).cast(pl.Float64) for c in cols]).to_numpy().astype(float)
+
+
+def open_frame(
+    df, options: ReadOptions | None = None, *, time: str | None = None, quaternion: Sequence[str] | None = None
+) -> LogStream:
+    """A checked stream of a pandas or Polars frame's rows in time order (module docstring); ``meta`` holds the
+    frame's kind, the time column used (None: the index) and each row's time (``"row_t"``, seconds since ``t0``)."""
+    options = ReadOptions() if options is None else options
+    frame_kind = _kind_of_frame(df)
+    names = [str(c) for c in df.columns]
+    if quaternion is not None:
+        q = [str(c) for c in quaternion]
+        if len(q) != 4:
+            raise ValueError(f"quaternion= names 4 columns in x, y, z, w order; got {q}")
+        missing = [c for c in q if c not in names]
+        if missing:
+            raise LogFormatError(f"DataFrame: missing quaternion column(s) {', '.join(missing)} (quaternion=)")
+        as_named = dict(zip(q, QUATERNION_COLUMNS, strict=True))
+    else:
+        as_named = {}
+    if frame_kind == "pandas":
+        times, time_name = _pandas_times(df, time)
+    else:
+        times, time_name = _polars_times(df, time)
+    used = [as_named.get(n, n) for n in names]
+    lay = layout([u for u, n in zip(used, names, strict=True) if n != time_name], "DataFrame", None)
+    original = {normalise_name(u): n for u, n in zip(used, names, strict=True)}
+    data = _numbers(df, [original[c] for c in lay.attitude], frame_kind)
+    T = data.shape[0]
+    if T == 0:
+        raise LogFormatError("DataFrame: no rows")
+    if lay.kind == "matrix":
+        data = data.reshape(T, 3, 3)
+    elif lay.kind == "directions":
+        data = data.reshape(T, -1, 3)
+    torque = None
+    if lay.torque:
+        torque = _numbers(df, [original[c] for c in lay.torque], frame_kind)
+        bad = np.flatnonzero(~np.all(np.isfinite(torque), axis=1))
+        if bad.size:
+            raise LogFormatError(f"DataFrame, row {int(bad[0])}: torque {torque[bad[0]].tolist()} is not finite")
+    order, n_late = sort_by_time(times)
+    if np.issubdtype(times.dtype, np.integer):  # nanoseconds: seconds since the first, exact for equal stamps
+        base = int(times[order[0]])
+        row_t, t0 = (times - base).astype(np.float64) * 1e-9, base * 1e-9
+    else:
+        row_t, t0 = np.asarray(times, dtype=float), 0.0
+    notes = [f"{n_late} row(s) came after a later one: sorted by time"] if n_late else []
+    cols = ", ".join(original[c] for c in lay.attitude)
+    stream = LogStream.from_arrays(
+        "DataFrame",
+        lay.kind,
+        row_t[order],
+        data[order],
+        None if torque is None else torque[order],
+        labels=order,
+        label="row",
+        time_name=time_name or "index",
+        t0=t0,
+        description=f"DataFrame ({frame_kind}): {lay.kind} columns {cols}",
+        notes=notes,
+        attitude_name=cols,
+        meta={"frame": frame_kind, "time_column": time_name, "row_t": row_t},
+        format="dataframe",
+    )
+    return checked_stream(stream, options)
+
+
+class _Collector:
+    """The writer :func:`estimate_frame` gives :func:`~omegahat.io.pipeline.estimate_stream`: keeps each row's
+    estimate and status by its position in the frame."""
+
+    def __init__(self, n: int):
+        self.omega = np.full((n, 3), np.nan)
+        self.status = np.zeros(n, dtype=np.int8)
+        self.written = np.zeros(n, dtype=bool)
+        self.times: list[np.ndarray] = []
+        self.rows: list[np.ndarray] = []
+
+    def write(self, chunk, omega, status) -> None:
+        self.omega[chunk.labels] = omega
+        self.status[chunk.labels] = status
+        self.written[chunk.labels] = True
+        self.times.append(chunk.t)
+        self.rows.append(chunk.labels)
+
+    def spread(self, row_t: np.ndarray) -> None:
+        """Give every row the timestamp policy dropped the estimate of the row kept at its time."""
+        dropped = np.flatnonzero(~self.written)
+        if not dropped.size:
+            return
+        kept_t, kept_rows = np.concatenate(self.times), np.concatenate(self.rows)
+        src = kept_rows[np.searchsorted(kept_t, row_t[dropped])]
+        self.omega[dropped], self.status[dropped] = self.omega[src], self.status[src]
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+
+def estimate_frame(
+    df,
+    *,
+    gains: ObserverGains | None = None,
+    bandwidth_hz: float | None = None,
+    inertia=None,
+    references=None,
+    time: str | None = None,
+    quaternion: Sequence[str] | None = None,
+    time_unit: str = "s",
+    rotation: str = "body-to-inertial",
+    start: str = "fit",
+    skip_bad_samples: bool = False,
+    verbose: bool = False,
+):
+    """Angular velocity (rad/s, body axes) for every row of a pandas or Polars DataFrame (module docstring).
+
+    Gains, as ``omegahat estimate`` chooses them: automatic by default (from the frame's sample rate, noise and
+    motion: :func:`omegahat.observer.autogain.choose_gains`); or ``bandwidth_hz`` (Hz, below half the sample
+    rate, as ``--bandwidth``); or ``gains`` (an :class:`~omegahat.observer.gains.ObserverGains`, e.g. from
+    :func:`omegahat.observer.tuning.sensor_gains`). ``inertia``: 3 or 9 numbers or 3×3 (default identity, i.e. a
+    locally constant rate); ``references``: the inertial directions (required for ``b1x, ...`` columns; for
+    attitude input the default is the three rows of R). ``time_unit`` (``s``, ``ms``, ``us``, ``ns``) of float
+    times; ``rotation``: ``body-to-inertial`` (default) or ``inertial-to-body``; ``start``: ``fit`` (default: a
+    least-squares rate over the first window), ``warm`` (from the first two samples) or ``zero``;
+    ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising. ``verbose``: print
+    what was read and chosen. Samples skipped (missing) are reported with a
+    :class:`~omegahat.observer.estimator.SkippedSamplesWarning`.
+    """
+    from omegahat.io.pipeline import EstimateSettings, estimate_stream
+
+    stream = open_frame(df, ReadOptions(time_unit=time_unit, rotation=rotation), time=time, quaternion=quaternion)
+    settings = EstimateSettings(
+        inertia=inertia,
+        references=references,
+        gains=gains,
+        bandwidth_hz=bandwidth_hz,
+        start=start,
+        skip_bad_samples=skip_bad_samples,
+    )
+    n = len(df)
+    collector = _Collector(n)
+    summary = estimate_stream(stream, settings, lambda _: collector, report=print if verbose else _quiet)
+    collector.spread(stream.meta["row_t"])
+    if verbose:
+        print("\n".join(summary.lines))
+    if summary.n_missing + summary.n_collinear:
+        from omegahat.observer.estimator import SkippedSamplesWarning
+
+        skipped = next(line for line in summary.lines if line.startswith("skipped"))
+        warnings.warn(SkippedSamplesWarning(skipped), stacklevel=2)
+    W, status = collector.omega, np.array(STATUS_WORDS)[collector.status]
+    if stream.meta["frame"] == "pandas":
+        import pandas as pd
+
+        out = {"wx": W[:, 0], "wy": W[:, 1], "wz": W[:, 2], "status": pd.Categorical(status, STATUS_WORDS)}
+        return pd.DataFrame(out, index=df.index)
+    import polars as pl
+
+    out = pl.DataFrame({"wx": W[:, 0], "wy": W[:, 1], "wz": W[:, 2], "status": status})
+    time_name = stream.meta["time_column"]
+    return out.insert_column(0, df.get_column(time_name)) if time_name else out
+
+
+def _quiet(text: str) -> None:
+    del text

@@ -1,0 +1,335 @@
+r"""Motion-capture CSV exports: OptiTrack Motive and Vicon Nexus / Tracker, recognised from their headers.
+
+**OptiTrack Motive** (CSV export, format versions 1.2x; Motive 2 and 3). The file starts with a line of
+``key,value`` pairs (``Format Version,1.23,Take Name,...,Rotation Type,Quaternion,...``), a blank line, then
+four header rows naming each column's ``Type`` (``Rigid Body``, ``Rigid Body Marker``, ``Marker``, ``Bone``),
+``Name``, ``ID`` and component (``Rotation``, ``Position``, ``Mean Marker Error``), and the row of axis labels
+that starts ``Frame,Time (Seconds),X,Y,Z,W,...``. Rotations are quaternions with the scalar **last**
+(``X, Y, Z, W``) and rotate the rigid body's local axes into Motive's global axes (body → inertial, as omegahat's
+``R``), so the rate comes out in the rigid body's own axes whatever Motive's up axis is. Time is the
+``Time (Seconds)`` column; an empty rotation (body not tracked in that frame) is a missing sample. Exports with
+Euler angles (``Rotation Type`` ``XYZ`` etc.) are refused with a message: export again with quaternions.
+
+**Vicon** (Nexus "Segments" export and Tracker's object export). Sections start with a title line
+(``Segments``, ``Objects``, ``Trajectories``, ``Model Outputs``, ...), the rate in Hz, a row of object names
+(``Subject:Segment``; Tracker may write ``Global Angle Name``), a row of labels ``Frame,Sub Frame,RX,RY,RZ,TX,
+TY,TZ,...`` and a row of units (``deg`` or ``rad``, ``mm``); a blank line ends the section. ``RX, RY, RZ`` are
+Vicon's *helical* angles: the rotation vector (axis times angle) of the segment's rotation into the global frame,
+converted here with the exponential map; its wrap-around at 180° changes the vector, not the rotation, so it
+causes no spike. Time is ``Frame / rate`` (frame numbers may skip: dropped frames). A file with marker
+trajectories only is refused with a message saying which export holds rotations.
+
+**Selection.** ``ReadOptions.body`` (``--body``) names the rigid body (Motive) or object/segment (Vicon); with a
+single one it may be omitted, with several the error lists them. Detection looks only at the first lines
+(:func:`is_motive`, :func:`is_vicon`, the sniffers registered for ``.csv`` in :mod:`omegahat.io`): ``Format
+Version`` first → Motive; a one-word title line, a number, then a ``Frame,Sub Frame`` row → Vicon; anything else
+is omegahat's own CSV (:mod:`omegahat.io.csvlog`). Every error names the file, the line and the column. The
+openers return a :class:`~omegahat.io.registry.LogStream` labelled by line, so the timestamp policy
+(:mod:`omegahat.io.timestamps`: rows in time order; exact duplicates dropped; conflicts refused) names lines too.
+These exports are read whole with Python's :mod:`csv` (a take of minutes at a few hundred Hz is a few MB).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+
+import numpy as np
+
+from omegahat.io.columns import LogFormatError
+from omegahat.io.registry import LogStream, ReadOptions
+
+__all__ = ["choose_body", "is_motive", "is_vicon", "open_motive_csv", "open_vicon_csv"]
+
+_SNIFF_LINES = 12
+
+
+def _rows(path: str) -> list[list[str]]:
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            return [[field.strip() for field in row] for row in csv.reader(f)]
+    except UnicodeDecodeError as exc:
+        raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _head(path: str) -> list[list[str]]:
+    head: list[list[str]] = []
+    try:
+        with open(path, newline="", encoding="utf-8-sig", errors="replace") as f:
+            for row in csv.reader(f):
+                head.append([x.strip() for x in row])
+                if len(head) >= _SNIFF_LINES:
+                    break
+    except (OSError, csv.Error):
+        return []  # the plain CSV reader reports the problem
+    return head
+
+
+def is_motive(path) -> bool:
+    """Whether a CSV file is a Motive export: its first field is ``Format Version``."""
+    head = _head(os.fspath(path))
+    return bool(head and head[0] and head[0][0] == "Format Version")
+
+
+def _vicon_title(rows: list[list[str]], i: int) -> bool:
+    """Whether a Vicon section starts at row ``i``: a one-word title, a rate, names, then ``Frame,Sub Frame``."""
+    title = [x for x in rows[i] if x]
+    return (
+        len(title) == 1
+        and not _is_number(title[0])
+        and bool(rows[i + 1][:1])
+        and _is_number(rows[i + 1][0])
+        and rows[i + 3][:2] == ["Frame", "Sub Frame"]
+    )
+
+
+def is_vicon(path) -> bool:
+    """Whether a CSV file is a Vicon export: a section title, a rate, names, then ``Frame,Sub Frame``."""
+    head = _head(os.fspath(path))
+    return any(_vicon_title(head, i) for i in range(len(head) - 3))
+
+
+def _number(field: str, path: str, line: int, column: str) -> float:
+    try:
+        return float(field)
+    except ValueError:
+        raise LogFormatError(f"{path}, line {line}, column {column}: {field!r} is not a number") from None
+
+
+def choose_body(names: list[str], body: str | None, path: str, what: str, plural: str) -> str:
+    """The name in ``names`` that ``body`` selects (exact, else ignoring case; optional when there is one name);
+    the errors list the names."""
+    if not names:
+        raise LogFormatError(f"{path}: no {what} with a rotation found")
+    if body is None:
+        if len(names) > 1:
+            raise LogFormatError(
+                f"{path}: {len(names)} {plural} with rotations ({', '.join(names)}); choose one with --body NAME "
+                "(body= in Python)"
+            )
+        return names[0]
+    if body in names:
+        return body
+    folded = [n for n in names if n.casefold() == body.casefold()]
+    if len(folded) == 1:
+        return folded[0]
+    raise LogFormatError(f"{path}: no {what} named {body!r}; the file has {', '.join(names)}")
+
+
+# ---------------------------------------------------------------------------------------------------- Motive
+
+
+def open_motive_csv(path, options: ReadOptions) -> LogStream:
+    """One rigid body's attitude from an OptiTrack Motive CSV export (module docstring)."""
+    path = os.fspath(path)
+    body = options.body
+    rows = _rows(path)
+    meta_row = rows[0] if rows else []
+    if not meta_row or meta_row[0] != "Format Version":
+        raise LogFormatError(f"{path}, line 1: not a Motive export (it starts {','.join(meta_row[:2])!r})")
+    meta = {meta_row[i]: meta_row[i + 1] for i in range(0, len(meta_row) - 1, 2) if meta_row[i]}
+    version = meta.get("Format Version", "?")
+    rotation_type = meta.get("Rotation Type", "Quaternion")
+    if rotation_type.casefold() != "quaternion":
+        raise LogFormatError(
+            f"{path}, line 1: Rotation Type is {rotation_type!r} (Euler angles, whose order Motive does not "
+            "state unambiguously); export the take again with Rotation Type = Quaternion"
+        )
+    try:
+        i_axes = next(i for i, r in enumerate(rows) if r[:1] == ["Frame"])
+    except StopIteration:
+        raise LogFormatError(f"{path}: no header row starting 'Frame' (the row of X,Y,Z,W labels)") from None
+    header = {r[1]: (i, r) for i, r in enumerate(rows[:i_axes]) if len(r) > 1 and r[1] in ("Type", "Name", "ID")}
+    for key in ("Type", "Name"):
+        if key not in header:
+            raise LogFormatError(f"{path}: no ',{key},...' header row above line {i_axes + 1}")
+    types, names = header["Type"][1], header["Name"][1]
+    comp = rows[i_axes - 1]
+    axes = rows[i_axes]
+    width = len(axes)
+
+    def cell(row, j):
+        return row[j] if j < len(row) else ""
+
+    time_col = next((j for j, a in enumerate(axes) if a.startswith("Time")), None)
+    if time_col is None:
+        raise LogFormatError(f"{path}, line {i_axes + 1}: no 'Time (Seconds)' column")
+    bodies: dict[str, dict[str, int]] = {}
+    for j in range(width):
+        if cell(types, j) in ("Rigid Body", "Bone") and cell(comp, j) == "Rotation" and cell(axes, j) in "XYZW":
+            bodies.setdefault(cell(names, j), {})[cell(axes, j)] = j
+    complete = [n for n, c in bodies.items() if set(c) == set("XYZW")]
+    if not complete:
+        found = sorted({cell(types, j) for j in range(2, width)} - {""})
+        raise LogFormatError(
+            f"{path}: no rigid body with quaternion columns X,Y,Z,W (column types found: {', '.join(found) or 'none'})"
+            "; omegahat needs rigid-body rotations: define a rigid body in Motive and export it"
+        )
+    name = choose_body(complete, body, path, "rigid body", "rigid bodies")
+    cols = [bodies[name][a] for a in "XYZW"]
+    ids = header.get("ID", (0, []))[1]
+    body_id = cell(ids, cols[0])
+
+    times, quats, lines = [], [], []
+    for i in range(i_axes + 1, len(rows)):
+        row = rows[i]
+        line = i + 1
+        if not any(row):
+            continue
+        t_field = cell(row, time_col)
+        if not t_field:
+            raise LogFormatError(f"{path}, line {line}, column {axes[time_col]}: empty time")
+        times.append(_number(t_field, path, line, axes[time_col]))
+        fields = [cell(row, j) for j in cols]
+        if any(not f for f in fields):
+            quats.append([np.nan] * 4)
+        else:
+            quats.append([_number(f, path, line, f"{name} Rotation {a}") for f, a in zip(fields, "XYZW", strict=True)])
+        lines.append(line)
+    if not times:
+        raise LogFormatError(f"{path}: no data rows after the header (line {i_axes + 1})")
+    description = (
+        f"OptiTrack Motive CSV (format {version}): rigid body {name!r}"
+        + (f" (ID {body_id})" if body_id else "")
+        + f", quaternions X,Y,Z,W (scalar last), time from column {axes[time_col]!r}, {len(times)} frames"
+        + (f" at {float(meta['Export Frame Rate']):g} Hz" if _is_number(meta.get("Export Frame Rate", "")) else "")
+    )
+    notes = (
+        [f"other rigid bodies in the file: {', '.join(n for n in complete if n != name)}"] if len(complete) > 1 else []
+    )
+    return _stream(path, "quaternion", times, quats, lines, description, notes, axes[time_col], f"{name} Rotation")
+
+
+def _stream(path, kind, times, data, lines, description, notes, time_name, attitude_name) -> LogStream:
+    size = os.path.getsize(path)
+    return LogStream.from_arrays(
+        path,
+        kind,
+        np.asarray(times, dtype=float),
+        np.asarray(data, dtype=float),
+        labels=np.asarray(lines),
+        label="line",
+        size=size,
+        done=size,
+        description=description,
+        notes=notes,
+        time_name=time_name,
+        attitude_name=attitude_name,
+    )
+
+
+# ---------------------------------------------------------------------------------------------------- Vicon
+
+
+def _vicon_sections(rows: list[list[str]], path: str) -> list[dict]:
+    """Every section: title, rate, its header rows' indices and its data rows' range."""
+    sections = []
+    i = 0
+    while i < len(rows) - 4:
+        if _vicon_title(rows, i):
+            title = [x for x in rows[i] if x]
+            start = i + 5
+            end = start
+            while end < len(rows) and any(rows[end]):
+                end += 1
+            sections.append(
+                {
+                    "title": title[0],
+                    "rate": float(rows[i + 1][0]),
+                    "names": i + 2,
+                    "labels": i + 3,
+                    "data": (start, end),
+                }
+            )
+            i = end
+        else:
+            i += 1
+    return sections
+
+
+def _vicon_objects(rows, sec) -> dict[str, dict[str, int]]:
+    names, labels = rows[sec["names"]], rows[sec["labels"]]
+    objects: dict[str, dict[str, int]] = {}
+    current = None
+    for j in range(2, len(labels)):
+        if j < len(names) and names[j]:
+            current = names[j].removeprefix("Global Angle ").strip()
+        if current is not None and labels[j]:
+            objects.setdefault(current, {})[labels[j]] = j
+    return objects
+
+
+def open_vicon_csv(path, options: ReadOptions) -> LogStream:
+    """One object's or segment's attitude from a Vicon Nexus or Tracker CSV export (module docstring)."""
+    path = os.fspath(path)
+    body = options.body
+    rows = _rows(path)
+    sections = _vicon_sections(rows, path)
+    if not sections:
+        raise LogFormatError(f"{path}: not a Vicon CSV export (no section title, rate and 'Frame,Sub Frame' rows)")
+    candidates = []  # (section, object name, columns)
+    for sec in sections:
+        for obj, cols in _vicon_objects(rows, sec).items():
+            if {"RX", "RY", "RZ"} <= set(cols):
+                candidates.append((sec, obj, cols))
+    if not candidates:
+        titles = ", ".join(s["title"] for s in sections)
+        raise LogFormatError(
+            f"{path}: this Vicon export has no rotations (sections: {titles}); omegahat needs each body's "
+            "rotation: export the 'Segments' section from Nexus (a subject with segments), or the objects' "
+            "rotations from Tracker"
+        )
+    name = choose_body([c[1] for c in candidates], body, path, "object/segment", "objects/segments")
+    sec, _, cols = next(c for c in candidates if c[1] == name)
+    units_row = rows[sec["labels"] + 1]
+    unit = units_row[cols["RX"]] if cols["RX"] < len(units_row) else ""
+    scale = {"deg": np.pi / 180.0, "rad": 1.0}.get(unit.casefold())
+    if scale is None:
+        raise LogFormatError(
+            f"{path}, line {sec['labels'] + 2}, column {name} RX: unit {unit!r}; expected 'deg' or 'rad'"
+        )
+    rate = sec["rate"]
+    if not rate > 0:
+        raise LogFormatError(f"{path}, line {sec['labels'] - 1}: rate {rate!r} Hz is not positive")
+    frames, vecs, lines = [], [], []
+    start, end = sec["data"]
+    for i in range(start, end):
+        row = rows[i]
+        line = i + 1
+        frame = _number(row[0] if row else "", path, line, "Frame")
+        sub = _number(row[1], path, line, "Sub Frame") if len(row) > 1 and row[1] else 0.0
+        if sub != 0:
+            raise LogFormatError(
+                f"{path}, line {line}, column Sub Frame: {row[1]!r}; a {sec['title']} section has one row per frame"
+            )
+        fields = [row[cols[a]] if cols[a] < len(row) else "" for a in ("RX", "RY", "RZ")]
+        if any(not f for f in fields):
+            vecs.append([np.nan] * 3)
+        else:
+            vecs.append(
+                [_number(f, path, line, f"{name} {a}") for f, a in zip(fields, ("RX", "RY", "RZ"), strict=True)]
+            )
+        frames.append(frame)
+        lines.append(line)
+    if not frames:
+        raise LogFormatError(f"{path}, line {start}: the {sec['title']} section has no data rows")
+    frames = np.array(frames)
+    rotvec = np.array(vecs) * scale
+    from scipy.spatial.transform import Rotation  # SciPy's transforms load in 0.1 s: only for Vicon files
+
+    valid = np.all(np.isfinite(rotvec), axis=1)
+    R = np.full((frames.size, 3, 3), np.nan)
+    R[valid] = Rotation.from_rotvec(rotvec[valid]).as_matrix()
+    description = (
+        f"Vicon CSV, section {sec['title']!r} at {rate:g} Hz: {name!r}, helical angles RX,RY,RZ in {unit} "
+        f"(rotation vector into the global frame), time = Frame / {rate:g}, {frames.size} frames"
+    )
+    return _stream(path, "matrix", frames / rate, R, lines, description, [], None, f"{name} RX,RY,RZ")

@@ -1,0 +1,368 @@
+r"""ROS 1 and ROS 2 bags, read and written with the pure-Python ``rosbags`` library (no ROS installation).
+
+``pip install "omegahat[ros]"``. A ROS 1 bag is a ``.bag`` file; a ROS 2 bag is a directory holding
+``metadata.yaml`` and its ``.db3`` or ``.mcap`` storage (a path to that storage file is taken as its directory).
+
+**Input**: the orientation carried by one topic, with the message type recognised from the bag:
+
+==============================================  ================================  =====================================
+message type                                    orientation                       body frame (output ``frame_id``)
+==============================================  ================================  =====================================
+``geometry_msgs/PoseStamped``                   ``pose.orientation``              not named: ``--frame-id`` or "body"
+``geometry_msgs/PoseWithCovarianceStamped``     ``pose.pose.orientation``         not named: as above
+``geometry_msgs/TransformStamped``              ``transform.rotation``            ``child_frame_id``
+``tf2_msgs/TFMessage`` (``/tf``)                the transform selected by         ``child_frame_id``
+                                                parent and child frame
+``nav_msgs/Odometry``                           ``pose.pose.orientation``         ``child_frame_id``
+``sensor_msgs/Imu``                             ``orientation``                   ``header.frame_id``
+==============================================  ================================  =====================================
+
+ROS orientations rotate the child (body) frame into the parent (fixed) frame, ``p_parent = R(q) p_child``:
+omegahat's ``R`` (body → inertial), so the estimate is the body's rate **in the body frame**. Quaternions are
+``(x, y, z, w)``; ``q`` and ``−q`` are the same rotation and a sign flip between messages changes nothing. An
+``Imu`` whose ``orientation_covariance[0]`` is ``−1`` carries no orientation (REP 145) and is refused.
+
+Times are the messages' **header stamps** (the time of capture, which network delivery does not delay) unless
+``ReadOptions.stamp`` is ``"receive"`` (``--stamp receive``: the time the recorder received the message), which
+helps when a driver leaves the header stamp at zero. Stamps are integer nanoseconds: the stream's times are
+seconds since the first stamp (``LogStream.t0``; as floats since 1970 they would be rounded to 0.24 µs), and the
+stamps themselves travel with each row (``LogChunk.extra``) to the output. Messages are sorted by stamp
+(:func:`omegahat.io.timestamps.sort_by_time`); duplicates are handled by the timestamp policy of
+:func:`omegahat.io.registry.open_log`, which names messages by their index in the bag.
+
+**Output** (:class:`TwistBagWriter`): ``geometry_msgs/TwistStamped`` on one topic (default ``/omegahat/twist``),
+one message per estimate, ``twist.angular`` the body-frame rate in rad/s (NaN where no estimate exists yet),
+``header.frame_id`` the body frame, ``header.stamp`` copied from the input message the estimate belongs to,
+recorded at that message's receive time; ``twist.linear`` is NaN (not estimated). A ``.bag`` path gives a ROS 1
+bag, a name without extension a ROS 2 bag directory (SQLite storage). The bag is written under a temporary name
+beside the target and renamed when complete, so the output is whole or absent; an existing output is never
+overwritten (a ROS 2 bag is a directory, which cannot be replaced atomically).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from omegahat.io.columns import LogFormatError
+from omegahat.io.output import AtomicOutput
+from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.timestamps import sort_by_time
+
+__all__ = ["DEFAULT_TWIST_TOPIC", "SUPPORTED_TYPES", "TwistBagWriter", "bag_path", "is_ros2_bag", "open_bag"]
+
+DEFAULT_TWIST_TOPIC = "/omegahat/twist"
+
+SUPPORTED_TYPES = (
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "geometry_msgs/msg/TransformStamped",
+    "tf2_msgs/msg/TFMessage",
+    "nav_msgs/msg/Odometry",
+    "sensor_msgs/msg/Imu",
+)
+
+
+def _rosbags():
+    try:
+        import rosbags.highlevel
+        import rosbags.typesys
+    except ImportError:  # pragma: no cover - the test extra installs it
+        raise ImportError('reading and writing ROS bags needs rosbags: pip install "omegahat[ros]"') from None
+    import rosbags
+
+    return rosbags
+
+
+def bag_path(path) -> Path | None:
+    """The bag a path names (a ``.bag`` file, a ROS 2 bag directory, or a file inside one), else None."""
+    p = Path(path)
+    if p.suffix == ".bag" and p.is_file():
+        return p
+    if p.is_dir() and (p / "metadata.yaml").is_file():
+        return p
+    if p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").is_file():
+        return p.parent
+    return None
+
+
+def is_ros2_bag(path) -> bool:
+    """Whether ``path`` is a ROS 2 bag: a directory with ``metadata.yaml``, or its ``.db3``/``.mcap`` storage."""
+    p = bag_path(path)
+    return p is not None and p.is_dir()
+
+
+def _frame(name: str | None) -> str | None:
+    return None if name is None else name.lstrip("/")
+
+
+def _stamp_ns(header) -> int:
+    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+
+
+def _quat(q) -> tuple[float, float, float, float]:
+    return (float(q.x), float(q.y), float(q.z), float(q.w))
+
+
+def _samples(msgtype: str, msg, topic: str, where: str):
+    """Yield ``(header_ns, (x, y, z, w), parent, child)`` for one message (several for a TFMessage)."""
+    if msgtype == "tf2_msgs/msg/TFMessage":
+        for tr in msg.transforms:
+            yield (
+                _stamp_ns(tr.header),
+                _quat(tr.transform.rotation),
+                _frame(tr.header.frame_id),
+                _frame(tr.child_frame_id),
+            )
+    elif msgtype == "geometry_msgs/msg/TransformStamped":
+        yield (
+            _stamp_ns(msg.header),
+            _quat(msg.transform.rotation),
+            _frame(msg.header.frame_id),
+            _frame(msg.child_frame_id),
+        )
+    elif msgtype == "geometry_msgs/msg/PoseStamped":
+        yield _stamp_ns(msg.header), _quat(msg.pose.orientation), _frame(msg.header.frame_id), None
+    elif msgtype == "geometry_msgs/msg/PoseWithCovarianceStamped":
+        yield _stamp_ns(msg.header), _quat(msg.pose.pose.orientation), _frame(msg.header.frame_id), None
+    elif msgtype == "nav_msgs/msg/Odometry":
+        yield (
+            _stamp_ns(msg.header),
+            _quat(msg.pose.pose.orientation),
+            _frame(msg.header.frame_id),
+            _frame(msg.child_frame_id),
+        )
+    elif msgtype == "sensor_msgs/msg/Imu":
+        if float(msg.orientation_covariance[0]) == -1.0:
+            raise LogFormatError(
+                f"{where}: this sensor_msgs/Imu has orientation_covariance[0] = -1, i.e. no orientation "
+                "(REP 145); omegahat needs the orientation (an IMU driver with an orientation filter, or a mocap topic)"
+            )
+        yield _stamp_ns(msg.header), _quat(msg.orientation), None, _frame(msg.header.frame_id)
+
+
+def _describe_topics(connections) -> str:
+    seen = {}
+    for c in connections:
+        seen.setdefault(c.topic, c.msgtype)
+    return ", ".join(f"{t} ({m.replace('/msg/', '/')})" for t, m in sorted(seen.items()))
+
+
+def open_bag(path, options: ReadOptions) -> LogStream:
+    """The orientation on ``options.topic`` in a ROS 1 or ROS 2 bag (module docstring).
+
+    The topic may be omitted when one topic has a supported type. For ``/tf`` (``tf2_msgs/TFMessage``) and
+    other transform topics, ``options.parent_frame`` and ``child_frame`` select the transform (needed when several
+    are present; the error lists them). Raises :class:`~omegahat.io.LogFormatError` naming the bag, topic and
+    message. The whole topic is read now (to sort it by stamp) and handed on in chunks.
+    """
+    _rosbags()
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
+
+    topic, parent_frame, child_frame, stamp = options.topic, options.parent_frame, options.child_frame, options.stamp
+    p = bag_path(path)
+    if p is None:
+        raise LogFormatError(
+            f"{os.fspath(path)}: not a ROS bag (a .bag file, or a ROS 2 bag directory with metadata.yaml)"
+        )
+    want_parent, want_child = _frame(parent_frame), _frame(child_frame)
+    try:
+        reader = AnyReader([p], default_typestore=get_typestore(Stores.LATEST))
+        reader.open()
+    except (AnyReaderError, OSError) as exc:
+        raise LogFormatError(f"{p}: cannot open the bag ({exc})") from None
+    try:
+        supported = [c for c in reader.connections if c.msgtype in SUPPORTED_TYPES]
+        if topic is None:
+            topics = sorted({c.topic for c in supported})
+            if len(topics) != 1:
+                raise LogFormatError(
+                    f"{p}: {'several' if topics else 'no'} topics with an orientation; choose one with --topic "
+                    f"(topics in the bag: {_describe_topics(reader.connections) or 'none'}; readable types: "
+                    f"{', '.join(t.replace('/msg/', '/') for t in SUPPORTED_TYPES)})"
+                )
+            topic = topics[0]
+        conns = [c for c in reader.connections if c.topic == topic]
+        if not conns:
+            raise LogFormatError(
+                f"{p}: no topic {topic!r}; topics in the bag: {_describe_topics(reader.connections) or 'none'}"
+            )
+        msgtype = conns[0].msgtype
+        if msgtype not in SUPPORTED_TYPES:
+            raise LogFormatError(
+                f"{p}, topic {topic}: type {msgtype.replace('/msg/', '/')} carries no orientation omegahat reads; "
+                f"readable types: {', '.join(t.replace('/msg/', '/') for t in SUPPORTED_TYPES)}"
+            )
+        header_ns, receive_ns, quats, pairs, index = [], [], [], [], []
+        for k, (conn, timestamp, raw) in enumerate(reader.messages(connections=conns)):
+            msg = reader.deserialize(raw, conn.msgtype)
+            for h_ns, q, parent, child in _samples(msgtype, msg, topic, f"{p}, topic {topic}, message {k}"):
+                header_ns.append(h_ns)
+                receive_ns.append(int(timestamp))
+                quats.append(q)
+                pairs.append((parent, child))
+                index.append(k)
+    finally:
+        reader.close()
+    if not quats:
+        raise LogFormatError(f"{p}, topic {topic}: no messages")
+    pair_set = sorted(set(pairs), key=lambda x: (x[0] or "", x[1] or ""))
+    select = np.ones(len(pairs), dtype=bool)
+    if want_parent is not None or want_child is not None:
+        select = np.array(
+            [(want_parent is None or a == want_parent) and (want_child is None or b == want_child) for a, b in pairs]
+        )
+        if not select.any():
+            raise LogFormatError(
+                f"{p}, topic {topic}: no transform from parent {want_parent or '*'!r} to child {want_child or '*'!r}; "
+                f"the topic has {', '.join(f'{a} -> {b}' for a, b in pair_set)}"
+            )
+    chosen = sorted({pairs[i] for i in np.flatnonzero(select)}, key=lambda x: (x[0] or "", x[1] or ""))
+    if len(chosen) > 1:
+        raise LogFormatError(
+            f"{p}, topic {topic}: {len(chosen)} transforms ({', '.join(f'{a} -> {b}' for a, b in chosen)}); choose "
+            "one with --parent-frame and --child-frame"
+        )
+    parent, child = chosen[0]
+    idx = np.flatnonzero(select)
+    header_ns = np.array(header_ns, dtype=np.int64)[idx]
+    receive_ns = np.array(receive_ns, dtype=np.int64)[idx]
+    q = np.array(quats, dtype=float)[idx]
+    msg_index = np.array(index)[idx]
+    if stamp == "header" and not np.any(header_ns):
+        raise LogFormatError(
+            f"{p}, topic {topic}: every header stamp is zero (the driver does not stamp its messages); use the "
+            "receive time instead: --stamp receive (stamp='receive' in Python)"
+        )
+    times = header_ns if stamp == "header" else receive_ns
+    order, n_late = sort_by_time(times)
+    times = times[order]
+    version = 2 if p.is_dir() else 1
+    frames = f"{parent} -> {child}" if parent and child else (f"frame {child or parent}" if child or parent else "")
+    description = (
+        f"ROS {version} bag {p.name}: topic {topic} ({msgtype.replace('/msg/', '/')}"
+        + (f", {frames}" if frames else "")
+        + f"), {idx.size} orientations, quaternions x,y,z,w, time = {stamp} stamps"
+    )
+    notes = [f"{n_late} message(s) arrived after a later-stamped one: sorted by time"] if n_late else []
+    base = int(times[0])
+    return LogStream.from_arrays(
+        os.fspath(p),
+        "quaternion",
+        (times - base).astype(np.float64) * 1e-9,
+        q[order],
+        labels=msg_index[order],
+        extra={"header_ns": header_ns[order], "receive_ns": receive_ns[order]},
+        label="message",
+        context=f", topic {topic}",
+        time_name=None,
+        t0=base * 1e-9,
+        description=description,
+        notes=notes,
+        meta={"topic": topic, "parent": parent, "child": child, "ros_version": version},
+        attitude_name="orientation",
+    )
+
+
+# --------------------------------------------------------------------------------------------------- output
+
+
+_TWIST = "geometry_msgs/msg/TwistStamped"
+
+
+def _twist_messages(typestore, header_ns, omega, frame_id: str, ros_version: int, first_seq: int = 0):
+    Time = typestore.types["builtin_interfaces/msg/Time"]
+    Header = typestore.types["std_msgs/msg/Header"]
+    Vector3 = typestore.types["geometry_msgs/msg/Vector3"]
+    Twist = typestore.types["geometry_msgs/msg/Twist"]
+    TwistStamped = typestore.types["geometry_msgs/msg/TwistStamped"]
+    nan = Vector3(x=np.nan, y=np.nan, z=np.nan)
+    for k in range(omega.shape[0]):
+        sec, nsec = divmod(int(header_ns[k]), 1_000_000_000)
+        stamp = Time(sec=sec, nanosec=nsec)
+        header = (
+            Header(seq=first_seq + k, stamp=stamp, frame_id=frame_id)
+            if ros_version == 1
+            else Header(stamp=stamp, frame_id=frame_id)
+        )
+        w = omega[k]
+        yield TwistStamped(
+            header=header, twist=Twist(linear=nan, angular=Vector3(x=float(w[0]), y=float(w[1]), z=float(w[2])))
+        )
+
+
+class TwistBagWriter(AtomicOutput):
+    """Chunked, atomic writer of ``geometry_msgs/TwistStamped`` (module docstring), with the interface of
+    :class:`omegahat.io.output.OmegaWriter`: ``write(chunk, omega, status)`` takes the stamps from the chunk's
+    ``extra`` (``header_ns``, ``receive_ns``: rows of a bag's stream), the bag appears on a clean exit of the
+    ``with`` block, never on an exception. ``path`` ending in ``.bag``: ROS 1, otherwise a ROS 2 bag directory."""
+
+    def __init__(self, path, *, frame_id: str, topic: str = DEFAULT_TWIST_TOPIC, source: str | None = None):
+        _rosbags()
+        from rosbags.typesys import Stores, get_typestore
+
+        self.path = Path(path)
+        if not frame_id:
+            raise ValueError("a TwistStamped output needs the body frame's name (frame_id)")
+        if self.path.exists():
+            raise FileExistsError(f"{self.path} exists; omegahat does not overwrite a bag (choose another output)")
+        self.ros_version = 1 if self.path.suffix == ".bag" else 2
+        self.frame_id, self.topic, self.source, self.rows = frame_id, topic, source, 0
+        self._staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".partial", dir=self.path.parent))
+        target = self._staging / self.path.name
+        try:
+            if self.ros_version == 1:
+                from rosbags.rosbag1 import Writer
+
+                self._ts = get_typestore(Stores.ROS1_NOETIC)
+                self._serialize = self._ts.serialize_ros1
+                self._writer = Writer(target)
+            else:
+                from rosbags.rosbag2 import Writer
+
+                self._ts = get_typestore(Stores.LATEST)
+                self._serialize = self._ts.serialize_cdr
+                self._writer = Writer(target, version=8)
+            self._writer.open()
+            self._conn = self._writer.add_connection(topic, _TWIST, typestore=self._ts)
+        except BaseException:
+            shutil.rmtree(self._staging, ignore_errors=True)
+            raise
+        self._target = target
+
+    def write(self, chunk, omega: np.ndarray, status: np.ndarray) -> None:
+        """One message per row of ``chunk`` (stamps from ``chunk.extra``), ``omega (m, 3)`` rad/s."""
+        if chunk.extra is None or "header_ns" not in chunk.extra:
+            raise ValueError("a TwistStamped output needs the input messages' stamps (a bag input)")
+        header_ns, receive_ns = chunk.extra["header_ns"], chunk.extra["receive_ns"]
+        messages = _twist_messages(self._ts, header_ns, omega, self.frame_id, self.ros_version, self.rows)
+        for k, msg in enumerate(messages):
+            self._writer.write(self._conn, int(receive_ns[k]), self._serialize(msg, _TWIST))
+        self.rows += len(chunk)
+
+    def describe(self) -> str:
+        """What was written, for the command's closing line."""
+        return (
+            f"{self.rows} geometry_msgs/TwistStamped to ROS {self.ros_version} bag {self.path}, topic {self.topic}, "
+            f"frame_id {self.frame_id!r} (body frame)"
+            + (f", header stamps copied from {self.source}" if self.source else ", header stamps copied")
+        )
+
+    def commit(self) -> None:
+        self._writer.close()
+        try:
+            os.rename(self._target, self.path)
+        finally:
+            shutil.rmtree(self._staging, ignore_errors=True)
+
+    def abort(self) -> None:
+        try:
+            self._writer.close()
+        except Exception:
+            pass
+        shutil.rmtree(self._staging, ignore_errors=True)

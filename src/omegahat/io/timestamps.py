@@ -1,0 +1,197 @@
+r"""Duplicated, out-of-order and irregular timestamps: the one policy applied to every input.
+
+Motion-capture systems deliver frames over a network, drivers re-publish the last frame when a new one is late,
+and loggers record what arrived. A recording therefore carries, besides jitter, samples that share a timestamp
+and samples that arrive out of order. omegahat treats them the same way whatever the format (omegahat's CSV and
+NPZ logs, ROS bags, Motive, Vicon and C3D exports, DataFrames):
+
+1. **Irregular spacing is kept.** Jittery intervals, dropped frames and gaps are passed to the estimator as
+   recorded: it predicts the state over each interval, whatever its length (:mod:`omegahat.observer.estimator`),
+   so nothing is resampled or interpolated. ``omegahat estimate`` reports the gaps.
+2. **Exact duplicates are dropped.** Samples with the same timestamp whose attitudes agree are one sample: the
+   first is kept and the count is reported. Attitudes are compared as rotation matrices, so a quaternion ``q``
+   and its negative ``−q`` (the same rotation) agree; "agree" means ``‖R_a − R_b‖_F ≤`` :data:`DUPLICATE_TOL`
+   (about ``1e-6`` rad: the same frame written twice, up to the rounding of a text export); known torques must
+   agree too. A missing sample (NaN) at the time of a valid one is dropped as well: it carries nothing the valid
+   one lacks. A dropped sample has no row in a file output; :func:`omegahat.estimate_frame`, whose output follows
+   the input's rows, gives it the estimate of the sample kept in its place.
+3. **Conflicting duplicates are rejected.** Two samples at the same time with different attitudes cannot both be
+   right, and guessing which one is would hide a broken time source: :class:`~omegahat.io.LogFormatError` names
+   both samples, the time and the angle between the two attitudes.
+4. **Order.** Files written sample by sample (CSV, NPZ, Motive, Vicon, C3D) must have non-decreasing times; a time
+   going backwards is an error naming the line (array index, frame). Message streams (ROS bags) and DataFrames,
+   where delivery or a join can reorder rows, are sorted by time by their readers (:func:`sort_by_time`, a stable
+   sort, so exact duplicates stay in arrival order), and the number of samples that arrived late is reported.
+
+**Where it runs.** Rules 2–4 are applied by :class:`TimePolicy` inside :func:`omegahat.io.registry.open_log`, on
+the stream of chunks every format produces, after the time unit is applied and before anything else sees the
+samples; so every reader, ``omegahat estimate`` and :func:`omegahat.estimate_frame` get it from one place. The
+policy holds back the last kept sample of each chunk until the next one arrives, so a duplicate that straddles
+two chunks is treated exactly as one inside a chunk.
+
+The jitter test (``tests/test_timestamps.py``) checks that a log with irregular sampling, dropped frames and
+duplicates gives the same rate as the clean log within the noise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from omegahat.io.columns import LogFormatError
+
+__all__ = ["DUPLICATE_TOL", "TimePolicy", "sort_by_time"]
+
+DUPLICATE_TOL = 1e-6  #: ‖R_a − R_b‖_F (≈ √2 × the angle in rad) below which two samples at one time are the same
+
+
+def sort_by_time(times: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(order, n_late)``: the stable sort of ``times`` (rule 4, message streams) and the number of samples that
+    came after one with a later time (late arrivals), for the note the reader adds."""
+    times = np.asarray(times)
+    if times.size == 0:
+        return np.zeros(0, dtype=np.int64), 0
+    n_late = int(np.count_nonzero(times[1:] < np.maximum.accumulate(times)[:-1]))
+    return np.argsort(times, kind="stable"), n_late
+
+
+def _matrix(q: np.ndarray) -> np.ndarray | None:
+    """Rotation matrix of a quaternion ``(x, y, z, w)``, normalised; None for a zero quaternion."""
+    n = float(np.linalg.norm(q))
+    if n == 0.0:
+        return None
+    x, y, z, w = q / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _comparable(kind: str, row: np.ndarray) -> np.ndarray:
+    """One sample as compared by rule 2: a rotation matrix for quaternions (q ≡ −q) and matrices, else the
+    values."""
+    if kind == "quaternion":
+        R = _matrix(row)
+        if R is not None:
+            return R
+    if kind == "matrix":
+        return np.asarray(row, dtype=float).reshape(3, 3)
+    return np.asarray(row, dtype=float)
+
+
+def _difference(kind: str, a: np.ndarray, b: np.ndarray) -> str | None:
+    """None if two samples at one time agree (rule 2), else what differs (for the message of rule 3)."""
+    ca, cb = _comparable(kind, a), _comparable(kind, b)
+    if ca.shape == cb.shape and np.sqrt(np.sum((ca - cb) ** 2)) <= DUPLICATE_TOL:
+        return None
+    if ca.shape == (3, 3) and cb.shape == (3, 3):
+        cos = np.clip((np.trace(ca.T @ cb) - 1.0) / 2.0, -1.0, 1.0)
+        return f"attitudes {np.degrees(np.arccos(cos)):.4g}° apart"
+    return f"values differing by up to {np.abs(ca - cb).max():.3g}"
+
+
+class TimePolicy:
+    """Rules 2–4 on consecutive chunks of one stream (module docstring).
+
+    ``where(label, column)`` names a sample for messages (:meth:`omegahat.io.registry.LogStream.where`),
+    ``unit`` is the labels' word (``"line"``, ``"index"``, ``"message"`` ...), ``time_name`` the time column named
+    in messages. :meth:`feed` takes arrays ``(t, raw_t, data, torque, labels, extra)`` of one chunk (``t`` in
+    seconds, ``raw_t`` as the file writes it, for messages) and returns the indices of the rows to hand on and the
+    concatenated arrays they index; :meth:`finish` returns the last sample held back.
+    """
+
+    def __init__(self, kind: str, where: Callable[..., str], unit: str, time_name: str | None):
+        self.kind, self.where, self.unit, self.time_name = kind, where, unit, time_name
+        self.n_dropped = 0
+        self._held = None  # the last kept sample so far, as a tuple of length-1 arrays
+
+    def notes(self) -> list[str]:
+        """What was changed, for the stream's notes (empty when nothing was)."""
+        if not self.n_dropped:
+            return []
+        return [f"dropped {self.n_dropped} duplicated sample(s) (same time, same attitude)"]
+
+    def feed(self, arrays: tuple) -> tuple[tuple, slice | np.ndarray]:
+        """``(arrays with the held sample in front, the rows to hand on now: a slice or indices)``."""
+        if self._held is not None:
+            arrays = tuple(_concat(h, a) for h, a in zip(self._held, arrays, strict=True))
+        t, raw, labels = arrays[0], arrays[1], arrays[4]
+        n = t.size
+        if n == 0:
+            return arrays, slice(0, 0)
+        d = np.diff(t)
+        back = np.flatnonzero(d < 0)
+        if back.size:
+            k = int(back[0]) + 1
+            raise LogFormatError(
+                f"{self.where(int(labels[k]), self.time_name)}: time {_num(raw[k])} is not after {_num(raw[k - 1])} "
+                f"({self.unit} {int(labels[k - 1])}); times must increase (equal times only for duplicates of one "
+                "sample)"
+            )
+        equal = np.flatnonzero(d == 0) + 1
+        if not equal.size:  # the usual case: everything but the last sample, which waits for the next chunk
+            self._held = tuple(None if a is None else _take(a, slice(n - 1, n)) for a in arrays)
+            return arrays, slice(0, n - 1)
+        keep = np.ones(n, dtype=bool)
+        self._duplicates(equal, keep, arrays)
+        kept = np.flatnonzero(keep)
+        self._held = tuple(None if a is None else _take(a, kept[-1:]) for a in arrays)
+        return arrays, kept[:-1]
+
+    def finish(self):
+        """The sample still held back (arrays of length 1), or None."""
+        held, self._held = self._held, None
+        return held
+
+    def _duplicates(self, equal: np.ndarray, keep: np.ndarray, arrays: tuple) -> None:
+        t, raw, data, torque, labels, _ = arrays
+        n = t.size
+        flat = data.reshape(n, -1)
+        valid = np.all(np.isfinite(flat), axis=1)
+        current = -1  # the sample kept for the current run of equal times
+        for j in equal:
+            j = int(j)
+            if current < 0 or t[current] != t[j]:
+                current = j - 1
+            if not valid[j]:
+                keep[j] = False  # a missing sample at the time of another: nothing to add
+            elif not valid[current]:
+                keep[current] = False  # the valid sample stands for the missing one kept so far
+                current = j
+            else:
+                what = _difference(self.kind, flat[current], flat[j])
+                if what is None and torque is not None:
+                    scale = 1.0 + np.abs(torque[current]).max()
+                    if np.abs(torque[j] - torque[current]).max() > DUPLICATE_TOL * scale:
+                        what = "different torques"
+                if what is not None:
+                    raise LogFormatError(
+                        f"{self.where(int(labels[current]))} and {self.unit} {int(labels[j])}: two samples at the same "
+                        f"time {_num(raw[j])} with {what}. Duplicated timestamps must carry the same attitude "
+                        "(omegahat drops those); conflicting ones mean a broken time source: fix the time column "
+                        "(for a ROS bag, try the receive time: --stamp receive)"
+                    )
+                keep[j] = False
+        self.n_dropped += int(np.count_nonzero(~keep))
+
+
+def _num(x) -> str:
+    return repr(float(x))
+
+
+def _concat(a, b):
+    if a is None:
+        return None
+    if isinstance(a, dict):
+        return {k: np.concatenate([a[k], b[k]]) for k in a}
+    return np.concatenate([a, b])
+
+
+def _take(a, idx):
+    if isinstance(a, dict):
+        return {k: v[idx] for k, v in a.items()}
+    return a[idx]

@@ -1,0 +1,169 @@
+"""omegahat.estimate_frame on pandas and Polars frames: the output indexed like the input, time columns of every
+kind, rows in any order, automatic gains by default (the numbers of ``omegahat estimate`` on the same samples), and
+every error with its message."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import polars as pl
+import pytest
+from scipy.spatial.transform import Rotation
+
+import omegahat
+from omegahat.cli import main
+from omegahat.io import LogFormatError
+from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
+from omegahat.observer.tuning import bandwidth_gains
+from recording_files import J_AXI, flip_signs, noisy, read_omega_csv, torque_free_axisymmetric
+
+N = 200
+RATE = 100.0
+
+
+def motion(n=N):
+    t = np.arange(n) / RATE
+    R, omega = torque_free_axisymmetric(t)
+    return t, R, Rotation.from_matrix(R).as_quat(), omega
+
+
+GAINS = bandwidth_gains(J_AXI, 30.0)
+FIXED = {"gains": GAINS, "start": "warm", "inertia": J_AXI}  # as the estimator itself is run below
+W = ["wx", "wy", "wz"]
+
+
+def direct(t, q):
+    """The same numbers through the estimator itself (the reference for the frame path); the first row has no
+    estimate with a warm start (the frame says ``unavailable``, NaN)."""
+    out = SarrasEstimator(J_AXI, gains=GAINS, warm_start=True).run(t, q)
+    out[0] = np.nan
+    return out
+
+
+def test_pandas_with_a_time_column_keeps_the_index():
+    t, _, q, omega = motion()
+    df = pd.DataFrame(q, columns=["qx", "qy", "qz", "qw"], index=pd.Index([f"row{k}" for k in range(N)], name="id"))
+    df["t"] = t
+    df["gyro_x"] = 0.0  # other columns are ignored
+    out = omegahat.estimate_frame(df, **FIXED)
+    assert isinstance(out, pd.DataFrame)
+    assert list(out.columns) == ["wx", "wy", "wz", "status"]
+    assert out.index.equals(df.index)
+    np.testing.assert_allclose(out[W].to_numpy(), direct(t, q), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(out[W].to_numpy()[2:], omega[2:], atol=2e-4)
+    assert list(out["status"][:2]) == ["unavailable", "corrected"]
+    joined = df.join(out)
+    assert joined.shape == (N, 10)
+
+
+def test_pandas_datetime_index_and_scalar_first_names():
+    t, _, q, _ = motion()
+    index = pd.Timestamp("2024-05-01 12:00:00") + pd.to_timedelta(np.round(t * 1e9).astype(np.int64), unit="ns")
+    df = pd.DataFrame({"W": q[:, 3], "X": q[:, 0], "Y": q[:, 1], "Z": q[:, 2]}, index=pd.DatetimeIndex(index))
+    out = omegahat.estimate_frame(df, **FIXED, quaternion=["X", "Y", "Z", "W"])
+    assert out.index.equals(df.index)
+    np.testing.assert_allclose(out[W].to_numpy(), direct(t, q), rtol=0, atol=1e-12)
+
+
+def test_rows_in_any_order_with_duplicates_and_sign_flips():
+    t, _, q, _ = motion()
+    rng = np.random.default_rng(11)
+    extra = np.array([5, 77, 150])
+    t_all = np.concatenate([t, t[extra]])
+    q_all = flip_signs(np.concatenate([q, q[extra]]), rng)
+    order = rng.permutation(t_all.size)
+    df = pd.DataFrame(q_all[order], columns=["qx", "qy", "qz", "qw"])
+    df["t"] = t_all[order]
+    out = omegahat.estimate_frame(df, **FIXED)[W].to_numpy()
+    expected = direct(t, q)
+    np.testing.assert_allclose(out, np.concatenate([expected, expected[extra]])[order], rtol=0, atol=1e-13)
+
+
+def test_polars_with_datetime_and_float_times():
+    t, _, q, _ = motion()
+    stamps = (np.datetime64("2024-05-01T12:00:00") + np.round(t * 1e6).astype("timedelta64[us]")).astype(
+        "datetime64[us]"
+    )
+    df = pl.DataFrame({"time": stamps, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    out = omegahat.estimate_frame(df, **FIXED, time="time")
+    assert isinstance(out, pl.DataFrame)
+    assert out.columns == ["time", "wx", "wy", "wz", "status"]
+    assert out.get_column("time").equals(df.get_column("time"))
+    np.testing.assert_allclose(out.select(W).to_numpy(), direct(t, q), rtol=0, atol=1e-12)
+    df2 = pl.DataFrame({"t": t, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    out2 = omegahat.estimate_frame(df2, **FIXED)
+    np.testing.assert_allclose(out2.select(W).to_numpy(), direct(t, q), rtol=0, atol=1e-13)
+
+
+def test_matrices_directions_missing_values_and_torque():
+    t, R, q, _ = motion()
+    cols = {f"r{i + 1}{j + 1}": R[:, i, j] for i in range(3) for j in range(3)}
+    df = pd.DataFrame({"t": t, **cols})
+    df.loc[40, "r11"] = np.nan  # a missing sample
+    with pytest.warns(SkippedSamplesWarning, match="skipped 1 of 200 samples"):
+        out = omegahat.estimate_frame(df, **FIXED)
+    q_missing = q.copy()
+    q_missing[40] = np.nan
+    with pytest.warns(SkippedSamplesWarning):
+        expected = direct(t, q_missing)
+    np.testing.assert_allclose(out[W].to_numpy(), expected, rtol=0, atol=1e-12)
+    assert out["status"][40] == "predicted"
+    V = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    b = np.einsum("tji,nj->tni", R, V)  # body-frame directions r_i = Rᵀ v_i
+    dirs = pl.DataFrame({"t": t, **{f"b{n + 1}{a}": b[:, n, k] for n in range(2) for k, a in enumerate("xyz")}})
+    dirs = dirs.with_columns(tau_x=pl.lit(0.0), tau_y=pl.lit(0.0), tau_z=pl.lit(0.0))
+    gains = bandwidth_gains(J_AXI, 30.0, V)
+    got = omegahat.estimate_frame(dirs, gains=gains, start="warm", inertia=J_AXI, references=V)
+    est = SarrasEstimator(J_AXI, gains=gains, references=V, warm_start=True)
+    np.testing.assert_allclose(got.select(W).to_numpy()[1:], est.run(t, b)[1:], rtol=0, atol=1e-12)
+
+
+def test_automatic_gains_by_default_are_those_of_the_command(tmp_path, capsys):
+    """No gains given: the frame gets what ``omegahat estimate`` gives on the same samples (one path), accurate
+    against the closed-form rate; and the polars and pandas frames agree."""
+    t, R, _, omega = motion(600)
+    q = Rotation.from_matrix(noisy(R, 1e-3, np.random.default_rng(8))).as_quat()
+    df = pd.DataFrame({"t": t, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    out = omegahat.estimate_frame(df, inertia=J_AXI)
+    src, dst = tmp_path / "log.csv", tmp_path / "omega.csv"
+    df.to_csv(src, index=False, float_format="%.17g")
+    assert main(["estimate", str(src), "-o", str(dst), "--inertia", "1", "1", "1.6", "--no-progress"]) == 0
+    assert "chosen from the log" in capsys.readouterr().out
+    table, status = read_omega_csv(dst)
+    np.testing.assert_allclose(out[W].to_numpy(), table[:, 1:], rtol=0, atol=1e-12)
+    assert list(out["status"]) == list(status)
+    rms = np.sqrt(np.mean((out[W].to_numpy()[100:] - omega[100:]) ** 2))
+    assert rms < 0.03  # 1 mrad at 100 Hz: differencing alone would give about 0.14 rad/s per axis
+    polars = omegahat.estimate_frame(pl.from_pandas(df), inertia=J_AXI)
+    np.testing.assert_array_equal(polars.select(W).to_numpy(), out[W].to_numpy())
+
+
+def test_errors_name_what_is_wrong():
+    t, _, q, _ = motion(10)
+    df = pd.DataFrame(q, columns=["qx", "qy", "qz", "qw"])
+    with pytest.raises(LogFormatError, match=r"no time: give a column 't' .* \(the index is RangeIndex of int64\)"):
+        omegahat.estimate_frame(df)
+    df["t"] = t
+    with pytest.raises(ValueError, match=r"give either bandwidth_hz or the gains, not both"):
+        omegahat.estimate_frame(df, gains=GAINS, bandwidth_hz=1.0)
+    with pytest.raises(ValueError, match=r"bandwidth_hz 60 Hz is not below the Nyquist frequency 50 Hz of this log"):
+        omegahat.estimate_frame(df, bandwidth_hz=60.0)
+    with pytest.raises(TypeError, match=r"takes a pandas or Polars DataFrame; got numpy.ndarray"):
+        omegahat.estimate_frame(q)
+    with pytest.raises(LogFormatError, match=r"^DataFrame: missing quaternion column\(s\) qw$"):
+        omegahat.estimate_frame(df.drop(columns="qw"))
+    bad = df.copy()
+    bad.loc[4, "qx"] = 3.0
+    with pytest.raises(LogFormatError, match=r"DataFrame, row 4, columns qx, qy, qz, qw: a quaternion far from unit"):
+        omegahat.estimate_frame(bad)
+    with pytest.warns(SkippedSamplesWarning, match="skipped 1 of 10"):
+        assert omegahat.estimate_frame(bad, skip_bad_samples=True)["status"][4] == "predicted"
+    df.loc[3, "t"] = t[2]
+    with pytest.raises(LogFormatError, match=r"DataFrame, row 2 and row 3: two samples at the same time"):
+        omegahat.estimate_frame(df)
+    df.loc[3, "t"] = np.nan
+    with pytest.raises(LogFormatError, match=r"DataFrame, row 3, column t: time nan is not finite"):
+        omegahat.estimate_frame(df)
+    pdf = pl.DataFrame({"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    with pytest.raises(LogFormatError, match=r"no time column 't'; give time='column'"):
+        omegahat.estimate_frame(pdf)
