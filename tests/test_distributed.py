@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-distributed = pytest.importorskip("distributed")
+distributed = pytest.importorskip(
+    "distributed", reason='Dask is an extra: pip install ".[dask]" (the test extra includes it)'
+)
 
 from omegahat import campaigns as mc  # noqa: E402
 from omegahat.campaigns.distributed import run_campaign_dask  # noqa: E402

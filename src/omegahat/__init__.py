@@ -1,7 +1,7 @@
 """omegahat: the angular velocity of a rigid body without gyroscopes, from attitude measurements.
 
 The core is the continuous, globally exponential observer of I. Sarras, with the sign of its output map corrected
-(``docs/observer.md``), realised for sampled, noisy data by :class:`SarrasEstimator`. The names below are the
+(``docs/theory/observer.md``), realised for sampled, noisy data by :class:`SarrasEstimator`. The names below are the
 public API; they are imported on first use, so that ``import omegahat`` (and the command line) stays light.
 
 Packages: :mod:`omegahat.kernels` (compiled primitives), :mod:`omegahat.observer`, :mod:`omegahat.simulation`,

@@ -1,7 +1,7 @@
 r"""Angular velocity by differencing the attitude on SO(3) (the baseline most users reach for first).
 
-Reference: ``shared/design/baselines.md`` §1. With samples ``R_k`` (body → inertial) at times ``t_k``, steps
-``h_k = t_k − t_{k−1}``, and ``Log`` the rotation vector of a rotation (:func:`omegahat.so3.log`)::
+Reference: ``docs/baselines.md``, "Differencing the attitude". With samples ``R_k`` (body → inertial) at times
+``t_k``, steps ``h_k = t_k − t_{k−1}``, and ``Log`` the rotation vector of a rotation (:func:`omegahat.so3.log`)::
 
     backward (causal):   ω̂(t_k) = Log(R_{k−1}ᵀ R_k) / h_k                                          (D1)
     central:             ω̂(t_k) = Log(R_{k−1}ᵀ R_{k+1}) / (h_k + h_{k+1})

@@ -2,8 +2,8 @@ r"""Gyro-less multiplicative extended Kalman filter (MEKF) with the angular velo
 
 References: E. J. Lefferts, F. L. Markley, M. D. Shuster, "Kalman Filtering for Spacecraft Attitude
 Estimation", JGCD 5(5), 1982; F. L. Markley, J. L. Crassidis, *Fundamentals of Spacecraft Attitude
-Determination and Control*, Springer, 2014. Equations as in ``shared/design/baselines.md`` §3, written here on
-rotation matrices (``R`` body → inertial, ω in body axes)::
+Determination and Control*, Springer, 2014. Equations as in ``docs/baselines.md``, "The gyro-less multiplicative
+EKF", written here on rotation matrices (``R`` body → inertial, ω in body axes)::
 
     nominal state   R̂, ω̂;  error state x = [δθ; δω] with R = R̂ Exp(δθ), ω = ω̂ + δω               (E1)
     process         dynamic:   J ω̇ = (Jω) × ω + τ + w_τ,  w_τ white with PSD q I  (N²·m²·s)

@@ -1,6 +1,6 @@
 r"""Angular velocity from SciPy's rotation spline (offline; a peer no one here wrote).
 
-Reference: ``shared/design/baselines.md`` §2 and SciPy's ``scipy.spatial.transform.RotationSpline``: a
+Reference: ``docs/baselines.md``, "SciPy's RotationSpline" and SciPy's ``scipy.spatial.transform.RotationSpline``: a
 cubic spline of rotation vectors with continuous angular rate and acceleration, interpolating the samples.
 ``RotationSpline(times, rotations)(t, 1)`` is the body-frame rate (checked in ``tests/test_spline.py``
 against a closed-form trajectory). This module only calls SciPy: it checks the log through the one input path

@@ -1,6 +1,6 @@
 r"""Monte-Carlo campaigns: many independent plant + observer runs, and what they say about the theorem.
 
-**The claim under test** (Sarras' theorem, ``docs/observer.md``): with ``J_m I ≤ J ≤ J_M I``, ``|ω(t)| ≤ ω_M``
+**The claim under test** (Sarras' theorem, ``docs/theory/observer.md``): with ``J_m I ≤ J ≤ J_M I``, ``|ω(t)| ≤ ω_M``
 and gains meeting the conditions of :mod:`omegahat.observer.gains`, the errors ``z = ω̂ − ω``, ``e_i = r̂_i − r_i``
 converge globally exponentially, and the proof's ``V = |J z| + ½ Σ |e_i|²`` decreases. Each run draws its
 initial conditions and a bounded torque from its own seed (:mod:`omegahat.campaigns.draws`); a run whose ``|ω|``
@@ -27,7 +27,7 @@ Modules: :mod:`~omegahat.campaigns.config` (the campaign and its TOML file), :mo
 and :mod:`~omegahat.campaigns.seeds` (each run from its seed), :mod:`~omegahat.campaigns.runner` (chunks on this
 machine), :mod:`~omegahat.campaigns.diagnostics` (per-run diagnostics, taken in the engine as runs end),
 :mod:`~omegahat.campaigns.report` (summary, counterexamples, figures), :mod:`~omegahat.campaigns.distributed`
-(Dask). Results of ``examples/campaign.toml``: ``docs/campaigns.md``.
+(Dask). Results of ``examples/campaign.toml``: ``docs/results.md``.
 """
 
 from omegahat.campaigns.config import Campaign, campaign_from_dict, campaign_from_toml, load_campaign, replace, run_seed

@@ -4,7 +4,7 @@ r"""The comparison method: omegahat beside the baselines users would pick instea
 methods, calls :func:`compare_scenario`, and writes what :func:`markdown`, :func:`cost_markdown`,
 :func:`write_results_csv`, :func:`write_cost_csv` and :func:`plot_errors` produce.
 
-Methods (``shared/design/baselines.md``): the sampled Sarras estimator (:class:`omegahat.observer.estimator.
+Methods (``docs/baselines.md``): the sampled Sarras estimator (:class:`omegahat.observer.estimator.
 SarrasEstimator`, all three rows of R) twice, ``omegahat`` with its warm start (the rate from the first two
 samples, as ``omegahat estimate`` does by default) and ``omegahat-cold`` started from the scenario's ω̂₀ (the
 observer as published), log-map differencing (backward = causal, central = one sample late),

@@ -1,6 +1,6 @@
 r"""The observer's own terms, written once: every compiled realisation of the observer calls these.
 
-The observer of Sarras (sign-corrected: ``docs/observer.md``) for measured directions ``r_i`` (i = 1..n) and
+The observer of Sarras (sign-corrected: ``docs/theory/observer.md``) for measured directions ``r_i`` (i = 1..n) and
 its filter states ``r̂_i = r_i + e_i`` is, in the coordinates ``(ω̂, e_i)`` and for directions that move as
 ``ṙ_i = r_i × ω_r`` (ω_r = ω for the true directions)::
 

@@ -1,7 +1,7 @@
 r"""The continuous-time observer of I. Sarras, with the sign of its output map corrected.
 
 Reference: I. Sarras, "Continuous globally exponential rigid-body angular velocity estimation from attitude
-measurements" (IFAC). The equations below are those of ``shared/design/observer.md``, which corrects the paper.
+measurements" (IFAC). The equations below are those of ``docs/theory/observer.md``, which corrects the paper.
 
 Measured directions ``r_i = Rᵀ v_i`` (i = 1..n, n ≥ 2, two of them not collinear; the rows of R are the case
 ``v_i = e_i``) obey ``ṙ_i = r_i × ω``. With gains ``k_i > 0`` and ``l_i(ω̂) > 0`` the observer is::

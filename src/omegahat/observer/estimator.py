@@ -1,7 +1,7 @@
 r"""The sampled, streaming Sarras estimator: one sample at a time (``update``) or whole logs (``run``).
 
-The continuous observer (``docs/observer.md``, :mod:`omegahat.kernels.observer`) realised for measurements that
-arrive at sample times ``t_k`` (any, possibly irregular, spacing); ``docs/sampled.md`` explains it at length.
+The continuous observer (``docs/theory/observer.md``, :mod:`omegahat.kernels.observer`) realised for measurements that
+arrive at sample times ``t_k`` (any, possibly irregular, spacing); ``docs/theory/sampled.md`` explains it at length.
 
 **State** ``(ω̂, r_i, e_i)`` with ``e_i = r̂_i − r_i``, equivalent to the paper's ``(ξ, r̂_i)`` through the output
 map ``ω̂ = ξ + J⁻¹ Σ k_i r_i × r̂_i``. With the directions moved along the estimate between samples

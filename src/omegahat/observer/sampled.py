@@ -1,6 +1,6 @@
 r"""The sampled estimator's compiled step: one sample in, the state advanced, in one Numba call.
 
-The realisation is explained in :mod:`omegahat.observer.estimator` (``docs/sampled.md``): between samples the
+The realisation is explained in :mod:`omegahat.observer.estimator` (``docs/theory/sampled.md``): between samples the
 prediction (P) — ω̂ by Euler's equations, the attitude increment ``ΔR̂`` along ω̂ by RKMK4, the filter errors
 rotated and decayed exactly — then, at a valid sample, the innovation ``Δ_i`` (I), the implicit correction (C)
 and the reset (R); the warm start (W) at the second valid sample. Each step is a function of its own here, built

@@ -8,7 +8,7 @@ inertia, the known torque, an initial estimate and a bound on |ω|). Ground trut
 
 Registered scenarios (:data:`SCENARIOS`):
 
-* ``paper`` — Sarras' simulation (``shared/design/observer.md``): J = diag(3, 2, 1) kg·m², ω₀ = (2, −1, 0.6)
+* ``paper`` — Sarras' simulation (``docs/theory/observer.md``): J = diag(3, 2, 1) kg·m², ω₀ = (2, −1, 0.6)
   rad/s, torque-free, R₀ = I, initial estimate ω̂₀ = 0 (error 2.3 rad/s), here sampled at 100 Hz without noise.
 * ``slew`` — a spacecraft: inertia with products of inertia (eigenvalues about 196–306 kg·m²), star tracker at
   5 Hz with 10 arcsec (4.85e-5 rad) of noise per axis, a known commanded bang–bang torque of 0.5 N·m per axis

@@ -11,7 +11,7 @@ A :class:`Torque` says explicitly what it depends on:
   (the rigid-body integrator :func:`omegahat.simulation.rigid_body.integrate` accepts them; the engine cannot).
 
 Calling one always takes ``(t, R, omega)`` and returns a checked ``(3,)`` array (``(T, 3)`` for an array of times
-when the torque depends on time only). The observer knows the torque exactly (``docs/observer.md`` assumes a
+when the torque depends on time only). The observer knows the torque exactly (``docs/theory/observer.md`` assumes a
 known torque).
 """
 
