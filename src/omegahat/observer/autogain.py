@@ -393,7 +393,7 @@ def select_gains(
     motion: LogMotion,
     duration: float,
     start: str = "fit",
-    references=None,
+    references: ArrayLike | None = None,
     *,
     gains: ObserverGains | None = None,
     bandwidth_hz: float | None = None,
