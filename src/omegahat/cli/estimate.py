@@ -37,10 +37,10 @@ import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
-from omegahat.io import ReadOptions, check_output, open_log, open_output
+from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
 from omegahat.io.pipeline import STARTS, EstimateSettings, estimate_stream
-from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS
-from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
+from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
+from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
 from omegahat.observer.gains import ObserverGains
 
 HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
@@ -233,7 +233,7 @@ def _terminate(signum, frame):
     raise KeyboardInterrupt("terminated")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
@@ -269,7 +269,7 @@ def run(args) -> int:
         bar.n = min(stream.done, stream.size) if by_bytes else rows
         bar.refresh()
 
-    def writer(s):
+    def writer(s: LogStream) -> OmegaWriter | TwistBagWriter:
         return open_output(out, kind, s, frame_id=args.frame_id, topic=args.output_topic)
 
     main_thread = threading.current_thread() is threading.main_thread()

@@ -40,7 +40,7 @@ def _value(group: dict, name: str, default=None):
     return entry["value"]
 
 
-def open_c3d(path, options: ReadOptions) -> LogStream:
+def open_c3d(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One rigid body's rotations from a C3D file (module docstring); ``options.body`` names it (a label of the
     ``ROTATION`` group), optional when there is one."""
     path = os.fspath(path)

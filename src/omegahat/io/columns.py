@@ -17,6 +17,7 @@ attitude kind and its columns in storage order (quaternions scalar **last**, Sci
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 __all__ = [
@@ -37,7 +38,7 @@ TORQUE_COLUMNS = ("tau_x", "tau_y", "tau_z")
 QUATERNION_ORDERS = ("wxyz", "xyzw")
 _AXES = ("x", "y", "z")
 # Numbered quaternion columns whose scalar part the header does not say: storage order (x, y, z, w) per option.
-_NUMBERED = {
+_NUMBERED: dict[tuple[str, ...], dict[str, tuple[str, ...]]] = {
     ("q0", "q1", "q2", "q3"): {"wxyz": ("q1", "q2", "q3", "q0"), "xyzw": ("q0", "q1", "q2", "q3")},
     ("q1", "q2", "q3", "q4"): {"wxyz": ("q2", "q3", "q4", "q1"), "xyzw": ("q1", "q2", "q3", "q4")},
 }
@@ -72,7 +73,7 @@ def normalise_name(name: str) -> str:
     return name.replace("\ufeff", "").strip().strip('"').strip("'").strip().lower()
 
 
-def direction_columns(names) -> list[str]:
+def direction_columns(names: Iterable[str]) -> list[str]:
     """``b1x, b1y, b1z, b2x, …`` for every i such that some ``bi?`` column is present (checked by :func:`layout`)."""
     idx = sorted(
         {int(nm[1:-1]) for nm in names if len(nm) >= 3 and nm[0] == "b" and nm[1:-1].isdigit() and nm[-1] in _AXES}
@@ -87,34 +88,36 @@ def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
     return None
 
 
-def layout(names, where: str, time_column: str | None = "t", quaternion_order: str | None = None) -> Layout:
+def layout(
+    names: Iterable[str], where: str, time_column: str | None = "t", quaternion_order: str | None = None
+) -> Layout:
     """The :class:`Layout` of a log whose columns are ``names`` (normalised); ``where`` prefixes every message.
     ``time_column`` None: the time is not among the columns (a DataFrame's index); ``Layout.time`` is then ``""``.
 
     Raises :class:`LogFormatError` for a missing time column, no or several attitude groups, incomplete groups,
     and numbered quaternion columns without ``quaternion_order``.
     """
-    names = [normalise_name(n) for n in names]
-    present = set(names)
-    dup = sorted({n for n in names if names.count(n) > 1 and n})
+    normalised = [normalise_name(n) for n in names]
+    present = set(normalised)
+    dup = sorted({n for n in normalised if normalised.count(n) > 1 and n})
     if dup:
         raise LogFormatError(f"{where}: duplicate column(s) {', '.join(dup)} (names are compared ignoring case)")
     time_column = "" if time_column is None else normalise_name(time_column)
     if time_column and time_column not in present:
-        hint = [n for n in names if n in ("time", "timestamp", "times", "time_s", "stamp", "sec", "seconds")]
+        hint = [n for n in normalised if n in ("time", "timestamp", "times", "time_s", "stamp", "sec", "seconds")]
         tip = f"; pass --time-column {hint[0]}" if hint else "; name it t or pass --time-column NAME"
-        raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(names)}){tip}")
+        raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(normalised)}){tip}")
     numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
     groups = {
         "quaternion": list(numbered or QUATERNION_COLUMNS),
         "matrix": list(MATRIX_COLUMNS),
-        "directions": direction_columns(names),
+        "directions": direction_columns(normalised),
     }
     touched = {kind: cols for kind, cols in groups.items() if cols and present & set(cols)}
     if not touched:
         raise LogFormatError(
             f"{where}: no attitude columns; expected qw,qx,qy,qz or r11..r33 or b1x,b1y,b1z,b2x,... "
-            f"(found: {', '.join(names)})"
+            f"(found: {', '.join(normalised)})"
         )
     if len(touched) > 1:
         raise LogFormatError(f"{where}: attitude given more than one way ({' and '.join(touched)}); keep one")

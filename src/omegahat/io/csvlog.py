@@ -170,7 +170,7 @@ class _Parser:
         text = buf.decode("utf-8", errors="replace")
         reader = csv.reader(io.StringIO(text, newline=""), delimiter=self.delim)
         idx = [int(c[1:]) for c in self.cols]
-        out = {c: [] for c in self.cols}
+        out: dict[str, list[str]] = {c: [] for c in self.cols}
         lines = []
         for row in reader:
             line = first_line + reader.line_num - 1
@@ -288,7 +288,7 @@ def _text(x: float) -> str:
     return "inf" if x == np.inf else "-inf" if x == -np.inf else "nan"
 
 
-def open_csv(path, options: ReadOptions) -> LogStream:
+def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open a CSV log (module docstring); its header is read now, its rows chunk by chunk."""
     path = os.fspath(path)
     size = os.path.getsize(path)

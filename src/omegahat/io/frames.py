@@ -35,8 +35,12 @@ from omegahat.io.output import STATUS_WORDS
 from omegahat.io.registry import LogStream, ReadOptions, checked_stream
 from omegahat.io.timestamps import sort_by_time
 
-if TYPE_CHECKING:  # the observer package loads the compiled kernels: imported when estimate_frame runs
-    from omegahat.observer.gains import ObserverGains
+if TYPE_CHECKING:
+    import pandas as pd  # optional, like polars: imported where a frame of theirs is read
+    import polars as pl
+    from numpy.typing import ArrayLike
+
+    from omegahat.observer.gains import ObserverGains  # loads the compiled kernels: imported when estimate_frame runs
 
 __all__ = ["estimate_frame", "open_frame"]
 
@@ -104,7 +108,11 @@ def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
 
 
 def open_frame(
-    df, options: ReadOptions | None = None, *, time: str | None = None, quaternion: Sequence[str] | None = None
+    df: pd.DataFrame | pl.DataFrame,
+    options: ReadOptions | None = None,
+    *,
+    time: str | None = None,
+    quaternion: Sequence[str] | None = None,
 ) -> LogStream:
     """A checked stream of a pandas or Polars frame's rows in time order (module docstring); ``meta`` holds the
     frame's kind, the time column used (None: the index) and each row's time (``"row_t"``, seconds since ``t0``)."""
@@ -204,12 +212,12 @@ class _Collector:
 
 
 def estimate_frame(
-    df,
+    df: pd.DataFrame | pl.DataFrame,
     *,
     gains: ObserverGains | None = None,
     bandwidth_hz: float | None = None,
-    inertia=None,
-    references=None,
+    inertia: ArrayLike | None = None,
+    references: np.ndarray | Sequence[ArrayLike] | None = None,
     time: str | None = None,
     quaternion: Sequence[str] | None = None,
     time_unit: str = "s",
@@ -217,7 +225,7 @@ def estimate_frame(
     start: str = "fit",
     skip_bad_samples: bool = False,
     verbose: bool = False,
-):
+) -> pd.DataFrame | pl.DataFrame:
     """Angular velocity (rad/s, body axes) for every row of a pandas or Polars DataFrame (module docstring).
 
     Gains, as ``omegahat estimate`` chooses them: automatic by default (from the frame's sample rate, noise and
@@ -256,14 +264,21 @@ def estimate_frame(
         warnings.warn(SkippedSamplesWarning(skipped), stacklevel=2)
     W, status = collector.omega, np.array(STATUS_WORDS)[collector.status]
     if stream.meta["frame"] == "pandas":
-        import pandas as pd
+        return _pandas_output(df, W, status)
+    return _polars_output(df, W, status, stream.meta["time_column"])
 
-        out = {"wx": W[:, 0], "wy": W[:, 1], "wz": W[:, 2], "status": pd.Categorical(status, STATUS_WORDS)}
-        return pd.DataFrame(out, index=df.index)
+
+def _pandas_output(df: pd.DataFrame, W: np.ndarray, status: np.ndarray) -> pd.DataFrame:
+    import pandas as pd
+
+    columns = {"wx": W[:, 0], "wy": W[:, 1], "wz": W[:, 2], "status": pd.Categorical(status, STATUS_WORDS)}
+    return pd.DataFrame(columns, index=df.index)
+
+
+def _polars_output(df: pl.DataFrame, W: np.ndarray, status: np.ndarray, time_name: str | None) -> pl.DataFrame:
     import polars as pl
 
     out = pl.DataFrame({"wx": W[:, 0], "wy": W[:, 1], "wz": W[:, 2], "status": status})
-    time_name = stream.meta["time_column"]
     return out.insert_column(0, df.get_column(time_name)) if time_name else out
 
 

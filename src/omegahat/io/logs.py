@@ -29,9 +29,13 @@ This module reads a whole log, in any registered format (ROS bags, Motive, Vicon
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, LogFormatError
 from omegahat.io.registry import ReadOptions, open_log, with_options
@@ -89,7 +93,11 @@ class AttitudeLog:
 
 
 def read_log(
-    path, progress=None, options: ReadOptions | None = None, fmt: str | None = None, **option_values
+    path: str | os.PathLike[str],
+    progress: Callable[[int, int], object] | None = None,
+    options: ReadOptions | None = None,
+    fmt: str | None = None,
+    **option_values: Any,
 ) -> AttitudeLog:
     """Read a whole log, its format recognised from the file (:func:`omegahat.io.registry.detect_format`) or
     given by ``fmt`` (a format's name such as ``"motive"``, or an extension such as ``".csv"``).
@@ -112,7 +120,8 @@ def read_log(
     data = np.concatenate([c.data for c in parts])
     torque = np.concatenate([c.torque for c in parts]) if stream.has_torque else None
     labels = np.concatenate([c.labels for c in parts])
-    extra = None if parts[0].extra is None else {k: np.concatenate([c.extra[k] for c in parts]) for k in parts[0].extra}
+    extras = [c.extra for c in parts if c.extra is not None]  # a stream's chunks all carry extra columns, or none
+    extra = {k: np.concatenate([e[k] for e in extras]) for k in extras[0]} if extras else None
     return AttitudeLog(
         t,
         stream.kind,
@@ -129,21 +138,25 @@ def read_log(
     )
 
 
-def read_csv(path, progress=None, options: ReadOptions | None = None) -> AttitudeLog:
+def read_csv(
+    path: str | os.PathLike[str],
+    progress: Callable[[int, int], object] | None = None,
+    options: ReadOptions | None = None,
+) -> AttitudeLog:
     """Read a CSV log whatever its extension (:mod:`omegahat.io.csvlog`)."""
     return read_log(path, progress, options, ".csv")
 
 
-def read_npz(path, options: ReadOptions | None = None) -> AttitudeLog:
+def read_npz(path: str | os.PathLike[str], options: ReadOptions | None = None) -> AttitudeLog:
     """Read an NPZ log whatever its extension (:mod:`omegahat.io.npzlog`)."""
     return read_log(path, None, options, ".npz")
 
 
-def write_omega_csv(path, t, omega) -> None:
+def write_omega_csv(path: str | os.PathLike[str], t: ArrayLike, omega: ArrayLike) -> None:
     """Write ``t,wx,wy,wz`` (rad/s), one row per sample; ``t (T,)``, ``omega (T, 3)``; NaN as ``nan``."""
-    t = np.asarray(t, dtype=float)
-    omega = np.asarray(omega, dtype=float)
-    if t.ndim != 1 or omega.shape != (t.size, 3):
-        raise ValueError(f"write_omega_csv needs t (T,) and omega (T, 3); got {t.shape} and {omega.shape}")
-    table = np.column_stack([t, omega])
+    times = np.asarray(t, dtype=float)
+    rates = np.asarray(omega, dtype=float)
+    if times.ndim != 1 or rates.shape != (times.size, 3):
+        raise ValueError(f"write_omega_csv needs t (T,) and omega (T, 3); got {times.shape} and {rates.shape}")
+    table = np.column_stack([times, rates])
     np.savetxt(path, table, delimiter=",", header="t,wx,wy,wz", comments="", fmt="%.17g")

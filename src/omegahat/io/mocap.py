@@ -73,7 +73,7 @@ def _head(path: str) -> list[list[str]]:
     return head
 
 
-def is_motive(path) -> bool:
+def is_motive(path: str | os.PathLike[str]) -> bool:
     """Whether a CSV file is a Motive export: its first field is ``Format Version``."""
     head = _head(os.fspath(path))
     return bool(head and head[0] and head[0][0] == "Format Version")
@@ -91,7 +91,7 @@ def _vicon_title(rows: list[list[str]], i: int) -> bool:
     )
 
 
-def is_vicon(path) -> bool:
+def is_vicon(path: str | os.PathLike[str]) -> bool:
     """Whether a CSV file is a Vicon export: a section title, a rate, names, then ``Frame,Sub Frame``."""
     head = _head(os.fspath(path))
     return any(_vicon_title(head, i) for i in range(len(head) - 3))
@@ -127,7 +127,7 @@ def choose_body(names: list[str], body: str | None, path: str, what: str, plural
 # ---------------------------------------------------------------------------------------------------- Motive
 
 
-def open_motive_csv(path, options: ReadOptions) -> LogStream:
+def open_motive_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One rigid body's attitude from an OptiTrack Motive CSV export (module docstring)."""
     path = os.fspath(path)
     body = options.body
@@ -267,7 +267,7 @@ def _vicon_objects(rows, sec) -> dict[str, dict[str, int]]:
     return objects
 
 
-def open_vicon_csv(path, options: ReadOptions) -> LogStream:
+def open_vicon_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One object's or segment's attitude from a Vicon Nexus or Tracker CSV export (module docstring)."""
     path = os.fspath(path)
     body = options.body
@@ -321,15 +321,15 @@ def open_vicon_csv(path, options: ReadOptions) -> LogStream:
         lines.append(line)
     if not frames:
         raise LogFormatError(f"{path}, line {start}: the {sec['title']} section has no data rows")
-    frames = np.array(frames)
+    frame_numbers = np.array(frames)
     rotvec = np.array(vecs) * scale
     from scipy.spatial.transform import Rotation  # SciPy's transforms load in 0.1 s: only for Vicon files
 
     valid = np.all(np.isfinite(rotvec), axis=1)
-    R = np.full((frames.size, 3, 3), np.nan)
+    R = np.full((frame_numbers.size, 3, 3), np.nan)
     R[valid] = Rotation.from_rotvec(rotvec[valid]).as_matrix()
     description = (
         f"Vicon CSV, section {sec['title']!r} at {rate:g} Hz: {name!r}, helical angles RX,RY,RZ in {unit} "
-        f"(rotation vector into the global frame), time = Frame / {rate:g}, {frames.size} frames"
+        f"(rotation vector into the global frame), time = Frame / {rate:g}, {frame_numbers.size} frames"
     )
-    return _stream(path, "matrix", frames / rate, R, lines, description, [], None, f"{name} RX,RY,RZ")
+    return _stream(path, "matrix", frame_numbers / rate, R, lines, description, [], None, f"{name} RX,RY,RZ")

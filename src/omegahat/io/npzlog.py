@@ -51,7 +51,7 @@ def _scalar_first(z, path: str, option: str | None) -> tuple[bool, str]:
     )
 
 
-def open_npz(path, options: ReadOptions) -> LogStream:
+def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open an NPZ log (module docstring)."""
     path = os.fspath(path)
     try:

@@ -23,12 +23,19 @@ from __future__ import annotations
 
 import os
 import tempfile
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
+from types import TracebackType
+from typing import TYPE_CHECKING, Any, Self
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
+
+if TYPE_CHECKING:  # for annotations only (rosbag imports this module; the registry is imported where it is used)
+    from omegahat.io.registry import LogChunk, LogStream
+    from omegahat.io.rosbag import TwistBagWriter
 
 __all__ = [
     "CORRECTED",
@@ -58,7 +65,7 @@ def _same_file(a: Path, b: Path) -> bool:
 BAG_FORMATS = ("rosbag1", "rosbag2")
 
 
-def output_kind(output, input_format: str = "") -> str:
+def output_kind(output: str | os.PathLike[str], input_format: str = "") -> str:
     """``"csv"``, ``"rosbag1"`` or ``"rosbag2"`` for an output name, given the input's format name (module
     docstring); raises ValueError for a name that says neither."""
     out = Path(output)
@@ -76,7 +83,14 @@ def output_kind(output, input_format: str = "") -> str:
     )
 
 
-def open_output(output, kind: str, stream, *, frame_id: str | None = None, topic: str | None = None):
+def open_output(
+    output: str | os.PathLike[str],
+    kind: str,
+    stream: LogStream,
+    *,
+    frame_id: str | None = None,
+    topic: str | None = None,
+) -> OmegaWriter | TwistBagWriter:
     """The writer for an output of ``kind`` (:func:`output_kind`) of ``stream``'s estimates: an
     :class:`OmegaWriter` (times ``stream.t0 + t``: as the file states them) or a
     :class:`~omegahat.io.rosbag.TwistBagWriter` (``frame_id`` default: the body frame the input names, else
@@ -90,7 +104,13 @@ def open_output(output, kind: str, stream, *, frame_id: str | None = None, topic
     return TwistBagWriter(output, frame_id=frame, topic=topic or DEFAULT_TWIST_TOPIC, source=stream.meta.get("topic"))
 
 
-def check_output(output, input_path, *, frame_id: str | None = None, topic: str | None = None) -> tuple[Path, str]:
+def check_output(
+    output: str | os.PathLike[str],
+    input_path: str | os.PathLike[str],
+    *,
+    frame_id: str | None = None,
+    topic: str | None = None,
+) -> tuple[Path, str]:
     """``(path, kind)`` of an output for the input at ``input_path``, checked before any work: its kind from its
     name and the input's format (:func:`output_kind`), the path (:func:`check_output_path`), and that bag-only
     settings (``frame_id``, ``topic``: ``--frame-id``, ``--output-topic``) come with a bag output."""
@@ -104,7 +124,7 @@ def check_output(output, input_path, *, frame_id: str | None = None, topic: str 
     return check_output_path(output, [input_path]), kind
 
 
-def check_output_path(output, inputs=()) -> Path:
+def check_output_path(output: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]] = ()) -> Path:
     """Refuse, before any work, an output that cannot be written or that is one of ``inputs`` (module docstring)."""
     out = Path(output)
     for src in inputs:
@@ -133,10 +153,12 @@ class AtomicOutput:
     def abort(self) -> None:
         raise NotImplementedError
 
-    def __enter__(self):
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         if exc_type is None:
             self.commit()
         else:
@@ -148,7 +170,7 @@ class OmegaWriter(AtomicOutput):
     the file appears on a clean exit, never on an exception. Each chunk is formatted and written by a
     background thread (PyArrow releases the GIL) while the caller computes the next; at most one chunk waits."""
 
-    def __init__(self, path, t0: float = 0.0):
+    def __init__(self, path: str | os.PathLike[str], t0: float = 0.0):
         self.path = Path(path)
         self.t0 = t0
         parent = self.path.parent if str(self.path.parent) else Path(".")
@@ -160,9 +182,9 @@ class OmegaWriter(AtomicOutput):
         self._words = pa.array(STATUS_WORDS)
         self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
-        self._pending = None
+        self._pending: Future[Any] | None = None  # the chunk being written
 
-    def write(self, chunk, omega: np.ndarray, status: np.ndarray) -> None:
+    def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None:
         """Append rows: the times of ``chunk`` (:class:`~omegahat.io.registry.LogChunk`, plus ``t0``),
         ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
         codes = pa.array(np.asarray(status, dtype=np.int8))

@@ -32,21 +32,32 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat.io.columns import LogFormatError
 from omegahat.io.output import CORRECTED, PREDICTED, UNAVAILABLE
-from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogStream, prefetch
+from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream, prefetch
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.validation import as_directions, as_inertia
 
-__all__ = ["STARTS", "BadSamples", "EstimateSettings", "RunSummary", "estimate_stream", "time_unit_warning"]
+__all__ = [
+    "STARTS",
+    "BadSamples",
+    "ChunkWriter",
+    "EstimateSettings",
+    "RunSummary",
+    "estimate_stream",
+    "time_unit_warning",
+]
 
 STARTS = autogain.STARTS
 _CLI_FLAGS = {
@@ -63,6 +74,14 @@ _CLI_FLAGS = {
 _PY_NAMES = {"bandwidth": "bandwidth_hz", "quaternion_order": "the order of the quaternion= columns (x, y, z, w)"}
 
 
+class ChunkWriter(Protocol):
+    """What :func:`estimate_stream` writes through (inside a ``with`` block): :class:`omegahat.io.OmegaWriter`,
+    :class:`omegahat.io.rosbag.TwistBagWriter`, or the DataFrame collector of :mod:`omegahat.io.frames`;
+    a writer that has a ``describe()`` method says with it what it wrote."""
+
+    def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None: ...
+
+
 @dataclass(frozen=True)
 class EstimateSettings:
     """What to estimate with: ``inertia`` (3×3, 3 or 9 numbers; default identity: a locally constant rate),
@@ -71,8 +90,8 @@ class EstimateSettings:
     ``skip_bad_samples`` and the tolerances of :mod:`omegahat.measurements`; ``cli``: name options as the
     command line does (``--rotation-tol``) rather than as Python does (``rotation_tol=``)."""
 
-    inertia: object = None
-    references: object = None
+    inertia: ArrayLike | None = None
+    references: np.ndarray | Sequence[ArrayLike] | None = None
     gains: ObserverGains | None = None
     bandwidth_hz: float | None = None
     start: str = "fit"
@@ -89,7 +108,7 @@ class EstimateSettings:
         """An option's name as the caller writes it: ``--rotation-tol`` or ``rotation_tol``."""
         return _CLI_FLAGS[key] if self.cli else _PY_NAMES.get(key, key)
 
-    def opt(self, key: str, value=None) -> str:
+    def opt(self, key: str, value: object = None) -> str:
         """An option with a value as the caller writes it: ``--rotation-tol 0.02`` or ``rotation_tol=0.02``; a
         switch without one: ``--skip-bad-samples`` or ``skip_bad_samples=True``."""
         if self.cli:
@@ -151,9 +170,10 @@ class BadSamples:
     line (index, message, frame, row) and the attitude's columns."""
 
     def __init__(self, settings: EstimateSettings, stream: LogStream):
-        self.settings, self.stream, self.count, self.first = settings, stream, 0, []
+        self.settings, self.stream, self.count = settings, stream, 0
+        self.first: list[tuple[int, str]] = []  # (label, why) of the first few bad samples, for the summary
 
-    def check(self, chunk) -> None:
+    def check(self, chunk: LogChunk) -> None:
         s = self.settings
         st, info = ms.sample_status(
             chunk.data,
@@ -245,7 +265,7 @@ class _Run:
         self.summary = summary
         self.valid_seen = 0  # valid samples so far (the estimate exists from the 1st (fit) or 2nd (warm, zero))
         self.gap_limit = 2.0 * h
-        self.t_prev = None
+        self.t_prev: float | None = None
 
     def _estimate(self, chunk) -> np.ndarray:
         with warnings.catch_warnings():
@@ -302,7 +322,7 @@ def _head(chunks) -> tuple[list, int]:
 def estimate_stream(
     stream: LogStream,
     settings: EstimateSettings,
-    open_writer: Callable[[LogStream], object],
+    open_writer: Callable[[LogStream], AbstractContextManager[ChunkWriter]],
     report: Callable[[str], None] = print,
     progress: Callable[[int], None] | None = None,
     announce: Callable[[str], None] | None = None,
@@ -401,11 +421,13 @@ def estimate_stream(
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_missing, summary.n_collinear, summary.n_bad = est.n_missing, est.n_collinear, bad.count
-    summary.lines = _summary_lines(summary, stream, bad, J, settings, stream.notes[n_notes:])
+    summary.lines = _summary_lines(summary, gains, stream, bad, J, settings, stream.notes[n_notes:])
     return summary
 
 
-def _summary_lines(s: RunSummary, stream, bad: BadSamples, J, settings: EstimateSettings, notes) -> list[str]:
+def _summary_lines(
+    s: RunSummary, gains: ObserverGains, stream, bad: BadSamples, J, settings: EstimateSettings, notes
+) -> list[str]:
     lines = [f"note: {note}" for note in notes]  # what the timestamp policy changed, known once the stream is read
     skipped = s.n_missing + s.n_collinear
     if skipped:
@@ -423,7 +445,7 @@ def _summary_lines(s: RunSummary, stream, bad: BadSamples, J, settings: Estimate
             f"gaps: {s.gaps} intervals longer than twice the median spacing; the longest {s.largest_gap[0]:.4g} s "
             f"before {stream.label} {s.largest_gap[1]} (predicted through)"
         )
-    k_text, l_text = (np.array2string(a, precision=4) for a in (s.gains.k, s.gains.l_offset))
+    k_text, l_text = (np.array2string(a, precision=4) for a in (gains.k, gains.l_offset))
     lines.append(f"gains used: k = {k_text}, l = {l_text}, J diag = {np.diag(J).tolist()}, start: {settings.start}")
     return lines
 

@@ -35,10 +35,12 @@ from __future__ import annotations
 import os
 import queue
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, fields, replace
+from typing import Any, Self
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from omegahat.io.columns import QUATERNION_ORDERS, LogFormatError
 from omegahat.io.timestamps import TimePolicy
@@ -188,17 +190,27 @@ class LogStream:
         return self._chunks()
 
     @classmethod
-    def from_arrays(cls, source: str, kind: str, t, data, torque=None, labels=None, extra=None, **fields_):
+    def from_arrays(
+        cls,
+        source: str,
+        kind: str,
+        t: np.ndarray,
+        data: np.ndarray,
+        torque: np.ndarray | None = None,
+        labels: ArrayLike | None = None,
+        extra: dict[str, np.ndarray] | None = None,
+        **fields_: Any,
+    ) -> Self:
         """A stream over whole arrays (formats read at once), handed on in chunks of :data:`CHUNK_ROWS` rows;
         ``labels`` default to the indices, ``fields_`` set the other attributes (``label``, ``description`` ...)."""
         T = len(t)
-        labels = np.arange(T) if labels is None else np.asarray(labels)
+        row_labels = np.arange(T) if labels is None else np.asarray(labels)
 
         def chunks() -> Iterator[LogChunk]:
             for a in range(0, T, CHUNK_ROWS):
                 b = min(T, a + CHUNK_ROWS)
                 part = None if extra is None else {k: v[a:b] for k, v in extra.items()}
-                yield LogChunk(t[a:b], data[a:b], None if torque is None else torque[a:b], labels[a:b], part)
+                yield LogChunk(t[a:b], data[a:b], None if torque is None else torque[a:b], row_labels[a:b], part)
                 if by_rows:
                     stream.done = b
 
@@ -227,7 +239,7 @@ _FORMATS: list[Format] = []
 
 
 def register_format(
-    extensions,
+    extensions: str | Iterable[str],
     opener: Callable[[str, ReadOptions], LogStream],
     *,
     name: str | None = None,
@@ -273,7 +285,7 @@ def _unknown(path: str, ext: str) -> LogFormatError:
     return LogFormatError(f"{path}: unknown log format {ext or '(no extension)'!r}; use {known} ({listing})")
 
 
-def detect_format(path, fmt: str | None = None) -> Format:
+def detect_format(path: str | os.PathLike[str], fmt: str | None = None) -> Format:
     """The :class:`Format` of ``path`` (module docstring), or of ``fmt``: a format's name (``"motive"``) or an
     extension (``".csv"``: that extension's plain format, whatever the file's name)."""
     path = os.fspath(path)
@@ -366,7 +378,7 @@ def checked_stream(stream: LogStream, options: ReadOptions) -> LogStream:
     return stream
 
 
-def open_log(path, options: ReadOptions | None = None, fmt: str | None = None) -> LogStream:
+def open_log(path: str | os.PathLike[str], options: ReadOptions | None = None, fmt: str | None = None) -> LogStream:
     """Open a log in the format :func:`detect_format` finds (or ``fmt``: a format's name or an extension such as
     ``".csv"``); the stream's chunks are converted and checked (module docstring)."""
     options = ReadOptions() if options is None else options
@@ -378,7 +390,7 @@ def open_log(path, options: ReadOptions | None = None, fmt: str | None = None) -
     return checked_stream(stream, options)
 
 
-def with_options(options: ReadOptions | None, **changes) -> ReadOptions:
+def with_options(options: ReadOptions | None, **changes: Any) -> ReadOptions:
     """``options`` (default :class:`ReadOptions`) with ``changes`` applied (keyword conveniences of the readers)."""
     base = ReadOptions() if options is None else options
     return replace(base, **changes) if changes else base

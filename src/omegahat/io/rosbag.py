@@ -45,13 +45,18 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from omegahat.io.columns import LogFormatError
 from omegahat.io.output import AtomicOutput
-from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.registry import LogChunk, LogStream, ReadOptions
 from omegahat.io.timestamps import sort_by_time
+
+if TYPE_CHECKING:  # rosbags is optional: imported where it is used
+    from rosbags.rosbag1 import Writer as Bag1Writer
+    from rosbags.rosbag2 import Writer as Bag2Writer
 
 __all__ = ["DEFAULT_TWIST_TOPIC", "SUPPORTED_TYPES", "TwistBagWriter", "bag_path", "is_ros2_bag", "open_bag"]
 
@@ -78,7 +83,7 @@ def _rosbags():
     return rosbags
 
 
-def bag_path(path) -> Path | None:
+def bag_path(path: str | os.PathLike[str]) -> Path | None:
     """The bag a path names (a ``.bag`` file, a ROS 2 bag directory, or a file inside one), else None."""
     p = Path(path)
     if p.suffix == ".bag" and p.is_file():
@@ -90,7 +95,7 @@ def bag_path(path) -> Path | None:
     return None
 
 
-def is_ros2_bag(path) -> bool:
+def is_ros2_bag(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` is a ROS 2 bag: a directory with ``metadata.yaml``, or its ``.db3``/``.mcap`` storage."""
     p = bag_path(path)
     return p is not None and p.is_dir()
@@ -146,13 +151,13 @@ def _samples(msgtype: str, msg, topic: str, where: str):
 
 
 def _describe_topics(connections) -> str:
-    seen = {}
+    seen: dict[str, str] = {}
     for c in connections:
         seen.setdefault(c.topic, c.msgtype)
     return ", ".join(f"{t} ({m.replace('/msg/', '/')})" for t, m in sorted(seen.items()))
 
 
-def open_bag(path, options: ReadOptions) -> LogStream:
+def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """The orientation on ``options.topic`` in a ROS 1 or ROS 2 bag (module docstring).
 
     The topic may be omitted when one topic has a supported type. For ``/tf`` (``tf2_msgs/TFMessage``) and
@@ -230,18 +235,18 @@ def open_bag(path, options: ReadOptions) -> LogStream:
         )
     parent, child = chosen[0]
     idx = np.flatnonzero(select)
-    header_ns = np.array(header_ns, dtype=np.int64)[idx]
-    receive_ns = np.array(receive_ns, dtype=np.int64)[idx]
+    header_stamps = np.array(header_ns, dtype=np.int64)[idx]
+    receive_stamps = np.array(receive_ns, dtype=np.int64)[idx]
     q = np.array(quats, dtype=float)[idx]
     msg_index = np.array(index)[idx]
-    if stamp == "header" and not np.any(header_ns):
+    if stamp == "header" and not np.any(header_stamps):
         raise LogFormatError(
             f"{p}, topic {topic}: every header stamp is zero (the driver does not stamp its messages); use the "
             "receive time instead: --stamp receive (stamp='receive' in Python)"
         )
-    times = header_ns if stamp == "header" else receive_ns
-    order, n_late = sort_by_time(times)
-    times = times[order]
+    stamps = header_stamps if stamp == "header" else receive_stamps
+    order, n_late = sort_by_time(stamps)
+    times = stamps[order]
     version = 2 if p.is_dir() else 1
     frames = f"{parent} -> {child}" if parent and child else (f"frame {child or parent}" if child or parent else "")
     description = (
@@ -257,7 +262,7 @@ def open_bag(path, options: ReadOptions) -> LogStream:
         (times - base).astype(np.float64) * 1e-9,
         q[order],
         labels=msg_index[order],
-        extra={"header_ns": header_ns[order], "receive_ns": receive_ns[order]},
+        extra={"header_ns": header_stamps[order], "receive_ns": receive_stamps[order]},
         label="message",
         context=f", topic {topic}",
         time_name=None,
@@ -302,7 +307,14 @@ class TwistBagWriter(AtomicOutput):
     ``extra`` (``header_ns``, ``receive_ns``: rows of a bag's stream), the bag appears on a clean exit of the
     ``with`` block, never on an exception. ``path`` ending in ``.bag``: ROS 1, otherwise a ROS 2 bag directory."""
 
-    def __init__(self, path, *, frame_id: str, topic: str = DEFAULT_TWIST_TOPIC, source: str | None = None):
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        frame_id: str,
+        topic: str = DEFAULT_TWIST_TOPIC,
+        source: str | None = None,
+    ):
         _rosbags()
         from rosbags.typesys import Stores, get_typestore
 
@@ -315,19 +327,20 @@ class TwistBagWriter(AtomicOutput):
         self.frame_id, self.topic, self.source, self.rows = frame_id, topic, source, 0
         self._staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".partial", dir=self.path.parent))
         target = self._staging / self.path.name
+        self._writer: Bag1Writer | Bag2Writer
         try:
             if self.ros_version == 1:
-                from rosbags.rosbag1 import Writer
+                from rosbags.rosbag1 import Writer as Bag1Writer
 
                 self._ts = get_typestore(Stores.ROS1_NOETIC)
                 self._serialize = self._ts.serialize_ros1
-                self._writer = Writer(target)
+                self._writer = Bag1Writer(target)
             else:
-                from rosbags.rosbag2 import Writer
+                from rosbags.rosbag2 import Writer as Bag2Writer
 
                 self._ts = get_typestore(Stores.LATEST)
                 self._serialize = self._ts.serialize_cdr
-                self._writer = Writer(target, version=8)
+                self._writer = Bag2Writer(target, version=8)
             self._writer.open()
             self._conn = self._writer.add_connection(topic, _TWIST, typestore=self._ts)
         except BaseException:
@@ -335,7 +348,7 @@ class TwistBagWriter(AtomicOutput):
             raise
         self._target = target
 
-    def write(self, chunk, omega: np.ndarray, status: np.ndarray) -> None:
+    def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None:
         """One message per row of ``chunk`` (stamps from ``chunk.extra``), ``omega (m, 3)`` rad/s."""
         if chunk.extra is None or "header_ns" not in chunk.extra:
             raise ValueError("a TwistStamped output needs the input messages' stamps (a bag input)")

@@ -107,7 +107,7 @@ class TimePolicy:
     def __init__(self, kind: str, where: Callable[..., str], unit: str, time_name: str | None):
         self.kind, self.where, self.unit, self.time_name = kind, where, unit, time_name
         self.n_dropped = 0
-        self._held = None  # the last kept sample so far, as a tuple of length-1 arrays
+        self._held: tuple | None = None  # the last kept sample so far, as a tuple of length-1 arrays
 
     def notes(self) -> list[str]:
         """What was changed, for the stream's notes (empty when nothing was)."""
@@ -142,7 +142,7 @@ class TimePolicy:
         self._held = tuple(None if a is None else _take(a, kept[-1:]) for a in arrays)
         return arrays, kept[:-1]
 
-    def finish(self):
+    def finish(self) -> tuple | None:
         """The sample still held back (arrays of length 1), or None."""
         held, self._held = self._held, None
         return held
