@@ -63,7 +63,9 @@ def test_star_tracker_example_follows_the_integrated_body(capsys: pytest.Capture
 def test_directions_example_recovers_the_rate(capsys: pytest.CaptureFixture[str]) -> None:
     ns, out = run_block(2, capsys)
     assert float(out) < 1e-9
-    assert np.abs(ns["est"].run(ns["t"], ns["b"])[-1] - [0.3, -0.2, 0.5]).max() < 1e-9  # a second pass stays on it
+    ns["est"].reset()  # run continues from the current state; from a fresh start, the whole second half is on it
+    W = ns["est"].run(ns["t"], ns["b"])
+    assert np.abs(W[ns["t"].size // 2 :] - [0.3, -0.2, 0.5]).max() < 1e-9
 
 
 def test_dataframe_example_returns_the_rate_indexed_like_the_frame(capsys: pytest.CaptureFixture[str]) -> None:
