@@ -15,13 +15,11 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +27,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from results_md import write_section
+from results_md import machine_line, write_section
 
 SECTION = "## Big logs: `omegahat estimate` end to end (benchmarks/big_log.py)"
 
@@ -103,8 +101,7 @@ def main() -> None:
             src.unlink()
     body = (
         f"{SECTION}\n\n"
-        f"Machine: {platform.node()} ({platform.machine()}, {os.cpu_count()} cores, shared), Python "
-        f"{platform.python_version()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC. Command: `python benchmarks/big_log.py "
+        f"{machine_line()} Command: `python benchmarks/big_log.py "
         f"--rows {args.rows} --big-rows {args.big_rows} --repeat {args.repeat}` (each run: `omegahat estimate LOG -o "
         "OUT --no-progress` as a child process, after one untimed run that loads the compiled kernels).\n\n"
         "| rows | CSV size | wall time, best / median | peak memory (max RSS) | runs |\n"

@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import contextlib
 import io
-import platform
 import sys
 import tempfile
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +25,7 @@ from logmaker import Angle, attitude, constant_rate, noisy, read_output, torque,
 from omegahat.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from results_md import write_section
+from results_md import machine_line, write_section
 
 SECTION = "## Automatic gains against the best bandwidth in hindsight (benchmarks/default_gains.py)"
 
@@ -88,7 +86,7 @@ def main_() -> None:
             rows.append(row)
     body = (
         f"{SECTION}\n\n"
-        f"Machine: {platform.node()}, Python {platform.python_version()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC. "
+        f"{machine_line()} "
         "Command: `python benchmarks/default_gains.py`. RMS of |ω̂ − ω| (rad/s) over every row with an estimate "
         '("whole") and over the second half ("steady"); hindsight: the best of 31 `--bandwidth` runs of the same '
         "command (same start-up: a least-squares fit over the first window).\n\n"

@@ -10,13 +10,11 @@ load them. Target (issue 12): first run under 10 s. Writes its section of ``benc
 
 from __future__ import annotations
 
-import platform
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
-from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +24,7 @@ import omegahat
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from logmaker import constant_rate, write_csv
-from results_md import write_section
+from results_md import machine_line, write_section
 
 SECTION = "## First run of `omegahat estimate` (benchmarks/first_run.py)"
 
@@ -55,7 +53,7 @@ def main() -> None:
             rows.append(f"| {k + 1} | {wall:.2f} s | {note} |")
             print(rows[-1], flush=True)
     body = (
-        f"Machine: {platform.node()}, Python {platform.python_version()}; {datetime.now(UTC):%Y-%m-%d %H:%M} UTC. "
+        f"{machine_line()} "
         f"Command: `python benchmarks/first_run.py` ({removed} cache files of {package} removed first; a 100 Hz, "
         "60 s quaternion log).\n\n| run | wall time | kernels |\n| --- | --- | --- |\n" + "\n".join(rows) + "\n\n"
         "Target (issue 12): first run under 10 s. The compilation is that of the estimator's kernels "
