@@ -65,7 +65,7 @@ def test_prediction_is_fourth_order_against_dop853():
     errs = []
     angles = [0.2, 0.1, 0.05]
     for ang in angles:
-        w, rp, _ = reference_predict(PAPER_W0, np.eye(3), np.zeros((3, 3)), tau, h, J, J_inv, g, ang)
+        w, rp, _, _ = reference_predict(PAPER_W0, np.eye(3), np.zeros((3, 3)), tau, h, J, J_inv, g, ang)
         # predicted rows of R: r_i(h) = R(h)ᵀ e_i, i.e. the rows of R(h)
         errs.append(max(np.abs(w - W_ref[-1]).max(), np.abs(rp - R_ref[-1]).max()))
     order = np.polyfit(np.log(angles), np.log(errs), 1)[0]
@@ -78,7 +78,7 @@ def test_prediction_decay_is_exact_for_constant_rate():
     g = ObserverGains(k=[1.0, 1.0], l_offset=[5.0, 50.0], l_slope=[0.0, 7.0])
     e0 = np.array([[0.1, 0.2, -0.3], [0.0, 0.5, 0.1]])
     h = 0.3
-    _, _, e = reference_predict(w0, np.eye(3)[:2], e0, np.zeros(3), h, np.eye(3), np.eye(3), g)
+    _, _, e, _ = reference_predict(w0, np.eye(3)[:2], e0, np.zeros(3), h, np.eye(3), np.eye(3), g)
     D = Rotation.from_rotvec(h * w0).as_matrix()
     expected = np.exp(-(g.l_offset + g.l_slope * np.linalg.norm(w0)) * h)[:, None] * (e0 @ D)
     np.testing.assert_allclose(e, expected, rtol=1e-12, atol=1e-300)
@@ -184,7 +184,9 @@ def test_correction_linearises_to_the_implicit_map():
     """One sample from a small error z, e = 0, J = I, constant ω, two rows, k h = 30 (far beyond explicit Euler's
     limit 2). Derivation: ω̂ = ω + z is constant, so the prediction is exp(h ω̂) = exp(h ω) exp(h J_r z) + O(z²)
     (J_r the right Jacobian of SO(3) at h ω), hence Δ_i = −r_i × (h J_r z), y = −h M J_r z with
-    M = Σ k_i (I − r_i r_iᵀ), and (C) gives z⁺ = z − (I + h M)⁻¹ h M J_r z + O(|z|²)."""
+    M = Σ k_i (I − r_i r_iᵀ). The aim (A2) is Γ = Φ_θω = ∫₀ʰ exp(−ω×(h − s)) ds = h J_r (J = I: A = 0), so (C)
+    gives z⁺ = z − (I + h M J_r)⁻¹ h M J_r z = (I + h M J_r)⁻¹ z + O(|z|²): the error is mapped as if the body
+    did not turn. (A1)'s second-order substeps approximate Γ to O((h_s |ω|)²) relative (h_s |ω| = 0.027 here)."""
     w = np.array([0.3, -0.2, 0.4])
     h, k = 0.1, 300.0
     times = np.array([0.0, h])
@@ -198,8 +200,11 @@ def test_correction_linearises_to_the_implicit_map():
         z = scale * np.array([1.0, -2.0, 0.5])
         est = SarrasEstimator(np.eye(3), gains=ObserverGains.constant(k, 1.0, n=2), omega_hat0=w + z)
         z_plus = est.run(times, R)[1] - w
-        expected = z - np.linalg.solve(np.eye(3) + h * M, h * M @ J_r @ z)
-        assert np.linalg.norm(z_plus - expected) < 10 * scale**2, (scale, z_plus, expected)
+        expected = np.linalg.solve(np.eye(3) + h * M @ J_r, z)
+        aim_error = 1e-3 * scale  # |Γ − h J_r| / h ≈ (h_s|ω|)²/6 ≈ 1.2e-4
+        assert np.linalg.norm(z_plus - expected) < 10 * scale**2 + aim_error, (scale, z_plus, expected)
+        unaimed = z - np.linalg.solve(np.eye(3) + h * M, h * M @ J_r @ z)  # the correction before (A2)
+        assert np.linalg.norm(z_plus - unaimed) > 0.02 * scale  # they differ at O(h|ω|) = 5 %
         # and the explicit jump would have overshot: z − h M J_r z is ~30 times larger
         assert np.linalg.norm(z - h * M @ J_r @ z) > 10 * np.linalg.norm(expected)
 

@@ -12,7 +12,7 @@ import math
 
 import numba
 
-__all__ = ["cross", "dot", "mat3", "matvec", "matvec_transposed", "norm", "solve"]
+__all__ = ["cross", "dot", "inverse", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "skew", "solve"]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -78,3 +78,37 @@ def solve(M, y0, y1, y2):
         (c01 * y0 + c11 * y1 + c21 * y2) / det,
         (c02 * y0 + c12 * y1 + c22 * y2) / det,
     )
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def matmul(A, B):
+    """``A B`` for 9-tuples, each entry summed left to right."""
+    return (
+        A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+        A[0] * B[2] + A[1] * B[5] + A[2] * B[8], A[3] * B[0] + A[4] * B[3] + A[5] * B[6],
+        A[3] * B[1] + A[4] * B[4] + A[5] * B[7], A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+        A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+        A[6] * B[2] + A[7] * B[5] + A[8] * B[8],
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def inverse(M):
+    """``M⁻¹`` by the adjugate, for a well-conditioned 9-tuple ``M``."""
+    c00 = M[4] * M[8] - M[5] * M[7]
+    c01 = M[5] * M[6] - M[3] * M[8]
+    c02 = M[3] * M[7] - M[4] * M[6]
+    det = M[0] * c00 + M[1] * c01 + M[2] * c02
+    c10 = M[2] * M[7] - M[1] * M[8]
+    c11 = M[0] * M[8] - M[2] * M[6]
+    c12 = M[1] * M[6] - M[0] * M[7]
+    c20 = M[1] * M[5] - M[2] * M[4]
+    c21 = M[2] * M[3] - M[0] * M[5]
+    c22 = M[0] * M[4] - M[1] * M[3]
+    return (c00 / det, c10 / det, c20 / det, c01 / det, c11 / det, c21 / det, c02 / det, c12 / det, c22 / det)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def skew(a0, a1, a2):
+    """``a×`` as a 9-tuple: ``skew(a) x = a × x``."""
+    return (0.0, -a2, a1, a2, 0.0, -a0, -a1, a0, 0.0)

@@ -94,6 +94,13 @@ class SarrasEstimator(Estimator):
     max_substep_angle : bound on the prediction's substep angle (rad).
     warm_start : take ω̂ from the first two valid samples (W) instead of ``omega_hat0``. Default (None): on unless
         ``omega_hat0`` or ``r_hat0`` is given; False: the observer as published, started from ``omega_hat0``.
+    torque_hold : the known torque between samples: ``"zero"`` (default: the torque given with a sample is held
+        until the next, exact for commands a controller holds between updates) or ``"linear"`` (the line from the
+        previous sample's torque to the new sample's, causal since the new sample's torque comes with it: better
+        for a smooth torque that is merely sampled, wrong at a held command's switch; ``docs/theory/sampled.md``).
+    isotropic_rate : None (default: the observer's rate gain ``J⁻¹``) or a rate ``b`` in rad/s: the correction
+        then uses the matrix gain ``b M⁻¹`` so that every error mode decays at about ``b`` whatever the
+        directions' geometry (``docs/theory/tuning.md``); the gains' ``k_i`` then only weigh the directions.
     """
 
     def __init__(
@@ -111,6 +118,8 @@ class SarrasEstimator(Estimator):
         min_angle_deg: float = ms.MIN_ANGLE_DEG,
         max_substep_angle: float = MAX_SUBSTEP_ANGLE,
         warm_start: bool | None = None,
+        torque_hold: str = "zero",
+        isotropic_rate: float | None = None,
     ):
         self.J = as_inertia(J)
         if not isinstance(gains, ObserverGains):
@@ -144,9 +153,15 @@ class SarrasEstimator(Estimator):
             raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
         self.min_angle_deg = float(min_angle_deg)
         self.warm_start = (omega_hat0 is None and r_hat0 is None) if warm_start is None else bool(warm_start)
+        if torque_hold not in sampled.TORQUE_HOLDS:
+            raise ValueError(f"torque_hold must be one of {sampled.TORQUE_HOLDS}; got {torque_hold!r}")
+        self.torque_hold = torque_hold
+        self.isotropic_rate = (
+            None if isotropic_rate is None else float(as_positive(isotropic_rate, "isotropic_rate")[0])
+        )
         self._params = sampled.pack_params(
             self.J, gains, self.references, self.r_hat0, self.rotation_tol, self.quat_norm_tol, self.min_angle_deg,
-            self.max_substep_angle, self.scalar_first, self.warm_start,
+            self.max_substep_angle, self.scalar_first, self.warm_start, torque_hold, self.isotropic_rate,
         )  # fmt: skip
         self._n_directions = None if measurement == "attitude" else n
         self.reset()
@@ -170,6 +185,24 @@ class SarrasEstimator(Estimator):
     @property
     def omega_hat(self) -> np.ndarray:
         return self._x[_OMEGA_HAT].copy()
+
+    @property
+    def params(self) -> np.ndarray:
+        """The compiled step's flat parameters (:data:`omegahat.observer.sampled.PARAMS`), read-only."""
+        view = self._params.view()
+        view.flags.writeable = False
+        return view
+
+    @property
+    def state_vector(self) -> np.ndarray:
+        """A copy of the compiled step's flat state (:data:`omegahat.observer.sampled.STATE`)."""
+        return self._x.copy()
+
+    @state_vector.setter
+    def state_vector(self, x: np.ndarray) -> None:
+        if np.shape(x) != self._x.shape:
+            raise ValueError(f"a state vector of shape {self._x.shape} is needed; got {np.shape(x)}")
+        self._x = np.array(x, dtype=float)
 
     # -- estimation -------------------------------------------------------------------------------------------
 

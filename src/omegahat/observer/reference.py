@@ -21,9 +21,24 @@ from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, MAX_SUBSTEPS, Estimator
 __all__ = ["reference_predict", "reference_step"]
 
 
-def _substeps(h, omega_hat, J_inv, tau, max_angle) -> int:
-    angle = h * (np.linalg.norm(omega_hat) + h * np.linalg.norm(J_inv @ tau))
+def _substeps(h, omega_hat, J_inv, tau, tau_end, max_angle) -> int:
+    accel = max(np.linalg.norm(J_inv @ tau), np.linalg.norm(J_inv @ tau_end))
+    angle = h * (np.linalg.norm(omega_hat) + h * accel)
     return int(min(MAX_SUBSTEPS, max(1, math.ceil(angle / max_angle))))
+
+
+def _hat(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def error_transition_step(omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, hs: float) -> np.ndarray:
+    """(A1) of one substep, 6×6: ``I + F h_s + (F h_s)²/2`` with ``F = [[−ω̂×, I], [0, J⁻¹((Jω̂)× − ω̂× J)]]``."""
+    F = np.zeros((6, 6))
+    F[:3, :3] = -_hat(omega_hat)
+    F[:3, 3:] = np.eye(3)
+    F[3:, 3:] = J_inv @ (_hat(J @ omega_hat) - _hat(omega_hat) @ J)
+    Fh = F * hs
+    return np.eye(6) + Fh + Fh @ Fh / 2.0
 
 
 def reference_predict(
@@ -36,31 +51,40 @@ def reference_predict(
     J_inv: np.ndarray,
     gains: ObserverGains,
     max_angle: float = MAX_SUBSTEP_ANGLE,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(P) over ``h``: returns ``(ω̂, r_pred, e_pred)``."""
-    f = lambda w: J_inv @ (np.cross(J @ w, w) + tau)  # Euler's equations  # noqa: E731
+    tau_end: np.ndarray | None = None,
+    phi: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(P) over ``h`` with the torque ``tau`` at the start and ``tau_end`` (default: ``tau``, held) at the end,
+    linear in between; ``phi`` the 6×6 error transition so far (default I). Returns ``(ω̂, r_pred, e_pred,
+    phi)``."""
+    tau_end = tau if tau_end is None else tau_end
+    torque = lambda s: tau + (tau_end - tau) * s  # s: the fraction of h  # noqa: E731
+    f = lambda w, s: J_inv @ (np.cross(J @ w, w) + torque(s))  # Euler's equations  # noqa: E731
     dexpinv = lambda u, w: w + 0.5 * np.cross(u, w) + np.cross(u, np.cross(u, w)) / 12.0  # noqa: E731
-    n_sub = _substeps(h, omega_hat, J_inv, tau, max_angle)
+    n_sub = _substeps(h, omega_hat, J_inv, tau, tau_end, max_angle)
     hs = h / n_sub
     w = np.array(omega_hat, dtype=float)
+    phi = np.eye(6) if phi is None else phi
     D = np.eye(3)  # ΔR̂
     int_abs_w: float | np.floating = 0.0  # ∫ |ω̂| dt
-    for _ in range(n_sub):  # RKMK4
+    for j in range(n_sub):  # RKMK4
+        sa, sm, sb = j / n_sub, (j + 0.5) / n_sub, (j + 1.0) / n_sub
+        phi = error_transition_step(w, J, J_inv, hs) @ phi
         w1 = w
-        K1, L1 = hs * w1, hs * f(w1)
+        K1, L1 = hs * w1, hs * f(w1, sa)
         w2 = w + L1 / 2
-        K2, L2 = hs * dexpinv(K1 / 2, w2), hs * f(w2)
+        K2, L2 = hs * dexpinv(K1 / 2, w2), hs * f(w2, sm)
         w3 = w + L2 / 2
-        K3, L3 = hs * dexpinv(K2 / 2, w3), hs * f(w3)
+        K3, L3 = hs * dexpinv(K2 / 2, w3), hs * f(w3, sm)
         w4 = w + L3
-        K4, L4 = hs * dexpinv(K3, w4), hs * f(w4)
+        K4, L4 = hs * dexpinv(K3, w4), hs * f(w4, sb)
         int_abs_w += (
             hs * (np.linalg.norm(w1) + 2 * np.linalg.norm(w2) + 2 * np.linalg.norm(w3) + np.linalg.norm(w4)) / 6
         )
         D = D @ Rotation.from_rotvec((K1 + 2 * K2 + 2 * K3 + K4) / 6).as_matrix()
         w = w + (L1 + 2 * L2 + 2 * L3 + L4) / 6
     decay = np.exp(-(gains.l_offset * h + gains.l_slope * int_abs_w))  # the exact decay of the filter errors
-    return w, r @ D, decay[:, None] * (e @ D)  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
+    return w, r @ D, decay[:, None] * (e @ D), phi  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
 
 
 def reference_step(
@@ -74,9 +98,12 @@ def reference_step(
     omega_hat0: ArrayLike | None = None,
     max_angle: float = MAX_SUBSTEP_ANGLE,
     warm_start: bool = False,
+    torque_hold: str = "linear",
+    isotropic_rate: float | None = None,
 ) -> EstimatorState:
     """One sample of directions ``r_meas (n, 3)`` (None: a skipped sample), no checks. ``tau`` is the torque given
-    with this sample (held from ``t`` on); the interval uses ``state.torque``."""
+    with this sample; the interval uses ``state.torque`` held (``torque_hold="zero"``) or the line from it to
+    ``tau`` (``"linear"``)."""
     tau = np.zeros(3) if tau is None else np.asarray(tau, dtype=float)
     if not state.initialised:
         if r_meas is None:
@@ -98,17 +125,23 @@ def reference_step(
         decay = np.exp(-(gains.l_offset * h + gains.l_slope * np.linalg.norm(w_avg) * h))
         r_pred, e_pred = state.r @ A.T, decay[:, None] * (state.e @ A.T)
         return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - (r_meas - r_pred))
-    w, r_pred, e_pred = reference_predict(
-        state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle
+    phi = np.eye(6)
+    phi[:3, 3:], phi[3:, 3:] = state.phi_tw, state.phi_ww
+    tau_end = tau if torque_hold == "linear" else state.torque
+    w, r_pred, e_pred, phi = reference_predict(
+        state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle, tau_end, phi
     )
     if r_meas is None:
-        return EstimatorState(float(t), True, state.t_meas, w, tau, r_pred, e_pred)
+        return EstimatorState(
+            float(t), True, state.t_meas, w, tau, r_pred, e_pred, phi_tw=phi[:3, 3:].copy(), phi_ww=phi[3:, 3:].copy()
+        )
     r_meas = np.asarray(r_meas, dtype=float)
     delta = r_meas - r_pred  # (I)
     r_hat = r_pred + e_pred
     k = gains.k
-    y = J_inv @ np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # the plain jump of the output map
+    y = np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # the plain jump of the output map, times J
     M = sum(k[i] * (r_meas[i] @ r_meas[i] * np.eye(3) - np.outer(r_meas[i], r_meas[i])) for i in range(k.size))
-    h = t - state.t_meas  # since the last valid sample
-    w = w + np.linalg.solve(np.eye(3) + h * J_inv @ M, y)  # (C)
+    aim = phi[:3, 3:] @ np.linalg.inv(phi[3:, 3:])  # Γ = Φ_θω Φ_ωω⁻¹ since the last valid sample (A2)
+    G = J_inv if isotropic_rate is None else isotropic_rate * np.linalg.inv(M)
+    w = w + np.linalg.solve(np.eye(3) + G @ M @ aim, G @ y)  # (C)
     return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - delta)  # (R)

@@ -17,7 +17,7 @@ codes :data:`UNINITIALISED`, :data:`WARM_PENDING`, :data:`RUNNING`. The paramete
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numba
@@ -28,7 +28,7 @@ from omegahat.kernels import checks
 from omegahat.kernels.dynamics import euler_rate
 from omegahat.kernels.observer import innovation, stiffness
 from omegahat.kernels.rotation import dexpinv, exp_matrix, rotvec_from_matrix, wahba
-from omegahat.kernels.vec3 import mat3, matvec, solve
+from omegahat.kernels.vec3 import inverse, mat3, matmul, matvec, skew, solve
 from omegahat.observer.gains import ObserverGains
 
 __all__ = [
@@ -54,17 +54,20 @@ MAX_SUBSTEPS = 1_000_000  #: cap on substeps per interval (a gap of hours at a f
 
 class StateLayout(NamedTuple):
     """Offsets in the flat state: time of the last sample, stage, time of the last valid sample, ω̂ (3), the torque
-    held since the last sample (3); then the directions ``r`` (3n) and the filter errors ``e = r̂ − r`` (3n)."""
+    given with the last sample (3), the error transitions ``Φ_θω``, ``Φ_ωω`` since the last valid sample (9 each,
+    row-major; (A1)); then the directions ``r`` (3n) and the filter errors ``e = r̂ − r`` (3n)."""
 
     t: int
     stage: int
     t_meas: int
     omega_hat: int
     torque: int
+    phi_tw: int
+    phi_ww: int
     r: int
 
 
-STATE = StateLayout(t=0, stage=1, t_meas=2, omega_hat=3, torque=6, r=9)
+STATE = StateLayout(t=0, stage=1, t_meas=2, omega_hat=3, torque=6, phi_tw=9, phi_ww=18, r=27)
 UNINITIALISED = 0.0  #: stage before the first valid sample
 WARM_PENDING = 1.0  #: stage after it while a warm start waits for the second
 RUNNING = 2.0  #: stage from then on
@@ -84,26 +87,32 @@ class ParamLayout(NamedTuple):
     has_r_hat0: int
     n: int
     warm_start: int
+    linear_hold: int
+    isotropic_rate: int
     k: int
 
 
 PARAMS = ParamLayout(
     J=0, Jinv=9, rotation_tol=18, quat_norm_tol=19, min_sin=20, max_angle=21, scalar_first=22, has_r_hat0=23, n=24,
-    warm_start=25, k=26,
+    warm_start=25, linear_hold=26, isotropic_rate=27, k=28,
 )  # fmt: skip
+TORQUE_HOLDS = ("zero", "linear")  #: the torque between samples: held (zero order) or interpolated (first order)
 
 
 def pack_params(
     J: np.ndarray, gains: ObserverGains, references: ArrayLike, r_hat0: ArrayLike | None, rotation_tol: float,
     quat_norm_tol: float, min_angle_deg: float, max_angle: float, scalar_first: bool, warm_start: bool,
+    torque_hold: str = "linear", isotropic_rate: float | None = None,
 ) -> np.ndarray:  # fmt: skip
-    """The flat parameters (:data:`PARAMS`) of an estimator."""
+    """The flat parameters (:data:`PARAMS`) of an estimator. ``isotropic_rate`` (rad/s, None = off): the
+    geometry-aware correction (C) with the matrix gain ``G = b M⁻¹``."""
     n = gains.n
     return np.concatenate([
         np.asarray(J, dtype=float).ravel(),
         np.linalg.inv(J).ravel(),
         [rotation_tol, quat_norm_tol, math.sin(math.radians(min_angle_deg)), max_angle, float(scalar_first),
-         float(r_hat0 is not None), float(n), float(warm_start)],
+         float(r_hat0 is not None), float(n), float(warm_start), float(torque_hold == "linear"),
+         0.0 if isotropic_rate is None else float(isotropic_rate)],
         gains.k, gains.l_offset, gains.l_slope,
         np.asarray(references, dtype=float).ravel(),
         np.zeros(3 * n) if r_hat0 is None else np.asarray(r_hat0, dtype=float).ravel(),
@@ -118,7 +127,8 @@ class EstimatorState:
     ``t_meas`` time of the last valid (not skipped) sample, ``omega_hat (3,)``, ``torque (3,)`` held since ``t``,
     ``r (n, 3)`` the directions at ``t`` (the last measurement or its prediction), ``e (n, 3) = r̂ − r``,
     ``warm_pending`` whether a warm start waits for the second valid sample (``r`` is then the first sample's
-    measurement).
+    measurement), ``phi_tw``, ``phi_ww`` ``(3, 3)`` the error transitions (A1) accumulated since the last valid
+    sample (0 and I right after one).
     """
 
     t: float
@@ -129,6 +139,8 @@ class EstimatorState:
     r: np.ndarray
     e: np.ndarray
     warm_pending: bool = False
+    phi_tw: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
+    phi_ww: np.ndarray = field(default_factory=lambda: np.eye(3))
 
     @property
     def r_hat(self) -> np.ndarray:
@@ -147,12 +159,22 @@ class EstimatorState:
             r=x[STATE.r : STATE.r + 3 * n].reshape(n, 3).copy(),
             e=x[STATE.r + 3 * n :].reshape(n, 3).copy(),
             warm_pending=bool(x[STATE.stage] == WARM_PENDING),
+            phi_tw=x[STATE.phi_tw : STATE.phi_tw + 9].reshape(3, 3).copy(),
+            phi_ww=x[STATE.phi_ww : STATE.phi_ww + 9].reshape(3, 3).copy(),
         )
 
     def to_vector(self) -> np.ndarray:
         stage = UNINITIALISED if not self.initialised else WARM_PENDING if self.warm_pending else RUNNING
         return np.concatenate(
-            [[self.t, stage, self.t_meas], self.omega_hat, self.torque, self.r.ravel(), self.e.ravel()]
+            [
+                [self.t, stage, self.t_meas],
+                self.omega_hat,
+                self.torque,
+                np.asarray(self.phi_tw).ravel(),
+                np.asarray(self.phi_ww).ravel(),
+                self.r.ravel(),
+                self.e.ravel(),
+            ]  # fmt: skip
         )
 
 
@@ -162,42 +184,90 @@ def initial_state_vector(n: int, omega_hat0: ArrayLike) -> np.ndarray:
     x[STATE.t] = np.nan
     x[STATE.t_meas] = np.nan
     x[STATE.omega_hat : STATE.omega_hat + 3] = omega_hat0
+    x[STATE.phi_ww : STATE.phi_ww + 9] = np.eye(3).ravel()
     return x
 
 
 # ------------------------------------------------------------------------------------------------ the steps
 
 
+@numba.njit(cache=True, inline="always")
+def _diag_plus(d, p, X, q, Y):
+    """``d I + p X + q Y`` for 9-tuples."""
+    return (
+        d + p * X[0] + q * Y[0], p * X[1] + q * Y[1], p * X[2] + q * Y[2],
+        p * X[3] + q * Y[3], d + p * X[4] + q * Y[4], p * X[5] + q * Y[5],
+        p * X[6] + q * Y[6], p * X[7] + q * Y[7], d + p * X[8] + q * Y[8],
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
+def _error_transition(Jm, Jinv, w0, w1, w2, hs, phi):
+    """(A1) over one substep at the substep's starting ω̂: ``Φ ← Φ_s Φ`` for the blocks ``Φ_θω``, ``Φ_ωω``
+    (``phi[0:9]``, ``phi[9:18]``) of the linearised error ``δθ̇ = −ω̂× δθ + δω``, ``δω̇ = A δω``,
+    ``A = J⁻¹((Jω̂)× − ω̂× J)``, with the second-order substep transition ``Φ_s = I + F h_s + (F h_s)²/2``:
+    ``Φ_θθ,s = I − h_s W + h_s² W²/2``, ``Φ_θω,s = h_s I + h_s² (A − W)/2``, ``Φ_ωω,s = I + h_s A + h_s² A²/2``."""
+    W = skew(w0, w1, w2)
+    a0, a1, a2 = matvec(Jm, w0, w1, w2)
+    X = skew(a0, a1, a2)
+    WJ = matmul(W, Jm)
+    A = matmul(Jinv, (X[0] - WJ[0], X[1] - WJ[1], X[2] - WJ[2], X[3] - WJ[3], X[4] - WJ[4], X[5] - WJ[5],
+                      X[6] - WJ[6], X[7] - WJ[7], X[8] - WJ[8]))  # fmt: skip
+    W2 = matmul(W, W)
+    A2 = matmul(A, A)
+    c = 0.5 * hs * hs
+    Ptt_t = _diag_plus(1.0, -hs, W, c, W2)
+    Ptw_t = _diag_plus(hs, c, A, -c, W)
+    Pww_t = _diag_plus(1.0, hs, A, c, A2)
+    tw = (phi[0], phi[1], phi[2], phi[3], phi[4], phi[5], phi[6], phi[7], phi[8])
+    ww = (phi[9], phi[10], phi[11], phi[12], phi[13], phi[14], phi[15], phi[16], phi[17])
+    t1 = matmul(Ptt_t, tw)
+    t2 = matmul(Ptw_t, ww)
+    w_new = matmul(Pww_t, ww)
+    for i in range(9):
+        phi[i] = t1[i] + t2[i]
+        phi[9 + i] = w_new[i]
+
+
 @numba.njit(cache=True)
-def _predict_rate(Jm, Jinv, max_angle, w, tau, h, D):
-    """(P) for ω̂ and ΔR̂ over h with the torque held: ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3); returns
+def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, phi):
+    """(P) for ω̂ and ΔR̂ over h with the torque ``τ(s) = τ_a + (τ_b − τ_a) s/h`` (``τ_b = τ_a``: held):
+    ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3), ``phi`` ← the error transitions (A1) carried on; returns
     ``∫|ω̂| dt``. RKMK4 in substeps of angle ``h_sub (|ω̂| + h|J⁻¹τ|) ≤ max_angle``: classical RK4 for ω̂, for
     ``ΔR̂ = exp(u)`` the stages ``u̇ = dexp⁻¹(ω̂)`` (R5), and ``∫|ω̂|`` with the same weights. Exact (ΔR̂ = exp(h ω̂))
     for a constant ω̂."""
-    t0, t1, t2 = tau[0], tau[1], tau[2]
-    f0, f1, f2 = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, t0, t1, t2)  # J⁻¹τ
+    fa = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, tau_a[0], tau_a[1], tau_a[2])  # J⁻¹τ at both ends
+    fb = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, tau_b[0], tau_b[1], tau_b[2])
+    f_max = max(math.sqrt(fa[0] * fa[0] + fa[1] * fa[1] + fa[2] * fa[2]),
+                math.sqrt(fb[0] * fb[0] + fb[1] * fb[1] + fb[2] * fb[2]))  # fmt: skip
     w0, w1, w2 = w[0], w[1], w[2]
-    angle = h * (math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) + h * math.sqrt(f0 * f0 + f1 * f1 + f2 * f2))
+    angle = h * (math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) + h * f_max)
     n_sub = max(1, min(MAX_SUBSTEPS, math.ceil(angle / max_angle)))
     hs = h / n_sub
+    d0, d1, d2 = tau_b[0] - tau_a[0], tau_b[1] - tau_a[1], tau_b[2] - tau_a[2]
     int_abs = 0.0
     d = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
-    for _ in range(n_sub):
-        L1 = euler_rate(Jm, Jinv, w0, w1, w2, t0, t1, t2)
+    for j in range(n_sub):
+        s0, s_mid, s1 = j / n_sub, (j + 0.5) / n_sub, (j + 1.0) / n_sub  # stage times as fractions of h
+        ta = (tau_a[0] + s0 * d0, tau_a[1] + s0 * d1, tau_a[2] + s0 * d2)
+        tm = (tau_a[0] + s_mid * d0, tau_a[1] + s_mid * d1, tau_a[2] + s_mid * d2)
+        tb = (tau_a[0] + s1 * d0, tau_a[1] + s1 * d1, tau_a[2] + s1 * d2)
+        _error_transition(Jm, Jinv, w0, w1, w2, hs, phi)
+        L1 = euler_rate(Jm, Jinv, w0, w1, w2, ta[0], ta[1], ta[2])
         K1 = (hs * w0, hs * w1, hs * w2)
         n1 = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
         s0, s1, s2 = w0 + 0.5 * hs * L1[0], w1 + 0.5 * hs * L1[1], w2 + 0.5 * hs * L1[2]
         n2 = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
         K2 = dexpinv(0.5 * K1[0], 0.5 * K1[1], 0.5 * K1[2], s0, s1, s2, hs)
-        L2 = euler_rate(Jm, Jinv, s0, s1, s2, t0, t1, t2)
+        L2 = euler_rate(Jm, Jinv, s0, s1, s2, tm[0], tm[1], tm[2])
         s0, s1, s2 = w0 + 0.5 * hs * L2[0], w1 + 0.5 * hs * L2[1], w2 + 0.5 * hs * L2[2]
         n3 = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
         K3 = dexpinv(0.5 * K2[0], 0.5 * K2[1], 0.5 * K2[2], s0, s1, s2, hs)
-        L3 = euler_rate(Jm, Jinv, s0, s1, s2, t0, t1, t2)
+        L3 = euler_rate(Jm, Jinv, s0, s1, s2, tm[0], tm[1], tm[2])
         s0, s1, s2 = w0 + hs * L3[0], w1 + hs * L3[1], w2 + hs * L3[2]
         n4 = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
         K4 = dexpinv(K3[0], K3[1], K3[2], s0, s1, s2, hs)
-        L4 = euler_rate(Jm, Jinv, s0, s1, s2, t0, t1, t2)
+        L4 = euler_rate(Jm, Jinv, s0, s1, s2, tb[0], tb[1], tb[2])
         int_abs += hs * (n1 + 2.0 * n2 + 2.0 * n3 + n4) / 6.0
         w0 += hs * (L1[0] + 2.0 * L2[0] + 2.0 * L3[0] + L4[0]) / 6.0
         w1 += hs * (L1[1] + 2.0 * L2[1] + 2.0 * L3[1] + L4[1]) / 6.0
@@ -235,11 +305,12 @@ def _predict_directions(r, e, D, decay, i):
 
 
 @numba.njit(cache=True)
-def _correct(Jinv, k, h, w, r, e, r_meas):
-    """(I), (C) and (R) at a valid sample, ``h`` after the last valid one: ``Δ_i = r_i,meas − r_i,pred``; the
-    innovation accumulated over the interval, ``y = J⁻¹ Σ innovation(k_i, r̂_i, −Δ_i)`` (O1 with the mismatch
-    ``−Δ_i``); ``ω̂ += (I + h J⁻¹ M_meas)⁻¹ y`` with the stiffness (O6) at the measured directions; then
-    ``e ← e − Δ`` and ``r ← r_meas`` (r̂ continuous)."""
+def _correct(Jinv, k, iso_rate, w, r, e, r_meas, phi):
+    """(I), (C) and (R) at a valid sample: ``Δ_i = r_i,meas − r_i,pred``; the innovation accumulated over the
+    interval, ``y = Σ innovation(k_i, r̂_i, −Δ_i)`` (O1 with the mismatch ``−Δ_i``); the aimed, implicit
+    correction (C) ``ω̂ += (I + G M_meas Γ)⁻¹ G y`` with the stiffness (O6) at the measured directions, the aim
+    ``Γ = Φ_θω Φ_ωω⁻¹`` (A2) and the rate gain ``G = J⁻¹`` (the observer's) or ``G = b M_meas⁻¹`` (isotropic,
+    ``iso_rate = b > 0``); then ``e ← e − Δ``, ``r ← r_meas`` (r̂ continuous) and Φ back to ``(0, I)``."""
     y0 = y1 = y2 = 0.0
     M00 = M11 = M22 = M01 = M02 = M12 = 0.0
     for i in range(r.shape[0]):
@@ -260,17 +331,31 @@ def _correct(Jinv, k, h, w, r, e, r_meas):
         M12 += s[5]
         e[i, 0], e[i, 1], e[i, 2] = e[i, 0] + b0, e[i, 1] + b1, e[i, 2] + b2  # (R): e ← e − Δ
         r[i, 0], r[i, 1], r[i, 2] = m0, m1, m2
-    # (C): (I + h J⁻¹ M) ω̂_jump = J⁻¹ y
-    c0 = matvec(Jinv, M00, M01, M02)  # columns of J⁻¹ M (M symmetric)
-    c1 = matvec(Jinv, M01, M11, M12)
-    c2 = matvec(Jinv, M02, M12, M22)
-    T = (1.0 + h * c0[0], h * c1[0], h * c2[0], h * c0[1], 1.0 + h * c1[1], h * c2[1], h * c0[2], h * c1[2],
-         1.0 + h * c2[2])  # fmt: skip
-    z0, z1, z2 = matvec(Jinv, y0, y1, y2)
+    M = (M00, M01, M02, M01, M11, M12, M02, M12, M22)
+    ww = (phi[9], phi[10], phi[11], phi[12], phi[13], phi[14], phi[15], phi[16], phi[17])
+    Gamma = matmul((phi[0], phi[1], phi[2], phi[3], phi[4], phi[5], phi[6], phi[7], phi[8]), inverse(ww))  # (A2)
+    if iso_rate > 0.0:
+        Mi = inverse(M)
+        G = (iso_rate * Mi[0], iso_rate * Mi[1], iso_rate * Mi[2], iso_rate * Mi[3], iso_rate * Mi[4],
+             iso_rate * Mi[5], iso_rate * Mi[6], iso_rate * Mi[7], iso_rate * Mi[8])  # fmt: skip
+    else:
+        G = Jinv
+    GMG = matmul(matmul(G, M), Gamma)
+    T = (1.0 + GMG[0], GMG[1], GMG[2], GMG[3], 1.0 + GMG[4], GMG[5], GMG[6], GMG[7], 1.0 + GMG[8])
+    z0, z1, z2 = matvec(G, y0, y1, y2)
     dw0, dw1, dw2 = solve(T, z0, z1, z2)
     w[0] += dw0
     w[1] += dw1
     w[2] += dw2
+    _reset_transition(phi)
+
+
+@numba.njit(cache=True, inline="always")
+def _reset_transition(phi):
+    """Φ_θω ← 0, Φ_ωω ← I: the attitude is known at a valid sample."""
+    for i in range(9):
+        phi[i] = 0.0
+        phi[9 + i] = 1.0 if i % 4 == 0 else 0.0
 
 
 @numba.njit(cache=True)
@@ -332,15 +417,18 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     if stage == WARM_PENDING:
         if valid:
             _warm_start(Jm, Jinv, k, l_off, l_slope, held, t - x[STATE.t_meas], w, r, e, r_meas)
+            _reset_transition(out[STATE.phi_tw : STATE.phi_ww + 9])
             out[STATE.stage] = RUNNING
             out[STATE.t_meas] = t
         return status, info
     h_pred = t - x[STATE.t]
-    int_abs = _predict_rate(Jm, Jinv, p[PARAMS.max_angle], w, held, h_pred, D)
+    phi = out[STATE.phi_tw : STATE.phi_ww + 9]
+    tau_end = tau if p[PARAMS.linear_hold] != 0.0 else held  # first-order hold: the new sample's torque is known
+    int_abs = _predict_rate(Jm, Jinv, p[PARAMS.max_angle], w, held, tau_end, h_pred, D, phi)
     for i in range(n):
         _predict_directions(r, e, D, math.exp(-(l_off[i] * h_pred + l_slope[i] * int_abs)), i)
     if valid:  # the correction's interval: since the last valid sample (a skipped one only adds substeps)
-        _correct(Jinv, k, t - x[STATE.t_meas], w, r, e, r_meas)
+        _correct(Jinv, k, p[PARAMS.isotropic_rate], w, r, e, r_meas, phi)
         out[STATE.t_meas] = t
     return status, info
 

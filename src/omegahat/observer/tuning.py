@@ -51,7 +51,7 @@ from scipy.linalg import solve_discrete_lyapunov
 from omegahat.observer.gains import ObserverGains, inertia_bounds
 from omegahat.validation import as_directions, as_inertia, as_positive
 
-__all__ = ["bandwidth_gains", "predicted_noise_std", "sensor_gains"]
+__all__ = ["bandwidth_gains", "isotropic_noise_std", "predicted_noise_std", "sensor_gains"]
 
 
 def _geometry(references: ArrayLike | None) -> np.ndarray:
@@ -165,3 +165,14 @@ def predicted_noise_std(
     C = np.vstack([B, np.eye(3)])
     P = solve_discrete_lyapunov(A, sigma**2 * C @ C.T)
     return np.sqrt(np.diag(P)[:3])
+
+
+def isotropic_noise_std(rate_hz: float, noise_std_rad: float, bandwidth: float) -> float:
+    """Predicted stationary std per axis of ``ω̂ − ω`` (rad/s) for the isotropic correction (every error mode at
+    ``bandwidth`` rad/s, ``SarrasEstimator(isotropic_rate=…)``) and white attitude noise ``noise_std_rad`` per
+    axis at ``rate_hz``: (N) of the module docstring with ``a = h b``."""
+    h = 1.0 / float(as_positive(rate_hz, "rate_hz")[0])
+    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
+    a = h * float(as_positive(bandwidth, "bandwidth")[0])
+    g = 1.0 / (1.0 + a)
+    return float(sigma * (a / h) / (1.0 + a) * np.sqrt(2.0 / (1.0 + g)))

@@ -1,0 +1,198 @@
+r"""omegahat's default estimator: a Kalman filter supervised by the globally convergent Sarras observer.
+
+Two estimators run side by side on every sample (``docs/theory/supervised.md`` explains the design at length):
+
+* **the observer**, :class:`omegahat.observer.estimator.SarrasEstimator` with the isotropic, aimed correction
+  (every error mode decays at ``b`` rad/s; the correction aimed along the predicted motion): it converges from
+  any initial rate, needs no prior and no covariance, but its noise is that of a first-order filter of bandwidth b;
+* **the EKF**, the gyro-less multiplicative EKF with the dynamic model (:mod:`omegahat.kernels.ekf`, the same
+  equations as :class:`omegahat.baselines.mekf.MEKF`): it weighs each fix with the right time-varying gain, so its
+  steady-state error is the smallest a model-based filter gets, but it converges only from close enough.
+
+A supervisor (:mod:`omegahat.observer.supervised`, (S1)–(S4)) starts the EKF from the observer, watches its
+innovations and its agreement with the observer, and restarts it from the observer whenever it is inconsistent,
+uncertain or persistently disagreeing. The output is the EKF's estimate while it is trusted, else the observer's.
+
+**What is proven, what is measured.** The observer's convergence is the paper's theorem for the continuous
+observer (sampled: measured, ``docs/theory/sampled.md``); it runs untouched by the EKF, so after any number of
+restarts it is still converging. Once it is within the EKF's basin, a restart from it puts the EKF there too:
+the EKF's local convergence (classical) then applies. That the supervisor restarts the EKF only finitely often and
+that the EKF's basin contains the observer's noise ball are *measured* (the robustness campaign of
+``omegahat compare``), not proven.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from omegahat import measurements as ms
+from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.observer import supervised
+from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
+from omegahat.observer.gains import ObserverGains
+from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE
+from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
+from omegahat.observer.tuning import isotropic_noise_std
+from omegahat.validation import as_positive
+
+__all__ = ["SupervisedKalmanEstimator"]
+
+
+class SupervisedKalmanEstimator(Estimator):
+    """The Sarras observer supervising a gyro-less EKF (module docstring).
+
+    Parameters
+    ----------
+    J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
+    rate_hz : the nominal sample rate (Hz); the observer's bandwidth is ``observer_bandwidth × rate_hz`` rad/s.
+    measurement_sigma : attitude noise per axis (rad), or the noise of each direction component.
+    rate_noise : the EKF's process noise σ_a (rad/s^1.5): the torque noise PSD is ``q = (tr(J)/3 · σ_a)²``;
+        it models what the known torque leaves out.
+    references, measurement, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg, max_substep_angle :
+        as :class:`omegahat.observer.estimator.SarrasEstimator`.
+    omega_hat0 : the initial rate estimate (default 0); ``warm_start`` (default: on unless ``omega_hat0`` is given)
+        takes it from the first two samples instead.
+    torque_hold : ``"linear"`` (default) or ``"zero"``, for both parts.
+    observer_bandwidth : the observer's isotropic rate per hertz of sample rate (default 1: the observer's error
+        halves every sample).
+    nis_window, nis_max, disagreement_factor, disagreement_samples : the supervisor's constants (S1)–(S3).
+    """
+
+    def __init__(
+        self,
+        J: ArrayLike,
+        *,
+        rate_hz: float,
+        measurement_sigma: float,
+        rate_noise: float = 1e-4,
+        references: ArrayLike | None = None,
+        measurement: str | None = None,
+        omega_hat0: ArrayLike | None = None,
+        warm_start: bool | None = None,
+        torque_hold: str = "zero",
+        observer_bandwidth: float = 1.0,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+        min_angle_deg: float = ms.MIN_ANGLE_DEG,
+        max_substep_angle: float = MAX_SUBSTEP_ANGLE,
+        nis_window: float = 5.0,
+        nis_max: float = 4.0,
+        disagreement_factor: float = 5.0,
+        disagreement_samples: int = 3,
+    ):
+        self.rate_hz = float(as_positive(rate_hz, "rate_hz")[0])
+        self.measurement_sigma = float(as_positive(measurement_sigma, "measurement_sigma")[0])
+        self.rate_noise = float(as_positive(rate_noise, "rate_noise")[0])
+        self.observer_rate = float(as_positive(observer_bandwidth, "observer_bandwidth")[0]) * self.rate_hz
+        n = 3 if references is None else np.atleast_2d(np.asarray(references)).shape[0]
+        self.observer = SarrasEstimator(
+            J,
+            gains=ObserverGains.constant(1.0, 10.0 * self.observer_rate, n=n),
+            references=references,
+            measurement=measurement,
+            omega_hat0=omega_hat0,
+            scalar_first=scalar_first,
+            rotation_tol=rotation_tol,
+            quat_norm_tol=quat_norm_tol,
+            min_angle_deg=min_angle_deg,
+            max_substep_angle=max_substep_angle,
+            warm_start=warm_start,
+            torque_hold=torque_hold,
+            isotropic_rate=self.observer_rate,
+        )
+        self.J = self.observer.J
+        #: the observer's stationary noise, total over the three axes (rad/s): the supervisor's yardstick
+        self.observer_noise = float(
+            np.sqrt(3.0) * isotropic_noise_std(self.rate_hz, self.measurement_sigma, self.observer_rate)
+        )
+        jbar = float(np.trace(self.J)) / 3.0
+        sigma_theta = self.measurement_sigma if self.observer.measurement == "attitude" else 0.1
+        if not nis_window >= 1.0:
+            raise ValueError(f"nis_window must be at least 1 sample; got {nis_window!r}")
+        values = {
+            "q": (jbar * self.rate_noise) ** 2,
+            "meas_var": self.measurement_sigma**2,
+            "sigma_theta": sigma_theta,
+            "sigma_obs": self.observer_noise,
+            "alpha": 1.0 / float(nis_window),
+            "nis_max": float(as_positive(nis_max, "nis_max")[0]),
+            "kappa": float(as_positive(disagreement_factor, "disagreement_factor")[0]),
+            "disagree_max": float(as_positive(disagreement_samples, "disagreement_samples")[0]),
+            "dynamic": 1.0,
+            "max_step": np.inf,
+            "max_angle": self.observer.max_substep_angle,
+        }
+        self._ekf_params = np.array([values[name] for name in EKF_PARAMS._fields if name != "size"])
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every sample: both parts back to their initial state, counters cleared."""
+        self.observer.reset()
+        self._xe = supervised.initial_ekf_state()
+        self.last_source: np.ndarray | None = None
+
+    @property
+    def measurement(self) -> str:
+        return self.observer.measurement
+
+    @property
+    def omega_hat(self) -> np.ndarray:
+        """The last output (the EKF's rate when it was trusted at the last sample, else the observer's)."""
+        if self._xe[EKF_STATE.source] == supervised.FROM_EKF:
+            return self._xe[EKF_STATE.omega : EKF_STATE.omega + 3].copy()
+        return self.observer.omega_hat
+
+    @property
+    def restarts(self) -> int:
+        """How many times the supervisor restarted the EKF from the observer (S4)."""
+        return int(self._xe[EKF_STATE.resets])
+
+    @property
+    def ekf_covariance(self) -> np.ndarray:
+        """The EKF's error covariance ``P`` (6×6: attitude error, rate error)."""
+        return self._xe[EKF_STATE.P : EKF_STATE.P + 36].reshape(6, 6).copy()
+
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
+        """Take the sample at ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""
+        m, kind = ms.sample_array(measurement, None if self.measurement == "attitude" else self.observer.gains.n)
+        tau = ms.torque_vector(torque)
+        xs, xe, w, status, info = supervised.step(
+            self.observer.state_vector, self.observer.params, self._xe, self._ekf_params, float(t), m, kind, tau
+        )
+        if status >= ms.ERROR:
+            raise ms.rejection_error(status, info, "the sample", t)
+        self.observer.state_vector = xs
+        self._xe = xe
+        self.last_source = np.array([xe[EKF_STATE.source]])
+        return w
+
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
+        """ω̂ at every sample of a log ``(T, 3)``, continuing from the current state; atomic on rejection (the
+        error names the first rejected sample and both states are left as they were). ``last_source`` then holds,
+        per sample, 1 where the output is the EKF's and 0 where it is the observer's."""
+        times = ms.times_array(times)
+        T = times.size
+        n = None if self.measurement == "attitude" else self.observer.gains.n
+        m, kind = ms.log_array(measurements, T, n)
+        taus = ms.torques_array(torques, T)
+        xs, xe, W, source, status, first_bad, info = supervised.run(
+            self.observer.state_vector, self.observer.params, self._xe, self._ekf_params, times, m, kind, taus
+        )
+        if first_bad >= 0:
+            raise ms.rejection_error(int(status[first_bad]), info, f"sample {first_bad}", times[first_bad])
+        self.observer.state_vector = xs
+        self._xe = xe
+        self.last_source = source
+        skipped = int(np.count_nonzero(status != ms.OK))
+        if skipped:
+            warnings.warn(
+                f"skipped {skipped} of {T} samples (missing or nearly collinear); both parts were predicted "
+                "through them",
+                SkippedSamplesWarning,
+                stacklevel=2,
+            )
+        return W

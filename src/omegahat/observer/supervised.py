@@ -1,0 +1,234 @@
+r"""The supervised Kalman step compiled: the Sarras observer and a gyro-less EKF advanced together, one sample in.
+
+:class:`omegahat.observer.kalman.SupervisedKalmanEstimator` is the Python shell and explains the design
+(``docs/theory/supervised.md``). Per sample, in one Numba call:
+
+1. the sampled Sarras step (:func:`omegahat.observer.sampled.step_into`): it checks the sample (one input path for
+   both parts: a rejected sample leaves both states untouched) and advances the globally convergent observer;
+2. the EKF (:mod:`omegahat.kernels.ekf`): propagation over the interval with the same torque hold, then the
+   attitude fix (E5) or the direction fix (E6), which returns the normalised innovation squared ν;
+3. the supervisor (S1)–(S4) below decides whether the EKF is trusted, and re-initialises it from the observer
+   when it is not.
+
+With ``d = |ω̂_EKF − ω̂_obs|``, ``s = √tr P_ωω`` (the EKF's own rate uncertainty) and ``σ_obs`` the observer's
+stationary noise level (rad/s, from the gain design)::
+
+    ν̄ ← (1 − α) ν̄ + α ν / m                       (S1, the innovation consistency, m = the fix's dimension)
+    c ← c + 1 if d > max(κ s, κ σ_obs) else 0       (S2, persistent disagreement with the observer)
+    lost = ν̄ > ν_max  or  c ≥ c_max  or  ω̂_EKF not finite                                                 (S3)
+    lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
+
+The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's state is a
+flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba
+import numpy as np
+
+from omegahat.kernels import checks
+from omegahat.kernels.ekf import EKF_SCRATCH, ekf_attitude_update, ekf_propagate, ekf_vector_update
+from omegahat.kernels.rotation import wahba
+from omegahat.observer import sampled
+from omegahat.observer.sampled import PARAMS, RUNNING, STATE, WARM_PENDING
+
+__all__ = [
+    "EKF_PARAMS",
+    "EKF_STATE",
+    "EkfParamLayout",
+    "EkfStateLayout",
+    "FROM_EKF",
+    "FROM_OBSERVER",
+    "initial_ekf_state",
+    "run",
+    "step",
+    "step_into",
+]
+
+FROM_OBSERVER = 0.0  #: the output came from the Sarras observer
+FROM_EKF = 1.0  #: the output came from the EKF
+
+
+class EkfStateLayout(NamedTuple):
+    """Offsets in the EKF's flat state: started (0/1), ν̄ (S1), c (S2), resets so far, the output's source
+    (:data:`FROM_OBSERVER` / :data:`FROM_EKF`), R̂ (9, row-major), ω̂ (3), P (36, row-major)."""
+
+    started: int
+    nis_avg: int
+    disagree: int
+    resets: int
+    source: int
+    R: int
+    omega: int
+    P: int
+    size: int
+
+
+EKF_STATE = EkfStateLayout(started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, P=17, size=53)
+
+
+class EkfParamLayout(NamedTuple):
+    """Offsets in the EKF's flat parameters: process-noise PSD q, measurement variance, σ_θ of a reset, σ_obs,
+    α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad)."""
+
+    q: int
+    meas_var: int
+    sigma_theta: int
+    sigma_obs: int
+    alpha: int
+    nis_max: int
+    kappa: int
+    disagree_max: int
+    dynamic: int
+    max_step: int
+    max_angle: int
+    size: int
+
+
+EKF_PARAMS = EkfParamLayout(
+    q=0, meas_var=1, sigma_theta=2, sigma_obs=3, alpha=4, nis_max=5, kappa=6, disagree_max=7, dynamic=8, max_step=9,
+    max_angle=10, size=11,
+)  # fmt: skip
+
+
+def initial_ekf_state() -> np.ndarray:
+    """The EKF before any sample: not started (it starts from the observer at the first valid sample)."""
+    x = np.zeros(EKF_STATE.size)
+    x[EKF_STATE.nis_avg] = 1.0
+    return x
+
+
+@numba.njit(cache=True)
+def _reinitialise(xe, pe, w_obs, R_meas):
+    """(S4): the EKF restarted from the observer's rate and the measured attitude."""
+    R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
+    R[:, :] = R_meas
+    xe[EKF_STATE.omega : EKF_STATE.omega + 3] = w_obs
+    P = xe[EKF_STATE.P : EKF_STATE.P + 36].reshape(6, 6)
+    P[:, :] = 0.0
+    var_w = pe[EKF_PARAMS.sigma_obs] ** 2 / 3.0
+    for i in range(3):
+        P[i, i] = pe[EKF_PARAMS.sigma_theta] ** 2
+        P[3 + i, 3 + i] = var_w
+    xe[EKF_STATE.nis_avg] = 1.0
+    xe[EKF_STATE.disagree] = 0.0
+
+
+@numba.njit(cache=True)
+def _measured_attitude(p, m, kind, r_meas, R_work, out):
+    """The sample's attitude R (body → inertial) into ``out``: the matrix itself, the quaternion's matrix (the
+    checks left it in ``R_work``) or Wahba's attitude from the directions (``R v_i ≈ …``: ``R r_i = v_i``)."""
+    if kind == checks.KIND_MATRIX:
+        out[:, :] = m
+    elif kind == checks.KIND_QUAT:
+        out[:, :] = R_work
+    else:
+        n = int(p[PARAMS.n])
+        V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
+        out[:, :] = wahba(p[PARAMS.k : PARAMS.k + n], V, r_meas)
+
+
+@numba.njit(cache=True)
+def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
+    """One sample: the observer (``xs`` → ``xs_out``), the EKF and the supervisor (``xe`` → ``xe_out``); returns
+    ``(status, info, ω̂)``. On a rejection the outputs are unspecified and the inputs untouched. ``wk``: the
+    observer's scratch ``(n + 6, 3)``; ``ek``: ``EKF_SCRATCH + 9`` floats."""
+    status, info = sampled.step_into(xs, p, t, m, kind, tau, xs_out, wk)
+    w_obs = xs_out[STATE.omega_hat : STATE.omega_hat + 3]
+    if status >= checks.ERROR:
+        return status, info, w_obs
+    xe_out[:] = xe
+    n = int(p[PARAMS.n])
+    R = xe_out[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
+    w = xe_out[EKF_STATE.omega : EKF_STATE.omega + 3]
+    P = xe_out[EKF_STATE.P : EKF_STATE.P + 36].reshape(6, 6)
+    scratch = ek[:EKF_SCRATCH]
+    R_meas = ek[EKF_SCRATCH : EKF_SCRATCH + 9].reshape(3, 3)
+    Jm = p[PARAMS.J : PARAMS.J + 9].reshape(3, 3)
+    Jinv = p[PARAMS.Jinv : PARAMS.Jinv + 9].reshape(3, 3)
+    started = xe[EKF_STATE.started] != 0.0
+    if started:  # propagate over the interval with the observer's torque hold
+        held = xs[STATE.torque : STATE.torque + 3]
+        tau_end = tau if p[PARAMS.linear_hold] != 0.0 else held
+        ekf_propagate(
+            R, w, P, t - xs[STATE.t], held, tau_end, Jm, Jinv, pe[EKF_PARAMS.q], pe[EKF_PARAMS.dynamic] != 0.0,
+            pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle], scratch,
+        )  # fmt: skip
+    xe_out[EKF_STATE.source] = FROM_OBSERVER
+    if status != checks.OK:  # skipped: both parts predicted through it; the EKF is not judged without a fix
+        if started and xe[EKF_STATE.source] == FROM_EKF and math.isfinite(w[0] + w[1] + w[2]):
+            xe_out[EKF_STATE.source] = FROM_EKF
+            return status, info, w
+        return status, info, w_obs
+    r_meas, R_work = wk[:n], wk[n + 3 : n + 6]
+    _measured_attitude(p, m, kind, r_meas, R_work, R_meas)
+    warm_started = xs[STATE.stage] == WARM_PENDING and xs_out[STATE.stage] == RUNNING
+    if not started or warm_started:  # the first fix, or the observer's warm start: the EKF starts from it
+        _reinitialise(xe_out, pe, w_obs, R_meas)
+        xe_out[EKF_STATE.started] = 1.0
+        return status, info, w_obs
+    if kind == checks.KIND_DIRECTIONS:
+        V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
+        nis = ekf_vector_update(R, w, P, r_meas, V, pe[EKF_PARAMS.meas_var], scratch) / (3.0 * n)
+    else:
+        nis = ekf_attitude_update(R, w, P, R_meas, pe[EKF_PARAMS.meas_var], scratch) / 3.0
+    alpha = pe[EKF_PARAMS.alpha]
+    nis_avg = (1.0 - alpha) * xe[EKF_STATE.nis_avg] + alpha * nis  # (S1)
+    d0, d1, d2 = w[0] - w_obs[0], w[1] - w_obs[1], w[2] - w_obs[2]
+    d = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    s = math.sqrt(P[3, 3] + P[4, 4] + P[5, 5])
+    sigma_obs = pe[EKF_PARAMS.sigma_obs]
+    kappa = pe[EKF_PARAMS.kappa]
+    disagree = xe[EKF_STATE.disagree] + 1.0 if d > kappa * max(s, sigma_obs) else 0.0  # (S2)
+    lost = (
+        not nis_avg <= pe[EKF_PARAMS.nis_max]  # NaN counts as lost
+        or disagree >= pe[EKF_PARAMS.disagree_max]
+        or not math.isfinite(d)
+    )  # (S3)
+    if lost:  # (S4)
+        _reinitialise(xe_out, pe, w_obs, R_meas)
+        xe_out[EKF_STATE.resets] += 1.0
+        return status, info, w_obs
+    xe_out[EKF_STATE.nis_avg] = nis_avg
+    xe_out[EKF_STATE.disagree] = disagree
+    xe_out[EKF_STATE.source] = FROM_EKF  # trusted until lost: a lone spike of the observer's noise is not a verdict
+    return status, info, w
+
+
+@numba.njit(cache=True)
+def step(xs, p, xe, pe, t, m, kind, tau):
+    """The pure step: ``(observer state, EKF state, ω̂ (3,), status, info)``; the inputs are not modified."""
+    xs_out = np.empty_like(xs)
+    xe_out = np.empty_like(xe)
+    wk = np.empty((int(p[PARAMS.n]) + 6, 3))
+    ek = np.empty(EKF_SCRATCH + 9)
+    status, info, w = step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek)
+    return xs_out, xe_out, w.copy(), status, info
+
+
+@numba.njit(cache=True)
+def run(xs, p, xe, pe, times, m, kind, taus):
+    """:func:`step_into` over a log: ``(observer state, EKF state, ω̂ (T, 3), source (T,), status (T,), first_bad,
+    info)``; at the first rejected sample it stops and returns the states it started from."""
+    T = times.size
+    W = np.empty((T, 3))
+    source = np.zeros(T)
+    status = np.zeros(T, dtype=np.int64)
+    cs, ns = xs.copy(), np.empty_like(xs)
+    ce, ne = xe.copy(), np.empty_like(xe)
+    wk = np.empty((int(p[PARAMS.n]) + 6, 3))
+    ek = np.empty(EKF_SCRATCH + 9)
+    for j in range(T):
+        s, info, w = step_into(cs, p, ce, pe, times[j], m[j], kind, taus[j], ns, ne, wk, ek)
+        status[j] = s
+        if s >= checks.ERROR:
+            return xs, xe, W, source, status, j, info
+        W[j, 0], W[j, 1], W[j, 2] = w[0], w[1], w[2]
+        source[j] = ne[EKF_STATE.source]
+        cs, ns = ns, cs
+        ce, ne = ne, ce
+    return cs, ce, W, source, status, -1, 0.0
