@@ -174,7 +174,7 @@ class EstimatorState:
                 np.asarray(self.phi_ww).ravel(),
                 self.r.ravel(),
                 self.e.ravel(),
-            ]  # fmt: skip
+            ]
         )
 
 

@@ -18,8 +18,8 @@ stationary noise level (rad/s, from the gain design)::
     lost = ν̄ > ν_max  or  c ≥ c_max  or  ω̂_EKF not finite                                                 (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
 
-The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's state is a
-flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
+The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
+state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
 """
 
 from __future__ import annotations
@@ -39,10 +39,10 @@ from omegahat.observer.sampled import PARAMS, RUNNING, STATE, WARM_PENDING
 __all__ = [
     "EKF_PARAMS",
     "EKF_STATE",
-    "EkfParamLayout",
-    "EkfStateLayout",
     "FROM_EKF",
     "FROM_OBSERVER",
+    "EkfParamLayout",
+    "EkfStateLayout",
     "initial_ekf_state",
     "run",
     "step",
