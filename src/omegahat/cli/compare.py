@@ -2,7 +2,8 @@
 
 A thin shell over :mod:`omegahat.evaluation.comparison` (the methods, the tuning and scoring procedure, the
 tables): it picks the scenarios and methods, runs them and writes, in ``--out``, ``results.md`` (the tables),
-``results.csv`` (deterministic: two runs give the same bytes), ``cost.csv`` (timings) and ``<scenario>.png``.
+``results.csv`` (deterministic: two runs give the same bytes), ``cost.csv`` (timings) and ``<scenario>.png``;
+then the robustness campaign (:mod:`omegahat.evaluation.robustness`: ``robustness.md`` and ``robustness.csv``).
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import argparse
 from pathlib import Path
 
 from omegahat.evaluation import comparison as C
+from omegahat.evaluation import robustness as RB
 from omegahat.simulation import scenarios as S
 
 HELP = "Compare omegahat with differencing, a spline and an EKF on the standard scenarios."
@@ -37,6 +39,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=[m.name for m in C.METHODS],
         metavar="NAME",
         help="method to run (repeatable; default: all)",
+    )
+    parser.add_argument(
+        "--robustness-runs",
+        type=int,
+        default=RB.RobustnessConfig.runs,
+        metavar="N",
+        help=f"runs of the robustness campaign (cold starts, 1-10 Hz; default {RB.RobustnessConfig.runs}; 0: skip)",
     )
 
 
@@ -71,4 +80,14 @@ def run(args: argparse.Namespace) -> int:
         C.write_cost_csv(f, rows)
     print(table)
     print(f"\nwrote {out / 'results.md'}, results.csv, cost.csv and one figure per scenario")
+    if args.robustness_runs < 0:
+        raise SystemExit(f"--robustness-runs must be 0 or more; got {args.robustness_runs}")
+    if args.robustness_runs:
+        config = RB.RobustnessConfig(runs=args.robustness_runs)
+        results = RB.run_campaign(config)
+        text = RB.markdown(config, results)
+        (out / "robustness.md").write_text("# omegahat compare: robustness campaign\n\n" + text + "\n")
+        with open(out / "robustness.csv", "w", newline="") as f:
+            RB.write_csv(f, results)
+        print("\n" + text + f"\n\nwrote {out / 'robustness.md'} and robustness.csv")
     return 0

@@ -53,8 +53,9 @@ class SupervisedKalmanEstimator(Estimator):
         it models what the known torque leaves out.
     references, measurement, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg, max_substep_angle :
         as :class:`omegahat.observer.estimator.SarrasEstimator`.
-    omega_hat0 : the initial rate estimate (default 0); ``warm_start`` (default: on unless ``omega_hat0`` is given)
-        takes it from the first two samples instead.
+    omega_hat0 : the initial rate estimate (default 0); ``warm_start`` (default: on unless ``omega_hat0`` or
+        ``r_hat0`` is given) takes it from the first two samples instead. ``r_hat0``: the observer's initial
+        filtered directions (default: the first measurement); the EKF always starts from a measured attitude.
     torque_hold : ``"linear"`` (default) or ``"zero"``, for both parts.
     observer_bandwidth : the observer's isotropic rate per hertz of sample rate (default 1: the observer's error
         halves every sample).
@@ -71,6 +72,7 @@ class SupervisedKalmanEstimator(Estimator):
         references: ArrayLike | None = None,
         measurement: str | None = None,
         omega_hat0: ArrayLike | None = None,
+        r_hat0: ArrayLike | None = None,
         warm_start: bool | None = None,
         torque_hold: str = "zero",
         observer_bandwidth: float = 1.0,
@@ -95,6 +97,7 @@ class SupervisedKalmanEstimator(Estimator):
             references=references,
             measurement=measurement,
             omega_hat0=omega_hat0,
+            r_hat0=r_hat0,
             scalar_first=scalar_first,
             rotation_tol=rotation_tol,
             quat_norm_tol=quat_norm_tol,
