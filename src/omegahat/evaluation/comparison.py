@@ -10,8 +10,8 @@ start (the rate from the first two samples) and ``omegahat-cold`` started from t
 sampled Sarras estimator (:class:`omegahat.observer.estimator.SarrasEstimator`, all three rows of R, the
 observer of the paper) likewise as ``sarras`` and ``sarras-cold``; log-map differencing (backward = causal,
 central = one sample late), SciPy's ``RotationSpline`` (offline), and the gyro-less MEKF with the dynamic model
-(J, τ known) and with the kinematic model (ω̇ white noise). Every method gets the same data: the attitude fixes, the known torque, the
-model inertia, the same initial rate estimate ω̂₀ and the bound |ω| ≤ ω_M.
+(J, τ known) and with the kinematic model (ω̇ white noise). Every method gets the same data: the attitude fixes,
+the known torque, the model inertia, the same initial rate estimate ω̂₀ and the bound |ω| ≤ ω_M.
 
 Tuning, the same procedure for every method: each method has one knob with a small grid (printed in the
 output); the grid value with the least steady-state RMS error on the tuning seed (1) is chosen, then the method
