@@ -31,14 +31,13 @@ def _hat(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-def error_transition_step(omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, hs: float) -> np.ndarray:
-    """(A1) of one substep, 6×6: ``I + F h_s + (F h_s)²/2`` with ``F = [[−ω̂×, I], [0, J⁻¹((Jω̂)× − ω̂× J)]]``."""
-    F = np.zeros((6, 6))
-    F[:3, :3] = -_hat(omega_hat)
-    F[:3, 3:] = np.eye(3)
-    F[3:, 3:] = J_inv @ (_hat(J @ omega_hat) - _hat(omega_hat) @ J)
-    Fh = F * hs
-    return np.eye(6) + Fh + Fh @ Fh / 2.0
+def aim_step(aim: np.ndarray, omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, hs: float) -> np.ndarray:
+    """(A1) over one substep: ``Γ̇ = I − W Γ − Γ A`` by its second-order Taylor step with ``W = ω̂×`` and
+    ``A = J⁻¹((Jω̂)× − ω̂× J)`` frozen at the substep's start."""
+    W = _hat(omega_hat)
+    A = J_inv @ (_hat(J @ omega_hat) - W @ J)
+    F = np.eye(3) - W @ aim - aim @ A
+    return aim + hs * F - hs**2 / 2.0 * (W @ F + F @ A)
 
 
 def reference_predict(
@@ -52,11 +51,10 @@ def reference_predict(
     gains: ObserverGains,
     max_angle: float = MAX_SUBSTEP_ANGLE,
     tau_end: np.ndarray | None = None,
-    phi: np.ndarray | None = None,
+    aim: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(P) over ``h`` with the torque ``tau`` at the start and ``tau_end`` (default: ``tau``, held) at the end,
-    linear in between; ``phi`` the 6×6 error transition so far (default I). Returns ``(ω̂, r_pred, e_pred,
-    phi)``."""
+    linear in between; ``aim`` the aim Γ so far (default 0). Returns ``(ω̂, r_pred, e_pred, aim)``."""
     tau_end = tau if tau_end is None else tau_end
     torque = lambda s: tau + (tau_end - tau) * s  # s: the fraction of h  # noqa: E731
     f = lambda w, s: J_inv @ (np.cross(J @ w, w) + torque(s))  # Euler's equations  # noqa: E731
@@ -64,12 +62,12 @@ def reference_predict(
     n_sub = _substeps(h, omega_hat, J_inv, tau, tau_end, max_angle)
     hs = h / n_sub
     w = np.array(omega_hat, dtype=float)
-    phi = np.eye(6) if phi is None else phi
+    aim = np.zeros((3, 3)) if aim is None else aim
     D = np.eye(3)  # ΔR̂
     int_abs_w: float | np.floating = 0.0  # ∫ |ω̂| dt
     for j in range(n_sub):  # RKMK4
         sa, sm, sb = j / n_sub, (j + 0.5) / n_sub, (j + 1.0) / n_sub
-        phi = error_transition_step(w, J, J_inv, hs) @ phi
+        aim = aim_step(aim, w, J, J_inv, hs)
         w1 = w
         K1, L1 = hs * w1, hs * f(w1, sa)
         w2 = w + L1 / 2
@@ -84,7 +82,7 @@ def reference_predict(
         D = D @ Rotation.from_rotvec((K1 + 2 * K2 + 2 * K3 + K4) / 6).as_matrix()
         w = w + (L1 + 2 * L2 + 2 * L3 + L4) / 6
     decay = np.exp(-(gains.l_offset * h + gains.l_slope * int_abs_w))  # the exact decay of the filter errors
-    return w, r @ D, decay[:, None] * (e @ D), phi  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
+    return w, r @ D, decay[:, None] * (e @ D), aim  # rows: (ΔR̂ᵀ r_i)ᵀ = r_iᵀ ΔR̂
 
 
 def reference_step(
@@ -98,7 +96,7 @@ def reference_step(
     omega_hat0: ArrayLike | None = None,
     max_angle: float = MAX_SUBSTEP_ANGLE,
     warm_start: bool = False,
-    torque_hold: str = "linear",
+    torque_hold: str = "zero",
     isotropic_rate: float | None = None,
 ) -> EstimatorState:
     """One sample of directions ``r_meas (n, 3)`` (None: a skipped sample), no checks. ``tau`` is the torque given
@@ -125,23 +123,18 @@ def reference_step(
         decay = np.exp(-(gains.l_offset * h + gains.l_slope * np.linalg.norm(w_avg) * h))
         r_pred, e_pred = state.r @ A.T, decay[:, None] * (state.e @ A.T)
         return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - (r_meas - r_pred))
-    phi = np.eye(6)
-    phi[:3, 3:], phi[3:, 3:] = state.phi_tw, state.phi_ww
     tau_end = tau if torque_hold == "linear" else state.torque
-    w, r_pred, e_pred, phi = reference_predict(
-        state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle, tau_end, phi
+    w, r_pred, e_pred, aim = reference_predict(
+        state.omega_hat, state.r, state.e, state.torque, t - state.t, J, J_inv, gains, max_angle, tau_end, state.aim
     )
     if r_meas is None:
-        return EstimatorState(
-            float(t), True, state.t_meas, w, tau, r_pred, e_pred, phi_tw=phi[:3, 3:].copy(), phi_ww=phi[3:, 3:].copy()
-        )
+        return EstimatorState(float(t), True, state.t_meas, w, tau, r_pred, e_pred, aim=aim)
     r_meas = np.asarray(r_meas, dtype=float)
     delta = r_meas - r_pred  # (I)
     r_hat = r_pred + e_pred
     k = gains.k
     y = np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # the plain jump of the output map, times J
     M = sum(k[i] * (r_meas[i] @ r_meas[i] * np.eye(3) - np.outer(r_meas[i], r_meas[i])) for i in range(k.size))
-    aim = phi[:3, 3:] @ np.linalg.inv(phi[3:, 3:])  # Γ = Φ_θω Φ_ωω⁻¹ since the last valid sample (A2)
     G = J_inv if isotropic_rate is None else isotropic_rate * np.linalg.inv(M)
     w = w + np.linalg.solve(np.eye(3) + G @ M @ aim, G @ y)  # (C)
     return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - delta)  # (R)

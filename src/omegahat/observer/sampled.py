@@ -54,20 +54,19 @@ MAX_SUBSTEPS = 1_000_000  #: cap on substeps per interval (a gap of hours at a f
 
 class StateLayout(NamedTuple):
     """Offsets in the flat state: time of the last sample, stage, time of the last valid sample, ω̂ (3), the torque
-    given with the last sample (3), the error transitions ``Φ_θω``, ``Φ_ωω`` since the last valid sample (9 each,
-    row-major; (A1)); then the directions ``r`` (3n) and the filter errors ``e = r̂ − r`` (3n)."""
+    given with the last sample (3), the aim ``Γ`` accumulated since the last valid sample (9, row-major; (A1));
+    then the directions ``r`` (3n) and the filter errors ``e = r̂ − r`` (3n)."""
 
     t: int
     stage: int
     t_meas: int
     omega_hat: int
     torque: int
-    phi_tw: int
-    phi_ww: int
+    aim: int
     r: int
 
 
-STATE = StateLayout(t=0, stage=1, t_meas=2, omega_hat=3, torque=6, phi_tw=9, phi_ww=18, r=27)
+STATE = StateLayout(t=0, stage=1, t_meas=2, omega_hat=3, torque=6, aim=9, r=18)
 UNINITIALISED = 0.0  #: stage before the first valid sample
 WARM_PENDING = 1.0  #: stage after it while a warm start waits for the second
 RUNNING = 2.0  #: stage from then on
@@ -102,7 +101,7 @@ TORQUE_HOLDS = ("zero", "linear")  #: the torque between samples: held (zero ord
 def pack_params(
     J: np.ndarray, gains: ObserverGains, references: ArrayLike, r_hat0: ArrayLike | None, rotation_tol: float,
     quat_norm_tol: float, min_angle_deg: float, max_angle: float, scalar_first: bool, warm_start: bool,
-    torque_hold: str = "linear", isotropic_rate: float | None = None,
+    torque_hold: str = "zero", isotropic_rate: float | None = None,
 ) -> np.ndarray:  # fmt: skip
     """The flat parameters (:data:`PARAMS`) of an estimator. ``isotropic_rate`` (rad/s, None = off): the
     geometry-aware correction (C) with the matrix gain ``G = b M⁻¹``."""
@@ -127,8 +126,7 @@ class EstimatorState:
     ``t_meas`` time of the last valid (not skipped) sample, ``omega_hat (3,)``, ``torque (3,)`` held since ``t``,
     ``r (n, 3)`` the directions at ``t`` (the last measurement or its prediction), ``e (n, 3) = r̂ − r``,
     ``warm_pending`` whether a warm start waits for the second valid sample (``r`` is then the first sample's
-    measurement), ``phi_tw``, ``phi_ww`` ``(3, 3)`` the error transitions (A1) accumulated since the last valid
-    sample (0 and I right after one).
+    measurement), ``aim`` ``(3, 3)`` the aim Γ (A1) accumulated since the last valid sample (0 right after one).
     """
 
     t: float
@@ -139,8 +137,7 @@ class EstimatorState:
     r: np.ndarray
     e: np.ndarray
     warm_pending: bool = False
-    phi_tw: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
-    phi_ww: np.ndarray = field(default_factory=lambda: np.eye(3))
+    aim: np.ndarray = field(default_factory=lambda: np.zeros((3, 3)))
 
     @property
     def r_hat(self) -> np.ndarray:
@@ -159,8 +156,7 @@ class EstimatorState:
             r=x[STATE.r : STATE.r + 3 * n].reshape(n, 3).copy(),
             e=x[STATE.r + 3 * n :].reshape(n, 3).copy(),
             warm_pending=bool(x[STATE.stage] == WARM_PENDING),
-            phi_tw=x[STATE.phi_tw : STATE.phi_tw + 9].reshape(3, 3).copy(),
-            phi_ww=x[STATE.phi_ww : STATE.phi_ww + 9].reshape(3, 3).copy(),
+            aim=x[STATE.aim : STATE.aim + 9].reshape(3, 3).copy(),
         )
 
     def to_vector(self) -> np.ndarray:
@@ -170,8 +166,7 @@ class EstimatorState:
                 [self.t, stage, self.t_meas],
                 self.omega_hat,
                 self.torque,
-                np.asarray(self.phi_tw).ravel(),
-                np.asarray(self.phi_ww).ravel(),
+                np.asarray(self.aim).ravel(),
                 self.r.ravel(),
                 self.e.ravel(),
             ]
@@ -184,7 +179,6 @@ def initial_state_vector(n: int, omega_hat0: ArrayLike) -> np.ndarray:
     x[STATE.t] = np.nan
     x[STATE.t_meas] = np.nan
     x[STATE.omega_hat : STATE.omega_hat + 3] = omega_hat0
-    x[STATE.phi_ww : STATE.phi_ww + 9] = np.eye(3).ravel()
     return x
 
 
@@ -202,37 +196,31 @@ def _diag_plus(d, p, X, q, Y):
 
 
 @numba.njit(cache=True, inline="always")
-def _error_transition(Jm, Jinv, w0, w1, w2, hs, phi):
-    """(A1) over one substep at the substep's starting ω̂: ``Φ ← Φ_s Φ`` for the blocks ``Φ_θω``, ``Φ_ωω``
-    (``phi[0:9]``, ``phi[9:18]``) of the linearised error ``δθ̇ = −ω̂× δθ + δω``, ``δω̇ = A δω``,
-    ``A = J⁻¹((Jω̂)× − ω̂× J)``, with the second-order substep transition ``Φ_s = I + F h_s + (F h_s)²/2``:
-    ``Φ_θθ,s = I − h_s W + h_s² W²/2``, ``Φ_θω,s = h_s I + h_s² (A − W)/2``, ``Φ_ωω,s = I + h_s A + h_s² A²/2``."""
+def _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim):
+    """(A1) over one substep, in place: the aim ``Γ = Φ_θω Φ_ωω⁻¹`` maps a rate error at the end of the interval
+    to the attitude error it has caused since the last valid sample (``δθ = Γ δω``). From the linearised error
+    ``δθ̇ = −W δθ + δω``, ``δω̇ = A δω`` (``W = ω̂×``, ``A = J⁻¹((Jω̂)× − ω̂× J)``) it obeys
+    ``Γ̇ = I − W Γ − Γ A``, ``Γ = 0`` at a valid sample; with W and A frozen at the substep's start, the
+    second-order step ``Γ ← Γ + h_s F − (h_s²/2)(W F + F A)``, ``F = I − W Γ − Γ A``."""
     W = skew(w0, w1, w2)
     a0, a1, a2 = matvec(Jm, w0, w1, w2)
     X = skew(a0, a1, a2)
     WJ = matmul(W, Jm)
     A = matmul(Jinv, (X[0] - WJ[0], X[1] - WJ[1], X[2] - WJ[2], X[3] - WJ[3], X[4] - WJ[4], X[5] - WJ[5],
                       X[6] - WJ[6], X[7] - WJ[7], X[8] - WJ[8]))  # fmt: skip
-    W2 = matmul(W, W)
-    A2 = matmul(A, A)
+    G = (aim[0], aim[1], aim[2], aim[3], aim[4], aim[5], aim[6], aim[7], aim[8])
+    F = _diag_plus(1.0, -1.0, matmul(W, G), -1.0, matmul(G, A))
+    WF = matmul(W, F)
+    FA = matmul(F, A)
     c = 0.5 * hs * hs
-    Ptt_t = _diag_plus(1.0, -hs, W, c, W2)
-    Ptw_t = _diag_plus(hs, c, A, -c, W)
-    Pww_t = _diag_plus(1.0, hs, A, c, A2)
-    tw = (phi[0], phi[1], phi[2], phi[3], phi[4], phi[5], phi[6], phi[7], phi[8])
-    ww = (phi[9], phi[10], phi[11], phi[12], phi[13], phi[14], phi[15], phi[16], phi[17])
-    t1 = matmul(Ptt_t, tw)
-    t2 = matmul(Ptw_t, ww)
-    w_new = matmul(Pww_t, ww)
     for i in range(9):
-        phi[i] = t1[i] + t2[i]
-        phi[9 + i] = w_new[i]
+        aim[i] = G[i] + hs * F[i] - c * (WF[i] + FA[i])
 
 
 @numba.njit(cache=True)
-def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, phi):
+def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, aim):
     """(P) for ω̂ and ΔR̂ over h with the torque ``τ(s) = τ_a + (τ_b − τ_a) s/h`` (``τ_b = τ_a``: held):
-    ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3), ``phi`` ← the error transitions (A1) carried on; returns
+    ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3), ``aim`` ← Γ (A1) carried on; returns
     ``∫|ω̂| dt``. RKMK4 in substeps of angle ``h_sub (|ω̂| + h|J⁻¹τ|) ≤ max_angle``: classical RK4 for ω̂, for
     ``ΔR̂ = exp(u)`` the stages ``u̇ = dexp⁻¹(ω̂)`` (R5), and ``∫|ω̂|`` with the same weights. Exact (ΔR̂ = exp(h ω̂))
     for a constant ω̂."""
@@ -252,7 +240,7 @@ def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, phi):
         ta = (tau_a[0] + s0 * d0, tau_a[1] + s0 * d1, tau_a[2] + s0 * d2)
         tm = (tau_a[0] + s_mid * d0, tau_a[1] + s_mid * d1, tau_a[2] + s_mid * d2)
         tb = (tau_a[0] + s1 * d0, tau_a[1] + s1 * d1, tau_a[2] + s1 * d2)
-        _error_transition(Jm, Jinv, w0, w1, w2, hs, phi)
+        _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim)
         L1 = euler_rate(Jm, Jinv, w0, w1, w2, ta[0], ta[1], ta[2])
         K1 = (hs * w0, hs * w1, hs * w2)
         n1 = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
@@ -305,12 +293,12 @@ def _predict_directions(r, e, D, decay, i):
 
 
 @numba.njit(cache=True)
-def _correct(Jinv, k, iso_rate, w, r, e, r_meas, phi):
+def _correct(Jinv, k, iso_rate, w, r, e, r_meas, aim):
     """(I), (C) and (R) at a valid sample: ``Δ_i = r_i,meas − r_i,pred``; the innovation accumulated over the
     interval, ``y = Σ innovation(k_i, r̂_i, −Δ_i)`` (O1 with the mismatch ``−Δ_i``); the aimed, implicit
     correction (C) ``ω̂ += (I + G M_meas Γ)⁻¹ G y`` with the stiffness (O6) at the measured directions, the aim
-    ``Γ = Φ_θω Φ_ωω⁻¹`` (A2) and the rate gain ``G = J⁻¹`` (the observer's) or ``G = b M_meas⁻¹`` (isotropic,
-    ``iso_rate = b > 0``); then ``e ← e − Δ``, ``r ← r_meas`` (r̂ continuous) and Φ back to ``(0, I)``."""
+    ``Γ`` (A1) and the rate gain ``G = J⁻¹`` (the observer's) or ``G = b M_meas⁻¹`` (isotropic,
+    ``iso_rate = b > 0``); then ``e ← e − Δ``, ``r ← r_meas`` (r̂ continuous) and ``Γ ← 0``."""
     y0 = y1 = y2 = 0.0
     M00 = M11 = M22 = M01 = M02 = M12 = 0.0
     for i in range(r.shape[0]):
@@ -332,8 +320,7 @@ def _correct(Jinv, k, iso_rate, w, r, e, r_meas, phi):
         e[i, 0], e[i, 1], e[i, 2] = e[i, 0] + b0, e[i, 1] + b1, e[i, 2] + b2  # (R): e ← e − Δ
         r[i, 0], r[i, 1], r[i, 2] = m0, m1, m2
     M = (M00, M01, M02, M01, M11, M12, M02, M12, M22)
-    ww = (phi[9], phi[10], phi[11], phi[12], phi[13], phi[14], phi[15], phi[16], phi[17])
-    Gamma = matmul((phi[0], phi[1], phi[2], phi[3], phi[4], phi[5], phi[6], phi[7], phi[8]), inverse(ww))  # (A2)
+    Gamma = (aim[0], aim[1], aim[2], aim[3], aim[4], aim[5], aim[6], aim[7], aim[8])
     if iso_rate > 0.0:
         Mi = inverse(M)
         G = (iso_rate * Mi[0], iso_rate * Mi[1], iso_rate * Mi[2], iso_rate * Mi[3], iso_rate * Mi[4],
@@ -347,15 +334,7 @@ def _correct(Jinv, k, iso_rate, w, r, e, r_meas, phi):
     w[0] += dw0
     w[1] += dw1
     w[2] += dw2
-    _reset_transition(phi)
-
-
-@numba.njit(cache=True, inline="always")
-def _reset_transition(phi):
-    """Φ_θω ← 0, Φ_ωω ← I: the attitude is known at a valid sample."""
-    for i in range(9):
-        phi[i] = 0.0
-        phi[9 + i] = 1.0 if i % 4 == 0 else 0.0
+    aim[:] = 0.0  # the attitude is known at a valid sample
 
 
 @numba.njit(cache=True)
@@ -417,18 +396,18 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     if stage == WARM_PENDING:
         if valid:
             _warm_start(Jm, Jinv, k, l_off, l_slope, held, t - x[STATE.t_meas], w, r, e, r_meas)
-            _reset_transition(out[STATE.phi_tw : STATE.phi_ww + 9])
+            out[STATE.aim : STATE.aim + 9] = 0.0
             out[STATE.stage] = RUNNING
             out[STATE.t_meas] = t
         return status, info
     h_pred = t - x[STATE.t]
-    phi = out[STATE.phi_tw : STATE.phi_ww + 9]
+    aim = out[STATE.aim : STATE.aim + 9]
     tau_end = tau if p[PARAMS.linear_hold] != 0.0 else held  # first-order hold: the new sample's torque is known
-    int_abs = _predict_rate(Jm, Jinv, p[PARAMS.max_angle], w, held, tau_end, h_pred, D, phi)
+    int_abs = _predict_rate(Jm, Jinv, p[PARAMS.max_angle], w, held, tau_end, h_pred, D, aim)
     for i in range(n):
         _predict_directions(r, e, D, math.exp(-(l_off[i] * h_pred + l_slope[i] * int_abs)), i)
     if valid:  # the correction's interval: since the last valid sample (a skipped one only adds substeps)
-        _correct(Jinv, k, p[PARAMS.isotropic_rate], w, r, e, r_meas, phi)
+        _correct(Jinv, k, p[PARAMS.isotropic_rate], w, r, e, r_meas, aim)
         out[STATE.t_meas] = t
     return status, info
 
