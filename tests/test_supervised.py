@@ -1,0 +1,124 @@
+"""omegahat's default estimator, the Sarras observer supervising a gyro-less EKF: accurate where the EKF is, globally
+convergent where the observer is, restarted when lost, and the same stream/batch/bad-input behaviour as the rest."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat.baselines.mekf import MEKF
+from omegahat.evaluation import robustness as RB
+from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
+from omegahat.measurements import MeasurementError
+from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.simulation import scenarios as S
+from omegahat.simulation import sensors
+from omegahat.simulation.rigid_body import RigidBody, Torque, integrate
+
+
+def _make(sc, sigma_a=1e-4, warm=True, **kw):
+    return SupervisedKalmanEstimator(
+        sc.J_model, rate_hz=sc.rate_hz, measurement_sigma=max(sc.attitude_sigma, 1e-6), rate_noise=sigma_a,
+        omega_hat0=None if warm else sc.omega_hat0, warm_start=warm, **kw,
+    )  # fmt: skip
+
+
+def test_noise_free_paper_scenario_to_1e9():
+    """The paper's body at 100 Hz without noise: the truth is CF4 at 1 ms steps (independent of both parts)."""
+    sc = S.get("paper")
+    run = S.simulate(sc, 2)
+    err = estimate_errors(_make(sc, warm=False).run(run.t, run.R_meas, run.torque), run.omega)
+    assert steady_rms(run.t, err, 5.0) < 1e-9
+    assert err[run.t >= 5.0].max() < 1e-9
+
+
+def test_cold_start_converges_on_tumble_fast_within_30_s():
+    """2 rad/s seen at 1 Hz, started from ω̂ = 0 (no warm start): the fixed-gain observer of the paper needed a
+    high gain and 107 s; the EKF alone from this start needs 44 s at its best setting."""
+    sc = S.get("tumble-fast")
+    run = S.simulate(sc, 2, duration=90.0)
+    est = _make(sc, warm=False)
+    err = estimate_errors(est.run(run.t, run.R_meas, run.torque), run.omega, always_estimates=True)
+    assert convergence_time(run.t, err, sc.converged_tol) <= 30.0
+    assert est.restarts >= 1  # the EKF started from ω̂ = 0 was restarted from the observer
+
+
+def test_steady_state_is_the_ekfs():
+    """Once converged, the output is the EKF's: within 10 % of the plain dynamic MEKF's steady error (same process
+    noise) on the 5 Hz star-tracker slew, and well below the fixed-gain observer's noise."""
+    sc = S.get("slew")
+    run = S.simulate(sc, 2, duration=200.0)
+    sigma_a = 1e-6
+    est = _make(sc, sigma_a)
+    ours = steady_rms(run.t, estimate_errors(est.run(run.t, run.R_meas, run.torque), run.omega), 100.0)
+    mekf = MEKF(
+        sc.J_model, "dynamic", q=(np.trace(sc.J_model) / 3 * sigma_a) ** 2, measurement_sigma=sc.attitude_sigma,
+        omega0=sc.omega_hat0, sigma_omega0=sc.omega_max,
+    )  # fmt: skip
+    theirs = steady_rms(run.t, estimate_errors(mekf.run(run.t, run.R_meas, run.torque), run.omega), 100.0)
+    assert ours <= 1.1 * theirs
+    assert ours < 0.2 * est.observer_noise  # the observer alone would carry about its predicted noise
+    assert est.last_source[run.t >= 100.0].min() == 1.0  # the output is the EKF's throughout
+
+
+def test_lost_ekf_is_restarted_from_the_observer():
+    """An unmodelled torque pulse (0.5 s of 20 N·m on a 300 kg·m² body, not given to the estimators) throws the
+    EKF, which trusts its model, off by about 0.03 rad/s; the supervisor restarts it from the observer and the
+    estimate is back within the tolerance afterwards."""
+    sc = S.get("slew")
+    J = sc.J_true
+    t = np.arange(0.0, 60.0 + 1e-9, 0.2)
+    pulse = Torque.of_time(lambda s: np.array([20.0, 0.0, 0.0]) * (20.0 <= s < 20.5))
+    traj = integrate(RigidBody(J), np.eye(3), [0.01, 0.0, 0.0], t, pulse, max_step=0.01)
+    R_meas = sensors.noisy_attitudes(traj.R, sc.attitude_sigma, np.random.default_rng(5))
+    est = _make(sc, 1e-6)
+    err = estimate_errors(est.run(t, R_meas), traj.omega)
+    assert err[(t > 20.5) & (t < 22.0)].max() > 0.01  # the pulse was felt
+    assert est.restarts >= 1
+    assert err[t >= 30.0].max() < 1e-3
+
+
+def test_run_equals_update_loop_and_rejection_keeps_the_state():
+    sc = S.get("tumble")
+    run = S.simulate(sc, 3, duration=40.0)
+    batch = _make(sc, warm=False)
+    W = batch.run(run.t, run.R_meas, run.torque)
+    stream = _make(sc, warm=False)
+    q = Rotation.from_matrix(run.R_meas).as_quat()
+    for j in range(run.t.size):
+        np.testing.assert_allclose(stream.update(run.t[j], q[j], run.torque[j]), W[j], rtol=0, atol=1e-12)
+    before = (stream.observer.state_vector, stream.ekf_covariance, stream.omega_hat)
+    with pytest.raises(MeasurementError, match=r"quaternion far from unit norm: ‖q‖ = 2"):
+        stream.update(run.t[-1] + 1.0, 2.0 * q[-1])
+    after = (stream.observer.state_vector, stream.ekf_covariance, stream.omega_hat)
+    for x, y in zip(before, after, strict=True):
+        np.testing.assert_array_equal(x, y)
+    kept = (batch.observer.state_vector, batch.ekf_covariance)
+    with pytest.raises(MeasurementError, match=r"sample 1"):  # run is atomic: the good sample 0 is not kept either
+        batch.run([run.t[-1] + 1.0, run.t[-1] + 2.0], np.stack([q[-1], 2.0 * q[-1]]))
+    np.testing.assert_array_equal(batch.observer.state_vector, kept[0])
+    np.testing.assert_array_equal(batch.ekf_covariance, kept[1])
+
+
+def test_missing_sample_is_predicted_through():
+    sc = S.get("tumble")
+    run = S.simulate(sc, 4, duration=60.0)
+    R = run.R_meas.copy()
+    R[30] = np.nan
+    est = _make(sc)
+    with pytest.warns(UserWarning, match=r"skipped 1 of 61 samples"):
+        W = est.run(run.t, R, run.torque)
+    assert np.all(np.isfinite(W))
+    assert np.linalg.norm(W[30] - run.omega[30]) < sc.converged_tol
+
+
+def test_robustness_campaign_is_seeded_and_converges():
+    cfg = RB.RobustnessConfig(runs=4, duration=40.0)
+    a, b = RB.draw_case(cfg, 1), RB.draw_case(cfg, 1)
+    np.testing.assert_array_equal(a.measurements, b.measurements)
+    assert a.directions and not RB.draw_case(cfg, 0).directions
+    assert np.abs(a.omega[0]).max() <= cfg.omega_max
+    results = RB.run_campaign(cfg, ["omegahat"])
+    assert results["omegahat"]["fraction"] == 1.0
+    assert "| omegahat | 100.0 % (4/4) |" in RB.markdown(cfg, results)
