@@ -133,8 +133,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--bandwidth",
         type=float,
         metavar="HZ",
-        help="bandwidth in Hz (below half the sample rate), as tuning.sensor_gains(bandwidth_hz=...); default: "
-        "chosen from the log (printed)",
+        help="bandwidth in Hz, b (below half the sample rate), as tuning.sensor_gains(bandwidth_hz=...): every error "
+        "mode of the estimate decays at least as exp(-2 pi b t) (for direction sensors every mode at that rate, "
+        "whatever their geometry); default: chosen from the log (printed)",
     )
     model.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     model.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")

@@ -98,9 +98,10 @@ class SarrasEstimator(Estimator):
         until the next, exact for commands a controller holds between updates) or ``"linear"`` (the line from the
         previous sample's torque to the new sample's, causal since the new sample's torque comes with it: better
         for a smooth torque that is merely sampled, wrong at a held command's switch; ``docs/theory/sampled.md``).
-    isotropic_rate : None (default: the observer's rate gain ``J⁻¹``) or a rate ``b`` in rad/s: the correction
-        then uses the matrix gain ``b M⁻¹`` so that every error mode decays at about ``b`` whatever the
-        directions' geometry (``docs/theory/tuning.md``); the gains' ``k_i`` then only weigh the directions.
+    isotropic_rate : None (default: ``gains.isotropic_rate``, which is None for the observer's rate gain ``J⁻¹``) or
+        a rate ``b`` in rad/s: the correction then uses the matrix gain ``b M⁻¹`` so that every error mode decays at
+        about ``b`` whatever the directions' geometry (``docs/theory/tuning.md``); the gains' ``k_i`` then only
+        weigh the directions.
     """
 
     def __init__(
@@ -156,6 +157,8 @@ class SarrasEstimator(Estimator):
         if torque_hold not in sampled.TORQUE_HOLDS:
             raise ValueError(f"torque_hold must be one of {sampled.TORQUE_HOLDS}; got {torque_hold!r}")
         self.torque_hold = torque_hold
+        if isotropic_rate is None:
+            isotropic_rate = gains.isotropic_rate
         self.isotropic_rate = (
             None if isotropic_rate is None else float(as_positive(isotropic_rate, "isotropic_rate")[0])
         )

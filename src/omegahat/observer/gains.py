@@ -42,11 +42,18 @@ class GainConditionWarning(UserWarning):
 
 @dataclass(frozen=True)
 class ObserverGains:
-    """Gains of the observer for ``n`` directions: ``k_i`` and ``l_i(ω̂) = l_offset_i + l_slope_i |ω̂|``."""
+    """Gains of the observer for ``n`` directions: ``k_i`` and ``l_i(ω̂) = l_offset_i + l_slope_i |ω̂|``.
+
+    ``isotropic_rate`` (rad/s, default None) is for the *sampled* estimator only: its correction then uses the
+    matrix rate gain ``b M⁻¹`` instead of ``J⁻¹`` so that every error mode decays at ``b`` whatever the directions'
+    geometry (``docs/theory/tuning.md``); the ``k_i`` then only weigh the directions against each other. The
+    continuous observer of the paper has no such gain: the simulator and the campaigns ignore it.
+    """
 
     k: np.ndarray
     l_offset: np.ndarray
     l_slope: np.ndarray = field(default=None)  # type: ignore[arg-type]
+    isotropic_rate: float | None = None
 
     def __post_init__(self):
         k = as_positive(self.k, "k")
@@ -63,6 +70,8 @@ class ObserverGains:
         object.__setattr__(self, "k", k)
         object.__setattr__(self, "l_offset", l_offset)
         object.__setattr__(self, "l_slope", l_slope)
+        if self.isotropic_rate is not None:
+            object.__setattr__(self, "isotropic_rate", float(as_positive(self.isotropic_rate, "isotropic_rate")[0]))
 
     @classmethod
     def constant(cls, k: ArrayLike, l: ArrayLike, n: int = 2) -> ObserverGains:

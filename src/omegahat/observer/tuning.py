@@ -26,6 +26,15 @@ bandwidth asked for is ``ω_b = 2π bandwidth_hz`` or ``1 / convergence_time``. 
 unknown torque, or an unmodelled acceleration, is followed with that delay) against the noise ``≈ ω_b σ``
 (below): ``ω_b = √(α / σ)``, where both are equal.
 
+**Geometry (I).** "At least" hides a spread when the directions are not a triad: with two directions at angle α,
+``Σ (I − v_i v_iᵀ)`` has eigenvalues ``1 − cos α``, ``1 + cos α`` and 2, so for gravity and a mid-latitude
+magnetic field (α = 27°) the modes other than the slowest run 17 times faster, with 17 times the noise. For such
+geometries :func:`sensor_gains` sets the gains' ``isotropic_rate`` to ``(exp(ω_b h) − 1)/h``: the sampled
+estimator's correction then uses the matrix rate gain ``b M⁻¹`` (``M`` at the measured directions, every sample)
+instead of ``J⁻¹``, and (L) becomes ``G = (I + h b I)⁻¹``: **every** mode decays at ``ω_b``, as far as the
+geometry allows (a weak direction of ``M`` is corrected as fast as a strong one, so its noise is the attitude
+noise of that axis, which Wahba's problem makes larger for a poor geometry). A triad of rows keeps ``J⁻¹``.
+
 **The trade-off.** Larger ``k`` (bandwidth) means faster convergence and less lag, but more noise: for
 isotropic ``J⁻¹ M = λ I`` with white attitude noise of std σ per axis, (L) is a scalar recursion whose stationary
 std per axis is::
@@ -132,7 +141,11 @@ def sensor_gains(
     k = J_M * np.expm1(omega_b * h) / (h * mu1)  # (K)
     l_factor = float(as_positive(l_factor, "l_factor")[0])
     n = v.shape[0]
-    return ObserverGains(k=np.full(n, k), l_offset=np.full(n, l_factor * k / J_m))
+    mus = np.linalg.eigvalsh(np.eye(3) * n - v.T @ v)
+    # (I) Directions whose geometry makes the modes unequal (two directions 27° apart: 17-fold) get the isotropic
+    # rate gain, every mode at the (K) rate; a triad of rows keeps the observer's J⁻¹ (modes equal up to J).
+    iso = float(np.expm1(omega_b * h) / h) if mus[-1] > (1.0 + 1e-9) * mus[0] else None
+    return ObserverGains(k=np.full(n, k), l_offset=np.full(n, l_factor * k / J_m), isotropic_rate=iso)
 
 
 def predicted_noise_std(
@@ -148,7 +161,8 @@ def predicted_noise_std(
     Solves (L) of the module docstring exactly: the stationary covariance of ``x_k = (z_k, δ_k)`` with
     ``x⁺ = [[G, −B], [0, 0]] x + [B; I] δ_{k+1}`` from ``scipy.linalg.solve_discrete_lyapunov``. ``R`` is the
     attitude at which ``M = Σ k_i (I − r_i r_iᵀ)``, ``r_i = Rᵀ v_i``, is evaluated (default identity; M does not
-    depend on it for three orthogonal directions with equal gains). Returns shape ``(3,)``.
+    depend on it for three orthogonal directions with equal gains). With ``gains.isotropic_rate = b`` the map's
+    ``J⁻¹ M`` is ``b I``. Returns shape ``(3,)``.
     """
     J = as_inertia(J)
     h = 1.0 / float(as_positive(rate_hz, "rate_hz")[0])
@@ -158,9 +172,10 @@ def predicted_noise_std(
         raise ValueError(f"{gains.n} gains were given for {v.shape[0]} reference directions")
     r = v if R is None else v @ np.asarray(R, dtype=float)
     M = sum(gains.k[i] * (np.eye(3) - np.outer(r[i], r[i])) for i in range(gains.n))
-    J_inv = np.linalg.inv(J)
-    G = np.linalg.inv(np.eye(3) + h * J_inv @ M)
-    B = G @ J_inv @ M
+    # The rate gain times M: J⁻¹ M for the observer's gain, b I for the isotropic one (b M⁻¹ M).
+    GM = np.linalg.inv(J) @ M if gains.isotropic_rate is None else gains.isotropic_rate * np.eye(3)
+    G = np.linalg.inv(np.eye(3) + h * GM)
+    B = G @ GM
     A = np.block([[G, -B], [np.zeros((3, 3)), np.zeros((3, 3))]])
     C = np.vstack([B, np.eye(3)])
     P = solve_discrete_lyapunov(A, sigma**2 * C @ C.T)
