@@ -1,8 +1,10 @@
 """omegahat: the angular velocity of a rigid body without gyroscopes, from attitude measurements.
 
 The core is the continuous, globally exponential observer of I. Sarras, with the sign of its output map corrected
-(``docs/theory/observer.md``), realised for sampled, noisy data by :class:`SarrasEstimator`. The names below are the
-public API; they are imported on first use, so that ``import omegahat`` (and the command line) stays light.
+(``docs/theory/observer.md``), realised for sampled, noisy data by :class:`SarrasEstimator`; the default estimator,
+:class:`SupervisedKalmanEstimator`, lets it supervise a gyro-less EKF (``docs/theory/supervised.md``). The names
+below are the public API; they are imported on first use, so that ``import omegahat`` (and the command line) stays
+light.
 
 Packages: :mod:`omegahat.kernels` (compiled primitives), :mod:`omegahat.observer`, :mod:`omegahat.simulation`,
 :mod:`omegahat.campaigns`, :mod:`omegahat.baselines`, :mod:`omegahat.evaluation`, :mod:`omegahat.io`,
@@ -18,12 +20,14 @@ __version__ = "0.1.0"
 #: public name -> the module that defines it
 _PUBLIC = {
     "SarrasEstimator": "omegahat.observer.estimator",
+    "SupervisedKalmanEstimator": "omegahat.observer.kalman",
     "ObserverGains": "omegahat.observer.gains",
     "check_gains": "omegahat.observer.gains",
     "theorem_gains": "omegahat.observer.gains",
     "bandwidth_gains": "omegahat.observer.tuning",
     "sensor_gains": "omegahat.observer.tuning",
     "predicted_noise_std": "omegahat.observer.tuning",
+    "isotropic_noise_std": "omegahat.observer.tuning",
     "CoupledProblem": "omegahat.simulation.problem",
     "paper_problem": "omegahat.simulation.problem",
     "simulate": "omegahat.simulation.coupled",

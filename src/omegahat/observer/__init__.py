@@ -3,6 +3,8 @@
 * :mod:`~omegahat.observer.continuous` — the paper's observer, sign-corrected, in plain NumPy (the reference);
 * :mod:`~omegahat.observer.estimator` — :class:`SarrasEstimator`, the sampled streaming estimator
   (:mod:`~omegahat.observer.sampled`: its compiled step; :mod:`~omegahat.observer.reference`: its NumPy oracle);
+* :mod:`~omegahat.observer.kalman` — :class:`SupervisedKalmanEstimator`, the default estimator: the sampled
+  observer supervising a gyro-less EKF (:mod:`~omegahat.observer.supervised`: its compiled step);
 * :mod:`~omegahat.observer.gains` — the theorem's gain conditions; :mod:`~omegahat.observer.tuning` — gains for
   sampled noisy sensors; :mod:`~omegahat.observer.gain_sweep` — the trade-off measured by simulation;
   :mod:`~omegahat.observer.autogain` — gains chosen from a log itself (what ``omegahat estimate`` does).
@@ -10,7 +12,8 @@
 
 from omegahat.observer.estimator import EstimatorState, SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import GainCheck, GainConditionWarning, ObserverGains, check_gains, theorem_gains
-from omegahat.observer.tuning import bandwidth_gains, predicted_noise_std, sensor_gains
+from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.observer.tuning import bandwidth_gains, isotropic_noise_std, predicted_noise_std, sensor_gains
 
 __all__ = [
     "EstimatorState",
@@ -19,8 +22,10 @@ __all__ = [
     "ObserverGains",
     "SarrasEstimator",
     "SkippedSamplesWarning",
+    "SupervisedKalmanEstimator",
     "bandwidth_gains",
     "check_gains",
+    "isotropic_noise_std",
     "predicted_noise_std",
     "sensor_gains",
     "theorem_gains",
