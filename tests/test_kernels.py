@@ -8,10 +8,9 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-import scipy.linalg
 from scipy.spatial.transform import Rotation
 
-from omegahat.kernels import dynamics, expfn, linalg, observer, rotation, vec3
+from omegahat.kernels import dynamics, expfn, observer, rotation, vec3
 from omegahat.observer import continuous
 from omegahat.simulation.etd import step_factor
 
@@ -203,20 +202,6 @@ def test_output_map_matches_the_reference():
     r, r_hat = RNG.normal(size=(2, 3)), RNG.normal(size=(2, 3))
     expected = continuous.output_map(np.zeros(3), r, r_hat, k, Jinv)
     assert np.allclose(observer.output_map(vec3.mat3(Jinv), k, r, r_hat), expected, rtol=1e-15, atol=1e-15)
-
-
-# ------------------------------------------------------------------------------------------------- linalg
-
-
-def test_small_dense_matrices_against_numpy_and_scipy():
-    A, B = RNG.normal(size=(6, 6)), RNG.normal(size=(6, 6))
-    assert np.allclose(linalg.mm(A, B), A @ B, rtol=1e-14, atol=1e-14)
-    assert np.array_equal(linalg.transpose(A), A.T)
-    S = A @ A.T + 6 * np.eye(6)
-    assert np.allclose(linalg.solve_spd(S, B), np.linalg.solve(S, B), rtol=1e-12, atol=1e-12)
-    M = np.zeros((12, 12))
-    M[:6, :6], M[:6, 6:], M[6:, 6:] = A, B, -A.T
-    assert np.allclose(linalg.expm_block_upper(M, 6), scipy.linalg.expm(M), rtol=1e-12, atol=1e-12)
 
 
 # -------------------------------------------------------------------------------------------------- expfn

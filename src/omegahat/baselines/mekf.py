@@ -12,10 +12,11 @@ EKF", written here on rotation matrices (``R`` body → inertial, ω in body axe
                     δω̇ = J⁻¹((Jω̂)× − ω̂× J) δω + J⁻¹ w_τ   (dynamic)      δω̇ = w   (kinematic)
                     F = [[−ω̂×, I], [0, A]],  G = [[0], [J⁻¹]] (dynamic) or [[0], [I]] (kinematic),
                     A = J⁻¹((Jω̂)× − ω̂× J) (dynamic) or 0 (kinematic)
-    propagate h     sub-steps of at most ``max_step``: ω̂ by RK4 of the Euler equations and R̂ by the
-                    matching fourth-order Lie-group step (dynamic); R̂ ← R̂ Exp(ω̂ h) (kinematic);
-                    Van Loan: B = expm([[−F, G Q Gᵀ], [0, Fᵀ]] h), Φ = B₂₂ᵀ, Q_d = Φ B₁₂;
-                    P ← Φ P Φᵀ + Q_d                                                                (E4)
+    propagate h     the nominal state in substeps turning at most ``max_angle`` (and at most ``max_step``
+                    long): CF4, RK4 for ω̂ with the matching fourth-order Lie-group step for R̂ (dynamic),
+                    R̂ ← R̂ Exp(ω̂ h) (kinematic); the torque held or interpolated (``torque_hold``);
+                    P ← Φ P Φᵀ + Q_d in substeps of at most 0.2 rad, Φ and Q_d by the truncated series
+                    (K2), (K3) of :mod:`omegahat.kernels.ekf`, with W = ω̂× and A frozen per substep  (E4)
     attitude fix    R_m = R Exp(ν), ν ~ N(0, σ² I); dq = q̂ᶜ ⊗ q_m (the quaternion of R̂ᵀ R_m, scalar ≥ 0);
                     z = 2 dq_vec / dq_w;  H = [I, 0];  R_meas = σ² I                                 (E5)
     vector fix      b_i = Rᵀ v_i + ν_i, ν_i ~ N(0, σ² I); b̂_i = R̂ᵀ v_i; z_i = b_i − b̂_i;
@@ -26,7 +27,8 @@ EKF", written here on rotation matrices (``R`` body → inertial, ω in body axe
 
 (E6) follows from ``Rᵀ v = Exp(−δθ) R̂ᵀ v ≈ b̂ + b̂ × δθ``. The filter converges only locally: started far from
 the truth with a small covariance it can lock on a wrong solution or diverge. The known torque passed with a
-sample is held over the interval that follows it (the same convention as the sampled Sarras estimator).
+sample is held over the interval that follows it (``torque_hold="zero"``, the default, as the sampled Sarras
+estimator) or interpolated from it to the next sample's (``"linear"``).
 
 Initial state: ``R0`` if given, else the first valid measurement (the attitude itself, or the least-squares
 attitude from the directions by SVD — Wahba's problem), with ``P_θθ = sigma_theta0² I``; ``omega0`` with
@@ -36,7 +38,7 @@ The NumPy functions below are the filter, written to be read, in NumPy and SciPy
 for Exp and the quaternion of (E5) and Wahba's problem; ``cf4_step``, the NumPy step of
 :mod:`omegahat.simulation.rigid_body`, for the dynamic nominal state): they are the oracle. :class:`MEKF` is a thin
 stateful shell: :meth:`MEKF.update` (one sample) runs on these functions, :meth:`MEKF.run` (a whole log) on their
-compiled twin :mod:`omegahat.baselines.mekf_kernel`, built from :mod:`omegahat.kernels` and tested against them.
+compiled twin, :mod:`omegahat.kernels.ekf` (the same step omegahat's default estimator runs), tested against them.
 ``python benchmarks/mekf_speed.py`` measures both.
 
 Input: through :mod:`omegahat.measurements`, like every estimator (the same checks, tolerances and messages):
@@ -53,6 +55,7 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat.baselines import mekf_kernel as kernel
 from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.kernels.ekf import COVARIANCE_SUBSTEP_ANGLE, NOMINAL_SUBSTEP_ANGLE
 from omegahat.simulation.rigid_body import RigidBody, Torque, cf4_step
 from omegahat.validation import as_directions, as_inertia, as_positive, as_vector3
 
@@ -61,10 +64,10 @@ __all__ = [
     "MODELS",
     "attitude_innovation",
     "discretize",
-    "expm_small",
     "initial_attitude",
     "process_jacobian",
     "propagate",
+    "substeps",
     "update",
     "vector_innovation",
 ]
@@ -97,39 +100,42 @@ def process_jacobian(
     return F, G
 
 
-def expm_small(M: np.ndarray) -> np.ndarray:
-    """Matrix exponential by scaling and squaring with a degree-12 Taylor polynomial, in plain NumPy.
+def discretize(
+    omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, model: str, q: float, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """(E4) over one substep at ``omega_hat``: the transition Φ (Φ_θθ exact, the other blocks to third order) and
+    the process covariance Q_d (its leading two orders), as (K2), (K3) of :mod:`omegahat.kernels.ekf`."""
+    F, G = process_jacobian(omega_hat, J, J_inv, model)
+    W, A = _hat(omega_hat), F[3:, 3:]
+    U2 = A - W
+    U3 = -W @ U2 + A @ A
+    Phi = np.zeros((6, 6))
+    Phi[:3, :3] = _exp(-dt * np.asarray(omega_hat))
+    Phi[:3, 3:] = dt * np.eye(3) + dt**2 / 2 * U2 + dt**3 / 6 * U3
+    Phi[3:, 3:] = np.eye(3) + dt * A + dt**2 / 2 * A @ A + dt**3 / 6 * A @ A @ A
+    Qw = q * G[3:] @ G[3:].T
+    Qd = np.zeros((6, 6))
+    Qd[:3, :3] = dt**3 / 3 * Qw + dt**4 / 8 * (U2 @ Qw + Qw @ U2.T)
+    Qd[:3, 3:] = dt**2 / 2 * Qw + dt**3 / 6 * U2 @ Qw + dt**3 / 3 * Qw @ A.T
+    Qd[3:, :3] = Qd[:3, 3:].T
+    Qd[3:, 3:] = dt * Qw + dt**2 / 2 * (A @ Qw + Qw @ A.T)
+    return Phi, Qd
 
-    Scaled so that ``‖M/2^s‖₁ ≤ 0.5``, where the truncation error is below ``0.5¹³/13! ≈ 2e-14`` relative.
-    Used instead of ``scipy.linalg.expm`` because SciPy's compiled Padé step for a matrix this small slows down
-    by two orders of magnitude when the machine's other cores are busy; this one does not. Tested against
-    ``scipy.linalg.expm``. The compiled twin used by :meth:`MEKF.run` is
-    :func:`omegahat.kernels.linalg.expm_block_upper` (the same polynomial, scaling and squarings).
-    """
-    norm = np.abs(M).sum(axis=0).max()
-    s = max(0, int(np.ceil(np.log2(norm / 0.5)))) if norm > 0.5 else 0
-    A = M / 2.0**s
-    E = np.eye(M.shape[0])
-    term = np.eye(M.shape[0])
-    for k in range(1, 13):
-        term = term @ A / k
-        E = E + term
-    for _ in range(s):
-        E = E @ E
-    return E
 
-
-def discretize(F: np.ndarray, G: np.ndarray, q: float, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """Van Loan (E4): transition Φ and process covariance Q_d over ``h`` for white noise of PSD ``q I``."""
-    n = F.shape[0]
-    M = np.zeros((2 * n, 2 * n))
-    M[:n, :n] = -F
-    M[:n, n:] = q * (G @ G.T)
-    M[n:, n:] = F.T
-    B = expm_small(M * h)
-    Phi = B[n:, n:].T
-    Qd = Phi @ B[:n, n:]
-    return Phi, 0.5 * (Qd + Qd.T)
+def substeps(
+    h: float, omega_hat: np.ndarray, J_inv: np.ndarray, tau0: ArrayLike, tau1: ArrayLike, max_step: float,
+    max_angle: float,
+) -> int:  # fmt: skip
+    """``max(1, ⌈h/max_step⌉, ⌈h(|ω̂| + h max|J⁻¹τ|)/max_angle⌉)``: the rule of
+    :func:`omegahat.kernels.ekf.ekf_substeps`."""
+    accel = max(np.linalg.norm(J_inv @ np.asarray(tau0)), np.linalg.norm(J_inv @ np.asarray(tau1)))
+    angle = h * (np.linalg.norm(omega_hat) + h * accel)
+    n = 1
+    if np.isfinite(max_step):
+        n = max(n, int(np.ceil(h / max_step - 1e-12)))
+    if np.isfinite(max_angle):
+        n = max(n, int(np.ceil(angle / max_angle)))
+    return n
 
 
 def propagate(
@@ -141,25 +147,28 @@ def propagate(
     body: RigidBody,
     q: float,
     model: str,
-    max_step: float,
+    max_step: float = np.inf,
+    max_angle: float = NOMINAL_SUBSTEP_ANGLE,
+    tau_end: ArrayLike | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(E4) over ``h`` seconds with the torque ``tau`` held; returns ``(R, omega, P)``.
-
-    The nominal state of the dynamic model is advanced by :func:`omegahat.simulation.rigid_body.cf4_step` (RK4 for ω and
-    a fourth-order commutator-free step for R); the kinematic model's ω̂ is constant, so R̂ ← R̂ Exp(ω̂ h) is
-    exact.
-    """
-    n_sub = max(1, int(np.ceil(h / max_step - 1e-12)))
-    dt = h / n_sub
-    torque = Torque.constant(tau)
-    for _ in range(n_sub):
-        F, G = process_jacobian(omega, body.J, body.J_inv, model)
-        Phi, Qd = discretize(F, G, q, dt)
-        if model == "dynamic":
-            R, omega = cf4_step(body, R, omega, 0.0, dt, torque)
-        else:
-            R = R @ _exp(dt * omega)
+    """(E4) over ``h`` seconds, the torque ``tau`` at the start and ``tau_end`` (default ``tau``: held) at the end;
+    returns ``(R, omega, P)``. The covariance in substeps of at most ``COVARIANCE_SUBSTEP_ANGLE``, each spanning a
+    whole number of the nominal state's (:func:`omegahat.kernels.ekf.ekf_propagate`)."""
+    tau0 = np.asarray(tau, dtype=float)
+    tau1 = tau0 if tau_end is None else np.asarray(tau_end, dtype=float)
+    n_cov = substeps(h, omega, body.J_inv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)
+    per_cov = -(-substeps(h, omega, body.J_inv, tau0, tau1, max_step, max_angle) // n_cov)
+    n = n_cov * per_cov
+    dt = h / n
+    torque = Torque.of_time(lambda s: tau0 + (tau1 - tau0) * (s / h))
+    for jc in range(n_cov):
+        Phi, Qd = discretize(omega, body.J, body.J_inv, model, q, h / n_cov)
         P = Phi @ P @ Phi.T + Qd
+        for j in range(jc * per_cov, (jc + 1) * per_cov):
+            if model == "dynamic":
+                R, omega = cf4_step(body, R, omega, j * dt, dt, torque)
+            else:
+                R = R @ _exp(dt * omega)
     return R, omega, 0.5 * (P + P.T)
 
 
@@ -215,7 +224,9 @@ class MEKF(Estimator):
     omega0, sigma_omega0 : initial rate estimate (rad/s) and its standard deviation.
     R0, sigma_theta0 : initial attitude (``None``: the first valid measurement) and its standard deviation
         (rad; default ``measurement_sigma`` for attitude fixes, 0.1 rad for directions).
-    max_step : longest propagation sub-step, s.
+    max_step, max_angle : bounds on a propagation substep, s (default: none) and rad (the body's turn).
+    torque_hold : ``"zero"`` (default: a sample's torque held until the next) or ``"linear"`` (interpolated to the
+        next sample's torque; causal, as the next torque arrives with the next sample).
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`
         (the same for every estimator; ``R0`` is checked with the same tolerances).
     """
@@ -231,7 +242,9 @@ class MEKF(Estimator):
         sigma_omega0: float = 1.0,
         R0: ArrayLike | Rotation | None = None,
         sigma_theta0: float | None = None,
-        max_step: float = 0.05,
+        max_step: float = np.inf,
+        max_angle: float = NOMINAL_SUBSTEP_ANGLE,
+        torque_hold: str = "zero",
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
@@ -260,7 +273,13 @@ class MEKF(Estimator):
         if sigma_theta0 is None:
             sigma_theta0 = self.measurement_sigma if self.references is None else 0.1
         self.sigma_theta0 = float(as_positive(sigma_theta0, "sigma_theta0")[0])
-        self.max_step = float(as_positive(max_step, "max_step")[0])
+        if not max_step > 0:  # inf (no bound) is allowed
+            raise ValueError(f"max_step must be positive (inf: no bound); got {max_step!r}")
+        self.max_step = float(max_step)
+        self.max_angle = float(as_positive(max_angle, "max_angle")[0])
+        if torque_hold not in ("zero", "linear"):
+            raise ValueError(f"torque_hold must be one of ('zero', 'linear'); got {torque_hold!r}")
+        self.torque_hold = torque_hold
         self.reset()
 
     def reset(self) -> None:
@@ -293,7 +312,17 @@ class MEKF(Estimator):
         R, omega, P = self.R, self.omega, self.P
         if self.t is not None and R is not None:
             R, omega, P = propagate(
-                R, omega, P, sample.t - self.t, self._tau, self.body, self.q, self.model, self.max_step
+                R,
+                omega,
+                P,
+                sample.t - self.t,
+                self._tau,
+                self.body,
+                self.q,
+                self.model,
+                self.max_step,
+                self.max_angle,
+                sample.torque if self.torque_hold == "linear" else None,
             )
         m = sample.value
         if sample.status != ms.OK:
@@ -312,7 +341,7 @@ class MEKF(Estimator):
     def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample of a log, ``(T, 3)``: the same as calling :meth:`update` sample by sample (it
         continues from the current state, does not reset, and leaves the state as ``update`` would), but in one
-        compiled call (:mod:`omegahat.baselines.mekf_kernel`). The whole log is checked first
+        compiled call (:mod:`omegahat.baselines.mekf_kernel`, on :mod:`omegahat.kernels.ekf`). The log is checked first
         (:func:`omegahat.measurements.checked_log`): on a rejected sample the error names it and the state is left
         unchanged."""
         log = ms.checked_log(times, measurements, torques, **self._checks())
@@ -334,6 +363,8 @@ class MEKF(Estimator):
             self.q,
             self.measurement_sigma**2,
             self.max_step,
+            self.max_angle,
+            self.torque_hold == "linear",
             state,
             np.zeros((3, 3)) if self.R is None else np.array(self.R, dtype=float, order="C"),
             np.ascontiguousarray(self.P, dtype=float),

@@ -2,11 +2,11 @@
 
 ========================================  =====================================================================
 :mod:`omegahat.kernels.vec3`              3-vectors and 3×3 matrices as scalars: cross, dot, norm, M x, M⁻¹ y
-:mod:`omegahat.kernels.linalg`            small dense matrices: products, Cholesky solve, block exponential
 :mod:`omegahat.kernels.rotation`          exp/log on SO(3), quaternions, nearest rotation, dexp⁻¹, Wahba
 :mod:`omegahat.kernels.expfn`             the exponential in plain arithmetic, the φ-functions, small sin/cos
 :mod:`omegahat.kernels.dynamics`          Euler's equations, their error form, the CF4 Lie-group step
 :mod:`omegahat.kernels.observer`          the observer's own terms: innovation, filter decay, stiffness, output map
+:mod:`omegahat.kernels.ekf`               the gyro-less multiplicative EKF's step: propagation, the two fixes
 :mod:`omegahat.kernels.cache`             the on-disk cache, invalidated by any change to compiled code
 ========================================  =====================================================================
 

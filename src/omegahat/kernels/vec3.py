@@ -12,7 +12,10 @@ import math
 
 import numba
 
-__all__ = ["cross", "dot", "inverse", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "skew", "solve"]
+__all__ = [
+    "cross", "dot", "inverse", "lincomb", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "skew", "solve",
+    "transposed",
+]  # fmt: skip
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -112,3 +115,18 @@ def inverse(M):
 def skew(a0, a1, a2):
     """``a×`` as a 9-tuple: ``skew(a) x = a × x``."""
     return (0.0, -a2, a1, a2, 0.0, -a0, -a1, a0, 0.0)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def transposed(A):
+    """``Aᵀ`` of a 9-tuple."""
+    return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def lincomb(a, A, b, B):
+    """``a A + b B`` for 9-tuples and scalars a, b."""
+    return (
+        a * A[0] + b * B[0], a * A[1] + b * B[1], a * A[2] + b * B[2], a * A[3] + b * B[3], a * A[4] + b * B[4],
+        a * A[5] + b * B[5], a * A[6] + b * B[6], a * A[7] + b * B[7], a * A[8] + b * B[8],
+    )  # fmt: skip

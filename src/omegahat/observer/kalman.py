@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 from omegahat.observer import supervised
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
@@ -127,7 +128,7 @@ class SupervisedKalmanEstimator(Estimator):
             "disagree_max": float(as_positive(disagreement_samples, "disagreement_samples")[0]),
             "dynamic": 1.0,
             "max_step": np.inf,
-            "max_angle": self.observer.max_substep_angle,
+            "max_angle": NOMINAL_SUBSTEP_ANGLE,
         }
         self._ekf_params = np.array([values[name] for name in EKF_PARAMS._fields if name != "size"])
         self.reset()

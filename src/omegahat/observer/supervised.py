@@ -156,7 +156,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         tau_end = tau if p[PARAMS.linear_hold] != 0.0 else held
         ekf_propagate(
             R, w, P, t - xs[STATE.t], held, tau_end, Jm, Jinv, pe[EKF_PARAMS.q], pe[EKF_PARAMS.dynamic] != 0.0,
-            pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle], scratch,
+            pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle],
         )  # fmt: skip
     xe_out[EKF_STATE.source] = FROM_OBSERVER
     if status != checks.OK:  # skipped: both parts predicted through it; the EKF is not judged without a fix

@@ -1,0 +1,267 @@
+r"""The gyro-less multiplicative EKF's compiled step: propagation and the two fixes, in place, allocation-free.
+
+The filter of :mod:`omegahat.baselines.mekf` (``docs/baselines.md``): nominal state ``R̂`` (body → inertial) and
+``ω̂`` (body), error state ``x = [δθ; δω]`` with ``R = R̂ Exp(δθ)``, ``ω = ω̂ + δω``, covariance ``P`` (6×6)::
+
+    F = [[−W, I], [0, A]],  W = ω̂×,  A = J⁻¹((Jω̂)× − ω̂× J) (dynamic) or 0 (kinematic)                (K1)
+    process noise on δω̇ with PSD Q_ω = q J⁻¹J⁻ᵀ (dynamic: torque noise) or q I (kinematic)
+
+**Propagation** over an interval ``h`` in ``n`` equal substeps, ``n = max(1, ⌈h/max_step⌉,
+⌈h(|ω̂| + h|J⁻¹τ|)/max_angle⌉)`` for the nominal state; the covariance in substeps of at most
+:data:`COVARIANCE_SUBSTEP_ANGLE`, each spanning a whole number of the nominal state's. The torque is
+``τ(s) = τ₀ + (τ₁ − τ₀) s/h`` (``τ₁ = τ₀``: held). Per substep
+``dt``, with ``W`` and ``A`` frozen at its start, the transition ``Φ = exp(F dt) = [[Φ_θθ, Φ_θω], [0, Φ_ωω]]`` is::
+
+    Φ_θθ = Exp(−ω̂ dt)                     (exact, Rodrigues)                                        (K2)
+    Φ_θω = Σ_{k=1..3} dt^k/k! U_k,   U₁ = I, U_{k+1} = −W U_k + A^k   (the upper-right blocks of F^k)
+    Φ_ωω = Σ_{k=0..3} dt^k/k! A^k
+
+(truncation ``(|F| dt)⁴/24``: 7e-5 relative at the covariance's substeps of at most 0.2 rad, below: P models a
+gain, it does not carry the estimate) and the process covariance
+``Q_d = ∫₀^dt Φ(s) [0; I] Q_ω [0, I] Φ(s)ᵀ ds`` to its leading two orders::
+
+    Q_θθ = dt³/3 Q_ω + dt⁴/8 (U₂ Q_ω + Q_ω U₂ᵀ)                                                     (K3)
+    Q_θω = dt²/2 Q_ω + dt³/6 U₂ Q_ω + dt³/3 Q_ω Aᵀ
+    Q_ωω = dt Q_ω + dt²/2 (A Q_ω + Q_ω Aᵀ)
+
+``P ← Φ P Φᵀ + Q_d`` written in 3×3 blocks (Φ is block upper-triangular). The nominal state: CF4
+(:func:`omegahat.kernels.dynamics.cf4_increment`) with the torque at the substep's start, middle and end (dynamic),
+or ``R̂ ← R̂ Exp(ω̂ dt)`` (kinematic).
+
+**Fixes**, both with the update in Joseph form written in blocks for ``H = [C, 0]``, gain ``K = [K₁; K₂]``::
+
+    (I − KH) P (I − KH)ᵀ + σ² K Kᵀ,   I − KH = [[I − K₁C, 0], [−K₂C, I]]                          (K4)
+
+* attitude (E5): ``z = 2 dq_vec/dq_w``, ``dq`` the quaternion of ``R̂ᵀ R_m`` (``dq_w ≥ 0``), ``C = I``;
+* directions (E6): ``z_i = b_i − R̂ᵀ v_i``, ``C_i = (R̂ᵀ v_i)×``, processed one direction after the other at the
+  same linearisation point (equal to the stacked update for independent noise);
+
+then the reset ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂``. Each fix returns the normalised innovation squared
+``ν = Σ r_iᵀ S_i⁻¹ r_i`` (``r_i`` the sequential innovations, ``S_i`` their covariances): the supervisor of
+:mod:`omegahat.observer.supervised` watches it.
+
+3×3 blocks are 9-tuples (:mod:`omegahat.kernels.vec3`); ``R`` (3, 3), ``w`` (3,) and ``P`` (6, 6) are the caller's
+C-contiguous float64 arrays, updated in place; ``scratch`` holds at least :data:`EKF_SCRATCH` floats.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from omegahat.kernels.dynamics import cf4_increment
+from omegahat.kernels.rotation import exp_matrix, matrix_from_quat, quat_from_matrix, quat_from_rotvec
+from omegahat.kernels.vec3 import inverse, lincomb, mat3, matmul, matvec, matvec_transposed, skew, transposed
+
+__all__ = [
+    "COVARIANCE_SUBSTEP_ANGLE",
+    "EKF_SCRATCH",
+    "NOMINAL_SUBSTEP_ANGLE",
+    "ekf_attitude_update",
+    "ekf_propagate",
+    "ekf_substeps",
+    "ekf_vector_update",
+]
+
+EKF_SCRATCH = 9  #: floats of scratch space the fixes need (a 3×3 matrix)
+COVARIANCE_SUBSTEP_ANGLE = 0.2  #: rad: the covariance's substeps turn at most this far
+NOMINAL_SUBSTEP_ANGLE = 0.2  #: rad: the default bound on the nominal state's substeps (CF4, fourth order)
+
+_I3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def _block(P, i, j):
+    return (
+        P[i, j], P[i, j + 1], P[i, j + 2], P[i + 1, j], P[i + 1, j + 1], P[i + 1, j + 2],
+        P[i + 2, j], P[i + 2, j + 1], P[i + 2, j + 2],
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, inline="always")
+def _put(P, i, j, B):
+    for a in range(3):
+        for b in range(3):
+            P[i + a, j + b] = B[3 * a + b]
+
+
+@numba.njit(cache=True, inline="always")
+def _add(A, B, C):
+    """``A + B + C`` for 9-tuples."""
+    return lincomb(1.0, lincomb(1.0, A, 1.0, B), 1.0, C)
+
+
+@numba.njit(cache=True, inline="always")
+def _sym(A):
+    return lincomb(0.5, A, 0.5, transposed(A))
+
+
+@numba.njit(cache=True, inline="always")
+def _torque_at(tau0, tau1, s):
+    """The first-order hold at the fraction ``s`` of the interval."""
+    return (tau0[0] + s * (tau1[0] - tau0[0]), tau0[1] + s * (tau1[1] - tau0[1]), tau0[2] + s * (tau1[2] - tau0[2]))
+
+
+@numba.njit(cache=True)
+def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
+    """The number of substeps of an interval ``h`` (module docstring)."""
+    f0 = matvec(mat3(Jinv), tau0[0], tau0[1], tau0[2])
+    f1 = matvec(mat3(Jinv), tau1[0], tau1[1], tau1[2])
+    accel = max(math.sqrt(f0[0] ** 2 + f0[1] ** 2 + f0[2] ** 2), math.sqrt(f1[0] ** 2 + f1[1] ** 2 + f1[2] ** 2))
+    angle = h * (math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) + h * accel)
+    n = 1
+    if max_step < np.inf:
+        n = max(n, math.ceil(h / max_step - 1e-12))
+    if max_angle < np.inf:
+        n = max(n, math.ceil(angle / max_angle))
+    return n
+
+
+@numba.njit(cache=True)
+def ekf_propagate(R, w, P, h, tau0, tau1, J, Jinv, q, dynamic, max_step, max_angle):
+    """(K1)–(K3) over ``h`` in place; returns the number of the nominal state's substeps. The covariance takes
+    coarser substeps (at most :data:`COVARIANCE_SUBSTEP_ANGLE` each, and ``max_step``), each spanning a whole number
+    of the nominal state's: P is a gain's model, where (K2)'s truncation at 0.5 rad (3e-4 relative) is harmless,
+    while the nominal state carries the estimate itself."""
+    n_cov = ekf_substeps(h, w, Jinv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)
+    per_cov = -(-ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle) // n_cov)  # ceiling division
+    n = n_cov * per_cov
+    dt_cov = h / n_cov
+    Jm, Ji = mat3(J), mat3(Jinv)
+    Qw = matmul(Ji, transposed(Ji)) if dynamic else _I3
+    Qw = lincomb(q, Qw, 0.0, Qw)
+    for jc in range(n_cov):
+        _propagate_covariance(P, w, dt_cov, Jm, Ji, Qw, dynamic)
+        for j in range(jc * per_cov, (jc + 1) * per_cov):
+            _nominal_step(R, w, h / n, j / n, (j + 0.5) / n, (j + 1.0) / n, tau0, tau1, Jm, Ji, dynamic)
+    _put(P, 0, 0, _sym(_block(P, 0, 0)))
+    _put(P, 3, 3, _sym(_block(P, 3, 3)))
+    return n
+
+
+@numba.njit(cache=True, inline="always")
+def _nominal_step(R, w, dt, sa, sm, sb, tau0, tau1, Jm, Ji, dynamic):
+    """The nominal state over one substep, the torque at the fractions ``sa``, ``sm``, ``sb`` of the interval."""
+    w0, w1, w2 = w[0], w[1], w[2]
+    if dynamic:
+        p, w_next = cf4_increment(
+            Jm, Ji, w0, w1, w2, dt, _torque_at(tau0, tau1, sa), _torque_at(tau0, tau1, sm), _torque_at(tau0, tau1, sb)
+        )
+        w[0], w[1], w[2] = w_next
+    else:
+        p = quat_from_rotvec(dt * w0, dt * w1, dt * w2)
+    _put(R, 0, 0, matmul(mat3(R), matrix_from_quat(p[0], p[1], p[2], p[3])))
+
+
+@numba.njit(cache=True, inline="always")
+def _propagate_covariance(P, w, dt, Jm, Ji, Qw, dynamic):
+    """``P ← Φ P Φᵀ + Q_d`` over ``dt`` with (K2), (K3) at the current ω̂, in place."""
+    w0, w1, w2 = w[0], w[1], w[2]
+    W = skew(w0, w1, w2)
+    if dynamic:
+        a0, a1, a2 = matvec(Jm, w0, w1, w2)
+        A = matmul(Ji, lincomb(1.0, skew(a0, a1, a2), -1.0, matmul(W, Jm)))
+    else:
+        A = lincomb(0.0, _I3, 0.0, _I3)
+    A2 = matmul(A, A)
+    U2 = lincomb(1.0, A, -1.0, W)
+    U3 = lincomb(-1.0, matmul(W, U2), 1.0, A2)
+    c2, c3 = dt * dt / 2.0, dt**3 / 6.0
+    T = exp_matrix(-dt * w0, -dt * w1, -dt * w2)  # (K2)
+    B = lincomb(1.0, lincomb(dt, _I3, c2, U2), c3, U3)
+    D = lincomb(1.0, lincomb(1.0, _I3, dt, A), 1.0, lincomb(c2, A2, c3, matmul(A, A2)))
+    QA = matmul(Qw, transposed(A))
+    Qtt = lincomb(dt**3 / 3.0, Qw, dt**4 / 8.0, _sym(lincomb(2.0, matmul(U2, Qw), 0.0, Qw)))  # (K3)
+    Qtw = lincomb(1.0, lincomb(c2, Qw, c3, matmul(U2, Qw)), dt**3 / 3.0, QA)
+    Qww = lincomb(dt, Qw, c2, lincomb(1.0, QA, 1.0, transposed(QA)))
+    P11, P12, P22 = _block(P, 0, 0), _block(P, 0, 3), _block(P, 3, 3)
+    X = lincomb(1.0, matmul(T, P11), 1.0, matmul(B, transposed(P12)))  # first block row of Φ P
+    Y = lincomb(1.0, matmul(T, P12), 1.0, matmul(B, P22))
+    DP22 = matmul(D, P22)
+    N11 = _add(matmul(X, transposed(T)), matmul(Y, transposed(B)), Qtt)
+    N12 = lincomb(1.0, matmul(Y, transposed(D)), 1.0, Qtw)
+    N22 = lincomb(1.0, matmul(DP22, transposed(D)), 1.0, Qww)
+    _put(P, 0, 0, N11)
+    _put(P, 0, 3, N12)
+    _put(P, 3, 0, transposed(N12))
+    _put(P, 3, 3, N22)
+
+
+@numba.njit(cache=True, inline="always")
+def _joseph(P, K1, K2, C1, C2, var):
+    """(K4) in blocks, in place."""
+    P11, P12, P22 = _block(P, 0, 0), _block(P, 0, 3), _block(P, 3, 3)
+    A1 = lincomb(1.0, _I3, -1.0, C1)
+    N11 = lincomb(1.0, matmul(matmul(A1, P11), transposed(A1)), var, matmul(K1, transposed(K1)))
+    N12 = lincomb(
+        1.0, matmul(A1, lincomb(1.0, P12, -1.0, matmul(P11, transposed(C2)))), var, matmul(K1, transposed(K2))
+    )
+    X = lincomb(1.0, transposed(P12), -1.0, matmul(C2, P11))
+    N22 = _add(
+        P22,
+        lincomb(-1.0, matmul(C2, P12), -1.0, matmul(X, transposed(C2))),
+        lincomb(var, matmul(K2, transposed(K2)), 0.0, P22),
+    )
+    _put(P, 0, 0, _sym(N11))
+    _put(P, 0, 3, N12)
+    _put(P, 3, 0, transposed(N12))
+    _put(P, 3, 3, _sym(N22))
+
+
+@numba.njit(cache=True, inline="always")
+def _reset(R, w, d0, d1, d2, e0, e1, e2):
+    """(E8): ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂``."""
+    _put(R, 0, 0, matmul(mat3(R), exp_matrix(d0, d1, d2)))
+    w[0] += e0
+    w[1] += e1
+    w[2] += e2
+
+
+@numba.njit(cache=True)
+def ekf_attitude_update(R, w, P, R_meas, meas_var, scratch):
+    """The attitude fix (E5) with (K4) and the reset, in place; returns ν (3 degrees of freedom)."""
+    Dm = scratch[:9].reshape(3, 3)
+    _put(Dm, 0, 0, matmul(transposed(mat3(R)), mat3(R_meas)))
+    dq = quat_from_matrix(Dm)
+    z0, z1, z2 = 2.0 * dq[0] / dq[3], 2.0 * dq[1] / dq[3], 2.0 * dq[2] / dq[3]
+    P11, P12 = _block(P, 0, 0), _block(P, 0, 3)
+    Si = inverse(lincomb(1.0, P11, meas_var, _I3))
+    K1 = matmul(P11, Si)
+    K2 = matmul(transposed(P12), Si)
+    s0, s1, s2 = matvec(Si, z0, z1, z2)
+    nis = z0 * s0 + z1 * s1 + z2 * s2
+    d = matvec(K1, z0, z1, z2)
+    e = matvec(K2, z0, z1, z2)
+    _joseph(P, K1, K2, K1, K2, meas_var)
+    _reset(R, w, d[0], d[1], d[2], e[0], e[1], e[2])
+    return nis
+
+
+@numba.njit(cache=True)
+def ekf_vector_update(R, w, P, b, references, meas_var, scratch):
+    """The direction fix (E6), one direction after the other, with (K4) and the reset, in place; returns ν."""
+    Rt = mat3(R)
+    d = (0.0, 0.0, 0.0)
+    e = (0.0, 0.0, 0.0)
+    nis = 0.0
+    for i in range(references.shape[0]):
+        bh = matvec_transposed(Rt, references[i, 0], references[i, 1], references[i, 2])  # R̂ᵀ v_i
+        C = skew(bh[0], bh[1], bh[2])
+        Cd = matvec(C, d[0], d[1], d[2])
+        r0, r1, r2 = b[i, 0] - bh[0] - Cd[0], b[i, 1] - bh[1] - Cd[1], b[i, 2] - bh[2] - Cd[2]
+        P11, P12 = _block(P, 0, 0), _block(P, 0, 3)
+        Ct = transposed(C)
+        Si = inverse(lincomb(1.0, matmul(matmul(C, P11), Ct), meas_var, _I3))
+        K1 = matmul(matmul(P11, Ct), Si)
+        K2 = matmul(matmul(transposed(P12), Ct), Si)
+        s = matvec(Si, r0, r1, r2)
+        nis += r0 * s[0] + r1 * s[1] + r2 * s[2]
+        k1 = matvec(K1, r0, r1, r2)
+        k2 = matvec(K2, r0, r1, r2)
+        d = (d[0] + k1[0], d[1] + k1[1], d[2] + k1[2])
+        e = (e[0] + k2[0], e[1] + k2[1], e[2] + k2[2])
+        _joseph(P, K1, K2, matmul(K1, C), matmul(K2, C), meas_var)
+    _reset(R, w, d[0], d[1], d[2], e[0], e[1], e[2])
+    return nis
