@@ -55,7 +55,7 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat.baselines import mekf_kernel as kernel
 from omegahat.interface import Estimator, Measurement, Measurements
-from omegahat.kernels.ekf import COVARIANCE_SUBSTEP_ANGLE, NOMINAL_SUBSTEP_ANGLE
+from omegahat.kernels.ekf import COVARIANCE_SUBSTEP_ANGLE, MAX_SUBSTEPS, NOMINAL_SUBSTEP_ANGLE
 from omegahat.simulation.rigid_body import RigidBody, Torque, cf4_step
 from omegahat.validation import as_directions, as_inertia, as_positive, as_vector3
 
@@ -126,7 +126,7 @@ def substeps(
     h: float, omega_hat: np.ndarray, J_inv: np.ndarray, tau0: ArrayLike, tau1: ArrayLike, max_step: float,
     max_angle: float,
 ) -> int:  # fmt: skip
-    """``max(1, ⌈h/max_step⌉, ⌈h(|ω̂| + h max|J⁻¹τ|)/max_angle⌉)``: the rule of
+    """``max(1, ⌈h/max_step⌉, ⌈h(|ω̂| + h max|J⁻¹τ|)/max_angle⌉)``, at most ``MAX_SUBSTEPS``: the rule of
     :func:`omegahat.kernels.ekf.ekf_substeps`."""
     accel = max(np.linalg.norm(J_inv @ np.asarray(tau0)), np.linalg.norm(J_inv @ np.asarray(tau1)))
     angle = h * (np.linalg.norm(omega_hat) + h * accel)
@@ -134,8 +134,8 @@ def substeps(
     if np.isfinite(max_step):
         n = max(n, int(np.ceil(h / max_step - 1e-12)))
     if np.isfinite(max_angle):
-        n = max(n, int(np.ceil(angle / max_angle)))
-    return n
+        n = max(n, int(np.ceil(angle / max_angle)) if angle < MAX_SUBSTEPS * max_angle else MAX_SUBSTEPS)
+    return min(n, MAX_SUBSTEPS)
 
 
 def propagate(

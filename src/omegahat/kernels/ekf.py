@@ -58,6 +58,7 @@ from omegahat.kernels.vec3 import inverse, lincomb, mat3, matmul, matvec, matvec
 __all__ = [
     "COVARIANCE_SUBSTEP_ANGLE",
     "EKF_SCRATCH",
+    "MAX_SUBSTEPS",
     "NOMINAL_SUBSTEP_ANGLE",
     "ekf_attitude_update",
     "ekf_propagate",
@@ -68,6 +69,7 @@ __all__ = [
 EKF_SCRATCH = 9  #: floats of scratch space the fixes need (a 3×3 matrix)
 COVARIANCE_SUBSTEP_ANGLE = 0.2  #: rad: the covariance's substeps turn at most this far
 NOMINAL_SUBSTEP_ANGLE = 0.2  #: rad: the default bound on the nominal state's substeps (CF4, fourth order)
+MAX_SUBSTEPS = 10_000  #: cap per interval: a diverged filter (|ω̂| huge or not finite) must not stall the run
 
 _I3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
@@ -111,12 +113,14 @@ def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
     f1 = matvec(mat3(Jinv), tau1[0], tau1[1], tau1[2])
     accel = max(math.sqrt(f0[0] ** 2 + f0[1] ** 2 + f0[2] ** 2), math.sqrt(f1[0] ** 2 + f1[1] ** 2 + f1[2] ** 2))
     angle = h * (math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) + h * accel)
-    n = 1
+    n = 1.0
     if max_step < np.inf:
         n = max(n, math.ceil(h / max_step - 1e-12))
-    if max_angle < np.inf:
+    if max_angle < np.inf and angle < MAX_SUBSTEPS * max_angle:  # False for NaN: capped below
         n = max(n, math.ceil(angle / max_angle))
-    return n
+    elif max_angle < np.inf:
+        n = MAX_SUBSTEPS
+    return int(min(n, MAX_SUBSTEPS))
 
 
 @numba.njit(cache=True)
