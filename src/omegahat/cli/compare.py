@@ -9,6 +9,7 @@ then the robustness campaign (:mod:`omegahat.evaluation.robustness`: ``robustnes
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 from omegahat.evaluation import comparison as C
@@ -83,11 +84,14 @@ def run(args: argparse.Namespace) -> int:
     if args.robustness_runs < 0:
         raise SystemExit(f"--robustness-runs must be 0 or more; got {args.robustness_runs}")
     if args.robustness_runs:
-        config = RB.RobustnessConfig(runs=args.robustness_runs)
-        results = RB.run_campaign(config)
-        text = RB.markdown(config, results)
-        (out / "robustness.md").write_text("# omegahat compare: robustness campaign\n\n" + text + "\n")
+        texts = []
         with open(out / "robustness.csv", "w", newline="") as f:
-            RB.write_csv(f, results)
+            for i, base in enumerate((RB.RobustnessConfig(), RB.CAMPAIGN_LIKE)):
+                config = dataclasses.replace(base, runs=args.robustness_runs)
+                results = RB.run_campaign(config)
+                texts.append(RB.markdown(config, results))
+                RB.write_csv(f, results, campaign=config.name, header=i == 0)
+        text = "\n\n".join(texts)
+        (out / "robustness.md").write_text("# omegahat compare: robustness campaigns\n\n" + text + "\n")
         print("\n" + text + f"\n\nwrote {out / 'robustness.md'} and robustness.csv")
     return 0
