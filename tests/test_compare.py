@@ -28,6 +28,7 @@ def test_compare_writes_its_files_and_is_deterministic(tmp_path, capsys):
     assert [r["method"] for r in rows] == [
         "omegahat",
         "omegahat-cold",
+        "omegahat-unknown-torque",
         "sarras",
         "sarras-cold",
         "diff-backward",

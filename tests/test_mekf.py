@@ -87,16 +87,21 @@ def test_measurement_jacobians_match_finite_differences():
     np.testing.assert_array_equal(Hv[:, 3:], 0.0)
 
 
-@pytest.mark.parametrize("model", ["dynamic", "kinematic"])
-def test_discretisation_against_van_loan(model):
+@pytest.mark.parametrize(("model", "q_a"), [("dynamic", None), ("kinematic", None), ("dynamic", 0.7)])
+def test_discretisation_against_van_loan(model, q_a):
     """(K2), (K3) against the exact transition (SciPy's expm of F h) and the exact process covariance (the integral
     of e^{Fs} G Q Gᵀ e^{Fᵀs}, by quad_vec): errors at the orders the truncation states — Φ to (|F|h)⁴, Q_d to
     (|F|h)² relative — and shrinking at those orders when h halves."""
     F, G = process_jacobian(W_HAT, J, J_INV, model)
     q = 0.3
+    if q_a is not None:  # (K5): the unknown acceleration a, δω̇ = A δω + δa, ȧ white with PSD q_a
+        F9, G9 = np.zeros((9, 9)), np.zeros((9, 6))
+        F9[:6, :6], F9[3:6, 6:] = F, np.eye(3)
+        G9[:6, :3], G9[6:, 3:] = G * np.sqrt(1.0), np.eye(3) * np.sqrt(q_a / q)
+        F, G = F9, G9
     errors = []
     for h in (0.04, 0.02):
-        Phi, Qd = discretize(W_HAT, J, J_INV, model, q, h)
+        Phi, Qd = discretize(W_HAT, J, J_INV, model, q, h, q_a)
         integrand = lambda s: scipy.linalg.expm(F * s) @ (q * G @ G.T) @ scipy.linalg.expm(F * s).T  # noqa: E731
         Qd_ref, _ = scipy.integrate.quad_vec(integrand, 0.0, h, epsabs=1e-16, epsrel=1e-12)
         e_phi = np.abs(Phi - scipy.linalg.expm(F * h)).max()
@@ -264,6 +269,7 @@ def assert_same_state(a, b, rtol=1e-10):
     """Filter states equal to ``rtol`` relative (to the largest entry of ω̂ and of P)."""
     np.testing.assert_allclose(a.omega, b.omega, rtol=0, atol=rtol * np.abs(b.omega).max())
     np.testing.assert_allclose(a.P, b.P, rtol=0, atol=rtol * np.abs(b.P).max())
+    np.testing.assert_allclose(a.accel, b.accel, rtol=0, atol=rtol * max(np.abs(b.accel).max(), 1.0))
     if b.R is None:
         assert a.R is None
     else:
@@ -281,6 +287,7 @@ CASES = {
     "dynamic-attitude-gaps": ("dynamic", False, False, True, True),
     "kinematic-directions-gaps": ("kinematic", True, False, True, False),
     "dynamic-attitude-linear-hold": ("dynamic", False, False, True, "linear"),
+    "dynamic-directions-disturbance": ("dynamic", True, True, True, "disturbance"),
 }
 
 
@@ -305,6 +312,7 @@ def test_run_equals_update_loop(case):
             omega0=[0.5, 0.0, 0.0],
             sigma_omega0=1.0,
             torque_hold="linear" if torque == "linear" else "zero",
+            disturbance_noise=0.05 if torque == "disturbance" else None,
         )
 
     compiled, oracle = make(), make()

@@ -101,10 +101,11 @@ def process_jacobian(
 
 
 def discretize(
-    omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, model: str, q: float, dt: float
+    omega_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, model: str, q: float, dt: float, q_a: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """(E4) over one substep at ``omega_hat``: the transition Φ (Φ_θθ exact, the other blocks to third order) and
-    the process covariance Q_d (its leading two orders), as (K2), (K3) of :mod:`omegahat.kernels.ekf`."""
+    the process covariance Q_d (its leading two orders), as (K2), (K3) of :mod:`omegahat.kernels.ekf`; with
+    ``q_a`` (the unknown angular acceleration's random-walk PSD) the 9×9 forms of (K5)."""
     F, G = process_jacobian(omega_hat, J, J_inv, model)
     W, A = _hat(omega_hat), F[3:, 3:]
     U2 = A - W
@@ -119,7 +120,17 @@ def discretize(
     Qd[:3, 3:] = dt**2 / 2 * Qw + dt**3 / 6 * U2 @ Qw + dt**3 / 3 * Qw @ A.T
     Qd[3:, :3] = Qd[:3, 3:].T
     Qd[3:, 3:] = dt * Qw + dt**2 / 2 * (A @ Qw + Qw @ A.T)
-    return Phi, Qd
+    if q_a is None:
+        return Phi, Qd
+    I3 = np.eye(3)
+    Phi9, Qd9 = np.eye(9), np.zeros((9, 9))
+    Phi9[:6, :6], Qd9[:6, :6] = Phi, Qd
+    Phi9[:3, 6:] = dt**2 / 2 * I3 + dt**3 / 6 * U2 + dt**4 / 24 * U3
+    Phi9[3:6, 6:] = dt * I3 + dt**2 / 2 * A + dt**3 / 6 * A @ A
+    coeff = np.array(
+        [[dt**5 / 20, dt**4 / 8, dt**3 / 6], [dt**4 / 8, dt**3 / 3, dt**2 / 2], [dt**3 / 6, dt**2 / 2, dt]]
+    )
+    return Phi9, Qd9 + q_a * np.kron(coeff, I3)
 
 
 def substeps(
@@ -150,26 +161,31 @@ def propagate(
     max_step: float = np.inf,
     max_angle: float = NOMINAL_SUBSTEP_ANGLE,
     tau_end: ArrayLike | None = None,
+    q_a: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E4) over ``h`` seconds, the torque ``tau`` at the start and ``tau_end`` (default ``tau``: held) at the end;
     returns ``(R, omega, P)``. The covariance in substeps of at most ``COVARIANCE_SUBSTEP_ANGLE``, each spanning a
-    whole number of the nominal state's (:func:`omegahat.kernels.ekf.ekf_propagate`)."""
-    tau0 = np.asarray(tau, dtype=float)
-    tau1 = tau0 if tau_end is None else np.asarray(tau_end, dtype=float)
+    whole number of the nominal state's (:func:`omegahat.kernels.ekf.ekf_propagate`). With ``q_a`` (K5),
+    ``omega`` is ``[ω̂, â]`` (6) and P is 9×9; the torque ``J â`` is added to the known one."""
+    omega = np.asarray(omega, dtype=float)
+    accel = omega[3:] if q_a is not None else np.zeros(3)
+    omega = omega[:3]
+    tau0 = np.asarray(tau, dtype=float) + body.J @ accel
+    tau1 = tau0 if tau_end is None else np.asarray(tau_end, dtype=float) + body.J @ accel
     n_cov = substeps(h, omega, body.J_inv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)
     per_cov = -(-substeps(h, omega, body.J_inv, tau0, tau1, max_step, max_angle) // n_cov)
     n = n_cov * per_cov
     dt = h / n
     torque = Torque.of_time(lambda s: tau0 + (tau1 - tau0) * (s / h))
     for jc in range(n_cov):
-        Phi, Qd = discretize(omega, body.J, body.J_inv, model, q, h / n_cov)
+        Phi, Qd = discretize(omega, body.J, body.J_inv, model, q, h / n_cov, q_a)
         P = Phi @ P @ Phi.T + Qd
         for j in range(jc * per_cov, (jc + 1) * per_cov):
             if model == "dynamic":
                 R, omega = cf4_step(body, R, omega, j * dt, dt, torque)
             else:
                 R = R @ _exp(dt * omega)
-    return R, omega, 0.5 * (P + P.T)
+    return R, (omega if q_a is None else np.concatenate([omega, accel])), 0.5 * (P + P.T)
 
 
 def attitude_innovation(R_hat: np.ndarray, R_meas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -193,11 +209,14 @@ def vector_innovation(R_hat: np.ndarray, b_meas: np.ndarray, references: np.ndar
 def update(
     R: np.ndarray, omega: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, meas_var: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(E7) then the reset (E8); returns ``(R, omega, P)``."""
+    """(E7) then the reset (E8); returns ``(R, omega, P)``. With a 9×9 P (K5) ``omega`` is ``[ω̂, â]`` and H is
+    padded with zeros."""
+    n = P.shape[0]
+    H = np.hstack([H, np.zeros((H.shape[0], n - H.shape[1]))])
     S = H @ P @ H.T + meas_var * np.eye(H.shape[0])
     K = np.linalg.solve(S, H @ P).T  # P Hᵀ S⁻¹ (S and P symmetric)
     dx = K @ z
-    IKH = np.eye(6) - K @ H
+    IKH = np.eye(n) - K @ H
     P = IKH @ P @ IKH.T + meas_var * (K @ K.T)
     return R @ _exp(dx[:3]), omega + dx[3:], 0.5 * (P + P.T)
 
@@ -227,6 +246,10 @@ class MEKF(Estimator):
     max_step, max_angle : bounds on a propagation substep, s (default: none) and rad (the body's turn).
     torque_hold : ``"zero"`` (default: a sample's torque held until the next) or ``"linear"`` (interpolated to the
         next sample's torque; causal, as the next torque arrives with the next sample).
+    disturbance_noise, sigma_accel0 : None (default) or σ_d (rad/s^2.5): the state then carries an unknown angular
+        acceleration ``a`` (the torque ``J a`` the model lacks: a disturbance, or an inertia error's effect), a
+        random walk of PSD ``σ_d²`` started at 0 with standard deviation ``sigma_accel0`` (rad/s²): (K5) of
+        :mod:`omegahat.kernels.ekf`. ``accel`` holds its estimate.
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`
         (the same for every estimator; ``R0`` is checked with the same tolerances).
     """
@@ -245,6 +268,8 @@ class MEKF(Estimator):
         max_step: float = np.inf,
         max_angle: float = NOMINAL_SUBSTEP_ANGLE,
         torque_hold: str = "zero",
+        disturbance_noise: float | None = None,
+        sigma_accel0: float = 1.0,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
@@ -261,6 +286,10 @@ class MEKF(Estimator):
         self.references = None if references is None else as_directions(references, "references")
         self.omega0 = as_vector3(omega0, "omega0")
         self.sigma_omega0 = float(as_positive(sigma_omega0, "sigma_omega0")[0])
+        self.q_a = (
+            None if disturbance_noise is None else float(as_positive(disturbance_noise, "disturbance_noise")[0]) ** 2
+        )
+        self.sigma_accel0 = float(as_positive(sigma_accel0, "sigma_accel0")[0])
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
         if not 0 <= min_angle_deg < 90:
@@ -285,7 +314,9 @@ class MEKF(Estimator):
     def reset(self) -> None:
         self.R: np.ndarray | None = None if self.R0 is None else self.R0.copy()
         self.omega = self.omega0.copy()
-        self.P = np.diag([self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3)
+        self.accel = np.zeros(3)
+        prior = [self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3
+        self.P = np.diag(prior if self.q_a is None else prior + [self.sigma_accel0**2] * 3)
         self.t: float | None = None
         self._tau = np.zeros(3)
         self.n_skipped = 0
@@ -309,7 +340,8 @@ class MEKF(Estimator):
         (:mod:`omegahat.measurements`) and leaves the state as it was.
         """
         sample = ms.checked_sample(t, measurement, torque, **self._checks())
-        R, omega, P = self.R, self.omega, self.P
+        R, P = self.R, self.P
+        omega = self.omega if self.q_a is None else np.concatenate([self.omega, self.accel])
         if self.t is not None and R is not None:
             R, omega, P = propagate(
                 R,
@@ -323,6 +355,7 @@ class MEKF(Estimator):
                 self.max_step,
                 self.max_angle,
                 sample.torque if self.torque_hold == "linear" else None,
+                self.q_a,
             )
         m = sample.value
         if sample.status != ms.OK:
@@ -335,7 +368,9 @@ class MEKF(Estimator):
             else:
                 z, H = vector_innovation(R, m, self.references)
             R, omega, P = update(R, omega, P, z, H, self.measurement_sigma**2)
-        self.R, self.omega, self.P, self.t, self._tau = R, omega, P, sample.t, sample.torque.copy()
+        self.R, self.omega, self.P, self.t, self._tau = R, omega[:3], P, sample.t, sample.torque.copy()
+        if self.q_a is not None:
+            self.accel = omega[3:]
         return self.omega.copy()
 
     def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
@@ -349,7 +384,9 @@ class MEKF(Estimator):
         if T == 0:
             return np.empty((0, 3))
         directions = self.references is not None
-        state = np.array([np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega])
+        state = np.array(
+            [np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega, *self.accel]
+        )
         out, R, P, n_skipped = kernel.run_log(
             log.times,
             np.ascontiguousarray(log.values),
@@ -365,6 +402,7 @@ class MEKF(Estimator):
             self.max_step,
             self.max_angle,
             self.torque_hold == "linear",
+            0.0 if self.q_a is None else self.q_a,
             state,
             np.zeros((3, 3)) if self.R is None else np.array(self.R, dtype=float, order="C"),
             np.ascontiguousarray(self.P, dtype=float),
@@ -372,5 +410,6 @@ class MEKF(Estimator):
         )
         self.R = R if state[2] else None
         self.omega, self.P, self.t, self._tau = state[3:6].copy(), P, float(log.times[-1]), log.torques[-1].copy()
+        self.accel = state[6:9].copy()
         self.n_skipped += int(n_skipped)
         return out

@@ -23,16 +23,18 @@ __all__ = ["run_log"]
 @numba.njit(cache=True)
 def run_log(
     times, meas, valid, torques, references, directions, dynamic, J, J_inv, q, meas_var, max_step, max_angle,
-    linear_hold, state, R, P, tau,
+    linear_hold, q_a, state, R, P, tau,
 ):  # fmt: skip
     """``MEKF.update`` over a checked log. ``meas``: rotation matrices ``(T, 3, 3)`` or unit directions
     ``(T, n, 3)``; ``valid`` the usable samples. The filter's state goes in and comes out: ``state = [t_prev,
-    has_t, has_R, ω̂ (3)]`` (updated in place), ``R`` (ignored while ``has_R`` is 0), ``P``, ``tau`` the torque
-    given with the sample at ``t_prev``. Returns ``(ω̂ (T, 3), R, P, n_skipped)``."""
+    has_t, has_R, ω̂ (3), â (3)]`` (updated in place), ``R`` (ignored while ``has_R`` is 0), ``P`` (6×6, or 9×9
+    with the unknown acceleration ``â`` of PSD ``q_a``), ``tau`` the torque given with the sample at ``t_prev``.
+    Returns ``(ω̂ (T, 3), R, P, n_skipped)``."""
     T = times.size
     out = np.empty((T, 3))
     R, P, tau = R.copy(), P.copy(), tau.copy()
     omega = state[3:6].copy()
+    accel = state[6:9].copy()
     t_prev, has_t, has_R = state[0], state[1] != 0.0, state[2] != 0.0
     n_skipped = 0
     weights = np.ones(references.shape[0])
@@ -40,16 +42,18 @@ def run_log(
     for j in range(T):
         if has_t and has_R:  # (E4) with the previous sample's torque held, or the line to this sample's
             tau_end = torques[j] if linear_hold else tau
-            ekf_propagate(R, omega, P, times[j] - t_prev, tau, tau_end, J, J_inv, q, dynamic, max_step, max_angle)
+            ekf_propagate(
+                R, omega, accel, P, times[j] - t_prev, tau, tau_end, J, J_inv, q, q_a, dynamic, max_step, max_angle
+            )
         if not valid[j]:
             n_skipped += 1
         elif not has_R:  # the first fix initialises the attitude
             R = wahba(weights, references, meas[j]) if directions else meas[j].copy()
             has_R = True
         elif directions:
-            ekf_vector_update(R, omega, P, meas[j], references, meas_var, scratch)
+            ekf_vector_update(R, omega, accel, P, meas[j], references, meas_var, scratch)
         else:
-            ekf_attitude_update(R, omega, P, meas[j], meas_var, scratch)
+            ekf_attitude_update(R, omega, accel, P, meas[j], meas_var, scratch)
         t_prev = times[j]
         has_t = True
         tau = torques[j].copy()
@@ -57,4 +61,5 @@ def run_log(
             out[j, c] = omega[c]
     state[0], state[1], state[2] = t_prev, 1.0 if has_t else 0.0, 1.0 if has_R else 0.0
     state[3:6] = omega
+    state[6:9] = accel
     return out, R, P, n_skipped

@@ -6,7 +6,8 @@ methods, calls :func:`compare_scenario`, and writes what :func:`markdown`, :func
 
 Methods (``docs/baselines.md``): omegahat's default estimator (:class:`omegahat.observer.kalman.
 SupervisedKalmanEstimator`: the Sarras observer supervising a gyro-less EKF) twice, ``omegahat`` with its warm
-start (the rate from the first two samples) and ``omegahat-cold`` started from the scenario's ω̂₀; the fixed-gain
+start (the rate from the first two samples) and ``omegahat-cold`` started from the scenario's ω̂₀, and
+``omegahat-unknown-torque`` with its EKF estimating the torque the model lacks (``disturbance_noise``); the fixed-gain
 sampled Sarras estimator (:class:`omegahat.observer.estimator.SarrasEstimator`, all three rows of R, the
 observer of the paper) likewise as ``sarras`` and ``sarras-cold``; log-map differencing (backward = causal,
 central = one sample late), SciPy's ``RotationSpline`` (offline), and the gyro-less MEKF with the dynamic model
@@ -117,6 +118,14 @@ def _supervised(warm_start):
     return make
 
 
+def _unknown_torque(sc, sigma_d):
+    # The default estimator with the unknown-acceleration state (K5): its knob is that state's random-walk noise;
+    # the torque noise is then a floor (1e-6 rad/s^1.5), since the new state takes what the model lacks.
+    return SupervisedKalmanEstimator(
+        sc.J_model, rate_hz=sc.rate_hz, measurement_sigma=_meas_sigma(sc), rate_noise=1e-6, disturbance_noise=sigma_d
+    )
+
+
 def _sarras(warm_start):
     def make(sc, b_rel):
         # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
@@ -160,6 +169,14 @@ METHODS = (
         _SUPERVISED_KNOB + "; started from the scenario's w_hat0",
         _SIGMA_A,
         _supervised(False),
+        True,
+    ),
+    Method(
+        "omegahat-unknown-torque",
+        True,
+        "the unknown acceleration's random-walk noise sigma_d rad/s^2.5",
+        tuple(10.0**p for p in range(-9, 0)),
+        _unknown_torque,
         True,
     ),
     Method("sarras", True, _SARRAS_KNOB + "; warm start from the first two samples", _BANDWIDTHS, _sarras(True), True),

@@ -24,6 +24,13 @@ gain, it does not carry the estimate) and the process covariance
     Q_θω = dt²/2 Q_ω + dt³/6 U₂ Q_ω + dt³/3 Q_ω Aᵀ
     Q_ωω = dt Q_ω + dt²/2 (A Q_ω + Q_ω Aᵀ)
 
+**Unknown torque (K5).** With a 9×9 ``P`` the state carries a third block, the unknown angular acceleration
+``a`` (rad/s², body axes; the torque ``J a`` added to the known one), a random walk of PSD ``q_a``::
+
+    δω̇ = A δω + δa,  δȧ = w_a:   F = [[−W, I, 0], [0, A, I], [0, 0, 0]]
+    Φ_θa = dt²/2 I + dt³/6 U₂ + dt⁴/24 U₃,  Φ_ωa = dt I + dt²/2 A + dt³/6 A²,  Φ_aa = I
+    Q_d += q_a [[dt⁵/20, dt⁴/8, dt³/6], [dt⁴/8, dt³/3, dt²/2], [dt³/6, dt²/2, dt]] ⊗ I  (leading orders)
+
 ``P ← Φ P Φᵀ + Q_d`` written in 3×3 blocks (Φ is block upper-triangular). The nominal state: CF4
 (:func:`omegahat.kernels.dynamics.cf4_increment`) with the torque at the substep's start, middle and end (dynamic),
 or ``R̂ ← R̂ Exp(ω̂ dt)`` (kinematic).
@@ -36,12 +43,12 @@ or ``R̂ ← R̂ Exp(ω̂ dt)`` (kinematic).
 * directions (E6): ``z_i = b_i − R̂ᵀ v_i``, ``C_i = (R̂ᵀ v_i)×``, processed one direction after the other at the
   same linearisation point (equal to the stacked update for independent noise);
 
-then the reset ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂``. Each fix returns the normalised innovation squared
-``ν = Σ r_iᵀ S_i⁻¹ r_i`` (``r_i`` the sequential innovations, ``S_i`` their covariances): the supervisor of
-:mod:`omegahat.observer.supervised` watches it.
+then the reset ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂`` (and ``â ← â + δâ``). Each fix returns the normalised
+innovation squared ``ν = Σ r_iᵀ S_i⁻¹ r_i`` (``r_i`` the sequential innovations, ``S_i`` their covariances):
+the supervisor of :mod:`omegahat.observer.supervised` watches it.
 
-3×3 blocks are 9-tuples (:mod:`omegahat.kernels.vec3`); ``R`` (3, 3), ``w`` (3,) and ``P`` (6, 6) are the caller's
-C-contiguous float64 arrays, updated in place; ``scratch`` holds at least :data:`EKF_SCRATCH` floats.
+3×3 blocks are 9-tuples (:mod:`omegahat.kernels.vec3`); ``R`` (3, 3), ``w`` and ``a`` (3,), ``P`` (6, 6 or 9, 9) are
+the caller's C-contiguous float64 arrays, updated in place; ``scratch`` holds at least :data:`EKF_SCRATCH` floats.
 """
 
 from __future__ import annotations
@@ -66,7 +73,7 @@ __all__ = [
     "ekf_vector_update",
 ]
 
-EKF_SCRATCH = 9  #: floats of scratch space the fixes need (a 3×3 matrix)
+EKF_SCRATCH = 45  #: floats of scratch space the fixes need
 COVARIANCE_SUBSTEP_ANGLE = 0.2  #: rad: the covariance's substeps turn at most this far
 NOMINAL_SUBSTEP_ANGLE = 0.2  #: rad: the default bound on the nominal state's substeps (CF4, fourth order)
 MAX_SUBSTEPS = 10_000  #: cap per interval: a diverged filter (|ω̂| huge or not finite) must not stall the run
@@ -124,11 +131,11 @@ def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
 
 
 @numba.njit(cache=True)
-def ekf_propagate(R, w, P, h, tau0, tau1, J, Jinv, q, dynamic, max_step, max_angle):
-    """(K1)–(K3) over ``h`` in place; returns the number of the nominal state's substeps. The covariance takes
-    coarser substeps (at most :data:`COVARIANCE_SUBSTEP_ANGLE` each, and ``max_step``), each spanning a whole number
-    of the nominal state's: P is a gain's model, where (K2)'s truncation at 0.5 rad (3e-4 relative) is harmless,
-    while the nominal state carries the estimate itself."""
+def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step, max_angle):
+    """(K1)–(K3) over ``h`` in place; returns the number of the nominal state's substeps. ``a`` is the estimated
+    unknown angular acceleration (used when ``P`` is 9×9: (K5)); the covariance takes substeps of at most
+    :data:`COVARIANCE_SUBSTEP_ANGLE` (and ``max_step``), each spanning a whole number of the nominal state's."""
+    aug = P.shape[0] == 9
     n_cov = ekf_substeps(h, w, Jinv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)
     per_cov = -(-ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle) // n_cov)  # ceiling division
     n = n_cov * per_cov
@@ -136,12 +143,16 @@ def ekf_propagate(R, w, P, h, tau0, tau1, J, Jinv, q, dynamic, max_step, max_ang
     Jm, Ji = mat3(J), mat3(Jinv)
     Qw = matmul(Ji, transposed(Ji)) if dynamic else _I3
     Qw = lincomb(q, Qw, 0.0, Qw)
+    d0, d1, d2 = matvec(Jm, a[0], a[1], a[2]) if aug else (0.0, 0.0, 0.0)  # J â: the disturbance torque
+    t0 = (tau0[0] + d0, tau0[1] + d1, tau0[2] + d2)
+    t1 = (tau1[0] + d0, tau1[1] + d1, tau1[2] + d2)
     for jc in range(n_cov):
-        _propagate_covariance(P, w, dt_cov, Jm, Ji, Qw, dynamic)
+        _propagate_covariance(P, w, dt_cov, Jm, Ji, Qw, q_a, dynamic, aug)
         for j in range(jc * per_cov, (jc + 1) * per_cov):
-            _nominal_step(R, w, h / n, j / n, (j + 0.5) / n, (j + 1.0) / n, tau0, tau1, Jm, Ji, dynamic)
-    _put(P, 0, 0, _sym(_block(P, 0, 0)))
-    _put(P, 3, 3, _sym(_block(P, 3, 3)))
+            _nominal_step(R, w, h / n, j / n, (j + 0.5) / n, (j + 1.0) / n, t0, t1, Jm, Ji, dynamic)
+    for i in range(P.shape[0]):
+        for k in range(i):
+            P[i, k] = P[k, i] = 0.5 * (P[i, k] + P[k, i])
     return n
 
 
@@ -160,8 +171,8 @@ def _nominal_step(R, w, dt, sa, sm, sb, tau0, tau1, Jm, Ji, dynamic):
 
 
 @numba.njit(cache=True, inline="always")
-def _propagate_covariance(P, w, dt, Jm, Ji, Qw, dynamic):
-    """``P ← Φ P Φᵀ + Q_d`` over ``dt`` with (K2), (K3) at the current ω̂, in place."""
+def _propagate_covariance(P, w, dt, Jm, Ji, Qw, q_a, dynamic, aug):
+    """``P ← Φ P Φᵀ + Q_d`` over ``dt`` with (K2), (K3) (and (K5) when ``aug``) at the current ω̂, in place."""
     w0, w1, w2 = w[0], w[1], w[2]
     W = skew(w0, w1, w2)
     if dynamic:
@@ -172,100 +183,157 @@ def _propagate_covariance(P, w, dt, Jm, Ji, Qw, dynamic):
     A2 = matmul(A, A)
     U2 = lincomb(1.0, A, -1.0, W)
     U3 = lincomb(-1.0, matmul(W, U2), 1.0, A2)
-    c2, c3 = dt * dt / 2.0, dt**3 / 6.0
+    c2, c3, c4 = dt * dt / 2.0, dt**3 / 6.0, dt**4 / 24.0
     T = exp_matrix(-dt * w0, -dt * w1, -dt * w2)  # (K2)
     B = lincomb(1.0, lincomb(dt, _I3, c2, U2), c3, U3)
     D = lincomb(1.0, lincomb(1.0, _I3, dt, A), 1.0, lincomb(c2, A2, c3, matmul(A, A2)))
     QA = matmul(Qw, transposed(A))
-    Qtt = lincomb(dt**3 / 3.0, Qw, dt**4 / 8.0, _sym(lincomb(2.0, matmul(U2, Qw), 0.0, Qw)))  # (K3)
-    Qtw = lincomb(1.0, lincomb(c2, Qw, c3, matmul(U2, Qw)), dt**3 / 3.0, QA)
-    Qww = lincomb(dt, Qw, c2, lincomb(1.0, QA, 1.0, transposed(QA)))
-    P11, P12, P22 = _block(P, 0, 0), _block(P, 0, 3), _block(P, 3, 3)
-    X = lincomb(1.0, matmul(T, P11), 1.0, matmul(B, transposed(P12)))  # first block row of Φ P
-    Y = lincomb(1.0, matmul(T, P12), 1.0, matmul(B, P22))
-    DP22 = matmul(D, P22)
-    N11 = _add(matmul(X, transposed(T)), matmul(Y, transposed(B)), Qtt)
-    N12 = lincomb(1.0, matmul(Y, transposed(D)), 1.0, Qtw)
-    N22 = lincomb(1.0, matmul(DP22, transposed(D)), 1.0, Qww)
-    _put(P, 0, 0, N11)
-    _put(P, 0, 3, N12)
-    _put(P, 3, 0, transposed(N12))
-    _put(P, 3, 3, N22)
+    Q00 = lincomb(dt**3 / 3.0, Qw, dt**4 / 8.0, _sym(lincomb(2.0, matmul(U2, Qw), 0.0, Qw)))  # (K3)
+    Q01 = lincomb(1.0, lincomb(c2, Qw, c3, matmul(U2, Qw)), dt**3 / 3.0, QA)
+    Q11 = lincomb(dt, Qw, c2, lincomb(1.0, QA, 1.0, transposed(QA)))
+    P00, P01, P11 = _block(P, 0, 0), _block(P, 0, 3), _block(P, 3, 3)
+    X00 = lincomb(1.0, matmul(T, P00), 1.0, matmul(B, transposed(P01)))  # X = Φ P, block by block
+    X01 = lincomb(1.0, matmul(T, P01), 1.0, matmul(B, P11))
+    X11 = matmul(D, P11)
+    if aug:  # (K5): the disturbance's blocks of Φ, its share of Q_d, its rows and columns of P
+        E = lincomb(1.0, lincomb(c2, _I3, c3, U2), c4, U3)
+        G = lincomb(1.0, lincomb(dt, _I3, c2, A), c3, A2)
+        P02, P12, P22 = _block(P, 0, 6), _block(P, 3, 6), _block(P, 6, 6)
+        X00 = lincomb(1.0, X00, 1.0, matmul(E, transposed(P02)))
+        X01 = lincomb(1.0, X01, 1.0, matmul(E, transposed(P12)))
+        X02 = _add(matmul(T, P02), matmul(B, P12), matmul(E, P22))
+        X11 = lincomb(1.0, X11, 1.0, matmul(G, transposed(P12)))
+        X12 = lincomb(1.0, matmul(D, P12), 1.0, matmul(G, P22))
+        Q00 = lincomb(1.0, Q00, q_a * dt**5 / 20.0, _I3)
+        Q01 = lincomb(1.0, Q01, q_a * dt**4 / 8.0, _I3)
+        Q11 = lincomb(1.0, Q11, q_a * dt**3 / 3.0, _I3)
+        N00 = _add(matmul(X00, transposed(T)), matmul(X01, transposed(B)), matmul(X02, transposed(E)))
+        N01 = lincomb(1.0, matmul(X01, transposed(D)), 1.0, matmul(X02, transposed(G)))
+        N11 = lincomb(1.0, matmul(X11, transposed(D)), 1.0, matmul(X12, transposed(G)))
+        N02 = lincomb(1.0, X02, q_a * dt**3 / 6.0, _I3)
+        N12 = lincomb(1.0, X12, q_a * dt * dt / 2.0, _I3)
+        _put(P, 0, 6, N02)
+        _put(P, 6, 0, transposed(N02))
+        _put(P, 3, 6, N12)
+        _put(P, 6, 3, transposed(N12))
+        _put(P, 6, 6, lincomb(1.0, P22, q_a * dt, _I3))
+    else:
+        N00 = lincomb(1.0, matmul(X00, transposed(T)), 1.0, matmul(X01, transposed(B)))
+        N01 = matmul(X01, transposed(D))
+        N11 = matmul(X11, transposed(D))
+    N01 = lincomb(1.0, N01, 1.0, Q01)
+    _put(P, 0, 0, lincomb(1.0, N00, 1.0, Q00))
+    _put(P, 0, 3, N01)
+    _put(P, 3, 0, transposed(N01))
+    _put(P, 3, 3, lincomb(1.0, N11, 1.0, Q11))
 
 
 @numba.njit(cache=True, inline="always")
-def _joseph(P, K1, K2, C1, C2, var):
-    """(K4) in blocks, in place."""
-    P11, P12, P22 = _block(P, 0, 0), _block(P, 0, 3), _block(P, 3, 3)
-    A1 = lincomb(1.0, _I3, -1.0, C1)
-    N11 = lincomb(1.0, matmul(matmul(A1, P11), transposed(A1)), var, matmul(K1, transposed(K1)))
-    N12 = lincomb(
-        1.0, matmul(A1, lincomb(1.0, P12, -1.0, matmul(P11, transposed(C2)))), var, matmul(K1, transposed(K2))
-    )
-    X = lincomb(1.0, transposed(P12), -1.0, matmul(C2, P11))
-    N22 = _add(
-        P22,
-        lincomb(-1.0, matmul(C2, P12), -1.0, matmul(X, transposed(C2))),
-        lincomb(var, matmul(K2, transposed(K2)), 0.0, P22),
-    )
-    _put(P, 0, 0, _sym(N11))
-    _put(P, 0, 3, N12)
-    _put(P, 3, 0, transposed(N12))
-    _put(P, 3, 3, _sym(N22))
+def _joseph(P, Ks, C, var):
+    """(K4) in blocks, in place, for ``H = [C, 0 …]`` and the gain blocks ``Ks[i]`` (9 floats each):
+    ``M = (I − KH) P``, ``M_ij = P_ij − K_i C P_0j``; ``N_ij = M_ij − M_i0 (K_j C)ᵀ + σ² K_i K_jᵀ``."""
+    nb = P.shape[0] // 3
+    K0 = (Ks[0, 0], Ks[0, 1], Ks[0, 2], Ks[0, 3], Ks[0, 4], Ks[0, 5], Ks[0, 6], Ks[0, 7], Ks[0, 8])
+    K1 = (Ks[1, 0], Ks[1, 1], Ks[1, 2], Ks[1, 3], Ks[1, 4], Ks[1, 5], Ks[1, 6], Ks[1, 7], Ks[1, 8])
+    KC0, KC1 = matmul(K0, C), matmul(K1, C)
+    P00, P01, P11 = _block(P, 0, 0), _block(P, 0, 3), _block(P, 3, 3)
+    M00 = lincomb(1.0, P00, -1.0, matmul(KC0, P00))
+    M01 = lincomb(1.0, P01, -1.0, matmul(KC0, P01))
+    M10 = lincomb(1.0, transposed(P01), -1.0, matmul(KC1, P00))
+    M11 = lincomb(1.0, P11, -1.0, matmul(KC1, P01))
+    N00 = lincomb(1.0, lincomb(1.0, M00, -1.0, matmul(M00, transposed(KC0))), var, matmul(K0, transposed(K0)))
+    N01 = lincomb(1.0, lincomb(1.0, M01, -1.0, matmul(M00, transposed(KC1))), var, matmul(K0, transposed(K1)))
+    N11 = lincomb(1.0, lincomb(1.0, M11, -1.0, matmul(M10, transposed(KC1))), var, matmul(K1, transposed(K1)))
+    if nb == 3:
+        K2 = (Ks[2, 0], Ks[2, 1], Ks[2, 2], Ks[2, 3], Ks[2, 4], Ks[2, 5], Ks[2, 6], Ks[2, 7], Ks[2, 8])
+        KC2 = matmul(K2, C)
+        P02, P12, P22 = _block(P, 0, 6), _block(P, 3, 6), _block(P, 6, 6)
+        M02 = lincomb(1.0, P02, -1.0, matmul(KC0, P02))
+        M12 = lincomb(1.0, P12, -1.0, matmul(KC1, P02))
+        M20 = lincomb(1.0, transposed(P02), -1.0, matmul(KC2, P00))
+        M22 = lincomb(1.0, P22, -1.0, matmul(KC2, P02))
+        N02 = lincomb(1.0, lincomb(1.0, M02, -1.0, matmul(M00, transposed(KC2))), var, matmul(K0, transposed(K2)))
+        N12 = lincomb(1.0, lincomb(1.0, M12, -1.0, matmul(M10, transposed(KC2))), var, matmul(K1, transposed(K2)))
+        N22 = lincomb(1.0, lincomb(1.0, M22, -1.0, matmul(M20, transposed(KC2))), var, matmul(K2, transposed(K2)))
+        _put(P, 0, 6, N02)
+        _put(P, 6, 0, transposed(N02))
+        _put(P, 3, 6, N12)
+        _put(P, 6, 3, transposed(N12))
+        _put(P, 6, 6, _sym(N22))
+    _put(P, 0, 0, _sym(N00))
+    _put(P, 0, 3, N01)
+    _put(P, 3, 0, transposed(N01))
+    _put(P, 3, 3, _sym(N11))
 
 
 @numba.njit(cache=True, inline="always")
-def _reset(R, w, d0, d1, d2, e0, e1, e2):
-    """(E8): ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂``."""
-    _put(R, 0, 0, matmul(mat3(R), exp_matrix(d0, d1, d2)))
-    w[0] += e0
-    w[1] += e1
-    w[2] += e2
+def _gains(P, C, Si, Ks):
+    """``K_i = P_i0 Cᵀ S⁻¹`` for every block row of P, into ``Ks`` (one row of 9 per block)."""
+    Ct = transposed(C)
+    for i in range(P.shape[0] // 3):
+        K = matmul(matmul(_block(P, 3 * i, 0), Ct), Si)
+        for k in range(9):
+            Ks[i, k] = K[k]
+
+
+@numba.njit(cache=True, inline="always")
+def _apply(Ks, dx, r0, r1, r2):
+    """``δx += K r``: ``dx`` holds the correction, 3 per block."""
+    for i in range(Ks.shape[0]):
+        for c in range(3):
+            dx[3 * i + c] += Ks[i, 3 * c] * r0 + Ks[i, 3 * c + 1] * r1 + Ks[i, 3 * c + 2] * r2
+
+
+@numba.njit(cache=True, inline="always")
+def _reset(R, w, a, dx, aug):
+    """(E8): ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂`` (and ``â ← â + δâ``)."""
+    _put(R, 0, 0, matmul(mat3(R), exp_matrix(dx[0], dx[1], dx[2])))
+    for c in range(3):
+        w[c] += dx[3 + c]
+        if aug:
+            a[c] += dx[6 + c]
 
 
 @numba.njit(cache=True)
-def ekf_attitude_update(R, w, P, R_meas, meas_var, scratch):
-    """The attitude fix (E5) with (K4) and the reset, in place; returns ν (3 degrees of freedom)."""
+def ekf_attitude_update(R, w, a, P, R_meas, meas_var, scratch):
+    """The attitude fix (E5) with (K4) and the reset, in place; returns ν (3 degrees of freedom). ``scratch``:
+    at least :data:`EKF_SCRATCH` floats."""
+    nb = P.shape[0] // 3
     Dm = scratch[:9].reshape(3, 3)
+    Ks = scratch[9:36].reshape(3, 9)[:nb]
+    dx = scratch[36:45]
+    dx[:] = 0.0
     _put(Dm, 0, 0, matmul(transposed(mat3(R)), mat3(R_meas)))
     dq = quat_from_matrix(Dm)
     z0, z1, z2 = 2.0 * dq[0] / dq[3], 2.0 * dq[1] / dq[3], 2.0 * dq[2] / dq[3]
-    P11, P12 = _block(P, 0, 0), _block(P, 0, 3)
-    Si = inverse(lincomb(1.0, P11, meas_var, _I3))
-    K1 = matmul(P11, Si)
-    K2 = matmul(transposed(P12), Si)
+    Si = inverse(lincomb(1.0, _block(P, 0, 0), meas_var, _I3))
+    _gains(P, _I3, Si, Ks)
     s0, s1, s2 = matvec(Si, z0, z1, z2)
-    nis = z0 * s0 + z1 * s1 + z2 * s2
-    d = matvec(K1, z0, z1, z2)
-    e = matvec(K2, z0, z1, z2)
-    _joseph(P, K1, K2, K1, K2, meas_var)
-    _reset(R, w, d[0], d[1], d[2], e[0], e[1], e[2])
-    return nis
+    _apply(Ks, dx, z0, z1, z2)
+    _joseph(P, Ks, _I3, meas_var)
+    _reset(R, w, a, dx, nb == 3)
+    return z0 * s0 + z1 * s1 + z2 * s2
 
 
 @numba.njit(cache=True)
-def ekf_vector_update(R, w, P, b, references, meas_var, scratch):
+def ekf_vector_update(R, w, a, P, b, references, meas_var, scratch):
     """The direction fix (E6), one direction after the other, with (K4) and the reset, in place; returns ν."""
+    nb = P.shape[0] // 3
+    Ks = scratch[9:36].reshape(3, 9)[:nb]
+    dx = scratch[36:45]
+    dx[:] = 0.0
     Rt = mat3(R)
-    d = (0.0, 0.0, 0.0)
-    e = (0.0, 0.0, 0.0)
     nis = 0.0
     for i in range(references.shape[0]):
         bh = matvec_transposed(Rt, references[i, 0], references[i, 1], references[i, 2])  # R̂ᵀ v_i
         C = skew(bh[0], bh[1], bh[2])
-        Cd = matvec(C, d[0], d[1], d[2])
+        Cd = matvec(C, dx[0], dx[1], dx[2])
         r0, r1, r2 = b[i, 0] - bh[0] - Cd[0], b[i, 1] - bh[1] - Cd[1], b[i, 2] - bh[2] - Cd[2]
-        P11, P12 = _block(P, 0, 0), _block(P, 0, 3)
-        Ct = transposed(C)
-        Si = inverse(lincomb(1.0, matmul(matmul(C, P11), Ct), meas_var, _I3))
-        K1 = matmul(matmul(P11, Ct), Si)
-        K2 = matmul(matmul(transposed(P12), Ct), Si)
+        Si = inverse(lincomb(1.0, matmul(matmul(C, _block(P, 0, 0)), transposed(C)), meas_var, _I3))
+        _gains(P, C, Si, Ks)
         s = matvec(Si, r0, r1, r2)
         nis += r0 * s[0] + r1 * s[1] + r2 * s[2]
-        k1 = matvec(K1, r0, r1, r2)
-        k2 = matvec(K2, r0, r1, r2)
-        d = (d[0] + k1[0], d[1] + k1[1], d[2] + k1[2])
-        e = (e[0] + k2[0], e[1] + k2[1], e[2] + k2[2])
-        _joseph(P, K1, K2, matmul(K1, C), matmul(K2, C), meas_var)
-    _reset(R, w, d[0], d[1], d[2], e[0], e[1], e[2])
+        _apply(Ks, dx, r0, r1, r2)
+        _joseph(P, Ks, C, meas_var)
+    _reset(R, w, a, dx, nb == 3)
     return nis

@@ -60,6 +60,10 @@ class SupervisedKalmanEstimator(Estimator):
     torque_hold : ``"linear"`` (default) or ``"zero"``, for both parts.
     observer_bandwidth : the observer's isotropic rate per hertz of sample rate (default 1: the observer's error
         halves every sample).
+    disturbance_noise, sigma_accel0 : for a body whose torque (or inertia) is not fully known: None (default) or
+        σ_d (rad/s^2.5); the EKF then also estimates the unknown angular acceleration ``a`` (the torque ``J a`` the
+        model lacks), a random walk of PSD ``σ_d²``, prior standard deviation ``sigma_accel0`` (rad/s²), so that it
+        predicts with it between samples instead of holding the modelled motion (``docs/theory/supervised.md``).
     nis_window, nis_max, disagreement_factor, disagreement_samples : the supervisor's constants (S1)–(S3).
     """
 
@@ -77,6 +81,8 @@ class SupervisedKalmanEstimator(Estimator):
         warm_start: bool | None = None,
         torque_hold: str = "zero",
         observer_bandwidth: float = 1.0,
+        disturbance_noise: float | None = None,
+        sigma_accel0: float = 1.0,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
@@ -129,6 +135,10 @@ class SupervisedKalmanEstimator(Estimator):
             "dynamic": 1.0,
             "max_step": np.inf,
             "max_angle": NOMINAL_SUBSTEP_ANGLE,
+            "q_a": 0.0
+            if disturbance_noise is None
+            else float(as_positive(disturbance_noise, "disturbance_noise")[0]) ** 2,
+            "sigma_accel": float(as_positive(sigma_accel0, "sigma_accel0")[0]),
         }
         self._ekf_params = np.array([values[name] for name in EKF_PARAMS._fields if name != "size"])
         self.reset()
@@ -157,8 +167,15 @@ class SupervisedKalmanEstimator(Estimator):
 
     @property
     def ekf_covariance(self) -> np.ndarray:
-        """The EKF's error covariance ``P`` (6×6: attitude error, rate error)."""
-        return self._xe[EKF_STATE.P : EKF_STATE.P + 36].reshape(6, 6).copy()
+        """The EKF's error covariance ``P`` (6×6: attitude error, rate error; 9×9 with the unknown acceleration)."""
+        n = 9 if self._ekf_params[EKF_PARAMS.q_a] > 0.0 else 6
+        return self._xe[EKF_STATE.P : EKF_STATE.P + n * n].reshape(n, n).copy()
+
+    @property
+    def accel(self) -> np.ndarray:
+        """The EKF's estimate of the unknown angular acceleration (rad/s², body axes; zero unless
+        ``disturbance_noise`` is given)."""
+        return self._xe[EKF_STATE.accel : EKF_STATE.accel + 3].copy()
 
     def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
         """Take the sample at ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""

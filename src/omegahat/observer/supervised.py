@@ -55,7 +55,8 @@ FROM_EKF = 1.0  #: the output came from the EKF
 
 class EkfStateLayout(NamedTuple):
     """Offsets in the EKF's flat state: started (0/1), ν̄ (S1), c (S2), resets so far, the output's source
-    (:data:`FROM_OBSERVER` / :data:`FROM_EKF`), R̂ (9, row-major), ω̂ (3), P (36, row-major)."""
+    (:data:`FROM_OBSERVER` / :data:`FROM_EKF`), R̂ (9, row-major), ω̂ (3), the unknown acceleration â (3; zero
+    unless the filter carries it), P (36 or 81, row-major; room for 81)."""
 
     started: int
     nis_avg: int
@@ -64,16 +65,20 @@ class EkfStateLayout(NamedTuple):
     source: int
     R: int
     omega: int
+    accel: int
     P: int
     size: int
 
 
-EKF_STATE = EkfStateLayout(started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, P=17, size=53)
+EKF_STATE = EkfStateLayout(
+    started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, accel=17, P=20, size=101
+)
 
 
 class EkfParamLayout(NamedTuple):
     """Offsets in the EKF's flat parameters: process-noise PSD q, measurement variance, σ_θ of a reset, σ_obs,
-    α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad)."""
+    α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad), the unknown acceleration's PSD q_a
+    (rad²/s⁵; 0: not carried) and its prior σ (rad/s²)."""
 
     q: int
     meas_var: int
@@ -86,12 +91,14 @@ class EkfParamLayout(NamedTuple):
     dynamic: int
     max_step: int
     max_angle: int
+    q_a: int
+    sigma_accel: int
     size: int
 
 
 EKF_PARAMS = EkfParamLayout(
     q=0, meas_var=1, sigma_theta=2, sigma_obs=3, alpha=4, nis_max=5, kappa=6, disagree_max=7, dynamic=8, max_step=9,
-    max_angle=10, size=11,
+    max_angle=10, q_a=11, sigma_accel=12, size=13,
 )  # fmt: skip
 
 
@@ -102,18 +109,28 @@ def initial_ekf_state() -> np.ndarray:
     return x
 
 
+@numba.njit(cache=True, inline="always")
+def _covariance(xe, pe):
+    """The EKF's P inside its flat state: 6×6, or 9×9 when it carries the unknown acceleration."""
+    n = 9 if pe[EKF_PARAMS.q_a] > 0.0 else 6
+    return xe[EKF_STATE.P : EKF_STATE.P + n * n].reshape(n, n)
+
+
 @numba.njit(cache=True)
 def _reinitialise(xe, pe, w_obs, R_meas):
-    """(S4): the EKF restarted from the observer's rate and the measured attitude."""
+    """(S4): the EKF restarted from the observer's rate and the measured attitude (an unknown acceleration it
+    carries keeps its estimate, with its prior variance again)."""
     R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     R[:, :] = R_meas
     xe[EKF_STATE.omega : EKF_STATE.omega + 3] = w_obs
-    P = xe[EKF_STATE.P : EKF_STATE.P + 36].reshape(6, 6)
+    P = _covariance(xe, pe)
     P[:, :] = 0.0
     var_w = pe[EKF_PARAMS.sigma_obs] ** 2 / 3.0
     for i in range(3):
         P[i, i] = pe[EKF_PARAMS.sigma_theta] ** 2
         P[3 + i, 3 + i] = var_w
+        if P.shape[0] == 9:
+            P[6 + i, 6 + i] = pe[EKF_PARAMS.sigma_accel] ** 2
     xe[EKF_STATE.nis_avg] = 1.0
     xe[EKF_STATE.disagree] = 0.0
 
@@ -145,7 +162,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     n = int(p[PARAMS.n])
     R = xe_out[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     w = xe_out[EKF_STATE.omega : EKF_STATE.omega + 3]
-    P = xe_out[EKF_STATE.P : EKF_STATE.P + 36].reshape(6, 6)
+    a = xe_out[EKF_STATE.accel : EKF_STATE.accel + 3]
+    P = _covariance(xe_out, pe)
     scratch = ek[:EKF_SCRATCH]
     R_meas = ek[EKF_SCRATCH : EKF_SCRATCH + 9].reshape(3, 3)
     Jm = p[PARAMS.J : PARAMS.J + 9].reshape(3, 3)
@@ -155,8 +173,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         held = xs[STATE.torque : STATE.torque + 3]
         tau_end = tau if p[PARAMS.linear_hold] != 0.0 else held
         ekf_propagate(
-            R, w, P, t - xs[STATE.t], held, tau_end, Jm, Jinv, pe[EKF_PARAMS.q], pe[EKF_PARAMS.dynamic] != 0.0,
-            pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle],
+            R, w, a, P, t - xs[STATE.t], held, tau_end, Jm, Jinv, pe[EKF_PARAMS.q], pe[EKF_PARAMS.q_a],
+            pe[EKF_PARAMS.dynamic] != 0.0, pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle],
         )  # fmt: skip
     xe_out[EKF_STATE.source] = FROM_OBSERVER
     if status != checks.OK:  # skipped: both parts predicted through it; the EKF is not judged without a fix
@@ -173,9 +191,9 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         return status, info, w_obs
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
-        nis = ekf_vector_update(R, w, P, r_meas, V, pe[EKF_PARAMS.meas_var], scratch) / (3.0 * n)
+        nis = ekf_vector_update(R, w, a, P, r_meas, V, pe[EKF_PARAMS.meas_var], scratch) / (3.0 * n)
     else:
-        nis = ekf_attitude_update(R, w, P, R_meas, pe[EKF_PARAMS.meas_var], scratch) / 3.0
+        nis = ekf_attitude_update(R, w, a, P, R_meas, pe[EKF_PARAMS.meas_var], scratch) / 3.0
     alpha = pe[EKF_PARAMS.alpha]
     nis_avg = (1.0 - alpha) * xe[EKF_STATE.nis_avg] + alpha * nis  # (S1)
     d0, d1, d2 = w[0] - w_obs[0], w[1] - w_obs[1], w[2] - w_obs[2]
