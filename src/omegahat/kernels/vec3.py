@@ -65,22 +65,8 @@ def matvec_transposed(M, x0, x1, x2):
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def solve(M, y0, y1, y2):
-    """``M⁻¹ y`` by the adjugate (Cramer's rule), for a well-conditioned 9-tuple ``M``."""
-    c00 = M[4] * M[8] - M[5] * M[7]
-    c01 = M[5] * M[6] - M[3] * M[8]
-    c02 = M[3] * M[7] - M[4] * M[6]
-    det = M[0] * c00 + M[1] * c01 + M[2] * c02
-    c10 = M[2] * M[7] - M[1] * M[8]
-    c11 = M[0] * M[8] - M[2] * M[6]
-    c12 = M[1] * M[6] - M[0] * M[7]
-    c20 = M[1] * M[5] - M[2] * M[4]
-    c21 = M[2] * M[3] - M[0] * M[5]
-    c22 = M[0] * M[4] - M[1] * M[3]
-    return (
-        (c00 * y0 + c10 * y1 + c20 * y2) / det,
-        (c01 * y0 + c11 * y1 + c21 * y2) / det,
-        (c02 * y0 + c12 * y1 + c22 * y2) / det,
-    )
+    """``M⁻¹ y`` by the adjugate (Cramer's rule, :func:`inverse`), for a well-conditioned 9-tuple ``M``."""
+    return matvec(inverse(M), y0, y1, y2)
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
