@@ -19,8 +19,11 @@ through) or ``unavailable`` (no estimate yet: ``nan``). For a bag input also ``-
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
 and renamed at the end: whole or absent.
 
-Gains: automatic unless ``--bandwidth`` (Hz, as ``tuning.sensor_gains(bandwidth_hz=...)``) or ``--k``/``--l``
-are given (:func:`omegahat.observer.autogain.select_gains`); what was chosen and why is printed. The estimate
+Estimator: with ``--inertia`` (a model) and no gains given, omegahat's default estimator, the observer supervising a
+gyro-less Kalman filter (its process noise chosen from the log, :func:`omegahat.observer.autogain.choose_rate_noise`);
+otherwise, or with ``--estimator sarras``, the fixed-gain observer. Gains: automatic unless ``--bandwidth`` (Hz, as
+``tuning.sensor_gains(bandwidth_hz=...)``) or ``--k``/``--l`` are given (:func:`omegahat.observer.autogain.
+select_gains`); what was chosen and why is printed. The estimate
 starts from a least-squares fit of the rate over the first window of the log (``--start fit``; ``warm``: from
 the first two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
 """
@@ -38,7 +41,7 @@ from tqdm import tqdm
 
 from omegahat import measurements as ms
 from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
-from omegahat.io.pipeline import STARTS, EstimateSettings, estimate_stream
+from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
 from omegahat.observer.gains import ObserverGains
@@ -136,6 +139,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="bandwidth in Hz, b (below half the sample rate), as tuning.sensor_gains(bandwidth_hz=...): every error "
         "mode of the estimate decays at least as exp(-2 pi b t) (for direction sensors every mode at that rate, "
         "whatever their geometry); default: chosen from the log (printed)",
+    )
+    model.add_argument(
+        "--estimator",
+        choices=ESTIMATORS,
+        default="auto",
+        help="auto (default): omegahat's default estimator, the observer supervising a gyro-less Kalman filter "
+        "(globally convergent, Kalman-accurate; its process noise chosen from the log), when --inertia is given and "
+        "no --bandwidth or --k/--l; else sarras, the fixed-gain observer with the gains above",
     )
     model.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     model.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")
@@ -256,6 +267,7 @@ def run(args: argparse.Namespace) -> int:
         gains=_given_gains(args, stream),
         bandwidth_hz=args.bandwidth,
         start=args.start,
+        estimator=args.estimator,
         skip_bad_samples=args.skip_bad_samples,
         rotation_tol=args.rotation_tol,
         quat_norm_tol=args.quat_norm_tol,

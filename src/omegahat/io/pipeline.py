@@ -47,6 +47,7 @@ from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream, pre
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
+from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.validation import as_directions, as_inertia
 
 __all__ = [
@@ -60,6 +61,7 @@ __all__ = [
 ]
 
 STARTS = autogain.STARTS
+ESTIMATORS = ("auto", "omegahat", "sarras")  #: auto: omegahat when the inertia is given (and no gains), else sarras
 _CLI_FLAGS = {
     "inertia": "--inertia",
     "references": "--references",
@@ -87,6 +89,8 @@ class EstimateSettings:
     """What to estimate with: ``inertia`` (3×3, 3 or 9 numbers; default identity: a locally constant rate),
     ``references`` (inertial directions ``(n, 3)``; required for direction input, default the three rows of R),
     ``gains`` or ``bandwidth_hz`` (default: chosen from the log), ``start`` (``fit``, ``warm`` or ``zero``),
+    ``estimator`` (``auto``: the default estimator — the observer supervising a gyro-less EKF — when the inertia is
+    given and no gains or bandwidth are, else the fixed-gain observer; or ``omegahat`` / ``sarras`` to choose),
     ``skip_bad_samples`` and the tolerances of :mod:`omegahat.measurements`; ``cli``: name options as the
     command line does (``--rotation-tol``) rather than as Python does (``rotation_tol=``)."""
 
@@ -95,6 +99,7 @@ class EstimateSettings:
     gains: ObserverGains | None = None
     bandwidth_hz: float | None = None
     start: str = "fit"
+    estimator: str = "auto"
     skip_bad_samples: bool = False
     rotation_tol: float = ms.ROTATION_TOL
     quat_norm_tol: float = ms.QUAT_NORM_TOL
@@ -103,6 +108,8 @@ class EstimateSettings:
     def __post_init__(self):
         if self.start not in STARTS:
             raise ValueError(f"start must be one of {', '.join(STARTS)}; got {self.start!r}")
+        if self.estimator not in ESTIMATORS:
+            raise ValueError(f"estimator must be one of {', '.join(ESTIMATORS)}; got {self.estimator!r}")
 
     def name(self, key: str) -> str:
         """An option's name as the caller writes it: ``--rotation-tol`` or ``rotation_tol``."""
@@ -398,16 +405,7 @@ def estimate_stream(
     if settings.start == "fit":
         window = autogain.fit_window(omega_b, motion.rate_hz)
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
-    est = SarrasEstimator(
-        J=J,
-        gains=gains,
-        references=refs,
-        measurement="directions" if stream.kind == "directions" else "attitude",
-        warm_start=settings.start == "warm",
-        omega_hat0=omega0,
-        rotation_tol=settings.rotation_tol,
-        quat_norm_tol=settings.quat_norm_tol,
-    )
+    est = _estimator(settings, motion, J, gains, refs, stream, omega0, report)
     h = motion.h
     del t_h, data_h, tau_h, tv, rot, motion
     with open_writer(stream) as writer:
@@ -421,13 +419,41 @@ def estimate_stream(
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_missing, summary.n_collinear, summary.n_bad = est.n_missing, est.n_collinear, bad.count
-    summary.lines = _summary_lines(summary, gains, stream, bad, J, settings, stream.notes[n_notes:])
+    summary.lines = _summary_lines(summary, est, stream, bad, J, settings, stream.notes[n_notes:])
     return summary
 
 
+def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega0, report):
+    """The estimator of the run: the default one (the observer supervising a gyro-less EKF, its process noise chosen
+    from the log) when the model is given, or asked for; else the fixed-gain observer with ``gains``."""
+    choice = settings.estimator
+    if choice == "auto":
+        model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None
+        choice = "omegahat" if model else "sarras"
+    common = {
+        "references": refs,
+        "measurement": "directions" if stream.kind == "directions" else "attitude",
+        "warm_start": settings.start == "warm",
+        "omega_hat0": omega0 if omega0 is not None else (None if settings.start == "warm" else np.zeros(3)),
+        "rotation_tol": settings.rotation_tol,
+        "quat_norm_tol": settings.quat_norm_tol,
+    }
+    if choice == "sarras":
+        return SarrasEstimator(J=J, gains=gains, **common)
+    sigma_a, text = autogain.choose_rate_noise(motion)
+    report(
+        "estimator: omegahat (the observer supervising a gyro-less EKF, as the inertia is given); "
+        f"{text}; its observer runs at {motion.rate_hz:.4g} rad/s (the sample rate), not at the bandwidth above"
+    )
+    return SupervisedKalmanEstimator(
+        J, rate_hz=motion.rate_hz, measurement_sigma=max(motion.sigma, 1e-6), rate_noise=sigma_a, **common
+    )
+
+
 def _summary_lines(
-    s: RunSummary, gains: ObserverGains, stream, bad: BadSamples, J, settings: EstimateSettings, notes
-) -> list[str]:
+    s: RunSummary, est: SarrasEstimator | SupervisedKalmanEstimator, stream, bad: BadSamples, J,
+    settings: EstimateSettings, notes,
+) -> list[str]:  # fmt: skip
     lines = [f"note: {note}" for note in notes]  # what the timestamp policy changed, known once the stream is read
     skipped = s.n_missing + s.n_collinear
     if skipped:
@@ -445,7 +471,13 @@ def _summary_lines(
             f"gaps: {s.gaps} intervals longer than twice the median spacing; the longest {s.largest_gap[0]:.4g} s "
             f"before {stream.label} {s.largest_gap[1]} (predicted through)"
         )
-    k_text, l_text = (np.array2string(a, precision=4) for a in (gains.k, gains.l_offset))
+    if isinstance(est, SupervisedKalmanEstimator):
+        lines.append(
+            f"estimator used: omegahat (observer at {est.observer_rate:.4g} rad/s, EKF rate noise {est.rate_noise:.3g} "
+            f"rad/s^1.5, {est.restarts} restarts), J diag = {np.diag(J).tolist()}, start: {settings.start}"
+        )
+        return lines
+    k_text, l_text = (np.array2string(a, precision=4) for a in (est.gains.k, est.gains.l_offset))
     lines.append(f"gains used: k = {k_text}, l = {l_text}, J diag = {np.diag(J).tolist()}, start: {settings.start}")
     return lines
 

@@ -50,6 +50,7 @@ whether the other one fits markedly better (a log written inertial → body read
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +58,7 @@ from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat.observer.gains import ObserverGains
+from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.observer.tuning import predicted_noise_std, sensor_gains
 from omegahat.validation import as_directions, as_inertia
 
@@ -65,6 +67,7 @@ __all__ = [
     "GainChoice",
     "LogMotion",
     "choose_gains",
+    "choose_rate_noise",
     "convention_check",
     "gains_for_bandwidth",
     "initial_rate",
@@ -443,3 +446,37 @@ def select_gains(
         return g, text, 2 * np.pi * b
     choice = choose_gains(motion, duration, start, refs)
     return choice.gains, "gains: " + choice.explain(), 2 * np.pi * choice.bandwidth_hz
+
+
+RATE_NOISE_GRID = tuple(10.0**p for p in range(-8, 2))  #: σ_a candidates (rad/s^1.5) for :func:`choose_rate_noise`
+
+
+def choose_rate_noise(motion: LogMotion) -> tuple[float, str]:
+    """The default estimator's process noise σ_a for this log, and a line saying why.
+
+    The EKF's noise model fits the data when its normalised innovation squared averages 1 per degree of freedom
+    (the innovations are as large as the filter predicts). :class:`omegahat.observer.kalman.SupervisedKalmanEstimator`
+    runs over the analysed samples (attitudes, the model J and torque) for every σ_a of :data:`RATE_NOISE_GRID`
+    with the measured attitude noise; the σ_a whose mean ν/m is closest to 1 (in ratio) is chosen. Too small a
+    σ_a makes the filter overconfident (ν/m ≫ 1), too large one underconfident (ν/m < 1)."""
+    R = motion.rot.as_matrix()
+    tau = motion.torque
+    sigma = max(motion.sigma, 1e-6)
+    best: tuple[float, float, float] | None = None
+    for sigma_a in RATE_NOISE_GRID:
+        est = SupervisedKalmanEstimator(motion.J, rate_hz=motion.rate_hz, measurement_sigma=sigma, rate_noise=sigma_a)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            est.run(motion.t, R, tau)
+        nis = est.mean_nis
+        if not np.isfinite(nis):
+            continue
+        miss = abs(np.log(nis))
+        if best is None or miss < best[0]:
+            best = (miss, sigma_a, nis)
+    if best is None:  # too few samples to judge: the middle of the grid
+        return 1e-3, "rate noise 0.001 rad/s^1.5 (too few samples to fit it)"
+    return best[1], (
+        f"rate noise {best[1]:.3g} rad/s^1.5, chosen from the log: the EKF's innovations average "
+        f"{best[2]:.2f} times their predicted size (1 is a fit), attitude noise {sigma:.2g} rad"
+    )

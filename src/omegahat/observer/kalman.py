@@ -148,6 +148,10 @@ class SupervisedKalmanEstimator(Estimator):
         self.observer.reset()
         self._xe = supervised.initial_ekf_state()
         self.last_source: np.ndarray | None = None
+        self.last_status: np.ndarray | None = None
+        self.n_missing = 0
+        self.n_collinear = 0
+        self.skipped_times: list[float] = []
 
     @property
     def measurement(self) -> str:
@@ -159,6 +163,13 @@ class SupervisedKalmanEstimator(Estimator):
         if self._xe[EKF_STATE.source] == supervised.FROM_EKF:
             return self._xe[EKF_STATE.omega : EKF_STATE.omega + 3].copy()
         return self.observer.omega_hat
+
+    @property
+    def mean_nis(self) -> float:
+        """The EKF's normalised innovation squared per degree of freedom, averaged over the fixes it was judged on
+        (about 1 when its noise model fits the data; NaN before any)."""
+        n = self._xe[EKF_STATE.nis_count]
+        return float(self._xe[EKF_STATE.nis_sum] / n) if n > 0 else float("nan")
 
     @property
     def restarts(self) -> int:
@@ -189,7 +200,17 @@ class SupervisedKalmanEstimator(Estimator):
         self.observer.state_vector = xs
         self._xe = xe
         self.last_source = np.array([xe[EKF_STATE.source]])
+        self.last_status = np.array([status])
+        self._count_skipped(self.last_status, np.array([float(t)]))
         return w
+
+    def _count_skipped(self, status: np.ndarray, times: np.ndarray) -> int:
+        """Count the skipped samples (``n_missing``, ``n_collinear``, ``skipped_times``); returns how many."""
+        skipped = status != ms.OK
+        self.n_missing += int(np.count_nonzero(status == ms.MISSING))
+        self.n_collinear += int(np.count_nonzero(status == ms.COLLINEAR))
+        self.skipped_times.extend(times[skipped].tolist())
+        return int(skipped.sum())
 
     def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample of a log ``(T, 3)``, continuing from the current state; atomic on rejection (the
@@ -208,7 +229,8 @@ class SupervisedKalmanEstimator(Estimator):
         self.observer.state_vector = xs
         self._xe = xe
         self.last_source = source
-        skipped = int(np.count_nonzero(status != ms.OK))
+        self.last_status = status
+        skipped = self._count_skipped(status, times)
         if skipped:
             warnings.warn(
                 f"skipped {skipped} of {T} samples (missing or nearly collinear); both parts were predicted "

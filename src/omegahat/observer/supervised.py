@@ -56,7 +56,8 @@ FROM_EKF = 1.0  #: the output came from the EKF
 class EkfStateLayout(NamedTuple):
     """Offsets in the EKF's flat state: started (0/1), ν̄ (S1), c (S2), resets so far, the output's source
     (:data:`FROM_OBSERVER` / :data:`FROM_EKF`), R̂ (9, row-major), ω̂ (3), the unknown acceleration â (3; zero
-    unless the filter carries it), P (36 or 81, row-major; room for 81)."""
+    unless the filter carries it), P (36 or 81, row-major; room for 81), then the sum of ν/m over the fixes the
+    EKF was judged on and their number (the mean tells whether its noise model fits the data)."""
 
     started: int
     nis_avg: int
@@ -67,12 +68,15 @@ class EkfStateLayout(NamedTuple):
     omega: int
     accel: int
     P: int
+    nis_sum: int
+    nis_count: int
     size: int
 
 
 EKF_STATE = EkfStateLayout(
-    started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, accel=17, P=20, size=101
-)
+    started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, accel=17, P=20, nis_sum=101, nis_count=102,
+    size=103,
+)  # fmt: skip
 
 
 class EkfParamLayout(NamedTuple):
@@ -196,6 +200,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         nis = ekf_attitude_update(R, w, a, P, R_meas, pe[EKF_PARAMS.meas_var], scratch) / 3.0
     alpha = pe[EKF_PARAMS.alpha]
     nis_avg = (1.0 - alpha) * xe[EKF_STATE.nis_avg] + alpha * nis  # (S1)
+    xe_out[EKF_STATE.nis_sum] += nis
+    xe_out[EKF_STATE.nis_count] += 1.0
     d0, d1, d2 = w[0] - w_obs[0], w[1] - w_obs[1], w[2] - w_obs[2]
     d = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     s = math.sqrt(P[3, 3] + P[4, 4] + P[5, 5])
