@@ -253,3 +253,19 @@ def test_fit_start_is_the_default_warm_and_zero_on_request(tmp_path, capsys):
     w_cold = read_output(cold)
     assert np.all(np.isnan(w_cold[0, 1:]))
     assert np.linalg.norm(w_cold[1, 1:] - OMEGA) > 0.1 * np.linalg.norm(OMEGA)
+
+
+def test_a_chunk_without_a_valid_sample_after_the_first_estimate(tmp_path, capsys):
+    """Found by the fuzz test: duplicated and missing rows around a few valid ones; the last chunk held no valid
+    sample once the estimate existed, and the command failed with an IndexError. Expected: every kept row, the
+    missing one predicted (a constant attitude: zero rate)."""
+    src, dst = tmp_path / "fz.csv", tmp_path / "out.csv"
+    src.write_text(
+        "qw,qx,qy,qz,t,note\n,,,,0.01,ok\n,,,,0.01,ok\n1.0,0.0,0.0,0.0,0.01,ok\n1.0,0.0,0.0,0.0,0.02,ok\n"
+        "1.0,0.0,0.0,0.0,0.03,ok\n,,,,0.04,ok\n"
+    )
+    code, out, err = run_cli(capsys, "estimate", src, "-o", dst, "--no-progress")
+    assert code == 0, err
+    assert dst.read_text().splitlines()[1:] == [
+        "0.01,0,0,0,corrected", "0.02,0,0,0,corrected", "0.03,0,0,0,corrected", "0.04,0,0,0,predicted"
+    ]  # fmt: skip

@@ -296,9 +296,12 @@ class _Run:
         st = self.est.last_status
         ok = np.flatnonzero(st == ms.OK)
         need = 1 if self.start == "fit" else 2  # the valid sample from which on there is an estimate
-        first = len(chunk) if self.valid_seen + ok.size < need else int(ok[max(0, need - 1 - self.valid_seen)])
-        if self.valid_seen >= need:
+        if self.valid_seen >= need:  # estimates from the chunk's start (even if it holds no valid sample)
             first = 0
+        elif self.valid_seen + ok.size < need:
+            first = len(chunk)
+        else:
+            first = int(ok[need - 1 - self.valid_seen])
         self.valid_seen += ok.size
         status = np.where(st == ms.OK, CORRECTED, PREDICTED).astype(np.int8)
         status[:first] = UNAVAILABLE
