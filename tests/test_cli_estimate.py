@@ -266,6 +266,7 @@ def test_a_chunk_without_a_valid_sample_after_the_first_estimate(tmp_path, capsy
     )
     code, out, err = run_cli(capsys, "estimate", src, "-o", dst, "--no-progress")
     assert code == 0, err
+    assert "skipped 1 of 4 samples (1 missing" in out
     assert dst.read_text().splitlines()[1:] == [
         "0.01,0,0,0,corrected", "0.02,0,0,0,corrected", "0.03,0,0,0,corrected", "0.04,0,0,0,predicted"
     ]  # fmt: skip
