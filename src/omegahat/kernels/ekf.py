@@ -156,7 +156,7 @@ def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step,
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _nominal_step(R, w, dt, sa, sm, sb, tau0, tau1, Jm, Ji, dynamic):
     """The nominal state over one substep, the torque at the fractions ``sa``, ``sm``, ``sb`` of the interval."""
     w0, w1, w2 = w[0], w[1], w[2]
@@ -170,7 +170,7 @@ def _nominal_step(R, w, dt, sa, sm, sb, tau0, tau1, Jm, Ji, dynamic):
     _put(R, 0, 0, matmul(mat3(R), matrix_from_quat(p[0], p[1], p[2], p[3])))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _propagate_covariance(P, w, dt, Jm, Ji, Qw, q_a, dynamic, aug):
     """``P ← Φ P Φᵀ + Q_d`` over ``dt`` with (K2), (K3) (and (K5) when ``aug``) at the current ω̂, in place."""
     w0, w1, w2 = w[0], w[1], w[2]
@@ -228,7 +228,7 @@ def _propagate_covariance(P, w, dt, Jm, Ji, Qw, q_a, dynamic, aug):
     _put(P, 3, 3, lincomb(1.0, N11, 1.0, Q11))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _joseph(P, Ks, C, var):
     """(K4) in blocks, in place, for ``H = [C, 0 …]`` and the gain blocks ``Ks[i]`` (9 floats each):
     ``M = (I − KH) P``, ``M_ij = P_ij − K_i C P_0j``; ``N_ij = M_ij − M_i0 (K_j C)ᵀ + σ² K_i K_jᵀ``."""
@@ -266,7 +266,7 @@ def _joseph(P, Ks, C, var):
     _put(P, 3, 3, _sym(N11))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _gains(P, C, Si, Ks):
     """``K_i = P_i0 Cᵀ S⁻¹`` for every block row of P, into ``Ks`` (one row of 9 per block)."""
     Ct = transposed(C)
