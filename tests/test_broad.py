@@ -92,7 +92,9 @@ def test_gaps_remove_the_margin_around_them():
         ({"cutoff_hz": 200.0}, r"cutoff_hz must be in \(0, fs/2 = 142\.857\); got 200\.0"),
         ({"order": 0}, r"order must be a positive integer; got 0"),
         ({"gap_margin_s": -1.0}, r"gap_margin_s must be >= 0; got -1\.0"),
-        ({"max_shift": 1.5}, r"max_shift must be a non-negative integer; got 1\.5"),
+        ({"max_shift": -1.5}, r"max_shift must be >= 0 samples; got -1\.5"),
+        ({"resolution": 2.0}, r"resolution must be in \(0, 1\] samples; got 2\.0"),
+        ({"estimate": np.full((6000, 3), np.nan)}, r"the estimate has no finite row for trial 'synthetic'"),
     ],
 )
 def test_score_rejects_bad_arguments(kwargs, match):
@@ -128,7 +130,7 @@ def test_differencing_bar_reproduces_notice(name):
     # one-sample lead NOTICE.md reports, and the reference's RMS must be NOTICE.md's "gyro RMS".
     gyro_rms = {"01": 1.68, "06": 5.21, "10": 0.85}
     trial = broad.load_trial(name)
-    s = score(trial, broad.differencing_bar(trial))
+    s = score(trial, broad.differencing_bar(trial), max_shift=5, resolution=1)  # NOTICE.md's whole-sample rule
     assert abs(s.rms - broad.NOTICE_DIFFERENCING_RMS[name]) < 1e-3
     assert s.shift == 1
     assert abs(s.gyro_rms - gyro_rms[name]) < 5e-3
@@ -159,3 +161,49 @@ def test_csv_cut_is_trial_01_from_20_s():
     np.testing.assert_allclose(cut.R[ok], full.R[k0 : k0 + N][ok], atol=1e-8)  # 9 digits in the text
     np.testing.assert_allclose(cut.gyro, full.gyro[k0 : k0 + N], atol=1e-8)
     np.testing.assert_allclose(cut.t, full.t[:N], atol=1e-9)
+
+
+def smooth_trial(N=6000):
+    """A rate that is smooth everywhere (no jump at the motion labels' edges), for fractional shifts."""
+    t = np.arange(N) / FS
+    movement = np.zeros(N, bool)
+    movement[1000:-1000] = True
+    R = np.repeat(np.eye(3)[None], N, axis=0)
+    return Trial("smooth", t, R, _smooth_rate(t), FS, movement)
+
+
+def _smooth_rate(t):
+    return np.column_stack([np.sin(2 * t), np.cos(3 * t), 0.5 * np.sin(t)])
+
+
+def _estimate(trial, t):
+    """The exact rate at ``t`` minus the trial's gyro bias (the rest samples' mean of this smooth rate)."""
+    return _smooth_rate(t) - trial.gyro_bias
+
+
+def test_a_fractional_lag_is_found_continuously():
+    # ω̂(t) = ω(t − 0.37 h): the score finds the shift to 0.01 sample with (almost) zero error, and the zero-shift
+    # score is the lag's own error, |ω̇| 0.37 h in band (checked against a direct computation).
+    trial = smooth_trial()
+    h = 1 / FS
+    lagging = _estimate(trial, trial.t - 0.37 * h)
+    s = score(trial, lagging)
+    assert abs(s.shift + 0.37) < 0.01  # a lagging estimate: negative shift
+    assert s.rms < 5e-6 and s.rms < 1e-3 * s.zero_shift_rms  # left: the search stops within 0.001 sample
+    direct = score(trial, lagging, max_shift=0)
+    assert s.zero_shift_rms == pytest.approx(direct.rms, rel=1e-12)
+    whole = score(trial, lagging, max_shift=3, resolution=1)  # whole samples only: the lag stays
+    assert whole.shift == 0 and whole.rms > 100 * s.rms
+
+
+def test_a_decimated_trial_is_scored_against_the_native_reference():
+    trial = smooth_trial()
+    low = trial.decimated(30)
+    assert low.fs == pytest.approx(FS / 30) and low.t.size == 200 and low.native is trial
+    np.testing.assert_array_equal(low.movement, trial.movement[::30])
+    # the exact rate at the decimated instants scores zero; lagging by 0.4 decimated samples, shift −0.4
+    assert score(low, _estimate(low, low.t), gap_margin_s=0.0).rms < 1e-9
+    s = score(low, _estimate(low, low.t - 0.4 / low.fs), gap_margin_s=0.0)
+    assert abs(s.shift + 0.4) < 0.01 and s.rms < 1e-6
+    with pytest.raises(ValueError, match=r"step must be a positive integer; got 0"):
+        trial.decimated(0)
