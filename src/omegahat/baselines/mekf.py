@@ -48,6 +48,8 @@ skipped when nearly collinear (``min_angle_deg``); a non-finite sample is skippe
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
@@ -62,11 +64,13 @@ from omegahat.validation import as_directions, as_inertia, as_positive, as_vecto
 __all__ = [
     "MEKF",
     "MODELS",
+    "FilterStep",
     "attitude_innovation",
     "discretize",
     "initial_attitude",
     "process_jacobian",
     "propagate",
+    "propagate_with_transition",
     "substeps",
     "update",
     "vector_innovation",
@@ -167,6 +171,25 @@ def propagate(
     returns ``(R, omega, P)``. The covariance in substeps of at most ``COVARIANCE_SUBSTEP_ANGLE``, each spanning a
     whole number of the nominal state's (:func:`omegahat.kernels.ekf.ekf_propagate`). With ``q_a`` (K5),
     ``omega`` is ``[ω̂, â]`` (6) and P is 9×9; the torque ``J â`` is added to the known one."""
+    return propagate_with_transition(R, omega, P, h, tau, body, q, model, max_step, max_angle, tau_end, q_a)[:3]
+
+
+def propagate_with_transition(
+    R: np.ndarray,
+    omega: np.ndarray,
+    P: np.ndarray,
+    h: float,
+    tau: ArrayLike,
+    body: RigidBody,
+    q: float,
+    model: str,
+    max_step: float = np.inf,
+    max_angle: float = NOMINAL_SUBSTEP_ANGLE,
+    tau_end: ArrayLike | None = None,
+    q_a: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`propagate`, also returning the interval's error-state transition ``Φ`` (the product of the
+    covariance substeps' transitions, ``P ← Φ P Φᵀ + Q``): what a fixed-interval smoother needs."""
     omega = np.asarray(omega, dtype=float)
     accel = omega[3:] if q_a is not None else np.zeros(3)
     omega = omega[:3]
@@ -177,15 +200,17 @@ def propagate(
     n = n_cov * per_cov
     dt = h / n
     torque = Torque.of_time(lambda s: tau0 + (tau1 - tau0) * (s / h))
+    Phi_total = np.eye(P.shape[0])
     for jc in range(n_cov):
         Phi, Qd = discretize(omega, body.J, body.J_inv, model, q, h / n_cov, q_a)
         P = Phi @ P @ Phi.T + Qd
+        Phi_total = Phi @ Phi_total
         for j in range(jc * per_cov, (jc + 1) * per_cov):
             if model == "dynamic":
                 R, omega = cf4_step(body, R, omega, j * dt, dt, torque)
             else:
                 R = R @ _exp(dt * omega)
-    return R, (omega if q_a is None else np.concatenate([omega, accel])), 0.5 * (P + P.T)
+    return R, (omega if q_a is None else np.concatenate([omega, accel])), 0.5 * (P + P.T), Phi_total
 
 
 def attitude_innovation(R_hat: np.ndarray, R_meas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -225,6 +250,21 @@ def initial_attitude(b: ArrayLike, references: ArrayLike) -> np.ndarray:
     """The first fix from directions: Wahba's least-squares attitude ``argmin_R Σ |v_i − R b_i|²`` (SciPy's
     ``align_vectors``, unit weights) for unit body directions ``b`` and references ``v`` ``(n, 3)``."""
     return Rotation.align_vectors(references, b)[0].as_matrix()
+
+
+@dataclass(frozen=True)
+class FilterStep:
+    """One step of the filter: the prior ``(R_prior, x_prior, P_prior)`` after propagation (None attitude before the
+    first fix), the interval's transition ``Phi`` (None at the first sample), and the posterior. ``x`` is ``ω̂``
+    ``(3,)``, or ``[ω̂, â]`` ``(6,)`` with the unknown-acceleration state; ``P`` matches (6×6 or 9×9)."""
+
+    R_prior: np.ndarray | None
+    x_prior: np.ndarray
+    P_prior: np.ndarray
+    Phi: np.ndarray | None
+    R: np.ndarray | None
+    x: np.ndarray
+    P: np.ndarray
 
 
 class MEKF(Estimator):
@@ -339,11 +379,18 @@ class MEKF(Estimator):
         directions) is propagated through only and counted in ``n_skipped``; a rejected one raises
         (:mod:`omegahat.measurements`) and leaves the state as it was.
         """
+        self.step(t, measurement, torque)
+        return self.omega.copy()
+
+    def step(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> FilterStep:
+        """:meth:`update`, returning the step's prior, transition and posterior (:class:`FilterStep`): the record a
+        fixed-interval smoother (:mod:`omegahat.baselines.rts`) runs backwards over."""
         sample = ms.checked_sample(t, measurement, torque, **self._checks())
         R, P = self.R, self.P
         omega = self.omega if self.q_a is None else np.concatenate([self.omega, self.accel])
+        Phi = None
         if self.t is not None and R is not None:
-            R, omega, P = propagate(
+            R, omega, P, Phi = propagate_with_transition(
                 R,
                 omega,
                 P,
@@ -357,6 +404,7 @@ class MEKF(Estimator):
                 sample.torque if self.torque_hold == "linear" else None,
                 self.q_a,
             )
+        prior = (R, omega, P)
         m = sample.value
         if sample.status != ms.OK:
             self.n_skipped += 1
@@ -371,7 +419,7 @@ class MEKF(Estimator):
         self.R, self.omega, self.P, self.t, self._tau = R, omega[:3], P, sample.t, sample.torque.copy()
         if self.q_a is not None:
             self.accel = omega[3:]
-        return self.omega.copy()
+        return FilterStep(prior[0], prior[1], prior[2], Phi, R, omega, P)
 
     def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """ω̂ at every sample of a log, ``(T, 3)``: the same as calling :meth:`update` sample by sample (it

@@ -1,0 +1,124 @@
+r"""Fixed-interval (Rauch–Tung–Striebel) smoother on the gyro-less MEKF: ω̂ at every sample of a whole log, no lag.
+
+References: H. E. Rauch, F. Tung, C. T. Striebel, "Maximum likelihood estimates of linear dynamic systems",
+AIAA Journal 3(8), 1965; for the multiplicative (error-state) form on rotations, F. L. Markley, J. L. Crassidis,
+*Fundamentals of Spacecraft Attitude Determination and Control*, Springer, 2014 (the MEKF's error state).
+
+The forward pass is the filter of :mod:`omegahat.baselines.mekf` (its NumPy step, :meth:`MEKF.step`), which
+records at every sample ``k`` the prior ``(R⁻_k, x⁻_k, P⁻_k)``, the interval's error-state transition ``Φ_k``
+(from sample ``k−1`` to ``k``) and the posterior ``(R⁺_k, x⁺_k, P⁺_k)``; ``x`` is ``ω̂`` or ``[ω̂, â]``. The backward
+pass, from the last sample, ``s`` marking the smoothed estimate::
+
+    C_k   = P⁺_k Φ_{k+1}ᵀ (P⁻_{k+1})⁻¹                                                            (R1)
+    δ_k   = [Log((R⁻_{k+1})ᵀ R^s_{k+1});  x^s_{k+1} − x⁻_{k+1}]     (the smoothed state seen from the prior)
+    δx_k  = C_k δ_k                                                                                  (R2)
+    R^s_k = R⁺_k Exp(δx_k[:3]),   x^s_k = x⁺_k + δx_k[3:]                                            (R3)
+    P^s_k = P⁺_k + C_k (P^s_{k+1} − P⁻_{k+1}) C_kᵀ                                                   (R4)
+
+(R1)–(R4) are the linear RTS equations written in the filter's error state ``R = R̂ Exp(δθ)``: the error of
+the smoothed estimate about the filtered one at ``k`` is propagated by ``Φ_{k+1}`` to the error about the prior
+at ``k+1``, which is the smoothed-minus-prior difference ``δ_k``. At the last sample the smoothed estimate is
+the filtered one. Samples before the first fix (no attitude yet) keep the filtered output.
+
+What it assumes: the filter's linearisation along its own estimate, as the EKF itself; it is exact for the
+linear part (the rates, when ``J`` is a multiple of the identity and no torque is known). Its cost: the NumPy
+filter (not the compiled one) plus one 6×6 or 9×9 solve per sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import NoReturn, cast
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from omegahat import so3
+from omegahat.baselines.mekf import MEKF, FilterStep
+from omegahat.interface import Estimator, Measurement, Measurements
+
+__all__ = ["RTSSmoother", "Smoothed", "rts_backward", "smooth_log"]
+
+
+@dataclass(frozen=True)
+class Smoothed:
+    """A smoothed log: ``omega (T, 3)`` rad/s body axes, ``accel (T, 3)`` (zeros without the acceleration state),
+    ``R (T, 3, 3)`` (NaN before the first fix), ``P (T, n, n)`` the smoothed covariances, and the forward
+    (filtered) rates ``omega_filtered (T, 3)``."""
+
+    omega: np.ndarray
+    accel: np.ndarray
+    R: np.ndarray
+    P: np.ndarray
+    omega_filtered: np.ndarray
+
+
+def rts_backward(steps: list[FilterStep]) -> Smoothed:
+    """(R1)–(R4) over the forward pass's records, one per sample."""
+    T = len(steps)
+    n = steps[-1].P.shape[0]
+    na = n // 3 - 1  # rate components per block: x = [ω] (6×6 P) or [ω, a] (9×9 P)
+    x_s = np.full((T, 3 * na), np.nan)
+    R_s = np.full((T, 3, 3), np.nan)
+    P_s = np.full((T, n, n), np.nan)
+    filtered = np.array([s.x[:3] for s in steps])
+    x_s[-1], P_s[-1] = steps[-1].x, steps[-1].P
+    if steps[-1].R is not None:
+        R_s[-1] = steps[-1].R
+    for k in range(T - 2, -1, -1):
+        here, nxt = steps[k], steps[k + 1]
+        if here.R is None or nxt.Phi is None or nxt.R_prior is None:  # before the first fix: nothing to smooth
+            x_s[k], P_s[k] = here.x, here.P
+            continue
+        C = np.linalg.solve(nxt.P_prior, nxt.Phi @ here.P).T  # (R1): P⁺ Φᵀ (P⁻)⁻¹, both symmetric
+        delta = np.concatenate([so3.log(nxt.R_prior.T @ R_s[k + 1]), x_s[k + 1] - nxt.x_prior])
+        dx = C @ delta  # (R2)
+        R_s[k] = here.R @ so3.exp(dx[:3])  # (R3)
+        x_s[k] = here.x + dx[3:]
+        P = here.P + C @ (P_s[k + 1] - nxt.P_prior) @ C.T  # (R4)
+        P_s[k] = 0.5 * (P + P.T)
+    accel = x_s[:, 3:6] if na == 2 else np.zeros((T, 3))
+    return Smoothed(x_s[:, :3].copy(), accel.copy(), R_s, P_s, filtered)
+
+
+def smooth_log(filt: MEKF, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> Smoothed:
+    """Run ``filt`` forward over a whole log (from its current state) recording every step, then (R1)–(R4).
+
+    Every sample goes through the filter's own checks (:meth:`MEKF.step`); a rejected one raises."""
+    t = np.asarray(times, dtype=float)
+    samples = cast("Sequence[Measurement]", measurements)  # indexable: an array, a Rotation or a sequence
+    taus = None if torques is None else np.asarray(torques, dtype=float)
+    steps = [filt.step(float(t[j]), samples[j], None if taus is None else taus[j]) for j in range(t.size)]
+    if not steps:
+        empty = np.empty((0, 3))
+        return Smoothed(empty, empty, np.empty((0, 3, 3)), np.empty((0, 0, 0)), empty)
+    return rts_backward(steps)
+
+
+class RTSSmoother(Estimator):
+    """The MEKF's fixed-interval smoother behind the estimator interface: offline only (``run``; ``causal = False``).
+
+    ``filter_factory`` builds the forward filter (an :class:`omegahat.baselines.mekf.MEKF`) afresh for each
+    ``run``; ``last`` keeps the last run's :class:`Smoothed`.
+    """
+
+    causal = False
+
+    def __init__(self, filter_factory: Callable[[], MEKF]):
+        self.filter_factory = filter_factory
+        self.last: Smoothed | None = None
+
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
+        raise NotImplementedError(
+            "RTSSmoother is offline (a fixed-interval smoother needs the whole record): call run(times, measurements)"
+        )
+
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
+        """Smoothed ω̂ at every sample, ``(T, 3)``."""
+        self.last = smooth_log(self.filter_factory(), times, measurements, torques)
+        return self.last.omega
+
+    def reset(self) -> None:
+        """Forget the last run (each run starts from a new filter)."""
+        self.last = None
