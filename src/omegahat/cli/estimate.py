@@ -45,6 +45,7 @@ from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
 from omegahat.observer.gains import ObserverGains
+from omegahat.observer.presets import PRESETS
 
 HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
 EPILOG = """\
@@ -62,6 +63,7 @@ output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (mis
         unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
 example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
+         omegahat estimate "Take 01.csv" --body hand --preset mocap --smooth -o omega.csv
          omegahat estimate dirs.csv -o omega.csv "--references=0,0,9.81;-0.9,15.5,-41.3"
          omegahat estimate run.bag --topic /vicon/body/pose -o twist.bag
 """
@@ -147,6 +149,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="auto (default): omegahat's default estimator, the observer supervising a gyro-less Kalman filter "
         "(globally convergent, Kalman-accurate; its process noise chosen from the log), when --inertia is given and "
         "no --bandwidth or --k/--l; else sarras, the fixed-gain observer with the gains above",
+    )
+    model.add_argument(
+        "--preset",
+        choices=PRESETS,
+        help="mocap: motion capture of a body whose inertia and torques are unknown (a hand, a tool, a robot link), "
+        "10-1000 Hz: the model and gains are chosen from the sample rate (docs/theory/mocap.md); causal",
+    )
+    model.add_argument(
+        "--smooth",
+        action="store_true",
+        help="with --preset: offline, zero-lag estimate of the whole log (forward and backward passes averaged); "
+        "reads the whole log into memory",
     )
     model.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     model.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")
@@ -272,6 +286,8 @@ def run(args: argparse.Namespace) -> int:
         rotation_tol=args.rotation_tol,
         quat_norm_tol=args.quat_norm_tol,
         cli=True,
+        preset=args.preset,
+        smooth=args.smooth,
     )
     by_bytes = stream.label == "line" and stream.n_rows_hint is None
     show = args.progress if args.progress is not None else by_bytes and stream.size >= PROGRESS_MIN_BYTES

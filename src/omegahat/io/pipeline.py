@@ -48,6 +48,7 @@ from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.observer.presets import PRESETS, mocap_estimator, mocap_model, smooth
 from omegahat.validation import as_directions, as_inertia
 
 __all__ = [
@@ -72,6 +73,10 @@ _CLI_FLAGS = {
     "rotation": "--rotation",
     "time_unit": "--time-unit",
     "quaternion_order": "--quaternion-order",
+    "preset": "--preset",
+    "smooth": "--smooth",
+    "estimator": "--estimator",
+    "gains": "--k/--l",
 }
 _PY_NAMES = {"bandwidth": "bandwidth_hz", "quaternion_order": "the order of the quaternion= columns (x, y, z, w)"}
 
@@ -104,12 +109,29 @@ class EstimateSettings:
     rotation_tol: float = ms.ROTATION_TOL
     quat_norm_tol: float = ms.QUAT_NORM_TOL
     cli: bool = False
+    preset: str | None = None
+    smooth: bool = False
 
     def __post_init__(self):
         if self.start not in STARTS:
             raise ValueError(f"start must be one of {', '.join(STARTS)}; got {self.start!r}")
         if self.estimator not in ESTIMATORS:
             raise ValueError(f"estimator must be one of {', '.join(ESTIMATORS)}; got {self.estimator!r}")
+        if self.preset is not None and self.preset not in PRESETS:
+            raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {self.preset!r}")
+        if self.smooth and self.preset is None:
+            raise ValueError(f"{self.opt('smooth')} needs {self.opt('preset', 'mocap')} (the smoother's model)")
+        if self.preset is not None:
+            given = [
+                self.name(k)
+                for k, v in (("inertia", self.inertia), ("bandwidth", self.bandwidth_hz), ("gains", self.gains))
+                if v is not None
+            ] + ([self.name("estimator")] if self.estimator != "auto" else [])
+            if given:
+                raise ValueError(
+                    f"{self.opt('preset', self.preset)} chooses the model and gains itself (inertia and torque "
+                    f"unknown); drop {', '.join(given)} or the preset"
+                )
 
     def name(self, key: str) -> str:
         """An option's name as the caller writes it: ``--rotation-tol`` or ``rotation_tol``."""
@@ -393,7 +415,13 @@ def estimate_stream(
         flag=settings.name("bandwidth"),
     )
     summary.gains, summary.gains_text = gains, text
-    report(text)
+    if settings.preset is None:
+        report(text)
+    elif stream.has_torque:
+        raise ValueError(
+            f"{settings.opt('preset', settings.preset)} is for bodies whose torque is unknown, but the log has torque "
+            f"columns; to use them, drop the preset and give {settings.name('inertia')}"
+        )
     rotation = options.rotation if options is not None else ROTATIONS[0]
     if settings.inertia is not None and stream.has_torque and stream.kind != "directions":
         given, other = autogain.convention_check(motion)
@@ -410,9 +438,13 @@ def estimate_stream(
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
     est = _estimator(settings, motion, J, gains, refs, stream, omega0, report)
     h = motion.h
+    rate_hz = motion.rate_hz
     del t_h, data_h, tau_h, tv, rot, motion
     with open_writer(stream) as writer:
         job = _Run(est, stream, writer, bad, settings.start, h, summary)
+        if settings.smooth:
+            _smooth_all(job, [*head, *chunks], rate_hz, settings)
+            head.clear()
         while head:  # the head first (releasing it as it goes), then the rest of the stream
             job.feed(head.pop(0))
         for chunk in chunks:
@@ -426,13 +458,34 @@ def estimate_stream(
     return summary
 
 
+def _smooth_all(job: _Run, chunks: list[LogChunk], rate_hz: float, settings: EstimateSettings) -> None:
+    """``--smooth``: the whole log at once (:func:`omegahat.observer.presets.smooth`), written chunk by chunk with
+    the statuses of the causal path (``corrected`` where the sample was used, ``predicted`` where it is missing)."""
+    if job.stream.kind == "directions":
+        raise ValueError(f"{settings.opt('smooth')} takes attitudes (quaternions or rotation matrices), not directions")
+    for chunk in chunks:
+        job.bad.check(chunk)  # a bad sample: an error naming its line, or missing with --skip-bad-samples
+    t = np.concatenate([c.t for c in chunks])
+    data = np.concatenate([c.data for c in chunks])
+    t0 = time.perf_counter()
+    W = smooth(t, data, rate_hz=rate_hz, rotation_tol=settings.rotation_tol, quat_norm_tol=settings.quat_norm_tol)
+    job.summary.elapsed += time.perf_counter() - t0
+    valid = np.all(np.isfinite(data.reshape(t.size, -1)), axis=1)
+    status = np.where(valid, CORRECTED, PREDICTED).astype(np.int8)
+    status[~np.all(np.isfinite(W), axis=1)] = UNAVAILABLE
+    start = 0
+    for chunk in chunks:
+        stop = start + len(chunk)
+        job.writer.write(chunk, W[start:stop], status[start:stop])
+        job.summary.rows += len(chunk)
+        start = stop
+    job.est.n_missing = int(np.count_nonzero(~valid))
+    chunks.clear()
+
+
 def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega0, report):
     """The estimator of the run: the default one (the observer supervising a gyro-less EKF, its process noise chosen
     from the log) when the model is given, or asked for; else the fixed-gain observer with ``gains``."""
-    choice = settings.estimator
-    if choice == "auto":
-        model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None
-        choice = "omegahat" if model else "sarras"
     common = {
         "references": refs,
         "measurement": "directions" if stream.kind == "directions" else "attitude",
@@ -441,6 +494,16 @@ def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega
         "rotation_tol": settings.rotation_tol,
         "quat_norm_tol": settings.quat_norm_tol,
     }
+    if settings.preset is not None:
+        purpose = "smooth" if settings.smooth else "causal"
+        how = "forward and backward passes averaged (zero lag)" if settings.smooth else "causal"
+        described = mocap_model(motion.rate_hz, purpose).describe()
+        report(f"estimator: {settings.opt('preset', settings.preset)} ({how}): {described}")
+        return mocap_estimator(motion.rate_hz, purpose, **common)
+    choice = settings.estimator
+    if choice == "auto":
+        model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None
+        choice = "omegahat" if model else "sarras"
     if choice == "sarras":
         return SarrasEstimator(J=J, gains=gains, **common)
     sigma_a, text = autogain.choose_rate_noise(motion)

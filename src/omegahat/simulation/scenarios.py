@@ -23,7 +23,9 @@ Registered scenarios (:data:`SCENARIOS`):
   π at which sampled attitudes become ambiguous).
 * ``broad-01``, ``broad-06``, ``broad-10`` — real recordings (``../shared/data/broad/``, see its NOTICE.md):
   optical attitude at 285.7 Hz, J = I and τ = 0 as stand-ins; scored in band against the gyroscope by
-  :mod:`omegahat.evaluation.broad`. Available only where the data directory exists.
+  :mod:`omegahat.evaluation.broad`. Available only where the data directory exists. ``broad-01-29hz``,
+  ``broad-01-10hz`` (and likewise 06, 10): the same trials keeping every 10th / 30th sample (28.6 / 9.5 Hz),
+  low-rate motion capture, scored against the native gyroscope.
 
 A simulated scenario is reproducible from a seed: :func:`simulate` draws the noise from
 ``numpy.random.default_rng(numpy.random.SeedSequence(seed))``.
@@ -67,6 +69,7 @@ class Scenario:
     converged_tol: float = 0.05  # rad/s: convergence = error stays below this from then on
     steady_after: float = 5.0  # s: steady-state RMS over t ≥ steady_after
     broad_trial: str | None = None  # "01", "06", "10" for the real recordings
+    decimate: int = 1  # real recordings: keep every decimate-th sample (low-rate motion capture)
 
     @property
     def real(self) -> bool:
@@ -180,23 +183,18 @@ SCENARIOS: dict[str, Scenario] = {
             omega_max=3.0,
             **_TUMBLE,
         ),
-        Scenario(
-            "broad-01",
-            "BROAD trial 01 (slow rotation), optical attitude, J = I, tau = 0 stand-ins",
-            broad_trial="01",
-            **_BROAD,
-        ),
-        Scenario(
-            "broad-06",
-            "BROAD trial 06 (fast rotation), optical attitude, J = I, tau = 0 stand-ins",
-            broad_trial="06",
-            **_BROAD,
-        ),
-        Scenario(
-            "broad-10",
-            "BROAD trial 10 (slow translation), optical attitude, J = I, tau = 0 stand-ins",
-            broad_trial="10",
-            **_BROAD,
+        *(
+            Scenario(
+                f"broad-{trial}" + ("" if step == 1 else f"-{round(_BROAD['rate_hz'] / step)}hz"),
+                f"BROAD trial {trial} ({what}), optical attitude"
+                + ("" if step == 1 else f" decimated to {_BROAD['rate_hz'] / step:.3g} Hz (every {step}th sample)")
+                + ", J = I, tau = 0 stand-ins",
+                broad_trial=trial,
+                decimate=step,
+                **{**_BROAD, "rate_hz": _BROAD["rate_hz"] / step},
+            )
+            for step in (1, 10, 30)
+            for trial, what in (("01", "slow rotation"), ("06", "fast rotation"), ("10", "slow translation"))
         ),
     ]
 }

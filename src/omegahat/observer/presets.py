@@ -1,0 +1,166 @@
+r"""Presets a user can type: ``mocap`` — motion capture of a body whose inertia and torques are unknown.
+
+``omegahat estimate LOG --preset mocap`` (causal) and ``--preset mocap --smooth`` (offline, zero lag), and
+:func:`mocap_estimator`, :func:`smooth` from Python. ``docs/theory/mocap.md`` has the measurements behind every
+number below; they were tuned on BROAD trials 01, 06 and 10 (native 285.7 Hz and decimated to 95, 57, 29 and
+9.5 Hz), nothing else.
+
+**Model.** With ``J`` and ``τ`` unknown the estimator is omegahat's default one
+(:class:`omegahat.observer.kalman.SupervisedKalmanEstimator`: the Sarras observer supervising the gyro-less EKF)
+with ``J = I``, ``τ = 0``, so that the EKF's model is kinematic, in one of two forms chosen by the sample rate
+``f = 1/h``::
+
+    f ≥ 80 Hz:  constant acceleration:  ω̇ = a,  ȧ = w_a,  w_a white, σ_d = 1500 rad/s^2.5            (P1)
+    f < 80 Hz:  constant rate:           ω̇ = w_ω,  w_ω white, σ_a = Λ σ_m / h^1.5                  (P2)
+    attitude noise σ_m = 1e-3 rad per axis in both
+
+(P1) is a physical statement — the hand's angular jerk level — so its discretisation scales it with the rate by
+itself: its best σ_d, measured at 286, 143 and 95 Hz, is 1300–2700 rad/s^2.5 whatever the rate. Below about
+80 Hz a moving hand has power near the Nyquist frequency and extrapolating an acceleration amplifies it: (P1)
+loses to backward differencing by 2–6× at 29 Hz. (P2) is the constant-rate filter at a fixed tracking index
+``Λ = σ_a h^1.5 / σ_m`` (a property of the sampled filter: its gain is the same at every rate): ``Λ = 10``
+causal, ``Λ = 100`` for the smoother's passes. Only the ratio ``σ_d/σ_m`` or ``σ_a/σ_m`` shapes the estimate;
+``σ_m`` sets the covariance's scale (its innovation statistics are not meaningful on a hand).
+
+**Supervision.** The supervisor's consistency tests (innovation NIS, disagreement with the observer) are switched
+off (thresholds 1e6): a hand is not the model, its innovations are never white, and the tests would restart the
+EKF every few samples (measured: 3–5× the error at 29 Hz). What remains of the supervisor: the EKF starts from
+the observer's estimate and is restarted from it if its state stops being finite.
+
+**Smoothing** (:func:`smooth`): the same estimator run forward, and run again on the log reversed in time (where
+the body rate is ``−ω``), the two averaged::
+
+    ω̂_s(t_k) = ½ (ω̂_f(t_k) − ω̂_b(t_k))                                                          (P3)
+
+The forward pass lags and the backward one leads by the same amount, so their average has no lag (zero phase);
+where only one pass has an estimate (the ends) it is used alone.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import NoReturn
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from omegahat import measurements as ms
+from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.observer.estimator import SkippedSamplesWarning
+from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.validation import as_positive
+
+__all__ = ["MOCAP_SWITCH_HZ", "PRESETS", "MocapModel", "MocapSmoother", "mocap_estimator", "mocap_model", "smooth"]
+
+PRESETS = ("mocap",)
+MOCAP_SWITCH_HZ = 80.0  #: (P1) at and above this sample rate, (P2) below
+MOCAP_MEASUREMENT_SIGMA = 1e-3  #: σ_m, rad per axis
+MOCAP_JERK_NOISE = 1500.0  #: σ_d of (P1), rad/s^2.5
+MOCAP_TRACKING_INDEX = {"causal": 10.0, "smooth": 100.0}  #: Λ of (P2)
+_RATE_NOISE_FLOOR = 1e-6  # (P1): the rate itself is driven by the acceleration state, not by noise of its own
+_NO_CONSISTENCY_TEST = 1e6  # supervisor thresholds that never fire on finite numbers (module docstring)
+
+
+@dataclass(frozen=True)
+class MocapModel:
+    """What the preset runs at one sample rate: ``kind`` ``"constant-acceleration"`` (P1) or ``"constant-rate"``
+    (P2), the EKF's ``rate_noise`` σ_a (rad/s^1.5), ``disturbance_noise`` σ_d (rad/s^2.5, or None) and
+    ``measurement_sigma`` σ_m (rad)."""
+
+    kind: str
+    rate_hz: float
+    measurement_sigma: float
+    rate_noise: float
+    disturbance_noise: float | None
+
+    def describe(self) -> str:
+        if self.disturbance_noise is not None:
+            return (
+                f"{self.kind} model (rate {self.rate_hz:.4g} Hz >= {MOCAP_SWITCH_HZ:g} Hz): angular jerk noise "
+                f"{self.disturbance_noise:g} rad/s^2.5, attitude noise {self.measurement_sigma:g} rad"
+            )
+        return (
+            f"{self.kind} model (rate {self.rate_hz:.4g} Hz < {MOCAP_SWITCH_HZ:g} Hz): rate noise "
+            f"{self.rate_noise:.4g} rad/s^1.5, attitude noise {self.measurement_sigma:g} rad"
+        )
+
+
+def mocap_model(rate_hz: float, purpose: str = "causal") -> MocapModel:
+    """(P1) or (P2) at ``rate_hz``; ``purpose`` ``"causal"`` or ``"smooth"`` (the passes of (P3))."""
+    f = float(as_positive(rate_hz, "rate_hz")[0])
+    if purpose not in MOCAP_TRACKING_INDEX:
+        raise ValueError(f"purpose must be one of {tuple(MOCAP_TRACKING_INDEX)}; got {purpose!r}")
+    sm = MOCAP_MEASUREMENT_SIGMA
+    if f >= MOCAP_SWITCH_HZ:
+        return MocapModel("constant-acceleration", f, sm, _RATE_NOISE_FLOOR, MOCAP_JERK_NOISE)
+    h = 1.0 / f
+    return MocapModel("constant-rate", f, sm, MOCAP_TRACKING_INDEX[purpose] * sm / h**1.5, None)
+
+
+def mocap_estimator(rate_hz: float, purpose: str = "causal", **options: object) -> SupervisedKalmanEstimator:
+    """The preset's estimator for a log sampled at ``rate_hz`` (module docstring). ``options`` go to
+    :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input tolerances, ...)."""
+    m = mocap_model(rate_hz, purpose)
+    return SupervisedKalmanEstimator(
+        np.eye(3),
+        rate_hz=m.rate_hz,
+        measurement_sigma=m.measurement_sigma,
+        rate_noise=m.rate_noise,
+        disturbance_noise=m.disturbance_noise,
+        nis_max=_NO_CONSISTENCY_TEST,
+        disagreement_factor=_NO_CONSISTENCY_TEST,
+        **options,  # type: ignore[arg-type]
+    )
+
+
+def smooth(
+    times: ArrayLike,
+    attitudes: Measurements,
+    rate_hz: float | None = None,
+    preset: str = "mocap",
+    **options: object,
+) -> np.ndarray:
+    """Zero-lag ω̂ ``(T, 3)`` (rad/s, body axes) at every sample of a whole log, by (P3).
+
+    ``attitudes``: matrices, quaternions (``scalar_first`` in ``options``) or a ``Rotation``, body → inertial;
+    ``rate_hz``: the sample rate (default: from the median spacing). The log is checked once, as every
+    estimator checks it (:func:`omegahat.measurements.checked_log`)."""
+    if preset not in PRESETS:
+        raise ValueError(f"preset must be one of {PRESETS}; got {preset!r}")
+    checks = {k: options.pop(k) for k in ("scalar_first", "rotation_tol", "quat_norm_tol") if k in options}
+    log = ms.checked_log(times, attitudes, **checks)  # type: ignore[arg-type]
+    t, R = log.times, np.where(log.valid[:, None, None], log.values, np.nan)
+    if t.size < 3:
+        raise ValueError(f"smoothing needs at least 3 samples; got {t.size}")
+    if rate_hz is None:
+        rate_hz = 1.0 / float(np.median(np.diff(t)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SkippedSamplesWarning)  # missing samples: the caller counts them
+        forward = mocap_estimator(rate_hz, "smooth", **options).run(t, R)
+        backward = -mocap_estimator(rate_hz, "smooth", **options).run(t[-1] - t[::-1], R[::-1])[::-1]
+    both = np.stack([forward, backward])
+    finite = np.isfinite(both)
+    total = np.where(finite, both, 0.0).sum(axis=0)
+    count = finite.sum(axis=0)
+    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+class MocapSmoother(Estimator):
+    """:func:`smooth` behind the estimator interface: offline only (``run``), ``causal = False``; ``rate_hz`` as
+    there (None: from the log)."""
+
+    causal = False
+
+    def __init__(self, rate_hz: float | None = None):
+        self.rate_hz = rate_hz
+
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
+        raise NotImplementedError("MocapSmoother is offline (it runs backwards too): call run(times, measurements)")
+
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
+        """Zero-lag ω̂ at every sample, ``(T, 3)`` (``torques`` are ignored: the preset is for unknown ones)."""
+        return smooth(times, measurements, rate_hz=self.rate_hz)
+
+    def reset(self) -> None:
+        """Nothing to forget: ``run`` is stateless."""
