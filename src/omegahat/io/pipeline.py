@@ -438,12 +438,12 @@ def estimate_stream(
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
     est = _estimator(settings, motion, J, gains, refs, stream, omega0, report)
     h = motion.h
-    rate_hz = motion.rate_hz
+    rate_hz, noise_std = motion.rate_hz, motion.sigma
     del t_h, data_h, tau_h, tv, rot, motion
     with open_writer(stream) as writer:
         job = _Run(est, stream, writer, bad, settings.start, h, summary)
         if settings.smooth:
-            _smooth_all(job, [*head, *chunks], rate_hz, settings)
+            _smooth_all(job, [*head, *chunks], rate_hz, noise_std, settings)
             head.clear()
         while head:  # the head first (releasing it as it goes), then the rest of the stream
             job.feed(head.pop(0))
@@ -458,7 +458,9 @@ def estimate_stream(
     return summary
 
 
-def _smooth_all(job: _Run, chunks: list[LogChunk], rate_hz: float, settings: EstimateSettings) -> None:
+def _smooth_all(
+    job: _Run, chunks: list[LogChunk], rate_hz: float, noise_std: float, settings: EstimateSettings
+) -> None:
     """``--smooth``: the whole log at once (:func:`omegahat.observer.presets.smooth`), written chunk by chunk with
     the statuses of the causal path (``corrected`` where the sample was used, ``predicted`` where it is missing)."""
     if job.stream.kind == "directions":
@@ -468,7 +470,14 @@ def _smooth_all(job: _Run, chunks: list[LogChunk], rate_hz: float, settings: Est
     t = np.concatenate([c.t for c in chunks])
     data = np.concatenate([c.data for c in chunks])
     t0 = time.perf_counter()
-    W = smooth(t, data, rate_hz=rate_hz, rotation_tol=settings.rotation_tol, quat_norm_tol=settings.quat_norm_tol)
+    W = smooth(
+        t,
+        data,
+        rate_hz=rate_hz,
+        noise_std=noise_std,
+        rotation_tol=settings.rotation_tol,
+        quat_norm_tol=settings.quat_norm_tol,
+    )
     job.summary.elapsed += time.perf_counter() - t0
     valid = np.all(np.isfinite(data.reshape(t.size, -1)), axis=1)
     status = np.where(valid, CORRECTED, PREDICTED).astype(np.int8)
@@ -497,9 +506,9 @@ def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega
     if settings.preset is not None:
         purpose = "smooth" if settings.smooth else "causal"
         how = "forward and backward passes averaged (zero lag)" if settings.smooth else "causal"
-        described = mocap_model(motion.rate_hz, purpose).describe()
+        described = mocap_model(motion.rate_hz, purpose, motion.sigma).describe()
         report(f"estimator: {settings.opt('preset', settings.preset)} ({how}): {described}")
-        return mocap_estimator(motion.rate_hz, purpose, **common)
+        return mocap_estimator(motion.rate_hz, purpose, motion.sigma, **common)
     choice = settings.estimator
     if choice == "auto":
         model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None

@@ -10,9 +10,12 @@ number below; they were tuned on BROAD trials 01, 06 and 10 (native 285.7 Hz and
 with ``J = I``, ``τ = 0``, so that the EKF's model is kinematic, in one of two forms chosen by the sample rate
 ``f = 1/h``::
 
-    f ≥ 80 Hz:  constant acceleration:  ω̇ = a,  ȧ = w_a,  w_a white, σ_d = 1500 rad/s^2.5            (P1)
-    f < 80 Hz:  constant rate:           ω̇ = w_ω,  w_ω white, σ_a = Λ σ_m / h^1.5                  (P2)
-    attitude noise σ_m = 1e-3 rad per axis in both
+    f ≥ 80 Hz:  constant acceleration:  ω̇ = a,  ȧ = w_a,  w_a white, σ_d = 1500 rad/s^2.5,
+                σ_m = max(1e-3, 30 σ̂) rad                                                          (P1)
+    f < 80 Hz:  constant rate:           ω̇ = w_ω,  w_ω white, σ_a = Λ σ_m / h^1.5, σ_m = 1e-3 rad   (P2)
+
+with ``σ̂`` the log's attitude noise as ``omegahat estimate`` measures it (:func:`attitude_noise`: second
+differences of the increments over the log's first samples; BROAD's optical attitude: 2–5e-5 rad).
 
 (P1) is a physical statement — the hand's angular jerk level — so its discretisation scales it with the rate by
 itself: its best σ_d, measured at 286, 143 and 95 Hz, is 1300–2700 rad/s^2.5 whatever the rate. Below about
@@ -20,7 +23,10 @@ itself: its best σ_d, measured at 286, 143 and 95 Hz, is 1300–2700 rad/s^2.5 
 loses to backward differencing by 2–6× at 29 Hz. (P2) is the constant-rate filter at a fixed tracking index
 ``Λ = σ_a h^1.5 / σ_m`` (a property of the sampled filter: its gain is the same at every rate): ``Λ = 10``
 causal, ``Λ = 100`` for the smoother's passes. Only the ratio ``σ_d/σ_m`` or ``σ_a/σ_m`` shapes the estimate;
-``σ_m`` sets the covariance's scale (its innovation statistics are not meaningful on a hand).
+``σ_m`` sets the covariance's scale (its innovation statistics are not meaningful on a hand). In (P1) ``σ_m``
+grows with a noisier log's measured noise (30 σ̂ is 1e-3 on BROAD at its native rate), so that an attitude
+filter's output at 1 mrad gets the smoothing it needs; below 80 Hz the second differences measure the motion more
+than the noise (0.005–0.018 rad on BROAD at 10 Hz), so (P2) keeps its fixed ``σ_m``.
 
 **Supervision.** The supervisor's consistency tests (innovation NIS, disagreement with the observer) are switched
 off (thresholds 1e6): a hand is not the model, its innovations are never white, and the tests would restart the
@@ -44,20 +50,32 @@ from typing import NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.observer import autogain
 from omegahat.observer.estimator import SkippedSamplesWarning
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.validation import as_positive
 
-__all__ = ["MOCAP_SWITCH_HZ", "PRESETS", "MocapModel", "MocapSmoother", "mocap_estimator", "mocap_model", "smooth"]
+__all__ = [
+    "MOCAP_SWITCH_HZ",
+    "PRESETS",
+    "MocapModel",
+    "MocapSmoother",
+    "attitude_noise",
+    "mocap_estimator",
+    "mocap_model",
+    "smooth",
+]
 
 PRESETS = ("mocap",)
 MOCAP_SWITCH_HZ = 80.0  #: (P1) at and above this sample rate, (P2) below
 MOCAP_MEASUREMENT_SIGMA = 1e-3  #: σ_m, rad per axis
 MOCAP_JERK_NOISE = 1500.0  #: σ_d of (P1), rad/s^2.5
 MOCAP_TRACKING_INDEX = {"causal": 10.0, "smooth": 100.0}  #: Λ of (P2)
+MOCAP_NOISE_FACTOR = 30.0  #: (P1): σ_m = max(σ_m, this × the log's measured noise)
 _RATE_NOISE_FLOOR = 1e-6  # (P1): the rate itself is driven by the acceleration state, not by noise of its own
 _NO_CONSISTENCY_TEST = 1e6  # supervisor thresholds that never fire on finite numbers (module docstring)
 
@@ -86,22 +104,39 @@ class MocapModel:
         )
 
 
-def mocap_model(rate_hz: float, purpose: str = "causal") -> MocapModel:
-    """(P1) or (P2) at ``rate_hz``; ``purpose`` ``"causal"`` or ``"smooth"`` (the passes of (P3))."""
+def attitude_noise(times: ArrayLike, attitudes: Measurements) -> float:
+    """σ̂ of (P1): the attitude noise (rad) that ``omegahat estimate`` measures on a log's first
+    :data:`omegahat.observer.autogain.HEAD_SAMPLES` valid samples (:func:`omegahat.observer.autogain.measure_motion`).
+    """
+    log = ms.checked_log(times, attitudes)
+    ok = np.flatnonzero(log.valid)[: autogain.HEAD_SAMPLES]
+    if ok.size < 3:
+        return autogain.SIGMA_FLOOR
+    return autogain.measure_motion(log.times[ok], Rotation.from_matrix(log.values[ok])).sigma
+
+
+def mocap_model(rate_hz: float, purpose: str = "causal", noise_std: float | None = None) -> MocapModel:
+    """(P1) or (P2) at ``rate_hz``; ``purpose`` ``"causal"`` or ``"smooth"`` (the passes of (P3)); ``noise_std``
+    the log's σ̂ (None: motion-capture grade, below 3.3e-5 rad)."""
     f = float(as_positive(rate_hz, "rate_hz")[0])
     if purpose not in MOCAP_TRACKING_INDEX:
         raise ValueError(f"purpose must be one of {tuple(MOCAP_TRACKING_INDEX)}; got {purpose!r}")
     sm = MOCAP_MEASUREMENT_SIGMA
     if f >= MOCAP_SWITCH_HZ:
+        if noise_std is not None:
+            sm = max(sm, MOCAP_NOISE_FACTOR * float(as_positive(noise_std, "noise_std")[0]))
         return MocapModel("constant-acceleration", f, sm, _RATE_NOISE_FLOOR, MOCAP_JERK_NOISE)
     h = 1.0 / f
     return MocapModel("constant-rate", f, sm, MOCAP_TRACKING_INDEX[purpose] * sm / h**1.5, None)
 
 
-def mocap_estimator(rate_hz: float, purpose: str = "causal", **options: object) -> SupervisedKalmanEstimator:
-    """The preset's estimator for a log sampled at ``rate_hz`` (module docstring). ``options`` go to
-    :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input tolerances, ...)."""
-    m = mocap_model(rate_hz, purpose)
+def mocap_estimator(
+    rate_hz: float, purpose: str = "causal", noise_std: float | None = None, **options: object
+) -> SupervisedKalmanEstimator:
+    """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``noise_std`` (σ̂; module
+    docstring). ``options`` go to :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input
+    tolerances, ...)."""
+    m = mocap_model(rate_hz, purpose, noise_std)
     return SupervisedKalmanEstimator(
         np.eye(3),
         rate_hz=m.rate_hz,
@@ -119,13 +154,15 @@ def smooth(
     attitudes: Measurements,
     rate_hz: float | None = None,
     preset: str = "mocap",
+    noise_std: float | None = None,
     **options: object,
 ) -> np.ndarray:
     """Zero-lag ω̂ ``(T, 3)`` (rad/s, body axes) at every sample of a whole log, by (P3).
 
     ``attitudes``: matrices, quaternions (``scalar_first`` in ``options``) or a ``Rotation``, body → inertial;
-    ``rate_hz``: the sample rate (default: from the median spacing). The log is checked once, as every
-    estimator checks it (:func:`omegahat.measurements.checked_log`)."""
+    ``rate_hz``: the sample rate (default: from the median spacing); ``noise_std``: the attitude noise σ̂ (default:
+    measured, :func:`attitude_noise`). The log is checked once, as every estimator checks it
+    (:func:`omegahat.measurements.checked_log`)."""
     if preset not in PRESETS:
         raise ValueError(f"preset must be one of {PRESETS}; got {preset!r}")
     checks = {k: options.pop(k) for k in ("scalar_first", "rotation_tol", "quat_norm_tol") if k in options}
@@ -135,10 +172,12 @@ def smooth(
         raise ValueError(f"smoothing needs at least 3 samples; got {t.size}")
     if rate_hz is None:
         rate_hz = 1.0 / float(np.median(np.diff(t)))
+    if noise_std is None:
+        noise_std = attitude_noise(t, R)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SkippedSamplesWarning)  # missing samples: the caller counts them
-        forward = mocap_estimator(rate_hz, "smooth", **options).run(t, R)
-        backward = -mocap_estimator(rate_hz, "smooth", **options).run(t[-1] - t[::-1], R[::-1])[::-1]
+        forward = mocap_estimator(rate_hz, "smooth", noise_std, **options).run(t, R)
+        backward = -mocap_estimator(rate_hz, "smooth", noise_std, **options).run(t[-1] - t[::-1], R[::-1])[::-1]
     both = np.stack([forward, backward])
     finite = np.isfinite(both)
     total = np.where(finite, both, 0.0).sum(axis=0)
@@ -152,15 +191,15 @@ class MocapSmoother(Estimator):
 
     causal = False
 
-    def __init__(self, rate_hz: float | None = None):
-        self.rate_hz = rate_hz
+    def __init__(self, rate_hz: float | None = None, noise_std: float | None = None):
+        self.rate_hz, self.noise_std = rate_hz, noise_std
 
     def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
         raise NotImplementedError("MocapSmoother is offline (it runs backwards too): call run(times, measurements)")
 
     def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
         """Zero-lag ω̂ at every sample, ``(T, 3)`` (``torques`` are ignored: the preset is for unknown ones)."""
-        return smooth(times, measurements, rate_hz=self.rate_hz)
+        return smooth(times, measurements, rate_hz=self.rate_hz, noise_std=self.noise_std)
 
     def reset(self) -> None:
         """Nothing to forget: ``run`` is stateless."""

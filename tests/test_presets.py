@@ -1,0 +1,146 @@
+"""The mocap preset: its rule, its zero-lag smoother against closed forms, and the command line's options."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from logmaker import Angle, attitude, constant_rate, noisy, write_csv
+from omegahat import so3
+from omegahat.cli import main
+from omegahat.observer.presets import (
+    MOCAP_JERK_NOISE,
+    MOCAP_SWITCH_HZ,
+    MocapSmoother,
+    mocap_estimator,
+    mocap_model,
+    smooth,
+)
+
+
+def test_the_rule_switches_model_at_80_hz_and_scales_with_the_rate():
+    fast = mocap_model(285.7)
+    assert fast.kind == "constant-acceleration" and fast.disturbance_noise == MOCAP_JERK_NOISE
+    assert mocap_model(MOCAP_SWITCH_HZ).kind == "constant-acceleration"
+    slow, slower = mocap_model(28.57), mocap_model(9.52)
+    assert slow.kind == "constant-rate" and slow.disturbance_noise is None
+    # (P2): a fixed tracking index Λ = σ_a h^1.5 / σ_m, 10 causal and 100 for the smoother's passes
+    for m in (slow, slower):
+        assert m.rate_noise * (1 / m.rate_hz) ** 1.5 / m.measurement_sigma == pytest.approx(10.0, rel=1e-12)
+    assert mocap_model(28.57, "smooth").rate_noise == pytest.approx(10 * slow.rate_noise, rel=1e-12)
+    with pytest.raises(ValueError, match=r"purpose must be one of \('causal', 'smooth'\); got 'x'"):
+        mocap_model(100.0, "x")
+    with pytest.raises(ValueError, match=r"rate_hz"):
+        mocap_model(-1.0)
+
+
+def _wobble(t):
+    """A hand-like wobble with a closed-form body rate (logmaker's ZYX kinematics)."""
+    return attitude(t, Angle(0.3, [(0.6, 0.7, 0.1)]), Angle(0.0, [(0.4, 1.1, 0.5)]), Angle(0.0, [(0.5, 0.9, 1.0)]))
+
+
+@pytest.mark.parametrize("rate_hz", [20.0, 50.0])
+def test_smoothing_removes_the_causal_lag(rate_hz):
+    # Noise-free: the causal estimate (the constant-rate model below 80 Hz) lags the motion by a few ms; the
+    # average of the forward and backward passes does not. Lag d: the least-squares fit ω̂(t) ≈ ω(t − d).
+    t = np.arange(0.0, 20.0, 1 / rate_hz)
+    rot, omega = _wobble(t)
+    inner = (t > 2.0) & (t < 18.0)  # both passes converged
+    omega_dot = np.gradient(omega, t, axis=0)[inner]
+
+    def lag(w):
+        return -np.sum((w - omega)[inner] * omega_dot) / np.sum(omega_dot**2)
+
+    causal = mocap_estimator(rate_hz).run(t, rot.as_matrix())
+    smoothed = smooth(t, rot.as_matrix())
+    assert lag(causal) > 0.1 / rate_hz  # a tenth of a sample at least
+    assert abs(lag(smoothed)) < 1e-4 * lag(causal)
+    assert np.abs(smoothed - omega)[inner].max() < 0.01 * np.abs(causal - omega)[inner].max()
+    np.testing.assert_array_equal(MocapSmoother(rate_hz).run(t, rot.as_matrix()), smooth(t, rot, rate_hz=rate_hz))
+
+
+def test_smoothing_a_constant_rate_is_exact_whatever_the_direction_of_time():
+    # A wrong sign of the backward pass's rate would double or cancel the estimate.
+    t = np.arange(0.0, 10.0, 0.01)
+    w = np.array([0.7, -0.4, 1.1])
+    W = smooth(t, constant_rate(t, w).as_quat())
+    np.testing.assert_allclose(W[50:-50], np.tile(w, (t.size - 100, 1)), atol=1e-6)
+
+
+def test_smoothing_bridges_missing_samples_and_checks_its_input():
+    t = np.arange(0.0, 10.0, 0.01)
+    w = np.array([0.7, -0.4, 1.1])
+    q = constant_rate(t, w).as_quat()
+    q[300:310] = np.nan
+    W = smooth(t, q)
+    np.testing.assert_allclose(W[50:-50], np.tile(w, (t.size - 100, 1)), atol=1e-6)
+    q[500] = [0.0, 0.0, 0.0, 2.0]
+    with pytest.raises(ValueError, match=r"sample 500"):
+        smooth(t, q)
+    with pytest.raises(ValueError, match=r"smoothing needs at least 3 samples; got 2"):
+        smooth(t[:2], constant_rate(t[:2], w).as_quat())
+    with pytest.raises(ValueError, match=r"preset must be one of \('mocap',\); got 'robot'"):
+        smooth(t, q, preset="robot")
+
+
+def _log(tmp_path, rate_hz=100.0, tau=False):
+    t = np.arange(0.0, 12.0, 1 / rate_hz)
+    rot, omega = _wobble(t)
+    torques = np.zeros((t.size, 3)) if tau else None
+    return write_csv(tmp_path / "mocap.csv", t, noisy(rot, 1e-3, seed=4), tau=torques), t, omega
+
+
+def _read(path):
+    return np.loadtxt(path, delimiter=",", skiprows=1, usecols=(0, 1, 2, 3)), np.loadtxt(
+        path, delimiter=",", skiprows=1, usecols=4, dtype=str
+    )
+
+
+def _backward_difference_rms(log, t, omega, inner):
+    """What raw differencing of the same log gives: Log(R_{k-1}ᵀ R_k)/h against the closed-form rate."""
+    q = np.loadtxt(log, delimiter=",", skiprows=1, usecols=(2, 3, 4, 1))  # x, y, z, w
+    R = so3.from_quat(q)
+    w = np.full_like(omega, np.nan)
+    w[1:] = so3.log(np.einsum("tji,tjk->tik", R[:-1], R[1:])) / np.diff(t)[:, None]
+    return np.sqrt(np.mean(np.sum((w[inner] - omega[inner]) ** 2, axis=1)))
+
+
+def test_cli_preset_causal_and_smooth(tmp_path, capsys):
+    log, t, omega = _log(tmp_path)
+    for extra, name in (([], "causal.csv"), (["--smooth"], "smooth.csv")):
+        out = tmp_path / name
+        assert main(["estimate", str(log), "--preset", "mocap", *extra, "-o", str(out)]) == 0
+        text = capsys.readouterr().out
+        assert "constant-acceleration model (rate 100 Hz >= 80 Hz)" in text
+        values, status = _read(out)
+        np.testing.assert_allclose(values[:, 0], t, atol=1e-12)
+        inner = (t > 2.0) & (t < 10.0)
+        rms = np.sqrt(np.mean(np.sum((values[inner, 1:] - omega[inner]) ** 2, axis=1)))
+        assert rms < 0.6 * _backward_difference_rms(log, t, omega, inner), name
+        assert set(status) <= {"corrected", "predicted", "unavailable"}
+        if extra:
+            assert "forward and backward passes averaged" in text and np.all(status == "corrected")
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        (["--preset", "mocap", "--inertia", "1", "2", "3"], r"--preset mocap chooses the model .* drop --inertia"),
+        (["--preset", "mocap", "--bandwidth", "2"], r"drop --bandwidth or the preset"),
+        (["--smooth"], r"--smooth needs --preset mocap"),
+    ],
+)
+def test_cli_preset_conflicts_are_named(tmp_path, capsys, extra, match):
+    log, _, _ = _log(tmp_path)
+    assert main(["estimate", str(log), *extra, "-o", str(tmp_path / "o.csv")]) == 2
+    assert re.search(match, capsys.readouterr().err)
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_cli_preset_refuses_torque_columns(tmp_path, capsys):
+    log, _, _ = _log(tmp_path, tau=True)
+    assert main(["estimate", str(log), "--preset", "mocap", "-o", str(tmp_path / "o.csv")]) == 2
+    assert "is for bodies whose torque is unknown, but the log has torque columns" in capsys.readouterr().err
+    assert not (tmp_path / "o.csv").exists()
