@@ -111,7 +111,8 @@ def main() -> int:
     )
     verdict = (
         f"Targets ({TARGETS}): causal in-band {'met' if met['causal'] else 'MISSED'}, zero shift "
-        f"{'met' if met['zero'] else 'MISSED'}, offline {'met' if met['offline'] else 'MISSED'} on every trial and rate."
+        f"{'met' if met['zero'] else 'MISSED'}, offline {'met' if met['offline'] else 'MISSED'} on every trial and "
+        "rate."
     )
     text = "\n".join(causal_rows) + "\n\n" + "\n".join(offline_rows) + "\n\n" + verdict + " " + cost
     print("\n" + text)
