@@ -125,8 +125,6 @@ def layout(
     missing = [c for c in cols if c not in present]
     if kind == "directions":
         n = len(cols) // 3
-        if n < 2:
-            raise LogFormatError(f"{where}: direction input needs at least 2 directions (b1*, b2*); got {n}")
         if missing:
             raise LogFormatError(f"{where}: missing direction column(s) {', '.join(missing)}")
         if [int(c[1:-1]) for c in cols[::3]] != list(range(1, n + 1)):
