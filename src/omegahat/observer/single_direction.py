@@ -50,7 +50,7 @@ estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle starts f
 **Excitation monitor.** The causal, exponentially weighted version of G, ``G_k = S_k / W_k`` with
 ``S_k = a S_{k−1} + (1 − a)(I − b_k b_kᵀ)``, ``W_k = a W_{k−1} + (1 − a)``, ``a = exp(−h_k / T)``: a sample is
 flagged unobservable when ``λ_min(G_k) < threshold`` once a full window has elapsed. With sensor noise σ the floor
-of ``λ_min`` is about ``2σ²`` (3e-6 at 0.1°), far below the default threshold 1e-3. For b on a cone of half-angle
+of ``λ_min`` is about ``2σ²`` (6e-6 at 0.1°), far below the default threshold 1e-3. For b on a cone of half-angle
 α about an axis, ``λ_min(G) = sin²α`` (axis: the cone's): the threshold flags cones narrower than 1.8°.
 """
 
