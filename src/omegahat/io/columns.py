@@ -7,7 +7,8 @@ removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups,
 * quaternion: ``qw, qx, qy, qz`` (the names say which is the scalar part), or the ambiguous ``q0, q1, q2, q3`` /
   ``q1, q2, q3, q4``, whose scalar part only the ``quaternion_order`` option can say;
 * rotation matrix ``r11 … r33`` (``rij`` = row i, column j);
-* body-frame directions ``b1x, b1y, b1z, b2x, …`` (n ≥ 2, numbered without gaps);
+* body-frame directions ``b1x, b1y, b1z, b2x, …`` (numbered without gaps; one direction alone goes to
+  :mod:`omegahat.io.single_direction`);
 * torque ``tau_x, tau_y, tau_z``.
 
 Exactly one attitude group may be present. A reader (CSV, NPZ, or a format registered in
