@@ -207,7 +207,7 @@ def test_missing_samples_are_predicted_through_and_state_continues_across_calls(
 def test_one_reference_in_the_n_direction_api_points_to_the_single_direction_estimator():
     import omegahat
 
-    with pytest.raises(ValueError, match="references holds one direction: .* use omegahat.SingleDirectionEstimator"):
+    with pytest.raises(ValueError, match=r"references holds one direction: .* use omegahat\.SingleDirectionEstimator"):
         omegahat.sensor_gains(J, rate_hz=10.0, noise_std_rad=1e-3, bandwidth_hz=0.1, references=[[0.0, 0.0, 1.0]])
     assert omegahat.SingleDirectionEstimator is SingleDirectionEstimator
 
