@@ -57,11 +57,14 @@ def test_one_direction_tumbling_converges_with_the_inertia(tmp_path, capsys):
 def test_one_direction_spin_about_it_is_reported_with_the_axis(tmp_path, capsys):
     t = np.arange(0.0, 30.0, 0.1)
     src, dst = tmp_path / "spin.csv", tmp_path / "w.csv"
-    _log(src, [0.0, 0.0, 0.8], [0.0, 0.0, 1.0], t)
-    code, out, err = _run(capsys, "estimate", src, "-o", dst, "--references=0,0,1")
+    _log(src, [0.0, 0.0, 0.8], [0.0, 0.0, 1.0], t, blank={0, 1})
+    code, out, err = _run(capsys, "estimate", src, "-o", dst, "--references=0,0,1", "--start", "warm")
     assert code == 0, err
+    assert "note: with one direction the estimator is the single-direction observer, started from rest" in out
+    W, status = _read(dst)
+    assert list(status[:3]) == ["unavailable", "unavailable", "corrected"] and np.isnan(W[:2]).all()
     assert "none given: J = I, a constant rate; pass --inertia" in out
-    assert "warning: no excitation on 200 of 300 samples (first at line 102)" in out  # t = 10 s: a full window
+    assert "warning: no excitation on 198 of 300 samples (first at line 104)" in out  # t = 10.2 s: a full window
     assert "body axis [0. 0. 1.] is not observable" in out
 
 

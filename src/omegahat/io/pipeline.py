@@ -65,6 +65,8 @@ STARTS = autogain.STARTS
 ESTIMATORS = ("auto", "omegahat", "sarras")  #: auto: omegahat when the inertia is given (and no gains), else sarras
 _CLI_FLAGS = {
     "inertia": "--inertia",
+    "estimator": "--estimator",
+    "start": "--start",
     "references": "--references",
     "rotation_tol": "--rotation-tol",
     "quat_norm_tol": "--quat-norm-tol",

@@ -77,6 +77,11 @@ def estimate_single_direction(
             else f" (none given: J = I, a constant rate; pass {settings.name('inertia')})"
         )
     )
+    if settings.estimator == "omegahat" or settings.start != "fit":
+        report(
+            "note: with one direction the estimator is the single-direction observer, started from rest "
+            f"({settings.name('estimator')} and {settings.name('start')} do not apply)"
+        )
     kw: dict = {}
     if settings.gains is not None:
         if settings.gains.n != 1:
