@@ -1,6 +1,8 @@
 """One measured direction: the Sarras-type observer against the gradient observer, Monte-Carlo (issue 16, part 1).
 
-Run: ``python benchmarks/single_direction.py [--runs 200] [--seed 16]``; writes its section of RESULTS.md.
+Run: ``python benchmarks/single_direction.py [--runs 200] [--seed 16] [--figure docs/img/single_direction.png]``;
+writes its section of RESULTS.md (and, with ``--figure``, the documentation's figure: ``|ω̂ − ω|`` of both observers
+on the first tumble, and the components along and across b on the first spin about the measured direction).
 
 Each run: J = diag(3, 2, 1) kg m², torque-free; a uniformly random initial attitude, a uniformly random inertial
 direction v (the Sun), ω₀ uniformly random in direction with |ω₀| uniform in [0.1, 1] rad/s; a sun sensor at 10 Hz
@@ -73,22 +75,45 @@ def score(t, W_hat, W):
     return ok, tc, rms
 
 
+def figure(path, t, errors, ts, z_spin, b_spin) -> None:
+    """Left: |ω̂ − ω| on the first tumble, each observer and bandwidth. Right: the first spin about b, the error's
+    components along b and across it (Sarras-type)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10.0, 4.0), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    for name, err in errors.items():
+        left.semilogy(t, err, label=name, linewidth=0.8)
+    left.set(xlabel="t (s)", ylabel="|ω̂ − ω| (rad/s)", title="a tumble, sun sensor 10 Hz, 0.1° noise")
+    left.legend(fontsize=8)
+    along = np.sum(z_spin * b_spin, axis=1)
+    across = np.linalg.norm(z_spin - along[:, None] * b_spin, axis=1)
+    right.semilogy(ts, np.abs(along), label="along b (unobservable)")
+    right.semilogy(ts, across, label="across b")
+    right.set(xlabel="t (s)", ylabel="error (rad/s)", title="a spin about the measured direction")
+    right.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--runs", type=int, default=200)
     p.add_argument("--seed", type=int, default=16)
     p.add_argument("--bandwidths", type=float, nargs="+", default=[0.3, 1.0], help="ω_b, rad/s")
+    p.add_argument("--figure", help="write the documentation's figure to this PNG")
     args = p.parse_args()
     rng = np.random.default_rng(args.seed)
     t0 = time.perf_counter()
     t, W, noisy, _exact = draw(rng, args.runs)
     rows: list[str] = []
     stuck: list[np.ndarray] = []
+    first_run: dict[str, np.ndarray] = {}
     for wb in args.bandwidths:
         for method in METHODS:
             k, l = default_gains(J, method, wb)
             W_hat, _ = run_single_direction(t, noisy, J, method=method, k=k, l=l)
             ok, tc, rms = score(t, W_hat, W)
+            first_run[f"{method}, ω_b = {wb:g}"] = np.linalg.norm(W_hat[:, 0] - W[:, 0], axis=1)
             tq = np.percentile(tc[ok], [50, 90]) if ok.any() else [np.nan] * 2
             rq = np.percentile(rms[ok], [50, 90]) if ok.any() else [np.nan] * 2
             rows.append(
@@ -121,6 +146,8 @@ def main() -> None:
     along = np.abs(np.sum((Wh[-1] - Ws[-1]) * b_end, axis=1))
     across = np.linalg.norm((Wh[-1] - Ws[-1]) - np.sum((Wh[-1] - Ws[-1]) * b_end, axis=1)[:, None] * b_end, axis=1)
     elapsed = time.perf_counter() - t0
+    if args.figure:
+        figure(args.figure, t, first_run, ts, Wh[:, 0] - Ws[:, 0], exact_s[:, 0])
     body = (
         f"Command: `python benchmarks/single_direction.py --runs {args.runs} --seed {args.seed}` "
         f"({elapsed:.0f} s). {machine_line()}\n\n"
