@@ -244,8 +244,10 @@ def test_errors():
         run_single_direction(t, np.vstack([[np.nan] * 3, b[1:]]), J, k=1.0, l=1.0)
     with pytest.raises(ValueError, match="no samples"):
         run_single_direction(t[:0], b[:0], J, k=1.0, l=1.0)
-    with pytest.raises(ValueError, match="b has a zero-length direction"):
+    with pytest.raises(ValueError, match="sample 0: the measured direction b has zero length"):
         run_single_direction(t, np.zeros((3, 3)), J, k=1.0, l=1.0)
+    with pytest.raises(ValueError, match="sample 2: the measured direction b has zero length"):
+        run_single_direction(t, np.vstack([b[:2], [0.0, 0.0, 0.0]]), J, k=1.0, l=1.0)
     with pytest.raises(ValueError, match="give both k and l, or neither"):
         SingleDirectionEstimator(J, k=1.0)
     with pytest.raises(ValueError, match="reference must be a non-zero vector"):

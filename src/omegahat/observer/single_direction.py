@@ -147,10 +147,11 @@ def default_gains(J: ArrayLike, method: str, bandwidth: float) -> tuple[float, f
     raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
 
 
-def _unit(b: np.ndarray, name: str) -> np.ndarray:
+def _unit(b: np.ndarray, j: int) -> np.ndarray:
+    """Rows of ``b`` normalised; a zero row raises naming sample ``j``."""
     n = np.linalg.norm(b, axis=-1, keepdims=True)
     if np.any(n == 0):
-        raise ValueError(f"{name} has a zero-length direction (sample {int(np.argmin(n.reshape(-1)))})")
+        raise ValueError(f"sample {j}: the measured direction b has zero length")
     return b / n
 
 
@@ -213,7 +214,7 @@ def run_single_direction(
             raise ValueError("no samples")
         if not np.all(valid[0]):
             raise ValueError("the first sample must be a valid direction (finite)")
-        b_cur = _unit(B3[0], "b")
+        b_cur = _unit(B3[0], 0)
         w0 = np.zeros((nb, 3)) if omega_hat0 is None else np.broadcast_to(np.asarray(omega_hat0, float), (nb, 3))
         r0 = b_cur.copy() if r_hat0 is None else np.broadcast_to(np.asarray(r_hat0, float), (nb, 3)).copy()
         if method == "sarras":  # ξ₀ so that the output map (D2) gives ω̂₀
@@ -246,8 +247,7 @@ def run_single_direction(
         if h <= 0:
             raise ValueError(f"sample {j}: time {float(t[j])!r} is not after the previous one ({t_prev!r})")
         ok = valid[j][:, None]
-        b_next = np.where(ok, B3[j], b_cur)
-        b_next = np.where(ok, _unit(b_next, "b"), b_cur)
+        b_next = _unit(np.where(ok, B3[j], b_cur), j)
         w_meas = _great_circle_rate(b_cur, b_next, h)
         what = output(x1, x2, b_cur)
         rate = max(
@@ -287,7 +287,7 @@ def excitation(
 
     Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector:
     the unobservable axis when λ_min is small) and the state to continue from. ``G_k`` counts as established once
-    ``window_s`` has elapsed since the first valid sample (``state["elapsed"]``).
+    ``window_s`` has elapsed since the first valid sample (``state["since"]``, per sample).
     """
     T_w = float(as_positive(window_s, "window_s")[0])
     t = np.asarray(t, dtype=float)
