@@ -108,7 +108,6 @@ def test_whitespace_around_names_and_values(tmp_path):
         ("t,qw,qx,qy,qz,tau_x,tau_y\n", r"torque needs tau_x, tau_y and tau_z; missing tau_z"),
         ("t,qw,qx,qy,qz,tau_x,tau_y,tau_z\n0,1,0,0,0,0,,0\n", r"line 2, column tau_y: empty torque"),
         ("t,qw,qx,qy,qz,tau_x,tau_y,tau_z\n0,1,0,0,0,0,inf,0\n", r"line 2, column tau_y: torque 'inf' is not finite"),
-        ("t,b1x,b1y,b1z\n", r"direction input needs at least 2 directions \(b1\*, b2\*\); got 1"),
         ("t,b1x,b1y,b1z,b2x,b2y\n", r"missing direction column\(s\) b2z"),
         ("t,b1x,b1y,b1z,b3x,b3y,b3z\n", r"directions must be numbered b1, b2, \.\.\. without gaps; got b1, b3"),
     ],

@@ -21,6 +21,8 @@ __version__ = "0.1.0"
 _PUBLIC = {
     "SarrasEstimator": "omegahat.observer.estimator",
     "SupervisedKalmanEstimator": "omegahat.observer.kalman",
+    "SingleDirectionEstimator": "omegahat.observer.single_direction",
+    "LostExcitationWarning": "omegahat.observer.single_direction",
     "ObserverGains": "omegahat.observer.gains",
     "check_gains": "omegahat.observer.gains",
     "theorem_gains": "omegahat.observer.gains",

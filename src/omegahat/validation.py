@@ -69,6 +69,11 @@ def as_positive(x: ArrayLike, name: str, n: int | None = None) -> np.ndarray:
 def as_directions(v: ArrayLike, name: str = "references", min_angle_deg: float = 1.0) -> np.ndarray:
     """``n ≥ 2`` inertial directions ``(n, 3)``, normalised, two of them at least ``min_angle_deg`` apart."""
     a = np.asarray(v, dtype=float)
+    if a.shape == (1, 3):
+        raise ValueError(
+            f"{name} holds one direction: the rate about it cannot be observed from it alone; for one measured "
+            "direction use omegahat.SingleDirectionEstimator (it needs the body to tumble)"
+        )
     if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] < 2:
         raise ValueError(f"{name} must have shape (n, 3) with n >= 2; got shape {a.shape}")
     if not np.all(np.isfinite(a)):

@@ -53,7 +53,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           t                   sample times (--time-unit, default s), in order
           qw,qx,qy,qz         attitude quaternion (names say which is the scalar), or
           r11,r12,...,r33     rotation matrix, row i column j, or
-          b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references)
+          b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references); one direction
+                              alone (a sun sensor) needs a tumbling body and --inertia (its own observer)
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
         empty fields (or nan) are missing samples; other columns are ignored.
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, C3D files with rigid-body

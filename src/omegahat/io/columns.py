@@ -7,7 +7,8 @@ removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups,
 * quaternion: ``qw, qx, qy, qz`` (the names say which is the scalar part), or the ambiguous ``q0, q1, q2, q3`` /
   ``q1, q2, q3, q4``, whose scalar part only the ``quaternion_order`` option can say;
 * rotation matrix ``r11 … r33`` (``rij`` = row i, column j);
-* body-frame directions ``b1x, b1y, b1z, b2x, …`` (n ≥ 2, numbered without gaps);
+* body-frame directions ``b1x, b1y, b1z, b2x, …`` (numbered without gaps; one direction alone goes to
+  :mod:`omegahat.io.single_direction`);
 * torque ``tau_x, tau_y, tau_z``.
 
 Exactly one attitude group may be present. A reader (CSV, NPZ, or a format registered in
@@ -125,8 +126,6 @@ def layout(
     missing = [c for c in cols if c not in present]
     if kind == "directions":
         n = len(cols) // 3
-        if n < 2:
-            raise LogFormatError(f"{where}: direction input needs at least 2 directions (b1*, b2*); got {n}")
         if missing:
             raise LogFormatError(f"{where}: missing direction column(s) {', '.join(missing)}")
         if [int(c[1:-1]) for c in cols[::3]] != list(range(1, n + 1)):

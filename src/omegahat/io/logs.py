@@ -8,7 +8,7 @@ Input columns (CSV header, or NPZ array names), by name, in any order, names com
   - a quaternion ``qw, qx, qy, qz`` (the names say which is the scalar part),
   - a rotation matrix ``r11, r12, …, r33`` (``rij`` = row i, column j of R, body → inertial unless
     ``ReadOptions.rotation`` says inertial-to-body),
-  - body-frame directions ``b1x, b1y, b1z, b2x, …`` of n ≥ 2 known inertial directions (their inertial
+  - body-frame directions ``b1x, b1y, b1z, b2x, …`` of n ≥ 1 known inertial directions (their inertial
     coordinates are given separately, e.g. ``omegahat estimate --references``);
 * optionally the known torque ``tau_x, tau_y, tau_z`` (body axes, N·m).
 

@@ -92,8 +92,8 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         elif "R" in whole:
             data, kind, name = get("R", f"({T}, 3, 3)", lambda s: s == (T, 3, 3)), "matrix", "R"
         elif "b" in whole:
-            ok = lambda s: len(s) == 3 and s[0] == T and s[1] >= 2 and s[2] == 3  # noqa: E731
-            data, kind, name = get("b", f"({T}, n, 3) with n >= 2", ok), "directions", "b"
+            ok = lambda s: len(s) == 3 and s[0] == T and s[1] >= 1 and s[2] == 3  # noqa: E731
+            data, kind, name = get("b", f"({T}, n, 3)", ok), "directions", "b"
         else:
             lay = layout([n for n in names if n not in ("tau",)], path, "t", options.quaternion_order)
             kind, name = lay.kind, ",".join(lay.attitude)

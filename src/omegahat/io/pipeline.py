@@ -44,6 +44,7 @@ from omegahat import measurements as ms
 from omegahat.io.columns import LogFormatError
 from omegahat.io.output import CORRECTED, PREDICTED, UNAVAILABLE
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream, prefetch
+from omegahat.io.single_direction import estimate_single_direction
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
@@ -65,6 +66,8 @@ STARTS = autogain.STARTS
 ESTIMATORS = ("auto", "omegahat", "sarras")  #: auto: omegahat when the inertia is given (and no gains), else sarras
 _CLI_FLAGS = {
     "inertia": "--inertia",
+    "estimator": "--estimator",
+    "start": "--start",
     "references": "--references",
     "rotation_tol": "--rotation-tol",
     "quat_norm_tol": "--quat-norm-tol",
@@ -373,6 +376,8 @@ def estimate_stream(
     for note in stream.notes:
         report(f"note: {note}")
     n_notes = len(stream.notes)
+    if stream.kind == "directions" and stream.n_directions == 1:  # one direction: its own observer (no attitude)
+        return estimate_single_direction(stream, settings, open_writer, RunSummary(), report, progress)
     J = (
         np.eye(3)
         if settings.inertia is None
