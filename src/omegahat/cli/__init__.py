@@ -13,6 +13,7 @@ SUBCOMMANDS = {
     "estimate": "omegahat.cli.estimate",
     "compare": "omegahat.cli.compare",
     "montecarlo": "omegahat.cli.montecarlo",
+    "control": "omegahat.cli.control",
 }
 
 

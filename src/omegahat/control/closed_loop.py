@@ -240,7 +240,7 @@ def simulate_closed_loop(
     h = 1.0 / float(as_positive(rate_hz, "rate_hz")[0])
     if not (math.isfinite(sigma) and sigma >= 0.0):
         raise ValueError(f"sigma must be a finite number >= 0 (rad); got {sigma!r}")
-    n = int(math.floor(horizon / h + 1e-9)) + 1
+    n = math.floor(horizon / h + 1e-9) + 1
     plant.reset(R0, w0)
     feed.reset()
     out = {key: np.full((n, 3), np.nan) for key in ("omega", "omega_hat", "tau")}

@@ -93,11 +93,13 @@ class ControlScenario:
 
 def detumble(**changes: Any) -> ControlScenario:
     """Detumble from ``|ω₀| = 2`` rad/s (module docstring)."""
-    w0 = np.array([0.8, -1.2, 1.4])
-    w0 = tuple(float(v) for v in 2.0 * w0 / np.linalg.norm(w0))
+    w = np.array([0.8, -1.2, 1.4])
+    w0 = 2.0 * w / np.linalg.norm(w)
     axis = np.array([1.0, -2.0, 0.5])
-    R0 = tuple(float(v) for v in np.deg2rad(130.0) * axis / np.linalg.norm(axis))
-    return ControlScenario("detumble", R0=R0, omega0=w0, horizon=200.0).with_(**changes)  # type: ignore[arg-type]
+    R0 = np.deg2rad(130.0) * axis / np.linalg.norm(axis)
+    return ControlScenario("detumble", R0=(R0[0], R0[1], R0[2]), omega0=(w0[0], w0[1], w0[2]), horizon=200.0).with_(
+        **changes
+    )
 
 
 def slew(**changes: Any) -> ControlScenario:
