@@ -63,11 +63,13 @@ def attitude_error(R: ArrayLike, R_d: ArrayLike) -> np.ndarray:
 
 
 def error_angle(R: ArrayLike, R_d: ArrayLike) -> np.ndarray:
-    """The angle θ_e ∈ [0, π] of ``R_dᵀ R`` (rad), ``(*B,)``: from the trace, clipped against rounding."""
+    """The angle θ_e ∈ [0, π] of ``R_dᵀ R`` (rad), ``(*B,)``: ``atan2(|e_R|, (tr(R_dᵀ R) − 1)/2)`` with (C1)'s
+    ``|e_R| = sin θ_e``, accurate to rounding at every angle (the arccosine of the trace alone loses half the
+    digits near 0 and near π)."""
     R = np.asarray(R, dtype=float)
     R_d = np.asarray(R_d, dtype=float)
-    trace = np.einsum("...ij,...ij->...", R_d, R)  # tr(R_dᵀ R)
-    return np.arccos(np.clip(0.5 * (trace - 1.0), -1.0, 1.0))
+    cos = 0.5 * (np.einsum("...ij,...ij->...", R_d, R) - 1.0)  # tr(R_dᵀ R) = Σ R_d,ij R_ij
+    return np.arctan2(np.linalg.norm(attitude_error(R, R_d), axis=-1), cos)
 
 
 def pd_gains(J: ArrayLike, natural_frequency: float, damping: float) -> tuple[float, float]:
