@@ -5,11 +5,12 @@ The spacecraft (the values of ``docs/theory/control.md``): ``J = diag(300, 250, 
 :mod:`omegahat.control.controller` with ``ω_n = 0.2`` rad/s and ``ζ = 0.9`` (:func:`pd_gains`: ``k_R = 10``
 N m, ``k_ω = 90`` N m s), settled (M1) at ``θ_e ≤ 1e-3`` rad and ``|e_ω| ≤ 1e-3`` rad/s.
 
-* **detumble**: ``|ω₀| = 2`` rad/s about a skewed axis (2 rad/s is 25 s of full torque on every axis for the
-  body's angular momentum, 575 N m s), from a 130° attitude error, to the identity held at rest;
+* **detumble**: ``|ω₀| = 2`` rad/s about a skewed axis, from a 130° attitude error, to the identity held at
+  rest; the body's angular momentum, ``J ω₀ = (239, −298, 279)`` N m s, is 48 to 60 s of full torque per axis;
 * **slew**: from rest at the identity, a 180° rest-to-rest cycloidal rotation of the reference about
-  ``(1, 1, 1)/√3`` in 60 s (peak reference acceleration 5.5e-3 rad/s², 1.6 N m on the largest inertia) followed
-  from start to end: tracking keeps the error small, where a 180° step would start at (C4)'s unstable equilibrium.
+  ``(1, 1, 1)/√3`` in 25 s, followed from start to end (tracking keeps the error small, where a 180° step would
+  start at (C4)'s unstable equilibrium). Its peak reference acceleration, 2π²/25² = 0.0316 rad/s², needs 5.5 N m
+  on the x axis: the feed-forward saturates there, and the loop falls behind the reference until it catches up.
 
 Rate sources (:func:`make_feed`): ``gyro`` (the true rate), ``omegahat`` (the default estimator,
 :class:`omegahat.observer.kalman.SupervisedKalmanEstimator` with the star tracker's σ and the commanded torque),
@@ -103,9 +104,9 @@ def detumble(**changes: Any) -> ControlScenario:
 
 
 def slew(**changes: Any) -> ControlScenario:
-    """A 180° rest-to-rest slew in 60 s (module docstring)."""
+    """A 180° rest-to-rest slew in 25 s (module docstring)."""
     axis = (1.0, 1.0, 1.0)
-    return ControlScenario("slew", slew=(axis, math.pi, 60.0, 0.0), horizon=120.0).with_(**changes)
+    return ControlScenario("slew", slew=(axis, math.pi, 25.0, 0.0), horizon=100.0).with_(**changes)
 
 
 def make_feed(name: str, scenario: ControlScenario) -> RateFeed:
