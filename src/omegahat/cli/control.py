@@ -105,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
     per_run = [
         {"run": j, "angle0_rad": float(result.angle0[j]), "rate0": float(result.rate0[j])}
         | {f"settle_{name}": float(result.settle[j, f]) for f, name in enumerate(FEEDS)}
+        | {f"rest_angle_{name}": float(result.rest_angle[j, f]) for f, name in enumerate(FEEDS)}
         for j in range(args.runs)
     ]
     report.write_csv(out / "basin_runs.csv", per_run)

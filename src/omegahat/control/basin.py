@@ -11,7 +11,10 @@ quaternion); the initial rate ``ω₀ = s u`` with ``u`` uniform on the sphere a
 ``[0, omega_max]``; then the star tracker's noise. Every rate source sees the same draws (the same initial
 condition and the same noise sequence). Each run is scored with (M1)–(M3) of
 :mod:`omegahat.control.closed_loop` against a reference held at the identity: converged when it settled within the
-horizon; *slow* when it settled later than ``slow_factor`` times the median settling time of its rate source.
+horizon; *slow* when it settled later than ``slow_factor`` times the median settling time of its rate source. The
+attitude at which the rate first drops below ``REST_RATE`` (the end of the detumble) is recorded: a run whose
+rates die out more than ``NEAR_PI_DEG`` from the reference starts its attitude manoeuvre near the law's unstable
+equilibrium, and those are the slow ones.
 
 **Sweep near 180°** (:func:`angle_sweep`). From rest, the initial error is a rotation by θ₀ about a fixed axis: at
 θ₀ = 180° the attitude error (C1) is zero and the rest state is an equilibrium of the PD law (unstable; with
@@ -33,14 +36,18 @@ from omegahat.control.closed_loop import pointing_error, settling_time, torque_u
 from omegahat.control.scenarios import ControlScenario, make_feed, run_scenario
 from omegahat.validation import as_positive
 
-__all__ = ["BasinResult", "angle_sweep", "basin_campaign", "draw_initial_conditions"]
+__all__ = ["NEAR_PI_DEG", "REST_RATE", "BasinResult", "angle_sweep", "basin_campaign", "draw_initial_conditions"]
+
+REST_RATE = 0.02  #: rad/s: below this the detumble is over (module docstring)
+NEAR_PI_DEG = 150.0  #: deg: a run at rest farther than this from the reference starts near the unstable equilibrium
 
 
 @dataclass(frozen=True)
 class BasinResult:
     """Per run (rows) and rate source (columns, ``feeds``): the settling time ``settle`` (s, inf = not within the
     horizon), ``pointing`` (RMS error angle over the last 20 s, rad), ``impulse`` (N m s), ``diverged``; the
-    initial error angle ``angle0`` (rad) and rate ``rate0`` (rad/s) of each run."""
+    initial error angle ``angle0`` (rad) and rate ``rate0`` (rad/s) of each run; ``rest_angle`` (runs, feeds):
+    the error angle (rad) when the true rate first fell below ``REST_RATE`` (NaN if never)."""
 
     feeds: tuple[str, ...]
     seed: int
@@ -51,6 +58,7 @@ class BasinResult:
     pointing: np.ndarray
     impulse: np.ndarray
     diverged: np.ndarray
+    rest_angle: np.ndarray
 
     def converged(self) -> np.ndarray:
         """``(runs, feeds)`` booleans: settled within the horizon."""
@@ -66,6 +74,7 @@ class BasinResult:
         slow runs and the median initial angle of the slow ones, median pointing error, median impulse."""
         rows: list[dict[str, float | str | int]] = []
         slow = self.slow(slow_factor)
+        near_pi = self.rest_angle > np.radians(NEAR_PI_DEG)  # NaN compares False
         for f, name in enumerate(self.feeds):
             conv = self.converged()[:, f]
             s = self.settle[conv, f]
@@ -80,6 +89,10 @@ class BasinResult:
                     "slow_runs": int(slow[:, f].sum()),
                     "slow_median_angle0_deg": float(np.degrees(np.median(self.angle0[slow[:, f]])))
                     if slow[:, f].any()
+                    else math.nan,
+                    "near_pi_runs": int(near_pi[:, f].sum()),
+                    "near_pi_median_settle_s": float(np.median(self.settle[near_pi[:, f], f]))
+                    if near_pi[:, f].any()
                     else math.nan,
                     "median_pointing_rad": float(np.median(self.pointing[conv, f])) if s.size else math.nan,
                     "median_impulse_Nms": float(np.median(self.impulse[:, f])),
@@ -123,6 +136,7 @@ def basin_campaign(
     shape = (runs, nf)
     settle, pointing, impulse = np.empty(shape), np.empty(shape), np.empty(shape)
     diverged = np.zeros(shape, dtype=bool)
+    rest_angle = np.full(shape, np.nan)
     angle0, rate0 = np.empty(runs), np.empty(runs)
     sources = [make_feed(name, scenario) for name in feeds]
     for j in range(runs):
@@ -136,7 +150,12 @@ def basin_campaign(
             pointing[j, f] = pointing_error(run, tail)
             impulse[j, f] = torque_used(run)
             diverged[j, f] = run.diverged
-    return BasinResult(tuple(feeds), int(seed), scenario.horizon, angle0, rate0, settle, pointing, impulse, diverged)
+            at_rest = np.flatnonzero(np.linalg.norm(run.omega, axis=1) < REST_RATE)
+            if at_rest.size:
+                rest_angle[j, f] = run.angle[at_rest[0]]
+    return BasinResult(
+        tuple(feeds), int(seed), scenario.horizon, angle0, rate0, settle, pointing, impulse, diverged, rest_angle
+    )
 
 
 def angle_sweep(
