@@ -52,6 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="star tracker noise per axis in arcseconds (10; 36 is 0.01 deg)",
     )
     parser.add_argument(
+        "--natural-frequency",
+        type=_positive_float,
+        default=0.2,
+        help="the PD law's natural frequency in rad/s (0.2; damping 0.9)",
+    )
+    parser.add_argument(
         "--plant",
         choices=("rigid-body", "mujoco"),
         default="rigid-body",
@@ -75,8 +81,8 @@ def run(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     table: list[dict] = []
-    sigma = args.sigma_arcsec * ARCSEC
-    for scenario in (detumble(sigma=sigma), slew(sigma=sigma)):
+    common = {"sigma": args.sigma_arcsec * ARCSEC, "natural_frequency": args.natural_frequency}
+    for scenario in (detumble(**common), slew(**common)):
         runs: dict[str, ClosedLoopRun] = {
             name: run_scenario(scenario, name, seed=1, plant=_plant(args.plant, scenario)) for name in FEEDS
         }
@@ -97,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
             )
     report.write_csv(out / "scenarios.csv", table)
 
-    campaign_scenario = detumble(horizon=300.0, sigma=sigma)
+    campaign_scenario = detumble(horizon=300.0, **common)
     result = basin.basin_campaign(campaign_scenario, FEEDS, args.runs, seed=args.seed)
     sweep = basin.angle_sweep(campaign_scenario, FEEDS, SWEEP_DEG)
     basin_rows = result.summary_rows()
@@ -120,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
         f"# omegahat control (plant: {args.plant}; basin: {args.runs} runs, seed {args.seed})\n\n"
         "J = diag(300, 250, 200) kg m², |tau_i| <= 5 N m, star tracker 5 Hz with "
         f"{args.sigma_arcsec:g} arcsec per axis, "
-        "PD law w_n = 0.2 rad/s, zeta = 0.9; settled: error angle <= 1e-3 rad and rate error <= 1e-3 rad/s."
+        f"PD law w_n = {args.natural_frequency:g} rad/s, zeta = 0.9; settled: error angle <= 1e-3 rad and rate error <= 1e-3 rad/s."
     )
     (out / "summary.md").write_text(report.summary_markdown(table, basin_rows, SWEEP_DEG, sweep, FEEDS, header))
     print(f"done in {time.perf_counter() - start:.1f} s; figures, CSV files and summary.md in {out}/")
