@@ -126,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
         f"# omegahat control (plant: {args.plant}; basin: {args.runs} runs, seed {args.seed})\n\n"
         "J = diag(300, 250, 200) kg m², |tau_i| <= 5 N m, star tracker 5 Hz with "
         f"{args.sigma_arcsec:g} arcsec per axis, "
-        f"PD law w_n = {args.natural_frequency:g} rad/s, zeta = 0.9; settled: error angle <= 1e-3 rad and rate error <= 1e-3 rad/s."
+        f"PD law w_n = {args.natural_frequency:g} rad/s, zeta = 0.9; "
+        "settled: error angle <= 1e-3 rad and rate error <= 1e-3 rad/s."
     )
     (out / "summary.md").write_text(report.summary_markdown(table, basin_rows, SWEEP_DEG, sweep, FEEDS, header))
     print(f"done in {time.perf_counter() - start:.1f} s; figures, CSV files and summary.md in {out}/")
