@@ -207,3 +207,19 @@ def test_error_messages():
         )  # fmt: skip
     with pytest.raises(ValueError, match="runs must be a positive integer"):
         basin_campaign(detumble(), ("gyro",), 0)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--runs", "0"], "expected a positive integer, got '0'"),
+        (["--runs", "two"], "expected an integer, got 'two'"),
+        (["--sigma-arcsec", "-1"], "expected a positive number, got '-1'"),
+        (["--natural-frequency", "fast"], "expected a number, got 'fast'"),
+        (["--plant", "gazebo"], "invalid choice: 'gazebo'"),
+    ],
+)
+def test_control_command_refuses_bad_arguments(argv, message, capsys):
+    with pytest.raises(SystemExit, match="2"):
+        main(["control", *argv])
+    assert message in capsys.readouterr().err

@@ -4,10 +4,10 @@ attitudes, in closed loop (detumble, 180° slew, the measured basin), with figur
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from pathlib import Path
 
+from omegahat.cli import positive_float, positive_int
 from omegahat.control import basin, report
 from omegahat.control.closed_loop import ClosedLoopRun, Plant
 from omegahat.control.scenarios import ARCSEC, ControlScenario, detumble, run_scenario, slew
@@ -21,39 +21,19 @@ FEEDS = ("gyro", "omegahat", "differencing")
 SWEEP_DEG = (90.0, 150.0, 170.0, 179.0, 179.9, 180.0)
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("control-out"), help="output folder (control-out/)")
-    parser.add_argument("--runs", type=_positive_int, default=20, help="Monte-Carlo runs of the basin (20)")
+    parser.add_argument("--runs", type=positive_int, default=20, help="Monte-Carlo runs of the basin (20)")
     parser.add_argument("--seed", type=int, default=2026, help="the basin's SeedSequence entropy (2026)")
     parser.add_argument(
         "--sigma-arcsec",
-        type=_positive_float,
+        type=positive_float,
         default=10.0,
         help="star tracker noise per axis in arcseconds (10; 36 is 0.01 deg)",
     )
     parser.add_argument(
         "--natural-frequency",
-        type=_positive_float,
+        type=positive_float,
         default=0.2,
         help="the PD law's natural frequency in rad/s (0.2; damping 0.9)",
     )
