@@ -30,6 +30,7 @@ PACKAGE_PAGES = {
     "omegahat.simulation": "simulation",
     "omegahat.campaigns": "campaigns",
     "omegahat.baselines": "baselines",
+    "omegahat.control": "control",
     "omegahat.evaluation": "evaluation",
     "omegahat.io": "io",
     "omegahat.so3": "so3",

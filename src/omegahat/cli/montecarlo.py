@@ -7,6 +7,7 @@ import time
 from pathlib import Path
 
 from omegahat import campaigns
+from omegahat.cli import positive_int
 
 HELP = (
     "Run a Monte-Carlo campaign (TOML config, see examples/campaign.toml) and write summary.json, "
@@ -14,20 +15,10 @@ HELP = (
 )
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="campaign configuration (TOML)")
     parser.add_argument("--out", type=Path, default=Path("montecarlo-out"), help="output folder (montecarlo-out/)")
-    parser.add_argument("--runs", type=_positive_int, default=None, help="override [campaign] runs")
+    parser.add_argument("--runs", type=positive_int, default=None, help="override [campaign] runs")
     parser.add_argument(
         "--dask",
         metavar="ADDRESS",

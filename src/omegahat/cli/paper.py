@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omegahat.cli import positive_float
 from omegahat.evaluation.metrics import convergence_time
 from omegahat.observer.gains import check_gains
 from omegahat.plots import plot_direction, plot_filter_errors, plot_omega
@@ -19,20 +20,10 @@ HELP = "Simulate the paper's scenario and write its four figures, trajectory.csv
 FIGURES = ("fig1_omega", "fig2_r1", "fig3_r2", "fig4_filter_errors")
 
 
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("paper-figures"), help="output folder (paper-figures/)")
-    parser.add_argument("--horizon", type=_positive_float, default=10.0, help="simulated time in s (10)")
-    parser.add_argument("--dt", type=_positive_float, default=1e-3, help="output sample period in s (0.001)")
+    parser.add_argument("--horizon", type=positive_float, default=10.0, help="simulated time in s (10)")
+    parser.add_argument("--dt", type=positive_float, default=1e-3, help="output sample period in s (0.001)")
 
 
 def write_trajectory_csv(path: Path, traj: CoupledTrajectory) -> None:
