@@ -34,8 +34,12 @@ def test_compare_writes_its_files_and_is_deterministic(tmp_path, capsys):
         "diff-backward",
         "diff-central",
         "spline",
+        "savgol",
         "mekf-dynamic",
         "mekf-kinematic",
+        "mekf-rts",
+        "omegahat-mocap",
+        "omegahat-mocap-smooth",
     ]
     # The fixed point the table must agree with: on noise-free samples at 100 Hz, raw backward differencing is
     # first order, |error| ≈ h |ω̇| / 2 at t_k, i.e. well above 1e-4 and below 0.1 rad/s on the paper's body.

@@ -310,6 +310,8 @@ def _score_real(run, w):
 def _fmt(x, digits=3):
     if x is None:
         return "none"
+    if isinstance(x, tuple):  # a knob of several numbers, e.g. (window, order)
+        return "(" + ", ".join(_fmt(v, digits) for v in x) + ")"
     if isinstance(x, float) and (math.isinf(x) or math.isnan(x)):
         return "inf" if math.isinf(x) else "n/a"
     return f"{x:.{digits}g}"

@@ -45,11 +45,12 @@ from omegahat.io.columns import LogFormatError
 from omegahat.io.output import CORRECTED, PREDICTED, UNAVAILABLE
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream, prefetch
 from omegahat.io.single_direction import estimate_single_direction
+from omegahat.io.smoothing import write_smoothed
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
-from omegahat.observer.presets import PRESETS, mocap_estimator, mocap_model, smooth
+from omegahat.observer.presets import PRESETS, mocap_estimator, mocap_model
 from omegahat.validation import as_directions, as_inertia
 
 __all__ = [
@@ -78,7 +79,6 @@ _CLI_FLAGS = {
     "quaternion_order": "--quaternion-order",
     "preset": "--preset",
     "smooth": "--smooth",
-    "estimator": "--estimator",
     "gains": "--k/--l",
 }
 _PY_NAMES = {"bandwidth": "bandwidth_hz", "quaternion_order": "the order of the quaternion= columns (x, y, z, w)"}
@@ -448,7 +448,11 @@ def estimate_stream(
     with open_writer(stream) as writer:
         job = _Run(est, stream, writer, bad, settings.start, h, summary)
         if settings.smooth:
-            _smooth_all(job, [*head, *chunks], rate_hz, noise_std, settings)
+            if stream.kind == "directions":
+                raise ValueError(f"{settings.opt('smooth')} takes attitudes (quaternions or rotation matrices)")
+            tols = (settings.rotation_tol, settings.quat_norm_tol)
+            done = write_smoothed([*head, *chunks], bad.check, writer.write, rate_hz, noise_std, *tols)
+            summary.rows, summary.elapsed, est.n_missing = done.rows, done.elapsed, done.n_missing
             head.clear()
         while head:  # the head first (releasing it as it goes), then the rest of the stream
             job.feed(head.pop(0))
@@ -461,40 +465,6 @@ def estimate_stream(
     summary.n_missing, summary.n_collinear, summary.n_bad = est.n_missing, est.n_collinear, bad.count
     summary.lines = _summary_lines(summary, est, stream, bad, J, settings, stream.notes[n_notes:])
     return summary
-
-
-def _smooth_all(
-    job: _Run, chunks: list[LogChunk], rate_hz: float, noise_std: float, settings: EstimateSettings
-) -> None:
-    """``--smooth``: the whole log at once (:func:`omegahat.observer.presets.smooth`), written chunk by chunk with
-    the statuses of the causal path (``corrected`` where the sample was used, ``predicted`` where it is missing)."""
-    if job.stream.kind == "directions":
-        raise ValueError(f"{settings.opt('smooth')} takes attitudes (quaternions or rotation matrices), not directions")
-    for chunk in chunks:
-        job.bad.check(chunk)  # a bad sample: an error naming its line, or missing with --skip-bad-samples
-    t = np.concatenate([c.t for c in chunks])
-    data = np.concatenate([c.data for c in chunks])
-    t0 = time.perf_counter()
-    W = smooth(
-        t,
-        data,
-        rate_hz=rate_hz,
-        noise_std=noise_std,
-        rotation_tol=settings.rotation_tol,
-        quat_norm_tol=settings.quat_norm_tol,
-    )
-    job.summary.elapsed += time.perf_counter() - t0
-    valid = np.all(np.isfinite(data.reshape(t.size, -1)), axis=1)
-    status = np.where(valid, CORRECTED, PREDICTED).astype(np.int8)
-    status[~np.all(np.isfinite(W), axis=1)] = UNAVAILABLE
-    start = 0
-    for chunk in chunks:
-        stop = start + len(chunk)
-        job.writer.write(chunk, W[start:stop], status[start:stop])
-        job.summary.rows += len(chunk)
-        start = stop
-    job.est.n_missing = int(np.count_nonzero(~valid))
-    chunks.clear()
 
 
 def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega0, report):
