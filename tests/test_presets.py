@@ -14,6 +14,7 @@ from omegahat.observer.presets import (
     MOCAP_JERK_NOISE,
     MOCAP_SWITCH_HZ,
     MocapSmoother,
+    filter_lag,
     mocap_estimator,
     mocap_model,
     smooth,
@@ -26,12 +27,16 @@ def test_the_rule_switches_model_at_80_hz_and_scales_with_the_rate():
     assert mocap_model(MOCAP_SWITCH_HZ).kind == "constant-acceleration"
     slow, slower = mocap_model(28.57), mocap_model(9.52)
     assert slow.kind == "constant-rate" and slow.disturbance_noise is None
-    # (P2): a fixed tracking index Λ = σ_a h^1.5 / σ_m, 10 causal and 100 for the smoother's passes
+    # (P2): a fixed tracking index Λ = σ_a h^1.5 / σ_m = 10
     for m in (slow, slower):
         assert m.rate_noise * (1 / m.rate_hz) ** 1.5 / m.measurement_sigma == pytest.approx(10.0, rel=1e-12)
-    assert mocap_model(28.57, "smooth").rate_noise == pytest.approx(10 * slow.rate_noise, rel=1e-12)
-    with pytest.raises(ValueError, match=r"purpose must be one of \('causal', 'smooth'\); got 'x'"):
-        mocap_model(100.0, "x")
+    # the lag of (P2) is a fixed number of samples (a fixed tracking index), (P1) tracks ramps without one
+    assert 0.2 < filter_lag(28.57) * 28.57 < 0.5
+    assert filter_lag(28.57) * 28.57 == pytest.approx(filter_lag(9.52) * 9.52, rel=1e-6)
+    # (P1)'s attitude noise follows a noisy log's measured one, never below the motion-capture value
+    assert mocap_model(285.7, noise_std=1e-5).measurement_sigma == 1e-3
+    assert mocap_model(285.7, noise_std=1e-3).measurement_sigma == pytest.approx(1e-2)
+    assert mocap_model(28.57, noise_std=1e-3).measurement_sigma == 1e-3
     with pytest.raises(ValueError, match=r"rate_hz"):
         mocap_model(-1.0)
 
@@ -57,7 +62,7 @@ def test_smoothing_removes_the_causal_lag(rate_hz):
     smoothed = smooth(t, rot.as_matrix())
     assert lag(causal) > 0.1 / rate_hz  # a tenth of a sample at least
     assert abs(lag(smoothed)) < 1e-4 * lag(causal)
-    assert np.abs(smoothed - omega)[inner].max() < 0.01 * np.abs(causal - omega)[inner].max()
+    assert np.abs(smoothed - omega)[inner].max() < 0.1 * np.abs(causal - omega)[inner].max()
     np.testing.assert_array_equal(MocapSmoother(rate_hz).run(t, rot.as_matrix()), smooth(t, rot, rate_hz=rate_hz))
 
 
@@ -118,7 +123,7 @@ def test_cli_preset_causal_and_smooth(tmp_path, capsys):
         np.testing.assert_allclose(values[:, 0], t, atol=1e-12)
         inner = (t > 2.0) & (t < 10.0)
         rms = np.sqrt(np.mean(np.sum((values[inner, 1:] - omega[inner]) ** 2, axis=1)))
-        assert rms < 0.6 * _backward_difference_rms(log, t, omega, inner), name
+        assert rms < 0.85 * _backward_difference_rms(log, t, omega, inner), name
         assert set(status) <= {"corrected", "predicted", "unavailable"}
         if extra:
             assert "forward and backward passes averaged" in text and np.all(status == "corrected")

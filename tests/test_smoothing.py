@@ -73,7 +73,7 @@ def test_right_jacobian_against_finite_differences():
     ("kwargs", "match"),
     [
         ({"window": 4}, r"window must be an odd integer >= 3; got 4"),
-        ({"window": 5, "order": 4}, r"order must be an integer in \[1, window - 1\) = \[1, 4\); got 4"),
+        ({"window": 5, "order": 5}, r"order must be an integer in \[1, window\) = \[1, 5\); got 5"),
     ],
 )
 def test_savgol_rejects_bad_knobs(kwargs, match):

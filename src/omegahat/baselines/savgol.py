@@ -15,7 +15,7 @@ body axes), centred on each sample ``k`` with half-width ``n`` (window ``2n + 1`
 fit is the classical Savitzky–Golay derivative filter (:func:`scipy.signal.savgol_coeffs`) applied to the
 ``φ_j``; here the least squares of (G2) is solved per window on the valid samples, so that gaps (non-finite
 samples), uneven times and the log's ends (a one-sided window) need no special case. A window with fewer
-than ``order + 2`` valid samples, or whose centre is missing, gives NaN. Assumes each window turns by less than π
+than ``order + 1`` valid samples, or whose centre is missing, gives NaN. Assumes each window turns by less than π
 about any axis from its centre (``Log`` is unique), as any log-map method does.
 """
 
@@ -49,8 +49,8 @@ def right_jacobian(u: ArrayLike) -> np.ndarray:
 def _check_knobs(window, order):
     if int(window) != window or window < 3 or window % 2 == 0:
         raise ValueError(f"window must be an odd integer >= 3; got {window!r}")
-    if int(order) != order or not 1 <= order < window - 1:
-        raise ValueError(f"order must be an integer in [1, window - 1) = [1, {int(window) - 1}); got {order!r}")
+    if int(order) != order or not 1 <= order < window:
+        raise ValueError(f"order must be an integer in [1, window) = [1, {int(window)}); got {order!r}")
 
 
 def savgol_rate(
@@ -63,7 +63,8 @@ def savgol_rate(
     quat_norm_tol: float = ms.QUAT_NORM_TOL,
 ) -> np.ndarray:
     """Body-frame ω̂ ``(T, 3)`` by (G1)–(G3): ``window`` samples (odd, ≥ 3), polynomial ``order`` (1 ≤ order <
-    window − 1). Attitudes as for every estimator (:func:`omegahat.measurements.checked_log`)."""
+    window; ``order = window − 1`` interpolates: the classical central-difference stencils). Attitudes as for
+    every estimator (:func:`omegahat.measurements.checked_log`)."""
     _check_knobs(window, order)
     log = ms.checked_log(
         times, attitudes, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
@@ -86,7 +87,7 @@ def savgol_rate(
     w = ok.astype(float)
     A = np.einsum("twi,tw,twj->tij", V, w, V)
     b = np.einsum("twi,tw,twc->tic", V, w, phi)
-    enough = ok.sum(axis=1) >= p + 2
+    enough = ok.sum(axis=1) >= p + 1
     A[~enough] = np.eye(p + 1)
     c = np.linalg.solve(A, b)  # (T, p+1, 3): (G2)
     omega = np.einsum("tij,tj->ti", right_jacobian(c[:, 0]), c[:, 1] / scale)  # (G3)

@@ -168,7 +168,7 @@ class _MocapPreset(SplineEstimator):
 
 
 _CUTOFFS = (None, 0.25, 0.1, 0.025, 0.01)  # × sample rate
-_SAVGOL = ((5, 2), (5, 3), (7, 3), (7, 4), (9, 4), (11, 4), (15, 4), (21, 4))  # (window, order)
+_SAVGOL = ((3, 1), (5, 2), (5, 3), (5, 4), (7, 4), (7, 6), (9, 4), (9, 8), (11, 4), (15, 4), (21, 4))  # (window, order)
 _SIGMA_A = tuple(10.0**p for p in range(-6, 2))
 
 _BANDWIDTHS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)

@@ -479,11 +479,10 @@ def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega
         "quat_norm_tol": settings.quat_norm_tol,
     }
     if settings.preset is not None:
-        purpose = "smooth" if settings.smooth else "causal"
         how = "forward and backward passes averaged (zero lag)" if settings.smooth else "causal"
-        described = mocap_model(motion.rate_hz, purpose, motion.sigma).describe()
+        described = mocap_model(motion.rate_hz, motion.sigma).describe()
         report(f"estimator: {settings.opt('preset', settings.preset)} ({how}): {described}")
-        return mocap_estimator(motion.rate_hz, purpose, motion.sigma, **common)
+        return mocap_estimator(motion.rate_hz, motion.sigma, **common)
     choice = settings.estimator
     if choice == "auto":
         model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None

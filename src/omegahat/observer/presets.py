@@ -2,8 +2,8 @@ r"""Presets a user can type: ``mocap`` — motion capture of a body whose inerti
 
 ``omegahat estimate LOG --preset mocap`` (causal) and ``--preset mocap --smooth`` (offline, zero lag), and
 :func:`mocap_estimator`, :func:`smooth` from Python. ``docs/theory/mocap.md`` has the measurements behind every
-number below; they were tuned on BROAD trials 01, 06 and 10 (native 285.7 Hz and decimated to 95, 57, 29 and
-9.5 Hz), nothing else.
+number below; they were chosen on BROAD trials 01, 06 and 10 (native 285.7 Hz and decimated to 143, 95, 57, 29
+and 9.5 Hz), nothing else.
 
 **Model.** With ``J`` and ``τ`` unknown the estimator is omegahat's default one
 (:class:`omegahat.observer.kalman.SupervisedKalmanEstimator`: the Sarras observer supervising the gyro-less EKF)
@@ -11,35 +11,38 @@ with ``J = I``, ``τ = 0``, so that the EKF's model is kinematic, in one of two 
 ``f = 1/h``::
 
     f ≥ 80 Hz:  constant acceleration:  ω̇ = a,  ȧ = w_a,  w_a white, σ_d = 1500 rad/s^2.5,
-                σ_m = max(1e-3, 30 σ̂) rad                                                          (P1)
-    f < 80 Hz:  constant rate:           ω̇ = w_ω,  w_ω white, σ_a = Λ σ_m / h^1.5, σ_m = 1e-3 rad   (P2)
+                σ_m = max(1e-3, 10 σ̂) rad                                                          (P1)
+    f < 80 Hz:  constant rate:           ω̇ = w_ω,  w_ω white, σ_a = Λ σ_m / h^1.5, Λ = 10,
+                σ_m = 1e-3 rad                                                                      (P2)
 
 with ``σ̂`` the log's attitude noise as ``omegahat estimate`` measures it (:func:`attitude_noise`: second
-differences of the increments over the log's first samples; BROAD's optical attitude: 2–5e-5 rad).
+differences of the increments over the log's first samples; BROAD's optical attitude: 2–5e-5 rad at 286 Hz,
+1–2e-4 rad at 95 Hz).
 
-(P1) is a physical statement — the hand's angular jerk level — so its discretisation scales it with the rate by
-itself: its best σ_d, measured at 286, 143 and 95 Hz, is 1300–2700 rad/s^2.5 whatever the rate. Below about
-80 Hz a moving hand has power near the Nyquist frequency and extrapolating an acceleration amplifies it: (P1)
-loses to backward differencing by 2–6× at 29 Hz. (P2) is the constant-rate filter at a fixed tracking index
-``Λ = σ_a h^1.5 / σ_m`` (a property of the sampled filter: its gain is the same at every rate): ``Λ = 10``
-causal, ``Λ = 100`` for the smoother's passes. Only the ratio ``σ_d/σ_m`` or ``σ_a/σ_m`` shapes the estimate;
-``σ_m`` sets the covariance's scale (its innovation statistics are not meaningful on a hand). In (P1) ``σ_m``
-grows with a noisier log's measured noise (30 σ̂ is 1e-3 on BROAD at its native rate), so that an attitude
-filter's output at 1 mrad gets the smoothing it needs; below 80 Hz the second differences measure the motion more
-than the noise (0.005–0.018 rad on BROAD at 10 Hz), so (P2) keeps its fixed ``σ_m``.
+(P1) is a physical statement — the hand's angular jerk level — so the filter's discretisation scales it with the
+rate by itself: its best σ_d, measured at 286, 143 and 95 Hz, is 1300–2700 rad/s^2.5 whatever the rate. Below
+about 80 Hz a moving hand has power near the Nyquist frequency and extrapolating an acceleration amplifies it:
+(P1) loses to backward differencing by 2–6× at 29 Hz. (P2) is the constant-rate filter at a fixed tracking index
+``Λ = σ_a h^1.5 / σ_m`` (a property of the sampled filter: its gain is the same at every rate). Only the ratios
+``σ_d/σ_m`` and ``σ_a/σ_m`` shape the estimate; ``σ_m`` sets the covariance's scale (its innovation statistics are
+not meaningful on a hand). In (P1) ``σ_m`` grows with a noisier log's measured noise, so that an attitude
+filter's output at 1 mrad is smoothed (at 100 Hz: 0.21 rad/s RMS against raw differencing's 0.26); below 80 Hz
+the second differences measure the motion more than the noise (0.005–0.018 rad on BROAD at 10 Hz), so (P2)
+keeps its fixed ``σ_m``.
 
 **Supervision.** The supervisor's consistency tests (innovation NIS, disagreement with the observer) are switched
 off (thresholds 1e6): a hand is not the model, its innovations are never white, and the tests would restart the
 EKF every few samples (measured: 3–5× the error at 29 Hz). What remains of the supervisor: the EKF starts from
 the observer's estimate and is restarted from it if its state stops being finite.
 
-**Smoothing** (:func:`smooth`): the same estimator run forward, and run again on the log reversed in time (where
-the body rate is ``−ω``), the two averaged::
+**Smoothing** (:func:`smooth`): the same estimator run forward, and again on the log reversed in time (where the
+body rate is ``−ω``); each pass is moved by the filter's own lag ``d`` (:func:`filter_lag`: the steady delay of
+its rate on a constant-acceleration turn, 0 for (P1), 0.33 samples for (P2)), and the two are averaged::
 
-    ω̂_s(t_k) = ½ (ω̂_f(t_k) − ω̂_b(t_k))                                                          (P3)
+    ω̂_s(t_k) = ½ (ω̂_f(t_k + d) − ω̂_b(t_k − d))                                                   (P3)
 
-The forward pass lags and the backward one leads by the same amount, so their average has no lag (zero phase);
-where only one pass has an estimate (the ends) it is used alone.
+(``ω̂_b`` the backward pass's rate at the same instant, in reversed time; the shifts by cubic-spline interpolation of
+each pass). The forward pass lags and the backward one leads by the same amount, so the average has no lag.
 """
 
 from __future__ import annotations
@@ -50,9 +53,11 @@ from typing import NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
+from omegahat import so3
 from omegahat.interface import Estimator, Measurement, Measurements
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SkippedSamplesWarning
@@ -65,6 +70,7 @@ __all__ = [
     "MocapModel",
     "MocapSmoother",
     "attitude_noise",
+    "filter_lag",
     "mocap_estimator",
     "mocap_model",
     "smooth",
@@ -74,8 +80,8 @@ PRESETS = ("mocap",)
 MOCAP_SWITCH_HZ = 80.0  #: (P1) at and above this sample rate, (P2) below
 MOCAP_MEASUREMENT_SIGMA = 1e-3  #: σ_m, rad per axis
 MOCAP_JERK_NOISE = 1500.0  #: σ_d of (P1), rad/s^2.5
-MOCAP_TRACKING_INDEX = {"causal": 10.0, "smooth": 100.0}  #: Λ of (P2)
-MOCAP_NOISE_FACTOR = 30.0  #: (P1): σ_m = max(σ_m, this × the log's measured noise)
+MOCAP_TRACKING_INDEX = 10.0  #: Λ of (P2)
+MOCAP_NOISE_FACTOR = 10.0  #: (P1): σ_m = max(σ_m, this × the log's measured noise)
 _RATE_NOISE_FLOOR = 1e-6  # (P1): the rate itself is driven by the acceleration state, not by noise of its own
 _NO_CONSISTENCY_TEST = 1e6  # supervisor thresholds that never fire on finite numbers (module docstring)
 
@@ -115,28 +121,23 @@ def attitude_noise(times: ArrayLike, attitudes: Measurements) -> float:
     return autogain.measure_motion(log.times[ok], Rotation.from_matrix(log.values[ok])).sigma
 
 
-def mocap_model(rate_hz: float, purpose: str = "causal", noise_std: float | None = None) -> MocapModel:
-    """(P1) or (P2) at ``rate_hz``; ``purpose`` ``"causal"`` or ``"smooth"`` (the passes of (P3)); ``noise_std``
-    the log's σ̂ (None: motion-capture grade, below 3.3e-5 rad)."""
+def mocap_model(rate_hz: float, noise_std: float | None = None) -> MocapModel:
+    """(P1) or (P2) at ``rate_hz``; ``noise_std`` the log's σ̂ (None: motion-capture grade, 1e-4 rad or less)."""
     f = float(as_positive(rate_hz, "rate_hz")[0])
-    if purpose not in MOCAP_TRACKING_INDEX:
-        raise ValueError(f"purpose must be one of {tuple(MOCAP_TRACKING_INDEX)}; got {purpose!r}")
     sm = MOCAP_MEASUREMENT_SIGMA
     if f >= MOCAP_SWITCH_HZ:
         if noise_std is not None:
             sm = max(sm, MOCAP_NOISE_FACTOR * float(as_positive(noise_std, "noise_std")[0]))
         return MocapModel("constant-acceleration", f, sm, _RATE_NOISE_FLOOR, MOCAP_JERK_NOISE)
     h = 1.0 / f
-    return MocapModel("constant-rate", f, sm, MOCAP_TRACKING_INDEX[purpose] * sm / h**1.5, None)
+    return MocapModel("constant-rate", f, sm, MOCAP_TRACKING_INDEX * sm / h**1.5, None)
 
 
-def mocap_estimator(
-    rate_hz: float, purpose: str = "causal", noise_std: float | None = None, **options: object
-) -> SupervisedKalmanEstimator:
+def mocap_estimator(rate_hz: float, noise_std: float | None = None, **options: object) -> SupervisedKalmanEstimator:
     """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``noise_std`` (σ̂; module
     docstring). ``options`` go to :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input
     tolerances, ...)."""
-    m = mocap_model(rate_hz, purpose, noise_std)
+    m = mocap_model(rate_hz, noise_std)
     return SupervisedKalmanEstimator(
         np.eye(3),
         rate_hz=m.rate_hz,
@@ -176,13 +177,37 @@ def smooth(
         noise_std = attitude_noise(t, R)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SkippedSamplesWarning)  # missing samples: the caller counts them
-        forward = mocap_estimator(rate_hz, "smooth", noise_std, **options).run(t, R)
-        backward = -mocap_estimator(rate_hz, "smooth", noise_std, **options).run(t[-1] - t[::-1], R[::-1])[::-1]
+        forward = mocap_estimator(rate_hz, noise_std, **options).run(t, R)
+        backward = -mocap_estimator(rate_hz, noise_std, **options).run(t[-1] - t[::-1], R[::-1])[::-1]
+    d = filter_lag(rate_hz, noise_std)
+    if d > 0:
+        forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
     both = np.stack([forward, backward])
     finite = np.isfinite(both)
     total = np.where(finite, both, 0.0).sum(axis=0)
     count = finite.sum(axis=0)
     return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def filter_lag(rate_hz: float, noise_std: float | None = None) -> float:
+    """The preset filter's lag ``d`` (s) of (P3): its steady rate error on a noise-free turn at constant angular
+    acceleration ``α`` is ``−α d`` (a filter that tracks ramps, (P1), has none)."""
+    if mocap_model(rate_hz, noise_std).disturbance_noise is not None:
+        return 0.0
+    alpha, axis = 0.05, np.array([0.6, 0.0, 0.8])
+    t = np.arange(0.0, 400.0 / rate_hz, 1.0 / rate_hz)  # the filter settles within ~20 samples
+    R = so3.exp(np.outer(0.5 * alpha * t**2, axis))
+    omega = mocap_estimator(rate_hz, noise_std, omega_hat0=np.zeros(3)).run(t, R)
+    error = (omega - np.outer(alpha * t, axis))[t.size // 2 :] @ axis
+    return float(-np.mean(error) / alpha)
+
+
+def _shifted(t, w, d):
+    """``w`` at ``t + d`` by cubic-spline interpolation of its finite rows (extrapolated at the ends)."""
+    ok = np.all(np.isfinite(w), axis=1)
+    if ok.sum() < 4:
+        return w
+    return CubicSpline(t[ok], w[ok], axis=0)(t + d)
 
 
 class MocapSmoother(Estimator):
