@@ -67,7 +67,7 @@ def main() -> int:
         "--preset mocap --smooth | ratio |",
         "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    met = {"causal": True, "zero": True, "offline": True}
+    met: dict[tuple[str, str], bool] = {}  # (criterion, rate) -> met on every trial
     timing = {}
     for step, label in STEPS.items():
         trials = {name: tr.decimated(step) for name, tr in native.items()}
@@ -82,8 +82,8 @@ def main() -> int:
             mine = broad.score(tr, W)
             goal = 0.9 if step == 1 else 0.7
             ratio, zratio = mine.rms / bwd.rms, mine.zero_shift_rms / bwd.zero_shift_rms
-            met["causal"] &= ratio <= goal
-            met["zero"] &= zratio <= 0.7
+            met[("causal in-band", label)] = met.get(("causal in-band", label), True) and ratio <= goal
+            met[("causal zero shift", label)] = met.get(("causal zero shift", label), True) and zratio <= 0.7
             causal_rows.append(
                 f"| {label} | {name} | {bwd.rms:.4f} | {old.rms:.4f} | {mine.rms:.4f} | {ratio:.3f} | "
                 f"{'met' if ratio <= goal else 'MISSED'} (<= {goal}) | {bwd.zero_shift_rms:.4f} | "
@@ -97,7 +97,7 @@ def main() -> int:
             S = smooth(tr.t, tr.R, rate_hz=tr.fs)
             timing[("smooth", step, name)] = (time.perf_counter() - t0) / tr.t.size
             sm = broad.score(tr, S).rms
-            met["offline"] &= sm <= 0.9 * best
+            met[("offline", label)] = met.get(("offline", label), True) and sm <= 0.9 * best
             offline_rows.append(
                 f"| {label} | {name} | {central:.4f} | {spline:.4f} | {savgol:.4f} {wo_best} | {best:.4f} | "
                 f"{sm:.4f} | {sm / best:.3f} |"
@@ -109,12 +109,11 @@ def main() -> int:
         f"{1e6 * min(v for k, v in timing.items() if k[0] == 'smooth'):.1f}–"
         f"{1e6 * max(v for k, v in timing.items() if k[0] == 'smooth'):.1f} us."
     )
-    verdict = (
-        f"Targets ({TARGETS}): causal in-band {'met' if met['causal'] else 'MISSED'}, zero shift "
-        f"{'met' if met['zero'] else 'MISSED'}, offline {'met' if met['offline'] else 'MISSED'} on every trial and "
-        "rate."
+    verdict = f"Targets ({TARGETS}), met on all three trials at: " + "; ".join(
+        f"{what} {', '.join(r for (w, r), ok in met.items() if w == what and ok) or 'no rate'}"
+        for what in ("causal in-band", "causal zero shift", "offline")
     )
-    text = "\n".join(causal_rows) + "\n\n" + "\n".join(offline_rows) + "\n\n" + verdict + " " + cost
+    text = "\n".join(causal_rows) + "\n\n" + "\n".join(offline_rows) + "\n\n" + verdict + ". " + cost
     print("\n" + text)
     write_section(
         "## Real recordings: BROAD (benchmarks/real_data.py)",
