@@ -45,6 +45,7 @@ searched); any observer with the :class:`ContinuousObserver` interface can be ad
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -330,7 +331,7 @@ def bin_table(rows: Sequence[UniformityRow], edges: Sequence[float] = DEFAULT_ED
     out = []
     for name in dict.fromkeys(r.observer for r in rows):
         mine = [r for r in rows if r.observer == name]
-        for lo, hi in zip(e[:-1], e[1:], strict=True):
+        for lo, hi in itertools.pairwise(e):
             b = [r for r in mine if lo <= r.err0 < hi]
             conv = [r.t_tol for r in b if math.isfinite(r.t_tol)]
             out.append(
