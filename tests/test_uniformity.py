@@ -84,7 +84,7 @@ def test_the_printed_output_map_is_flagged_where_the_corrected_one_converges():
 def small_campaign(**kw):
     base = dict(
         J=J, omega_max=3.0, gains={"theorem": theorem_gains(J, 3.0)}, references=REFS, runs=2, seed=7,
-        horizon=1.0, dt_out=0.05, omega_hat_max=5.0,
+        horizon=0.5, dt_out=0.05, omega_hat_max=5.0,
     )  # fmt: skip
     base.update(kw)
     return Campaign(**base)
@@ -143,3 +143,19 @@ def test_errors():
         u.run_uniformity(small_campaign(), gains="slope")
     with pytest.raises(ValueError, match=r"2 gains were given for references of shape \(3, 3\)"):
         u.SarrasObserver(J, theorem_gains(J, 3.0), np.eye(3))
+
+
+def test_cli_montecarlo_observers(tmp_path, capsys):
+    from pathlib import Path
+
+    from omegahat.cli import main
+
+    config = Path(__file__).resolve().parent.parent / "examples" / "campaign.toml"
+    out = tmp_path / "o"
+    argv = ["montecarlo", str(config), "--runs", "1", "--observers", "sarras", "--horizon", "0.5", "--no-progress"]
+    assert main([*argv, "--out", str(out)]) == 0
+    text = (out / "uniformity.md").read_text()
+    assert text.startswith("| observer | initial error (rad/s) |") and "* **sarras**: 1 runs" in text
+    assert "same draws for every observer: True" in capsys.readouterr().out
+    assert main([*argv[:4], "--observers", "salcudean", "--out", str(out)]) == 2
+    assert "unknown observer(s) ['salcudean']" in capsys.readouterr().err
