@@ -27,12 +27,41 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "LocalCluster on this machine",
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--observers",
+        metavar="NAMES",
+        default=None,
+        help="instead of the campaign, compare continuous observers on its draws (comma-separated: sarras, "
+        "sarras-printed) and write uniformity.md: convergence time and rate per bin of initial error, "
+        "counterexamples (omegahat.evaluation.uniformity)",
+    )
+    parser.add_argument("--gains", default=None, help="with --observers: the gain set (default: the first)")
+    parser.add_argument("--horizon", type=float, default=None, help="with --observers: override the horizon (s)")
+
+
+def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int:
+    """``--observers``: the uniformity comparison on the campaign's draws, written to ``OUT/uniformity.md``."""
+    from omegahat.evaluation import uniformity
+
+    names = [n.strip() for n in args.observers.split(",") if n.strip()]
+    show = None if args.no_progress else (lambda j, n: print(f"\r{j}/{n} runs", end="", flush=True))
+    rows = uniformity.run_uniformity(campaign, names, gains=args.gains, horizon=args.horizon, progress=show)
+    if show is not None:
+        print()
+    text = uniformity.markdown(rows)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "uniformity.md").write_text(text)
+    print(text, end="")
+    print(f"same draws for every observer: {uniformity.same_draws(rows)}; written to {args.out}/uniformity.md")
+    return 0
 
 
 def run(args: argparse.Namespace) -> int:
     campaign = campaigns.load_campaign(args.config)
     if args.runs is not None:
         campaign = campaigns.replace(campaign, runs=args.runs)
+    if args.observers is not None:
+        return run_observers(campaign, args)
     start = time.perf_counter()
     if args.dask is None:
         results = campaigns.run_campaign(campaign, progress=not args.no_progress)
