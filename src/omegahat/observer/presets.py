@@ -22,7 +22,7 @@ differences of the increments over the log's first samples; BROAD's optical atti
 (P1) is a physical statement — the hand's angular jerk level — so the filter's discretisation scales it with the
 rate by itself: its best σ_d, measured at 286, 143 and 95 Hz, is 1300–2700 rad/s^2.5 whatever the rate. Below
 about 80 Hz a moving hand has power near the Nyquist frequency and extrapolating an acceleration amplifies it:
-(P1) loses to backward differencing by 2–6× at 29 Hz. (P2) is the constant-rate filter at a fixed tracking index
+(P1) loses to backward differencing by 2.5–2.7× at 29 Hz. (P2) is the constant-rate filter at a fixed tracking index
 ``Λ = σ_a h^1.5 / σ_m`` (a property of the sampled filter: its gain is the same at every rate). Only the ratios
 ``σ_d/σ_m`` and ``σ_a/σ_m`` shape the estimate; ``σ_m`` sets the covariance's scale (its innovation statistics are
 not meaningful on a hand). In (P1) ``σ_m`` grows with a noisier log's measured noise, so that an attitude
