@@ -50,7 +50,7 @@ from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
-from omegahat.observer.presets import PRESETS, mocap_estimator, mocap_model
+from omegahat.observer.presets import MOCAP_SWITCH_HZ, MOCAP_TUNED_NOISE, PRESETS, mocap_estimator, mocap_model
 from omegahat.validation import as_directions, as_inertia
 
 __all__ = [
@@ -482,6 +482,12 @@ def _estimator(settings: EstimateSettings, motion, J, gains, refs, stream, omega
         how = "forward and backward passes averaged (zero lag)" if settings.smooth else "causal"
         described = mocap_model(motion.rate_hz, motion.sigma).describe()
         report(f"estimator: {settings.opt('preset', settings.preset)} ({how}): {described}")
+        if motion.rate_hz >= MOCAP_SWITCH_HZ and motion.sigma > MOCAP_TUNED_NOISE:
+            report(
+                f"warning: the log's attitude noise ({motion.sigma:.2g} rad) is above that of the recordings the "
+                f"preset was tuned on (optical motion capture of a hand, up to {MOCAP_TUNED_NOISE:g} rad): on a "
+                "slow or smooth motion, omegahat without the preset (gains chosen from this log) may be more accurate"
+            )
         return mocap_estimator(motion.rate_hz, motion.sigma, **common)
     choice = settings.estimator
     if choice == "auto":

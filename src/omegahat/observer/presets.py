@@ -66,6 +66,7 @@ from omegahat.validation import as_positive
 
 __all__ = [
     "MOCAP_SWITCH_HZ",
+    "MOCAP_TUNED_NOISE",
     "PRESETS",
     "MocapModel",
     "MocapSmoother",
@@ -82,6 +83,7 @@ MOCAP_MEASUREMENT_SIGMA = 1e-3  #: σ_m, rad per axis
 MOCAP_JERK_NOISE = 1500.0  #: σ_d of (P1), rad/s^2.5
 MOCAP_TRACKING_INDEX = 10.0  #: Λ of (P2)
 MOCAP_NOISE_FACTOR = 10.0  #: (P1): σ_m = max(σ_m, this × the log's measured noise)
+MOCAP_TUNED_NOISE = 2.5e-4  #: rad: the largest σ̂ of the BROAD logs at 80 Hz and above (the preset's regime)
 _RATE_NOISE_FLOOR = 1e-6  # (P1): the rate itself is driven by the acceleration state, not by noise of its own
 _NO_CONSISTENCY_TEST = 1e6  # supervisor thresholds that never fire on finite numbers (module docstring)
 
