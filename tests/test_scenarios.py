@@ -19,7 +19,16 @@ def test_registry_has_the_issue_scenarios():
         "broad-01",
         "broad-06",
         "broad-10",
+        "broad-01-29hz",
+        "broad-06-29hz",
+        "broad-10-29hz",
+        "broad-01-10hz",
+        "broad-06-10hz",
+        "broad-10-10hz",
     ]
+    low = S.get("broad-06-10hz")  # every 30th sample of trial 06: its rate is the native one over 30
+    assert (low.broad_trial, low.decimate) == ("06", 30)
+    assert low.rate_hz == pytest.approx(S.get("broad-06").rate_hz / 30)
     with pytest.raises(ValueError, match="unknown scenario 'nope'; known: paper, slew"):
         S.get("nope")
     with pytest.raises(ValueError, match="scenario 'broad-01' is real data"):
