@@ -30,7 +30,7 @@ from omegahat.baselines.savgol import savgol_rate
 from omegahat.baselines.spline import spline_rate
 from omegahat.evaluation import broad
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
-from omegahat.observer.presets import attitude_noise, mocap_estimator, smooth
+from omegahat.observer.presets import MocapPreset, smooth
 from omegahat.observer.tuning import bandwidth_gains
 from results_md import machine_line, write_section
 
@@ -48,7 +48,7 @@ def fixed_gain(trial):
 
 def preset(trial):
     """As ``omegahat estimate --preset mocap``: the attitude noise measured on the log's head, then the estimator."""
-    return mocap_estimator(trial.fs, noise_std=attitude_noise(trial.t, trial.R)).run(trial.t, trial.R)
+    return MocapPreset(trial.fs).run(trial.t, trial.R)
 
 
 def main() -> int:

@@ -13,7 +13,9 @@ from omegahat.cli import main
 from omegahat.observer.presets import (
     MOCAP_JERK_NOISE,
     MOCAP_SWITCH_HZ,
+    MocapPreset,
     MocapSmoother,
+    attitude_noise,
     filter_lag,
     mocap_estimator,
     mocap_model,
@@ -90,6 +92,20 @@ def test_smoothing_bridges_missing_samples_and_checks_its_input():
         smooth(t, q, preset="robot")
 
 
+def test_preset_estimator_streams_as_it_runs_and_measures_the_noise_itself():
+    t = np.arange(0.0, 3.0, 0.01)
+    rot, _ = _wobble(t)
+    R = noisy(rot, 1e-3, seed=2).as_matrix()
+    given = MocapPreset(100.0, noise_std=1e-3)
+    batch = given.run(t, R)
+    given.reset()
+    stream = np.array([given.update(tk, Rk) for tk, Rk in zip(t, R, strict=True)])
+    np.testing.assert_allclose(stream, batch, atol=1e-12)
+    measured = MocapPreset(100.0).run(t, R)  # the noise measured on the log, as the command does
+    np.testing.assert_array_equal(measured, mocap_estimator(100.0, attitude_noise(t, R)).run(t, R))
+    assert 5e-4 < attitude_noise(t, R) < 2e-3  # the 1 mrad it was made with
+
+
 def _log(tmp_path, rate_hz=100.0, tau=False):
     t = np.arange(0.0, 12.0, 1 / rate_hz)
     rot, omega = _wobble(t)
@@ -149,3 +165,21 @@ def test_cli_preset_refuses_torque_columns(tmp_path, capsys):
     assert main(["estimate", str(log), "--preset", "mocap", "-o", str(tmp_path / "o.csv")]) == 2
     assert "is for bodies whose torque is unknown, but the log has torque columns" in capsys.readouterr().err
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_cli_smooth_names_a_bad_sample_and_writes_nothing(tmp_path, capsys):
+    log, _, _ = _log(tmp_path)
+    lines = log.read_text().splitlines()
+    fields = lines[500].split(",")
+    fields[1] = "3.0"  # qw: the quaternion of line 501 is far from unit norm
+    lines[500] = ",".join(fields)
+    log.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "o.csv"
+    assert main(["estimate", str(log), "--preset", "mocap", "--smooth", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "line 501" in err and "qw" in err
+    assert not out.exists()
+    # with --skip-bad-samples it is treated as missing and the row says so
+    assert main(["estimate", str(log), "--preset", "mocap", "--smooth", "--skip-bad-samples", "-o", str(out)]) == 0
+    _, status = _read(out)
+    assert status[499] == "predicted" and np.count_nonzero(status != "corrected") == 1

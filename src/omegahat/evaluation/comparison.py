@@ -53,7 +53,7 @@ from omegahat.baselines.spline import SplineEstimator
 from omegahat.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.kalman import SupervisedKalmanEstimator
-from omegahat.observer.presets import MocapSmoother, attitude_noise, mocap_estimator
+from omegahat.observer.presets import MocapPreset, MocapSmoother
 from omegahat.observer.tuning import bandwidth_gains
 from omegahat.simulation import scenarios as S
 
@@ -153,20 +153,6 @@ def _mekf_rts(sc, sigma_a):
     return RTSSmoother(lambda: _mekf("dynamic")(sc, sigma_a))
 
 
-class _MocapPreset(SplineEstimator):
-    """``omegahat estimate --preset mocap`` on a whole log: the attitude noise measured on the log's head first,
-    as the command does (:func:`omegahat.observer.presets.attitude_noise`), then the causal estimator."""
-
-    causal = True
-
-    def __init__(self, rate_hz):
-        super().__init__()
-        self.rate_hz = rate_hz
-
-    def run(self, times, measurements, torques=None):
-        return mocap_estimator(self.rate_hz, noise_std=attitude_noise(times, measurements)).run(times, measurements)
-
-
 _CUTOFFS = (None, 0.25, 0.1, 0.025, 0.01)  # × sample rate
 _SAVGOL = ((3, 1), (5, 2), (5, 3), (5, 4), (7, 4), (7, 6), (9, 4), (9, 8), (11, 4), (15, 4), (21, 4))  # (window, order)
 _SIGMA_A = tuple(10.0**p for p in range(-6, 2))
@@ -244,7 +230,7 @@ METHODS = (
         True,
         "none: the mocap preset (J and tau unknown; model and gains from the sample rate)",
         (None,),
-        lambda sc, _: _MocapPreset(sc.rate_hz),
+        lambda sc, _: MocapPreset(sc.rate_hz),
         True,
     ),
     Method(

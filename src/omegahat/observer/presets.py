@@ -69,6 +69,7 @@ __all__ = [
     "MOCAP_TUNED_NOISE",
     "PRESETS",
     "MocapModel",
+    "MocapPreset",
     "MocapSmoother",
     "attitude_noise",
     "filter_lag",
@@ -210,6 +211,30 @@ def _shifted(t, w, d):
     if ok.sum() < 4:
         return w
     return CubicSpline(t[ok], w[ok], axis=0)(t + d)
+
+
+class MocapPreset(Estimator):
+    """``omegahat estimate --preset mocap`` behind the estimator interface (causal). ``noise_std``: the log's σ̂;
+    None: :meth:`run` measures it on the log's head first (:func:`attitude_noise`), as the command does, and
+    :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade noise."""
+
+    def __init__(self, rate_hz: float, noise_std: float | None = None, **options: object):
+        self.rate_hz, self.noise_std, self.options = rate_hz, noise_std, options
+        self.reset()
+
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
+        """ω̂ at ``t`` (``torque`` ignored: the preset is for unknown ones)."""
+        return self.estimator.update(t, measurement)
+
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
+        """ω̂ at every sample ``(T, 3)``; a fresh estimator for the log when the noise was not given."""
+        if self.noise_std is None:
+            self.estimator = mocap_estimator(self.rate_hz, attitude_noise(times, measurements), **self.options)
+        return self.estimator.run(times, measurements)
+
+    def reset(self) -> None:
+        """Back to a new estimator (nothing seen)."""
+        self.estimator = mocap_estimator(self.rate_hz, self.noise_std, **self.options)
 
 
 class MocapSmoother(Estimator):
