@@ -155,3 +155,11 @@ def test_rts_smoother_beats_its_filter_on_a_noisy_tumble():
     assert e_s < 0.6 * e_f
     with pytest.raises(NotImplementedError, match=r"offline"):
         smoother.update(0.0, np.eye(3))
+
+
+def test_rts_stops_on_a_diverged_filter():
+    # A filter told the rate is 1e4 rad/s with no doubt left: it predicts turns no sampled attitude can tell apart.
+    t = np.arange(0.0, 2.0, 0.1)
+    f = MEKF(None, "kinematic", q=1e-6, measurement_sigma=1e-3, omega0=(1e4, 0, 0), sigma_omega0=1e-9)
+    with pytest.raises(FloatingPointError, match=r"the forward filter diverged at sample 0 \(t = 0 s\)"):
+        smooth_log(f, t, np.tile(np.eye(3), (t.size, 1, 1)))

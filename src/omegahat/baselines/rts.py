@@ -38,7 +38,10 @@ from omegahat import so3
 from omegahat.baselines.mekf import MEKF, FilterStep
 from omegahat.interface import Estimator, Measurement, Measurements
 
-__all__ = ["RTSSmoother", "Smoothed", "rts_backward", "smooth_log"]
+__all__ = ["DIVERGED_TURN", "RTSSmoother", "Smoothed", "rts_backward", "smooth_log"]
+
+#: rad: a predicted turn between two samples beyond this (16 π) means the forward filter has diverged
+DIVERGED_TURN = 16 * np.pi
 
 
 @dataclass(frozen=True)
@@ -85,11 +88,23 @@ def rts_backward(steps: list[FilterStep]) -> Smoothed:
 def smooth_log(filt: MEKF, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> Smoothed:
     """Run ``filt`` forward over a whole log (from its current state) recording every step, then (R1)–(R4).
 
-    Every sample goes through the filter's own checks (:meth:`MEKF.step`); a rejected one raises."""
+    Every sample goes through the filter's own checks (:meth:`MEKF.step`); a rejected one raises. A filter that
+    diverges (its rate predicts a turn beyond :data:`DIVERGED_TURN` to the next sample) raises
+    ``FloatingPointError``."""
     t = np.asarray(times, dtype=float)
     samples = cast("Sequence[Measurement]", measurements)  # indexable: an array, a Rotation or a sequence
     taus = None if torques is None else np.asarray(torques, dtype=float)
-    steps = [filt.step(float(t[j]), samples[j], None if taus is None else taus[j]) for j in range(t.size)]
+    steps = []
+    for j in range(t.size):
+        steps.append(filt.step(float(t[j]), samples[j], None if taus is None else taus[j]))
+        turn = float(np.linalg.norm(filt.omega)) * (t[j + 1] - t[j] if j + 1 < t.size else 0.0)
+        if not np.isfinite(turn) or turn > DIVERGED_TURN:
+            # Sampled attitudes cannot tell turns beyond π apart: the filter has diverged. Stop here rather than
+            # propagate it in tens of thousands of NumPy substeps per sample.
+            raise FloatingPointError(
+                f"the forward filter diverged at sample {j} (t = {t[j]:g} s): |ω̂| = {np.linalg.norm(filt.omega):.3g} "
+                "rad/s"
+            )
     if not steps:
         empty = np.empty((0, 3))
         return Smoothed(empty, empty, np.empty((0, 3, 3)), np.empty((0, 0, 0)), empty)
