@@ -19,6 +19,7 @@ from omegahat.observer.presets import (
     filter_lag,
     mocap_estimator,
     mocap_model,
+    rate_variance_after_start,
     smooth,
 )
 
@@ -66,6 +67,23 @@ def test_smoothing_removes_the_causal_lag(rate_hz):
     assert abs(lag(smoothed)) < 1e-4 * lag(causal)
     assert np.abs(smoothed - omega)[inner].max() < 0.1 * np.abs(causal - omega)[inner].max()
     np.testing.assert_array_equal(MocapSmoother(rate_hz).run(t, rot.as_matrix()), smooth(t, rot, rate_hz=rate_hz))
+
+
+def test_the_settling_weights_follow_the_kalman_recursion_and_settle():
+    # (P4) against the scalar constant-rate filter's closed form: after the first fix, P = diag(σ², 1) gives the
+    # posterior rate variance 1 and then, one step on, the 2×2 update of Φ P Φᵀ + Q (written out here).
+    m = mocap_model(28.57)
+    h, s2, q = 1 / 28.57, m.measurement_sigma**2, m.rate_noise**2
+    v = rate_variance_after_start(m, h, 200)
+    assert v[0] == pytest.approx(1.0)
+    P = np.array([[s2, 0.0], [0.0, 1.0]])
+    P = P - np.outer(P[:, 0], P[0, :]) / (P[0, 0] + s2)
+    P = np.array([[1, h], [0, 1]]) @ P @ np.array([[1, 0], [h, 1]]) + q * np.array(
+        [[h**3 / 3, h**2 / 2], [h**2 / 2, h]]
+    )
+    P = P - np.outer(P[:, 0], P[0, :]) / (P[0, 0] + s2)
+    assert v[1] == pytest.approx(P[1, 1], rel=1e-12)
+    assert v.max() == v[0] and v[-1] == v[-2] < 0.1 * v[0]  # starts at the prior, settles, then held
 
 
 def test_smoothing_a_constant_rate_is_exact_whatever_the_direction_of_time():

@@ -42,7 +42,10 @@ its rate on a constant-acceleration turn, 0 for (P1), 0.33 samples for (P2)), an
     ω̂_s(t_k) = ½ (ω̂_f(t_k + d) − ω̂_b(t_k − d))                                                   (P3)
 
 (``ω̂_b`` the backward pass's rate at the same instant, in reversed time; the shifts by cubic-spline interpolation of
-each pass). The forward pass lags and the backward one leads by the same amount, so the average has no lag.
+each pass). The forward pass lags and the backward one leads by the same amount, so the average has no lag. Near
+the ends one pass has only just started: the average is weighted by each pass's settling, the inverse of its rate
+variance that many samples after its start (:func:`rate_variance_after_start`, (P4)); in the middle the weights are
+equal.
 """
 
 from __future__ import annotations
@@ -75,6 +78,7 @@ __all__ = [
     "filter_lag",
     "mocap_estimator",
     "mocap_model",
+    "rate_variance_after_start",
     "smooth",
 ]
 
@@ -185,11 +189,41 @@ def smooth(
     d = filter_lag(rate_hz, noise_std)
     if d > 0:
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
+    settling = rate_variance_after_start(mocap_model(rate_hz, noise_std), 1.0 / rate_hz, t.size)
+    weights = np.stack([1.0 / settling, 1.0 / settling[::-1]])[:, :, None] * np.ones((1, 1, 3))  # (P4)
     both = np.stack([forward, backward])
-    finite = np.isfinite(both)
-    total = np.where(finite, both, 0.0).sum(axis=0)
-    count = finite.sum(axis=0)
-    return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    weights[~np.isfinite(both)] = 0.0
+    total = (weights * np.where(np.isfinite(both), both, 0.0)).sum(axis=0)
+    norm = weights.sum(axis=0)
+    return np.where(norm > 0, total / np.where(norm > 0, norm, 1.0), np.nan)
+
+
+def rate_variance_after_start(model: MocapModel, h: float, n: int) -> np.ndarray:
+    """(P4): the variance of one axis of the filter's rate estimate ``n`` samples into a pass, ``(n,)``, by the
+    Kalman recursion of the model's linear kinematic chain (``[θ, ω]`` or ``[θ, ω, a]`` per axis, spacing ``h``,
+    the attitude measured with variance σ_m², the prior 1 rad/s on the rate and 1 rad/s² on the acceleration).
+    Weighting the two passes of (P3) by its inverse lets each end of the log rely on the pass that has settled
+    there; in the middle both have and the weights are equal. Run until it settles (relative change below 1e-9),
+    then held."""
+    if model.disturbance_noise is not None:
+        Phi = np.array([[1.0, h, h * h / 2], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
+        c = np.array([[h**5 / 20, h**4 / 8, h**3 / 6], [h**4 / 8, h**3 / 3, h**2 / 2], [h**3 / 6, h**2 / 2, h]])
+        Q, P = model.disturbance_noise**2 * c, np.diag([model.measurement_sigma**2, 1.0, 1.0])
+    else:
+        Phi = np.array([[1.0, h], [0.0, 1.0]])
+        Q = model.rate_noise**2 * np.array([[h**3 / 3, h**2 / 2], [h**2 / 2, h]])
+        P = np.diag([model.measurement_sigma**2, 1.0])
+    out = np.empty(n)
+    for k in range(n):
+        if k:
+            P = Phi @ P @ Phi.T + Q
+        gain = P[:, 0] / (P[0, 0] + model.measurement_sigma**2)
+        P = P - np.outer(gain, P[0, :])
+        out[k] = P[1, 1]
+        if k > 10 and abs(out[k] - out[k - 1]) <= 1e-9 * out[k]:
+            out[k:] = out[k]
+            break
+    return out
 
 
 def filter_lag(rate_hz: float, noise_std: float | None = None) -> float:
