@@ -190,6 +190,7 @@ def smooth(
     if d > 0:
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
     settling = rate_variance_after_start(mocap_model(rate_hz, noise_std), 1.0 / rate_hz, t.size)
+    settling[0] = np.inf  # a pass's first sample carries no rate: weight 0 (the other pass has settled there)
     weights = np.stack([1.0 / settling, 1.0 / settling[::-1]])[:, :, None] * np.ones((1, 1, 3))  # (P4)
     both = np.stack([forward, backward])
     weights[~np.isfinite(both)] = 0.0
