@@ -21,11 +21,12 @@ and renamed at the end: whole or absent.
 
 Estimator: with ``--inertia`` (a model) and no gains given, omegahat's default estimator, the observer supervising a
 gyro-less Kalman filter (its process noise chosen from the log, :func:`omegahat.observer.autogain.choose_rate_noise`);
-otherwise, or with ``--estimator sarras``, the fixed-gain observer. Gains: automatic unless ``--bandwidth`` (Hz, as
-``tuning.sensor_gains(bandwidth_hz=...)``) or ``--k``/``--l`` are given (:func:`omegahat.observer.autogain.
-select_gains`); what was chosen and why is printed. The estimate
-starts from a least-squares fit of the rate over the first window of the log (``--start fit``; ``warm``: from
-the first two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
+otherwise, or with ``--estimator sarras``, the fixed-gain observer; ``--preset mocap`` for a body whose inertia
+and torques are unknown (:mod:`omegahat.observer.presets`), with ``--smooth`` its offline, zero-lag estimate.
+Gains: automatic unless ``--bandwidth`` (Hz, as ``tuning.sensor_gains(bandwidth_hz=...)``) or ``--k``/``--l`` are
+given (:func:`omegahat.observer.autogain.select_gains`); what was chosen and why is printed. The estimate starts
+from a least-squares fit of the rate over the first window of the log (``--start fit``; ``warm``: from the first
+two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
 """
 
 from __future__ import annotations
