@@ -201,3 +201,23 @@ def test_cli_smooth_names_a_bad_sample_and_writes_nothing(tmp_path, capsys):
     assert main(["estimate", str(log), "--preset", "mocap", "--smooth", "--skip-bad-samples", "-o", str(out)]) == 0
     _, status = _read(out)
     assert status[499] == "predicted" and np.count_nonzero(status != "corrected") == 1
+
+
+def test_cli_preset_refuses_one_direction_and_smooth_refuses_directions(tmp_path, capsys):
+    t = np.arange(0.0, 3.0, 0.01)
+    rot, _ = _wobble(t)
+    refs = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    b = np.einsum("tji,nj->tni", rot.as_matrix(), refs)
+    for n, extra, match in (
+        (1, ["--preset", "mocap"], "--preset mocap needs attitudes or two directions or more"),
+        (2, ["--preset", "mocap", "--smooth"], "--smooth takes attitudes"),
+    ):
+        names = ["t"] + [f"b{i + 1}{c}" for i in range(n) for c in "xyz"]
+        rows = np.column_stack([t, b[:, :n].reshape(t.size, -1)])
+        log = tmp_path / f"dirs{n}.csv"
+        log.write_text(",".join(names) + "\n" + "\n".join(",".join(repr(float(x)) for x in r) for r in rows) + "\n")
+        spec = ";".join(",".join(str(v) for v in r) for r in refs[:n])
+        out = tmp_path / f"o{n}.csv"
+        assert main(["estimate", str(log), f"--references={spec}", *extra, "-o", str(out)]) == 2
+        assert match in capsys.readouterr().err
+        assert not out.exists()

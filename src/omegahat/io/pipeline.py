@@ -377,6 +377,8 @@ def estimate_stream(
         report(f"note: {note}")
     n_notes = len(stream.notes)
     if stream.kind == "directions" and stream.n_directions == 1:  # one direction: its own observer (no attitude)
+        if settings.preset is not None:
+            raise ValueError(f"{settings.opt('preset', settings.preset)} needs attitudes or two directions or more")
         return estimate_single_direction(stream, settings, open_writer, RunSummary(), report, progress)
     J = (
         np.eye(3)
@@ -427,6 +429,8 @@ def estimate_stream(
             f"{settings.opt('preset', settings.preset)} is for bodies whose torque is unknown, but the log has torque "
             f"columns; to use them, drop the preset and give {settings.name('inertia')}"
         )
+    elif settings.smooth and stream.kind == "directions":
+        raise ValueError(f"{settings.opt('smooth')} takes attitudes (quaternions or rotation matrices)")
     rotation = options.rotation if options is not None else ROTATIONS[0]
     if settings.inertia is not None and stream.has_torque and stream.kind != "directions":
         given, other = autogain.convention_check(motion)
@@ -448,8 +452,6 @@ def estimate_stream(
     with open_writer(stream) as writer:
         job = _Run(est, stream, writer, bad, settings.start, h, summary)
         if settings.smooth:
-            if stream.kind == "directions":
-                raise ValueError(f"{settings.opt('smooth')} takes attitudes (quaternions or rotation matrices)")
             tols = (settings.rotation_tol, settings.quat_norm_tol)
             done = write_smoothed([*head, *chunks], bad.check, writer.write, rate_hz, noise_std, *tols)
             summary.rows, summary.elapsed, est.n_missing = done.rows, done.elapsed, done.n_missing
