@@ -6,8 +6,7 @@ Run: ``python benchmarks/mocap_tuning.py`` (several minutes on a 2-core machine)
 For every rate (the native 285.7 Hz and every 2nd, 3rd, 5th, 10th, 30th sample) and every candidate, the in-band
 score of :func:`omegahat.evaluation.broad.score` (best continuous shift) divided by raw backward differencing's on
 the same trial, for the three trials. Candidates: the preset's estimator
-(:class:`omegahat.observer.kalman.SupervisedKalmanEstimator` with J = I, τ = 0 and the consistency tests off, as
-:func:`omegahat.observer.presets.mocap_estimator` builds it) with
+(:func:`omegahat.observer.presets.estimator_for`: J = I, τ = 0, the supervisor's consistency tests off) with
 
 * the constant-acceleration model (P1), σ_m = 1e-3 rad, jerk noise σ_d in {300, 700, 1500, 3000} rad/s^2.5;
 * the constant-rate model (P2), σ_m = 1e-3 rad, tracking index Λ = σ_a h^1.5/σ_m in {1, 3, 10, 30}.
@@ -25,7 +24,7 @@ import numpy as np
 from omegahat.baselines.differencing import log_difference
 from omegahat.evaluation import broad
 from omegahat.observer.estimator import SkippedSamplesWarning
-from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.observer.presets import MocapModel, estimator_for
 from results_md import machine_line, write_section
 
 STEPS = (1, 2, 3, 5, 10, 30)
@@ -34,13 +33,13 @@ CANDIDATES = [("P1", s) for s in (300.0, 700.0, 1500.0, 3000.0)] + [("P2", L) fo
 
 
 def estimator(kind, value, fs):
+    """The preset's estimator (:func:`omegahat.observer.presets.estimator_for`) with a candidate's constants."""
     h = 1.0 / fs
-    noise = (
-        {"rate_noise": 1e-6, "disturbance_noise": value} if kind == "P1" else {"rate_noise": value * SIGMA_M / h**1.5}
-    )
-    return SupervisedKalmanEstimator(
-        np.eye(3), rate_hz=fs, measurement_sigma=SIGMA_M, nis_max=1e6, disagreement_factor=1e6, **noise
-    )
+    if kind == "P1":
+        model = MocapModel("constant-acceleration", fs, SIGMA_M, 1e-6, value)
+    else:
+        model = MocapModel("constant-rate", fs, SIGMA_M, value * SIGMA_M / h**1.5, None)
+    return estimator_for(model)
 
 
 def main() -> int:

@@ -447,14 +447,14 @@ def estimate_stream(
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
     est = _estimator(settings, motion, J, gains, refs, stream, omega0, report)
     h = motion.h
-    rate_hz, noise_std = motion.rate_hz, motion.sigma
+    rate_hz, noise_std, smoothed_missing = motion.rate_hz, motion.sigma, 0
     del t_h, data_h, tau_h, tv, rot, motion
     with open_writer(stream) as writer:
         job = _Run(est, stream, writer, bad, settings.start, h, summary)
         if settings.smooth:
             tols = (settings.rotation_tol, settings.quat_norm_tol)
             done = write_smoothed([*head, *chunks], bad.check, writer.write, rate_hz, noise_std, *tols)
-            summary.rows, summary.elapsed, est.n_missing = done.rows, done.elapsed, done.n_missing
+            summary.rows, summary.elapsed, smoothed_missing = done.rows, done.elapsed, done.n_missing
             head.clear()
         while head:  # the head first (releasing it as it goes), then the rest of the stream
             job.feed(head.pop(0))
@@ -465,6 +465,8 @@ def estimate_stream(
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_missing, summary.n_collinear, summary.n_bad = est.n_missing, est.n_collinear, bad.count
+    if settings.smooth:  # the causal estimator did not run: the smoother's count
+        summary.n_missing = smoothed_missing
     summary.lines = _summary_lines(summary, est, stream, bad, J, settings, stream.notes[n_notes:])
     return summary
 

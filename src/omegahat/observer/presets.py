@@ -75,6 +75,7 @@ __all__ = [
     "MocapPreset",
     "MocapSmoother",
     "attitude_noise",
+    "estimator_for",
     "filter_lag",
     "mocap_estimator",
     "mocap_model",
@@ -144,13 +145,18 @@ def mocap_estimator(rate_hz: float, noise_std: float | None = None, **options: o
     """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``noise_std`` (σ̂; module
     docstring). ``options`` go to :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input
     tolerances, ...)."""
-    m = mocap_model(rate_hz, noise_std)
+    return estimator_for(mocap_model(rate_hz, noise_std), **options)
+
+
+def estimator_for(model: MocapModel, **options: object) -> SupervisedKalmanEstimator:
+    """The estimator that runs ``model``: J = I, τ = 0, the supervisor's consistency tests off (module docstring).
+    ``benchmarks/mocap_tuning.py`` builds its candidates with it."""
     return SupervisedKalmanEstimator(
         np.eye(3),
-        rate_hz=m.rate_hz,
-        measurement_sigma=m.measurement_sigma,
-        rate_noise=m.rate_noise,
-        disturbance_noise=m.disturbance_noise,
+        rate_hz=model.rate_hz,
+        measurement_sigma=model.measurement_sigma,
+        rate_noise=model.rate_noise,
+        disturbance_noise=model.disturbance_noise,
         nis_max=_NO_CONSISTENCY_TEST,
         disagreement_factor=_NO_CONSISTENCY_TEST,
         **options,  # type: ignore[arg-type]
