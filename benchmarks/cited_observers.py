@@ -4,7 +4,7 @@ Run: ``python benchmarks/cited_observers.py [--runs 8] [--scales 1,3,10,30,100] 
 s, runs 0 … runs−1 of ``examples/campaign.toml`` (J = diag(3, 2, 1), two rows of R, ω_M = 3, a random bounded
 torque) with ``omega_hat_max = s`` (|ω̂₀| uniform in [0, s]: the same draws, the initial estimate scaled, so that
 every decade of initial error is represented), every observer from the same draws
-(:mod:`omegahat.evaluation.uniformity`), for the gain sets ``theorem`` and ``slope``. In the report, run
+(:mod:`omegahat.lab.evaluation.uniformity`), for the gain sets ``theorem`` and ``slope``. In the report, run
 ``k·runs + j`` is run j at the k-th scale. Observers: Sarras' (corrected output map) and the same with the
 paper's printed map.
 Salcudean's, Akella–Thakur–Mazenc's and Berkane–Abdessameud–Tayebi's observers are not implemented (their
@@ -18,8 +18,8 @@ import dataclasses
 import time
 from pathlib import Path
 
-from omegahat.campaigns import load_campaign, replace
-from omegahat.evaluation import uniformity as u
+from omegahat.lab.campaigns import load_campaign, replace
+from omegahat.lab.evaluation import uniformity as u
 from results_md import machine_line, write_section
 
 CONFIG = Path(__file__).resolve().parent.parent / "examples" / "campaign.toml"

@@ -4,7 +4,7 @@ Run: ``python benchmarks/mocap_tuning.py`` (several minutes on a 2-core machine)
 ``<repository>/../shared/data/broad``.
 
 For every rate (the native 285.7 Hz and every 2nd, 3rd, 5th, 10th, 30th sample) and every candidate, the in-band
-score of :func:`omegahat.evaluation.broad.score` (best continuous shift) divided by raw backward differencing's on
+score of :func:`omegahat.lab.evaluation.broad.score` (best continuous shift) divided by raw backward differencing's on
 the same trial, for the three trials. Candidates: the preset's estimator
 (:func:`omegahat.observer.presets.estimator_for`: J = I, τ = 0, the supervisor's consistency tests off) with
 
@@ -22,7 +22,7 @@ import warnings
 import numpy as np
 
 from omegahat.baselines.differencing import log_difference
-from omegahat.evaluation import broad
+from omegahat.lab.evaluation import broad
 from omegahat.observer.estimator import SkippedSamplesWarning
 from omegahat.observer.presets import MocapModel, estimator_for
 from results_md import machine_line, write_section

@@ -28,8 +28,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from omegahat import campaigns as mc
-from omegahat.campaigns.draws import draw_runs
+from omegahat.lab import campaigns as mc
+from omegahat.lab.campaigns.draws import draw_runs
 from omegahat.simulation import simulate, simulate_batch
 from omegahat.simulation.engine import LANES, RunSet, StepControl, integrate_envelopes
 from omegahat.simulation.problem import first_step, initial_states, model_of

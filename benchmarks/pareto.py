@@ -5,7 +5,7 @@ draw the Pareto fronts, and print what recommend_gains picks for each sensor.
 
 Body: the paper's J = diag(3, 2, 1), torque-free tumble ω₀ = (0.4, −0.3, 0.6) rad/s, attitude measured (three
 rows of R); convergence time = 1 % settling of a 1 rad/s initial error; noise = RMS of |ω̂ − ω| after the burn-in
-(omegahat.observer.gain_sweep docstring). Seed 0.
+(omegahat.lab.gain_sweep docstring). Seed 0.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from omegahat.observer import gain_sweep as gs
+from omegahat.lab import gain_sweep as gs
 from results_md import machine_line, write_section
 
 J = np.diag([3.0, 2.0, 1.0])

@@ -3,11 +3,11 @@
 Run: ``python benchmarks/real_data.py`` (a few minutes on a 2-core machine). Skips cleanly without
 ``<repository>/../shared/data/broad``.
 
-Score: :func:`omegahat.evaluation.broad.score`, the same for every method: error against the bias-corrected
+Score: :func:`omegahat.lab.evaluation.broad.score`, the same for every method: error against the bias-corrected
 gyroscope, Butterworth order 4 at 10 Hz (0.4 × the rate for the 10 Hz log) forward-backward, RMS of the norm over
 motion samples 1 s away from gaps, at the best shift found continuously within ±3 samples (resolution 0.1,
 refined to 0.001), and at zero shift (what a controller sees). Low rates: every 10th / 30th sample of the trial
-(:meth:`omegahat.evaluation.broad.Trial.decimated`), scored against the native gyroscope.
+(:meth:`omegahat.lab.evaluation.broad.Trial.decimated`), scored against the native gyroscope.
 
 Methods. Causal: raw backward log-map differencing; omegahat's fixed-gain observer as ``omegahat estimate`` ran
 it before the preset (J = I, τ = 0, bandwidth b = 450 rad/s chosen on trial 01 at the native rate, scaled with
@@ -28,7 +28,7 @@ import numpy as np
 from omegahat.baselines.differencing import log_difference
 from omegahat.baselines.savgol import savgol_rate
 from omegahat.baselines.spline import spline_rate
-from omegahat.evaluation import broad
+from omegahat.lab.evaluation import broad
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.presets import MocapPreset, smooth
 from omegahat.observer.tuning import bandwidth_gains

@@ -10,7 +10,7 @@ ratios are printed and written to ``benchmarks/RESULTS.md``.
 ``--before`` is an interpreter with the older omegahat installed (for example a ``git worktree`` of commit
 c0976b8 installed into its own venv). Each child imports whichever API its version has (before the restructuring:
 ``omegahat.simulate``, ``omegahat.estimator``, ``omegahat.montecarlo``; after: ``omegahat.simulation``,
-``omegahat.observer``, ``omegahat.campaigns``), warms the compiled kernels up, and times:
+``omegahat.observer``, ``omegahat.lab.campaigns``), warms the compiled kernels up, and times:
 
 * ``paper``: ``simulate(paper_problem(), t_out=[0, .5, 1, 2, 5, 10])`` (the paper benchmark's call), best of 21;
 * ``update``: one ``SarrasEstimator.update`` with a rotation matrix (the paper's body at 1 kHz, theorem gains,
@@ -41,7 +41,7 @@ metric = sys.argv[1]
 try:
     from omegahat.simulation import paper_problem, simulate
     from omegahat.observer.estimator import SarrasEstimator
-    from omegahat import campaigns as mc
+    from omegahat.lab import campaigns as mc
     from omegahat.simulation.rigid_body import RigidBody, integrate
     from omegahat.observer.gains import theorem_gains
 except ImportError:  # the layout before issue 11

@@ -8,7 +8,7 @@ Each run: J = diag(3, 2, 1) kg m², torque-free; a uniformly random initial atti
 direction v (the Sun), ω₀ uniformly random in direction with |ω₀| uniform in [0.1, 1] rad/s; a sun sensor at 10 Hz
 measuring b = Rᵀ v plus white noise of 0.1° per axis; 300 s. Both observers start from rest (ω̂₀ = 0, the filtered
 direction at the first sample) with gains from the same bandwidth ω_b (``default_gains``). Scored with
-:mod:`omegahat.evaluation.metrics`: converged = the error ``|ω̂ − ω|`` stays below 0.02 rad/s from some time before
+:mod:`omegahat.lab.evaluation.metrics`: converged = the error ``|ω̂ − ω|`` stays below 0.02 rad/s from some time before
 the last 60 s on (S1); steady error = RMS of ``|ω̂ − ω|`` over the last 100 s (S3) of the converged runs.
 
 Excitation: the monitor (``excitation``, 10 s window, threshold 1e-3) on every tumbling run (the fraction of runs
@@ -25,7 +25,7 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.observer.single_direction import (
     DEFAULT_THRESHOLD,
     DEFAULT_WINDOW_S,

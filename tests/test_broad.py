@@ -8,8 +8,8 @@ import pytest
 from scipy.signal import butter, sosfreqz
 
 from omegahat import so3
-from omegahat.evaluation import broad
-from omegahat.evaluation.broad import Score, Trial, score
+from omegahat.lab.evaluation import broad
+from omegahat.lab.evaluation.broad import Score, Trial, score
 
 FS = 2000 / 7  # 285.714 Hz, BROAD's rate
 HAVE_DATA = all((broad.data_dir() / f).exists() for f in [*broad.TRIALS.values(), broad.CSV_CUT])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from omegahat.cli import main
-from omegahat.cli.paper import FIGURES
+from omegahat.lab.cli.paper import FIGURES
 from omegahat.simulation import paper_problem, simulate
 
 

@@ -4,7 +4,7 @@ slow-down near 180°, and ``omegahat control``.
 
 References: the damped oscillator's closed form for a small rotation about a principal axis, Rodrigues' formula
 for the attitude error of a rotation by θ about a, Euler's equations for the feed-forward torque, a central finite
-difference for the slew reference's rate. Gains and scenarios are those of ``omegahat.control.scenarios``.
+difference for the slew reference's rate. Gains and scenarios are those of ``omegahat.lab.control.scenarios``.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pytest
 
 from omegahat import so3
 from omegahat.cli import main
-from omegahat.control import (
+from omegahat.lab.control import (
     AttitudePD,
     EstimatorFeed,
     Reference,
@@ -33,8 +33,8 @@ from omegahat.control import (
     simulate_closed_loop,
     slew,
 )
-from omegahat.control.basin import angle_sweep, basin_campaign
-from omegahat.control.closed_loop import RigidBodyPlant
+from omegahat.lab.control.basin import angle_sweep, basin_campaign
+from omegahat.lab.control.closed_loop import RigidBodyPlant
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.simulation.rigid_body import RigidBody, integrate

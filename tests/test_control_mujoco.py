@@ -1,5 +1,5 @@
 """MuJoCo as an independent plant (extra ``omegahat[mujoco]``): its free-floating body against omegahat's CF4
-integrator, open loop (torque-free and under a held torque) and in the closed loop of ``omegahat.control``.
+integrator, open loop (torque-free and under a held torque) and in the closed loop of ``omegahat.lab.control``.
 
 Independent references: MuJoCo integrates its own multibody equations (RK4, its quaternion exponential); the
 torque-free motion conserves the inertial angular momentum ``R J ω`` and the kinetic energy.
@@ -13,8 +13,8 @@ import pytest
 pytest.importorskip("mujoco", reason="MuJoCo is the optional extra omegahat[mujoco]")
 
 from omegahat import so3
-from omegahat.control import detumble, run_scenario, settling_time
-from omegahat.control.mujoco_plant import MujocoPlant
+from omegahat.lab.control import detumble, run_scenario, settling_time
+from omegahat.lab.control.mujoco_plant import MujocoPlant
 from omegahat.simulation.rigid_body import RigidBody, integrate
 
 J = np.diag([300.0, 250.0, 200.0])

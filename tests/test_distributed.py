@@ -7,8 +7,8 @@ distributed = pytest.importorskip(
     "distributed", reason='Dask is an extra: pip install ".[dask]" (the test extra includes it)'
 )
 
-from omegahat import campaigns as mc  # noqa: E402
-from omegahat.campaigns.distributed import run_campaign_dask  # noqa: E402
+from omegahat.lab import campaigns as mc  # noqa: E402
+from omegahat.lab.campaigns.distributed import run_campaign_dask  # noqa: E402
 from omegahat.observer.gains import ObserverGains, theorem_gains  # noqa: E402
 
 J = np.diag([3.0, 2.0, 1.0])

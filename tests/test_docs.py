@@ -28,10 +28,10 @@ NAMES = ["spacecraft", "motion_capture", "directions"]
 PACKAGE_PAGES = {
     "omegahat.observer": "observer",
     "omegahat.simulation": "simulation",
-    "omegahat.campaigns": "campaigns",
+    "omegahat.lab.campaigns": "campaigns",
     "omegahat.baselines": "baselines",
-    "omegahat.control": "control",
-    "omegahat.evaluation": "evaluation",
+    "omegahat.lab.control": "control",
+    "omegahat.lab.evaluation": "evaluation",
     "omegahat.io": "io",
     "omegahat.so3": "so3",
     "omegahat.measurements": "measurements",

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.campaigns.diagnostics import diagnose_runs
+from omegahat.lab.campaigns.diagnostics import diagnose_runs
 from omegahat.observer.gains import ObserverGains, theorem_gains
 from omegahat.simulation import CoupledProblem, Torque, simulate, simulate_batch
 from omegahat.simulation.engine import LANES, StepControl, integrate_envelopes, integrate_states

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from omegahat.observer import gain_sweep as gs
+from omegahat.lab import gain_sweep as gs
 from omegahat.observer import tuning
 from omegahat.observer.gains import ObserverGains
 

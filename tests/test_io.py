@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.evaluation import broad
 from omegahat.io import AttitudeLog, LogFormatError, read_csv, read_log, read_npz, write_omega_csv
+from omegahat.lab.evaluation import broad
 
 BROAD = broad.data_dir()
 

@@ -1,4 +1,4 @@
-"""The one definition of the scores (omegahat.evaluation.metrics) on hand-made errors: convergence time as the last
+"""The one definition of the scores (omegahat.lab.evaluation.metrics) on hand-made errors: convergence time as the last
 crossing, first time below, steady RMS; NaN = no estimate, inf = diverged, never = inf."""
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
 
 
 def test_convergence_time_first_below_and_steady_rms_on_hand_made_errors():

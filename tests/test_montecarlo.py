@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat import campaigns as mc
-from omegahat.campaigns.diagnostics import diagnose_reference
-from omegahat.campaigns.draws import draw_runs
 from omegahat.cli import main
+from omegahat.lab import campaigns as mc
+from omegahat.lab.campaigns.diagnostics import diagnose_reference
+from omegahat.lab.campaigns.draws import draw_runs
 from omegahat.observer.gains import ObserverGains, theorem_gains
 from omegahat.simulation import CoupledProblem, Torque, simulate, simulate_batch
 
@@ -103,8 +103,8 @@ def test_run_seed_is_the_spawned_child():
 
 
 def _draw_one(c, j):
-    # the sampler's recipe (module docstring of omegahat.campaigns.runner), written run by run with the generator's own
-    # distributions and norms summed left to right
+    # the sampler's recipe (module docstring of omegahat.lab.campaigns.runner), written run by run with the
+    # generator's own distributions and norms summed left to right
     rng = np.random.default_rng(mc.run_seed(c.seed, j))
 
     def unit(v):

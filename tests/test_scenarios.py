@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.simulation import scenarios as S
+from omegahat.lab import scenarios as S
 
 
 def test_registry_has_the_issue_scenarios():

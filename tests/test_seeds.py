@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from numpy.random import SeedSequence, default_rng
 
-from omegahat.campaigns.seeds import generators, seed_words
+from omegahat.lab.campaigns.seeds import generators, seed_words
 
 
 @pytest.mark.parametrize("seed", [0, 1, 123, 20250101, 2**32 - 1, 2**32, 2**64 + 9, 2**127 + 3, 2**128 + 7, 2**200 + 1])

@@ -8,11 +8,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.mekf import MEKF
-from omegahat.evaluation import robustness as RB
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
+from omegahat.lab import scenarios as S
+from omegahat.lab.evaluation import robustness as RB
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.measurements import MeasurementError
 from omegahat.observer.kalman import SupervisedKalmanEstimator
-from omegahat.simulation import scenarios as S
 from omegahat.simulation import sensors
 from omegahat.simulation.rigid_body import RigidBody, Torque, integrate
 

@@ -1,4 +1,4 @@
-"""Continuous observers on a campaign's draws (omegahat.evaluation.uniformity).
+"""Continuous observers on a campaign's draws (omegahat.lab.evaluation.uniformity).
 
 References: the truth integrated on its own by SciPy (DOP853 on Euler's equations), the paper's erratum (the
 printed output map does not converge with the paper's constant l = 1), closed forms for the rate (U2) and the
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from omegahat.campaigns.config import Campaign
-from omegahat.campaigns.draws import draw_problem
-from omegahat.evaluation import uniformity as u
+from omegahat.lab.campaigns.config import Campaign
+from omegahat.lab.campaigns.draws import draw_problem
+from omegahat.lab.evaluation import uniformity as u
 from omegahat.observer import continuous as cont
 from omegahat.observer.gains import ObserverGains, theorem_gains
 

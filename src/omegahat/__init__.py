@@ -7,7 +7,7 @@ below are the public API; they are imported on first use, so that ``import omega
 light.
 
 Packages: :mod:`omegahat.kernels` (compiled primitives), :mod:`omegahat.observer`, :mod:`omegahat.simulation`,
-:mod:`omegahat.campaigns`, :mod:`omegahat.baselines`, :mod:`omegahat.evaluation`, :mod:`omegahat.io`,
+:mod:`omegahat.lab.campaigns`, :mod:`omegahat.baselines`, :mod:`omegahat.lab.evaluation`, :mod:`omegahat.io`,
 :mod:`omegahat.cli`; modules :mod:`omegahat.so3`, :mod:`omegahat.measurements`.
 """
 

@@ -10,11 +10,11 @@ from collections.abc import Collection
 
 # Subcommand name -> module in omegahat.cli.
 SUBCOMMANDS = {
-    "paper": "omegahat.cli.paper",
+    "paper": "omegahat.lab.cli.paper",
     "estimate": "omegahat.cli.estimate",
-    "compare": "omegahat.cli.compare",
-    "montecarlo": "omegahat.cli.montecarlo",
-    "control": "omegahat.cli.control",
+    "compare": "omegahat.lab.cli.compare",
+    "montecarlo": "omegahat.lab.cli.montecarlo",
+    "control": "omegahat.lab.cli.control",
 }
 
 

@@ -8,7 +8,7 @@
 * :mod:`~omegahat.observer.single_direction` — :class:`SingleDirectionEstimator`: the rate from ONE measured
   direction (a Sarras-type observer and a gradient one, with a run-time excitation monitor);
 * :mod:`~omegahat.observer.gains` — the theorem's gain conditions; :mod:`~omegahat.observer.tuning` — gains for
-  sampled noisy sensors; :mod:`~omegahat.observer.gain_sweep` — the trade-off measured by simulation;
+  sampled noisy sensors; :mod:`~omegahat.lab.gain_sweep` — the trade-off measured by simulation;
   :mod:`~omegahat.observer.autogain` — gains chosen from a log itself (what ``omegahat estimate`` does).
 """
 

@@ -7,7 +7,7 @@
   :mod:`~omegahat.simulation.rates`), for one run or many;
 * :mod:`~omegahat.simulation.coupled` — :func:`simulate`, :func:`simulate_batch`, and :func:`simulate_reference`
   (SciPy on the paper's own equations, the independent oracle);
-* :mod:`~omegahat.simulation.sensors` and :mod:`~omegahat.simulation.scenarios` — noisy sensors and the
+* :mod:`~omegahat.simulation.sensors` and :mod:`~omegahat.lab.scenarios` — noisy sensors and the
   scenarios of ``omegahat compare``.
 """
 

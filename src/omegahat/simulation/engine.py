@@ -2,7 +2,7 @@ r"""The lockstep engine: the one integrator of plant + observer, for one run or 
 
 Every simulation of the coupled system goes through this engine: :func:`omegahat.simulation.coupled.simulate`
 (one run, one lane), :func:`omegahat.simulation.coupled.simulate_batch` and the Monte-Carlo campaigns
-(:mod:`omegahat.campaigns`, many runs, :data:`LANES` lanes per thread). The integrator is ETDRK4 with its embedded
+(:mod:`omegahat.lab.campaigns`, many runs, :data:`LANES` lanes per thread). The integrator is ETDRK4 with its embedded
 error estimate, free steps and a continuous extension at the output times (:mod:`omegahat.simulation.etd`); the
 right-hand side is :mod:`omegahat.simulation.rates`, built from :mod:`omegahat.kernels`.
 

@@ -6,10 +6,10 @@ For the states ``(T, 6n + 6)`` of one run (layout ``[r (3n), ω, z, e (3n)]``) o
 
 the largest |ω|, the last output time ``t_f`` with ``ρ ≥ rho_floor``, the run's rate ``λ_run = −ln ρ(t_f)/t_f``,
 its constant ``c_run = max_{t_k ≤ t_f} ρ e^{λ_run t_k}`` and the largest relative increase of V between
-consecutive output times up to ``t_f`` (:mod:`omegahat.campaigns` says what they test). :func:`diagnose_run` is
+consecutive output times up to ``t_f`` (:mod:`omegahat.lab.campaigns` says what they test). :func:`diagnose_run` is
 compiled so that the engine can take them as a run ends, from its states still in cache
 (:func:`omegahat.simulation.engine.integrate_envelopes`). It performs the floating-point operations of the NumPy
-reference :func:`omegahat.campaigns.diagnostics.diagnose_reference` in its order (norms as ((x0² + x1²) + x2²),
+reference :func:`omegahat.lab.campaigns.diagnostics.diagnose_reference` in its order (norms as ((x0² + x1²) + x2²),
 sums over i from the first term, J z row by row as ((z0 J_i0 + z1 J_i1) + z2 J_i2)); only exp, log and BLAS's
 J z (a non-diagonal J) may differ from NumPy's in the last bit.
 """

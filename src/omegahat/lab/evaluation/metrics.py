@@ -20,8 +20,8 @@ Conventions, the same in all three:
 
 (S1) is the last crossing: ``t_c`` is the sample after the last one above ε (the first sample with an estimate
 when none is above), so an error that dips below ε and comes back does not count as converged until it stays.
-Used by ``omegahat compare`` (:mod:`omegahat.evaluation.comparison`), the gain sweep
-(:mod:`omegahat.observer.gain_sweep`: ``t_c`` with ε a fraction of the initial error) and ``omegahat paper``
+Used by ``omegahat compare`` (:mod:`omegahat.lab.evaluation.comparison`), the gain sweep
+(:mod:`omegahat.lab.gain_sweep`: ``t_c`` with ε a fraction of the initial error) and ``omegahat paper``
 (the time after which ``|ω̂ − ω|`` stays at or below 1e-3).
 """
 

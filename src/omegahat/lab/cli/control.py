@@ -8,9 +8,9 @@ import time
 from pathlib import Path
 
 from omegahat.cli import positive_float, positive_int
-from omegahat.control import basin, report
-from omegahat.control.closed_loop import ClosedLoopRun, Plant
-from omegahat.control.scenarios import ARCSEC, ControlScenario, detumble, run_scenario, slew
+from omegahat.lab.control import basin, report
+from omegahat.lab.control.closed_loop import ClosedLoopRun, Plant
+from omegahat.lab.control.scenarios import ARCSEC, ControlScenario, detumble, run_scenario, slew
 
 HELP = (
     "Simulate velocity-free attitude control (detumble from 2 rad/s, 180 deg slew, a Monte-Carlo of the basin) "
@@ -49,7 +49,7 @@ def _plant(name: str, scenario: ControlScenario) -> Plant | None:
     if name == "rigid-body":
         return None
     try:
-        from omegahat.control.mujoco_plant import MujocoPlant
+        from omegahat.lab.control.mujoco_plant import MujocoPlant
 
         return MujocoPlant(scenario.J)
     except ModuleNotFoundError as exc:

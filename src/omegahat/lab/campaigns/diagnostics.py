@@ -1,7 +1,7 @@
 r"""Per-run diagnostics of a campaign: the envelope ratio ρ, V, the peak of |ω| and the envelope fit.
 
 For one run's states on the output grid ``t_k`` (the engine's layout ``[r (3n), ω, z, e (3n)]``),
-:func:`diagnose_run` computes what :mod:`omegahat.campaigns` defines: ``E = |z| + Σ|e_i|``, ``ρ = E/E(0)``,
+:func:`diagnose_run` computes what :mod:`omegahat.lab.campaigns` defines: ``E = |z| + Σ|e_i|``, ``ρ = E/E(0)``,
 ``V = |J z| + ½ Σ|e_i|²``, the largest |ω|, the last output time ``t_f`` with ``ρ ≥ rho_floor``,
 ``λ_run = −ln ρ(t_f)/t_f``, ``c_run = max_{t_k ≤ t_f} ρ e^{λ_run t_k}`` and the largest relative increase of V
 between consecutive output times up to ``t_f``. It is compiled, and performs the floating-point operations of
@@ -24,7 +24,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from omegahat.campaigns.config import Campaign
+from omegahat.lab.campaigns.config import Campaign
 from omegahat.simulation.coupled import BatchResult
 from omegahat.simulation.envelope import diagnose_run
 
@@ -136,7 +136,7 @@ def result_from_diagnostics(
     rho: np.ndarray,
     out: np.ndarray,
 ) -> GainSetResult:
-    # out: the rows (E0, omega_peak, lam, c_run, t_f, v_increase) of omegahat.campaigns.diagnostics.diagnose_run
+    # out: the rows (E0, omega_peak, lam, c_run, t_f, v_increase) of omegahat.lab.campaigns.diagnostics.diagnose_run
     E0, omega_peak, lam, c_run, t_f, v_increase = out
     return _result(
         campaign,

@@ -5,10 +5,10 @@ The paper's claim is *uniform* global exponential convergence: one pair ``(c, λ
 are, by its account, globally convergent but not uniformly (Salcudean 1991), uniformly asymptotic but not
 exponential (Akella–Thakur–Mazenc 2015), or exponential through switching (Berkane–Abdessameud–Tayebi 2016).
 This module measures the property itself, for any continuous-time observer written as a right-hand side, on the
-initial conditions of a Monte-Carlo campaign (:mod:`omegahat.campaigns`).
+initial conditions of a Monte-Carlo campaign (:mod:`omegahat.lab.campaigns`).
 
 **The same draws for every observer.** Run ``j`` of a campaign is drawn once by
-:func:`omegahat.campaigns.draws.draw_runs` (attitude R₀, rate ω₀, the observer's initial filter states r̂_i0, its
+:func:`omegahat.lab.campaigns.draws.draw_runs` (attitude R₀, rate ω₀, the observer's initial filter states r̂_i0, its
 initial estimate ω̂₀, the sinusoidal torque); every observer is started from that run's R₀, ω₀, ω̂₀ and r̂_i0 (an
 observer without filter states ignores them) and driven by the same true motion. Each result row carries the
 draw it was started from, so that the report can show it is the same for every observer.
@@ -22,7 +22,7 @@ and counts as diverged.
 **What is scored**, with ``ε`` the tolerance (default 1e-3 rad/s) and ``e(t) = |ω̂(t) − ω(t)|`` on the output
 grid::
 
-    t_ε   = the time after which e stays ≤ ε          ((S1) of :mod:`omegahat.evaluation.metrics`)      (U1)
+    t_ε   = the time after which e stays ≤ ε          ((S1) of :mod:`omegahat.lab.evaluation.metrics`)      (U1)
     λ_run = ln(e(0) / ε) / t_ε                         the run's mean exponential rate down to ε        (U2)
 
 A uniform bound ``e(t) ≤ c e(0) e^{−λt}`` gives ``t_ε ≤ ln(c e(0)/ε)/λ``, so ``λ_run ≥ λ (1 − ln c / ln(c e(0)/ε))``:
@@ -55,9 +55,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from omegahat.campaigns.config import Campaign
-from omegahat.campaigns.draws import draw_runs
-from omegahat.evaluation.metrics import convergence_time
+from omegahat.lab.campaigns.config import Campaign
+from omegahat.lab.campaigns.draws import draw_runs
+from omegahat.lab.evaluation.metrics import convergence_time
 from omegahat.observer import continuous as cont
 from omegahat.observer.gains import ObserverGains
 from omegahat.simulation.torque import Torque

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from omegahat.cli import positive_float
-from omegahat.evaluation.metrics import convergence_time
+from omegahat.lab.evaluation.metrics import convergence_time
+from omegahat.lab.plots import plot_direction, plot_filter_errors, plot_omega
 from omegahat.observer.gains import check_gains
-from omegahat.plots import plot_direction, plot_filter_errors, plot_omega
 from omegahat.simulation import PAPER_OMEGA_MAX, CoupledTrajectory, paper_problem, simulate
 
 HELP = "Simulate the paper's scenario and write its four figures, trajectory.csv and a summary."

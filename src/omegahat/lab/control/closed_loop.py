@@ -7,7 +7,7 @@ One sample period ``h = 1/rate_hz``; at each sample time ``t_k = k h``:
 2. the rate source gives ``ω̂_k`` (:class:`RateFeed`): the true rate (a perfect gyro, :class:`GyroFeed`), an
    estimator fed ``R̃_k`` (:class:`EstimatorFeed`: omegahat's default estimator, the fixed-gain observer or
    log-map differencing) or the observer with its correction's sign reversed (:class:`WrongSignFeed`);
-3. the controller (:class:`omegahat.control.controller.AttitudePD`) computes ``τ_k`` from ``(R̃_k, ω̂_k)`` and
+3. the controller (:class:`omegahat.lab.control.controller.AttitudePD`) computes ``τ_k`` from ``(R̃_k, ω̂_k)`` and
    the reference at ``t_k``;
 4. the torque is held over ``[t_k, t_{k+1})`` (zero-order hold) while the plant moves; the estimator is told
    that ``τ_k`` is the torque held from ``t_k`` on (its prediction to ``t_{k+1}`` uses it exactly).
@@ -18,10 +18,10 @@ into the observer's held-torque slot after the controller has run: the same esti
 
 The plant is :class:`RigidBodyPlant` (Euler's equations with the CF4 integrator of
 :mod:`omegahat.simulation.rigid_body`) or, as an independent check, MuJoCo
-(:mod:`omegahat.control.mujoco_plant`). A run stops early as *diverged* when the rate source's output leaves
+(:mod:`omegahat.lab.control.mujoco_plant`). A run stops early as *diverged* when the rate source's output leaves
 ``|ω̂| ≤ divergence_bound`` or stops being finite after having been finite.
 
-Scoring (:func:`settling_time`, with :func:`omegahat.evaluation.metrics.convergence_time`)::
+Scoring (:func:`settling_time`, with :func:`omegahat.lab.evaluation.metrics.convergence_time`)::
 
     settled at t_s = min { t_k : θ_e(t_j) ≤ θ_tol and |ω(t_j) − R(t_j)ᵀ R_d ω_d| ≤ ω_tol for all j ≥ k }   (M1)
 
@@ -40,9 +40,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import so3
-from omegahat.control.controller import AttitudePD, Reference, error_angle
-from omegahat.evaluation.metrics import convergence_time, steady_rms
 from omegahat.interface import Estimator
+from omegahat.lab.control.controller import AttitudePD, Reference, error_angle
+from omegahat.lab.evaluation.metrics import convergence_time, steady_rms
 from omegahat.measurements import sample_array
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.kalman import SupervisedKalmanEstimator

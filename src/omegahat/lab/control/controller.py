@@ -30,7 +30,7 @@ global. No continuous feedback on SO(3) stabilises an attitude globally (S. P. B
 topological obstruction to continuous global stabilization of rotational motion and the unwinding phenomenon",
 Systems & Control Letters 39(1), 2000): (C4) has the equilibria ``R_dᵀ R = exp(π a×)`` (rotation by 180° about
 a principal axis), unstable, near which the motion starts slowly. The saturation (C5) and the rate *estimate* are
-outside that proof: with them the basin is only measured (:mod:`omegahat.control.basin`), as is the
+outside that proof: with them the basin is only measured (:mod:`omegahat.lab.control.basin`), as is the
 interconnection with the observer, which the paper leaves open.
 """
 

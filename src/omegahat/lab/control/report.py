@@ -1,7 +1,7 @@
 r"""What ``omegahat control`` writes: the scenario runs compared across rate sources, the basin, the sweep near
 180°, as figures (matplotlib, no pyplot state), CSV files and a Markdown summary.
 
-Scores, per scenario and rate source (:mod:`omegahat.control.closed_loop`): the settling time (M1), the pointing
+Scores, per scenario and rate source (:mod:`omegahat.lab.control.closed_loop`): the settling time (M1), the pointing
 error (M2, RMS error angle over the last ``TAIL`` seconds), the torque used (M3), and the rate source's error
 ``max |ω̂ − ω|`` over the same tail (zero for the gyro).
 """
@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from omegahat.control.basin import BasinResult
-from omegahat.control.closed_loop import ClosedLoopRun, pointing_error, settling_time, torque_used
-from omegahat.control.scenarios import ControlScenario
-from omegahat.plots import ESTIMATE_COLOR, TRUE_COLOR
+from omegahat.lab.control.basin import BasinResult
+from omegahat.lab.control.closed_loop import ClosedLoopRun, pointing_error, settling_time, torque_used
+from omegahat.lab.control.scenarios import ControlScenario
+from omegahat.lab.plots import ESTIMATE_COLOR, TRUE_COLOR
 
 __all__ = [
     "TAIL",

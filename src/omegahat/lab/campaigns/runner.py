@@ -1,7 +1,7 @@
 r"""Running a campaign: chunks of runs, each integrated for every gain set and diagnosed as its runs end.
 
 :func:`run_chunk` is the unit of work, here (:func:`run_campaign`, chunk after chunk on Numba's threads) and on a
-cluster (:mod:`omegahat.campaigns.distributed`, one task per chunk): its result depends on the campaign and the
+cluster (:mod:`omegahat.lab.campaigns.distributed`, one task per chunk): its result depends on the campaign and the
 run indices only, so a campaign gives the same numbers, bit for bit, however it is cut and wherever it runs.
 """
 
@@ -12,9 +12,9 @@ from collections.abc import Iterable
 import numba
 import numpy as np
 
-from omegahat.campaigns.config import Campaign
-from omegahat.campaigns.diagnostics import GainSetResult, result_from_diagnostics
-from omegahat.campaigns.draws import draw_runs
+from omegahat.lab.campaigns.config import Campaign
+from omegahat.lab.campaigns.diagnostics import GainSetResult, result_from_diagnostics
+from omegahat.lab.campaigns.draws import draw_runs
 from omegahat.simulation.engine import LANES, RunSet, StepControl, integrate_envelopes
 from omegahat.simulation.problem import first_step, initial_states, model_of
 from omegahat.validation import as_directions, as_inertia
@@ -25,11 +25,11 @@ __all__ = ["chunks", "merge", "run_campaign", "run_chunk"]
 def run_chunk(campaign: Campaign, start: int, stop: int, parallel: bool = True) -> dict[str, GainSetResult]:
     """Runs ``start .. stop − 1`` of the campaign for every gain set: ``{gains name: GainSetResult}``.
 
-    The unit of work of :func:`run_campaign` and of :mod:`omegahat.campaigns.distributed`; its result depends on
+    The unit of work of :func:`run_campaign` and of :mod:`omegahat.lab.campaigns.distributed`; its result depends on
     the run indices only, not on how the campaign is cut into chunks nor on ``parallel`` (``False``: on the
     calling thread, for Dask's worker threads). The engine diagnoses each run as it ends
     (:func:`omegahat.simulation.engine.integrate_envelopes`): the same numbers as
-    :func:`omegahat.campaigns.diagnostics.diagnose` on the runs' states, without holding them.
+    :func:`omegahat.lab.campaigns.diagnostics.diagnose` on the runs' states, without holding them.
     """
     if not (0 <= start < stop <= campaign.runs):
         raise ValueError(f"chunk [{start}, {stop}) is not inside the campaign's {campaign.runs} runs")

@@ -6,8 +6,8 @@ import argparse
 import time
 from pathlib import Path
 
-from omegahat import campaigns
 from omegahat.cli import positive_int
+from omegahat.lab import campaigns
 
 HELP = (
     "Run a Monte-Carlo campaign (TOML config, see examples/campaign.toml) and write summary.json, "
@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="instead of the campaign, compare continuous observers on its draws (comma-separated: sarras, "
         "sarras-printed) and write uniformity.md: convergence time and rate per bin of initial error, "
-        "counterexamples (omegahat.evaluation.uniformity)",
+        "counterexamples (omegahat.lab.evaluation.uniformity)",
     )
     parser.add_argument("--gains", default=None, help="with --observers: the gain set (default: the first)")
     parser.add_argument("--horizon", type=float, default=None, help="with --observers: override the horizon (s)")
@@ -41,7 +41,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int:
     """``--observers``: the uniformity comparison on the campaign's draws, written to ``OUT/uniformity.md``."""
-    from omegahat.evaluation import uniformity
+    from omegahat.lab.evaluation import uniformity
 
     names = [n.strip() for n in args.observers.split(",") if n.strip()]
     show = None if args.no_progress else (lambda j, n: print(f"\r{j}/{n} runs", end="", flush=True))
@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     if args.dask is None:
         results = campaigns.run_campaign(campaign, progress=not args.no_progress)
     else:
-        from omegahat.campaigns import distributed
+        from omegahat.lab.campaigns import distributed
 
         results = distributed.run_campaign_on(campaign, args.dask, progress=not args.no_progress)
     elapsed = time.perf_counter() - start

@@ -1,6 +1,6 @@
 r"""The comparison method: omegahat beside the baselines users would pick instead, scenario by scenario.
 
-``omegahat compare`` (:mod:`omegahat.cli.compare`) is a thin shell over this module: it picks the scenarios and
+``omegahat compare`` (:mod:`omegahat.lab.cli.compare`) is a thin shell over this module: it picks the scenarios and
 methods, calls :func:`compare_scenario`, and writes what :func:`markdown`, :func:`cost_markdown`,
 :func:`write_results_csv`, :func:`write_cost_csv` and :func:`plot_errors` produce.
 
@@ -16,7 +16,7 @@ the known torque, the model inertia, the same initial rate estimate ω̂₀ and 
 
 Tuning, the same procedure for every method: each method has one knob with a small grid (printed in the
 output); the grid value with the least steady-state RMS error on the tuning seed (1) is chosen, then the method
-is scored on a different seed (2). Metrics, defined in :mod:`omegahat.evaluation.metrics` ((S1)–(S3)), per
+is scored on a different seed (2). Metrics, defined in :mod:`omegahat.lab.evaluation.metrics` ((S1)–(S3)), per
 scenario and method, on the scored run:
 
 * first below tolerance (S2): the first sample time at which |ω̂ − ω| is at or below the scenario's tolerance;
@@ -25,7 +25,7 @@ scenario and method, on the scored run:
   fails numerically (an EKF whose covariance lost definiteness), has diverged: its error counts as infinite and
   the table lists it;
 * steady-state RMS (S3) of |ω̂ − ω| over ``t ≥ steady_after`` (rows without an estimate are left out);
-* for real data, the in-band RMS of :mod:`omegahat.evaluation.broad` (error against the bias-corrected gyroscope,
+* for real data, the in-band RMS of :mod:`omegahat.lab.evaluation.broad` (error against the bias-corrected gyroscope,
   low-passed at 10 Hz, over the motion samples);
 * cost per sample of ``run`` (wall time; not seeded, so reported in its own table and file).
 
@@ -50,12 +50,12 @@ from omegahat.baselines.mekf import MEKF
 from omegahat.baselines.rts import RTSSmoother
 from omegahat.baselines.savgol import SavitzkyGolayEstimator
 from omegahat.baselines.spline import SplineEstimator
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
+from omegahat.lab import scenarios as S
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.observer.presets import MocapPreset, MocapSmoother
 from omegahat.observer.tuning import bandwidth_gains
-from omegahat.simulation import scenarios as S
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn, not with the command line
     from matplotlib.figure import Figure
@@ -266,10 +266,10 @@ def _run_method(method, sc, value, run):
 
 
 def _load_trial(trial_name, seconds=None, decimate=1):
-    """A BROAD trial as a :class:`omegahat.simulation.scenarios.Run` (J = I, τ = 0 stand-ins; reference: the
+    """A BROAD trial as a :class:`omegahat.lab.scenarios.Run` (J = I, τ = 0 stand-ins; reference: the
     bias-corrected gyroscope), optionally cut to its first ``seconds`` (the cut's gyro bias is then estimated
     from the cut's own rest samples) and keeping every ``decimate``-th sample."""
-    from omegahat.evaluation import broad
+    from omegahat.lab.evaluation import broad
 
     tr = broad.load_trial(trial_name)
     if seconds is not None:
@@ -285,9 +285,9 @@ def _load(sc, seed, duration):
 
 
 def _score_real(run, w):
-    """The fair in-band score of :func:`omegahat.evaluation.broad.score` (10 Hz zero-phase low-pass of the error,
+    """The fair in-band score of :func:`omegahat.lab.evaluation.broad.score` (10 Hz zero-phase low-pass of the error,
     motion samples away from gaps, best continuous shift within ±3 samples), and the zero-shift RMS."""
-    from omegahat.evaluation import broad
+    from omegahat.lab.evaluation import broad
 
     s = broad.score(run.extra, w)
     return s.rms, s.zero_shift_rms
@@ -440,7 +440,7 @@ def unavailable(sc: S.Scenario) -> str | None:
         return f"{sc.name}: data directory {S.broad_data_dir()} not found"
     if sc.real:
         try:
-            from omegahat.evaluation import broad  # noqa: F401
+            from omegahat.lab.evaluation import broad  # noqa: F401
         except ModuleNotFoundError:
-            return f"{sc.name}: omegahat.evaluation.broad (loader and scorer) is not available"
+            return f"{sc.name}: omegahat.lab.evaluation.broad (loader and scorer) is not available"
     return None

@@ -1,7 +1,7 @@
 r"""What a campaign says: its summary (``summary.json``), counterexamples and figures.
 
 Per gain set: the worst rate and constant of the envelope over the runs within the bound (the definitions are in
-:mod:`omegahat.campaigns`), the counts of runs used, set aside and failed, whether the gains satisfy the theorem
+:mod:`omegahat.lab.campaigns`), the counts of runs used, set aside and failed, whether the gains satisfy the theorem
 (:func:`omegahat.observer.gains.check_gains`), and every counterexample with its seed and initial conditions.
 """
 
@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from omegahat.campaigns.config import Campaign
-from omegahat.campaigns.diagnostics import GainSetResult
-from omegahat.campaigns.draws import draw_runs
+from omegahat.lab.campaigns.config import Campaign
+from omegahat.lab.campaigns.diagnostics import GainSetResult
+from omegahat.lab.campaigns.draws import draw_runs
 from omegahat.observer.gains import check_gains
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn

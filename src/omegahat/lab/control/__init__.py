@@ -1,17 +1,17 @@
 r"""Velocity-free attitude control: a saturated PD law on SO(3) fed omegahat's rate estimate instead of a gyro.
 
-* :mod:`omegahat.control.controller` — the attitude and rate errors, the PD tracking law with feed-forward and
+* :mod:`omegahat.lab.control.controller` — the attitude and rate errors, the PD tracking law with feed-forward and
   per-axis saturation, references (a fixed attitude, a rest-to-rest slew);
-* :mod:`omegahat.control.closed_loop` — the sampled loop (star tracker, rate source, zero-order-hold torque,
+* :mod:`omegahat.lab.control.closed_loop` — the sampled loop (star tracker, rate source, zero-order-hold torque,
   plant) and its scores (settling time, pointing error, torque used);
-* :mod:`omegahat.control.scenarios` — the detumble and slew scenarios and the rate sources compared;
-* :mod:`omegahat.control.basin` — the Monte-Carlo over initial attitudes and rates (the measured basin);
-* :mod:`omegahat.control.mujoco_plant` — MuJoCo as an independent plant (extra ``omegahat[mujoco]``).
+* :mod:`omegahat.lab.control.scenarios` — the detumble and slew scenarios and the rate sources compared;
+* :mod:`omegahat.lab.control.basin` — the Monte-Carlo over initial attitudes and rates (the measured basin);
+* :mod:`omegahat.lab.control.mujoco_plant` — MuJoCo as an independent plant (extra ``omegahat[mujoco]``).
 
 ``docs/theory/control.md`` states the law, what is proven and what is only measured, with the measured tables.
 """
 
-from omegahat.control.closed_loop import (
+from omegahat.lab.control.closed_loop import (
     ClosedLoopRun,
     EstimatorFeed,
     GyroFeed,
@@ -23,8 +23,8 @@ from omegahat.control.closed_loop import (
     simulate_closed_loop,
     torque_used,
 )
-from omegahat.control.controller import AttitudePD, Reference, SlewReference, attitude_error, error_angle, pd_gains
-from omegahat.control.scenarios import FEEDS, ControlScenario, detumble, make_feed, run_scenario, slew
+from omegahat.lab.control.controller import AttitudePD, Reference, SlewReference, attitude_error, error_angle, pd_gains
+from omegahat.lab.control.scenarios import FEEDS, ControlScenario, detumble, make_feed, run_scenario, slew
 
 __all__ = [
     "FEEDS",

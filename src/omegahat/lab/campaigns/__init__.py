@@ -3,7 +3,7 @@ r"""Monte-Carlo campaigns: many independent plant + observer runs, and what they
 **The claim under test** (Sarras' theorem, ``docs/theory/observer.md``): with ``J_m I ≤ J ≤ J_M I``, ``|ω(t)| ≤ ω_M``
 and gains meeting the conditions of :mod:`omegahat.observer.gains`, the errors ``z = ω̂ − ω``, ``e_i = r̂_i − r_i``
 converge globally exponentially, and the proof's ``V = |J z| + ½ Σ |e_i|²`` decreases. Each run draws its
-initial conditions and a bounded torque from its own seed (:mod:`omegahat.campaigns.draws`); a run whose ``|ω|``
+initial conditions and a bounded torque from its own seed (:mod:`omegahat.lab.campaigns.draws`); a run whose ``|ω|``
 exceeds ω_M at an output time breaks the assumption: it is counted and **set aside**.
 
 **Envelope.** With ``E(t) = |z(t)| + Σ_i |e_i(t)|`` and ``ρ(t) = E(t)/E(0)`` on the output grid ``t_k``:
@@ -23,18 +23,25 @@ increased between two output times by more than the relative tolerance ``v_incre
 ``ρ ≥ rho_floor``). ``V`` increasing is a counterexample to the proof only for gains that satisfy the theorem
 (``satisfies_theorem`` in the summary); for practical gains it is reported as what it is.
 
-Modules: :mod:`~omegahat.campaigns.config` (the campaign and its TOML file), :mod:`~omegahat.campaigns.draws`
-and :mod:`~omegahat.campaigns.seeds` (each run from its seed), :mod:`~omegahat.campaigns.runner` (chunks on this
-machine), :mod:`~omegahat.campaigns.diagnostics` (per-run diagnostics, taken in the engine as runs end),
-:mod:`~omegahat.campaigns.report` (summary, counterexamples, figures), :mod:`~omegahat.campaigns.distributed`
+Modules: :mod:`~omegahat.lab.campaigns.config` (the campaign and its TOML file), :mod:`~omegahat.lab.campaigns.draws`
+and :mod:`~omegahat.lab.campaigns.seeds` (each run from its seed), :mod:`~omegahat.lab.campaigns.runner` (chunks on this
+machine), :mod:`~omegahat.lab.campaigns.diagnostics` (per-run diagnostics, taken in the engine as runs end),
+:mod:`~omegahat.lab.campaigns.report` (summary, counterexamples, figures), :mod:`~omegahat.lab.campaigns.distributed`
 (Dask). Results of ``examples/campaign.toml``: ``docs/results.md``.
 """
 
-from omegahat.campaigns.config import Campaign, campaign_from_dict, campaign_from_toml, load_campaign, replace, run_seed
-from omegahat.campaigns.diagnostics import GainSetResult, diagnose, envelope_fit
-from omegahat.campaigns.draws import draw_problem, replay
-from omegahat.campaigns.report import plot_envelopes, plot_rates, summarize, worst_envelope, write_outputs
-from omegahat.campaigns.runner import chunks, merge, run_campaign, run_chunk
+from omegahat.lab.campaigns.config import (
+    Campaign,
+    campaign_from_dict,
+    campaign_from_toml,
+    load_campaign,
+    replace,
+    run_seed,
+)
+from omegahat.lab.campaigns.diagnostics import GainSetResult, diagnose, envelope_fit
+from omegahat.lab.campaigns.draws import draw_problem, replay
+from omegahat.lab.campaigns.report import plot_envelopes, plot_rates, summarize, worst_envelope, write_outputs
+from omegahat.lab.campaigns.runner import chunks, merge, run_campaign, run_chunk
 
 __all__ = [
     "Campaign",

@@ -54,7 +54,7 @@ def model_xml(J: ArrayLike, timestep: float) -> str:
 
 
 class MujocoPlant:
-    """The MuJoCo body of the module docstring; implements :class:`omegahat.control.closed_loop.Plant`.
+    """The MuJoCo body of the module docstring; implements :class:`omegahat.lab.control.closed_loop.Plant`.
 
     ``timestep`` (s) must divide every hold interval ``h`` given to :meth:`advance` (to 1e-9 relative)."""
 

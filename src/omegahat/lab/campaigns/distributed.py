@@ -1,7 +1,7 @@
 """Monte-Carlo campaigns on a Dask cluster (``pip install "omegahat[dask]"``).
 
-The campaign is cut into chunks of runs (:func:`omegahat.campaigns.runner.chunks`); each chunk is one task,
-:func:`omegahat.campaigns.runner.run_chunk`, whose result depends only on the campaign (its seed) and the run
+The campaign is cut into chunks of runs (:func:`omegahat.lab.campaigns.runner.chunks`); each chunk is one task,
+:func:`omegahat.lab.campaigns.runner.run_chunk`, whose result depends only on the campaign (its seed) and the run
 indices. The results are merged by run index exactly as on one machine, so a campaign gives the same numbers,
 bit for bit, locally and on any cluster, whatever the number of workers or the order in which chunks finish.
 
@@ -25,9 +25,9 @@ from __future__ import annotations
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from omegahat.campaigns.config import Campaign
-from omegahat.campaigns.diagnostics import GainSetResult
-from omegahat.campaigns.runner import chunks, merge, run_chunk
+from omegahat.lab.campaigns.config import Campaign
+from omegahat.lab.campaigns.diagnostics import GainSetResult
+from omegahat.lab.campaigns.runner import chunks, merge, run_chunk
 
 if TYPE_CHECKING:  # the optional "dask" extra: imported when a campaign runs (_require_distributed)
     import distributed
@@ -50,7 +50,7 @@ def run_campaign_dask(
 ) -> dict[str, GainSetResult]:
     """Run ``campaign`` on a ``distributed.Client``: one task per chunk, merged by run index.
 
-    Returns what :func:`omegahat.campaigns.runner.run_campaign` returns, with identical numbers.
+    Returns what :func:`omegahat.lab.campaigns.runner.run_campaign` returns, with identical numbers.
     """
     distributed = _require_distributed()
     spans = chunks(campaign, chunk_size)

@@ -2,7 +2,7 @@ r"""The measured basin of the closed loop: a seeded Monte-Carlo over initial att
 initial error angles up to 180°.
 
 No continuous feedback on SO(3) is globally stabilising (Bhat and Bernstein 2000, quoted in
-:mod:`omegahat.control.controller`), and with saturation and an estimated rate nothing about the loop is proven:
+:mod:`omegahat.lab.control.controller`), and with saturation and an estimated rate nothing about the loop is proven:
 what it does is measured here.
 
 **Monte-Carlo** (:func:`basin_campaign`). Run j draws from ``default_rng(SeedSequence(seed, spawn_key=(j,)))``,
@@ -10,7 +10,7 @@ in this order: the initial attitude, uniform on SO(3) (SciPy's ``Rotation.random
 quaternion); the initial rate ``ω₀ = s u`` with ``u`` uniform on the sphere and ``s`` uniform in
 ``[0, omega_max]``; then the star tracker's noise. Every rate source sees the same draws (the same initial
 condition and the same noise sequence). Each run is scored with (M1)–(M3) of
-:mod:`omegahat.control.closed_loop` against a reference held at the identity: converged when it settled within the
+:mod:`omegahat.lab.control.closed_loop` against a reference held at the identity: converged when it settled within the
 horizon; *slow* when it settled later than ``slow_factor`` times the median settling time of its rate source. The
 attitude at which the rate first drops below ``REST_RATE`` (the end of the detumble) is recorded: a run whose
 rates die out more than ``NEAR_PI_DEG`` from the reference starts its attitude manoeuvre near the law's unstable
@@ -32,8 +32,8 @@ from numpy.random import SeedSequence, default_rng
 from scipy.spatial.transform import Rotation
 
 from omegahat import so3
-from omegahat.control.closed_loop import pointing_error, settling_time, torque_used
-from omegahat.control.scenarios import ControlScenario, make_feed, run_scenario
+from omegahat.lab.control.closed_loop import pointing_error, settling_time, torque_used
+from omegahat.lab.control.scenarios import ControlScenario, make_feed, run_scenario
 from omegahat.validation import as_positive
 
 __all__ = ["NEAR_PI_DEG", "REST_RATE", "BasinResult", "angle_sweep", "basin_campaign", "draw_initial_conditions"]
@@ -126,7 +126,7 @@ def basin_campaign(
     tail: float = 20.0,
 ) -> BasinResult:
     """The Monte-Carlo of the module docstring: ``runs`` initial conditions, each with every rate source of
-    ``feeds`` (names of :data:`omegahat.control.scenarios.FEEDS`), the scenario's body, sensor, gains and
+    ``feeds`` (names of :data:`omegahat.lab.control.scenarios.FEEDS`), the scenario's body, sensor, gains and
     horizon, the reference at rest at the identity."""
     if not (isinstance(runs, int) and runs >= 1):
         raise ValueError(f"runs must be a positive integer; got {runs!r}")

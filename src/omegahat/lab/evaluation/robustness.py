@@ -1,6 +1,6 @@
 r"""The robustness campaign of ``omegahat compare``: does each estimator converge from *any* start?
 
-Many seeded runs of a tumbling spacecraft (``omegahat.simulation.scenarios``' inertia, torque-free), each drawn
+Many seeded runs of a tumbling spacecraft (``omegahat.lab.scenarios``' inertia, torque-free), each drawn
 independently (:func:`draw_case`):
 
 * the true initial rate uniform in the ball ``|ω₀| ≤ ω_M`` and every estimator started cold (no warm start) from
@@ -16,7 +16,7 @@ Methods, each with one fixed setting (no per-run tuning): omegahat's default est
 ``min(rate, 10)`` rad/s) and the gyro-less MEKF with the dynamic model, whose prior honestly covers the range,
 ``σ_ω0 = ω_M + omega_hat0_max`` (its attitude starts from the first fix). A run *converges* when its error stays
 below ``tolerance`` from some time in the first three quarters of the run on ((S1) of
-:mod:`omegahat.evaluation.metrics`); the report gives, per method, the fraction converged, the worst and median
+:mod:`omegahat.lab.evaluation.metrics`); the report gives, per method, the fraction converged, the worst and median
 convergence times, and the seeds of the runs that did not converge (each replays with :func:`draw_case`).
 """
 
@@ -33,14 +33,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.mekf import MEKF
-from omegahat.evaluation.metrics import convergence_time, estimate_errors
 from omegahat.interface import Estimator
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors
+from omegahat.lab.scenarios import SCENARIOS
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.simulation import sensors
 from omegahat.simulation.rigid_body import RigidBody, integrate
-from omegahat.simulation.scenarios import SCENARIOS
 
 __all__ = [
     "CAMPAIGN_LIKE",

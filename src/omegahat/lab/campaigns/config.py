@@ -1,6 +1,6 @@
 r"""What defines a Monte-Carlo campaign (:class:`Campaign`), and its TOML file (``examples/campaign.toml``).
 
-Two equal campaigns give the same numbers: every run draws from its own seed (:mod:`omegahat.campaigns.draws`).
+Two equal campaigns give the same numbers: every run draws from its own seed (:mod:`omegahat.lab.campaigns.draws`).
 The TOML file has the sections ``[campaign]`` (runs, seed, chunk size, horizon, output step, tolerances and the
 envelope's thresholds), ``[body]`` (J, references, omega_max), ``[initial]`` (the initial-condition ranges),
 ``[torque]`` (terms, amplitude, frequency range) and one ``[gains.NAME]`` table per gain set (``kind`` =
@@ -27,7 +27,7 @@ __all__ = ["Campaign", "campaign_from_dict", "campaign_from_toml", "load_campaig
 
 @dataclass(frozen=True)
 class Campaign:
-    """Everything that defines a campaign (:mod:`omegahat.campaigns`: what each run draws, the envelope, the
+    """Everything that defines a campaign (:mod:`omegahat.lab.campaigns`: what each run draws, the envelope, the
     counterexamples); two equal campaigns give the same numbers."""
 
     J: np.ndarray

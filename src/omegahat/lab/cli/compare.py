@@ -1,9 +1,9 @@
 """``omegahat compare``: omegahat beside the baselines users would pick instead, scenario by scenario.
 
-A thin shell over :mod:`omegahat.evaluation.comparison` (the methods, the tuning and scoring procedure, the
+A thin shell over :mod:`omegahat.lab.evaluation.comparison` (the methods, the tuning and scoring procedure, the
 tables): it picks the scenarios and methods, runs them and writes, in ``--out``, ``results.md`` (the tables),
 ``results.csv`` (deterministic: two runs give the same bytes), ``cost.csv`` (timings) and ``<scenario>.png``;
-then the robustness campaign (:mod:`omegahat.evaluation.robustness`: ``robustness.md`` and ``robustness.csv``).
+then the robustness campaign (:mod:`omegahat.lab.evaluation.robustness`: ``robustness.md`` and ``robustness.csv``).
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from omegahat.evaluation import comparison as C
-from omegahat.evaluation import robustness as RB
-from omegahat.simulation import scenarios as S
+from omegahat.lab import scenarios as S
+from omegahat.lab.evaluation import comparison as C
+from omegahat.lab.evaluation import robustness as RB
 
 HELP = "Compare omegahat with differencing, a spline and an EKF on the standard scenarios."
 

@@ -2,7 +2,7 @@ r"""The closed-loop scenarios: a spacecraft detumbled from 2 rad/s and slewed by
 
 The spacecraft (the values of ``docs/theory/control.md``): ``J = diag(300, 250, 200)`` kg m², reaction torque
 ``|τ_i| ≤ 5`` N m per axis, a star tracker at 5 Hz with 10 arcsec (4.85e-5 rad) of noise per axis, the PD law of
-:mod:`omegahat.control.controller` with ``ω_n = 0.2`` rad/s and ``ζ = 0.9`` (:func:`pd_gains`: ``k_R = 10``
+:mod:`omegahat.lab.control.controller` with ``ω_n = 0.2`` rad/s and ``ζ = 0.9`` (:func:`pd_gains`: ``k_R = 10``
 N m, ``k_ω = 90`` N m s), settled (M1) at ``θ_e ≤ 1e-3`` rad and ``|e_ω| ≤ 1e-3`` rad/s.
 
 * **detumble**: ``|ω₀| = 2`` rad/s about a skewed axis, from a 130° attitude error, to the identity held at
@@ -16,7 +16,7 @@ Rate sources (:func:`make_feed`): ``gyro`` (the true rate), ``omegahat`` (the de
 :class:`omegahat.observer.kalman.SupervisedKalmanEstimator` with the star tracker's σ and the commanded torque),
 ``observer`` (the fixed-gain Sarras observer, isotropic rate 5 rad/s), ``differencing`` (backward log-map
 differences, :class:`omegahat.baselines.differencing.DifferencingEstimator`) and ``wrong-sign`` (the observer with
-its correction reversed, :class:`omegahat.control.closed_loop.WrongSignFeed`).
+its correction reversed, :class:`omegahat.lab.control.closed_loop.WrongSignFeed`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 
 from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator
-from omegahat.control.closed_loop import (
+from omegahat.lab.control.closed_loop import (
     ClosedLoopRun,
     EstimatorFeed,
     GyroFeed,
@@ -40,7 +40,7 @@ from omegahat.control.closed_loop import (
     WrongSignFeed,
     simulate_closed_loop,
 )
-from omegahat.control.controller import AttitudePD, Reference, SlewReference, pd_gains
+from omegahat.lab.control.controller import AttitudePD, Reference, SlewReference, pd_gains
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator

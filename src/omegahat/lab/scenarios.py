@@ -23,7 +23,7 @@ Registered scenarios (:data:`SCENARIOS`):
   π at which sampled attitudes become ambiguous).
 * ``broad-01``, ``broad-06``, ``broad-10`` — real recordings (``../shared/data/broad/``, see its NOTICE.md):
   optical attitude at 285.7 Hz, J = I and τ = 0 as stand-ins; scored in band against the gyroscope by
-  :mod:`omegahat.evaluation.broad`. Available only where the data directory exists. ``broad-01-29hz``,
+  :mod:`omegahat.lab.evaluation.broad`. Available only where the data directory exists. ``broad-01-29hz``,
   ``broad-01-10hz`` (and likewise 06, 10): the same trials keeping every 10th / 30th sample (28.6 / 9.5 Hz),
   low-rate motion capture, scored against the native gyroscope.
 
@@ -213,8 +213,8 @@ def get(name: str) -> Scenario:
 
 
 def broad_data_dir() -> Path:
-    """Where the BROAD recordings are looked for (:func:`omegahat.evaluation.broad.data_dir`; may not exist)."""
-    from omegahat.evaluation import broad
+    """Where the BROAD recordings are looked for (:func:`omegahat.lab.evaluation.broad.data_dir`; may not exist)."""
+    from omegahat.lab.evaluation import broad
 
     return broad.data_dir()
 
@@ -222,7 +222,7 @@ def broad_data_dir() -> Path:
 def simulate(scenario: Scenario, seed: int, duration: float | None = None) -> Run:
     """Truth and noisy attitude fixes for a simulated scenario (``duration`` overrides the scenario's)."""
     if scenario.real:
-        raise ValueError(f"scenario {scenario.name!r} is real data: load it with omegahat.evaluation.broad")
+        raise ValueError(f"scenario {scenario.name!r} is real data: load it with omegahat.lab.evaluation.broad")
     T_end = scenario.duration if duration is None else float(duration)
     h = 1.0 / scenario.rate_hz
     t = h * np.arange(round(T_end / h) + 1)

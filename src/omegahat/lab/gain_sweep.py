@@ -13,7 +13,7 @@ R₀ fixed by the caller; ground truth from :func:`omegahat.simulation.rigid_bod
 * **convergence time** ``t_c``: noise-free measurements, estimate started at ``ω̂₀ = ω₀ + Δ`` (``|Δ|`` =
   ``initial_error``, direction (1, 1, 1)/√3); ``t_c`` is the first sample time after which ``|ω̂ − ω|`` stays at or
   below ``settle · |Δ|`` (default 1 %) up to the horizon (∞ if it never settles; a non-finite estimate counts as
-  diverged): :func:`omegahat.evaluation.metrics.convergence_time`, (S1);
+  diverged): :func:`omegahat.lab.evaluation.metrics.convergence_time`, (S1);
 * **steady-state noise** ``s``: noisy measurements, estimate started at the truth; ``s = √(mean |ω̂ − ω|²)``
   (rad/s, the norm over the three axes) over the samples after the burn-in ``min(5 t_c, horizon/2)``.
 
@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.observer import tuning
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains

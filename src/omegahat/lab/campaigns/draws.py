@@ -2,7 +2,7 @@ r"""Each run of a campaign drawn from its own seed, and replayed from it.
 
 **Seeds.** Run ``j`` of a campaign with seed ``s`` draws everything from
 ``numpy.random.default_rng(SeedSequence(s, spawn_key=(j,)))``: the ``j``-th child of ``SeedSequence(s).spawn(...)``
-(:mod:`omegahat.campaigns.seeds` computes those generators for all runs of a chunk at once). A run depends on
+(:mod:`omegahat.lab.campaigns.seeds` computes those generators for all runs of a chunk at once). A run depends on
 ``(s, j)`` only; :func:`replay` rebuilds any run from them. No draw depends on the gains: a chunk draws each run
 once and integrates it for every gain set.
 
@@ -24,8 +24,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
-from omegahat.campaigns.config import Campaign
-from omegahat.campaigns.seeds import generators
+from omegahat.lab.campaigns.config import Campaign
+from omegahat.lab.campaigns.seeds import generators
 from omegahat.simulation.coupled import simulate
 from omegahat.simulation.problem import CoupledProblem, CoupledTrajectory
 from omegahat.simulation.torque import Torque
