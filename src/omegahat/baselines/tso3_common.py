@@ -23,8 +23,9 @@ taken before the attitude is known, and ``ω̂`` stays at ``omega0`` until then.
 
 **The implicit rate step (C4).** Both filters advance ``ω̂`` by an implicit second-order step of (C1), solved by
 Newton's method from the previous rate: :func:`newton` here (NumPy), the same loop compiled in
-:mod:`omegahat.baselines.tso3_kernel`. It stops when the step is below ``NEWTON_TOL`` relative to the rate, or fails
-after ``NEWTON_MAX`` iterations (the shells then raise :class:`StepFailure`: never a NaN written as an estimate).
+:mod:`omegahat.baselines.tso3_kernel`. It stops when ``max|Δω| ≤ NEWTON_TOL (1 + max|ω|)``, or fails after
+``NEWTON_MAX`` iterations (both defined in the compiled module, so that its cache follows them); the shells then
+raise :class:`StepFailure` (never a NaN written as an estimate).
 """
 
 from __future__ import annotations
@@ -38,13 +39,11 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat.baselines.mekf import initial_attitude
+from omegahat.baselines.tso3_kernel import NEWTON_MAX, NEWTON_TOL
 from omegahat.interface import Estimator, Measurement, Measurements
 from omegahat.validation import as_inertia, as_vector3
 
 __all__ = ["NEWTON_MAX", "NEWTON_TOL", "StepFailure", "TSO3Filter", "exp_so3", "newton"]
-
-NEWTON_TOL = 1e-13  #: (C4) Newton stops when |Δω| ≤ NEWTON_TOL (1 + |ω|)
-NEWTON_MAX = 50  #: (C4) ... or fails after this many iterations
 
 
 class StepFailure(RuntimeError):

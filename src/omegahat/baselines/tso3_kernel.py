@@ -5,7 +5,7 @@ step, :data:`MIN_ENERGY` ((M1)–(M6) of :mod:`omegahat.baselines.tso3_min_energ
 of :mod:`omegahat.baselines.predictive_geom`), with the timing (C3) and the Newton iteration (C4) of
 :mod:`omegahat.baselines.tso3_common`. The NumPy functions of those modules are the oracle: ``tests/test_tso3.py``
 checks that :func:`run_log` equals a loop of their ``update`` to 1e-10. Written in the order of the NumPy
-references' formulas (no fast-math, :doc:`DEVELOPING`); all arrays C-contiguous float64.
+references' formulas (no fast-math, ``docs/DEVELOPING.md``); all arrays C-contiguous float64.
 """
 
 from __future__ import annotations
@@ -15,12 +15,12 @@ import numpy as np
 
 from omegahat.kernels.rotation import exp_matrix, store, wahba
 
-__all__ = ["MIN_ENERGY", "PREDICTIVE", "run_log"]
+__all__ = ["MIN_ENERGY", "NEWTON_MAX", "NEWTON_TOL", "PREDICTIVE", "run_log"]
 
 MIN_ENERGY = 0  #: ``kind`` of :func:`run_log`: the minimum-energy filter
 PREDICTIVE = 1  #: ``kind`` of :func:`run_log`: the predictive filter
-_NEWTON_TOL = 1e-13  # (C4), as omegahat.baselines.tso3_common.NEWTON_TOL (tested equal)
-_NEWTON_MAX = 50
+NEWTON_TOL = 1e-13  #: (C4) Newton stops when max|Δω| ≤ NEWTON_TOL (1 + max|ω|)
+NEWTON_MAX = 50  #: (C4) ... or fails after this many iterations
 
 
 @numba.njit(cache=True)
@@ -38,7 +38,7 @@ def _newton(kind, start, c, J, J_inv, h, tau, second):
     """(C4) for (M4) (``kind`` MIN_ENERGY: ``N(−hω)Jω − c``, Jacobian (M6)) or (G7) (PREDICTIVE: ``c`` is ω_½);
     returns ``(ω, converged)``."""
     w = start.copy()
-    for _ in range(_NEWTON_MAX):
+    for _ in range(NEWTON_MAX):
         Jw = J @ w
         if kind == MIN_ENERGY:
             x = -h * w
@@ -54,7 +54,7 @@ def _newton(kind, start, c, J, J_inv, h, tau, second):
         w = w - step
         if not np.all(np.isfinite(w)):
             return w, False
-        if np.max(np.abs(step)) <= _NEWTON_TOL * (1.0 + np.max(np.abs(w))):
+        if np.max(np.abs(step)) <= NEWTON_TOL * (1.0 + np.max(np.abs(w))):
             return w, True
     return w, False
 
