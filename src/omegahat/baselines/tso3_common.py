@@ -12,9 +12,10 @@ sample is taken as the three directions it carries (the rows of R are ``Rᵀ e_i
 omegahat (:mod:`omegahat.measurements`).
 
 **Timing (C3).** Both source scripts are explicit one-step recursions: the sample at ``t_k`` (with the torque given
-with it, held) drives the step from ``t_k`` to ``t_{k+1}``, and the estimate reported at ``t_k`` is the state that
-step's predecessor reached. So ``ω̂(t_k)`` depends on the samples up to ``t_{k−1}`` only; the shells keep that
-order (the step is taken when the next sample's time is known, i.e. in :meth:`TSO3Filter.update` at ``t_{k+1}``).
+with it, held) drives the step from ``t_k`` to ``t_{k+1}``, and the estimate reported at ``t_k`` is the state the
+step from ``t_{k−1}`` reached. So ``ω̂(t_k)`` depends on the samples up to ``t_{k−1}`` only (one sample of lag
+against a filter that fuses the sample at its own time); the shells keep that order (the step is taken when the
+next sample's time is known, i.e. in :meth:`TSO3Filter.update` at ``t_{k+1}``).
 A missing or skipped sample (:mod:`omegahat.measurements`) drives its step without any measurement term.
 
 **Start.** ``R0`` when given (the sources start from ``R̂ = I``), else the least-squares attitude of the first valid
