@@ -1,0 +1,300 @@
+r"""Basilisk's sun-line switch-EKF: one measured direction and the two rate components perpendicular to it.
+
+Source: the public repository ``AVSLab/basilisk``, ``src/fswAlgorithms/attDetermination/sunlineSEKF/`` (the
+module's ``_Documentation/Sunline_SEKF.tex``, ``sunlineSEKF.c`` and its unit test ``_UnitTest/
+test_SunLineSEKF.py``; T. Teil's switch filter). Written here from those equations, in omegahat's words;
+``docs/baselines.md`` tells the story. A kinematic filter: no inertia, no torque (a torque given with a sample is
+checked and ignored). ``d`` is the measured direction in body axes (the Sun's), fixed in inertial space, so
+``ḋ = d × ω`` with ω the body rate; the rate about d cannot be seen and is not estimated.
+
+**Frames (S1).** For the body axis ``e`` in use (e₁, or e₂ after a switch)::
+
+    s₁ = d/|d|,   s₂ = d × e / |d × e|,   s₃ = d × s₂ / |d × s₂|,   C = [s₁ s₂ s₃]  (body ← S)
+    (C = I when |d × e| < 1e-5, as the source)
+
+State ``X = [d (3, body axes, not normalised); ω₂; ω₃]``, the components 2 and 3 in S of the rate of S relative to
+the body, ``ω_SB``; the body rate the filter stands for is ``ω̂ = C (0, −ω₂, −ω₃)`` (its part along d is set to 0).
+Error state ``x`` (5) and covariance P (5×5). One update over ``h``, at a sample, in the source's order::
+
+    switch: if |e · d/|d|| > cos 30°, e ← the other axis, X ← W X, P ← W P Wᵀ,                       (S2)
+            W = diag(I₃, [C_newᵀ C_old]₂₃,₂₃)
+    A = [[−ω̂×, −(d×) C₂₃], [0, 0]]   (C₂₃: C's columns 2, 3; C held fixed)                         (S3)
+    d⁺ = d − h ω̂ × d,   ω₂, ω₃ unchanged,   Φ = I + h A                  (one Euler step)           (S4)
+    Γ = [s (h²/2)(d⁺×) C⁺₂₃; h I₂]    (at the propagated state; s = +1 in the source)                 (S5)
+    x̄ = Φ x,   P⁻ = Φ P Φᵀ + q Γ Γᵀ                                                                  (S6)
+    y_j = n_jᵀ d + noise,  H = [n_jᵀ, 0, 0] rows,  K = P⁻Hᵀ(H P⁻ Hᵀ + σ² I)⁻¹                        (S7)
+    EKF (max|P| ≤ threshold, P the previous posterior):  x = K (y − H X),  X ← X + x                 (S8)
+    CKF (otherwise):  x = x̄ + K (y − H X − H x̄)  (X not moved)
+    P = (I − K H) P⁻ (I − K H)ᵀ + σ² K Kᵀ                        (Joseph form)                       (S9)
+
+With no sample, ``x = x̄`` and ``P = P⁻``. Measurements: the source reads coarse sun sensors, cosines ``y_j = n_j·d``
+of sensors with normals ``n_j`` whose reading exceeds a threshold; omegahat's interface gives the measured unit
+direction ``b`` itself, i.e. three sensors ``n_j = e_j`` always read (``H = [I, 0]``). :func:`sekf_step` takes either
+(``normals``); ``benchmarks/peers.py`` runs the source's unit test with its eight sensors.
+
+**Settings of the source** (its unit test): h = 0.5 s, q = 0.01, σ² = 0.001 (noise std √0.001 per cosine),
+P₀ = diag(0.4, 0.4, 0.4, 0.004, 0.004), EKF/CKF threshold (4/3)², X₀ = [0.7, 0.7, 0, 0, 0], a fixed Sun heading
+with no sample for the first 21 updates, then a new heading after half the run with no sample for 21 updates again;
+it passes when the final state is within 0.1 of the heading (rates 0) and the covariance has come down.
+
+**Inconsistencies found in the source** (each one also in ``docs/baselines.md``):
+
+* Γ (S5) has the opposite sign from Φ's block ``∂d⁺/∂(ω₂, ω₃) = −h (d×) C₂₃`` (S3): the documentation's derivation
+  (its equation ``ApproxPhi2``) writes ``d_{k+1} = d_i − (t−τ)(d×) ω_BN`` where ``ḋ = d × ω_BN`` gives ``+``. The
+  code and its unit test carry the same sign, so the process noise enters the direction–rate covariance with the
+  wrong sign. Default here: ``s = −1`` (Γ = ∫Φ B to leading order); ``as_published=True``: ``s = +1``;
+* A (S3) holds the frame C fixed although C turns with d: it is the Jacobian of ``−ω̂ × d`` at fixed C, not of the
+  dynamics; the neglected term is of the same order (|ω||δd|). Kept as published;
+* in CKF mode the error state x accumulates the updates but is never added to X (the output), and the EKF update
+  that follows overwrites it: the CKF's corrections are lost when the filter changes mode; the switch (S2) does not
+  rotate x either. Kept as published. In the source's own test the CKF takes the first sample after each gap of
+  21 updates (P's largest entry has grown past the threshold), and the EKF update that follows, from the unmoved
+  state and the now small covariance, throws the rate estimate to about 2 rad/s (the truth is 0) before it decays;
+  the test checks only the final state. ``benchmarks/peers.py`` reports the CKF updates and that peak;
+* the documentation lists a 6-state initial covariance and a process-noise map for 6 states, names the 2×2 block
+  of its transition ``Φ₃`` twice, and its test section points at the sunlineEKF module's files.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from omegahat import measurements as ms
+from omegahat import so3
+from omegahat.baselines import sunline_kernel as kernel
+from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.validation import as_positive, as_vector3
+
+__all__ = [
+    "SWITCH_COS",
+    "SunlineSEKF",
+    "body_rate",
+    "checked_direction_log",
+    "dynamics_matrix",
+    "frame",
+    "measurement_update",
+    "noise_map",
+    "sekf_step",
+    "switch",
+    "time_update",
+]
+
+SWITCH_COS = 0.866  #: (S2) the source's threshold: switch when d is within about 30° of the axis in use
+_AXES = np.eye(3)
+
+
+def frame(d: np.ndarray, axis: int) -> np.ndarray:
+    """(S1): ``C = [s₁ s₂ s₃]`` (body ← S) built on ``d`` and the body axis ``e_axis`` (0: e₁, 1: e₂)."""
+    c = np.cross(d, _AXES[axis])
+    if np.linalg.norm(c) < 1e-5:
+        return np.eye(3)
+    s2 = c / np.linalg.norm(c)
+    s3 = np.cross(d, s2)
+    return np.column_stack([d / np.linalg.norm(d), s2, s3 / np.linalg.norm(s3)])
+
+
+def body_rate(X: np.ndarray, axis: int) -> np.ndarray:
+    """``ω̂ = C (0, −ω₂, −ω₃)``: the body rate the state stands for (none along d)."""
+    return frame(X[:3], axis) @ np.array([0.0, -X[3], -X[4]])
+
+
+def dynamics_matrix(X: np.ndarray, axis: int) -> np.ndarray:
+    """(S3): ``A`` (5×5), the frame held fixed."""
+    C = frame(X[:3], axis)
+    A = np.zeros((5, 5))
+    A[:3, :3] = -so3.hat(C @ np.array([0.0, -X[3], -X[4]]))
+    A[:3, 3:] = -so3.hat(X[:3]) @ C[:, 1:]
+    return A
+
+
+def noise_map(X: np.ndarray, axis: int, h: float, as_published: bool) -> np.ndarray:
+    """(S5): ``Γ`` (5×2) at the (propagated) state X; ``as_published`` selects the source's sign."""
+    sign = 1.0 if as_published else -1.0
+    G = np.zeros((5, 2))
+    G[:3] = sign * 0.5 * h * h * so3.hat(X[:3]) @ frame(X[:3], axis)[:, 1:]
+    G[3:] = h * np.eye(2)
+    return G
+
+
+def time_update(
+    X: np.ndarray, x: np.ndarray, P: np.ndarray, axis: int, h: float, q: float, as_published: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(S3)–(S6): ``(X⁺, x̄, P⁻)``."""
+    Phi = np.eye(5) + h * dynamics_matrix(X, axis)
+    X_next = X.copy()
+    X_next[:3] = X[:3] - h * np.cross(body_rate(X, axis), X[:3])
+    G = noise_map(X_next, axis, h, as_published)
+    return X_next, Phi @ x, Phi @ P @ Phi.T + q * G @ G.T
+
+
+def switch(
+    X: np.ndarray, P: np.ndarray, axis: int, switch_cos: float = SWITCH_COS
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """(S2): ``(X, P, axis)``, switched to the other body axis when d is within ``acos(switch_cos)`` of this one."""
+    d = X[:3] / np.linalg.norm(X[:3])
+    if abs(d[axis]) <= switch_cos:
+        return X, P, axis
+    new = 1 - axis
+    S = frame(d, new).T @ frame(d, axis)
+    W = np.eye(5)
+    W[3:, 3:] = S[1:, 1:]
+    return W @ X, W @ P @ W.T, new
+
+
+def measurement_update(
+    X: np.ndarray, x_bar: np.ndarray, P_bar: np.ndarray, P_prev: np.ndarray, y: np.ndarray, normals: np.ndarray,
+    meas_var: float, ekf_switch: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """(S7)–(S9): ``(X, x, P)``; the CKF form when ``max|P_prev| > ekf_switch``."""
+    H = np.zeros((normals.shape[0], 5))
+    H[:, :3] = normals
+    S = H @ P_bar @ H.T + meas_var * np.eye(H.shape[0])
+    K = np.linalg.solve(S, H @ P_bar).T  # P⁻Hᵀ S⁻¹ (S, P⁻ symmetric)
+    innovation = y - normals @ X[:3]
+    if np.max(np.abs(P_prev)) > ekf_switch:
+        x = x_bar + K @ (innovation - H @ x_bar)
+    else:
+        x = K @ innovation
+        X = X + x
+    IKH = np.eye(5) - K @ H
+    return X, x, IKH @ P_bar @ IKH.T + meas_var * K @ K.T
+
+
+def sekf_step(
+    X: np.ndarray, x: np.ndarray, P: np.ndarray, axis: int, h: float | None, y: np.ndarray | None,
+    normals: np.ndarray, q: float, meas_var: float, ekf_switch: float, switch_cos: float = SWITCH_COS,
+    as_published: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:  # fmt: skip
+    """One update of the source's ``Update``: switch (S2), time update over ``h`` (None: none, the first sample),
+    then the sample ``y`` ``(m,)`` read by sensors of ``normals`` ``(m, 3)`` (None: no sample). ``(X, x, P, axis)``."""
+    X, P, axis = switch(X, P, axis, switch_cos)
+    P_prev = P
+    if h is not None:
+        X, x, P = time_update(X, x, P, axis, h, q, as_published)
+    if y is not None:
+        X, x, P = measurement_update(X, x, P, P_prev, y, normals, meas_var, ekf_switch)
+    return X, x, 0.5 * (P + P.T), axis
+
+
+def checked_direction_log(
+    times: ArrayLike,
+    measurements: ArrayLike,
+    torques: ArrayLike | None = None,
+    *,
+    t_prev: float | None = None,
+    where: str = "sample {j}",
+) -> ms.CheckedLog:
+    """One measured direction per sample, ``(T, 3)`` or ``(T, 1, 3)``, through the checks of
+    :mod:`omegahat.measurements` (times (T), torques, zero or non-finite directions; one direction: no collinearity
+    test), a rejected sample named ``where.format(j=j)``. ``values`` are the unit directions ``(T, 1, 3)``."""
+    t = ms.times_array(times)
+    m = np.asarray(measurements, dtype=float)
+    if m.shape == (t.size, 3):
+        m = m.reshape(t.size, 1, 3)
+    m, kind = ms.log_array(m, t.size, 1)
+    taus = ms.torques_array(torques, t.size)
+    prev = np.nan if t_prev is None else float(t_prev)
+    r, status, first_bad, info = ms.check_batch(t, prev, taus, True, m, kind, np.zeros((1, 3)), False, 1.0, 1.0, 0.0)
+    if first_bad >= 0:
+        raise ms.rejection_error(int(status[first_bad]), float(info), where.format(j=first_bad), float(t[first_bad]))
+    return ms.CheckedLog(t, r, taus, status)
+
+
+class SunlineSEKF(Estimator):
+    """The sun-line switch-EKF of the module docstring behind the estimator interface: samples are one measured unit
+    direction ``(3,)`` (or ``(1, 3)``), in body axes; ω̂ is the body rate perpendicular to it.
+
+    Keyword-only parameters
+    -----------------------
+    measurement_sigma : the direction noise's standard deviation per component (σ; the source: √0.001).
+    process_noise : q of (S6), (rad/s²)²: the rates' variance grows by h² q per update (the source: 0.01).
+    sigma_direction0, sigma_rate0 : the initial standard deviations of d and of (ω₂, ω₃) (the source: √0.4, √0.004).
+    direction0 : the initial d (``None``: the first valid sample); omega0 : the initial body rate (its part along d
+        is dropped).
+    ekf_switch : the threshold on max|P| above which the update is the CKF's (the source's test: (4/3)²).
+    as_published : True: Γ with the source's sign (module docstring).
+
+    The state (``X``, ``x``, ``P``, ``axis``) is public. :meth:`update` runs :func:`sekf_step` (NumPy), :meth:`run`
+    its compiled twin (:mod:`omegahat.baselines.sunline_kernel`).
+    """
+
+    def __init__(
+        self,
+        *,
+        measurement_sigma: float = float(np.sqrt(0.001)),
+        process_noise: float = 0.01,
+        sigma_direction0: float = float(np.sqrt(0.4)),
+        sigma_rate0: float = float(np.sqrt(0.004)),
+        direction0: ArrayLike | None = None,
+        omega0: ArrayLike = (0.0, 0.0, 0.0),
+        ekf_switch: float = (4.0 / 3.0) ** 2,
+        as_published: bool = False,
+    ) -> None:
+        self.meas_var = float(as_positive(measurement_sigma, "measurement_sigma")[0]) ** 2
+        self.q = float(as_positive(process_noise, "process_noise")[0])
+        sd = float(as_positive(sigma_direction0, "sigma_direction0")[0])
+        sr = float(as_positive(sigma_rate0, "sigma_rate0")[0])
+        self.P0 = np.diag([sd**2] * 3 + [sr**2] * 2)
+        self.direction0 = None if direction0 is None else as_vector3(direction0, "direction0")
+        if self.direction0 is not None and not np.linalg.norm(self.direction0) > 0:
+            raise ValueError("direction0 must be a non-zero vector")
+        self.omega0 = as_vector3(omega0, "omega0")
+        self.ekf_switch = float(as_positive(ekf_switch, "ekf_switch")[0])
+        self.as_published = bool(as_published)
+        self.reset()
+
+    def _initial_state(self, d: np.ndarray) -> np.ndarray:
+        """``X`` from a direction and ``omega0`` (S1): ``(ω₂, ω₃) = −C₂₃ᵀ ω₀``."""
+        return np.concatenate([d, -(frame(d, 0)[:, 1:].T @ self.omega0)])
+
+    def reset(self) -> None:
+        self.X: np.ndarray | None = None if self.direction0 is None else self._initial_state(self.direction0)
+        self.x = np.zeros(5)
+        self.P = self.P0.copy()
+        self.axis = 0
+        self.t: float | None = None
+
+    def _output(self) -> np.ndarray:
+        return self.omega0.copy() if self.X is None else body_rate(self.X, self.axis)
+
+    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
+        """Take the sample at ``t`` (:func:`sekf_step`), return ``ω̂(t)`` ``(3,)``."""
+        m = np.asarray(measurement, dtype=float)
+        if m.shape not in ((3,), (1, 3)):
+            raise ValueError(f"a direction sample must have shape (3,) or (1, 3); got shape {m.shape}")
+        tau = None if torque is None else [ms.torque_vector(torque)]
+        log = checked_direction_log([t], m.reshape(1, 3), tau, t_prev=self.t, where="the sample")
+        b = log.values[0, 0] if log.valid[0] else None
+        if self.X is None:
+            if b is not None:
+                self.X, self.t = self._initial_state(b), float(t)
+            else:
+                self.t = float(t)
+            return self._output()
+        h = None if self.t is None else float(t) - self.t
+        self.X, self.x, self.P, self.axis = sekf_step(
+            self.X, self.x, self.P, self.axis, h, b, np.eye(3), self.q, self.meas_var, self.ekf_switch,
+            SWITCH_COS, self.as_published,
+        )  # fmt: skip
+        self.t = float(t)
+        return self._output()
+
+    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
+        """``ω̂`` at every sample ``(T, 3)``: :meth:`update` sample by sample (from the current state), in one
+        compiled call; the log is checked first (the state is unchanged when it is rejected)."""
+        log = checked_direction_log(times, np.asarray(measurements, dtype=float), torques, t_prev=self.t)
+        T = log.times.size
+        if T == 0:
+            return np.empty((0, 3))
+        state = np.array([np.nan if self.t is None else self.t, self.t is not None, self.X is not None, self.axis])
+        X = np.zeros(5) if self.X is None else self.X.copy()
+        x, P = self.x.copy(), np.array(self.P, order="C")
+        use = np.repeat(log.valid[:, None], 3, axis=1)
+        params = np.array([self.q, self.meas_var, self.ekf_switch, SWITCH_COS, 1.0 if self.as_published else 0.0])
+        out = kernel.run_log(
+            log.times, np.ascontiguousarray(log.values[:, 0]), use, np.eye(3), self.omega0, params, state, X, x, P
+        )
+        self.X = X if state[2] else None
+        self.x, self.P, self.axis, self.t = x, P, int(state[3]), float(log.times[-1])
+        return out
