@@ -3,7 +3,7 @@
 Run: ``python benchmarks/peers.py [--seeds 10]``; writes its section of RESULTS.md.
 
 * The second-order minimum-energy filter and the geometric predictive filter
-  (:mod:`omegahat.baselines.peer_scenarios`: the scripts of ``NikolasKubis/attitude_estimation_TSO3`` — their J,
+  (:mod:`omegahat.lab.peer_scenarios`: the scripts of ``NikolasKubis/attitude_estimation_TSO3`` — their J,
   torque, initial state, directions, noise, 100 Hz for 100 s, filters started from R̂ = I, ω̂ = 0), each as published
   and as corrected here (``as_published``), over ``--seeds`` noise draws, and once without noise (the floor the
   discretisation leaves). What the source reports (its README's figures and scripts): both converge from a large
@@ -25,9 +25,11 @@ import argparse
 import time
 
 import numpy as np
+from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from scipy.spatial.transform import Rotation
 
-from omegahat.baselines.peer_scenarios import (
+from omegahat.baselines.sunline_sekf import SunlineSEKF
+from omegahat.lab.peer_scenarios import (
     BASILISK_CASES,
     basilisk_case,
     basilisk_passes,
@@ -36,8 +38,6 @@ from omegahat.baselines.peer_scenarios import (
     simulate,
     source_filter,
 )
-from omegahat.baselines.sunline_sekf import SunlineSEKF
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from results_md import machine_line, write_section
 
 DEG = np.degrees(1.0)

@@ -6,9 +6,10 @@ criteria on its five cases."""
 
 import numpy as np
 import pytest
+from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from scipy.spatial.transform import Rotation
 
-from omegahat.baselines.peer_scenarios import (
+from omegahat.lab.peer_scenarios import (
     BASILISK_CASES,
     basilisk_case,
     basilisk_passes,
@@ -17,7 +18,6 @@ from omegahat.baselines.peer_scenarios import (
     simulate,
     source_filter,
 )
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 
 DEG = np.degrees(1.0)
 

@@ -10,7 +10,6 @@ import scipy.linalg
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines import sunline_kernel
-from omegahat.baselines.peer_scenarios import BASILISK_NORMALS
 from omegahat.baselines.sunline_sekf import (
     SWITCH_COS,
     SunlineSEKF,
@@ -22,6 +21,7 @@ from omegahat.baselines.sunline_sekf import (
     switch,
     time_update,
 )
+from omegahat.lab.peer_scenarios import BASILISK_NORMALS
 from omegahat.measurements import MeasurementError
 
 RNG = np.random.default_rng(2026)
