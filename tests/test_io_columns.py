@@ -287,3 +287,21 @@ def test_few_digits_widen_the_tolerance(tmp_path):
         log = read_log(p)
         norms = np.linalg.norm(log.data, axis=1)
         assert np.allclose(norms, 1.0, atol=1e-12) == normalised
+
+
+def test_a_recognised_file_read_through_a_map_reads_the_same(tmp_path):
+    from vendor_files import decimal_seconds, write_euroc, write_tum
+
+    t = np.arange(50) / 200.0
+    q = turning(t).as_quat()
+    euroc = write_euroc(tmp_path / "data.csv", [1403715524907143168 + round(x * 1e9) for x in t], q, "{:.9f}")
+    mapped = read_log(euroc, columns="t=1,qw=5,qx=6,qy=7,qz=8", time_unit="ns")
+    assert "read column by column as the column map says, not as an EuRoC / ASL trajectory CSV" in mapped.notes
+    ref = read_log(euroc)
+    np.testing.assert_array_equal(mapped.t, ref.t)
+    np.testing.assert_array_equal(mapped.data, ref.data)
+    assert mapped.t0 == ref.t0
+    tum = write_tum(tmp_path / "traj.txt", decimal_seconds(1_700_000_000, t), q)
+    mapped = read_log(tum, header_rows=0, columns="t=1,qx=5,qy=6,qz=7,qw=8")  # '#' lines: comments
+    np.testing.assert_array_equal(mapped.t, read_log(tum).t)
+    np.testing.assert_array_equal(mapped.data, read_log(tum).data)

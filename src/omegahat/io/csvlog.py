@@ -114,13 +114,14 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     progress = [0]
     lines = _Lines(cut_lines(source_blocks(path, max(1 << 12, options.chunk_bytes), stream.notes, progress), path))
     n_header = fmt.header_rows if options.header_rows is None else options.header_rows
+    comment = fmt.comment or n_header == 0  # without a header, a '#' line can only be a comment
     header: list[bytes] = []
     first = None
     while len(header) < max(n_header, 1):
         raw = lines.next_line()
         if raw is None:
             break
-        if not header and _blank(clean(raw, fmt.comment, False), fmt.comment):
+        if not header and _blank(clean(raw, comment, False), comment):
             continue
         if n_header == 0:  # no header: the first row shows the layout, and is data
             first = raw
@@ -152,7 +153,7 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     sample = [
         split_line(_decode(r), delim, where)
         for r in lines.peek_rows(_DIGIT_ROWS)
-        if not _blank(clean(r, fmt.comment, False), fmt.comment)
+        if not _blank(clean(r, comment, False), comment)
     ]
     try:
         lay = layout(names, where, time_column, options.quaternion_order)
@@ -181,7 +182,7 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         )
     if options.column_map:
         stream.notes.append(f"columns read: {stream.columns}")
-    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, fmt.comment)
+    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
 
