@@ -305,3 +305,27 @@ def test_a_recognised_file_read_through_a_map_reads_the_same(tmp_path):
     mapped = read_log(tum, header_rows=0, columns="t=1,qx=5,qy=6,qz=7,qw=8")  # '#' lines: comments
     np.testing.assert_array_equal(mapped.t, read_log(tum).t)
     np.testing.assert_array_equal(mapped.data, read_log(tum).data)
+
+
+def test_text_messages(tmp_path):
+    p = tmp_path / "x.csv"
+    p.write_text("\n\n")
+    with pytest.raises(LogFormatError, match=r"x\.csv: empty file, expected rows"):
+        read_log(p, header_rows=0, columns="t=1,qw=2,qx=3,qy=4,qz=5")
+    p.write_text("t,qw,qx,qy,qz\n0,1,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"the time column is given twice \(--columns t= and --time-column\)"):
+        read_log(p, columns="t=1", time_column="qw")
+    with pytest.raises(ValueError, match=r"header rows must be a whole number >= 0; got -1"):
+        read_log(p, header_rows=-1)
+    p.write_text('t,qw,qx,qy,qz,"' + "n" * 200_000 + '"\n0,1,0,0,0,x\n')
+    with pytest.raises(LogFormatError, match=r"line 1 \(header\): field larger than field limit .*quoted field"):
+        read_log(p)
+    t = np.arange(50) / 100.0
+    M = turning(t).as_matrix() * 1.3  # every matrix scaled: no rotation
+    header = "t," + ",".join(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+    body = [",".join(num(v) for v in (t[k], *M[k].reshape(-1))) for k in range(50)]
+    p.write_text(header + "\n" + "\n".join(body) + "\n")
+    with pytest.raises(
+        LogFormatError, match=r"line 2, columns r11\.\.r33: not a rotation matrix \(‖RᵀR − I‖ = 1\.2\), and so are 50"
+    ):
+        read_log(p)

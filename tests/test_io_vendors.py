@@ -252,3 +252,106 @@ def test_motive_layouts_side_by_side(tmp_path, capsys, version, labelled, euler)
         ang = np.array([[float(v) for v in line.split(",")[2:5]] for line in text])
         Rm = Rotation.from_euler(euler, ang[:, ["XYZ".index(a) for a in euler]], degrees=True).as_matrix()
         np.testing.assert_allclose(read_log(path).data, Rm, rtol=0, atol=1e-15)
+
+
+# ------------------------------------------------------------------------------------------- seeded mutations
+
+
+def test_seeded_mutations_of_every_text_reader_give_the_rows_or_a_message(tmp_path):
+    """Byte flips, truncations, stray quotes, other line ends, inserted characters, deleted lines (issue 23): each
+    reader gives a LogFormatError (or ValueError) or rows; a stray quote or other line ends never lose a row
+    silently."""
+    import random
+
+    t = np.arange(60) / 100.0
+    R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_matrix()
+    q = Rotation.from_matrix(R).as_quat()
+    seeds = {
+        "e.csv": write_euroc(tmp_path / "s0.csv", [10**18 + k * 10**7 for k in range(60)], q),
+        "t.txt": write_tum(tmp_path / "s1.txt", decimal_seconds(1_700_000_000, t), q),
+        "k.txt": write_kitti(tmp_path / "s2.txt", R),
+        "q_6d.tsv": write_qtm_6d(tmp_path / "s3_6d.tsv", t, {"b": R}, 100.0),
+        "m.csv": write_motive(tmp_path / "s4.csv", t, q, version="1.21"),
+        "me.csv": write_motive(tmp_path / "s5.csv", t, q, version="1.23", euler="ZYX"),
+        "p.csv": write_plain_csv(tmp_path / "s6.csv", [f"{x:.3f}" for x in t], q),
+    }
+    rng = random.Random(23)
+    outcomes = {"rows": 0, "message": 0}
+    for name, seed in seeds.items():
+        data = seed.read_bytes()
+        for _ in range(60):
+            b = bytearray(data)
+            op = rng.randrange(6)
+            if op == 0:
+                for _ in range(rng.randint(1, 5)):
+                    b[rng.randrange(len(b))] = rng.randrange(256)
+            elif op == 1:
+                b = b[: rng.randrange(len(b))]
+            elif op == 2:
+                at = rng.randrange(len(b))
+                b[at:at] = b'"'
+            elif op == 3:
+                b = bytearray(bytes(b).replace(b"\n", rng.choice([b"\r", b"\r\n", b"\n\n"])))
+            elif op == 4:
+                at = rng.randrange(len(b))
+                b[at:at] = rng.choice([b",", b"\t", b" ", b"nan", b"1e999", b"-"])
+            else:
+                lines = bytes(b).split(b"\n")
+                del lines[rng.randrange(len(lines))]
+                b = bytearray(b"\n".join(lines))
+            path = tmp_path / name
+            path.write_bytes(bytes(b))
+            try:
+                log = read_log(path, **({"rate": 100.0} if name == "k.txt" else {}))
+            except (LogFormatError, ValueError):
+                outcomes["message"] += 1
+                continue
+            outcomes["rows"] += 1
+            if op in (2, 3):  # nothing removed: every row, or a note saying what the policy dropped
+                assert len(log) == 60 or log.notes, (name, op, len(log))
+    assert outcomes["rows"] > 100 and outcomes["message"] > 100  # both outcomes exercised
+
+
+def test_reader_messages(tmp_path):
+    t, R, _ = motion(10, 100.0)
+    q = Rotation.from_matrix(R).as_quat()
+    m = write_motive(tmp_path / "m.csv", t, q)
+    lines = m.read_text().splitlines()
+    lines[9] = lines[9].replace(",0.1,", ',"0.1,', 1)
+    m.write_text("\n".join(lines) + "\n")
+    with pytest.raises(LogFormatError, match=r"m\.csv, line 10: an unbalanced quote \('\"'\); the fields after it"):
+        read_log(m)
+    lines = write_motive(tmp_path / "m.csv", t, q).read_text().splitlines()
+    m.write_text("\n".join([lines[0], "", lines[2], *lines[5:]]) + "\n")  # the kinds row only
+    with pytest.raises(LogFormatError, match=r"m\.csv: no row of names above line 4 \(a Motive export has rows of"):
+        read_log(m)
+    qtm = write_qtm_6d(tmp_path / "a_6d.tsv", t, {"a": R}, 100.0)
+    text = qtm.read_text()
+    qtm.write_text(text.replace("BODY_NAMES\ta", "BODY_NAMES\ta\tb"))
+    with pytest.raises(LogFormatError, match=r"BODY_NAMES lists 2 bodies but the columns hold 1 Rot\[0\.\.8\] blocks"):
+        read_log(qtm)
+    qtm.write_text(text.replace("FREQUENCY\t100", "FREQUENCY\tEXT").replace("Frame\tTime\t", "Frame\tTick\t"))
+    with pytest.raises(LogFormatError, match=r"a_6d\.tsv: no Time column and no FREQUENCY in the header"):
+        read_log(qtm)
+    rows = text.splitlines()
+    rows[12] = rows[12].replace(rows[12].split("\t")[9], "x", 1)
+    qtm.write_text("\n".join(rows) + "\n")
+    with pytest.raises(LogFormatError, match=r"a_6d\.tsv, line 13, column a Rot\[0\]: 'x' is not a number"):
+        read_log(qtm)
+    with pytest.raises(LogFormatError, match=r"m\.csv: not a QTM 6D export \(no 'DATA_INCLUDED<tab>6D'"):
+        read_log(m, fmt="qtm6d")
+    with pytest.raises(LogFormatError, match=r"m\.csv, line 1: not an EuRoC trajectory"):
+        read_log(m, fmt="euroc")
+    k = write_kitti(tmp_path / "k.txt", R)
+    kl = k.read_text().splitlines()
+    k.write_text("\n".join([kl[0], kl[1] + " 1.0", *kl[2:]]) + "\n")
+    with pytest.raises(LogFormatError, match=r"k\.txt, line 2: 13 numbers, but the first line has 12"):
+        read_log(k, rate=10.0)
+    k.write_text("\n".join([kl[0], kl[1].replace(kl[1].split()[3], "abc"), *kl[2:]]) + "\n")
+    with pytest.raises(LogFormatError, match=r"k\.txt, line 2, number 4: 'abc' is not a number"):
+        read_log(k, rate=10.0)
+    k.write_text("# nothing\n")
+    with pytest.raises(LogFormatError, match=r"k\.txt: no poses"):
+        read_log(k, fmt="kitti", rate=10.0)
+    with pytest.raises(LogFormatError, match=r"cannot read the times \(No such file"):
+        read_log(write_kitti(tmp_path / "k2.txt", R), times=str(tmp_path / "none.txt"))

@@ -50,11 +50,26 @@ _SNIFF_LINES = 12
 
 
 def _rows(path: str) -> list[list[str]]:
+    """Every line's fields (row ``i`` is line ``i + 1``), each line parsed on its own: a stray quote cannot fold the
+    lines after it into one field (:mod:`omegahat.io.csvparse`)."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
-            return [[field.strip() for field in row] for row in csv.reader(f)]
+            text = f.read()
     except UnicodeDecodeError as exc:
         raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    rows = []
+    for i, line in enumerate(text.replace("\r\n", "\n").replace("\r", "\n").split("\n")):
+        if line.count('"') % 2:  # a quote that opens a field and never closes it would swallow the line's rest
+            raise LogFormatError(
+                f"{path}, line {i + 1}: an unbalanced quote ('\"'); the fields after it cannot be read"
+            )
+        try:
+            rows.append([field.strip() for field in next(csv.reader([line]), [])])
+        except csv.Error as exc:  # a field beyond csv.field_size_limit()
+            raise LogFormatError(f"{path}, line {i + 1}: {exc} (the limit for one field)") from None
+    while rows and not rows[-1]:
+        rows.pop()
+    return rows
 
 
 def _is_number(text: str) -> bool:

@@ -143,7 +143,8 @@ def open_qtm_6d(path: str | os.PathLike[str], options: ReadOptions) -> LogStream
         if time_col is not None:
             times.append(_value(row[time_col] if time_col < len(row) else "", path, line, "Time", required=True))
         elif frame_col is not None:
-            times.append(_value(row[frame_col], path, line, "Frame", required=True) / rate)
+            frame = row[frame_col] if frame_col < len(row) else ""
+            times.append(_value(frame, path, line, "Frame", required=True) / rate)
         else:
             times.append(len(times) / rate)
         m = np.array(values).reshape(3, 3).T  # R[i, j] = Rot[i + 3 j]
@@ -153,7 +154,7 @@ def open_qtm_6d(path: str | os.PathLike[str], options: ReadOptions) -> LogStream
             texts += fields
         mats.append(m)
         if angle_cols is not None:
-            angles.append([_value(row[j], path, line, stripped[j]) for j in angle_cols])
+            angles.append([_value(row[j] if j < len(row) else "", path, line, stripped[j]) for j in angle_cols])
         lines.append(line)
     if not times:
         raise LogFormatError(f"{path}: no frames after the header")
