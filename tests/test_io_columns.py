@@ -329,3 +329,11 @@ def test_text_messages(tmp_path):
         LogFormatError, match=r"line 2, columns r11\.\.r33: not a rotation matrix \(‖RᵀR − I‖ = 1\.2\), and so are 50"
     ):
         read_log(p)
+
+
+def test_a_column_map_is_refused_where_it_cannot_apply(tmp_path):
+    np.savez(tmp_path / "x.npz", t=np.arange(3.0), q=np.tile([0.0, 0.0, 0.0, 1.0], (3, 1)))
+    with pytest.raises(ValueError, match=r"x\.npz is an omegahat NPZ log: --columns applies only to an omegahat CSV"):
+        read_log(tmp_path / "x.npz", columns="t=1,qw=2,qx=3,qy=4,qz=5")
+    with pytest.raises(ValueError, match=r"x\.npz is an omegahat NPZ log: --header-rows applies only to an omegahat"):
+        read_log(tmp_path / "x.npz", header_rows=2)

@@ -28,7 +28,9 @@ from omegahat.io.npzlog import open_npz
 from omegahat.io.output import OmegaWriter, check_output, check_output_path, open_output, output_kind
 from omegahat.io.qualisys import is_qtm_6d, open_qtm_6d
 from omegahat.io.registry import (
+    COLUMN_OPTIONS,
     DIRECTORY,
+    MAP_OPTIONS,
     Format,
     LogChunk,
     LogStream,
@@ -54,7 +56,9 @@ register_format(".txt", open_kitti, name="kitti", title="a KITTI pose list", sni
 register_format(
     ".tsv", open_qtm_6d, name="qtm6d", title="a Qualisys QTM 6D TSV export", sniff=is_qtm_6d, options=("body",)
 )
-register_format((".csv", ".txt", ".tsv"), open_csv, name="csv", title="an omegahat CSV log")
+register_format(
+    (".csv", ".txt", ".tsv"), open_csv, name="csv", title="an omegahat CSV log", options=COLUMN_OPTIONS + MAP_OPTIONS
+)
 register_format(".npz", open_npz, name="npz", title="an omegahat NPZ log")
 register_format(".c3d", open_c3d, name="c3d", title="a C3D file", options=("body",))
 register_format(".bag", open_bag, name="rosbag1", title="a ROS 1 bag", options=_BAG)

@@ -57,6 +57,7 @@ __all__ = [
     "CHUNK_ROWS",
     "COLUMN_OPTIONS",
     "DIRECTORY",
+    "MAP_OPTIONS",
     "OPTION_FLAGS",
     "ROTATIONS",
     "STAMPS",
@@ -82,7 +83,9 @@ STAMPS = ("header", "receive")
 DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)
 CHUNK_ROWS = 1 << 17  #: rows per chunk of formats read whole (NPZ, bags, exports, DataFrames)
 #: options for logs whose columns are named by omegahat's rules (CSV, NPZ): the default of register_format
-COLUMN_OPTIONS = ("time_unit", "quaternion_order", "time_column", "columns", "header_rows")
+COLUMN_OPTIONS = ("time_unit", "quaternion_order", "time_column")
+#: options of the formats read column by column through a column map (omegahat.io.colmap): text logs
+MAP_OPTIONS = ("columns", "header_rows")
 #: option -> its name on the command line (messages say both where it matters)
 OPTION_FLAGS = {
     "time_unit": "--time-unit",
@@ -420,7 +423,7 @@ def open_log(path: str | os.PathLike[str], options: ReadOptions | None = None, f
     path = os.fspath(path)
     form = detect_format(path, fmt)
     recognised = form
-    mapped = [o for o in ("columns", "header_rows") if o in options.given() and o not in form.options]
+    mapped = [o for o in MAP_OPTIONS if o in options.given() and o not in form.options]
     if mapped and fmt is None:  # a column map reads the file column by column, whatever else recognises it
         ext = os.path.splitext(path)[1].lower()
         plain = [f for f in _FORMATS if ext in f.extensions and f.sniff is None]
