@@ -127,20 +127,25 @@ def test_a_bad_sample_names_its_line_and_the_options(tmp_path, capsys):
 
 
 def test_tolerances_are_options(tmp_path, capsys):
+    # Within the file tolerance (1e-2, omegahat.io.precision) imprecise rotations are normalised and reported
+    # (issue 25); beyond it the estimator's tolerances decide, and they are options.
     t = np.arange(50) / 100.0
-    q = constant_rate(t, OMEGA).as_quat() * 1.004  # written with 3 digits too few: |q| = 1.004
     src = tmp_path / "q.csv"
-    src.write_text(
-        "t,qx,qy,qz,qw\n" + "".join(",".join(repr(float(x)) for x in (t[k], *q[k])) + "\n" for k in range(50))
-    )
-    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
-    assert code == 2 and "pass --quat-norm-tol 0.008 to accept it" in err
-    assert run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--quat-norm-tol", "0.008")[0] == 0
-    R = constant_rate(t, OMEGA).as_matrix() * 1.001
+    printed = {}
+    for scale in (1.004, 1.02):
+        q = constant_rate(t, OMEGA).as_quat() * scale
+        src.write_text(
+            "t,qx,qy,qz,qw\n" + "".join(",".join(repr(float(x)) for x in (t[k], *q[k])) + "\n" for k in range(50))
+        )
+        printed[scale] = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert printed[1.004][0] == 0 and "note: 50 quaternion(s) normalised" in printed[1.004][1]
+    assert printed[1.02][0] == 2 and "pass --quat-norm-tol 0.04 to accept it" in printed[1.02][2]
+    assert run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--quat-norm-tol", "0.04")[0] == 0
+    R = constant_rate(t, OMEGA).as_matrix() * 1.01  # |R^T R - I| = 0.0348
     np.savez(tmp_path / "r.npz", t=t, R=R)
     code, _, err = run(capsys, "estimate", tmp_path / "r.npz", "-o", tmp_path / "o.csv")
     assert code == 2 and "r.npz, array R, index 0: not a rotation matrix" in err and "--rotation-tol" in err
-    assert run(capsys, "estimate", tmp_path / "r.npz", "-o", tmp_path / "o.csv", "--rotation-tol", "0.01")[0] == 0
+    assert run(capsys, "estimate", tmp_path / "r.npz", "-o", tmp_path / "o.csv", "--rotation-tol", "0.07")[0] == 0
 
 
 @pytest.mark.parametrize(

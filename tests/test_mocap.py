@@ -88,9 +88,13 @@ def test_motive_errors(tmp_path):
     with pytest.raises(LogFormatError, match=r"no rigid body named 'c'; the file has a, b"):
         read_log(two, body="c")
     assert read_log(two, body="B").description.startswith("OptiTrack Motive CSV (format 1.23): rigid body 'b'")
+    # Euler exports are read (tests/test_io_vendors.py); one whose header contradicts itself is refused
     euler = write_motive_csv(tmp_path / "e.csv", t, {"a": q}, rotation_type="XYZ")
-    with pytest.raises(LogFormatError, match=r"e\.csv, line 1: Rotation Type is 'XYZ' .* Rotation Type = Quaternion"):
+    with pytest.raises(LogFormatError, match=r"e\.csv, line 7: Rotation Type is 'XYZ' .* columns X,Y,Z,W"):
         read_log(euler)
+    odd = write_motive_csv(tmp_path / "o.csv", t, {"a": q}, rotation_type="Axis Angle")
+    with pytest.raises(LogFormatError, match=r"o\.csv, line 1: Rotation Type 'Axis Angle' is neither Quaternion"):
+        read_log(odd)
     bad = tmp_path / "bad.csv"
     lines = (tmp_path / "two.csv").read_text().splitlines()
     lines[9] = lines[9].replace(repr(float(q[2, 1])), "abc", 1)

@@ -58,8 +58,10 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
                               alone (a sun sensor) needs a tumbling body and --inertia (its own observer)
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
         empty fields (or nan) are missing samples; other columns are ignored.
-        Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, C3D files with rigid-body
-        rotations (--body), ROS 1 bags (.bag) and ROS 2 bags (directory) (--topic, frames).
+        other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
+        Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV, C3D files
+        with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
+        bags (.bag) and ROS 2 bags (directory) (--topic, frames).
         Equal times: the same attitude is one sample (dropped), different attitudes are an error.
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
         unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
@@ -121,6 +123,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="body-to-inertial",
         help="what the attitude maps: body-to-inertial (default; v_inertial = R v_body, SciPy, ROS) or "
         "inertial-to-body (many spacecraft logs); the output is in body axes either way",
+    )
+    conv.add_argument(
+        "--columns",
+        metavar="KEY=COL,...",
+        help="which column holds what, for files whose names are not omegahat's: t=NAME,qw=NAME,qx=NAME,qy=NAME,"
+        "qz=NAME (or r11..r33, b1x.., tau_x..) by header name or 1-based position (t=1,qw=2,...); see "
+        "docs/your-data.md",
+    )
+    conv.add_argument(
+        "--header-rows",
+        type=int,
+        metavar="N",
+        help="rows the header spans (names joined per column, e.g. a group title over W,X,Y,Z); 0: no header, "
+        "columns by position",
     )
     conv.add_argument(
         "--quaternion-order",
@@ -197,7 +213,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="header",
         help="bag time: the messages' header stamps (default) or the time the recorder received them",
     )
-    rec.add_argument("--body", metavar="NAME", help="rigid body / object / segment of a Motive, Vicon or C3D file")
+    rec.add_argument(
+        "--body", metavar="NAME", help="rigid body / object / segment of a Motive, Vicon, Qualisys or C3D file"
+    )
+    rec.add_argument("--rate", type=float, metavar="HZ", help="times of a pose list without any (KITTI): frame / HZ")
+    rec.add_argument("--times", metavar="FILE", help="times of a pose list without any (KITTI): one time in s per line")
     rec.add_argument(
         "--output-topic",
         metavar="TOPIC",
@@ -274,6 +294,10 @@ def run(args: argparse.Namespace) -> int:
         parent_frame=args.parent_frame,
         child_frame=args.child_frame,
         stamp=args.stamp,
+        columns=args.columns,
+        header_rows=args.header_rows,
+        rate=args.rate,
+        times=args.times,
     )
     out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
     stream = open_log(args.input, options)

@@ -1,12 +1,15 @@
 """Attitude data in, angular-velocity estimates out: one path for every format.
 
 1. **Formats** are registered here with :func:`register_format` (:mod:`omegahat.io.registry`) and recognised
-   from the file (:func:`detect_format`): omegahat's CSV (:mod:`omegahat.io.csvlog`) and NPZ
-   (:mod:`omegahat.io.npzlog`) logs, OptiTrack Motive and Vicon CSV exports (:mod:`omegahat.io.mocap`, recognised
-   from their first lines), C3D files (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`);
-   pandas and Polars DataFrames enter the same path through :func:`omegahat.io.frames.open_frame`.
+   from the file (:func:`detect_format`): omegahat's CSV (:mod:`omegahat.io.csvlog`, which also reads any text log
+   through a column map, :mod:`omegahat.io.colmap`) and NPZ (:mod:`omegahat.io.npzlog`) logs, OptiTrack Motive and
+   Vicon CSV exports (:mod:`omegahat.io.mocap`), Qualisys QTM 6D TSV exports (:mod:`omegahat.io.qualisys`), the
+   EuRoC / ASL, TUM and KITTI trajectories of robotics (:mod:`omegahat.io.trajectories`), C3D files
+   (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`); pandas and Polars DataFrames enter
+   the same path through :func:`omegahat.io.frames.open_frame`.
 2. :func:`open_log` opens any of them as a :class:`LogStream` of :class:`LogChunk` and applies, in one place,
-   the time unit, the rotation convention and the timestamp policy (:mod:`omegahat.io.timestamps`);
+   the time unit, the rotation convention, the precision policy (:mod:`omegahat.io.precision`) and the timestamp
+   policy (:mod:`omegahat.io.timestamps`);
    :func:`read_log` reads a whole stream into an :class:`AttitudeLog`.
 3. :func:`omegahat.io.pipeline.estimate_stream` runs a stream through the estimator with automatic gains and
    writes the result through :func:`open_output` (:mod:`omegahat.io.output`: CSV with a status column, or
@@ -15,15 +18,19 @@
 """
 
 from omegahat.io.c3d import open_c3d
+from omegahat.io.colmap import parse_columns, suggest_columns
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, LogFormatError
-from omegahat.io.csvlog import open_csv
+from omegahat.io.csvlog import TextFormat, open_csv, open_text
 from omegahat.io.frames import estimate_frame, open_frame
 from omegahat.io.logs import AttitudeLog, read_csv, read_log, read_npz, write_omega_csv
 from omegahat.io.mocap import is_motive, is_vicon, open_motive_csv, open_vicon_csv
 from omegahat.io.npzlog import open_npz
 from omegahat.io.output import OmegaWriter, check_output, check_output_path, open_output, output_kind
+from omegahat.io.qualisys import is_qtm_6d, open_qtm_6d
 from omegahat.io.registry import (
+    COLUMN_OPTIONS,
     DIRECTORY,
+    MAP_OPTIONS,
     Format,
     LogChunk,
     LogStream,
@@ -34,6 +41,7 @@ from omegahat.io.registry import (
 )
 from omegahat.io.rosbag import is_ros2_bag, open_bag
 from omegahat.io.timestamps import DUPLICATE_TOL
+from omegahat.io.trajectories import is_euroc, is_kitti, is_tum, open_euroc, open_kitti, open_tum
 
 _BAG = ("topic", "parent_frame", "child_frame", "stamp")
 # Sniffing formats before the plain one of their extension (registry.detect_format): the order below is the order
@@ -42,7 +50,15 @@ register_format(
     ".csv", open_motive_csv, name="motive", title="an OptiTrack Motive CSV export", sniff=is_motive, options=("body",)
 )
 register_format(".csv", open_vicon_csv, name="vicon", title="a Vicon CSV export", sniff=is_vicon, options=("body",))
-register_format(".csv", open_csv, name="csv", title="an omegahat CSV log")
+register_format(".csv", open_euroc, name="euroc", title="an EuRoC / ASL trajectory CSV", sniff=is_euroc, options=())
+register_format((".txt", ".tum"), open_tum, name="tum", title="a TUM trajectory", sniff=is_tum, options=())
+register_format(".txt", open_kitti, name="kitti", title="a KITTI pose list", sniff=is_kitti, options=("rate", "times"))
+register_format(
+    ".tsv", open_qtm_6d, name="qtm6d", title="a Qualisys QTM 6D TSV export", sniff=is_qtm_6d, options=("body",)
+)
+register_format(
+    (".csv", ".txt", ".tsv"), open_csv, name="csv", title="an omegahat CSV log", options=COLUMN_OPTIONS + MAP_OPTIONS
+)
 register_format(".npz", open_npz, name="npz", title="an omegahat NPZ log")
 register_format(".c3d", open_c3d, name="c3d", title="a C3D file", options=("body",))
 register_format(".bag", open_bag, name="rosbag1", title="a ROS 1 bag", options=_BAG)
@@ -62,6 +78,7 @@ __all__ = [
     "LogStream",
     "OmegaWriter",
     "ReadOptions",
+    "TextFormat",
     "check_output",
     "check_output_path",
     "detect_format",
@@ -69,10 +86,13 @@ __all__ = [
     "open_frame",
     "open_log",
     "open_output",
+    "open_text",
     "output_kind",
+    "parse_columns",
     "read_csv",
     "read_log",
     "read_npz",
     "register_format",
+    "suggest_columns",
     "write_omega_csv",
 ]

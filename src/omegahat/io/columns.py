@@ -18,11 +18,13 @@ attitude kind and its columns in storage order (quaternions scalar **last**, Sci
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 __all__ = [
     "MATRIX_COLUMNS",
+    "MAX_COLUMNS",
     "QUATERNION_COLUMNS",
     "QUATERNION_ORDERS",
     "TORQUE_COLUMNS",
@@ -37,12 +39,16 @@ QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")  # stored in this order: SciPy's s
 MATRIX_COLUMNS = tuple(f"r{i}{j}" for i in range(1, 4) for j in range(1, 4))
 TORQUE_COLUMNS = ("tau_x", "tau_y", "tau_z")
 QUATERNION_ORDERS = ("wxyz", "xyzw")
+MAX_COLUMNS = 200_000  #: a header naming more columns is refused before its names are split (issue 23: size limits)
 _AXES = ("x", "y", "z")
 # Numbered quaternion columns whose scalar part the header does not say: storage order (x, y, z, w) per option.
 _NUMBERED: dict[tuple[str, ...], dict[str, tuple[str, ...]]] = {
     ("q0", "q1", "q2", "q3"): {"wxyz": ("q1", "q2", "q3", "q0"), "xyzw": ("q0", "q1", "q2", "q3")},
     ("q1", "q2", "q3", "q4"): {"wxyz": ("q2", "q3", "q4", "q1"), "xyzw": ("q1", "q2", "q3", "q4")},
 }
+
+
+_KEYS = frozenset(("t", *QUATERNION_COLUMNS, *MATRIX_COLUMNS, *TORQUE_COLUMNS, *(f"q{i}" for i in range(5))))
 
 
 class LogFormatError(ValueError):
@@ -82,6 +88,15 @@ def direction_columns(names: Iterable[str]) -> list[str]:
     return [f"b{i}{a}" for i in idx for a in _AXES]
 
 
+def _read(name: str, time_column: str) -> bool:
+    """Whether a column of this name may be read (two columns of a name that is not are both ignored)."""
+    return bool(name) and (
+        name == time_column
+        or name in _KEYS
+        or (len(name) >= 3 and name[0] == "b" and name[1:-1].isdigit() and name[-1] in _AXES)
+    )
+
+
 def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
     for cols in _NUMBERED:
         if set(cols) <= present:
@@ -100,10 +115,10 @@ def layout(
     """
     normalised = [normalise_name(n) for n in names]
     present = set(normalised)
-    dup = sorted({n for n in normalised if normalised.count(n) > 1 and n})
+    time_column = "" if time_column is None else normalise_name(time_column)
+    dup = sorted(n for n, c in Counter(normalised).items() if c > 1 and _read(n, time_column))  # linear in columns
     if dup:
         raise LogFormatError(f"{where}: duplicate column(s) {', '.join(dup)} (names are compared ignoring case)")
-    time_column = "" if time_column is None else normalise_name(time_column)
     if time_column and time_column not in present:
         hint = [n for n in normalised if n in ("time", "timestamp", "times", "time_s", "stamp", "sec", "seconds")]
         tip = f"; pass --time-column {hint[0]}" if hint else "; name it t or pass --time-column NAME"
@@ -143,7 +158,14 @@ def layout(
                 f"({numbered[3]} is the scalar)"
             )
         cols = list(_NUMBERED[numbered][quaternion_order])
+    if time_column and time_column in cols:
+        raise LogFormatError(
+            f"{where}: the time column {time_column!r} is one of the attitude columns ({', '.join(cols)}); name the "
+            "column that holds the time (--time-column NAME)"
+        )
     torque = [c for c in TORQUE_COLUMNS if c in present]
+    if time_column and time_column in torque:
+        raise LogFormatError(f"{where}: the time column {time_column!r} is a torque column; name the time column")
     if torque and len(torque) != 3:
         lacking = [c for c in TORQUE_COLUMNS if c not in present]
         raise LogFormatError(f"{where}: torque needs tau_x, tau_y and tau_z; missing {', '.join(lacking)}")

@@ -1,355 +1,267 @@
-r"""CSV logs, read in chunks with PyArrow's CSV parser: fast, memory bounded, every error naming line and column.
+r"""CSV logs, and every text log laid out as columns, read in chunks: fast, memory bounded, errors naming line and
+column.
 
-What a CSV log may look like (:mod:`omegahat.io.columns` says which names hold what):
+What a CSV log may look like (:mod:`omegahat.io.columns` says which names hold what; :mod:`omegahat.io.textlines`
+the encodings, line ends, delimiters and size limits):
 
-* **encoding**: UTF-8, with or without a byte-order mark (spreadsheet programs write one), or UTF-16 with its
-  byte-order mark (transcoded on the fly). Column names are compared ignoring case and surrounding whitespace;
-  other, ignored columns may hold anything;
-* **delimiter**: ``,`` ``;`` or tab, whichever the header line holds most of (outside quotes). With ``;`` or tab a
-  decimal comma (``0,5``) is read as a decimal point;
-* **header**: the first non-blank line; **rows**: numbers as C's ``strtod`` reads them (``1``, ``-2.5e-3``,
-  ``nan``, ``inf``; surrounding blanks allowed; no digit grouping), blank lines skipped anywhere;
+* **header**: the first non-blank line names the columns (compared ignoring case and surrounding whitespace; other,
+  ignored columns may hold anything); a header spanning N rows is read with ``--header-rows N``, a file without one
+  with ``--header-rows 0`` (:mod:`omegahat.io.colmap`);
+* **columns** named otherwise are read with a column map, ``--columns t=NAME,qw=NAME,...`` by name or 1-based
+  position; with one, blank-separated columns are read too;
+* **rows**: numbers as C's ``strtod`` reads them (``1``, ``-2.5e-3``, ``nan``, ``inf``; surrounding blanks allowed;
+  no digit grouping), a decimal comma where the delimiter is not ``,``; blank lines skipped anywhere;
 * an **empty field** in the attitude columns makes the whole sample missing (so does ``nan``); time and torque
-  must be on every row.
+  must be on every row; times of ``2**20`` and more (seconds since 1970, nanoseconds) keep their precision
+  (:class:`omegahat.io.timestamps.ExactTimes`).
 
-How it is read. The file is cut at line ends into chunks of about ``ReadOptions.chunk_bytes``; the line number
-of every row comes from counting the line ends in the chunk (NumPy over the bytes), so it stays exact across
-blank lines and chunks. Each chunk goes through PyArrow's parser, reading only the needed columns as float64.
-If PyArrow rejects a chunk, the chunk is read again as text (blanks trimmed, decimal commas turned into points)
-and the first field that is not a number is located and named; a chunk whose structure PyArrow cannot follow
-(a wrong number of fields, a quoted field spanning lines) is read by Python's :mod:`csv`, which names the line.
+How it is read: the file is cut at line ends into chunks of about ``ReadOptions.chunk_bytes`` and each chunk parsed
+by :class:`omegahat.io.csvparse.ChunkParser` (PyArrow, then text, then line by line with Python's csv; nothing is
+ever merged or dropped silently). :func:`open_text` is that engine for a :class:`TextFormat`; :func:`open_csv`
+opens omegahat's CSV, and the trajectory formats of :mod:`omegahat.io.trajectories` (EuRoC, TUM) are
+:class:`TextFormat` s too. The significant digits of the first rows' attitude fields go to the precision policy
+(:mod:`omegahat.io.precision`).
 """
 
 from __future__ import annotations
 
-import codecs
-import csv
-import io
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
-import numpy as np
-import pyarrow as pa
-import pyarrow.compute as pc
-import pyarrow.csv as pacsv
-
+from omegahat.io.colmap import ColumnMap, apply_columns, columns_line, join_header_rows, suggest_columns
 from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name
-from omegahat.io.registry import LogChunk, LogStream, ReadOptions
+from omegahat.io.csvparse import ChunkParser
+from omegahat.io.precision import significant_digits
+from omegahat.io.registry import TIME_UNITS, LogChunk, LogStream, ReadOptions
+from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean, cut_lines, delimiter, source_blocks, split_line
+from omegahat.io.timestamps import ExactTimes
 
-__all__ = ["open_csv"]
+__all__ = ["TextFormat", "open_csv", "open_text"]
 
-_DELIMITERS = {",": "','", ";": "';'", "\t": "tab"}
-
-
-def _source_blocks(path: str, block: int, stream: LogStream) -> Iterator[bytes]:
-    """UTF-8 bytes of the file in blocks (BOM removed; UTF-16 transcoded); ``stream.done`` counts raw bytes."""
-    with open(path, "rb") as f:
-        head = f.read(4)
-        if head.startswith(codecs.BOM_UTF8):
-            f.seek(3)
-            decoder = None
-        elif head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
-            f.seek(2)
-            decoder = codecs.getincrementaldecoder("utf-16-le" if head[:2] == codecs.BOM_UTF16_LE else "utf-16-be")()
-        elif len(head) >= 2 and (head[0] == 0) != (head[1] == 0):
-            raise LogFormatError(
-                f"{path}: looks like UTF-16 text without a byte-order mark; save it as UTF-8 (or UTF-16 with BOM)"
-            )
-        else:
-            f.seek(0)
-            decoder = None
-        stream.done = f.tell()
-        while True:
-            raw = f.read(block)
-            stream.done = f.tell()
-            if decoder is None:
-                if not raw:
-                    return
-                yield raw
-            else:
-                try:
-                    text = decoder.decode(raw, final=not raw)
-                except UnicodeDecodeError as exc:
-                    raise LogFormatError(f"{path}: not valid UTF-16 text ({exc.reason})") from None
-                if text:
-                    yield text.encode("utf-8")
-                if not raw:
-                    return
+_DIGIT_ROWS = 200  # rows whose attitude fields say how many digits the file carries
 
 
-def _lines(blocks: Iterator[bytes]) -> Iterator[bytes]:
-    """Blocks cut after their last line end (the rest is carried into the next block)."""
-    carry = b""
-    for b in blocks:
-        buf = carry + b
-        cut = buf.rfind(b"\n")
-        if cut < 0:
-            carry = buf
-            continue
-        carry = buf[cut + 1 :]
-        yield buf[: cut + 1]
-    if carry:
-        yield carry
+@dataclass(frozen=True)
+class TextFormat:
+    """A text log's layout for :func:`open_text`: ``header_rows`` (0: none; ``--header-rows`` overrides),
+    ``names`` of the columns when there is no header, ``comment`` (``#`` lines are blank), ``blanks`` (columns
+    separated by blanks; None: only with a column map), the format's own column ``columns`` (``--columns``
+    overrides), ``time_scale`` (seconds per time unit, for formats that state it; then ``--time-unit`` is not
+    taken), and ``describe(stream, lay, names) -> str`` saying what was recognised (empty: omegahat's own)."""
+
+    header_rows: int = 1
+    names: tuple[str, ...] | None = None
+    comment: bool = False
+    blanks: bool | None = None
+    columns: ColumnMap | None = None
+    time_scale: float | None = None
+    describe: Callable[[LogStream, Layout, list[str]], str] | None = None
 
 
-def _delimiter(line: str, where: str) -> str:
-    counts = {}
-    for d in _DELIMITERS:
-        inside, n = False, 0
-        for ch in line:
-            if ch == '"':
-                inside = not inside
-            elif ch == d and not inside:
-                n += 1
-        counts[d] = n
-    best = max(counts, key=lambda d: counts[d])
-    if counts[best] == 0:
-        seen = " (it has spaces: whitespace-separated files are not read)" if " " in line.strip() else ""
-        raise LogFormatError(
-            f"{where}: no ',' ';' or tab between the column names {line.strip()[:60]!r}{seen}; separate the columns "
-            "with one of them"
-        )
-    return best
+class _Lines:
+    """The file's lines one by one until the data starts (header, blank and comment lines), then whole buffers."""
+
+    def __init__(self, buffers: Iterator[bytes]):
+        self.buffers, self.line = buffers, 0
+        self.pending: list[bytes] = []  # the current buffer's unread lines, last first
+
+    def next_line(self) -> bytes | None:
+        while not self.pending:
+            buf = next(self.buffers, None)
+            if buf is None:
+                return None
+            self.pending = buf.split(b"\n")
+            if buf.endswith(b"\n"):
+                self.pending.pop()
+            self.pending.reverse()
+        self.line += 1
+        return self.pending.pop()
+
+    def peek_rows(self, n: int) -> list[bytes]:
+        """Up to ``n`` of the unread lines of the current buffer (not consumed)."""
+        return self.pending[::-1][:n]
+
+    def rest(self) -> Iterator[bytes]:
+        """Whole buffers from the first unread line on."""
+        if self.pending:
+            yield b"\n".join(self.pending[::-1]) + b"\n"
+            self.pending = []
+        yield from self.buffers
 
 
-class _Parser:
-    """Turns a buffer of whole lines into a :class:`LogChunk` (module docstring: the three tiers)."""
-
-    def __init__(self, path: str, names: list[str], lay: Layout, delim: str, header_line: int):
-        self.path, self.names, self.lay, self.delim, self.header_line = path, names, lay, delim, header_line
-        self.n_fields = len(names)
-        index = {n: i for i, n in enumerate(names)}
-        self.cols = [f"c{index[c]}" for c in lay.columns]
-        self.decimal_comma = delim != ","
-
-    # -- line bookkeeping ------------------------------------------------------------------------------------
-
-    def _line_table(self, buf: bytes, first_line: int):
-        """Line numbers of the rows PyArrow will produce (it skips empty lines) with their byte spans, or
-        ``None`` when a quoted field spans lines (then Python's csv takes over); and the number of lines."""
-        a = np.frombuffer(buf, dtype=np.uint8)
-        nl = np.flatnonzero(a == 10)
-        ends = nl if buf.endswith(b"\n") else np.append(nl, a.size)
-        starts = np.concatenate([[0], nl[: ends.size - 1] + 1])
-        length = ends - starts
-        cr = (length > 0) & (a[np.maximum(ends - 1, 0)] == 13)
-        keep = (length - cr) > 0
-        if b'"' in buf:  # each row must close its quotes on its own line
-            qpos = np.flatnonzero(a == 34)
-            if np.any((np.searchsorted(qpos, ends) - np.searchsorted(qpos, starts)) % 2):
-                return None, ends.size
-        numbers = first_line + np.arange(ends.size)
-        return (numbers[keep], starts[keep], ends[keep]), ends.size
-
-    def _blank_rows(self, buf: bytes, spans, candidates: np.ndarray) -> np.ndarray:
-        """Which of the candidate rows (no needed field filled) hold nothing at all (only delimiters, blanks)."""
-        _, starts, ends = spans
-        strip = b" \t\r\"'" + self.delim.encode()
-        return np.array([not buf[starts[i] : ends[i]].strip(strip) for i in candidates], dtype=bool)
-
-    # -- the tiers -------------------------------------------------------------------------------------------
-
-    def _arrow(self, buf: bytes, as_text: bool) -> pa.Table:
-        typ = pa.string() if as_text else pa.float64()
-        return pacsv.read_csv(
-            io.BytesIO(buf),
-            read_options=pacsv.ReadOptions(column_names=[f"c{i}" for i in range(self.n_fields)], use_threads=True),
-            parse_options=pacsv.ParseOptions(delimiter=self.delim, ignore_empty_lines=True),
-            convert_options=pacsv.ConvertOptions(
-                include_columns=self.cols,
-                column_types=dict.fromkeys(self.cols, typ),
-                null_values=[""] if not as_text else [],
-                strings_can_be_null=False,
-                quoted_strings_can_be_null=not as_text,
-                check_utf8=False,
-            ),
-        )
-
-    def _python_rows(self, buf: bytes, first_line: int) -> tuple[dict[str, list[str]], np.ndarray]:
-        """Python's csv over the buffer: the needed fields as text, and the line of each row."""
-        text = buf.decode("utf-8", errors="replace")
-        reader = csv.reader(io.StringIO(text, newline=""), delimiter=self.delim)
-        idx = [int(c[1:]) for c in self.cols]
-        out: dict[str, list[str]] = {c: [] for c in self.cols}
-        lines = []
-        for row in reader:
-            line = first_line + reader.line_num - 1
-            if not any(f.strip() for f in row):
-                continue
-            if len(row) != self.n_fields:
-                raise LogFormatError(
-                    f"{self.path}, line {line}: {len(row)} fields, but the header (line {self.header_line}) names "
-                    f"{self.n_fields} (delimiter {_DELIMITERS[self.delim]})"
-                )
-            for c, i in zip(self.cols, idx, strict=True):
-                out[c].append(row[i])
-            lines.append(line)
-        return out, np.array(lines, dtype=np.int64)
-
-    def _numbers(self, text: pa.Array, lines: np.ndarray, col: str) -> pa.Array:
-        """Text → float64 (blanks trimmed, empty → null); the first field that is no number is named."""
-        s = pc.utf8_trim_whitespace(text)
-        if self.decimal_comma:
-            s = pc.replace_substring(s, ",", ".")
-        s = pc.if_else(pc.equal(s, ""), pa.scalar(None, pa.string()), s)
-        try:
-            return pc.cast(s, pa.float64())
-        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-            lo, hi = 0, len(s)  # bisect for the first element that does not cast
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                try:
-                    pc.cast(s[lo:mid], pa.float64())
-                    lo = mid
-                except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-                    hi = mid
-            value = text[lo].as_py()
-            name = self.names[int(col[1:])]
-            hint = " (digit grouping is not read)" if "_" in value or (not self.decimal_comma and "," in value) else ""
-            raise LogFormatError(
-                f"{self.path}, line {int(lines[lo])}, column {name}: {value!r} is not a number{hint}"
-            ) from None
-
-    def parse(self, buf: bytes, first_line: int) -> tuple[LogChunk | None, int]:
-        """``(chunk or None if no rows, number of lines in buf)``."""
-        spans, n_lines = self._line_table(buf, first_line)
-        values = None
-        if spans is not None:
-            lines = spans[0]
-            try:
-                table = self._arrow(buf, as_text=False)
-                if table.num_rows == lines.size:
-                    values = {c: table[c] for c in self.cols}
-            except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-                try:
-                    table = self._arrow(buf, as_text=True)
-                    if table.num_rows == lines.size:  # _numbers raises naming the first field that is no number
-                        values = {c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.cols}
-                except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-                    values = None
-        if values is None:
-            text, lines = self._python_rows(buf, first_line)
-            values = {c: self._numbers(pa.array(v, pa.string()), lines, c) for c, v in text.items()}
-            spans = None
-        null = {}
-        arrays = {}
-        for c, v in values.items():
-            arr = v.combine_chunks() if isinstance(v, pa.ChunkedArray) else v
-            null[c] = arr.is_null().to_numpy(zero_copy_only=False) if arr.null_count else np.zeros(len(arr), bool)
-            arrays[c] = arr.to_numpy(zero_copy_only=False).astype(float, copy=False)
-        all_null = np.logical_and.reduce([null[c] for c in self.cols])
-        if all_null.any() and spans is not None:  # rows of nothing but delimiters are blank lines
-            cand = np.flatnonzero(all_null)
-            blank = np.zeros(lines.size, dtype=bool)
-            blank[cand] = self._blank_rows(buf, spans, cand)
-            if blank.any():
-                keep = ~blank
-                lines = lines[keep]
-                arrays = {c: a[keep] for c, a in arrays.items()}
-                null = {c: a[keep] for c, a in null.items()}
-        if lines.size == 0:
-            return None, n_lines
-        return self._chunk(arrays, null, lines), n_lines
-
-    def _chunk(self, arrays, null, lines) -> LogChunk:
-        lay = self.lay
-        tc = f"c{self.names.index(lay.time)}"
-        t = np.array(arrays[tc], dtype=float)
-        empty_t = np.flatnonzero(null[tc])
-        if empty_t.size:
-            k = int(empty_t[0])
-            raise LogFormatError(
-                f"{self.path}, line {int(lines[k])}, column {lay.time}: empty time (every row needs one)"
-            )
-        att = np.column_stack([arrays[f"c{self.names.index(c)}"] for c in lay.attitude])
-        att[~np.all(np.isfinite(att), axis=1)] = np.nan  # one empty or non-finite field: the whole sample missing
-        torque = None
-        if lay.torque:
-            torque = np.column_stack([arrays[f"c{self.names.index(c)}"] for c in lay.torque])
-            bad = np.argwhere(~np.isfinite(torque))
-            if bad.size:
-                k, j = (int(x) for x in bad[0])
-                c = lay.torque[j]
-                if null[f"c{self.names.index(c)}"][k]:
-                    raise LogFormatError(
-                        f"{self.path}, line {int(lines[k])}, column {c}: empty torque (fill the torque on every row)"
-                    )
-                raise LogFormatError(
-                    f"{self.path}, line {int(lines[k])}, column {c}: torque {_text(torque[k, j])!r} is not finite"
-                )
-        if lay.kind == "matrix":
-            att = att.reshape(-1, 3, 3)
-        elif lay.kind == "directions":
-            att = att.reshape(-1, lay.n_directions, 3)
-        return LogChunk(t, att, torque, lines)
+def _decode(raw: bytes) -> str:
+    try:
+        return raw.decode("utf-8").rstrip("\r")
+    except UnicodeDecodeError:
+        return raw.decode("cp1252", errors="replace").rstrip("\r")
 
 
-def _text(x: float) -> str:
-    return "inf" if x == np.inf else "-inf" if x == -np.inf else "nan"
+def _blank(raw: bytes, comment: bool) -> bool:
+    text = raw.strip(b" \t\r,;\"'")
+    return not text or (comment and text.startswith(b"#"))
 
 
 def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open a CSV log (module docstring); its header is read now, its rows chunk by chunk."""
+    return open_text(path, options, TextFormat())
+
+
+def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextFormat) -> LogStream:
+    """Open a text log laid out as ``fmt`` says (module docstring)."""
     path = os.fspath(path)
-    size = os.path.getsize(path)
-    stream = LogStream(path, "", 0, False, "line", lambda: iter(()), size=size)
-    lines = _lines(_source_blocks(path, max(1 << 12, options.chunk_bytes), stream))
-    first_line = 1
-    header_text, rest = None, b""
-    for buf in lines:
-        text_lines = buf.split(b"\n")
-        for i, raw in enumerate(text_lines):
-            if raw.strip(b" \t\r,;\"'"):
-                header_text = raw
-                rest = b"\n".join(text_lines[i + 1 :])
-                first_line += i
-                break
-        if header_text is not None:
+    stream = LogStream(path, "", 0, False, "line", lambda: iter(()), size=os.path.getsize(path))
+    progress = [0]
+    lines = _Lines(cut_lines(source_blocks(path, max(1 << 12, options.chunk_bytes), stream.notes, progress), path))
+    n_header = fmt.header_rows if options.header_rows is None else options.header_rows
+    comment = fmt.comment or n_header == 0  # without a header, a '#' line can only be a comment
+    header: list[bytes] = []
+    first = None
+    while len(header) < max(n_header, 1):
+        raw = lines.next_line()
+        if raw is None:
             break
-        first_line += buf.count(b"\n")
-    if header_text is None:
-        raise LogFormatError(f"{path}: empty file, expected a header line naming the columns")
+        if not header and _blank(clean(raw, comment, False), comment):
+            continue
+        if n_header == 0:  # no header: the first row shows the layout, and is data
+            first = raw
+            lines.pending.append(raw)
+            lines.line -= 1
+            break
+        header.append(raw)
+        first = first or raw
+    if first is None:
+        raise LogFormatError(
+            f"{path}: empty file, expected " + ("a header line naming the columns" if n_header else "rows")
+        )
+    if n_header and len(header) < n_header:
+        raise LogFormatError(f"{path}: {len(header)} line(s), but --header-rows {n_header} asks for {n_header}")
+    header_line = lines.line if n_header else 0
+    where = f"{path}, line {header_line - len(header) + 1}" + (" (header)" if n_header else "")
+    mapped = options.column_map or fmt.columns
+    allow_blanks = fmt.blanks if fmt.blanks is not None else bool(mapped)
+    first_text = _decode(clean(first, False, allow_blanks and fmt.blanks is not False))
+    delim = delimiter(first_text, where, allow_blanks)
+    rows = [split_line(_decode(clean(h, False, delim == WHITESPACE)), delim, where) for h in header]
+    if n_header == 0:
+        width = len(split_line(first_text, delim, where))
+        original = list(fmt.names) if fmt.names and len(fmt.names) == width else [str(j + 1) for j in range(width)]
+    else:
+        original = rows[0] if n_header == 1 else join_header_rows(rows)
+    names = apply_columns(original, mapped, where, options.time_column)
+    time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
+    sample = [
+        split_line(_decode(r), delim, where)
+        for r in lines.peek_rows(_DIGIT_ROWS)
+        if not _blank(clean(r, comment, False), comment)
+    ]
     try:
-        header = header_text.decode("utf-8").rstrip("\r")
-    except UnicodeDecodeError:
-        header = header_text.decode("cp1252", errors="replace").rstrip("\r")
-    where = f"{path}, line {first_line} (header)"
-    delim = _delimiter(header, where)
-    names = [normalise_name(n) for n in next(csv.reader([header], delimiter=delim))]
-    lay = layout(names, where, options.time_column, options.quaternion_order)
+        lay = layout(names, where, time_column, options.quaternion_order)
+    except LogFormatError as exc:
+        raise LogFormatError(f"{exc}{_hint(original, rows, sample, mapped)}") from None
+    labels = [_label(o, n) for o, n in zip(original, names, strict=True)]
+    times = _first_time(sample, names.index(lay.time))
+    digit_cols = [names.index(c) for c in lay.attitude]
+    stream.digits = significant_digits(r[j] for r in sample for j in digit_cols if j < len(r))
     stream.kind, stream.has_torque, stream.n_directions = lay.kind, lay.torque is not None, lay.n_directions
-    stream.time_name = lay.time
-    stream.attitude_name = {"quaternion": "qw,qx,qy,qz", "matrix": "r11..r33"}.get(
-        lay.kind, f"b1x..b{lay.n_directions}z"
-    )
-    if lay.kind == "quaternion" and not lay.quaternion_named:
-        stream.attitude_name = ",".join(sorted(lay.attitude))
+    stream.time_name = labels[names.index(lay.time)]
+    stream.attitude_name = _attitude_name(lay, labels, names)
+    stream.columns = _columns_read(lay, original, names)
+    scale = fmt.time_scale if fmt.time_scale is not None else TIME_UNITS[options.time_unit]
+    stream.t0 = times.base * scale
+    if times.exact:
+        stream.meta["time_base"] = times.base  # in the file's unit, exactly (descriptions)
     if lay.kind == "quaternion" and options.quaternion_order and lay.quaternion_named:
         stream.notes.append(
             f"--quaternion-order {options.quaternion_order} not needed: the header names qw,qx,qy,qz say which is "
             "the scalar part"
         )
-    if delim != ",":
-        stream.notes.append(f"delimiter: {_DELIMITERS[delim]} (decimal comma accepted)")
-    parser = _Parser(path, names, lay, delim, first_line)
+    if delim != "," and fmt.blanks is None:
+        stream.notes.append(
+            f"delimiter: {DELIMITERS[delim]}" + (" (decimal comma accepted)" if delim != WHITESPACE else "")
+        )
+    if options.column_map:
+        stream.notes.append(f"columns read: {stream.columns}")
+    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment)
+    if fmt.describe is not None:
+        stream.description = fmt.describe(stream, lay, original)
 
     def chunks() -> Iterator[LogChunk]:
-        line = first_line + 1
+        line = lines.line + 1
         seen = False
-        for buf in _with_rest(rest, lines):
+        for buf in lines.rest():
             chunk, n = parser.parse(buf, line)
+            stream.done = progress[0]
             line += n
             if chunk is not None:
                 seen = True
                 yield chunk
         if not seen:
-            raise LogFormatError(f"{path}: no data rows after the header (line {first_line})")
+            raise LogFormatError(
+                f"{path}: no data rows" + (f" after the header (line {header_line})" if n_header else "")
+            )
 
     stream._chunks = chunks
     return stream
 
 
-def _with_rest(rest: bytes, lines: Iterator[bytes]) -> Iterator[bytes]:
-    if rest:
-        yield rest
-    yield from lines
+def _columns_read(lay: Layout, original: list[str], names: list[str]) -> str:
+    """The ``--columns`` line that reads what ``lay`` reads (its keys: t, then qw qx qy qz or the attitude's)."""
+    att = list(lay.attitude)
+    keys = ["qw", "qx", "qy", "qz"] if lay.kind == "quaternion" else att
+    cols = [att[3], *att[:3]] if lay.kind == "quaternion" else att  # storage order x, y, z, w
+    pairs = [("t", lay.time), *zip(keys, cols, strict=True), *((c, c) for c in lay.torque or ())]
+    return columns_line([(k, _column_ref(original, names.index(c))) for k, c in pairs])
+
+
+def _column_ref(original: list[str], j: int) -> str | int:
+    """A column as ``--columns`` names it: its name when that is unambiguous on a command line, else its position."""
+    name = original[j].strip()
+    ok = (
+        name
+        and not any(c in name for c in ",=")
+        and (not name.isdigit() or name == str(j + 1))  # digits are read as a position
+        and [o.strip() for o in original].count(name) == 1
+    )
+    return name if ok else j + 1
+
+
+def _label(original: str, name: str) -> str:
+    own = normalise_name(original)
+    return own if own == name or not name else f"{original.strip()} ({name})"
+
+
+def _attitude_name(lay: Layout, labels: list[str], names: list[str]) -> str:
+    if any(labels[names.index(c)] != c for c in lay.attitude):
+        return ",".join(labels[names.index(c)] for c in lay.attitude)
+    if lay.kind == "quaternion" and lay.quaternion_named:
+        return "qw,qx,qy,qz"
+    if lay.kind == "quaternion":
+        return ",".join(sorted(lay.attitude))
+    return "r11..r33" if lay.kind == "matrix" else f"b1x..b{lay.n_directions}z"
+
+
+def _first_time(sample: list[list[str]], j: int) -> ExactTimes:
+    """The time conversion, decided on the first row's time (absolute times are kept exact)."""
+    first = next((r[j] for r in sample if j < len(r) and r[j].strip()), "0")
+    return ExactTimes(first)
+
+
+def _hint(original: list[str], rows: list[list[str]], sample: list[list[str]], mapped) -> str:
+    """What to try when the columns are not found: more header rows, or the ``--columns`` line."""
+    if len(rows) == 1 and sample and any(not f.strip() for f in original):
+        first = sample[0]
+        texts = [f for f in first if f.strip()]
+        if texts and sum(not _is_number(f) for f in texts) > len(texts) // 2:
+            return "; the header seems to span 2 rows (names under empty cells): try --header-rows 2"
+    if mapped:
+        return ""
+    return f"; to read other columns: {suggest_columns(original)}"
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text.replace(",", "."))
+    except ValueError:
+        return False
+    return True

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from omegahat.io.colmap import apply_columns, frame_names
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name
 from omegahat.io.output import STATUS_WORDS
 from omegahat.io.registry import LogStream, ReadOptions, checked_stream
@@ -118,7 +119,17 @@ def open_frame(
     frame's kind, the time column used (None: the index) and each row's time (``"row_t"``, seconds since ``t0``)."""
     options = ReadOptions() if options is None else options
     frame_kind = _kind_of_frame(df)
-    names = [str(c) for c in df.columns]
+    names = frame_names(list(df.columns), options.header_rows)
+    if frame_kind == "pandas" and [str(c) for c in df.columns] != names:
+        df = df.set_axis(names, axis=1)  # type: ignore[union-attr]  # a MultiIndex's levels joined (header_rows)
+    if options.column_map:  # a column map (omegahat.io.colmap): the mapped columns read under their keys
+        mapped = apply_columns(names, options.column_map, "DataFrame")
+        if "t" in mapped:
+            if time is not None:
+                raise ValueError("give the time column once: columns={'t': ...} or time=")
+            time = names[mapped.index("t")]
+        if quaternion is not None:
+            raise ValueError("give the quaternion's columns once: columns= or quaternion=")
     if quaternion is not None:
         q = [str(c) for c in quaternion]
         if len(q) != 4:
@@ -128,7 +139,7 @@ def open_frame(
             raise LogFormatError(f"DataFrame: missing quaternion column(s) {', '.join(missing)} (quaternion=)")
         as_named = dict(zip(q, QUATERNION_COLUMNS, strict=True))
     else:
-        as_named = {}
+        as_named = {n: m for n, m in zip(names, mapped, strict=True) if m != "t"} if options.column_map else {}
     if frame_kind == "pandas":
         times, time_name = _pandas_times(df, time)
     else:
@@ -222,6 +233,8 @@ def estimate_frame(
     quaternion: Sequence[str] | None = None,
     time_unit: str = "s",
     rotation: str = "body-to-inertial",
+    columns: str | dict | None = None,
+    header_rows: int | None = None,
     start: str = "fit",
     skip_bad_samples: bool = False,
     verbose: bool = False,
@@ -236,13 +249,16 @@ def estimate_frame(
     attitude input the default is the three rows of R). ``time_unit`` (``s``, ``ms``, ``us``, ``ns``) of float
     times; ``rotation``: ``body-to-inertial`` (default) or ``inertial-to-body``; ``start``: ``fit`` (default: a
     least-squares rate over the first window), ``warm`` (from the first two samples) or ``zero``;
-    ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising. ``verbose``: print
+    ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising; ``columns`` (a column
+    map, as ``--columns``: ``{"t": "Time", "qw": "W", ...}`` or positions) and ``header_rows`` (a ``MultiIndex``'s
+    levels, joined per column): :mod:`omegahat.io.colmap`. ``verbose``: print
     what was read and chosen. Samples skipped (missing) are reported with a
     :class:`~omegahat.observer.estimator.SkippedSamplesWarning`.
     """
     from omegahat.io.pipeline import EstimateSettings, estimate_stream
 
-    stream = open_frame(df, ReadOptions(time_unit=time_unit, rotation=rotation), time=time, quaternion=quaternion)
+    options = ReadOptions(time_unit=time_unit, rotation=rotation, columns=columns, header_rows=header_rows)
+    stream = open_frame(df, options, time=time, quaternion=quaternion)
     settings = EstimateSettings(
         inertia=inertia,
         references=references,

@@ -1,14 +1,17 @@
 r"""Motion-capture CSV exports: OptiTrack Motive and Vicon Nexus / Tracker, recognised from their headers.
 
-**OptiTrack Motive** (CSV export, format versions 1.2x; Motive 2 and 3). The file starts with a line of
-``key,value`` pairs (``Format Version,1.23,Take Name,...,Rotation Type,Quaternion,...``), a blank line, then
-four header rows naming each column's ``Type`` (``Rigid Body``, ``Rigid Body Marker``, ``Marker``, ``Bone``),
-``Name``, ``ID`` and component (``Rotation``, ``Position``, ``Mean Marker Error``), and the row of axis labels
-that starts ``Frame,Time (Seconds),X,Y,Z,W,...``. Rotations are quaternions with the scalar **last**
-(``X, Y, Z, W``) and rotate the rigid body's local axes into Motive's global axes (body → inertial, as omegahat's
-``R``), so the rate comes out in the rigid body's own axes whatever Motive's up axis is. Time is the
-``Time (Seconds)`` column; an empty rotation (body not tracked in that frame) is a missing sample. Exports with
-Euler angles (``Rotation Type`` ``XYZ`` etc.) are refused with a message: export again with quaternions.
+**OptiTrack Motive** (CSV export; every layout in use). The file starts with a line of ``key,value`` pairs
+(``Format Version,1.23,Take Name,...,Rotation Type,Quaternion,...``) and a blank line; then rows of each column's
+kind (``Rigid Body``, ``Rigid Body Marker``, ``Marker``, ``Bone``), name and ID — labelled ``,Type,``, ``,Name,``,
+``,ID,`` from format 1.23 on (Motive 2 and 3), without labels (``,,Rigid Body,...``) in format 1.21 and earlier —,
+a row of components (``Rotation``, ``Position``, ``Mean Marker Error``), and the row of axis labels that starts
+``Frame,Time`` (``Time (Seconds)`` from 1.23 on). With ``Rotation Type`` ``Quaternion`` a rigid body's rotation is
+``X, Y, Z, W`` (scalar **last**); with an Euler order (``XYZ``, ``XZY``, ``YXZ``, ``YZX``, ``ZXY``, ``ZYX``) it is
+the angles ``X, Y, Z`` in degrees, composed in the stated order about the rotating axes (``XYZ``:
+``R = Rx(X) Ry(Y) Rz(Z)``, as NaturalPoint's NatNet samples compose them), each column the angle about its axis.
+Either rotates the rigid body's local axes into Motive's global axes (body → inertial, as omegahat's ``R``), so the
+rate comes out in the rigid body's own axes whatever Motive's up axis is. Time is the ``Time`` column; an empty
+rotation (body not tracked in that frame) is a missing sample.
 
 **Vicon** (Nexus "Segments" export and Tracker's object export). Sections start with a title line
 (``Segments``, ``Objects``, ``Trajectories``, ``Model Outputs``, ...), the rate in Hz, a row of object names
@@ -22,11 +25,12 @@ trajectories only is refused with a message saying which export holds rotations.
 **Selection.** ``ReadOptions.body`` (``--body``) names the rigid body (Motive) or object/segment (Vicon); with a
 single one it may be omitted, with several the error lists them. Detection looks only at the first lines
 (:func:`is_motive`, :func:`is_vicon`, the sniffers registered for ``.csv`` in :mod:`omegahat.io`): ``Format
-Version`` first → Motive; a one-word title line, a number, then a ``Frame,Sub Frame`` row → Vicon; anything else
-is omegahat's own CSV (:mod:`omegahat.io.csvlog`). Every error names the file, the line and the column. The
-openers return a :class:`~omegahat.io.registry.LogStream` labelled by line, so the timestamp policy
-(:mod:`omegahat.io.timestamps`: rows in time order; exact duplicates dropped; conflicts refused) names lines too.
-These exports are read whole with Python's :mod:`csv` (a take of minutes at a few hundred Hz is a few MB).
+Version`` first → Motive (whatever the layout below it); a one-word title line, a number, then a ``Frame,Sub Frame``
+row → Vicon; anything else is omegahat's own CSV (:mod:`omegahat.io.csvlog`) or another ``.csv`` format. Every error
+names the file, the line and the column. The openers return a :class:`~omegahat.io.registry.LogStream` labelled by
+line, so the timestamp policy (:mod:`omegahat.io.timestamps`: rows in time order; exact duplicates dropped;
+conflicts refused) names lines too. These exports are read whole with Python's :mod:`csv` (a take of minutes at a
+few hundred Hz is a few MB).
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import os
 import numpy as np
 
 from omegahat.io.columns import LogFormatError
+from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
 
 __all__ = ["choose_body", "is_motive", "is_vicon", "open_motive_csv", "open_vicon_csv"]
@@ -45,11 +50,26 @@ _SNIFF_LINES = 12
 
 
 def _rows(path: str) -> list[list[str]]:
+    """Every line's fields (row ``i`` is line ``i + 1``), each line parsed on its own: a stray quote cannot fold the
+    lines after it into one field (:mod:`omegahat.io.csvparse`)."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
-            return [[field.strip() for field in row] for row in csv.reader(f)]
+            text = f.read()
     except UnicodeDecodeError as exc:
         raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    rows = []
+    for i, line in enumerate(text.replace("\r\n", "\n").replace("\r", "\n").split("\n")):
+        if line.count('"') % 2:  # a quote that opens a field and never closes it would swallow the line's rest
+            raise LogFormatError(
+                f"{path}, line {i + 1}: an unbalanced quote ('\"'); the fields after it cannot be read"
+            )
+        try:
+            rows.append([field.strip() for field in next(csv.reader([line]), [])])
+        except csv.Error as exc:  # a field beyond csv.field_size_limit()
+            raise LogFormatError(f"{path}, line {i + 1}: {exc} (the limit for one field)") from None
+    while rows and not rows[-1]:
+        rows.pop()
+    return rows
 
 
 def _is_number(text: str) -> bool:
@@ -127,85 +147,132 @@ def choose_body(names: list[str], body: str | None, path: str, what: str, plural
 # ---------------------------------------------------------------------------------------------------- Motive
 
 
+_EULER_ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+_HEADER_KEYS = ("Type", "Name", "ID")
+
+
+def _motive_header(rows: list[list[str]], i_axes: int, path: str) -> dict[str, list[str]]:
+    """The kinds, names and IDs rows above the component row: labelled (``,Type,...``: Motive 1.23 and later) or,
+    without labels (Motive 1.21 and earlier), the non-blank rows between the metadata and the component row, in
+    that order."""
+    labelled = {r[1]: r for r in rows[1 : i_axes - 1] if len(r) > 1 and r[1] in _HEADER_KEYS}
+    if labelled:
+        found = labelled
+    else:
+        block = [r for r in rows[1 : i_axes - 1] if any(r)]
+        found = dict(zip(_HEADER_KEYS, block[-3:] if len(block) >= 3 else block, strict=False))
+    for key in ("Type", "Name"):
+        if key not in found:
+            raise LogFormatError(
+                f"{path}: no row of {'kinds (Rigid Body, Marker, ...)' if key == 'Type' else 'names'} above line "
+                f"{i_axes} (a Motive export has rows of kinds, names and IDs above the X,Y,Z labels)"
+            )
+    return found
+
+
+def _rotation_columns(rows, header, i_axes, axes_wanted) -> tuple[dict[str, dict[str, int]], list[str]]:
+    types, names = header["Type"], header["Name"]
+    comp, axes = rows[i_axes - 1], rows[i_axes]
+
+    def cell(row, j):
+        return row[j] if j < len(row) else ""
+
+    bodies: dict[str, dict[str, int]] = {}
+    for j in range(len(axes)):
+        if cell(types, j) in ("Rigid Body", "Bone") and cell(comp, j) == "Rotation" and cell(axes, j) in axes_wanted:
+            bodies.setdefault(cell(names, j), {})[cell(axes, j)] = j
+    kinds = sorted({cell(types, j) for j in range(2, len(axes))} - {""})
+    return {n: c for n, c in bodies.items() if set(c) == set(axes_wanted)}, kinds
+
+
 def open_motive_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One rigid body's attitude from an OptiTrack Motive CSV export (module docstring)."""
     path = os.fspath(path)
-    body = options.body
     rows = _rows(path)
     meta_row = rows[0] if rows else []
     if not meta_row or meta_row[0] != "Format Version":
         raise LogFormatError(f"{path}, line 1: not a Motive export (it starts {','.join(meta_row[:2])!r})")
     meta = {meta_row[i]: meta_row[i + 1] for i in range(0, len(meta_row) - 1, 2) if meta_row[i]}
     version = meta.get("Format Version", "?")
-    rotation_type = meta.get("Rotation Type", "Quaternion")
-    if rotation_type.casefold() != "quaternion":
+    rotation_type = meta.get("Rotation Type", "Quaternion").strip()
+    euler = rotation_type.upper() if rotation_type.upper() in _EULER_ORDERS else None
+    if euler is None and rotation_type.casefold() != "quaternion":
         raise LogFormatError(
-            f"{path}, line 1: Rotation Type is {rotation_type!r} (Euler angles, whose order Motive does not "
-            "state unambiguously); export the take again with Rotation Type = Quaternion"
+            f"{path}, line 1: Rotation Type {rotation_type!r} is neither Quaternion nor an Euler order "
+            f"({', '.join(_EULER_ORDERS)}); export the take again with Rotation Type = Quaternion"
         )
     try:
         i_axes = next(i for i, r in enumerate(rows) if r[:1] == ["Frame"])
     except StopIteration:
         raise LogFormatError(f"{path}: no header row starting 'Frame' (the row of X,Y,Z,W labels)") from None
-    header = {r[1]: (i, r) for i, r in enumerate(rows[:i_axes]) if len(r) > 1 and r[1] in ("Type", "Name", "ID")}
-    for key in ("Type", "Name"):
-        if key not in header:
-            raise LogFormatError(f"{path}: no ',{key},...' header row above line {i_axes + 1}")
-    types, names = header["Type"][1], header["Name"][1]
-    comp = rows[i_axes - 1]
+    header = _motive_header(rows, i_axes, path)
     axes = rows[i_axes]
-    width = len(axes)
-
-    def cell(row, j):
-        return row[j] if j < len(row) else ""
-
     time_col = next((j for j, a in enumerate(axes) if a.startswith("Time")), None)
     if time_col is None:
-        raise LogFormatError(f"{path}, line {i_axes + 1}: no 'Time (Seconds)' column")
-    bodies: dict[str, dict[str, int]] = {}
-    for j in range(width):
-        if cell(types, j) in ("Rigid Body", "Bone") and cell(comp, j) == "Rotation" and cell(axes, j) in "XYZW":
-            bodies.setdefault(cell(names, j), {})[cell(axes, j)] = j
-    complete = [n for n, c in bodies.items() if set(c) == set("XYZW")]
+        raise LogFormatError(f"{path}, line {i_axes + 1}: no 'Time' column")
+    wanted = "XYZ" if euler else "XYZW"
+    complete, kinds = _rotation_columns(rows, header, i_axes, wanted)
     if not complete:
-        found = sorted({cell(types, j) for j in range(2, width)} - {""})
         raise LogFormatError(
-            f"{path}: no rigid body with quaternion columns X,Y,Z,W (column types found: {', '.join(found) or 'none'})"
-            "; omegahat needs rigid-body rotations: define a rigid body in Motive and export it"
+            f"{path}: no rigid body with {'Euler angle' if euler else 'quaternion'} columns {','.join(wanted)} "
+            f"(column types found: {', '.join(kinds) or 'none'}); omegahat needs rigid-body rotations: define a "
+            "rigid body in Motive and export it"
         )
-    name = choose_body(complete, body, path, "rigid body", "rigid bodies")
-    cols = [bodies[name][a] for a in "XYZW"]
-    ids = header.get("ID", (0, []))[1]
-    body_id = cell(ids, cols[0])
-
-    times, quats, lines = [], [], []
+    name = choose_body(list(complete), options.body, path, "rigid body", "rigid bodies")
+    if euler and _rotation_columns(rows, header, i_axes, "XYZW")[0].get(name):
+        raise LogFormatError(
+            f"{path}, line {i_axes + 1}: Rotation Type is {rotation_type!r} (Euler angles X,Y,Z) but rigid body "
+            f"{name!r} has rotation columns X,Y,Z,W (a quaternion): the file contradicts itself; export it again"
+        )
+    cols = [complete[name][a] for a in wanted]
+    ids = header.get("ID", [])
+    body_id = ids[cols[0]] if cols[0] < len(ids) else ""
+    times, values, lines = [], [], []
+    texts: list[str] = []
     for i in range(i_axes + 1, len(rows)):
         row = rows[i]
-        line = i + 1
         if not any(row):
             continue
-        t_field = cell(row, time_col)
+        line = i + 1
+        t_field = row[time_col] if time_col < len(row) else ""
         if not t_field:
             raise LogFormatError(f"{path}, line {line}, column {axes[time_col]}: empty time")
         times.append(_number(t_field, path, line, axes[time_col]))
-        fields = [cell(row, j) for j in cols]
+        fields = [row[j] if j < len(row) else "" for j in cols]
         if any(not f for f in fields):
-            quats.append([np.nan] * 4)
+            values.append([np.nan] * len(wanted))
         else:
-            quats.append([_number(f, path, line, f"{name} Rotation {a}") for f, a in zip(fields, "XYZW", strict=True)])
+            values.append([_number(f, path, line, f"{name} Rotation {a}") for f, a in zip(fields, wanted, strict=True)])
+            if len(texts) < 800:
+                texts += fields
         lines.append(line)
     if not times:
         raise LogFormatError(f"{path}: no data rows after the header (line {i_axes + 1})")
+    if euler:
+        from scipy.spatial.transform import Rotation  # SciPy's transforms load in 0.1 s: only for Euler exports
+
+        angles = np.array(values)[:, ["XYZ".index(a) for a in euler]]  # in the order of the sequence
+        ok = np.all(np.isfinite(angles), axis=1)
+        data = np.full((len(times), 3, 3), np.nan)
+        data[ok] = Rotation.from_euler(euler, angles[ok], degrees=True).as_matrix()
+        kind = "matrix"
+        product = "·".join("R" + a.lower() for a in euler)
+        what = f"Euler angles X,Y,Z in degrees, order {euler} about the rotating axes (R = {product})"
+    else:
+        data, kind, what = np.array(values), "quaternion", "quaternions X,Y,Z,W (scalar last)"
+    layout_note = "" if "Type" in {r[1] for r in rows[1:i_axes] if len(r) > 1} else ", header rows without labels"
     description = (
-        f"OptiTrack Motive CSV (format {version}): rigid body {name!r}"
+        f"OptiTrack Motive CSV (format {version}{layout_note}): rigid body {name!r}"
         + (f" (ID {body_id})" if body_id else "")
-        + f", quaternions X,Y,Z,W (scalar last), time from column {axes[time_col]!r}, {len(times)} frames"
+        + f", {what}, time from column {axes[time_col]!r}, {len(times)} frames"
         + (f" at {float(meta['Export Frame Rate']):g} Hz" if _is_number(meta.get("Export Frame Rate", "")) else "")
     )
     notes = (
         [f"other rigid bodies in the file: {', '.join(n for n in complete if n != name)}"] if len(complete) > 1 else []
     )
-    return _stream(path, "quaternion", times, quats, lines, description, notes, axes[time_col], f"{name} Rotation")
+    stream = _stream(path, kind, times, data, lines, description, notes, axes[time_col], f"{name} Rotation")
+    stream.digits = None if euler else significant_digits(texts)
+    return stream
 
 
 def _stream(path, kind, times, data, lines, description, notes, time_name, attitude_name) -> LogStream:

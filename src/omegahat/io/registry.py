@@ -21,9 +21,15 @@ asked first, in registration order, and the first that recognises the file wins;
   inertial to body, as much spacecraft software stores it): then every matrix is transposed and every quaternion
   conjugated, so that the chunks handed on are always body → inertial and the rate comes out in body axes.
   Direction input is body-frame by definition and takes no rotation convention;
+* **attitudes**: the precision policy of :mod:`omegahat.io.precision` (rounded and interpolated rotations
+  normalised within the tolerance the file's digits allow, and counted; columns that hold no rotation named);
 * **times**: finite, and the timestamp policy of :mod:`omegahat.io.timestamps` (in order; exact duplicates
   dropped; conflicting ones refused), across chunk boundaries, every message naming the line (array index,
   message, frame or row) of both samples.
+
+**Column maps** (``ReadOptions.columns``, ``header_rows``: :mod:`omegahat.io.colmap`) are read by the formats that
+take them (omegahat's CSV); when one is given for a file that another format recognises (a Motive export read
+column by column), the extension's plain format reads it, as the map asks.
 
 A :class:`LogChunk` carries ``t`` (s, relative to the stream's ``t0``), the attitude in storage order (quaternions
 scalar last, SciPy's order), the torque, ``labels`` (the line number, index, message or frame of each row, so that
@@ -37,18 +43,21 @@ import queue
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field, fields, replace
-from typing import Any, Self
+from typing import Any, Self, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from omegahat.io.colmap import ColumnMap, parse_columns
 from omegahat.io.columns import QUATERNION_ORDERS, LogFormatError
+from omegahat.io.precision import Normaliser
 from omegahat.io.timestamps import TimePolicy
 
 __all__ = [
     "CHUNK_ROWS",
     "COLUMN_OPTIONS",
     "DIRECTORY",
+    "MAP_OPTIONS",
     "OPTION_FLAGS",
     "ROTATIONS",
     "STAMPS",
@@ -75,6 +84,8 @@ DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)
 CHUNK_ROWS = 1 << 17  #: rows per chunk of formats read whole (NPZ, bags, exports, DataFrames)
 #: options for logs whose columns are named by omegahat's rules (CSV, NPZ): the default of register_format
 COLUMN_OPTIONS = ("time_unit", "quaternion_order", "time_column")
+#: options of the formats read column by column through a column map (omegahat.io.colmap): text logs
+MAP_OPTIONS = ("columns", "header_rows")
 #: option -> its name on the command line (messages say both where it matters)
 OPTION_FLAGS = {
     "time_unit": "--time-unit",
@@ -85,6 +96,10 @@ OPTION_FLAGS = {
     "parent_frame": "--parent-frame",
     "child_frame": "--child-frame",
     "stamp": "--stamp",
+    "columns": "--columns",
+    "header_rows": "--header-rows",
+    "rate": "--rate",
+    "times": "--times",
 }
 
 
@@ -93,9 +108,12 @@ class ReadOptions:
     """How to read a log: conventions the file itself may not state, and which body or topic to read.
 
     ``time_unit``, ``quaternion_order``, ``time_column``: omegahat's CSV and NPZ logs (module docstring);
-    ``rotation``: every attitude format; ``body``: the rigid body of a Motive, Vicon or C3D file; ``topic``,
-    ``parent_frame``, ``child_frame``, ``stamp`` (``header`` or ``receive`` time): ROS bags. A format refuses the
-    options it does not take when they differ from their defaults."""
+    ``columns`` (a column map: ``"t=1,qw=2,..."`` or ``{"t": "Time", "qw": 2}``) and ``header_rows`` (rows the
+    header spans; 0: none): text logs (:mod:`omegahat.io.colmap`); ``rotation``: every attitude format; ``body``:
+    the rigid body of a Motive, Vicon, Qualisys or C3D file; ``topic``, ``parent_frame``, ``child_frame``,
+    ``stamp`` (``header`` or ``receive`` time): ROS bags; ``rate`` (Hz) or ``times`` (a file of one time per line):
+    the times of pose lists that have none (KITTI). A format refuses the options it does not take when they differ
+    from their defaults."""
 
     time_unit: str = "s"
     quaternion_order: str | None = None  # None: the names say it (qw..), else the format's documented default
@@ -106,9 +124,20 @@ class ReadOptions:
     parent_frame: str | None = None
     child_frame: str | None = None
     stamp: str = "header"
+    columns: ColumnMap | str | dict | None = None  # parsed into a ColumnMap (tuple of pairs) on construction
+    header_rows: int | None = None  # None: the format's own (one header row for a CSV)
+    rate: float | None = None
+    times: str | None = None
     chunk_bytes: int = 1 << 21  # CSV: bytes per chunk (memory stays proportional to this, not to the log)
 
     def __post_init__(self):
+        object.__setattr__(self, "columns", parse_columns(self.columns))
+        if self.header_rows is not None and (
+            isinstance(self.header_rows, bool) or not isinstance(self.header_rows, int) or not 0 <= self.header_rows
+        ):
+            raise ValueError(f"header rows must be a whole number >= 0; got {self.header_rows!r}")
+        if self.rate is not None and not (isinstance(self.rate, int | float) and 0 < self.rate < float("inf")):
+            raise ValueError(f"rate must be a positive number of Hz; got {self.rate!r}")
         if self.time_unit not in TIME_UNITS:
             raise ValueError(f"time unit must be one of {', '.join(TIME_UNITS)}; got {self.time_unit!r}")
         if self.quaternion_order not in (None, *QUATERNION_ORDERS):
@@ -117,6 +146,11 @@ class ReadOptions:
             raise ValueError(f"rotation must be {' or '.join(ROTATIONS)}; got {self.rotation!r}")
         if self.stamp not in STAMPS:
             raise ValueError(f"stamp must be {' or '.join(STAMPS)}; got {self.stamp!r}")
+
+    @property
+    def column_map(self) -> ColumnMap | None:
+        """``columns`` as parsed (:func:`omegahat.io.colmap.parse_columns` ran on construction)."""
+        return cast("ColumnMap | None", self.columns)
 
     def given(self) -> list[str]:
         """The selection options (:data:`OPTION_FLAGS`) set to something other than their defaults."""
@@ -176,6 +210,8 @@ class LogStream:
     meta: dict = field(default_factory=dict)
     format: str = ""
     options: ReadOptions | None = None
+    digits: int | None = None  # significant digits of the attitude's text (precision policy); None: binary/unknown
+    columns: str = ""  # the --columns line that reads this stream as it was read (for messages; "" if none applies)
 
     def where(self, label: int, column: str | None = None) -> str:
         """``"path, line 17, column qx"``, ``"path, array q, index 17"``, ``"bag, topic /p, message 17"``: the
@@ -300,7 +336,7 @@ def detect_format(path: str | os.PathLike[str], fmt: str | None = None) -> Forma
     plain = [f for f in candidates if f.sniff is None]
     if plain:
         return plain[0]
-    if len(candidates) == 1 and fmt is not None:
+    if len(candidates) == 1:  # the extension's only format: its reader says what is wrong with the file
         return candidates[0]
     raise _unknown(path, ext)
 
@@ -332,6 +368,7 @@ def _checked(stream: LogStream, raw, options: ReadOptions) -> Iterator[LogChunk]
             "in body axes (leave --rotation out)"
         )
     policy = TimePolicy(stream.kind, stream.where, stream.label, stream.time_name)
+    precise = Normaliser(stream.kind, stream.digits, stream.where, stream.attitude_name, stream.columns, stream.label)
     for chunk in raw():
         t = chunk.t * scale if scale != 1.0 else np.asarray(chunk.t, dtype=float)
         bad = np.flatnonzero(~np.isfinite(t))
@@ -340,17 +377,18 @@ def _checked(stream: LogStream, raw, options: ReadOptions) -> Iterator[LogChunk]
             raise LogFormatError(
                 f"{stream.where(int(chunk.labels[k]), stream.time_name)}: time {float(chunk.t[k])!r} is not finite"
             )
-        data = chunk.data
+        data = precise.feed(chunk.data, chunk.labels)
         if invert:
             data = _conjugate(data) if stream.kind == "quaternion" else np.swapaxes(data, 1, 2).copy()
         arrays, keep = policy.feed((t, chunk.t, data, chunk.torque, chunk.labels, chunk.extra))
         part = _chunk(arrays, keep)
         if len(part):
             yield part
+    precise.check_head()
     held = policy.finish()
     if held is not None:
         yield _chunk(held, slice(None))
-    stream.notes.extend(policy.notes())
+    stream.notes.extend(precise.notes() + policy.notes())
 
 
 def _chunk(arrays: tuple, sel) -> LogChunk:
@@ -384,9 +422,17 @@ def open_log(path: str | os.PathLike[str], options: ReadOptions | None = None, f
     options = ReadOptions() if options is None else options
     path = os.fspath(path)
     form = detect_format(path, fmt)
+    recognised = form
+    mapped = [o for o in MAP_OPTIONS if o in options.given() and o not in form.options]
+    if mapped and fmt is None:  # a column map reads the file column by column, whatever else recognises it
+        ext = os.path.splitext(path)[1].lower()
+        plain = [f for f in _FORMATS if ext in f.extensions and f.sniff is None]
+        form = plain[0] if plain and all(o in plain[0].options for o in mapped) else form
     _refuse_options(path, form, options)
     stream = form.opener(path, options)
     stream.format = form.name
+    if form is not recognised:
+        stream.notes.append(f"read column by column as the column map says, not as {recognised.title}")
     return checked_stream(stream, options)
 
 

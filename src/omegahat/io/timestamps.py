@@ -29,6 +29,11 @@ samples; so every reader, ``omegahat estimate`` and :func:`omegahat.estimate_fra
 policy holds back the last kept sample of each chunk until the next one arrives, so a duplicate that straddles
 two chunks is treated exactly as one inside a chunk.
 
+5. **Absolute times keep their precision.** Times written as seconds since 1970 (TUM trajectories, ``1.7e9``),
+   nanoseconds (EuRoC, ``1.4e18``) or any time of magnitude ``2**20`` or more are read as decimal text and made
+   relative to the integer part of the first one *before* they become floats (:class:`ExactTimes`), which the
+   stream keeps as ``t0``: as floats ``1.7e9`` s would be rounded to 0.24 µs and ``1.4e18`` ns to 256 ns.
+
 The jitter test (``tests/test_timestamps.py``) checks that a log with irregular sampling, dropped frames and
 duplicates gives the same rate as the clean log within the noise.
 """
@@ -36,14 +41,50 @@ duplicates gives the same rate as the clean log within the noise.
 from __future__ import annotations
 
 from collections.abc import Callable
+from decimal import Decimal, InvalidOperation
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
 
 from omegahat.io.columns import LogFormatError
 
-__all__ = ["DUPLICATE_TOL", "TimePolicy", "sort_by_time"]
+__all__ = ["DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "sort_by_time"]
 
 DUPLICATE_TOL = 1e-6  #: ‖R_a − R_b‖_F (≈ √2 × the angle in rad) below which two samples at one time are the same
+EXACT_FROM = float(2**20)  #: (5) times from this magnitude on are made relative before they become floats
+_DECIMAL = pa.decimal128(38, 18)  # 20 integer digits (ns since 1970: 19) and 18 decimals
+_DIFFERENCE = pa.decimal128(37, 18)  # one digit less, so that a difference still fits 38 digits
+
+
+class ExactTimes:
+    """(5): text times relative to ``base``, the integer part of the first time (in the file's unit), if its
+    magnitude is :data:`EXACT_FROM` or more (else ``base`` is 0 and the times are read as they are).
+    :meth:`convert` turns a chunk's time texts (blanks trimmed, a decimal comma read as a point) into floats
+    ``time − base``; a text that is no decimal number (``nan``, a word) is read as a float, which the readers
+    refuse, naming it."""
+
+    def __init__(self, first: str):
+        try:
+            value = Decimal(first.strip().replace(",", "."))
+        except InvalidOperation:
+            value = Decimal(0)
+        self.base = int(value) if value.is_finite() and abs(value) >= Decimal(EXACT_FROM) else 0
+
+    @property
+    def exact(self) -> bool:
+        return self.base != 0
+
+    def convert(self, text: pa.Array) -> pa.Array:
+        """float64 ``time − base`` (nulls kept) of a string array; raises ``pa.ArrowInvalid`` for text that is no
+        number."""
+        if not self.exact:
+            return pc.cast(text, pa.float64())
+        try:
+            d = pc.cast(pc.cast(text, _DECIMAL), _DIFFERENCE)
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):  # nan/inf, or more than 18 decimals: as floats
+            return pc.subtract(pc.cast(text, pa.float64()), pa.scalar(float(self.base)))
+        return pc.cast(pc.subtract(d, pa.scalar(Decimal(self.base), _DIFFERENCE)), pa.float64())
 
 
 def sort_by_time(times: np.ndarray) -> tuple[np.ndarray, int]:

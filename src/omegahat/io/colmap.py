@@ -1,0 +1,214 @@
+r"""The column map: which column of a file holds what, when its names are not omegahat's.
+
+``--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME`` (``columns=`` in :func:`omegahat.io.read_log` and
+:func:`omegahat.estimate_frame`) names, for each of omegahat's quantities (the keys of :mod:`omegahat.io.columns`:
+``t``, ``qw qx qy qz``, ``r11 … r33``, ``b1x b1y b1z …``, ``tau_x tau_y tau_z``), the column holding it:
+
+* by **name**, compared as :func:`omegahat.io.columns.normalise_name` compares names (case and surrounding blanks
+  ignored), after the header rows are joined (below);
+* or by **position**, 1-based: ``--columns t=1,qw=2,qx=3,qy=4,qz=5``. On the command line a value made of digits
+  only is a position; in Python an ``int`` is a position and a ``str`` a name.
+
+The mapped columns are read under their keys; every other column keeps its own name, except that a column whose
+own name is one of the keys of a group the map assigns (a ``t`` column when ``t=`` is mapped; ``qw`` when the
+attitude is mapped) is ignored, so that the map decides. A key not in the map is found by its name as usual (a file
+with a ``t`` column needs only the attitude mapped).
+
+**Headers that span rows** (``--header-rows N``, ``header_rows=``): the N rows are joined per column, the upper
+rows' cells carried to the right over empty cells (spreadsheet programs write a group title once over the columns it
+spans, as merged cells), the parts joined with a space. ``Time (s);Vicon Orientation;;;`` over ``;W;X;Y;Z`` gives
+``Time (s)``, ``Vicon Orientation W``, ``Vicon Orientation X`` ... ``--header-rows 0``: no header; the columns are
+named ``1``, ``2``, ... and read by position.
+
+Errors list the columns found and print the ``--columns`` line that would read the file
+(:func:`suggest_columns`), or a template to fill in.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+
+from omegahat.io.columns import (
+    MATRIX_COLUMNS,
+    QUATERNION_COLUMNS,
+    TORQUE_COLUMNS,
+    LogFormatError,
+    normalise_name,
+)
+
+__all__ = [
+    "ColumnMap",
+    "apply_columns",
+    "columns_line",
+    "frame_names",
+    "join_header_rows",
+    "parse_columns",
+    "suggest_columns",
+]
+
+ColumnMap = tuple[tuple[str, "str | int"], ...]  #: parsed map: (key, column name or 1-based position), in order
+_DIRECTION_KEY = re.compile(r"b[1-9]\d*[xyz]")
+_GROUPS = {"time": ("t",), "quaternion": QUATERNION_COLUMNS, "matrix": MATRIX_COLUMNS, "torque": TORQUE_COLUMNS}
+_TEMPLATE = "--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by position: t=1,qw=2,qx=3,qy=4,qz=5)"
+
+
+def _group(key: str) -> str:
+    for g, keys in _GROUPS.items():
+        if key in keys:
+            return "attitude" if g in ("quaternion", "matrix") else g
+    return "attitude" if _DIRECTION_KEY.fullmatch(key) else ""
+
+
+def parse_columns(spec: str | Mapping[str, str | int] | Sequence | None) -> ColumnMap | None:
+    """The column map of ``spec``: ``"t=Time,qw=2,..."`` (the command line's form: digits are a position), a mapping
+    ``{"t": "Time", "qw": 2}`` (an ``int`` is a position) or an already parsed map; None for None. Raises
+    ``ValueError`` for an unknown key, a key given twice, a position below 1 or a part without ``=``."""
+    if spec is None:
+        return None
+    pairs: list[tuple[str, str | int]] = []
+    if isinstance(spec, str):
+        for part in spec.split(","):
+            if not part.strip():
+                continue
+            name, eq, text = part.partition("=")
+            if not eq:
+                raise ValueError(f'--columns: {part.strip()!r} is not KEY=COLUMN (e.g. qw=2 or qw="Orientation W")')
+            text = text.strip().strip('"').strip("'")
+            pairs.append((name, int(text) if text.isdigit() else text))
+    else:
+        items: Sequence = list(spec.items()) if isinstance(spec, Mapping) else spec
+        for name, given in items:
+            if isinstance(given, bool) or not isinstance(given, int | str):
+                raise ValueError(
+                    f"columns: {name}= takes a column name (str) or a 1-based position (int); got {given!r}"
+                )
+            pairs.append((str(name), given))
+    out: dict[str, str | int] = {}
+    for key, value in pairs:
+        k = normalise_name(key)
+        if not _group(k):
+            raise ValueError(
+                f"columns: unknown key {key!r}; the keys are t, qw, qx, qy, qz, r11..r33, b1x, b1y, b1z, b2x, ..., "
+                "tau_x, tau_y, tau_z"
+            )
+        if k in out:
+            raise ValueError(f"columns: {k} given twice")
+        if isinstance(value, int) and value < 1:
+            raise ValueError(f"columns: {k}={value}: positions count from 1")
+        if isinstance(value, str) and not value.strip():
+            raise ValueError(f"columns: {k}= names no column")
+        out[k] = value
+    if not out:
+        raise ValueError("columns: empty map; give KEY=COLUMN pairs, e.g. t=1,qw=2,qx=3,qy=4,qz=5")
+    return tuple(out.items())
+
+
+def join_header_rows(rows: Sequence[Sequence[str]]) -> list[str]:
+    """One name per column from header rows (module docstring): upper rows carried right over empty cells."""
+    width = max((len(r) for r in rows), default=0)
+    parts: list[list[str]] = [[] for _ in range(width)]
+    for i, row in enumerate(rows):
+        carry = ""
+        for j in range(width):
+            cell = row[j].strip() if j < len(row) else ""
+            if i < len(rows) - 1:  # a group title spans the empty cells to its right
+                carry = cell or carry
+                cell = carry
+            if cell:
+                parts[j].append(cell)
+    return [" ".join(p) for p in parts]
+
+
+def frame_names(labels: Sequence, header_rows: int | None) -> list[str]:
+    """A DataFrame's column labels as names: a pandas ``MultiIndex`` (tuples) has its levels joined per column as
+    header rows are (``header_rows``, if given, must be its number of levels)."""
+    tuples = [c for c in labels if isinstance(c, tuple)]
+    if not tuples:
+        if header_rows not in (None, 1):
+            raise LogFormatError(f"DataFrame: header_rows={header_rows}, but its columns have one level")
+        return [str(c) for c in labels]
+    levels = len(tuples[0])
+    if header_rows is not None and header_rows != levels:
+        raise LogFormatError(f"DataFrame: header_rows={header_rows}, but its columns have {levels} levels")
+    rows = [
+        [str(c[i]) if isinstance(c, tuple) and "Unnamed" not in str(c[i]) else "" for c in labels]
+        for i in range(levels)
+    ]
+    return join_header_rows(rows)
+
+
+def _resolve(value: str | int, names: list[str], labels: Sequence[str], key: str, where: str) -> int:
+    if isinstance(value, int):
+        if value > len(names):
+            raise LogFormatError(f"{where}: --columns {key}={value}, but the file has {len(names)} columns")
+        return value - 1
+    want = normalise_name(value)
+    hits = [j for j, n in enumerate(names) if n == want]
+    if len(hits) == 1:
+        return hits[0]
+    if hits:
+        at = ", ".join(str(j + 1) for j in hits)
+        raise LogFormatError(f"{where}: --columns {key}={value!r} matches columns {at}; give the position instead")
+    raise LogFormatError(f"{where}: --columns {key}={value!r}: no such column (found: {_listing(labels)})")
+
+
+def apply_columns(names: Sequence[str], columns: ColumnMap | None, where: str, time_column: str = "t") -> list[str]:
+    """The names the reader uses (normalised) once ``columns`` is applied to the header ``names`` (module
+    docstring); without a map, the normalised names. An ignored column gets the empty name."""
+    normal = [normalise_name(n) for n in names]
+    if not columns:
+        return normal
+    keys = dict(columns)
+    if "t" in keys and normalise_name(time_column) != "t":
+        raise LogFormatError(f"{where}: the time column is given twice (--columns t= and --time-column); keep one")
+    out = list(normal)
+    assigned = {_group(k) for k in keys}
+    for j, n in enumerate(normal):
+        if _group(n) in assigned or ("attitude" in assigned and re.fullmatch(r"q[0-4]", n)):
+            out[j] = ""  # the map decides this group
+    used: dict[int, str] = {}
+    for key, value in columns:
+        j = _resolve(value, normal, names, key, where)
+        if j in used:
+            raise LogFormatError(f"{where}: --columns gives column {j + 1} ({names[j]!r}) to both {used[j]} and {key}")
+        used[j] = key
+        out[j] = key
+    return out
+
+
+def _listing(names: Sequence[str], limit: int = 40) -> str:
+    shown = [f"{j + 1}:{n}" if n else f"{j + 1}:(empty)" for j, n in enumerate(names[:limit])]
+    more = f", ... ({len(names)} columns)" if len(names) > limit else ""
+    return ", ".join(shown) + more
+
+
+def columns_line(pairs: Sequence[tuple[str, str | int]]) -> str:
+    """``--columns k=v,...`` for the command line (names quoted where the shell needs it)."""
+    text = ",".join(f"{k}={v}" for k, v in pairs)
+    return f"--columns {text}" if re.fullmatch(r"[\w.,=\-\[\]/]+", text) else f"--columns '{text}'"
+
+
+def _unit_free(name: str) -> str:
+    return re.sub(r"\s*[\[(][^\])]*[\])]\s*$", "", name).strip()  # "q_RS_w []" -> "q_RS_w"
+
+
+def suggest_columns(names: Sequence[str]) -> str:
+    """The ``--columns`` line that reads a file with these header names, guessed from them (a time-like column; four
+    columns ending in w, x, y, z with a common prefix, preferring orientation-like prefixes), or the template."""
+    base = [_unit_free(normalise_name(n)) for n in names]
+    pos = {j: (names[j] if names[j].strip() and not re.search(r"[,=]", names[j]) else j + 1) for j in range(len(names))}
+    unique = {b for b in base if base.count(b) == 1}
+    time = next((j for j, b in enumerate(base) if re.search(r"time|stamp|^t$|sec", b)), None)
+    groups: dict[str, dict[str, int]] = {}
+    for j, b in enumerate(base):
+        m = re.fullmatch(r"(.*?)[\s_.:/-]*([wxyz])", b)
+        if m and b in unique:
+            groups.setdefault(m.group(1), {}).setdefault(m.group(2), j)
+    full = [(p, g) for p, g in groups.items() if len(g) == 4]
+    if time is None or not full:
+        return _TEMPLATE
+    rank = lambda item: (not re.search(r"orient|quat|rot|att|^q", item[0]), min(item[1].values()))  # noqa: E731
+    _, g = min(full, key=rank)
+    pairs = [("t", pos[time]), *((f"q{a}", pos[g[a]]) for a in "wxyz")]
+    return columns_line(pairs)

@@ -1,0 +1,257 @@
+r"""One buffer of whole text lines into a :class:`~omegahat.io.registry.LogChunk`: the parse of every text log.
+
+Three tiers, fastest first, each checked against the line table (the line number and byte span of every non-blank
+line, counted with NumPy over the bytes, so numbers stay exact across blank lines, comments and chunks):
+
+1. PyArrow's CSV parser reads the needed columns as float64 (the time column as text where times are absolute:
+   :class:`omegahat.io.timestamps.ExactTimes`), with a block size covering the buffer (rows of 10⁵ columns);
+2. if it rejects a field, the columns are read as text (blanks trimmed, decimal commas turned into points) and the
+   first field that is no number is named;
+3. if the buffer's structure is not one row per line — a line with an odd number of quotes (a quoted field may not
+   span lines: omegahat's logs never need it), or PyArrow's row count differing from the line table's — every line
+   is parsed **on its own** by Python's :mod:`csv`, so that a stray quote can never fold later lines into one
+   field: a line that then has the wrong number of fields is an error naming it (and the quote), and a field beyond
+   Python's field size limit is a message, not a traceback.
+
+Nothing is dropped or merged silently: every non-blank line is a row, or the parse stops naming its line.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pacsv
+
+from omegahat.io.columns import Layout, LogFormatError
+from omegahat.io.registry import LogChunk
+from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean
+from omegahat.io.timestamps import ExactTimes
+
+__all__ = ["ChunkParser"]
+
+_ARROW_ERRORS = (pa.ArrowInvalid, pa.ArrowNotImplementedError)
+
+
+class ChunkParser:
+    """Parses buffers of whole lines of one log: ``names`` the columns' names as read (after a column map),
+    ``labels`` as messages name them, ``lay`` what is read, ``delim`` (:data:`~omegahat.io.textlines.WHITESPACE` for
+    blank-separated text), ``header_line`` the header's last line (0: none), ``times`` the time column's
+    conversion, ``time_scale`` seconds per time unit the reader applies itself (EuRoC's ns), ``comment``: ``#``
+    lines are blank."""
+
+    def __init__(
+        self,
+        path: str,
+        names: Sequence[str],
+        labels: Sequence[str],
+        lay: Layout,
+        delim: str,
+        header_line: int,
+        times: ExactTimes,
+        time_scale: float = 1.0,
+        comment: bool = False,
+    ):
+        self.path, self.names, self.labels, self.lay = path, list(names), list(labels), lay
+        self.delim, self.header_line, self.times, self.time_scale, self.comment = (
+            delim,
+            header_line,
+            times,
+            time_scale,
+            comment,
+        )
+        self.n_fields = len(names)
+        index = {n: i for i, n in enumerate(names) if n}
+        self.cols = [f"c{index[c]}" for c in lay.columns]
+        self.time_col = f"c{index[lay.time]}"
+        self.decimal_comma = delim not in (",",)
+        self.column_names = [f"c{i}" for i in range(self.n_fields)]
+
+    def _where(self, line: int, col: str | None = None) -> str:
+        head = f"{self.path}, line {line}"
+        return head if col is None else f"{head}, column {self.labels[int(col[1:])]}"
+
+    # -- line bookkeeping ------------------------------------------------------------------------------------
+
+    def _line_table(self, buf: bytes, first_line: int):
+        """Line numbers of the non-blank lines with their byte spans, or ``None`` when a line has an odd number of
+        quotes (then every line is parsed on its own); and the number of lines."""
+        a = np.frombuffer(buf, dtype=np.uint8)
+        nl = np.flatnonzero(a == 10)
+        ends = nl if buf.endswith(b"\n") else np.append(nl, a.size)
+        starts = np.concatenate([[0], nl[: ends.size - 1] + 1])
+        length = ends - starts
+        cr = (length > 0) & (a[np.maximum(ends - 1, 0)] == 13)
+        keep = (length - cr) > 0
+        if b'"' in buf:
+            qpos = np.flatnonzero(a == 34)
+            if np.any((np.searchsorted(qpos, ends) - np.searchsorted(qpos, starts)) % 2):
+                return None, ends.size
+        numbers = first_line + np.arange(ends.size)
+        return (numbers[keep], starts[keep], ends[keep]), ends.size
+
+    def _blank_rows(self, buf: bytes, spans, candidates: np.ndarray) -> np.ndarray:
+        """Which of the candidate rows (no needed field filled) hold nothing at all (only delimiters, blanks)."""
+        _, starts, ends = spans
+        strip = b" \t\r\"'" + self.delim.encode()
+        return np.array([not buf[starts[i] : ends[i]].strip(strip) for i in candidates], dtype=bool)
+
+    # -- the tiers -------------------------------------------------------------------------------------------
+
+    def _arrow(self, buf: bytes, as_text: bool) -> pa.Table:
+        types = {
+            c: pa.string() if as_text or (c == self.time_col and self.times.exact) else pa.float64() for c in self.cols
+        }
+        return pacsv.read_csv(
+            io.BytesIO(buf),
+            read_options=pacsv.ReadOptions(
+                column_names=self.column_names, use_threads=True, block_size=max(1 << 20, len(buf) + 1)
+            ),
+            parse_options=pacsv.ParseOptions(delimiter=self.delim, ignore_empty_lines=True),
+            convert_options=pacsv.ConvertOptions(
+                include_columns=self.cols,
+                column_types=types,
+                null_values=[""] if not as_text else [],
+                strings_can_be_null=not as_text,
+                quoted_strings_can_be_null=not as_text,
+                check_utf8=False,
+            ),
+        )
+
+    def _python_rows(self, buf: bytes, first_line: int) -> tuple[dict[str, list[str]], np.ndarray]:
+        """Each line on its own through Python's csv: the needed fields as text, and the line of each row."""
+        idx = [int(c[1:]) for c in self.cols]
+        out: dict[str, list[str]] = {c: [] for c in self.cols}
+        lines = []
+        for k, raw in enumerate(buf.split(b"\n")):
+            line = first_line + k
+            text = raw.decode("utf-8", errors="replace").rstrip("\r")
+            if not text.strip():
+                continue
+            try:
+                row = next(csv.reader([text], delimiter=self.delim))
+            except csv.Error as exc:  # a field beyond csv.field_size_limit()
+                raise LogFormatError(f"{self._where(line)}: {exc} (the limit for one field)") from None
+            if not any(f.strip() for f in row):
+                continue
+            if len(row) != self.n_fields:
+                quote = " (a stray quote '\"' joins the fields after it)" if '"' in text else ""
+                raise LogFormatError(
+                    f"{self._where(line)}: {len(row)} fields, but the header (line {self.header_line}) names "
+                    f"{self.n_fields} (delimiter {DELIMITERS[self.delim]}){quote}"
+                    if self.header_line
+                    else f"{self._where(line)}: {len(row)} fields, but the first row has {self.n_fields}{quote}"
+                )
+            for c, i in zip(self.cols, idx, strict=True):
+                out[c].append(row[i])
+            lines.append(line)
+        return out, np.array(lines, dtype=np.int64)
+
+    def _numbers(self, text: pa.Array, lines: np.ndarray, col: str) -> pa.Array:
+        """Text → float64 (blanks trimmed, empty → null); the first field that is no number is named."""
+        s = pc.utf8_trim_whitespace(text)
+        if self.decimal_comma:
+            s = pc.replace_substring(s, ",", ".")
+        s = pc.if_else(pc.equal(s, ""), pa.scalar(None, pa.string()), s)
+        convert = self.times.convert if col == self.time_col else (lambda a: pc.cast(a, pa.float64()))
+        try:
+            return convert(s)
+        except _ARROW_ERRORS:
+            lo, hi = 0, len(s)  # bisect for the first element that does not convert
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                try:
+                    convert(s[lo:mid])
+                    lo = mid
+                except _ARROW_ERRORS:
+                    hi = mid
+            value = text[lo].as_py()
+            hint = " (digit grouping is not read)" if "_" in value or (not self.decimal_comma and "," in value) else ""
+            raise LogFormatError(f"{self._where(int(lines[lo]), col)}: {value!r} is not a number{hint}") from None
+
+    def parse(self, buf: bytes, first_line: int) -> tuple[LogChunk | None, int]:
+        """``(chunk or None if no rows, number of lines in buf)``."""
+        buf = clean(buf, self.comment, self.delim == WHITESPACE)
+        spans, n_lines = self._line_table(buf, first_line)
+        values = None
+        if spans is not None:
+            lines = spans[0]
+            try:
+                table = self._arrow(buf, as_text=False)
+                if table.num_rows == lines.size:
+                    values = {c: table[c] for c in self.cols}
+                    if self.times.exact:
+                        values[self.time_col] = self._numbers(
+                            table[self.time_col].combine_chunks(), lines, self.time_col
+                        )
+            except _ARROW_ERRORS:
+                try:
+                    table = self._arrow(buf, as_text=True)
+                    if table.num_rows == lines.size:  # _numbers raises naming the first field that is no number
+                        values = {c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.cols}
+                except _ARROW_ERRORS:
+                    values = None
+        if values is None:
+            text, lines = self._python_rows(buf, first_line)
+            values = {c: self._numbers(pa.array(v, pa.string()), lines, c) for c, v in text.items()}
+            spans = None
+        null = {}
+        arrays = {}
+        for c, v in values.items():
+            arr = v.combine_chunks() if isinstance(v, pa.ChunkedArray) else v
+            null[c] = arr.is_null().to_numpy(zero_copy_only=False) if arr.null_count else np.zeros(len(arr), bool)
+            arrays[c] = arr.to_numpy(zero_copy_only=False).astype(float, copy=False)
+        all_null = np.logical_and.reduce([null[c] for c in self.cols])
+        if all_null.any() and spans is not None:  # rows of nothing but delimiters are blank lines
+            cand = np.flatnonzero(all_null)
+            blank = np.zeros(lines.size, dtype=bool)
+            blank[cand] = self._blank_rows(buf, spans, cand)
+            if blank.any():
+                keep = ~blank
+                lines = lines[keep]
+                arrays = {c: a[keep] for c, a in arrays.items()}
+                null = {c: a[keep] for c, a in null.items()}
+        if lines.size == 0:
+            return None, n_lines
+        return self._chunk(arrays, null, lines), n_lines
+
+    def _col(self, name: str) -> str:
+        return f"c{self.names.index(name)}"
+
+    def _chunk(self, arrays, null, lines) -> LogChunk:
+        lay = self.lay
+        tc = self.time_col
+        t = np.array(arrays[tc], dtype=float)
+        if self.time_scale != 1.0:
+            t *= self.time_scale
+        empty_t = np.flatnonzero(null[tc])
+        if empty_t.size:
+            k = int(empty_t[0])
+            raise LogFormatError(f"{self._where(int(lines[k]), tc)}: empty time (every row needs one)")
+        att = np.column_stack([arrays[self._col(c)] for c in lay.attitude])
+        att[~np.all(np.isfinite(att), axis=1)] = np.nan  # one empty or non-finite field: the whole sample missing
+        torque = None
+        if lay.torque:
+            torque = np.column_stack([arrays[self._col(c)] for c in lay.torque])
+            bad = np.argwhere(~np.isfinite(torque))
+            if bad.size:
+                k, j = (int(x) for x in bad[0])
+                c = self._col(lay.torque[j])
+                if null[c][k]:
+                    raise LogFormatError(
+                        f"{self._where(int(lines[k]), c)}: empty torque (fill the torque on every row)"
+                    )
+                raise LogFormatError(f"{self._where(int(lines[k]), c)}: torque {_text(torque[k, j])!r} is not finite")
+        if lay.kind == "matrix":
+            att = att.reshape(-1, 3, 3)
+        elif lay.kind == "directions":
+            att = att.reshape(-1, lay.n_directions, 3)
+        return LogChunk(t, att, torque, lines)
+
+
+def _text(x: float) -> str:
+    return "inf" if x == np.inf else "-inf" if x == -np.inf else "nan"

@@ -1,0 +1,339 @@
+"""The column map (``--columns``, ``columns=``), headers over several rows (``--header-rows``), and the precision
+policy for what files carry (omegahat.io.precision): round trips through the map, the Vicon Nexus + IMU export of
+issue 25 read with no tolerance option, imprecise rotations normalised and reported, what is no rotation named, and
+every error with its message."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.linalg import polar
+from scipy.spatial.transform import Rotation
+
+import omegahat
+from omegahat.cli import main
+from omegahat.io import LogFormatError, read_log, suggest_columns
+from omegahat.io.precision import file_tolerance, significant_digits
+from recording_files import read_omega_csv
+
+CLI = ["--no-progress"]
+W = np.array([0.5, -3.4, 2.2])  # rad/s: fast enough for linear interpolation to shorten quaternions by 1e-3
+
+
+def num(x) -> str:
+    return repr(float(x))
+
+
+def turning(t):
+    return Rotation.from_rotvec(np.outer(t, W)) * Rotation.from_rotvec([0.2, 0.5, -0.1])
+
+
+def run(path, tmp_path, capsys, *extra):
+    out = tmp_path / "o.csv"
+    out.unlink(missing_ok=True)
+    code = main(["estimate", str(path), "-o", str(out), *CLI, *extra])
+    printed = capsys.readouterr()
+    return code, (read_omega_csv(out)[0] if code == 0 else None), printed.out, printed.err
+
+
+# ------------------------------------------------------------------------------------------- the column map
+
+
+def test_columns_by_name_and_by_position_read_what_the_names_read(tmp_path):
+    t = np.arange(6) * 0.01
+    q = turning(t).as_quat()
+    rows = [f"{k},{num(t[k])},{num(q[k, 3])},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])},7" for k in range(6)]
+    named = tmp_path / "named.csv"
+    named.write_text("frame,t,qw,qx,qy,qz,temp\n" + "\n".join(rows) + "\n")
+    other = tmp_path / "other.csv"
+    other.write_text("Frame,Zeit [s],Quat W,Quat X,Quat Y,Quat Z,Temp\n" + "\n".join(rows) + "\n")
+    ref = read_log(named)
+    by_name = read_log(other, columns="t=Zeit [s],qw=quat w,qx=Quat X,qy=Quat Y,qz=Quat Z")  # any case
+    by_position = read_log(other, columns={"t": 2, "qw": 3, "qx": 4, "qy": 5, "qz": 6})
+    by_text_positions = read_log(other, columns="t=2,qw=3,qx=4,qy=5,qz=6")
+    for log in (by_name, by_position, by_text_positions):
+        np.testing.assert_array_equal(log.t, ref.t)
+        np.testing.assert_array_equal(log.data, ref.data)
+    assert "columns read: --columns 't=Zeit [s],qw=Quat W,qx=Quat X,qy=Quat Y,qz=Quat Z'" in by_position.notes
+    # the map decides its groups: a file's own t and quaternion columns give way to the mapped ones
+    swapped = read_log(named, columns="t=frame")
+    np.testing.assert_array_equal(swapped.t, np.arange(6))
+    np.testing.assert_array_equal(swapped.data, ref.data)  # keys not in the map: found by their names
+
+
+def test_header_rows_and_no_header(tmp_path):
+    t = np.arange(5) * 0.1
+    q = turning(t).as_quat()
+    body = "\n".join(f"{t[k]};{num(q[k, 3])};{num(q[k, 0])};{num(q[k, 1])};{num(q[k, 2])}" for k in range(5)) + "\n"
+    two = tmp_path / "two.csv"
+    two.write_text("Time;Orientation;;;\n;W;X;Y;Z\n" + body)
+    log = read_log(
+        two, header_rows=2, columns="t=Time,qw=Orientation W,qx=Orientation X,qy=Orientation Y,qz=Orientation Z"
+    )
+    np.testing.assert_array_equal(log.data, q)
+    headless = tmp_path / "headless.txt"
+    headless.write_text(body.replace(";", "  "))  # blank-separated, no header: positions
+    log = read_log(headless, header_rows=0, columns="t=1,qw=2,qx=3,qy=4,qz=5")
+    np.testing.assert_array_equal(log.t, t)
+    np.testing.assert_array_equal(log.data, q)
+    with pytest.raises(LogFormatError, match=r"one\.csv: 1 line\(s\), but --header-rows 3 asks for 3"):
+        (tmp_path / "one.csv").write_text("a;b\n")
+        read_log(tmp_path / "one.csv", header_rows=3)
+
+
+def test_vicon_nexus_and_imu_export_with_a_two_row_header(tmp_path, capsys):
+    """Issue 25's dataset: ';' separated, a group title over W;X;Y;Z, quaternions with 5 significant digits,
+    linearly interpolated from 20 Hz motion capture to the IMU's 100 Hz (so up to ~1e-3 shorter than unit)."""
+    k = np.arange(400)
+    t = k / 100.0
+    key = turning(np.arange(81) / 20.0).as_quat()  # the 20 Hz frames
+    for j in range(1, len(key)):  # one hemisphere, as exporters blend
+        key[j] *= np.sign(key[j] @ key[j - 1])
+    i, frac = k // 5, (k % 5) / 5.0
+    q = (1 - frac)[:, None] * key[i] + frac[:, None] * key[i + 1]  # linear blend: |q| < 1 between frames
+    dev = np.abs(np.linalg.norm(q, axis=1) - 1)
+    assert 1e-3 < dev.max() < 1e-2  # beyond the estimators' default tolerance, within the file tolerance
+    fmt = lambda x: f"{x:.5g}".replace(".", ",")  # noqa: E731  5 significant digits, decimal comma
+    rows = [
+        ";".join([fmt(t[k]), *(fmt(v) for v in (q[k, 3], q[k, 0], q[k, 1], q[k, 2])), "0,12", "-0,3", "9,81"])
+        for k in range(len(t))
+    ]
+    src = tmp_path / "vicon_imu.csv"
+    src.write_text("Time (s);Vicon Orientation;;;;IMU Acceleration;;\n;W;X;Y;Z;X;Y;Z\n" + "\n".join(rows) + "\n")
+    code, _, _, err = run(src, tmp_path, capsys)
+    assert code == 2 and "the header seems to span 2 rows (names under empty cells): try --header-rows 2" in err
+    code, _, _, err = run(src, tmp_path, capsys, "--header-rows", "2")
+    assert (
+        code == 2
+        and (
+            "to read other columns: --columns 't=Time (s),qw=Vicon Orientation W,qx=Vicon Orientation X,"
+            "qy=Vicon Orientation Y,qz=Vicon Orientation Z'"
+        )
+        in err
+    )
+    columns = "t=Time (s),qw=Vicon Orientation W,qx=Vicon Orientation X,qy=Vicon Orientation Y,qz=Vicon Orientation Z"
+    code, table, out, err = run(src, tmp_path, capsys, "--header-rows", "2", "--columns", columns)
+    assert code == 0, err
+    n = int((dev > 1e-3).sum())
+    assert f"note: {n} quaternion(s) normalised: |‖q‖ − 1| above the estimators' 0.001 (largest " in out
+    assert "within the file tolerance 0.01; the file's 5 significant digits explain up to 0.0001" in out
+    plain = tmp_path / "plain.csv"  # the same numbers in omegahat's own CSV
+    plain.write_text("t;qw;qx;qy;qz\n" + "\n".join(";".join(r.split(";")[:5]) for r in rows) + "\n")
+    code, base, _, _ = run(plain, tmp_path, capsys)
+    assert code == 0
+    np.testing.assert_array_less(np.nanmax(np.abs(table[:, 1:] - base[:, 1:])), 1e-6)
+    body_rate = np.array([r.inv().apply(W) for r in turning(t[100:])])
+    err = np.abs(table[100:, 1:] - body_rate)
+    assert np.median(err) < 0.01 and err.max() < 0.1  # the motion's rate, up to the 20 Hz interpolation
+
+
+def test_dataframe_columns_and_multiindex_header(tmp_path):
+    pd = pytest.importorskip("pandas")
+    t = np.arange(60) / 100.0
+    q = turning(t).as_quat()
+    cols = pd.MultiIndex.from_tuples(
+        [("Time (s)", ""), ("Orientation", "W"), ("Orientation", "X"), ("Orientation", "Y"), ("Orientation", "Z")]
+    )
+    df = pd.DataFrame(np.column_stack([t, q[:, 3], q[:, :3]]), columns=cols)
+    out = omegahat.estimate_frame(
+        df,
+        header_rows=2,
+        columns={"t": "Time (s)", "qw": "Orientation W", "qx": "Orientation X", "qy": "Orientation Y", "qz": 5},
+    )
+    flat = pd.DataFrame({"t": t, "qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2]})
+    ref = omegahat.estimate_frame(flat)
+    np.testing.assert_array_equal(out[["wx", "wy", "wz"]].to_numpy(), ref[["wx", "wy", "wz"]].to_numpy())
+    with pytest.raises(LogFormatError, match=r"DataFrame: header_rows=3, but its columns have 2 levels"):
+        omegahat.estimate_frame(df, header_rows=3)
+
+
+@pytest.mark.parametrize(
+    ("columns", "error", "match"),
+    [
+        ("t=1,qw=2,qq=3", ValueError, r"columns: unknown key 'qq'; the keys are t, qw, qx, qy, qz, r11\.\.r33"),
+        ("t=1,t=2", ValueError, r"columns: t given twice"),
+        ("t=0,qw=2", ValueError, r"columns: t=0: positions count from 1"),
+        ("t", ValueError, r"--columns: 't' is not KEY=COLUMN"),
+        ({"t": 1.5}, ValueError, r"columns: t= takes a column name \(str\) or a 1-based position \(int\); got 1\.5"),
+        (
+            "t=9,qw=2,qx=3,qy=4,qz=5",
+            LogFormatError,
+            r"x\.csv, line 1 \(header\): --columns t=9, but the file has 6 col",
+        ),
+        ("t=Zeit,qw=2,qx=3,qy=4,qz=5", LogFormatError, r"--columns t='Zeit': no such column \(found: 1:time, 2:a, "),
+        ("t=dup,qw=2,qx=3,qy=4,qz=5", LogFormatError, r"--columns t='dup' matches columns 5, 6; give the position"),
+        ("t=1,qw=2,qx=2,qy=4,qz=5", LogFormatError, r"--columns gives column 2 \('a'\) to both qw and qx"),
+        ("t=1,qw=2,qx=3,qy=4", LogFormatError, r"missing quaternion column\(s\) qz"),
+    ],
+)
+def test_column_map_errors(tmp_path, columns, error, match):
+    p = tmp_path / "x.csv"
+    p.write_text("time,a,b,c,dup,dup\n0,1,0,0,0,0\n")
+    with pytest.raises(error, match=match):
+        read_log(p, columns=columns)
+
+
+def test_errors_print_the_columns_line_that_would_read_the_file(tmp_path, capsys):
+    p = tmp_path / "x.csv"
+    p.write_text("Timestamp,Pos X,Pos Y,Orient W,Orient X,Orient Y,Orient Z\n0,1,2,1,0,0,0\n")
+    with pytest.raises(
+        LogFormatError,
+        match=r"no time column 't' .*; to read other columns: --columns 't=Timestamp,qw=Orient W,qx=Orient X,"
+        r"qy=Orient Y,qz=Orient Z'",
+    ):
+        read_log(p)
+    assert suggest_columns(["a", "b"]).startswith("--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by position")
+    assert suggest_columns(["#timestamp [ns]", "q_RS_w []", "q_RS_x []", "q_RS_y []", "q_RS_z []"]) == (
+        "--columns 't=#timestamp [ns],qw=q_RS_w [],qx=q_RS_x [],qy=q_RS_y [],qz=q_RS_z []'"
+    )
+    assert suggest_columns(["t", "a,b", "w", "x", "y", "z"]) == "--columns t=t,qw=w,qx=x,qy=y,qz=z"
+
+
+def test_a_map_of_the_wrong_columns_is_named(tmp_path, capsys):
+    t = np.arange(300) / 100.0
+    q = turning(t).as_quat()
+    p = tmp_path / "pose.csv"
+    p.write_text(
+        "time,x,y,z,qw,qx,qy,qz\n"
+        + "\n".join(
+            f"{t[k]},{0.5 + t[k]},2.0,0.3,{num(q[k, 3])},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])}"
+            for k in range(300)
+        )
+        + "\n"
+    )
+    code, _, _, err = run(p, tmp_path, capsys, "--columns", "t=time,qw=x,qx=qx,qy=qy,qz=qz")  # qw= the position x
+    assert code == 2
+    dev = np.abs(np.sqrt(np.sum(q[:, :3] ** 2, axis=1) + (0.5 + t) ** 2) - 1)
+    assert (
+        f"pose.csv, line 2, columns qx,qy,qz,x (qw): a quaternion far from unit norm (|‖q‖ − 1| = {dev[0]:.3g}), and "
+        f"so are {(dev > 0.1).sum()} of the first 300 samples: these columns do not hold a rotation; the columns read: "
+        "--columns t=time,qw=x,qx=qx,qy=qy,qz=qz — correct it to name the attitude's columns"
+    ) in err
+
+
+# ------------------------------------------------------------------------------------------- precision policy
+
+
+def test_significant_digits_and_the_file_tolerance():
+    assert significant_digits(["0.12340", "-1.2e-03", "0", "1"]) == 5
+    assert significant_digits(["0.000123", "abc", ""]) == 3
+    assert significant_digits(["0", "0.000"]) is None
+    assert file_tolerance("quaternion", 5) == (pytest.approx(1e-4), 1e-2)  # rounding ≤ 4 × ½·10⁻⁴ in quadrature
+    assert file_tolerance("quaternion", 2) == (pytest.approx(0.1), 0.05)  # capped: |q| = 2 is never "rounding"
+    assert file_tolerance("matrix", 3) == (pytest.approx(0.03), pytest.approx(0.03))
+    assert file_tolerance("matrix", None) == (0.0, 1e-2)
+
+
+def test_imprecise_matrices_are_projected_and_reflections_named(tmp_path, capsys):
+    t = np.arange(40) / 100.0
+    R = turning(t).as_matrix()
+    rng = np.random.default_rng(1)
+    bent = R + rng.normal(0, 5e-4, R.shape)  # ‖RᵀR − I‖ ≈ 2e-3: mostly above 1e-3, within 1e-2
+    header = "t," + ",".join(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+    p = tmp_path / "m.csv"
+    p.write_text(
+        header
+        + "\n"
+        + "\n".join(",".join(repr(float(v)) for v in (t[k], *bent[k].reshape(-1))) for k in range(40))
+        + "\n"
+    )
+    log = read_log(p)
+    err = np.linalg.norm(np.einsum("tki,tkj->tij", bent, bent) - np.eye(3), axis=(1, 2))
+    fixed = (err > 1e-3) & (err <= 1e-2)
+    assert fixed.sum() > 20 and err.max() <= 1e-2
+    nearest = np.array([polar(m)[0] for m in bent[fixed]])  # SciPy's polar factor: the nearest orthogonal matrix
+    np.testing.assert_allclose(log.data[fixed], nearest, atol=1e-12)
+    np.testing.assert_array_equal(log.data[~fixed], bent[~fixed])  # within the estimators' tolerance: as written
+    assert any(f"{fixed.sum()} matrices projected onto SO(3)" in n for n in log.notes)
+    flip = bent * np.array([1.0, 1.0, -1.0])  # the third column negated: det R = -1
+    p.write_text(
+        header
+        + "\n"
+        + "\n".join(",".join(repr(float(v)) for v in (t[k], *flip[k].reshape(-1))) for k in range(40))
+        + "\n"
+    )
+    with pytest.raises(
+        LogFormatError,
+        match=r"m\.csv, line 2, columns r11\.\.r33: a reflection \(det R < 0\), not a "
+        r"rotation, and so are 40 of the first 40 samples: these columns do not hold a rotation",
+    ):
+        read_log(p)
+
+
+def test_a_stray_sample_goes_to_the_estimators_check(tmp_path, capsys):
+    t = np.arange(100) / 100.0
+    q = turning(t).as_quat()
+    q[30] *= 0.5  # |q| = 0.5 once: a bad sample, not wrong columns
+    p = tmp_path / "q.csv"
+    p.write_text(
+        "t,qx,qy,qz,qw\n" + "\n".join(",".join(repr(float(v)) for v in (t[k], *q[k])) for k in range(100)) + "\n"
+    )
+    code, _, _, err = run(p, tmp_path, capsys)
+    assert code == 2 and "q.csv, line 32, columns qw,qx,qy,qz: a quaternion far from unit norm: |q| = 0.5" in err
+    code, _, out, _ = run(p, tmp_path, capsys, "--skip-bad-samples")
+    assert code == 0 and "--skip-bad-samples: 1 bad samples treated as missing (first: line 32" in out
+
+
+def test_few_digits_widen_the_tolerance(tmp_path):
+    t = np.arange(50) / 100.0
+    q = turning(t).as_quat() * 1.03  # |q| = 1.03: rounding for 2 digits, not for 4
+    for digits, normalised in ((2, True), (4, False)):
+        p = tmp_path / f"d{digits}.csv"
+        p.write_text(
+            "t,qx,qy,qz,qw\n"
+            + "\n".join(",".join([repr(float(t[k]))] + [f"{v:.{digits}g}" for v in q[k]]) for k in range(50))
+            + "\n"
+        )
+        log = read_log(p)
+        norms = np.linalg.norm(log.data, axis=1)
+        assert np.allclose(norms, 1.0, atol=1e-12) == normalised
+
+
+def test_a_recognised_file_read_through_a_map_reads_the_same(tmp_path):
+    from vendor_files import decimal_seconds, write_euroc, write_tum
+
+    t = np.arange(50) / 200.0
+    q = turning(t).as_quat()
+    euroc = write_euroc(tmp_path / "data.csv", [1403715524907143168 + round(x * 1e9) for x in t], q, "{:.9f}")
+    mapped = read_log(euroc, columns="t=1,qw=5,qx=6,qy=7,qz=8", time_unit="ns")
+    assert "read column by column as the column map says, not as an EuRoC / ASL trajectory CSV" in mapped.notes
+    ref = read_log(euroc)
+    np.testing.assert_array_equal(mapped.t, ref.t)
+    np.testing.assert_array_equal(mapped.data, ref.data)
+    assert mapped.t0 == ref.t0
+    tum = write_tum(tmp_path / "traj.txt", decimal_seconds(1_700_000_000, t), q)
+    mapped = read_log(tum, header_rows=0, columns="t=1,qx=5,qy=6,qz=7,qw=8")  # '#' lines: comments
+    np.testing.assert_array_equal(mapped.t, read_log(tum).t)
+    np.testing.assert_array_equal(mapped.data, read_log(tum).data)
+
+
+def test_text_messages(tmp_path):
+    p = tmp_path / "x.csv"
+    p.write_text("\n\n")
+    with pytest.raises(LogFormatError, match=r"x\.csv: empty file, expected rows"):
+        read_log(p, header_rows=0, columns="t=1,qw=2,qx=3,qy=4,qz=5")
+    p.write_text("t,qw,qx,qy,qz\n0,1,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"the time column is given twice \(--columns t= and --time-column\)"):
+        read_log(p, columns="t=1", time_column="qw")
+    with pytest.raises(ValueError, match=r"header rows must be a whole number >= 0; got -1"):
+        read_log(p, header_rows=-1)
+    p.write_text('t,qw,qx,qy,qz,"' + "n" * 200_000 + '"\n0,1,0,0,0,x\n')
+    with pytest.raises(LogFormatError, match=r"line 1 \(header\): field larger than field limit .*quoted field"):
+        read_log(p)
+    t = np.arange(50) / 100.0
+    M = turning(t).as_matrix() * 1.3  # every matrix scaled: no rotation
+    header = "t," + ",".join(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+    body = [",".join(num(v) for v in (t[k], *M[k].reshape(-1))) for k in range(50)]
+    p.write_text(header + "\n" + "\n".join(body) + "\n")
+    with pytest.raises(
+        LogFormatError, match=r"line 2, columns r11\.\.r33: not a rotation matrix \(‖RᵀR − I‖ = 1\.2\), and so are 50"
+    ):
+        read_log(p)
+
+
+def test_a_column_map_is_refused_where_it_cannot_apply(tmp_path):
+    np.savez(tmp_path / "x.npz", t=np.arange(3.0), q=np.tile([0.0, 0.0, 0.0, 1.0], (3, 1)))
+    with pytest.raises(ValueError, match=r"x\.npz is an omegahat NPZ log: --columns applies only to an omegahat CSV"):
+        read_log(tmp_path / "x.npz", columns="t=1,qw=2,qx=3,qy=4,qz=5")
+    with pytest.raises(ValueError, match=r"x\.npz is an omegahat NPZ log: --header-rows applies only to an omegahat"):
+        read_log(tmp_path / "x.npz", header_rows=2)
