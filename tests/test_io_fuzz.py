@@ -161,7 +161,19 @@ def test_reader_gives_the_right_values_or_its_own_error(tmp_path, case):
         return
     assert ref is not None, "the reference parser refuses this file"
     np.testing.assert_array_equal(log.t, ref[0])
-    np.testing.assert_array_equal(log.data, ref[1])
+    np.testing.assert_array_equal(log.data, precision_policy(ref[1], log.data))
+
+
+def precision_policy(q, read):
+    """The rows of ``q`` as the precision policy of ``docs/your-data.md`` hands them on: as written within the
+    estimators' tolerance (1e-3); beyond it, either as written or divided by the norm, and the latter only up to
+    the cap on the file tolerance (0.05), whichever the reader did (the exact tolerance follows the file's digits
+    and is pinned by tests/test_io_columns.py)."""
+    q = np.array(q, dtype=float)
+    dev = np.abs(np.linalg.norm(q, axis=1) - 1.0)
+    normalised = np.isfinite(dev) & (dev > 1e-3) & (dev <= 0.05) & ~np.all(read == q, axis=1)
+    q[normalised] /= np.linalg.norm(q[normalised], axis=1, keepdims=True)
+    return q
 
 
 @settings(
