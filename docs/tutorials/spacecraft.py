@@ -62,7 +62,7 @@ print("gains k =", np.round(gains.k, 1), " predicted noise per axis (rad/s):", p
 
 # --- 4. Estimate: the whole log at once (est.update(t, q, tau) does the same one fix at a time) ---------------
 est = SarrasEstimator(J, gains=gains, warm_start=True)
-omega_hat = est.run(t, q_meas, tau)
+omega_hat = est.run(t, q_meas, tau).omega  # NaN at the first fix: a warm start needs two
 
 settled = t > 60.0  # after the warm start and the first bandwidth time constants
 rms = np.sqrt(np.mean((omega_hat[settled] - omega_true[settled]) ** 2, axis=0))

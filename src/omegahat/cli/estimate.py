@@ -1,8 +1,9 @@
 r"""``omegahat estimate INPUT -o OUTPUT``: angular velocity from attitude data, in whatever format it is.
 
 A thin shell: the options become :class:`omegahat.io.ReadOptions` (how to read the input) and
-:class:`omegahat.io.pipeline.EstimateSettings` (what to estimate with), and :func:`omegahat.io.pipeline.estimate_stream`
-does the work on the stream :func:`omegahat.io.open_log` opens, writing through :func:`omegahat.io.open_output`.
+:class:`omegahat.io.settings.EstimateSettings` (what to estimate with), and :func:`omegahat.io.pipeline.estimate_stream`
+does the work on the stream :func:`omegahat.io.open_log` opens, writing through :func:`omegahat.io.open_output`;
+messages name the options as flags (:func:`cli_option`).
 
 Input (:mod:`omegahat.io`, recognised from the file): omegahat's CSV (a header naming the columns: ``t`` plus a
 quaternion ``qw,qx,qy,qz``, a rotation matrix ``r11..r33`` or body-frame directions ``b1x,b1y,b1z,b2x,...``
@@ -42,11 +43,11 @@ from tqdm import tqdm
 
 from omegahat import measurements as ms
 from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
-from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_stream
+from omegahat.io.pipeline import estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
 from omegahat.observer.gains import ObserverGains
-from omegahat.observer.presets import PRESETS
 
 HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
 EPILOG = """\
@@ -71,6 +72,21 @@ example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
 """
 
 PROGRESS_MIN_BYTES = 4_000_000  # show progress bars from this input size on (unless told otherwise)
+
+#: option keys (:class:`omegahat.io.settings.EstimateSettings`' fields, :class:`omegahat.io.ReadOptions`') whose flag
+#: is not ``--`` and the key with dashes
+FLAGS = {"bandwidth_hz": "--bandwidth", "gains": "--k/--l", "scalar_first": "--quaternion-order"}
+
+
+def cli_option(key: str, value: object = None) -> str:
+    """An option as the command line spells it in messages: ``--rotation-tol 0.02``, ``--skip-bad-samples`` (a
+    switch: value None or True), ``"--references=X,Y,Z"`` (quoted: ``;`` ends a shell command)."""
+    flag = FLAGS.get(key, "--" + key.replace("_", "-"))
+    if key == "references" and value is not None:
+        return f'"{flag}={value}"'
+    if value is None or value is True:
+        return flag
+    return f"{flag} {value:g}" if isinstance(value, float) else f"{flag} {value}"
 
 
 def _numbers(text: str) -> list[float]:
@@ -287,7 +303,6 @@ def run(args: argparse.Namespace) -> int:
         skip_bad_samples=args.skip_bad_samples,
         rotation_tol=args.rotation_tol,
         quat_norm_tol=args.quat_norm_tol,
-        cli=True,
         preset=args.preset,
         smooth=args.smooth,
     )
@@ -307,7 +322,7 @@ def run(args: argparse.Namespace) -> int:
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
     try:
         with bar:
-            summary = estimate_stream(stream, settings, writer, report=print, progress=progress)
+            summary = estimate_stream(stream, settings, writer, report=print, progress=progress, spell=cli_option)
             bar.n = bar.total
             bar.refresh()
     finally:

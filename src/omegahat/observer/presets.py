@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import NoReturn
+from typing import Literal, TypeAlias, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,7 +61,15 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import (
+    Estimate,
+    Estimator,
+    Measurement,
+    Measurements,
+    StreamingEstimator,
+    batch_status,
+    one_of,
+)
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SkippedSamplesWarning
 from omegahat.observer.kalman import SupervisedKalmanEstimator
@@ -74,6 +82,7 @@ __all__ = [
     "MocapModel",
     "MocapPreset",
     "MocapSmoother",
+    "Preset",
     "attitude_noise",
     "estimator_for",
     "filter_lag",
@@ -83,7 +92,9 @@ __all__ = [
     "smooth",
 ]
 
-PRESETS = ("mocap",)
+#: the presets a user can type
+Preset: TypeAlias = Literal["mocap"]
+PRESETS: tuple[str, ...] = get_args(Preset)
 MOCAP_SWITCH_HZ = 80.0  #: (P1) at and above this sample rate, (P2) below
 MOCAP_MEASUREMENT_SIGMA = 1e-3  #: σ_m, rad per axis
 MOCAP_JERK_NOISE = 1500.0  #: σ_d of (P1), rad/s^2.5
@@ -167,7 +178,7 @@ def smooth(
     times: ArrayLike,
     attitudes: Measurements,
     rate_hz: float | None = None,
-    preset: str = "mocap",
+    preset: Preset = "mocap",
     noise_std: float | None = None,
     **options: object,
 ) -> np.ndarray:
@@ -177,8 +188,7 @@ def smooth(
     ``rate_hz``: the sample rate (default: from the median spacing); ``noise_std``: the attitude noise σ̂ (default:
     measured, :func:`attitude_noise`). The log is checked once, as every estimator checks it
     (:func:`omegahat.measurements.checked_log`)."""
-    if preset not in PRESETS:
-        raise ValueError(f"preset must be one of {PRESETS}; got {preset!r}")
+    one_of("preset", preset, Preset)
     checks = {k: options.pop(k) for k in ("scalar_first", "rotation_tol", "quat_norm_tol") if k in options}
     log = ms.checked_log(times, attitudes, **checks)  # type: ignore[arg-type]
     t, R = log.times, np.where(log.valid[:, None, None], log.values, np.nan)
@@ -190,8 +200,8 @@ def smooth(
         noise_std = attitude_noise(t, R)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SkippedSamplesWarning)  # missing samples: the caller counts them
-        forward = mocap_estimator(rate_hz, noise_std, **options).run(t, R)
-        backward = -mocap_estimator(rate_hz, noise_std, **options).run(t[-1] - t[::-1], R[::-1])[::-1]
+        forward = mocap_estimator(rate_hz, noise_std, **options).run(t, R).omega
+        backward = -mocap_estimator(rate_hz, noise_std, **options).run(t[-1] - t[::-1], R[::-1]).omega[::-1]
     d = filter_lag(rate_hz, noise_std)
     if d > 0:
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
@@ -241,7 +251,7 @@ def filter_lag(rate_hz: float, noise_std: float | None = None) -> float:
     alpha, axis = 0.05, np.array([0.6, 0.0, 0.8])
     t = np.arange(0.0, 400.0 / rate_hz, 1.0 / rate_hz)  # the filter settles within ~20 samples
     R = so3.exp(np.outer(0.5 * alpha * t**2, axis))
-    omega = mocap_estimator(rate_hz, noise_std, omega_hat0=np.zeros(3)).run(t, R)
+    omega = mocap_estimator(rate_hz, noise_std, omega_hat0=np.zeros(3)).run(t, R).omega
     error = (omega - np.outer(alpha * t, axis))[t.size // 2 :] @ axis
     return float(-np.mean(error) / alpha)
 
@@ -254,45 +264,65 @@ def _shifted(t, w, d):
     return CubicSpline(t[ok], w[ok], axis=0)(t + d)
 
 
-class MocapPreset(Estimator):
-    """``omegahat estimate --preset mocap`` behind the estimator interface (causal). ``noise_std``: the log's σ̂;
-    None: :meth:`run` measures it on the log's head first (:func:`attitude_noise`), as the command does, and
-    :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade noise."""
+class MocapPreset(StreamingEstimator):
+    """``omegahat estimate --preset mocap`` behind the estimator contract (causal). ``noise_std``: the log's σ̂;
+    None: :meth:`run` on a fresh estimator measures it on the log's head first (:func:`attitude_noise`), as the
+    command does, and :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade
+    noise. ``options`` go to :func:`mocap_estimator`. The torque is not used (the preset is for unknown ones)."""
 
-    def __init__(self, rate_hz: float, noise_std: float | None = None, **options: object):
+    def __init__(self, *, rate_hz: float, noise_std: float | None = None, **options: object) -> None:
         self.rate_hz, self.noise_std, self.options = rate_hz, noise_std, options
         self.reset()
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at ``t`` (``torque`` ignored: the preset is for unknown ones)."""
-        return self.estimator.update(t, measurement)
+    @property
+    def n_skipped(self) -> int:  # type: ignore[override]  # the estimator's own count
+        return self.estimator.n_skipped
 
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample ``(T, 3)``; a fresh estimator for the log when the noise was not given."""
-        if self.noise_std is None:
-            self.estimator = mocap_estimator(self.rate_hz, attitude_noise(times, measurements), **self.options)
-        return self.estimator.run(times, measurements)
+    def update(self, t: float, sample: Measurement, torque: ArrayLike | None = None) -> Estimate:
+        """The estimate at ``t`` (``torque`` not used)."""
+        self._fresh = False
+        return self.estimator.update(t, sample)
+
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """The estimate at every sample; from a fresh state without ``noise_std``, an estimator for the log's
+        measured noise (``torque`` not used)."""
+        if self.noise_std is None and self._fresh:
+            self.estimator = mocap_estimator(self.rate_hz, attitude_noise(t, data), **self.options)
+        self._fresh = False
+        return self.estimator.run(t, data)
 
     def reset(self) -> None:
         """Back to a new estimator (nothing seen)."""
         self.estimator = mocap_estimator(self.rate_hz, self.noise_std, **self.options)
+        self._fresh = True
 
 
 class MocapSmoother(Estimator):
-    """:func:`smooth` behind the estimator interface: offline only (``run``), ``causal = False``; ``rate_hz`` as
-    there (None: from the log)."""
+    """:func:`smooth` behind the estimator contract: offline only (``run``), ``causal = False``; ``rate_hz`` and
+    ``noise_std`` (keyword-only) as there (None: from the log), and the input checks of
+    :mod:`omegahat.measurements`. A missing sample is bridged by both passes (status ``predicted``)."""
 
     causal = False
 
-    def __init__(self, rate_hz: float | None = None, noise_std: float | None = None):
+    def __init__(
+        self,
+        *,
+        rate_hz: float | None = None,
+        noise_std: float | None = None,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+    ) -> None:
         self.rate_hz, self.noise_std = rate_hz, noise_std
+        self.scalar_first = bool(scalar_first)
+        self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
-        raise NotImplementedError("MocapSmoother is offline (it runs backwards too): call run(times, measurements)")
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """Zero-lag ω̂ at every sample, ``(T, 3)`` (``torques`` are ignored: the preset is for unknown ones)."""
-        return smooth(times, measurements, rate_hz=self.rate_hz, noise_std=self.noise_std)
-
-    def reset(self) -> None:
-        """Nothing to forget: ``run`` is stateless."""
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """Zero-lag ω̂ at every sample ``(T, 3)`` and the statuses (``torque`` not used: the preset is for unknown
+        ones)."""
+        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
+        log = ms.checked_log(t, data, scalar_first=self.scalar_first, **tols)
+        R = np.where(log.valid[:, None, None], log.values, np.nan)  # the checked log, NaN where skipped
+        omega = smooth(log.times, R, self.rate_hz, noise_std=self.noise_std)  # R is checked: no second verdict
+        self.n_skipped = int(np.count_nonzero(~log.valid))
+        return Estimate(omega, batch_status(log.valid, omega))

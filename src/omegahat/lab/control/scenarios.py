@@ -121,7 +121,7 @@ def make_feed(name: str, scenario: ControlScenario) -> RateFeed:
         )
         return EstimatorFeed(est, name="omegahat")
     if name == "differencing":
-        return EstimatorFeed(DifferencingEstimator("backward"), name="differencing")
+        return EstimatorFeed(DifferencingEstimator(scheme="backward"), name="differencing")
     if name in ("observer", "wrong-sign"):
         obs = SarrasEstimator(
             J,

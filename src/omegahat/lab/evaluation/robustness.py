@@ -151,8 +151,9 @@ def _sarras(config: RobustnessConfig, case: Case) -> Estimator:
 
 def _mekf(config: RobustnessConfig, case: Case) -> Estimator:
     return MEKF(
-        config.J, "dynamic", q=(np.trace(config.J) / 3.0 * config.rate_noise) ** 2, measurement_sigma=case.sigma,
-        references=TWO_DIRECTIONS if case.directions else None, omega0=case.omega_hat0,
+        config.J, model="dynamic", q=(np.trace(config.J) / 3.0 * config.rate_noise) ** 2,
+        measurement_sigma=case.sigma, references=TWO_DIRECTIONS if case.directions else None,
+        omega_hat0=case.omega_hat0,
         sigma_omega0=config.omega_max + config.omega_hat0_max,
     )  # fmt: skip
 
