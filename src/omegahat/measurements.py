@@ -135,6 +135,7 @@ __all__ = [
     "sample_array",
     "sample_status",
     "sample_time",
+    "suggested_tolerance",
     "times_array",
     "tolerances",
     "torque_vector",
@@ -200,9 +201,15 @@ def python_option(key: str, value: object = None) -> str:
     return key if value is None else f"{key}={value!r}"
 
 
-def _g2(x: float) -> float:
-    """``x`` to 2 significant digits (a tolerance to suggest)."""
-    return float(f"{x:.2g}")
+def suggested_tolerance(status: int, info: float) -> tuple[str, float] | None:
+    """The tolerance option that would accept a sample rejected with ``(status, info)`` and a value for it (twice the
+    sample's own excess, to 2 significant digits), or None when no tolerance would (a reflection, a zero direction,
+    times and torques)."""
+    if status == NOT_ORTHOGONAL:
+        return "rotation_tol", float(f"{2 * float(info):.2g}")
+    if status == QUAT_NORM:
+        return "quat_norm_tol", float(f"{2 * abs(float(info) - 1):.2g}")
+    return None
 
 
 def describe_rejection(
@@ -238,18 +245,20 @@ def describe_rejection(
         return f"{where}: time t = {t_text} is not finite"
     if status == TORQUE_NOT_FINITE:
         return f"{label}: torque must be finite; got {info!r}"
+    accept = suggested_tolerance(status, info)
+    pass_ = "" if accept is None else f"pass {option(*accept)} to accept it"
     if status == NOT_ORTHOGONAL:
         return (
             f"{label}: not a rotation matrix: |R^T R - I| = {info:.3g} exceeds {option('rotation_tol', rot_tol)} "
-            f"(pass {option('rotation_tol', _g2(2 * info))} to accept it{other})"
+            f"({pass_}{other})"
         )
     if status == NOT_PROPER:
         return f"{label}: a reflection, not a rotation: det R = {info:.6g} < 0{skips}"
     if status == QUAT_NORM:
         return (
             f"{label}: a quaternion far from unit norm: |q| = {info:.6g}, |(|q| - 1)| exceeds "
-            f"{option('quat_norm_tol', quat_tol)} (pass {option('quat_norm_tol', _g2(2 * abs(info - 1)))} to "
-            f"accept it{other}; is it a quaternion, with {option('scalar_first', None)} right?)"
+            f"{option('quat_norm_tol', quat_tol)} ({pass_}{other}; is it a quaternion, with "
+            f"{option('scalar_first', None)} right?)"
         )
     if status == ZERO_DIRECTION:
         return f"{label}: measured direction b{int(info) + 1} has zero length{skips}"

@@ -99,8 +99,11 @@ def attitude_choice(
     head: list[LogChunk],
     report: Callable[[str], None],
     spell: Spelling,
+    head_done: int = 0,
 ) -> Choice:
-    """The estimator for an attitude or multi-direction ``stream`` from its checked ``head`` (module docstring)."""
+    """The estimator for an attitude or multi-direction ``stream`` from its checked ``head`` (module docstring);
+    ``head_done``: the stream's progress (``stream.done``: bytes of a text file) when the head had been read, from
+    which the whole log's length is extrapolated when the stream does not know its rows in advance."""
     J, refs = inertia(settings, spell), references(settings, stream, spell)
     t_h, data_h, tau_h = _head_arrays(head, stream)
     n_head = t_h.size
@@ -116,7 +119,7 @@ def attitude_choice(
     if rows_read < autogain.HEAD_SAMPLES or stream.n_rows_hint == rows_read:  # the head is the whole log
         duration = float(head[-1].t[-1] - t_h[0])
     else:  # the whole log's duration, extrapolated from the head by its rows (or, for text, its bytes)
-        total = stream.n_rows_hint or (stream.size / max(stream.done, 1) * rows_read)
+        total = stream.n_rows_hint or (stream.size / max(head_done, 1) * rows_read)
         duration = float(t_h[-1] - t_h[0]) * total / n_head
     options = stream.options
     unit = options.time_unit if options is not None else "s"

@@ -113,8 +113,8 @@ class BadSamples:
         k = int(bad[0])
         if not s.skip_bad_samples:
             where = stream.where(int(chunk.labels[k]), stream.attitude_name)
-            accept = {ms.NOT_ORTHOGONAL: "rotation_tol", ms.QUAT_NORM: "quat_norm_tol"}.get(int(st[k]))
-            options = (("skip_bad_samples", True),) + (((accept, None),) if accept else ())
+            accept = ms.suggested_tolerance(int(st[k]), float(info[k]))
+            options = (("skip_bad_samples", True),) + ((accept,) if accept else ())
             raise naming(LogFormatError(self._why(int(st[k]), float(info[k]), where)), *options)
         chunk.data[bad] = np.nan
         self.count += bad.size
@@ -260,17 +260,20 @@ def estimate_stream(
     settings.check(spell)
     summary = RunSummary()
     bad = BadSamples(settings, stream, spell)
-    chunks = prefetch(stream.chunks())
+    source = stream.chunks()
     head: list[LogChunk] = []
     if stream.kind == "directions" and stream.n_directions == 1:  # one direction: its own observer (no attitude)
         if settings.preset is not None:
             raise ValueError(f"{spell('preset', settings.preset)} needs attitudes or two directions or more")
         choice = single_direction_choice(stream, settings, report, spell)
+        chunks = prefetch(source)
     else:
-        head = _head(chunks)
+        head = _head(source)  # read here, not ahead: what was read so far is the head's (its share of the log)
+        head_done = stream.done
+        chunks = prefetch(source)  # the rest is read while the kernels compile
         refs = references(settings, stream, spell)
         summary.compile_s = _check_head(head, stream, refs, bad, announce or _stderr)
-        choice = attitude_choice(stream, settings, head, report, spell)
+        choice = attitude_choice(stream, settings, head, report, spell, head_done)
     summary.gains, summary.gains_text = choice.gains, choice.gains_text
     est = choice.estimator
     with open_writer(stream) as writer:
