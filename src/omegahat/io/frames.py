@@ -31,8 +31,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from omegahat.interface import STATUS_WORDS
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name
-from omegahat.io.output import STATUS_WORDS
 from omegahat.io.registry import LogStream, ReadOptions, checked_stream
 from omegahat.io.timestamps import sort_by_time
 
