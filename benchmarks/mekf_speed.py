@@ -40,7 +40,7 @@ def data(rate_hz, seconds, rng):
 
 
 def make(model, directions):
-    return MEKF(J, model=model, q=1e-4, measurement_sigma=1e-3, references=REFS if directions else None)
+    return MEKF(J, model=model, q=1e-4, measurement_noise=1e-3, references=REFS if directions else None)
 
 
 def main(argv=None):

@@ -62,12 +62,12 @@ ESTIMATORS = {
         "directions",
     ),
     "supervised-kalman": (
-        lambda: SupervisedKalmanEstimator(J, rate_hz=RATE, measurement_sigma=1e-4, rate_noise=1e-3),
+        lambda: SupervisedKalmanEstimator(J, rate_hz=RATE, measurement_noise=1e-4, rate_noise=1e-3),
         "matrix",
     ),
     "mocap-preset": (lambda: mocap_estimator(RATE, 1e-4), "quaternion"),
-    "mocap-preset-shell": (lambda: MocapPreset(rate_hz=RATE, noise_std=1e-4), "matrix"),
-    "mekf": (lambda: MEKF(J, q=1e-4, measurement_sigma=1e-4), "matrix"),
+    "mocap-preset-shell": (lambda: MocapPreset(rate_hz=RATE, measurement_noise=1e-4), "matrix"),
+    "mekf": (lambda: MEKF(J, q=1e-4, measurement_noise=1e-4), "matrix"),
     "mekf-directions": (lambda: MEKF(model="kinematic", q=1e-4, references=V2), "directions"),
     "differencing": (lambda: DifferencingEstimator(cutoff_hz=10.0), "quaternion"),
     "differencing-central": (lambda: DifferencingEstimator(scheme="central"), "matrix"),
@@ -75,8 +75,8 @@ ESTIMATORS = {
     "single-direction": (lambda: SingleDirectionEstimator(J, reference=V1, omega_hat0=W), "one-direction"),
     "spline": (lambda: SplineEstimator(), "matrix"),
     "savitzky-golay": (lambda: SavitzkyGolayEstimator(window=5, order=2), "quaternion"),
-    "mocap-smoother": (lambda: MocapSmoother(rate_hz=RATE, noise_std=1e-4), "quaternion"),
-    "rts-smoother": (lambda: RTSSmoother(filter_factory=lambda: MEKF(J, q=1e-4, measurement_sigma=1e-4)), "matrix"),
+    "mocap-smoother": (lambda: MocapSmoother(rate_hz=RATE, measurement_noise=1e-4), "quaternion"),
+    "rts-smoother": (lambda: RTSSmoother(filter_factory=lambda: MEKF(J, q=1e-4, measurement_noise=1e-4)), "matrix"),
 }
 NAMES = list(ESTIMATORS)
 STREAMING = [n for n in NAMES if isinstance(ESTIMATORS[n][0](), StreamingEstimator)]

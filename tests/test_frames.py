@@ -28,7 +28,7 @@ def motion(n=N):
     return t, R, Rotation.from_matrix(R).as_quat(), omega
 
 
-GAINS = bandwidth_gains(J_AXI, 30.0)
+GAINS = bandwidth_gains(J_AXI, 30.0 / (2 * np.pi))  # 30 rad/s
 FIXED = {"gains": GAINS, "start": "warm", "inertia": J_AXI}  # as the estimator itself is run below
 W = ["wx", "wy", "wz"]
 
@@ -113,7 +113,7 @@ def test_matrices_directions_missing_values_and_torque():
     b = np.einsum("tji,nj->tni", R, V)  # body-frame directions r_i = Rᵀ v_i
     dirs = pl.DataFrame({"t": t, **{f"b{n + 1}{a}": b[:, n, k] for n in range(2) for k, a in enumerate("xyz")}})
     dirs = dirs.with_columns(tau_x=pl.lit(0.0), tau_y=pl.lit(0.0), tau_z=pl.lit(0.0))
-    gains = bandwidth_gains(J_AXI, 30.0, V)
+    gains = bandwidth_gains(J_AXI, 30.0 / (2 * np.pi), V)
     got = omegahat.estimate_frame(dirs, gains=gains, start="warm", inertia=J_AXI, references=V)
     est = SarrasEstimator(J_AXI, gains=gains, references=V, warm_start=True)
     np.testing.assert_allclose(got.select(W).to_numpy()[1:], est.run(t, b).omega[1:], rtol=0, atol=1e-12)

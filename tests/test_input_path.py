@@ -102,7 +102,7 @@ BAD_LOGS = {
         non_unit_quaternion,
         (ms.QUAT_NORM, 1.5, 0.375),
         "sample 3 (t = 0.375): a quaternion far from unit norm: |q| = 1.5, |(|q| - 1)| exceeds quat_norm_tol (pass "
-        "quat_norm_tol=1.0 to accept it, or fix the data; is it a quaternion, with scalar_first right?)",
+        "quat_norm_tol=1.0 to accept it, or fix the data; is it a quaternion, and its order right: scalar_first?)",
     ),
     "time backwards": (
         time_backwards,

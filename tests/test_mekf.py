@@ -156,7 +156,7 @@ def test_nees_within_chi2_bounds_near_linear(model, q):
             J_true,
             model=model,
             q=q,
-            measurement_sigma=sigma,
+            measurement_noise=sigma,
             omega_hat0=w0,
             sigma_omega0=sigma_w0,
             R0=R0,
@@ -179,7 +179,7 @@ def test_noise_free_convergence_dynamic_attitude_fixes():
     body = RigidBody([3.0, 2.0, 1.0])
     times = np.arange(0.0, 4.0, 0.01)
     truth = integrate(body, np.eye(3), [2.0, -1.0, 0.6], times)
-    f = MEKF(body.J, model="dynamic", q=1e-10, measurement_sigma=1e-6, omega_hat0=np.zeros(3), sigma_omega0=3.0)
+    f = MEKF(body.J, model="dynamic", q=1e-10, measurement_noise=1e-6, omega_hat0=np.zeros(3), sigma_omega0=3.0)
     est = f.run(times, truth.R).omega
     err = np.linalg.norm(est - truth.omega, axis=1)
     assert err[0] > 2.0
@@ -193,7 +193,7 @@ def test_noise_free_convergence_kinematic_directions():
     R = Exp(np.outer(times, w))
     refs = np.eye(3)[:2]
     b = np.einsum("ij,tjk->tik", refs, R)  # rows Rᵀ v_i
-    f = MEKF(None, model="kinematic", q=1e-8, measurement_sigma=1e-6, references=refs, sigma_omega0=2.0)
+    f = MEKF(None, model="kinematic", q=1e-8, measurement_noise=1e-6, references=refs, sigma_omega0=2.0)
     est = f.run(times, b).omega
     assert np.linalg.norm(est[times >= 2.0] - w, axis=1).max() < 1e-5
 
@@ -201,8 +201,8 @@ def test_noise_free_convergence_kinematic_directions():
 def test_nan_sample_is_skipped_like_a_missing_one():
     times = np.arange(0.0, 0.5, 0.05)
     R = Exp(np.outer(times, [0.3, 0.2, -0.5]))
-    a = MEKF(None, model="kinematic", q=1e-2, measurement_sigma=1e-3)
-    b = MEKF(None, model="kinematic", q=1e-2, measurement_sigma=1e-3)
+    a = MEKF(None, model="kinematic", q=1e-2, measurement_noise=1e-3)
+    b = MEKF(None, model="kinematic", q=1e-2, measurement_noise=1e-3)
     meas = R.copy()
     meas[4] = np.nan
     out_a = a.run(times, meas).omega
@@ -221,8 +221,8 @@ def test_errors_and_state_kept_after_rejection():
         MEKF(J, q=-1.0)
     with pytest.raises(ValueError, match="references are nearly collinear"):
         MEKF(J, references=[[1.0, 0, 0], [1.0, 1e-9, 0]])
-    f = MEKF(J, measurement_sigma=1e-3)
-    ref = MEKF(J, measurement_sigma=1e-3)
+    f = MEKF(J, measurement_noise=1e-3)
+    ref = MEKF(J, measurement_noise=1e-3)
     for g in (f, ref):
         g.update(0.0, np.eye(3))
         g.update(0.1, Exp([0.01, 0.02, 0.0]))
@@ -316,7 +316,7 @@ def test_run_equals_update_loop(case):
             J_DYN if model == "dynamic" else None,
             model=model,
             q=1e-3,
-            measurement_sigma=1e-3,
+            measurement_noise=1e-3,
             references=REFS if directions else None,
             omega_hat0=[0.5, 0.0, 0.0],
             sigma_omega0=1.0,
@@ -437,6 +437,6 @@ def test_torque_hold_against_a_ramp(hold):
     R = Rotation.from_rotvec(theta[:, None] * np.array([0.0, 0.0, 1.0])).as_matrix()
     taus = np.zeros((t.size, 3))
     taus[:, 2] = a + b * t
-    f = MEKF(Jd, q=1e-12, measurement_sigma=1e-6, omega_hat0=[0.0, 0.0, 0.5], sigma_omega0=1e-9, torque_hold=hold)
+    f = MEKF(Jd, q=1e-12, measurement_noise=1e-6, omega_hat0=[0.0, 0.0, 0.5], sigma_omega0=1e-9, torque_hold=hold)
     err = np.abs(f.run(t, R, taus).omega[:, 2] - w).max()
     assert err < 1e-8 if hold == "linear" else err > 1e-4

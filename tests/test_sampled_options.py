@@ -32,7 +32,7 @@ def test_torque_hold_against_a_ramp(hold):
     taus = np.zeros((times.size, 3))
     taus[:, 2] = a + b * times
     est = SarrasEstimator(
-        J, gains=bandwidth_gains(J, 5.0), omega_hat0=[0.0, 0.0, 0.5], warm_start=False, torque_hold=hold
+        J, gains=bandwidth_gains(J, 5.0 / (2 * np.pi)), omega_hat0=[0.0, 0.0, 0.5], warm_start=False, torque_hold=hold
     )
     err = np.abs(est.run(times, R, taus).omega[:, 2] - omega).max()
     if hold == "linear":  # the line through the two samples is the torque: RK4 and RKMK4 are then exact
@@ -83,7 +83,7 @@ def test_isotropic_gain_gives_every_mode_the_requested_rate():
     rates = np.abs(1.0 / np.linalg.eigvals(A) - 1.0) / h  # the per-mode decay rate, rad/s
     assert rates.max() / rates.min() < 1.01
 
-    plain = bandwidth_gains(np.eye(3), b, references=V)
+    plain = bandwidth_gains(np.eye(3), b / (2 * np.pi), references=V)
 
     def default(w0):
         return SarrasEstimator(np.eye(3), gains=plain, references=V, omega_hat0=w0)

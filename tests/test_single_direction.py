@@ -100,7 +100,7 @@ def test_converges_on_torque_free_tumbling_body_from_rest(method):
     directions at 10 Hz, start ω̂ = 0 with |ω| = 0.54 rad/s: the error falls below 1e-3 rad/s and stays there."""
     t = np.arange(0.0, 80.0, 0.1)
     tr, b = _tumble([0.3, 0.2, -0.4], t)
-    k, l = default_gains(J, method, 1.0)
+    k, l = default_gains(J, method, 1.0 / (2 * np.pi))  # 1 rad/s
     W, _ = run_single_direction(t, b, J, method=method, k=k, l=l)
     err = np.linalg.norm(W - tr.omega, axis=1)
     assert err[0] > 0.5
@@ -116,7 +116,7 @@ def test_known_torque_is_used_and_an_ignored_one_biases_the_estimate(method):
     tau = np.array([0.02, -0.01, 0.015])
     tr = integrate(RigidBody(J), np.eye(3), [0.3, 0.2, -0.4], t, torque=tau)
     b = np.einsum("tji,j->ti", tr.R, V)
-    k, l = default_gains(J, method, 1.0)
+    k, l = default_gains(J, method, 1.0 / (2 * np.pi))  # 1 rad/s
     given, _ = run_single_direction(t, b, J, method=method, k=k, l=l, torques=tr.torque)
     withheld, _ = run_single_direction(t, b, J, method=method, k=k, l=l)
     late = t > 40
@@ -213,9 +213,9 @@ def test_missing_samples_are_predicted_through_and_state_continues_across_calls(
     t = np.arange(0.0, 20.0, 0.1)
     tr, b = _tumble([0.3, 0.2, -0.4], t)
     b[50:55] = np.nan
-    one = SingleDirectionEstimator(J, reference=V, bandwidth=1.0)
+    one = SingleDirectionEstimator(J, reference=V, bandwidth_hz=1.0 / (2 * np.pi))
     W1, status = one.run(t, b)
-    two = SingleDirectionEstimator(J, reference=V, bandwidth=1.0)
+    two = SingleDirectionEstimator(J, reference=V, bandwidth_hz=1.0 / (2 * np.pi))
     W2 = np.concatenate([two.run(t[:100], b[:100]).omega, two.run(t[100:], b[100:]).omega])
     assert np.all(np.isfinite(W1[50:55])) and np.all(status[50:55] == Status.PREDICTED)
     assert status[0] == Status.UNAVAILABLE and np.all(np.isnan(W1[0]))  # one direction at one instant: no rate
@@ -227,7 +227,7 @@ def test_one_reference_in_the_n_direction_api_points_to_the_single_direction_est
     import omegahat
 
     with pytest.raises(ValueError, match=r"references holds one direction: .* use omegahat\.SingleDirectionEstimator"):
-        omegahat.sensor_gains(J, rate_hz=10.0, noise_std_rad=1e-3, bandwidth_hz=0.1, references=[[0.0, 0.0, 1.0]])
+        omegahat.sensor_gains(J, rate_hz=10.0, measurement_noise=1e-3, bandwidth_hz=0.1, references=[[0.0, 0.0, 1.0]])
     assert omegahat.SingleDirectionEstimator is SingleDirectionEstimator
 
 

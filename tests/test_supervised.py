@@ -20,7 +20,7 @@ from omegahat.simulation.rigid_body import RigidBody, Torque, integrate
 
 def _make(sc, sigma_a=1e-4, warm=True, **kw):
     return SupervisedKalmanEstimator(
-        sc.J_model, rate_hz=sc.rate_hz, measurement_sigma=max(sc.attitude_sigma, 1e-6), rate_noise=sigma_a,
+        sc.J_model, rate_hz=sc.rate_hz, measurement_noise=max(sc.measurement_noise, 1e-6), rate_noise=sigma_a,
         omega_hat0=None if warm else sc.omega_hat0, warm_start=warm, **kw,
     )  # fmt: skip
 
@@ -55,7 +55,7 @@ def test_steady_state_is_the_ekfs():
     ours = steady_rms(run.t, estimate_errors(est.run(run.t, run.R_meas, run.torque), run.omega), 100.0)
     mekf = MEKF(
         sc.J_model, model="dynamic", q=(np.trace(sc.J_model) / 3 * sigma_a) ** 2,
-        measurement_sigma=sc.attitude_sigma, omega_hat0=sc.omega_hat0, sigma_omega0=sc.omega_max,
+        measurement_noise=sc.measurement_noise, omega_hat0=sc.omega_hat0, sigma_omega0=sc.omega_max,
     )  # fmt: skip
     theirs = steady_rms(run.t, estimate_errors(mekf.run(run.t, run.R_meas, run.torque), run.omega), 100.0)
     assert ours <= 1.1 * theirs
@@ -72,7 +72,7 @@ def test_lost_ekf_is_restarted_from_the_observer():
     t = np.arange(0.0, 60.0 + 1e-9, 0.2)
     pulse = Torque.of_time(lambda s: np.array([20.0, 0.0, 0.0]) * (20.0 <= s < 20.5))
     traj = integrate(RigidBody(J), np.eye(3), [0.01, 0.0, 0.0], t, pulse, max_step=0.01)
-    R_meas = sensors.noisy_attitudes(traj.R, sc.attitude_sigma, np.random.default_rng(5))
+    R_meas = sensors.noisy_attitudes(traj.R, sc.measurement_noise, np.random.default_rng(5))
     est = _make(sc, 1e-6)
     err = estimate_errors(est.run(t, R_meas), traj.omega)
     assert err[(t > 20.5) & (t < 22.0)].max() > 0.01  # the pulse was felt

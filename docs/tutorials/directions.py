@@ -25,7 +25,7 @@ b[:, 1] *= 48.0  # (m/s² and µT here)
 
 # --- 3. Gains for two directions at 50 Hz with 2 mrad of noise: a 0.2 Hz bandwidth ------------------------------
 J = np.eye(3)  # inertia unknown: the identity makes the model "rate locally constant"
-gains = sensor_gains(J, rate_hz=rate, noise_std_rad=2e-3, bandwidth_hz=0.2, references=V)
+gains = sensor_gains(J, rate_hz=rate, measurement_noise=2e-3, bandwidth_hz=0.2, references=V)
 
 # --- 4. Estimate from the raw directions: references=V, one (2, 3) measurement per sample -------------------------
 est = SarrasEstimator(J, gains=gains, references=V, warm_start=True)

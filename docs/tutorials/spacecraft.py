@@ -56,7 +56,7 @@ noise = Rotation.from_rotvec(rng.normal(0.0, sigma, (t.size, 3)))
 q_meas = (Rotation.from_quat(q_true) * noise).as_quat()  # star tracker quaternions, x, y, z, w
 
 # --- 3. Gains for this sensor, and the noise they will leave ----------------------------------------------
-gains = sensor_gains(J, rate_hz=rate_hz, noise_std_rad=sigma, bandwidth_hz=0.05)
+gains = sensor_gains(J, rate_hz=rate_hz, measurement_noise=sigma, bandwidth_hz=0.05)
 predicted = predicted_noise_std(J, gains, rate_hz, sigma)
 print("gains k =", np.round(gains.k, 1), " predicted noise per axis (rad/s):", predicted)
 

@@ -257,8 +257,8 @@ def describe_rejection(
     if status == QUAT_NORM:
         return (
             f"{label}: a quaternion far from unit norm: |q| = {info:.6g}, |(|q| - 1)| exceeds "
-            f"{option('quat_norm_tol', quat_tol)} ({pass_}{other}; is it a quaternion, with "
-            f"{option('scalar_first', None)} right?)"
+            f"{option('quat_norm_tol', quat_tol)} ({pass_}{other}; is it a quaternion, and its order right: "
+            f"{option('scalar_first', None)}?)"
         )
     if status == ZERO_DIRECTION:
         return f"{label}: measured direction b{int(info) + 1} has zero length{skips}"

@@ -283,14 +283,14 @@ class MEKF(CompiledEstimator):
     model : ``"dynamic"`` (J and τ known; q is the torque-noise PSD, N²·m²·s) or ``"kinematic"`` (ω̇ white
         noise; q in rad²/s³).
     q : process-noise PSD (the filter's one tuning knob).
-    measurement_sigma : standard deviation of the attitude noise (rad per axis) or of each direction
+    measurement_noise : the attitude noise (rad, one standard deviation per axis), or that of each direction
         component.
     references : ``None`` for attitude measurements, else the known inertial directions ``(n, 3)``; samples
         are then body-frame measurements ``(n, 3)``.
     omega_hat0, sigma_omega0 : initial rate estimate (rad/s; default 0, and then no estimate at the first fix) and
         its standard deviation.
     R0, sigma_theta0 : initial attitude (``None``: the first valid measurement) and its standard deviation
-        (rad; default ``measurement_sigma`` for attitude fixes, 0.1 rad for directions).
+        (rad; default ``measurement_noise`` for attitude fixes, 0.1 rad for directions).
     max_step, max_angle : bounds on a propagation substep, s (default: none) and rad (the body's turn).
     torque_hold : ``"zero"`` (default: a sample's torque held until the next) or ``"linear"`` (interpolated to the
         next sample's torque; causal, as the next torque arrives with the next sample).
@@ -312,7 +312,7 @@ class MEKF(CompiledEstimator):
         *,
         model: Model = "dynamic",
         q: float = 1e-4,
-        measurement_sigma: float = 1e-3,
+        measurement_noise: float = 1e-3,
         references: ArrayLike | None = None,
         omega_hat0: ArrayLike | None = None,
         sigma_omega0: float = 1.0,
@@ -333,7 +333,7 @@ class MEKF(CompiledEstimator):
             raise ValueError("J must be given for the dynamic model (use model='kinematic' when it is unknown)")
         self.body = RigidBody(as_inertia(np.eye(3) if J is None else J))
         self.q = float(as_positive(q, "q")[0])
-        self.measurement_sigma = float(as_positive(measurement_sigma, "measurement_sigma")[0])
+        self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
         self.references = None if references is None else as_directions(references, "references")
         self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.sigma_omega0 = float(as_positive(sigma_omega0, "sigma_omega0")[0])
@@ -351,7 +351,7 @@ class MEKF(CompiledEstimator):
             tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
             self.R0 = ms.as_rotation(R0, "R0", scalar_first=self.scalar_first, **tols)
         if sigma_theta0 is None:
-            sigma_theta0 = self.measurement_sigma if self.references is None else 0.1
+            sigma_theta0 = self.measurement_noise if self.references is None else 0.1
         self.sigma_theta0 = float(as_positive(sigma_theta0, "sigma_theta0")[0])
         if not max_step > 0:  # inf (no bound) is allowed
             raise ValueError(f"max_step must be positive (inf: no bound); got {max_step!r}")
@@ -406,7 +406,7 @@ class MEKF(CompiledEstimator):
                     z, H = attitude_innovation(R, value)
                 else:
                     z, H = vector_innovation(R, value, self.references)
-                R, omega, P = update(R, omega, P, z, H, self.measurement_sigma**2)
+                R, omega, P = update(R, omega, P, z, H, self.measurement_noise**2)
         record = FilterStep(prior[0], prior[1], prior[2], Phi, R, omega, P)
         return (R, omega, P, t, tau.copy(), record), omega[:3], int(code), float(info)
 
@@ -435,7 +435,7 @@ class MEKF(CompiledEstimator):
             np.ascontiguousarray(self.body.J),
             np.ascontiguousarray(self.body.J_inv),
             self.q,
-            self.measurement_sigma**2,
+            self.measurement_noise**2,
             self.max_step,
             self.max_angle,
             self.torque_hold == "linear",

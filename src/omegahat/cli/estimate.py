@@ -11,8 +11,8 @@ with ``--references``; optionally the torque ``tau_x,tau_y,tau_z``, N·m, body a
 Motive or Vicon CSV export or a C3D file (``--body``); a ROS 1 bag (``.bag``) or ROS 2 bag (directory) with
 ``--topic`` and, for transforms, ``--parent-frame``/``--child-frame``. Conventions, each an option with a stated
 default: ``--time-unit s``, ``--rotation body-to-inertial`` (``v_inertial = R v_body``; spacecraft logs often store
-the inverse: ``inertial-to-body``), ``--quaternion-order`` (only for unnamed quaternions: NPZ ``q`` arrays,
-default x,y,z,w, or ``q0..q3``/``q1..q4`` columns).
+the inverse: ``inertial-to-body``), ``--scalar-first``/``--scalar-last`` (SciPy's name; only for unnamed
+quaternions: NPZ ``q`` arrays, default scalar last, or ``q0..q3``/``q1..q4`` columns).
 
 Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per sample (duplicates dropped by
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
@@ -75,7 +75,7 @@ PROGRESS_MIN_BYTES = 4_000_000  # show progress bars from this input size on (un
 
 #: option keys (:class:`omegahat.io.settings.EstimateSettings`' fields, :class:`omegahat.io.ReadOptions`') whose flag
 #: is not ``--`` and the key with dashes
-FLAGS = {"bandwidth_hz": "--bandwidth", "gains": "--k/--l", "scalar_first": "--quaternion-order"}
+FLAGS = {"bandwidth_hz": "--bandwidth", "gains": "--k/--l"}
 
 
 def cli_option(key: str, value: object = None) -> str:
@@ -138,11 +138,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="what the attitude maps: body-to-inertial (default; v_inertial = R v_body, SciPy, ROS) or "
         "inertial-to-body (many spacecraft logs); the output is in body axes either way",
     )
-    conv.add_argument(
-        "--quaternion-order",
-        choices=["wxyz", "xyzw"],
-        help="order of unnamed quaternions: NPZ array q (default xyzw, SciPy) or columns q0..q3 / q1..q4 "
-        "(required there); named columns qw,qx,qy,qz need none",
+    order = conv.add_mutually_exclusive_group()
+    order.add_argument(
+        "--scalar-first",
+        dest="scalar_first",
+        action="store_const",
+        const=True,
+        default=None,
+        help="unnamed quaternions are w,x,y,z (SciPy's scalar_first=True): NPZ array q (default: scalar last) or "
+        "columns q0..q3 / q1..q4 (one of --scalar-first/--scalar-last required there); named columns qw,qx,qy,qz "
+        "need neither",
+    )
+    order.add_argument(
+        "--scalar-last",
+        dest="scalar_first",
+        action="store_const",
+        const=False,
+        help="unnamed quaternions are x,y,z,w (SciPy's default)",
     )
     model = parser.add_argument_group("model and gains")
     model.add_argument(
@@ -282,7 +294,7 @@ def run(args: argparse.Namespace) -> int:
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
         time_unit=args.time_unit,
-        quaternion_order=args.quaternion_order,
+        scalar_first=args.scalar_first,
         rotation=args.rotation,
         time_column=args.time_column,
         body=args.body,

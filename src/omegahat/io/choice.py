@@ -184,7 +184,7 @@ def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell) 
         if not settings.smooth:
             return causal, causal
         tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
-        return MocapSmoother(rate_hz=motion.rate_hz, noise_std=motion.sigma, **tols), causal
+        return MocapSmoother(rate_hz=motion.rate_hz, measurement_noise=motion.sigma, **tols), causal
     choice = settings.estimator
     if choice == "auto":
         model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None
@@ -198,7 +198,7 @@ def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell) 
         f"{text}; its observer runs at {motion.rate_hz:.4g} rad/s (the sample rate), not at the bandwidth above"
     )
     kalman = SupervisedKalmanEstimator(
-        J, rate_hz=motion.rate_hz, measurement_sigma=max(motion.sigma, 1e-6), rate_noise=sigma_a, **common
+        J, rate_hz=motion.rate_hz, measurement_noise=max(motion.sigma, 1e-6), rate_noise=sigma_a, **common
     )
     return kalman, kalman
 

@@ -316,7 +316,7 @@ def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     where = f"{path}, line {first_line} (header)"
     delim = _delimiter(header, where)
     names = [normalise_name(n) for n in next(csv.reader([header], delimiter=delim))]
-    lay = layout(names, where, options.time_column, options.quaternion_order)
+    lay = layout(names, where, options.time_column, options.scalar_first)
     stream.kind, stream.has_torque, stream.n_directions = lay.kind, lay.torque is not None, lay.n_directions
     stream.time_name = lay.time
     stream.attitude_name = {"quaternion": "qw,qx,qy,qz", "matrix": "r11..r33"}.get(
@@ -324,10 +324,10 @@ def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     )
     if lay.kind == "quaternion" and not lay.quaternion_named:
         stream.attitude_name = ",".join(sorted(lay.attitude))
-    if lay.kind == "quaternion" and options.quaternion_order and lay.quaternion_named:
+    if lay.kind == "quaternion" and options.scalar_first is not None and lay.quaternion_named:
         stream.notes.append(
-            f"--quaternion-order {options.quaternion_order} not needed: the header names qw,qx,qy,qz say which is "
-            "the scalar part"
+            f"--scalar-{'first' if options.scalar_first else 'last'} not needed: the header names qw,qx,qy,qz say "
+            "which is the scalar part"
         )
     if delim != ",":
         stream.notes.append(f"delimiter: {_DELIMITERS[delim]} (decimal comma accepted)")

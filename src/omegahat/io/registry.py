@@ -42,7 +42,7 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import ArrayLike
 
-from omegahat.io.columns import QUATERNION_ORDERS, LogFormatError
+from omegahat.io.columns import LogFormatError
 from omegahat.io.timestamps import TimePolicy
 
 __all__ = [
@@ -74,11 +74,11 @@ STAMPS = ("header", "receive")
 DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)
 CHUNK_ROWS = 1 << 17  #: rows per chunk of formats read whole (NPZ, bags, exports, DataFrames)
 #: options for logs whose columns are named by omegahat's rules (CSV, NPZ): the default of register_format
-COLUMN_OPTIONS = ("time_unit", "quaternion_order", "time_column")
+COLUMN_OPTIONS = ("time_unit", "scalar_first", "time_column")
 #: option -> its name on the command line (messages say both where it matters)
 OPTION_FLAGS = {
     "time_unit": "--time-unit",
-    "quaternion_order": "--quaternion-order",
+    "scalar_first": "--scalar-first",
     "time_column": "--time-column",
     "body": "--body",
     "topic": "--topic",
@@ -92,13 +92,14 @@ OPTION_FLAGS = {
 class ReadOptions:
     """How to read a log: conventions the file itself may not state, and which body or topic to read.
 
-    ``time_unit``, ``quaternion_order``, ``time_column``: omegahat's CSV and NPZ logs (module docstring);
+    ``time_unit``, ``scalar_first`` (the quaternion order, as SciPy names it: True ``w, x, y, z``, False
+    ``x, y, z, w``), ``time_column``: omegahat's CSV and NPZ logs (module docstring);
     ``rotation``: every attitude format; ``body``: the rigid body of a Motive, Vicon or C3D file; ``topic``,
     ``parent_frame``, ``child_frame``, ``stamp`` (``header`` or ``receive`` time): ROS bags. A format refuses the
     options it does not take when they differ from their defaults."""
 
     time_unit: str = "s"
-    quaternion_order: str | None = None  # None: the names say it (qw..), else the format's documented default
+    scalar_first: bool | None = None  # None: the names say it (qw..), else the format's documented default
     rotation: str = "body-to-inertial"
     time_column: str = "t"
     body: str | None = None
@@ -111,8 +112,8 @@ class ReadOptions:
     def __post_init__(self):
         if self.time_unit not in TIME_UNITS:
             raise ValueError(f"time unit must be one of {', '.join(TIME_UNITS)}; got {self.time_unit!r}")
-        if self.quaternion_order not in (None, *QUATERNION_ORDERS):
-            raise ValueError(f"quaternion order must be wxyz or xyzw; got {self.quaternion_order!r}")
+        if self.scalar_first not in (None, True, False):
+            raise ValueError(f"scalar_first must be True, False or None; got {self.scalar_first!r}")
         if self.rotation not in ROTATIONS:
             raise ValueError(f"rotation must be {' or '.join(ROTATIONS)}; got {self.rotation!r}")
         if self.stamp not in STAMPS:

@@ -76,7 +76,7 @@ def single_direction_choice(
             raise ValueError(f"one direction takes one gain k and one l; got {settings.gains.n}")
         kw = {"k": float(settings.gains.k[0]), "l": float(settings.gains.l_offset[0])}
     elif settings.bandwidth_hz is not None:
-        kw = {"bandwidth": 2 * np.pi * float(settings.bandwidth_hz)}
+        kw = {"bandwidth_hz": float(settings.bandwidth_hz)}
     est = SingleDirectionEstimator(J, reference=v, **kw)
     text = (
         f"estimator: single-direction observer (Sarras-type, docs/theory/single_direction.md), k = {est.k:.4g}, "

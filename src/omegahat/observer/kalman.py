@@ -50,7 +50,8 @@ class SupervisedKalmanEstimator(CompiledEstimator):
     ----------
     J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
     rate_hz : the nominal sample rate (Hz); the observer's bandwidth is ``observer_bandwidth × rate_hz`` rad/s.
-    measurement_sigma : attitude noise per axis (rad), or the noise of each direction component.
+    measurement_noise : the attitude noise (rad, one standard deviation per axis), or that of each direction
+        component.
     rate_noise : the EKF's process noise σ_a (rad/s^1.5): the torque noise PSD is ``q = (tr(J)/3 · σ_a)²``;
         it models what the known torque leaves out.
     references, measurement, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg, max_substep_angle :
@@ -73,7 +74,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         J: ArrayLike,
         *,
         rate_hz: float,
-        measurement_sigma: float,
+        measurement_noise: float,
         rate_noise: float = 1e-4,
         references: ArrayLike | None = None,
         measurement: MeasurementKind | None = None,
@@ -95,7 +96,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         disagreement_samples: int = 3,
     ) -> None:
         self.rate_hz = float(as_positive(rate_hz, "rate_hz")[0])
-        self.measurement_sigma = float(as_positive(measurement_sigma, "measurement_sigma")[0])
+        self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
         self.rate_noise = float(as_positive(rate_noise, "rate_noise")[0])
         self.observer_rate = float(as_positive(observer_bandwidth, "observer_bandwidth")[0]) * self.rate_hz
         n = 3 if references is None else np.atleast_2d(np.asarray(references)).shape[0]
@@ -118,15 +119,15 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         self.J = self.observer.J
         #: the observer's stationary noise, total over the three axes (rad/s): the supervisor's yardstick
         self.observer_noise = float(
-            np.sqrt(3.0) * isotropic_noise_std(self.rate_hz, self.measurement_sigma, self.observer_rate)
+            np.sqrt(3.0) * isotropic_noise_std(self.rate_hz, self.measurement_noise, self.observer_rate)
         )
         jbar = float(np.trace(self.J)) / 3.0
-        sigma_theta = self.measurement_sigma if self.observer.measurement == "attitude" else 0.1
+        sigma_theta = self.measurement_noise if self.observer.measurement == "attitude" else 0.1
         if not nis_window >= 1.0:
             raise ValueError(f"nis_window must be at least 1 sample; got {nis_window!r}")
         values = {
             "q": (jbar * self.rate_noise) ** 2,
-            "meas_var": self.measurement_sigma**2,
+            "meas_var": self.measurement_noise**2,
             "sigma_theta": sigma_theta,
             "sigma_obs": self.observer_noise,
             "alpha": 1.0 / float(nis_window),

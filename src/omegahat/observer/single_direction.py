@@ -85,6 +85,7 @@ __all__ = [
 Method: TypeAlias = Literal["sarras", "gradient"]
 METHODS: tuple[str, ...] = get_args(Method)
 DEFAULT_WINDOW_S = 10.0  #: the excitation window T (s)
+DEFAULT_BANDWIDTH_HZ = 0.5 / (2 * math.pi)  #: 0.5 rad/s: the gains' default bandwidth (Hz)
 DEFAULT_THRESHOLD = 1e-3  #: λ_min(G) below this is flagged (a cone of half-angle 1.8°)
 _SUBSTEP_RATE = 0.5  # rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
 
@@ -139,12 +140,12 @@ def gradient_rhs(
     return w_dot, b_dot
 
 
-def default_gains(J: ArrayLike, method: Method, bandwidth: float) -> tuple[float, float]:
-    """``(k, l)`` for a bandwidth ``ω_b`` (rad/s): sarras ``k = ω_b J_M`` (every observable mode at least
-    ``ω_b`` once r̂ ≈ b), ``l = 4 ω_b``; gradient ``k = ω_b² J_M`` (natural frequency at least ω_b),
+def default_gains(J: ArrayLike, method: Method, bandwidth_hz: float) -> tuple[float, float]:
+    """``(k, l)`` for a bandwidth ``ω_b = 2π bandwidth_hz`` (rad/s): sarras ``k = ω_b J_M`` (every observable mode
+    at least ``ω_b`` once r̂ ≈ b), ``l = 4 ω_b``; gradient ``k = ω_b² J_M`` (natural frequency at least ω_b),
     ``l = 2 ω_b`` (damping ratio 1 for the slowest axis)."""
     J = as_inertia(J)
-    wb = float(as_positive(bandwidth, "bandwidth")[0])
+    wb = 2 * math.pi * float(as_positive(bandwidth_hz, "bandwidth_hz")[0])
     J_M = float(np.linalg.eigvalsh(J)[-1])
     if method == "sarras":
         return wb * J_M, 4.0 * wb
@@ -327,9 +328,10 @@ class SingleDirectionEstimator(StreamingEstimator):
     ``J`` the inertia (as ``omegahat.RigidBody``; the identity means "a constant rate"; the one positional
     argument), and keyword-only: ``reference`` the inertial direction ``v`` (only its being one direction matters
     to the observer; it is kept for the caller), ``method`` ``"sarras"`` or ``"gradient"``, gains ``k``, ``l`` or a
-    ``bandwidth`` (rad/s, :func:`default_gains`; default 0.5), ``omega_hat0`` (default 0; given, it is the estimate
-    at the first valid sample, else there is none there), ``r_hat0`` (default the first sample), ``window_s`` and
-    ``threshold`` of the excitation monitor, ``sign`` of the output map (−1: the paper's misprint, for tests only).
+    ``bandwidth_hz`` (Hz, :func:`default_gains`; default :data:`DEFAULT_BANDWIDTH_HZ`), ``omega_hat0`` (default 0;
+    given, it is the estimate at the first valid sample, else there is none there), ``r_hat0`` (default the first
+    sample), ``window_s`` and ``threshold`` of the excitation monitor, ``sign`` of the output map (−1: the paper's
+    misprint, for tests only).
 
     Samples ``(3,)`` (``run``: ``(T, 3)``; or ``(1, 3)`` and ``(T, 1, 3)``) go through the one input path
     (:mod:`omegahat.measurements`: a zero direction, a time not after the previous one, a non-finite torque are
@@ -348,7 +350,7 @@ class SingleDirectionEstimator(StreamingEstimator):
         method: Method = "sarras",
         k: float | None = None,
         l: float | None = None,
-        bandwidth: float = 0.5,
+        bandwidth_hz: float = DEFAULT_BANDWIDTH_HZ,
         omega_hat0: ArrayLike | None = None,
         r_hat0: ArrayLike | None = None,
         window_s: float = DEFAULT_WINDOW_S,
@@ -361,8 +363,8 @@ class SingleDirectionEstimator(StreamingEstimator):
             raise ValueError("reference must be a non-zero vector")
         self.reference = v / np.linalg.norm(v)
         if (k is None) != (l is None):
-            raise ValueError("give both k and l, or neither (then bandwidth sets them)")
-        k0, l0 = default_gains(self.J, method, bandwidth)
+            raise ValueError("give both k and l, or neither (then bandwidth_hz sets them)")
+        k0, l0 = default_gains(self.J, method, bandwidth_hz)
         self.method: Method = method
         self.k = k0 if k is None else float(as_positive(k, "k")[0])
         self.l = l0 if l is None else float(as_positive(l, "l")[0])

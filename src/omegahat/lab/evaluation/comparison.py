@@ -103,7 +103,7 @@ def _jbar(sc):
 
 
 def _meas_sigma(sc):
-    return max(float(sc.attitude_sigma), 1e-6)  # a filter needs a positive measurement variance
+    return max(float(sc.measurement_noise), 1e-6)  # a filter needs a positive measurement variance
 
 
 def _supervised(warm_start):
@@ -113,7 +113,7 @@ def _supervised(warm_start):
         return SupervisedKalmanEstimator(
             sc.J_model,
             rate_hz=sc.rate_hz,
-            measurement_sigma=_meas_sigma(sc),
+            measurement_noise=_meas_sigma(sc),
             rate_noise=sigma_a,
             omega_hat0=None if warm_start else sc.omega_hat0,
             warm_start=warm_start,
@@ -126,7 +126,7 @@ def _unknown_torque(sc, sigma_d):
     # The default estimator with the unknown-acceleration state (K5): its knob is that state's random-walk noise;
     # the torque noise is then a floor (1e-6 rad/s^1.5), since the new state takes what the model lacks.
     return SupervisedKalmanEstimator(
-        sc.J_model, rate_hz=sc.rate_hz, measurement_sigma=_meas_sigma(sc), rate_noise=1e-6, disturbance_noise=sigma_d
+        sc.J_model, rate_hz=sc.rate_hz, measurement_noise=_meas_sigma(sc), rate_noise=1e-6, disturbance_noise=sigma_d
     )
 
 
@@ -134,7 +134,8 @@ def _sarras(warm_start):
     def make(sc, b_rel):
         # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
         # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
-        gains = bandwidth_gains(sc.J_model, b_rel * sc.rate_hz)  # three rows: k = b tr(J)/6, l = 10 b
+        b = b_rel * sc.rate_hz  # rad/s; three rows: k = b tr(J)/6, l = 10 b
+        gains = bandwidth_gains(sc.J_model, b / (2 * np.pi))
         return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0, warm_start=warm_start)
 
     return make
@@ -147,7 +148,7 @@ def _mekf(model):
             sc.J_model,
             model=model,
             q=q,
-            measurement_sigma=_meas_sigma(sc),
+            measurement_noise=_meas_sigma(sc),
             omega_hat0=sc.omega_hat0,
             sigma_omega0=sc.omega_max,
         )
