@@ -43,6 +43,8 @@ def as_references(references: ArrayLike | None, n_default: int = 3) -> np.ndarra
 def real_array(values: object, what: str) -> np.ndarray:
     """``values`` as a C-contiguous float array, refusing (``TypeError``) what is not real numbers: complex
     numbers (whose imaginary part a conversion would drop), text (``"1.0"``), objects that are neither."""
+    if type(values) is np.ndarray and values.dtype == np.float64 and values.flags.c_contiguous:
+        return values  # the common case, at once
     a = np.asarray(values)
     if a.dtype.kind == "O" and not any(isinstance(x, str | bytes | complex) for x in a.flat):
         a = np.asarray(a.tolist(), dtype=float) if a.size else a.astype(float)
@@ -54,6 +56,8 @@ def real_array(values: object, what: str) -> np.ndarray:
 
 def sample_time(t: object) -> float:
     """A sample's time as a float, refused (``TypeError``) unless a real number, ``ValueError`` unless one."""
+    if isinstance(t, float | int | np.integer) and not isinstance(t, bool):  # the common case, at once
+        return float(t)
     a = real_array(t, "a sample's time")
     if a.shape != ():
         raise ValueError(f"a sample's time must be one number; got shape {a.shape}")

@@ -174,9 +174,6 @@ class SarrasEstimator(CompiledEstimator):
     def _reset_state(self) -> None:
         self._x = sampled.initial_state_vector(self.gains.n, self.omega_hat0)
 
-    def _previous_time(self) -> float:
-        return float(self._x[STATE.t])
-
     @property
     def state(self) -> EstimatorState:
         """A readable copy of the current state."""
@@ -209,7 +206,7 @@ class SarrasEstimator(CompiledEstimator):
 
     def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
         x, status, info = sampled.step(self._x, self._params, t, m, kind, tau)
-        return x, x[_OMEGA_HAT], int(status), float(info)
+        return x, x[_OMEGA_HAT], status, info
 
     def _run(
         self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray

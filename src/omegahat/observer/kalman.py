@@ -35,7 +35,7 @@ from omegahat.observer import supervised
 from omegahat.observer.compiled import CompiledEstimator
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
-from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, STATE
+from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE
 from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
 from omegahat.observer.tuning import isotropic_noise_std
 from omegahat.validation import as_positive
@@ -154,9 +154,6 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         self._xe = supervised.initial_ekf_state()
         #: per sample of the last ``update`` or ``run``: 1 where the output is the EKF's, 0 where the observer's
         self.last_source: np.ndarray | None = None
-
-    def _previous_time(self) -> float:
-        return float(self.observer.state_vector[STATE.t])
 
     @property
     def measurement(self) -> str:
