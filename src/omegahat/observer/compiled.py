@@ -16,9 +16,10 @@ the estimator), and how to commit a state. The base does the rest, the same way 
 3. **Counting** (the contract's one counter, :mod:`omegahat.interface`): ``n_skipped`` the samples skipped (missing:
    NaN or inf; or nearly collinear directions), of which ``n_collinear`` collinear, their times in
    ``skipped_times``; ``largest_interval`` the longest interval between two samples seen.
-4. **Statuses** (:class:`omegahat.interface.Status`): a used sample is CORRECTED, a skipped one PREDICTED, except
-   that there is no estimate (UNAVAILABLE, ``omega`` NaN) before the first valid sample, nor at it unless the
-   initial rate was given (``rate_given``: one attitude gives no rate; a warm start waits for the second sample).
+4. **Statuses** (:class:`omegahat.interface.Status`, from the step's codes by :data:`STATUS_OF_CODE`): a used
+   sample is CORRECTED, a skipped one PREDICTED, except that there is no estimate (UNAVAILABLE, ``omega`` NaN)
+   before the first valid sample, nor at it unless the initial rate was given (``rate_given``: one attitude gives
+   no rate; a warm start waits for the second sample).
 5. **Warnings**: ``run`` warns once per call (:class:`SkippedSamplesWarning`) when it skipped samples.
 """
 
@@ -34,11 +35,21 @@ from numpy.typing import ArrayLike
 from omegahat import measurements as ms
 from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator
 
-__all__ = ["CompiledEstimator", "SkippedSamplesWarning"]
+__all__ = ["STATUS_OF_CODE", "CompiledEstimator", "SkippedSamplesWarning"]
+
+#: The compiled steps' per-sample codes below ``ERROR`` (:mod:`omegahat.kernels.checks`) and the estimate's status
+#: they give, in one place: a used sample is corrected, a skipped one predicted through. A code a compiled step adds
+#: (a state that could not be propagated, restarted from the sample: ``Status.RESTARTED``) is mapped here.
+STATUS_OF_CODE: dict[int, Status] = {
+    ms.OK: Status.CORRECTED,
+    ms.MISSING: Status.PREDICTED,
+    ms.COLLINEAR: Status.PREDICTED,
+}
+_SKIPPED = (ms.MISSING, ms.COLLINEAR)  # the codes n_skipped counts
 
 _NAN3 = np.full(3, np.nan)
 _NAN3.flags.writeable = False
-_UNAVAILABLE, _CORRECTED, _PREDICTED = Status.UNAVAILABLE, Status.CORRECTED, Status.PREDICTED  # (hot path)
+_UNAVAILABLE, _CORRECTED = Status.UNAVAILABLE, Status.CORRECTED  # (hot path)
 _OK, _ERROR = ms.OK, ms.ERROR
 _new = tuple.__new__
 
@@ -113,16 +124,14 @@ class CompiledEstimator(StreamingEstimator):
                 self._n_valid += 1
             status = _CORRECTED
         else:
-            self._count_skipped(code, t)
-            status = _PREDICTED
+            status = STATUS_OF_CODE[code]
+            if code in _SKIPPED:
+                self.n_skipped += 1
+                self.n_collinear += code == ms.COLLINEAR
+                self.skipped_times.append(float(t))
         if self._n_valid < self._need:
             return Estimate(_NAN3.copy(), _UNAVAILABLE)
         return _new(Estimate, (w.copy(), status))  # Estimate(w, status) at half the cost (the hot path)
-
-    def _count_skipped(self, code: int, t: float) -> None:
-        self.n_skipped += 1
-        self.n_collinear += code == ms.COLLINEAR
-        self.skipped_times.append(float(t))
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at every sample of a log, continuing from the current state (:meth:`reset` first for a
@@ -145,13 +154,15 @@ class CompiledEstimator(StreamingEstimator):
             if gaps.size:
                 self.largest_interval = max(self.largest_interval, float(gaps.max()))
         valid = codes == ms.OK
-        status = np.where(valid, Status.CORRECTED, Status.PREDICTED).astype(np.int8)
+        status = np.empty(T, dtype=np.int8)
+        for code, word in STATUS_OF_CODE.items():
+            status[codes == code] = word
         if self._n_valid < self._need:  # no estimate until the `need`-th valid sample of the stream
             seen = self._n_valid + np.cumsum(valid)
             status[seen < self._need] = Status.UNAVAILABLE
             W[seen < self._need] = np.nan
         self._n_valid = min(self._n_valid + int(np.count_nonzero(valid)), 2)
-        skipped = ~valid
+        skipped = np.isin(codes, _SKIPPED)
         if skipped.any():
             n_skip = int(np.count_nonzero(skipped))
             n_col = int(np.count_nonzero(codes == ms.COLLINEAR))
