@@ -153,6 +153,9 @@ class StreamingEstimator(Estimator):
             raise ValueError(f"times must have shape (T,); got shape {times.shape}")
         samples = cast("Sequence[Measurement]", data)  # indexable: an array, a Rotation or a sequence
         taus = cast("Sequence[ArrayLike] | None", torque)
+        for name, values in (("measurements", samples), ("torques", taus)):
+            if values is not None and len(values) != times.size:
+                raise ValueError(f"{len(values)} {name} for {times.size} times")
         saved = copy.deepcopy(self.__dict__)
         omega = np.empty((times.size, 3))
         status = np.empty(times.size, dtype=np.int8)
