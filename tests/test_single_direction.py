@@ -260,5 +260,5 @@ def test_errors():
         excitation(t, b[:2])
     est = SingleDirectionEstimator(J)
     est.run(t, b)
-    with pytest.raises(ValueError, match=r"sample 0: time 1\.0 is not after the previous one"):
+    with pytest.raises(ValueError, match=r"sample 0: time t = 1\.0 is not after the previous sample's t = 2\.0"):
         est.run(t[1:], b[1:])

@@ -62,11 +62,13 @@ import warnings
 import numpy as np
 from numpy.typing import ArrayLike
 
+from omegahat.observer import single_direction_step as step
 from omegahat.observer.continuous import OUTPUT_SIGN_CORRECTED
 from omegahat.validation import as_inertia, as_positive, as_vector3
 
 __all__ = [
     "METHODS",
+    "SUBSTEP_RATE",
     "LostExcitationWarning",
     "SingleDirectionEstimator",
     "default_gains",
@@ -80,7 +82,7 @@ __all__ = [
 METHODS = ("sarras", "gradient")
 DEFAULT_WINDOW_S = 10.0  #: the excitation window T (s)
 DEFAULT_THRESHOLD = 1e-3  #: λ_min(G) below this is flagged (a cone of half-angle 1.8°)
-_SUBSTEP_RATE = 0.5  # rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
+SUBSTEP_RATE = 0.5  #: rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
 
 
 class LostExcitationWarning(UserWarning):
@@ -256,7 +258,7 @@ def run_single_direction(
         if not math.isfinite(rate):
             n_sub = 1
         else:
-            n_sub = max(1, math.ceil(h * rate / _SUBSTEP_RATE))
+            n_sub = max(1, math.ceil(h * rate / SUBSTEP_RATE))
         dt = h / n_sub
         bb = b_cur
         for _ in range(n_sub):  # classical RK4 on (x1, x2, b)
@@ -285,9 +287,10 @@ def excitation(
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The monitor of the module docstring over samples ``t (T,)``, ``b (T, 3)`` (NaN rows skipped).
 
-    Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector:
-    the unobservable axis when λ_min is small) and the state to continue from. ``G_k`` counts as established once
-    ``window_s`` has elapsed since the first valid sample (``state["since"]``, per sample).
+    Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector,
+    the largest component positive: the unobservable axis when λ_min is small) and the state to continue from.
+    ``G_k`` counts as established once ``window_s`` has elapsed since the first valid sample (``state["since"]``,
+    per sample).
     """
     T_w = float(as_positive(window_s, "window_s")[0])
     t = np.asarray(t, dtype=float)
@@ -310,7 +313,8 @@ def excitation(
             t0 = float(t[j]) if t0 is None else t0
         if W > 0:
             vals, vecs = np.linalg.eigh(S / W)
-            lam[j], axis[j] = vals[0], vecs[:, 0]
+            v = vecs[:, 0]
+            lam[j], axis[j] = vals[0], v if v[np.argmax(np.abs(v))] >= 0 else -v
         since[j] = 0.0 if t0 is None else t[j] - t0
     state = {"S": S, "W": W, "t": t_last, "t0": t0, "since": since, "window_s": T_w}
     return lam, axis, state
@@ -361,8 +365,11 @@ class SingleDirectionEstimator:
         self.window_s = float(as_positive(window_s, "window_s")[0])
         self.threshold = float(as_positive(threshold, "threshold")[0])
         self.sign = float(sign)
-        self._state: dict | None = None
-        self._monitor: dict | None = None
+        self._params = step.pack_params(
+            self.J, gradient=method == "gradient", k=self.k, l=self.l, sign=self.sign, substep_rate=SUBSTEP_RATE,
+            window_s=self.window_s, threshold=self.threshold, omega_hat0=self.omega_hat0, r_hat0=self.r_hat0,
+        )  # fmt: skip
+        self._state = step.initial_state()
         self.excitation = np.empty(0)
         self.weak_axis = np.empty((0, 3))
         self.unobservable = np.empty(0, dtype=bool)
@@ -373,30 +380,16 @@ class SingleDirectionEstimator:
         b = np.asarray(b, dtype=float)
         if b.ndim != 2 or b.shape != (t.size, 3):
             raise ValueError(f"b must have shape (T, 3) with T = len(t) = {t.size}; got shape {b.shape}")
-        if self._state is None:
-            first = np.flatnonzero(np.all(np.isfinite(b), axis=1))
-            if first.size == 0:
-                raise ValueError("no valid direction sample (every row has a NaN)")
-            f = int(first[0])  # nothing to estimate from before the first valid sample
-            W = np.full((t.size, 3), np.nan)
-            W[f:], self._state = run_single_direction(
-                t[f:], b[f:], self.J, method=self.method, k=self.k, l=self.l, omega_hat0=self.omega_hat0,
-                r_hat0=self.r_hat0, torques=None if torques is None else np.asarray(torques, float)[f:],
-                sign=self.sign,
-            )  # fmt: skip
-        else:
-            W, self._state = run_single_direction(
-                t, b, self.J, method=self.method, k=self.k, l=self.l, torques=torques, sign=self.sign,
-                state=self._state,
-            )  # fmt: skip
-        self._fill_monitor(t, b)
+        if self._state[step.STATE.stage] == step.UNINITIALISED and not np.all(np.isfinite(b), axis=1).any():
+            raise ValueError("no valid direction sample (every row has a NaN)")
+        # the compiled step (observer and monitor; NaN before the first valid sample), atomic: a rejected sample
+        # raises and changes nothing
+        W, lam, axis, self.unobservable, self._state = step.advance(self._params, self._state, t, b, torques)
+        self._fill_monitor(t, lam, axis)
         return W
 
-    def _fill_monitor(self, t: np.ndarray, b: np.ndarray) -> None:
-        lam, axis, self._monitor = excitation(t, b, self.window_s, state=self._monitor)
-        established = self._monitor["since"] >= self.window_s
+    def _fill_monitor(self, t: np.ndarray, lam: np.ndarray, axis: np.ndarray) -> None:
         self.excitation, self.weak_axis = lam, axis
-        self.unobservable = established & (np.nan_to_num(lam, nan=0.0) < self.threshold)
         if self.unobservable.any():
             j = int(np.flatnonzero(self.unobservable)[0])
             warnings.warn(
