@@ -38,12 +38,13 @@ For a spherical body (J = c I) the last term vanishes: V never increases, and un
 (the classical PE lemma of adaptive identification). It is *not* Magnis and Petit's observer (IEEE TAC 61(9),
 2016), whose equations were not available to this project (``docs/theory/single_direction.md``).
 
-**Sampled realisation** (both methods, plain NumPy, many runs at once). Between samples ``t_k`` and ``t_{k+1}`` the
-observer is integrated by classical RK4 in equal substeps (``rate · substep ≤ 0.5`` with ``rate`` the largest of
-``l``, ``k/J_m`` and the turning rates), with the measured direction moved along the great circle from ``b_k`` to
-``b_{k+1}`` at constant rate and the torque held at ``τ_k``; a missing sample (NaN) instead moves b along the
-estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle starts from there (causal: the estimate at
-``t_k`` uses samples up to ``t_k``)::
+**Sampled realisation** (both methods; here in plain NumPy, many runs at once: :func:`run_single_direction`, the
+oracle of the compiled step :mod:`omegahat.observer.single_direction_step` that :class:`SingleDirectionEstimator`
+runs). Between samples ``t_k`` and ``t_{k+1}`` the observer is integrated by classical RK4 in equal substeps
+(``rate · substep ≤ 0.5`` with ``rate`` the largest of ``l``, ``k/J_m`` and the turning rates), with the measured
+direction moved along the great circle from ``b_k`` to ``b_{k+1}`` at constant rate and the torque held at ``τ_k``; a
+missing sample (NaN) instead moves b along the estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle
+starts from there (causal: the estimate at ``t_k`` uses samples up to ``t_k``)::
 
     ḃ = b × w,   w = −(θ_k / h_k) (b_k × b_{k+1}) / |b_k × b_{k+1}|,  θ_k = ∠(b_k, b_{k+1})          (D8)
 
