@@ -119,6 +119,7 @@ def main(argv=None):
     parser.add_argument("--oracle-samples", type=int, default=2_000)
     parser.add_argument("--rounds", type=int, default=3, help="fresh processes for the compile cost")
     args = parser.parse_args(argv)
+    load = os.getloadavg()
     lines = ["| measurement | result |", "| --- | --- |"]
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "sun.csv"
@@ -175,7 +176,9 @@ def main(argv=None):
         "## The one-direction observer, compiled (benchmarks/single_direction_speed.py)",
         f"{machine_line()} Command: `python benchmarks/single_direction_speed.py --samples {args.samples} --rounds "
         f"{args.rounds}` (throughputs: CPU time, one core, best of 3; default gains, bandwidth 0.5 rad/s; compile "
-        "cost: fresh child processes, each with an empty `NUMBA_CACHE_DIR`).\n\n" + table,
+        "cost: fresh child processes, each with an empty `NUMBA_CACHE_DIR`). Load average of the machine (1 min) "
+        f"at the start and the end: {load[0]:.1f} and {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores, hence wall "
+        "times well above CPU times.\n\n" + table,
     )
 
 

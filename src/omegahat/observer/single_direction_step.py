@@ -26,7 +26,9 @@ sample ``λ_min(S/W)`` with its eigenvector by :func:`smallest_eigenpair` (close
 **Named flat arrays**, as the sampled estimator's (:mod:`omegahat.observer.sampled`): the parameters
 (:data:`PARAMS`, :func:`pack_params`) and the state (:data:`STATE`, :func:`initial_state`; stage
 :data:`UNINITIALISED` until the first valid sample, then :data:`RUNNING`). One compiled entry point,
-``_advance``, with one specialisation: :func:`advance` hands it C-contiguous, writable float64 arrays only.
+``_advance``, with one specialisation: :func:`advance` hands it C-contiguous writable arrays (float64, the flags
+bool) that it allocates or converts, so no caller's array type makes a second one (its first call compiles for about
+3 s of CPU: ``benchmarks/RESULTS.md``).
 """
 
 from __future__ import annotations
@@ -41,7 +43,7 @@ from numpy.typing import ArrayLike
 from omegahat.kernels.checks import OK, ZERO_DIRECTION, check_time, check_torque
 from omegahat.kernels.dynamics import euler_rate
 from omegahat.kernels.observer import filter_rate, innovation
-from omegahat.kernels.vec3 import cross, dot, mat3, matvec, norm
+from omegahat.kernels.vec3 import cross, dot, matvec, norm
 from omegahat.measurements import rejection_error
 
 __all__ = [
@@ -328,7 +330,9 @@ def _advance(p, x, t, b, tau, omega, lam, axis, flags):
     """:func:`advance` in place on the state ``x`` and the outputs ``ω̂ (T, 3)``, ``λ_min (T,)``, the weak axis
     ``(T, 3)`` and the flags ``(T,)``; returns ``(first rejected sample or −1, its status, info)``."""
     T = t.size
-    J, Jinv = mat3(p[PARAMS.J : PARAMS.J + 9].reshape(3, 3)), mat3(p[PARAMS.Jinv : PARAMS.Jinv + 9].reshape(3, 3))
+    oj, oi = PARAMS.J, PARAMS.Jinv  # the 9-tuples of vec3.mat3, read here (one function fewer to compile)
+    J = (p[oj], p[oj + 1], p[oj + 2], p[oj + 3], p[oj + 4], p[oj + 5], p[oj + 6], p[oj + 7], p[oj + 8])
+    Jinv = (p[oi], p[oi + 1], p[oi + 2], p[oi + 3], p[oi + 4], p[oi + 5], p[oi + 6], p[oi + 7], p[oi + 8])
     k, sign, gradient = p[PARAMS.k], p[PARAMS.sign], p[PARAMS.gradient] != 0.0
     window, threshold = p[PARAMS.window], p[PARAMS.threshold]
     given = tau.shape[0] > 0
@@ -345,10 +349,10 @@ def _advance(p, x, t, b, tau, omega, lam, axis, flags):
         valid = np.isfinite(b[j, 0]) and np.isfinite(b[j, 1]) and np.isfinite(b[j, 2])
         u = (0.0, 0.0, 0.0)
         if valid:
-            n = norm(b[j, 0], b[j, 1], b[j, 2])
-            if n == 0.0:
+            length = norm(b[j, 0], b[j, 1], b[j, 2])
+            if length == 0.0:
                 return j, ZERO_DIRECTION, 0.0
-            u = (b[j, 0] / n, b[j, 1] / n, b[j, 2] / n)
+            u = (b[j, 0] / length, b[j, 1] / length, b[j, 2] / length)
         y = (
             x[STATE.x1], x[STATE.x1 + 1], x[STATE.x1 + 2], x[STATE.x2], x[STATE.x2 + 1], x[STATE.x2 + 2],
             x[STATE.b], x[STATE.b + 1], x[STATE.b + 2],
