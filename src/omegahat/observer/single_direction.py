@@ -38,12 +38,13 @@ For a spherical body (J = c I) the last term vanishes: V never increases, and un
 (the classical PE lemma of adaptive identification). It is *not* Magnis and Petit's observer (IEEE TAC 61(9),
 2016), whose equations were not available to this project (``docs/theory/single_direction.md``).
 
-**Sampled realisation** (both methods, plain NumPy, many runs at once). Between samples ``t_k`` and ``t_{k+1}`` the
-observer is integrated by classical RK4 in equal substeps (``rate · substep ≤ 0.5`` with ``rate`` the largest of
-``l``, ``k/J_m`` and the turning rates), with the measured direction moved along the great circle from ``b_k`` to
-``b_{k+1}`` at constant rate and the torque held at ``τ_k``; a missing sample (NaN) instead moves b along the
-estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle starts from there (causal: the estimate at
-``t_k`` uses samples up to ``t_k``)::
+**Sampled realisation** (both methods; here in plain NumPy, many runs at once: :func:`run_single_direction`, the
+oracle of the compiled step :mod:`omegahat.observer.single_direction_step` that :class:`SingleDirectionEstimator`
+runs). Between samples ``t_k`` and ``t_{k+1}`` the observer is integrated by classical RK4 in equal substeps
+(``rate · substep ≤ 0.5`` with ``rate`` the largest of ``l``, ``k/J_m`` and the turning rates), with the measured
+direction moved along the great circle from ``b_k`` to ``b_{k+1}`` at constant rate and the torque held at ``τ_k``; a
+missing sample (NaN) instead moves b along the estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle
+starts from there (causal: the estimate at ``t_k`` uses samples up to ``t_k``)::
 
     ḃ = b × w,   w = −(θ_k / h_k) (b_k × b_{k+1}) / |b_k × b_{k+1}|,  θ_k = ∠(b_k, b_{k+1})          (D8)
 
@@ -65,11 +66,13 @@ from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat.interface import Estimate, Status, StreamingEstimator, one_of
+from omegahat.observer import single_direction_step as step
 from omegahat.observer.continuous import OUTPUT_SIGN_CORRECTED
 from omegahat.validation import as_inertia, as_positive, as_vector3
 
 __all__ = [
     "METHODS",
+    "SUBSTEP_RATE",
     "LostExcitationWarning",
     "Method",
     "SingleDirectionEstimator",
@@ -87,7 +90,7 @@ METHODS: tuple[str, ...] = get_args(Method)
 DEFAULT_WINDOW_S = 10.0  #: the excitation window T (s)
 DEFAULT_BANDWIDTH_HZ = 0.5 / (2 * math.pi)  #: 0.5 rad/s: the gains' default bandwidth (Hz)
 DEFAULT_THRESHOLD = 1e-3  #: λ_min(G) below this is flagged (a cone of half-angle 1.8°)
-_SUBSTEP_RATE = 0.5  # rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
+SUBSTEP_RATE = 0.5  #: rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
 
 
 class LostExcitationWarning(UserWarning):
@@ -262,7 +265,7 @@ def run_single_direction(
         if not math.isfinite(rate):
             n_sub = 1
         else:
-            n_sub = max(1, math.ceil(h * rate / _SUBSTEP_RATE))
+            n_sub = max(1, math.ceil(h * rate / SUBSTEP_RATE))
         dt = h / n_sub
         bb = b_cur
         for _ in range(n_sub):  # classical RK4 on (x1, x2, b)
@@ -291,9 +294,10 @@ def excitation(
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The monitor of the module docstring over samples ``t (T,)``, ``b (T, 3)`` (NaN rows skipped).
 
-    Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector:
-    the unobservable axis when λ_min is small) and the state to continue from. ``G_k`` counts as established once
-    ``window_s`` has elapsed since the first valid sample (``state["since"]``, per sample).
+    Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector,
+    the largest component positive: the unobservable axis when λ_min is small) and the state to continue from.
+    ``G_k`` counts as established once ``window_s`` has elapsed since the first valid sample (``state["since"]``,
+    per sample).
     """
     T_w = float(as_positive(window_s, "window_s")[0])
     t = np.asarray(t, dtype=float)
@@ -316,7 +320,8 @@ def excitation(
             t0 = float(t[j]) if t0 is None else t0
         if W > 0:
             vals, vecs = np.linalg.eigh(S / W)
-            lam[j], axis[j] = vals[0], vecs[:, 0]
+            v = vecs[:, 0]
+            lam[j], axis[j] = vals[0], v if v[np.argmax(np.abs(v))] >= 0 else -v
         since[j] = 0.0 if t0 is None else t[j] - t0
     state = {"S": S, "W": W, "t": t_last, "t0": t0, "since": since, "window_s": T_w}
     return lam, axis, state
@@ -373,12 +378,15 @@ class SingleDirectionEstimator(StreamingEstimator):
         self.window_s = float(as_positive(window_s, "window_s")[0])
         self.threshold = float(as_positive(threshold, "threshold")[0])
         self.sign = float(sign)
+        self._params = step.pack_params(
+            self.J, gradient=method == "gradient", k=self.k, l=self.l, sign=self.sign, substep_rate=SUBSTEP_RATE,
+            window_s=self.window_s, threshold=self.threshold, omega_hat0=self.omega_hat0, r_hat0=self.r_hat0,
+        )  # fmt: skip
         self.reset()
 
     def reset(self) -> None:
         """Forget every sample."""
-        self._state: dict | None = None
-        self._monitor: dict | None = None
+        self._state = step.initial_state()
         self._t_last: float | None = None
         self._n_valid = 0
         self.n_skipped = 0
@@ -425,25 +433,13 @@ class SingleDirectionEstimator(StreamingEstimator):
         return Estimate(omega, status)
 
     def _advance(self, t: np.ndarray, b: np.ndarray, torques: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The checked samples (unit directions, NaN where missing) through the observer and the monitor."""
+        """The checked samples (unit directions, NaN where missing) through the compiled observer and monitor
+        (:func:`omegahat.observer.single_direction_step.advance`: NaN before the first valid sample)."""
         ok = np.all(np.isfinite(b), axis=1)
-        W = np.full((t.size, 3), np.nan)
-        if self._state is None and ok.any():
-            f = int(np.flatnonzero(ok)[0])  # nothing to estimate from before the first valid sample
-            W[f:], self._state = run_single_direction(
-                t[f:], b[f:], self.J, method=self.method, k=self.k, l=self.l, omega_hat0=self.omega_hat0,
-                r_hat0=self.r_hat0, torques=torques[f:], sign=self.sign,
-            )  # fmt: skip
-        elif self._state is not None:
-            W, self._state = run_single_direction(
-                t, b, self.J, method=self.method, k=self.k, l=self.l, torques=torques, sign=self.sign,
-                state=self._state,
-            )  # fmt: skip
+        W, lam, axis, self.unobservable, self._state = step.advance(self._params, self._state, t, b, torques)
         if t.size:
             self._t_last = float(t[-1])
-        lam, axis, self._monitor = excitation(t, b, self.window_s, state=self._monitor)
         self.excitation, self.weak_axis = lam, axis
-        self.unobservable = (self._monitor["since"] >= self.window_s) & (np.nan_to_num(lam, nan=0.0) < self.threshold)
         status = np.where(ok, Status.CORRECTED, Status.PREDICTED).astype(np.int8)
         need = 1 if self.omega_hat0 is not None else 2  # one direction at one instant gives no rate
         seen = self._n_valid + np.cumsum(ok)
