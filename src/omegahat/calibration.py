@@ -403,6 +403,8 @@ def _check_inputs(t_attitude, attitudes, t_gyro, gyro, mode, cutoff_hz):
 
 
 def _excitation(W: np.ndarray, mode: str) -> np.ndarray:
+    if W.shape[0] < 3:  # nothing left to judge: the count of usable samples is checked (and named) next
+        return np.zeros(3)
     ex = np.linalg.svd(W - W.mean(axis=0), compute_uv=False) / math.sqrt(W.shape[0])
     need = 2 if mode == "none" else 3
     if ex[0] < 1e-6:
@@ -462,7 +464,15 @@ def calibrate(
     n_params = {"none": 7, "axes": 10, "matrix": 13}[scale]
     block = max(1, math.ceil(_BLOCK_PERIODS * p.fa / fc))
     n_min = max(20 * n_params, 10 * block)
-    delta = _coarse_offset(p, offset_guess, max_offset, n_min)
+    n_valid = int(p.valid_a.sum())
+    if n_valid < n_min:
+        raise ValueError(
+            f"too few samples to calibrate: {n_valid} valid attitude samples ({span}); at least {n_min} are needed "
+            f"(the uncertainties need {_BLOCK_PERIODS * 10:g} periods of the {fc:.3g} Hz band)"
+        )
+    t = p.t
+    _excitation(p.W[p.valid_a & ~_near(t, p.gap_a, p.margin) & (t > t[0] + p.margin) & (t < t[-1] - p.margin)], scale)
+    delta = _coarse_offset(p, offset_guess, max_offset, n_min // 2)
     if not math.isfinite(delta):
         raise ValueError(
             f"the logs do not overlap in time at any clock offset within {offset_guess:g} ± {max_offset:g} s ({span}) "
