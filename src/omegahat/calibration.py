@@ -228,22 +228,26 @@ def _rate(t: np.ndarray) -> float:
     return 1.0 / float(np.median(np.diff(t)))
 
 
-def _near(t: np.ndarray, bad_times: np.ndarray, margin: float) -> np.ndarray:
-    """True where ``t`` is within ``margin`` of any of the sorted ``bad_times``."""
-    if bad_times.size == 0:
-        return np.zeros(t.size, dtype=bool)
-    i = np.clip(np.searchsorted(bad_times, t), 1, bad_times.size - 1) if bad_times.size > 1 else np.zeros(t.size, int)
-    d = np.abs(t - bad_times[i])
-    if bad_times.size > 1:
-        d = np.minimum(d, np.abs(t - bad_times[i - 1]))
-    return d <= margin
+class _Gaps:
+    """Closed time intervals without data (merged, sorted): the long steps of a log and its missing samples."""
 
+    def __init__(self, t: np.ndarray, missing: np.ndarray | None = None):
+        h = np.diff(t)
+        big = np.flatnonzero(h > _GAP_FACTOR * np.median(h))  # a step this long is a gap
+        lo, hi = [t[big]], [t[big + 1]]
+        if missing is not None:
+            lo.append(t[missing])
+            hi.append(t[missing])
+        starts, ends = np.concatenate(lo), np.concatenate(hi)
+        order = np.argsort(starts)
+        self.starts, self.ends = starts[order], np.maximum.accumulate(ends[order]) if ends.size else ends
 
-def _gap_times(t: np.ndarray) -> np.ndarray:
-    """Times inside steps longer than :data:`_GAP_FACTOR` × the median (both ends of each long step)."""
-    h = np.diff(t)
-    big = np.flatnonzero(h > _GAP_FACTOR * np.median(h))
-    return np.sort(np.concatenate([t[big], t[big + 1]]))
+    def near(self, t: np.ndarray, margin: float) -> np.ndarray:
+        """True where ``t`` is within ``margin`` of a gap (or inside one)."""
+        if self.starts.size == 0:
+            return np.zeros(t.shape, dtype=bool)
+        i = np.searchsorted(self.starts - margin, t, side="right") - 1  # the last gap starting before t + margin
+        return (i >= 0) & (t <= self.ends[np.maximum(i, 0)] + margin)
 
 
 class _Problem:
@@ -261,9 +265,7 @@ class _Problem:
         self.tg_range = (t_g[0], t_g[-1])
         self.W = sosfiltfilt(self.sos, W, axis=0)
         self.valid_a = valid_a
-        self.gap_a = np.concatenate([_gap_times(t_a), t_a[~valid_a]])
-        self.gap_a.sort()
-        self.gap_g = _gap_times(t_g)
+        self.gap_a, self.gap_g = _Gaps(t_a, ~valid_a), _Gaps(t_g)
         self.margin = _MARGIN_PERIODS / cutoff_hz
         self.use = np.zeros(t_a.size, dtype=bool)
 
@@ -272,7 +274,7 @@ class _Problem:
         t, m = self.t, self.margin + slack
         ok = self.valid_a & (t >= t[0] + m) & (t <= t[-1] - m)
         ok &= (t + delta >= self.tg_range[0] + m) & (t + delta <= self.tg_range[1] - m)
-        ok &= ~_near(t, self.gap_a, m) & ~_near(t + delta, self.gap_g, m)
+        ok &= ~self.gap_a.near(t, m) & ~self.gap_g.near(t + delta, m)
         return ok
 
     def G(self, delta: float, derivative: bool = False) -> np.ndarray:
@@ -324,11 +326,11 @@ def _coarse_offset(p: _Problem, guess: float, max_offset: float, min_overlap: in
     step = 1.0 / p.fa
     L = math.ceil(max_offset / step)
     grid = p.t[0] + step * np.arange(math.floor((p.t[-1] - p.t[0]) / step) + 1)
-    mx = np.interp(grid, p.t, p.valid_a.astype(float)) > 0.5
+    mx = ~p.gap_a.near(grid, p.margin)
     Wc = p.W - p.W[p.valid_a].mean(axis=0)
     x = np.interp(grid, p.t, np.linalg.norm(Wc, axis=1))
     ug = guess + p.t[0] + step * np.arange(-L, grid.size + L)
-    my = (ug >= p.tg_range[0]) & (ug <= p.tg_range[1])
+    my = (ug >= p.tg_range[0]) & (ug <= p.tg_range[1]) & ~p.gap_g.near(ug, p.margin)
     if not my.any():
         return math.nan
     gy = p.gyro(np.clip(ug, *p.tg_range))
@@ -471,7 +473,7 @@ def calibrate(
             f"(the uncertainties need {_BLOCK_PERIODS * 10:g} periods of the {fc:.3g} Hz band)"
         )
     t = p.t
-    _excitation(p.W[p.valid_a & ~_near(t, p.gap_a, p.margin) & (t > t[0] + p.margin) & (t < t[-1] - p.margin)], scale)
+    _excitation(p.W[p.valid_a & ~p.gap_a.near(t, p.margin) & (t > t[0] + p.margin) & (t < t[-1] - p.margin)], scale)
     delta = _coarse_offset(p, offset_guess, max_offset, n_min // 2)
     if not math.isfinite(delta):
         raise ValueError(

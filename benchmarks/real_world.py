@@ -1,0 +1,146 @@
+"""Every method on every recording of the development corpus of issue 24, by one score: the "before" table.
+
+Run: ``python benchmarks/corpus.py SRC_DIR OUT_DIR`` once, then ``OMEGAHAT_CORPUS_DIR=OUT_DIR python
+benchmarks/real_world.py [--only PATTERN ...] [--methods NAME ...] [--no-decimate]`` (about an hour on 2 shared
+cores for the whole corpus). Skips cleanly without a corpus.
+
+Score: :func:`omegahat.lab.evaluation.broad.score` through :func:`omegahat.lab.evaluation.corpus.evaluate`: the
+error against the recording's reference (a gyroscope calibrated once against the attitude by ``omegahat
+calibrate``'s fit, shared by every method; or the plant's truth), zero-phase low-passed at min(10 Hz, 0.4 × rate),
+RMS over the scored samples 1 s from gaps, at the best continuous shift within ±3 samples; the plant's logs without
+the low-pass and without a shift. BROAD recordings are also scored at every 10th and 30th sample (29 and 10 Hz),
+against the native gyroscope.
+
+Methods: :data:`omegahat.lab.evaluation.corpus.METHODS` (differencing, RotationSpline, Savitzky-Golay, ``omegahat
+estimate`` as it runs with no option, ``--preset mocap``, ``--preset mocap --smooth``, the MEKF), the omegahat ones
+through the pipeline of ``omegahat estimate``. Ratios: causal methods and all to backward differencing;
+``--smooth`` also to the best of central differencing and RotationSpline. "predicted": the method's own expected
+RMS error when it prints one. Writes ``benchmarks/real_world.csv`` (every row) and its section of RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import fnmatch
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from omegahat.lab.evaluation.corpus import METHODS, Row, corpus_dir, evaluate, load_recording, recordings
+from results_md import machine_line, write_section
+
+CSV = Path(__file__).with_name("real_world.csv")
+SUMMARY = ("omegahat estimate", "--preset mocap", "--preset mocap --smooth", "MEKF")  # the ratio columns
+SECTION = "## Real-world corpus of issue 24 (benchmarks/real_world.py)"
+
+
+def _fmt(x: float | None, spec: str = ".4g") -> str:
+    return "–" if x is None or not math.isfinite(x) else format(x, spec)
+
+
+def _geomean(xs: list[float]) -> float | None:
+    xs = [x for x in xs if x is not None and math.isfinite(x) and x > 0]
+    return math.exp(sum(map(math.log, xs)) / len(xs)) if xs else None
+
+
+HEADER = ["recording", "samples", "method", "causal", "rms_rad_s", "shift_samples", "zero_shift_rms", "n_scored",
+          "ratio_to_backward", "ratio_to_best_offline", "predicted_rad_s", "cpu_us_per_sample", "note"]  # fmt: skip
+
+
+def _write_csv(rows: list[Row]) -> None:
+    with open(CSV, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(HEADER)
+        for r in rows:
+            s = r.score
+            w.writerow([
+                r.recording, r.samples, r.method, r.causal, _fmt(s and s.rms, ".6g"), _fmt(s and s.shift, ".3f"),
+                _fmt(s and s.zero_shift_rms, ".6g"), s.n_samples if s else "", _fmt(r.ratio, ".4f"),
+                _fmt(r.offline_ratio, ".4f"), _fmt(r.predicted, ".4g"), _fmt(r.cpu_s * 1e6 / max(r.samples, 1), ".3g"),
+                r.note.replace("\n", " ")[:400],
+            ])  # fmt: skip
+
+
+def summary_table(rows: list[Row]) -> str:
+    """One line per recording: backward differencing's score, then each summary method's ratio to it, and
+    ``--smooth``'s ratio to the best offline peer; geometric means by group at the end."""
+    recs = list(dict.fromkeys(r.recording for r in rows))
+    by = {(r.recording, r.method): r for r in rows}
+    head = ["recording", "backward diff. (rad/s)", *(f"{m} ÷ bwd" for m in SUMMARY), "--smooth ÷ best offline",
+            "predicted / measured (omegahat estimate)"]  # fmt: skip
+    lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    groups: dict[str, list[list[float | None]]] = {}
+    for name in recs:
+        bwd = by.get((name, "backward diff."))
+        ratios = [by[(name, m)].ratio if (name, m) in by else None for m in SUMMARY]
+        smooth = by.get((name, "--preset mocap --smooth"))
+        off = smooth.offline_ratio if smooth else None
+        est = by.get((name, "omegahat estimate"))
+        pm = est.predicted / est.score.rms if est and est.predicted and est.score else None
+        lines.append(
+            f"| {name} | {_fmt(bwd.score.rms if bwd and bwd.score else None)} | "
+            + " | ".join(_fmt(x, ".3f") for x in ratios)
+            + f" | {_fmt(off, '.3f')} | {_fmt(pm, '.2f')} |"
+        )
+        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+        groups.setdefault(group, []).append([*ratios, off])
+    lines.append("")
+    lines.append(
+        "| group (geometric mean) | n | " + " | ".join(f"{m} ÷ bwd" for m in SUMMARY) + " | --smooth ÷ best offline |"
+    )
+    lines.append("|" + " --- |" * (len(SUMMARY) + 3))
+    for g, vals in groups.items():
+        means = [_geomean([v[i] for v in vals]) for i in range(len(SUMMARY) + 1)]  # type: ignore[misc]
+        lines.append(f"| {g} | {len(vals)} | " + " | ".join(_fmt(m, ".3f") for m in means) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("corpus", nargs="?", type=Path, help="corpus directory (default $OMEGAHAT_CORPUS_DIR or ../corpus)")
+    ap.add_argument("--only", nargs="+", metavar="PATTERN", help="recordings whose name matches (fnmatch)")
+    ap.add_argument("--methods", nargs="+", metavar="NAME", help="methods to run (default all)")
+    ap.add_argument("--no-decimate", action="store_true", help="native rates only")
+    ap.add_argument("--no-write", action="store_true", help="print only (no CSV, no RESULTS.md)")
+    args = ap.parse_args(argv)
+    paths = recordings(args.corpus or corpus_dir())
+    if args.only:
+        paths = [p for p in paths if any(fnmatch.fnmatch(p.stem, pat) for pat in args.only)]
+    if not paths:
+        print(f"skipped: no corpus recordings in {args.corpus or corpus_dir()} (build it with benchmarks/corpus.py)")
+        return 0
+    methods = [m for m in METHODS if args.methods is None or m.name in args.methods]
+    warnings.simplefilter("ignore")  # skipped samples etc.: every method alike, counted in the notes
+    rows: list[Row] = []
+    t0 = time.perf_counter()
+    for path in paths:
+        rec = load_recording(path)
+        steps = [1] + ([] if args.no_decimate else list(rec.meta.get("decimate", [])))
+        for step in steps:
+            r = rec.decimated(step)
+            got = evaluate(r, methods)
+            rows += got
+            line = "  ".join(f"{g.method}: {_fmt(g.score.rms if g.score else None)}" for g in got)
+            print(f"{r.name} ({r.fs:.4g} Hz, {r.t.size} samples): {line}", flush=True)
+    table = summary_table(rows)
+    print("\n" + table + f"\n\n{len(rows)} rows in {time.perf_counter() - t0:.0f} s")
+    if args.no_write:
+        return 0
+    _write_csv(rows)
+    names = sorted({p.stem.split("-")[0] for p in paths})
+    write_section(
+        SECTION,
+        f"{machine_line()} Command: `python benchmarks/real_world.py` on the corpus of `benchmarks/corpus.py` "
+        f"({len(paths)} recordings: {', '.join(names)}). Fair score (rad/s) of backward differencing, and each "
+        "method's score as a ratio to it (below 1: better); `--smooth` also to the best of central differencing and "
+        "RotationSpline; the default's own predicted RMS error over its measured score. Every method and figure per "
+        "recording: `benchmarks/real_world.csv`.\n\n" + table,
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
