@@ -33,7 +33,15 @@ from omegahat.lab.evaluation.corpus import METHODS, Row, corpus_dir, evaluate, l
 from results_md import machine_line, write_section
 
 CSV = Path(__file__).with_name("real_world.csv")
-SUMMARY = ("omegahat estimate", "--preset mocap", "--preset mocap --smooth", "MEKF")  # the ratio columns
+SUMMARY = (  # the ratio columns
+    "omegahat estimate",
+    "--estimator sarras",
+    "--bandwidth, best in hindsight",
+    "--preset mocap",
+    "--preset mocap --smooth",
+    "MEKF",
+)
+HINDSIGHT = "--bandwidth, best in hindsight"
 SECTION = "## Real-world corpus of issue 24 (benchmarks/real_world.py)"
 
 
@@ -65,35 +73,38 @@ def _write_csv(rows: list[Row]) -> None:
 
 
 def summary_table(rows: list[Row]) -> str:
-    """One line per recording: backward differencing's score, then each summary method's ratio to it, and
-    ``--smooth``'s ratio to the best offline peer; geometric means by group at the end."""
+    """One line per recording: backward differencing's score, each summary method's ratio to it, ``--smooth``'s
+    ratio to the best offline peer, the default's ratio to the best bandwidth in hindsight and its predicted over
+    measured error; then geometric means by group."""
     recs = list(dict.fromkeys(r.recording for r in rows))
     by = {(r.recording, r.method): r for r in rows}
-    head = ["recording", "backward diff. (rad/s)", *(f"{m} ÷ bwd" for m in SUMMARY), "--smooth ÷ best offline",
-            "predicted / measured (omegahat estimate)"]  # fmt: skip
+
+    def rms(name: str, method: str) -> float | None:
+        r = by.get((name, method))
+        return r.score.rms if r is not None and r.score is not None else None
+
+    short = {"omegahat estimate": "default", "--bandwidth, best in hindsight": "best --bandwidth"}
+    head = ["recording", "backward diff. (rad/s)", *(f"{short.get(m, m)} ÷ bwd" for m in SUMMARY),
+            "--smooth ÷ best offline", "default ÷ best --bandwidth", "default: predicted ÷ measured"]  # fmt: skip
     lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     groups: dict[str, list[list[float | None]]] = {}
     for name in recs:
-        bwd = by.get((name, "backward diff."))
         ratios = [by[(name, m)].ratio if (name, m) in by else None for m in SUMMARY]
         smooth = by.get((name, "--preset mocap --smooth"))
-        off = smooth.offline_ratio if smooth else None
+        default, hind = rms(name, "omegahat estimate"), rms(name, HINDSIGHT)
+        extra = [
+            smooth.offline_ratio if smooth else None,
+            default / hind if default is not None and hind else None,
+        ]
         est = by.get((name, "omegahat estimate"))
         pm = est.predicted / est.score.rms if est and est.predicted and est.score else None
-        lines.append(
-            f"| {name} | {_fmt(bwd.score.rms if bwd and bwd.score else None)} | "
-            + " | ".join(_fmt(x, ".3f") for x in ratios)
-            + f" | {_fmt(off, '.3f')} | {_fmt(pm, '.2f')} |"
-        )
+        cells = [_fmt(rms(name, "backward diff."))] + [_fmt(x, ".3f") for x in ratios + extra] + [_fmt(pm, ".2f")]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
         group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
-        groups.setdefault(group, []).append([*ratios, off])
-    lines.append("")
-    lines.append(
-        "| group (geometric mean) | n | " + " | ".join(f"{m} ÷ bwd" for m in SUMMARY) + " | --smooth ÷ best offline |"
-    )
-    lines.append("|" + " --- |" * (len(SUMMARY) + 3))
+        groups.setdefault(group, []).append(ratios + extra)
+    lines += ["", "| group (geometric mean) | n | " + " | ".join(head[2:-1]) + " |", "|" + " --- |" * (len(head) - 1)]
     for g, vals in groups.items():
-        means = [_geomean([v[i] for v in vals]) for i in range(len(SUMMARY) + 1)]  # type: ignore[misc]
+        means = [_geomean([v[i] for v in vals]) for i in range(len(vals[0]))]  # type: ignore[misc]
         lines.append(f"| {g} | {len(vals)} | " + " | ".join(_fmt(m, ".3f") for m in means) + " |")
     return "\n".join(lines)
 
