@@ -101,11 +101,13 @@ def convert_broad(src: Path, out: Path) -> list[str]:
 
 
 def _regular(t: np.ndarray) -> tuple[np.ndarray, str]:
-    """The least-squares line through the stamps over the sample index, and how far the stamps were from it."""
+    """The least-squares line through the stamps over the sample index, as seconds after the first stamp (Unix
+    times carry only 0.2 µs in a float), and how far the stamps were from it."""
     k = np.arange(t.size)
-    slope, intercept = np.polyfit(k, t, 1)
+    rel = t - t[0]
+    slope, intercept = np.polyfit(k, rel, 1)
     line = intercept + slope * k
-    r = t - line
+    r = rel - line
     return (
         line,
         f"{1 / slope:.5g} Hz, stamps off the line by {1e3 * r.std():.2g} ms RMS, {1e3 * abs(r).max():.2g} ms max",
@@ -141,8 +143,12 @@ def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
         imu = scipy.io.loadmat(imu_path)
         R = np.ascontiguousarray(np.moveaxis(np.asarray(v["rots"], dtype=float), 2, 0))
         bad = ~np.all(np.isfinite(R), axis=(1, 2))
-        t_v, vicon_note = _regular(np.asarray(v["ts"], dtype=float).ravel())
-        t_i, imu_note = _regular(np.asarray(imu["ts"], dtype=float).ravel())
+        ts_v, ts_i = np.asarray(v["ts"], dtype=float).ravel(), np.asarray(imu["ts"], dtype=float).ravel()
+        t_v, vicon_note = _regular(ts_v)
+        t_i, imu_note = _regular(ts_i)
+        origin = ts_v[0] + t_v[0]  # Unix time of the first Vicon sample: times below count from it
+        t_i += (ts_i[0] - ts_v[0]) - t_v[0]
+        t_v -= t_v[0]
         g = np.asarray(imu["vals"], dtype=float)[3:6].T  # the gyroscope's counts, in the order stored
         stuck = stuck_gyro(g)
         t_i, g = t_i[~stuck], g[~stuck]  # left out: the calibration and the score treat the holes as gaps
@@ -155,7 +161,6 @@ def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
             tables[f"upenn-{n:02d} (not converted)"] = cal.table("counts")
             continue
         ref_t, ref_w = cal.apply(t_i, g)
-        origin = t_v[0]
         q = np.full((t_v.size, 4), np.nan)
         q[~bad] = so3.to_quat(R[~bad])
         name = f"upenn-{n:02d}"
@@ -178,7 +183,7 @@ def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
                 f"{int(stuck.sum())} gyroscope samples left out (stuck at {STUCK_COUNTS.tolist()} counts)",
             ],
         }
-        rec = Recording(name, t_v - origin, "quaternion", q, ref_t - origin, ref_w, np.ones(t_v.size, bool), meta)
+        rec = Recording(name, t_v, "quaternion", q, ref_t, ref_w, np.ones(t_v.size, bool), meta)
         save_recording(out / f"{name}.npz", rec)
         written.append(name)
         tables[name] = cal.table("counts")
