@@ -39,6 +39,7 @@ import scipy.io
 
 from omegahat import so3
 from omegahat.calibration import calibrate
+from omegahat.cli.calibrate import table
 from omegahat.lab.evaluation import broad
 from omegahat.lab.evaluation.corpus import Recording, save_recording
 
@@ -158,7 +159,7 @@ def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
             print(f"  upenn-{n:02d}: not converted: a gyroscope channel does not respond (scale factors "
                   f"{np.array2string(cal.scale, precision=3)} counts per rad/s; singular values of A "
                   f"{np.array2string(sv, precision=3)}): no reference", flush=True)  # fmt: skip
-            tables[f"upenn-{n:02d} (not converted)"] = cal.table("counts")
+            tables[f"upenn-{n:02d} (not converted)"] = table(cal, "counts")
             continue
         ref_t, ref_w = cal.apply(t_i, g)
         q = np.full((t_v.size, 4), np.nan)
@@ -186,7 +187,7 @@ def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
         rec = Recording(name, t_v, "quaternion", q, ref_t, ref_w, np.ones(t_v.size, bool), meta)
         save_recording(out / f"{name}.npz", rec)
         written.append(name)
-        tables[name] = cal.table("counts")
+        tables[name] = table(cal, "counts")
         print(f"  {name}: {t_v.size} Vicon samples; {cal.axis_map()}; offset {cal.offset * 1e3:+.1f} ± "
               f"{cal.offset_std * 1e3:.1f} ms", flush=True)  # fmt: skip
     return written, tables

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.calibration import Calibration, calibrate
 from omegahat.cli import main
-from omegahat.cli.calibrate import read_gyro
+from omegahat.cli.calibrate import read_gyro, table
 from omegahat.io import LogFormatError
 
 
@@ -172,10 +172,14 @@ def test_command_prints_writes_json_and_plots(tmp_path, capsys):
     assert code == 0
     assert "clock offset" in text and "scale" in text and f"wrote {out}" in text
     d = json.loads(out.read_text())
-    assert abs(d["offset_s"] - truth["delta"]) < 5 * d["offset_std_s"] + 1e-6
+    assert abs(d["offset"] - truth["delta"]) < 5 * d["offset_std"] + 1e-6
     np.testing.assert_allclose(d["scale"], truth["s"], atol=5 * max(d["scale_std"]))
     loaded = Calibration.load(out)
     np.testing.assert_array_equal(loaded.matrix, np.array(d["matrix"]))
+    assert table(loaded) == table(Calibration.load(out)) and loaded.scale_std is not None
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(ValueError, match="not a calibration written by omegahat calibrate"):
+        Calibration.load(tmp_path / "bad.json")
     assert png.stat().st_size > 10_000
 
 

@@ -233,7 +233,7 @@ def test_conversion_script_on_synthetic_copies(tmp_path, capsys):
     assert names == ["broad-03_fake_trial", "upenn-01"]
     rec = load_recording(out / "broad-03_fake_trial.npz")
     cal = rec.meta["calibration"]
-    assert abs(cal["offset_s"] - 0.004) < 5 * cal["offset_std_s"] + 2e-5
+    assert abs(cal["offset"] - 0.004) < 5 * cal["offset_std"] + 2e-5
     np.testing.assert_allclose(cal["bias"], bias, atol=5e-4)
     np.testing.assert_allclose(np.array(cal["rotation"]), Rc, atol=2e-4)
     assert rec.meta["decimate"] == [10, 30] and "CC BY 4.0" in rec.meta["licence"]

@@ -55,7 +55,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -84,6 +84,10 @@ MIN_EXCITATION = 0.05  #: weakest / strongest principal standard deviation of th
 _BLOCK_PERIODS = 8.0  # (C4): the batch length in periods of the cut-off
 _MARGIN_PERIODS = 4.0  # samples this many cut-off periods from a gap or an end are left out
 _GAP_FACTOR = 2.5  # a step longer than this × the median is a gap
+CONVENTION = (
+    "gyro(t + offset) = matrix @ omega_body(t) + bias; omega_body(t) = inv(matrix) @ (gyro(t + offset) - bias); "
+    "offset: gyro clock - attitude clock, s; rotation: gyro <- body; rotation_std: rad about the gyro axes"
+)
 
 
 @dataclass(frozen=True)
@@ -135,31 +139,12 @@ class Calibration:
         return ", ".join(words)
 
     def to_dict(self) -> dict:
-        """JSON-ready: every quantity, its standard deviation and the convention (C1)."""
-        lists = lambda a: None if a is None else np.asarray(a).tolist()  # noqa: E731
-        return {
-            "convention": "gyro(t + offset) = matrix @ omega_body(t) + bias; omega_body(t) = inv(matrix) @ "
-            "(gyro(t + offset) - bias); offset = gyro clock - attitude clock (s); rotation: gyro <- body",
-            "mode": self.mode,
-            "offset_s": self.offset,
-            "offset_std_s": self.offset_std,
-            "matrix": lists(self.matrix),
-            "matrix_std": lists(self.matrix_std),
-            "rotation": lists(self.rotation),
-            "rotation_std_rad": lists(self.rotation_std),
-            "bias": lists(self.bias),
-            "bias_std": lists(self.bias_std),
-            "scale": lists(self.scale),
-            "scale_std": lists(self.scale_std),
-            "residual_rms": lists(self.residual_rms),
-            "n_samples": self.n_samples,
-            "cutoff_hz": self.cutoff_hz,
-            "rates_hz": list(self.rates_hz),
-            "excitation_rad_s": lists(self.excitation),
-            "parameters": list(self.parameters),
-            "covariance": lists(self.covariance),
-            "notes": list(self.notes),
-        }
+        """JSON-ready: every field (arrays as lists; seconds, radians, gyro units) and the convention (C1)."""
+        d: dict = {"convention": CONVENTION}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            d[f.name] = v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v
+        return d
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write :meth:`to_dict` as JSON."""
@@ -172,53 +157,14 @@ class Calibration:
         """Read what :meth:`save` wrote."""
         with open(path, encoding="utf-8") as f:
             d = json.load(f)
-
-        def arr(k: str) -> np.ndarray:
-            return np.array(d[k], dtype=float)
-
-        def maybe(k: str) -> np.ndarray | None:
-            return None if d.get(k) is None else arr(k)
-
         try:
-            return cls(
-                d["mode"], float(d["offset_s"]), float(d["offset_std_s"]), arr("matrix"), arr("rotation"),
-                arr("rotation_std_rad"), arr("bias"), arr("bias_std"), arr("scale"), maybe("scale_std"),
-                maybe("matrix_std"), arr("residual_rms"), int(d["n_samples"]), float(d["cutoff_hz"]),
-                tuple(d["rates_hz"]), arr("excitation_rad_s"), arr("covariance"), tuple(d["parameters"]),
-                tuple(d.get("notes", ())),
-            )  # fmt: skip
-        except (KeyError, TypeError) as exc:
-            raise ValueError(f"{path}: not a calibration written by omegahat calibrate ({exc})") from None
-
-    def table(self, unit: str = "rad/s") -> str:
-        """The printed table: each quantity ± one standard deviation."""
-
-        def vec(v, s, fmt):
-            return "[" + ", ".join(f"{a:{fmt}} ± {e:.2g}" for a, e in zip(v, s, strict=True)) + "]"
-
-        deg = np.degrees(so3.log(self.rotation))
-        lines = [
-            f"clock offset   {self.offset:+.5f} s ± {self.offset_std:.2g} s (gyro clock - attitude clock)",
-            f"rotation       gyro <- body: rotation vector {np.array2string(deg, precision=3)} deg, "
-            f"± [{', '.join(f'{e:.2g}' for e in np.degrees(self.rotation_std))}] deg about the gyro axes"
-            + ("" if self.mode != "matrix" else " (nearest rotation to the matrix)"),
-            "               rows " + "; ".join(np.array2string(r, precision=5) for r in self.rotation),
-            f"bias           {vec(self.bias, self.bias_std, '.5g')} {unit}",
-        ]
-        if self.mode != "none":
-            std = self.scale_std if self.scale_std is not None else np.full(3, np.nan)
-            per = f"{unit} per rad/s" if unit != "rad/s" else "(1 = none)"
-            lines.append(f"scale          {vec(self.scale, std, '.6g')} {per}")
-        if self.matrix_std is not None:
-            for i in range(3):
-                lines.append(f"matrix row {i + 1}   {vec(self.matrix[i], self.matrix_std[i], '.5g')}")
-            lines.append(f"axes           {self.axis_map()}")
-        lines.append(
-            f"residual RMS   {np.array2string(self.residual_rms, precision=3)} {unit} per axis, in band "
-            f"(< {self.cutoff_hz:.3g} Hz), {self.n_samples} samples; rate varies by "
-            f"{np.array2string(self.excitation, precision=3)} rad/s along its principal axes"
-        )
-        return "\n".join(lines + [f"note: {n}" for n in self.notes])
+            values = {f.name: d[f.name] for f in fields(cls)}
+        except KeyError as exc:
+            raise ValueError(f"{path}: not a calibration written by omegahat calibrate (no {exc})") from None
+        for k, v in values.items():
+            if isinstance(v, list):
+                values[k] = tuple(v) if k in ("rates_hz", "parameters", "notes") else np.array(v, dtype=float)
+        return cls(**values)
 
 
 # ------------------------------------------------------------------------------------------------------ the fit

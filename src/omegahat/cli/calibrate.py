@@ -3,10 +3,10 @@ r"""``omegahat calibrate ATTITUDE GYRO``: a gyroscope calibrated against an atti
 A thin shell over :func:`omegahat.calibration.calibrate` (the method: its docstring and ``docs/calibrate.md``). The
 attitude log is read by :func:`omegahat.io.read_log` (every format ``omegahat estimate`` reads, with the same
 conventions options); the gyroscope log is a CSV whose header names ``t, gx, gy, gz`` (or the columns given) or an
-NPZ with arrays ``t`` and ``gx, gy, gz`` (or ``g (M, 3)``): :func:`read_gyro`. Prints the table (each quantity ±
-one standard deviation), writes it as JSON with ``-o`` (:meth:`omegahat.calibration.Calibration.save`: what
-``benchmarks/corpus.py`` applies), and draws the residuals with ``--plot FILE.png`` (Matplotlib, imported only
-then).
+NPZ with arrays ``t`` and ``gx, gy, gz`` (or ``g (M, 3)``): :func:`read_gyro`. Prints the table (:func:`table`:
+each quantity ± one standard deviation), writes it as JSON with ``-o``
+(:meth:`omegahat.calibration.Calibration.save`), and draws the residuals with ``--plot FILE.png`` (Matplotlib,
+imported only then).
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from omegahat import so3
 from omegahat.calibration import DEFAULT_MAX_OFFSET, MODES, Calibration, band_limited, calibrate
 from omegahat.cli import positive_float
 from omegahat.io import LogFormatError, ReadOptions, read_log
@@ -102,6 +103,37 @@ def _read_npz(path: str, want: list[str]) -> tuple[np.ndarray, np.ndarray]:
     return t, g
 
 
+def table(cal: Calibration, unit: str = "rad/s") -> str:
+    """The printed table of a calibration: each quantity ± one standard deviation."""
+
+    def vec(v, s, fmt):
+        return "[" + ", ".join(f"{a:{fmt}} ± {e:.2g}" for a, e in zip(v, s, strict=True)) + "]"
+
+    deg = np.degrees(so3.log(cal.rotation))
+    lines = [
+        f"clock offset   {cal.offset:+.5f} s ± {cal.offset_std:.2g} s (gyro clock - attitude clock)",
+        f"rotation       gyro <- body: rotation vector {np.array2string(deg, precision=3)} deg, "
+        f"± [{', '.join(f'{e:.2g}' for e in np.degrees(cal.rotation_std))}] deg about the gyro axes"
+        + ("" if cal.mode != "matrix" else " (nearest rotation to the matrix)"),
+        "               rows " + "; ".join(np.array2string(r, precision=5) for r in cal.rotation),
+        f"bias           {vec(cal.bias, cal.bias_std, '.5g')} {unit}",
+    ]
+    if cal.mode != "none":
+        std = cal.scale_std if cal.scale_std is not None else np.full(3, np.nan)
+        per = f"{unit} per rad/s" if unit != "rad/s" else "(1 = none)"
+        lines.append(f"scale          {vec(cal.scale, std, '.6g')} {per}")
+    if cal.matrix_std is not None:
+        for i in range(3):
+            lines.append(f"matrix row {i + 1}   {vec(cal.matrix[i], cal.matrix_std[i], '.5g')}")
+        lines.append(f"axes           {cal.axis_map()}")
+    lines.append(
+        f"residual RMS   {np.array2string(cal.residual_rms, precision=3)} {unit} per axis, in band "
+        f"(< {cal.cutoff_hz:.3g} Hz), {cal.n_samples} samples; rate varies by "
+        f"{np.array2string(cal.excitation, precision=3)} rad/s along its principal axes"
+    )
+    return "\n".join(lines + [f"note: {n}" for n in cal.notes])
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = EPILOG
@@ -176,7 +208,7 @@ def run(args: argparse.Namespace) -> int:
                     max_offset=args.max_offset)  # fmt: skip
     unit = "counts" if args.gyro_unit == "raw" else "rad/s"
     print(f"calibrated {args.gyro} against {args.attitude}: gyro(t + offset) = A omega_body(t) + bias")
-    print(cal.table(unit))
+    print(table(cal, unit))
     if args.output is not None:
         cal.save(args.output)
         print(f"wrote {args.output}")

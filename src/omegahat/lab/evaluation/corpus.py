@@ -45,6 +45,9 @@ from typing import Any
 import numpy as np
 
 from omegahat import so3
+from omegahat.io import LogStream, ReadOptions
+from omegahat.io.pipeline import EstimateSettings, estimate_stream
+from omegahat.io.registry import checked_stream
 from omegahat.lab.evaluation.broad import Score, score
 
 __all__ = [
@@ -135,11 +138,8 @@ class Recording:
             opts["cutoff_hz"] = math.inf
         return opts
 
-    def stream(self):  # -> omegahat.io.LogStream
+    def stream(self) -> LogStream:
         """The recording as a checked :class:`omegahat.io.LogStream`, as :func:`omegahat.io.open_log` gives a file."""
-        from omegahat.io import LogStream, ReadOptions
-        from omegahat.io.registry import checked_stream
-
         stream = LogStream.from_arrays(
             self.name, self.kind, self.t, self.data.copy(), None if self.torque is None else self.torque.copy()
         )
@@ -244,8 +244,6 @@ def pipeline_method(name: str, causal: bool = True, given_model: bool = True, **
     recording's ``references``, and with ``given_model`` its ``inertia``, added), as ``omegahat estimate`` does."""
 
     def run(rec: Recording) -> Outcome:
-        from omegahat.io.pipeline import EstimateSettings, estimate_stream
-
         extra: dict[str, Any] = {"references": rec.references}
         if given_model and rec.inertia is not None:
             extra["inertia"] = rec.inertia

@@ -21,6 +21,8 @@ Every log is scored from :data:`SETTLE_S` on (``movement``), without the low-pas
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -54,7 +56,10 @@ _SCORE = {"cutoff_hz": "none", "max_shift": 0, "gap_margin_s": 1.0}
 _SOURCE = "omegahat's independent plant: MuJoCo rigid body (omegahat.lab.evaluation.plant_logs)"
 
 
-def smooth_torque(seed: int, amplitude: float = 0.4):
+TorqueFunction = Callable[[ArrayLike], np.ndarray]  #: ``τ(t)``: times ``(T,)`` → torques ``(T, 3)``, N·m
+
+
+def smooth_torque(seed: int, amplitude: float = 0.4) -> TorqueFunction:
     """``τ(t)`` (N·m, body axes), ``(T,) → (T, 3)``: per axis four sinusoids, 0.05–0.5 Hz, random phases."""
     rng = np.random.default_rng(seed)
     f = rng.uniform(0.05, 0.5, (3, 4))
@@ -68,7 +73,7 @@ def smooth_torque(seed: int, amplitude: float = 0.4):
     return tau
 
 
-def _varying_torque(seed: int, inertia: float = 2.0):
+def _varying_torque(seed: int, inertia: float = 2.0) -> TorqueFunction:
     """Every 10 s a different motion (module docstring), each a sinusoid per axis of rate amplitude ``W`` at ``f``
     (torque ``W J̄ 2π f``), with a 12 Hz vibration of 0.3 rad/s in the third segment; the segments' envelopes
     overlap by 1 s raised cosines."""
@@ -93,7 +98,7 @@ def _varying_torque(seed: int, inertia: float = 2.0):
 
 
 def simulate(
-    torque, J: ArrayLike = J_PLANT, duration: float = DURATION_S, seed: int = 0
+    torque: TorqueFunction, J: ArrayLike = J_PLANT, duration: float = DURATION_S, seed: int = 0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The plant driven by ``torque(t)`` from a random attitude and rate ``(0.5, −0.3, 0.4)`` rad/s: ``(t, R, ω,
     τ)`` every millisecond (``τ`` sampled at those instants)."""
