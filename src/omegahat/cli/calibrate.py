@@ -63,24 +63,18 @@ def read_gyro(
         for line, row in enumerate(rows, start=2):
             if not row or all(not c.strip() for c in row):
                 continue
-            try:
-                out.append([float(row[i]) for i in idx])
-            except (ValueError, IndexError):
-                bad = next(i for i in idx if i >= len(row) or not _is_number(row[i]))
-                shown = repr(row[bad]) if bad < len(row) else "nothing"
-                raise LogFormatError(f"{path}, line {line}, column {names[bad]}: {shown} is not a number") from None
+            values = []
+            for i in idx:
+                try:
+                    values.append(float(row[i]))
+                except (ValueError, IndexError):
+                    shown = repr(row[i]) if i < len(row) else "nothing"
+                    raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
+            out.append(values)
     if not out:
         raise LogFormatError(f"{path}: no rows after the header")
     a = np.array(out)
     return a[:, 0], a[:, 1:]
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _read_npz(path: str, want: list[str]) -> tuple[np.ndarray, np.ndarray]:
