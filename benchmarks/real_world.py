@@ -12,10 +12,11 @@ the low-pass and without a shift. BROAD recordings are also scored at every 10th
 against the native gyroscope.
 
 Methods: :data:`omegahat.lab.evaluation.corpus.METHODS` (differencing, RotationSpline, Savitzky-Golay, ``omegahat
-estimate`` as it runs with no option, ``--preset mocap``, ``--preset mocap --smooth``, the MEKF), the omegahat ones
-through the pipeline of ``omegahat estimate``. Ratios: causal methods and all to backward differencing;
-``--smooth`` also to the best of central differencing and RotationSpline. "predicted": the method's own expected
-RMS error when it prints one. Writes ``benchmarks/real_world.csv`` (every row) and its section of RESULTS.md.
+estimate`` as it runs with no option, ``--estimator sarras``, the best ``--bandwidth`` in hindsight, ``--preset
+mocap``, ``--preset mocap --smooth``, the MEKF), the omegahat ones through the pipeline of ``omegahat estimate``.
+Ratios: every method to backward differencing; ``--smooth`` also to the best of central differencing and
+RotationSpline; the default to the best bandwidth in hindsight. "predicted": the method's own expected RMS error
+when it prints one. Writes ``benchmarks/real_world.csv`` (every row) and its section of RESULTS.md.
 """
 
 from __future__ import annotations

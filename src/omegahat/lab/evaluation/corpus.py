@@ -26,7 +26,11 @@ its error is what a controller would see.
 **Methods** (:data:`METHODS`, a list to extend): each turns a :class:`Recording` into an :class:`Outcome` (the rate
 at every sample, and the method's own prediction of its RMS error when it makes one). omegahat's own are run
 through :func:`omegahat.io.pipeline.estimate_stream`, the path of ``omegahat estimate``, on a stream of the
-recording's arrays (:meth:`Recording.stream`): what is measured is what a user gets.
+recording's arrays (:meth:`Recording.stream`): what is measured is what a user gets. The table: backward and
+central differencing, RotationSpline, Savitzky–Golay (:data:`SAVGOL`), ``omegahat estimate`` with no option (but the
+inertia and references a recording gives), ``--estimator sarras`` (with J only), the fixed-gain observer at the
+best ``--bandwidth`` in hindsight (an oracle: :data:`HINDSIGHT_BANDWIDTHS`, scored on the recording itself),
+``--preset mocap`` and ``--preset mocap --smooth`` (not on logs with torque), and the gyro-less MEKF.
 """
 
 from __future__ import annotations
