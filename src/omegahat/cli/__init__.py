@@ -12,6 +12,7 @@ from collections.abc import Collection
 SUBCOMMANDS = {
     "paper": "omegahat.lab.cli.paper",
     "estimate": "omegahat.cli.estimate",
+    "calibrate": "omegahat.cli.calibrate",
     "compare": "omegahat.lab.cli.compare",
     "montecarlo": "omegahat.lab.cli.montecarlo",
     "control": "omegahat.lab.cli.control",
