@@ -32,19 +32,18 @@ two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
-from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
+from omegahat.io import ReadOptions, check_output, open_log, open_output
+from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
-from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.presets import PRESETS
 
@@ -257,10 +256,6 @@ def _given_gains(args, stream) -> ObserverGains | None:
     return ObserverGains(k=_per_direction(args.k, n, "k"), l_offset=_per_direction(args.l, n, "l"))
 
 
-def _terminate(signum, frame):
-    raise KeyboardInterrupt("terminated")
-
-
 def run(args: argparse.Namespace) -> int:
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
@@ -300,19 +295,13 @@ def run(args: argparse.Namespace) -> int:
         bar.n = min(stream.done, stream.size) if by_bytes else rows
         bar.refresh()
 
-    def writer(s: LogStream) -> OmegaWriter | TwistBagWriter:
+    def writer(s: LogStream) -> AtomicOutput:
         return open_output(out, kind, s, frame_id=args.frame_id, topic=args.output_topic)
 
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
-    try:
-        with bar:
-            summary = estimate_stream(stream, settings, writer, report=print, progress=progress)
-            bar.n = bar.total
-            bar.refresh()
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+    with bar:
+        summary = estimate_stream(stream, settings, writer, report=print, progress=progress)
+        bar.n = bar.total
+        bar.refresh()
     compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
     print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
     print("\n".join(summary.lines))
