@@ -37,14 +37,19 @@ recorded at that message's receive time; ``twist.linear`` is NaN (not estimated)
 bag, a name without extension a ROS 2 bag directory (SQLite storage). The bag is written under a temporary name
 beside the target and renamed when complete, so the output is whole or absent; an existing output is never
 overwritten (a ROS 2 bag is a directory, which cannot be replaced atomically).
+
+**Damaged bags** (a damaged chunk, a truncated payload, random bytes, a damaged ROS 2 database) are errors naming
+the bag, and the topic and message where known: whatever rosbags' parsers raise on damaged bytes becomes a
+:class:`~omegahat.io.LogFormatError`. A message is never dropped silently.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -157,6 +162,37 @@ def _samples(msgtype: str, msg, topic: str, where: str):
         yield _stamp_ns(msg.header), _quat(msg.orientation), None, _frame(msg.header.frame_id)
 
 
+def _why(exc: BaseException) -> str:
+    """An exception from rosbags or a decompressor as words: its type and message."""
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _decoded(reader, conns, where: str) -> Iterator[tuple[int, int, Any]]:
+    """``(index, receive time ns, message)`` of the topic's messages; a message that cannot be read or decoded
+    (a damaged chunk, a truncated payload) is an error naming it. rosbags' parsers raise many kinds of exception
+    on damaged bytes (their own, ``struct.error``, ``UnicodeDecodeError``, a decompressor's ``OSError`` or
+    ``RuntimeError``), so any exception of theirs becomes a :class:`~x`."""
+    messages = reader.messages(connections=conns)
+    k = 0
+    while True:
+        try:
+            conn, timestamp, raw = next(messages)
+        except StopIteration:
+            return
+        except Exception as exc:
+            raise LogFormatError(f"{where}: cannot read message {k}: the bag is damaged there ({_why(exc)})") from None
+        try:
+            msg = reader.deserialize(raw, conn.msgtype)
+        except Exception as exc:
+            raise LogFormatError(
+                f"{where}, message {k}: cannot be decoded as {conn.msgtype.replace('/msg/', '/')} ({len(raw)} bytes: "
+                f"{_why(exc)}); the bag is damaged there"
+            ) from None
+        yield k, int(timestamp), msg
+        k += 1
+
+
 def _describe_topics(connections) -> str:
     seen: dict[str, str] = {}
     for c in connections:
@@ -173,7 +209,7 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     message. The whole topic is read now (to sort it by stamp) and handed on in chunks.
     """
     _rosbags()
-    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
     topic, parent_frame, child_frame, stamp = options.topic, options.parent_frame, options.child_frame, options.stamp
@@ -186,8 +222,8 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     try:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.LATEST))
         reader.open()
-    except (AnyReaderError, OSError) as exc:
-        raise LogFormatError(f"{p}: cannot open the bag ({exc})") from None
+    except Exception as exc:  # damaged bytes raise anything from rosbags' parsers (module docstring)
+        raise LogFormatError(f"{p}: cannot open the bag ({_why(exc)})") from None
     try:
         supported = [c for c in reader.connections if c.msgtype in SUPPORTED_TYPES]
         if topic is None:
@@ -211,8 +247,7 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
                 f"readable types: {', '.join(t.replace('/msg/', '/') for t in SUPPORTED_TYPES)}"
             )
         header_ns, receive_ns, quats, pairs, index = [], [], [], [], []
-        for k, (conn, timestamp, raw) in enumerate(reader.messages(connections=conns)):
-            msg = reader.deserialize(raw, conn.msgtype)
+        for k, timestamp, msg in _decoded(reader, conns, f"{p}, topic {topic}"):
             for h_ns, q, parent, child in _samples(msgtype, msg, topic, f"{p}, topic {topic}, message {k}"):
                 header_ns.append(h_ns)
                 receive_ns.append(int(timestamp))
@@ -220,7 +255,8 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
                 pairs.append((parent, child))
                 index.append(k)
     finally:
-        reader.close()
+        with contextlib.suppress(Exception):  # a damaged bag may fail to close too: the error above tells
+            reader.close()
     if not quats:
         raise LogFormatError(f"{p}, topic {topic}: no messages")
     pair_set = sorted(set(pairs), key=lambda x: (x[0] or "", x[1] or ""))
