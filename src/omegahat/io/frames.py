@@ -5,7 +5,9 @@ case): a quaternion ``qx, qy, qz, qw`` (or the names given by ``quaternion=``, i
 rotation matrix ``r11 … r33``, or body-frame directions ``b1x, b1y, b1z, b2x, …`` with ``references=``;
 optionally the torque ``tau_x, tau_y, tau_z``. Time is the column ``t`` (seconds, or ``time_unit``) or the one
 named by ``time=``; for pandas, without such a column, a ``DatetimeIndex``, ``TimedeltaIndex`` or floating-point
-index. Datetime and duration times are used as integer nanoseconds, so that equal stamps compare exactly.
+index. Datetime and duration times are used as integer nanoseconds, so that equal stamps compare exactly; a
+timezone-aware time is the instant it names (a clock change is no gap). A Polars ``LazyFrame`` is collected first
+(the estimate needs every row; the result is a ``DataFrame``); anything else (a ``Series``, an array) is refused.
 
 :func:`open_frame` turns the frame into a :class:`~omegahat.io.registry.LogStream` (rows in time order, labelled by
 their position in the frame) and passes it through :func:`~omegahat.io.registry.checked_stream`, so a frame gets
@@ -14,7 +16,8 @@ any order are sorted; exact duplicates dropped; conflicting ones refused, naming
 :func:`estimate_frame`, the path of ``omegahat estimate`` (:func:`omegahat.io.pipeline.estimate_stream`):
 automatic gains by default, the fit start, bad samples named by row.
 
-Missing values (NaN, ``None``, ``pd.NA``, Polars nulls) in the attitude make the sample missing: skipped and
+Missing values (NaN, ``None``, ``pd.NA``, Polars nulls; also ±inf, as in every input) in the attitude make the
+sample missing: skipped and
 predicted through. The output is **indexed like the input**: for pandas a frame with the input's index and
 columns ``wx, wy, wz`` (rad/s, body axes) and ``status`` (``corrected``, ``predicted``, ``unavailable``, as in
 the command's output; join it to the input with ``df.join(out)``), for Polars a frame with the input's rows in the
@@ -45,11 +48,27 @@ if TYPE_CHECKING:
 __all__ = ["estimate_frame", "open_frame"]
 
 
-def _kind_of_frame(df) -> str:
+def _as_frame(df) -> tuple[pd.DataFrame | pl.DataFrame, str]:
+    """``(frame, "pandas" | "polars")``: a DataFrame as it is, a Polars LazyFrame collected; anything else (a
+    Series, an array) refused with a message."""
     module = type(df).__module__.split(".")[0]
-    if module in ("pandas", "polars"):
-        return module
-    raise TypeError(f"estimate_frame takes a pandas or Polars DataFrame; got {type(df).__module__}.{type(df).__name__}")
+    if module == "pandas":
+        import pandas as pd
+
+        if isinstance(df, pd.DataFrame):
+            return df, "pandas"
+    elif module == "polars":
+        import polars as pl
+
+        if isinstance(df, pl.LazyFrame):
+            return df.collect(), "polars"
+        if isinstance(df, pl.DataFrame):
+            return df, "polars"
+    raise TypeError(
+        f"estimate_frame takes a pandas or Polars DataFrame; got {module}.{type(df).__name__}"
+        + (" (a single column: pass the whole frame)" if type(df).__name__ == "Series" else "")
+        + " (a Polars LazyFrame is collected first)"
+    )
 
 
 def _pandas_times(df, time: str | None):
@@ -61,11 +80,11 @@ def _pandas_times(df, time: str | None):
             raise LogFormatError(f"DataFrame: no time column {name!r} (found: {', '.join(map(str, df.columns))})")
         s = df[name]
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
-            return _nanoseconds(s.to_numpy(), name), name
+            return _nanoseconds(s, name), name
         return s.to_numpy(dtype=float, na_value=np.nan), name
     idx = df.index
     if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
-        return _nanoseconds(idx.to_numpy(), "index"), None
+        return _nanoseconds(idx, "index"), None
     if pd.api.types.is_float_dtype(idx):
         return idx.to_numpy(dtype=float), None
     raise LogFormatError(
@@ -74,11 +93,23 @@ def _pandas_times(df, time: str | None):
     )
 
 
-def _nanoseconds(values: np.ndarray, name: str) -> np.ndarray:
-    if np.isnat(values).any():
-        k = int(np.flatnonzero(np.isnat(values))[0])
+def _nanoseconds(values, name: str) -> np.ndarray:
+    """Integer nanoseconds of pandas datetimes (since 1970, UTC: a timezone-aware time is the instant it names,
+    so that a clock change is no gap) or durations."""
+    import pandas as pd
+
+    timedelta = pd.api.types.is_timedelta64_dtype(values)
+    idx = pd.TimedeltaIndex(values) if timedelta else pd.DatetimeIndex(values)
+    missing = np.asarray(idx.isna())
+    if missing.any():
+        k = int(np.flatnonzero(missing)[0])
         raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
-    return values.astype("datetime64[ns]" if values.dtype.kind == "M" else "timedelta64[ns]").astype(np.int64)
+    if not timedelta and idx.tz is not None:
+        idx = idx.tz_convert("UTC").tz_localize(None)
+    try:
+        return np.array(idx.as_unit("ns").asi8, dtype=np.int64)
+    except (OverflowError, pd.errors.OutOfBoundsDatetime, pd.errors.OutOfBoundsTimedelta) as exc:
+        raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold ({exc})") from None
 
 
 def _polars_times(df, time: str | None):
@@ -108,7 +139,7 @@ def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
 
 
 def open_frame(
-    df: pd.DataFrame | pl.DataFrame,
+    df: pd.DataFrame | pl.DataFrame | pl.LazyFrame,
     options: ReadOptions | None = None,
     *,
     time: str | None = None,
@@ -117,7 +148,7 @@ def open_frame(
     """A checked stream of a pandas or Polars frame's rows in time order (module docstring); ``meta`` holds the
     frame's kind, the time column used (None: the index) and each row's time (``"row_t"``, seconds since ``t0``)."""
     options = ReadOptions() if options is None else options
-    frame_kind = _kind_of_frame(df)
+    df, frame_kind = _as_frame(df)
     names = [str(c) for c in df.columns]
     if quaternion is not None:
         q = [str(c) for c in quaternion]
@@ -212,7 +243,7 @@ class _Collector:
 
 
 def estimate_frame(
-    df: pd.DataFrame | pl.DataFrame,
+    df: pd.DataFrame | pl.DataFrame | pl.LazyFrame,
     *,
     gains: ObserverGains | None = None,
     bandwidth_hz: float | None = None,
@@ -242,6 +273,7 @@ def estimate_frame(
     """
     from omegahat.io.pipeline import EstimateSettings, estimate_stream
 
+    df, _ = _as_frame(df)
     stream = open_frame(df, ReadOptions(time_unit=time_unit, rotation=rotation), time=time, quaternion=quaternion)
     settings = EstimateSettings(
         inertia=inertia,
