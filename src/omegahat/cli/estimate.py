@@ -56,7 +56,7 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references); one direction
                               alone (a sun sensor) needs a tumbling body and --inertia (its own observer)
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
-        empty fields (or nan) are missing samples; other columns are ignored.
+        an attitude with an empty field, nan or inf is a missing sample; other columns are ignored.
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, C3D files with rigid-body
         rotations (--body), ROS 1 bags (.bag) and ROS 2 bags (directory) (--topic, frames).
         Equal times: the same attitude is one sample (dropped), different attitudes are an error.
