@@ -102,3 +102,16 @@ def test_a_damaged_ros2_database(tmp_path):
     db.write_bytes(bytes(raw))
     with pytest.raises(LogFormatError, match=r"run: cannot (open|read) the bag"):
         read_log(bag)
+
+
+def test_a_message_the_bag_lost_is_not_lost_without_a_word(tmp_path):
+    # A damaged byte moved a message to a topic that does not exist: the bag's own count says one is missing.
+    stamps, q, _ = motion(50)
+    bag = write_bag(tmp_path / "run", 2, {"/p": (POSE, pose_messages(stamps, q))})
+    (db,) = Path(bag).glob("*.db3")
+    with sqlite3.connect(db) as con:
+        con.execute("UPDATE messages SET topic_id = 99 WHERE id = 7")
+    with pytest.raises(
+        LogFormatError, match=r"run, topic /p: the bag says it holds 50 messages there, but 49 could be read"
+    ):
+        read_log(bag)

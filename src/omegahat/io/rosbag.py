@@ -40,7 +40,8 @@ overwritten (a ROS 2 bag is a directory, which cannot be replaced atomically).
 
 **Damaged bags** (a damaged chunk, a truncated payload, random bytes, a damaged ROS 2 database) are errors naming
 the bag, and the topic and message where known: whatever rosbags' parsers raise on damaged bytes becomes a
-:class:`~omegahat.io.LogFormatError`. A message is never dropped silently.
+:class:`~omegahat.io.LogFormatError`. A message is never dropped silently: the messages read on the topic must be
+as many as the bag's own count says (its index, or a ROS 2 bag's ``metadata.yaml``).
 """
 
 from __future__ import annotations
@@ -247,13 +248,21 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
                 f"readable types: {', '.join(t.replace('/msg/', '/') for t in SUPPORTED_TYPES)}"
             )
         header_ns, receive_ns, quats, pairs, index = [], [], [], [], []
+        n_read = 0
         for k, timestamp, msg in _decoded(reader, conns, f"{p}, topic {topic}"):
+            n_read += 1
             for h_ns, q, parent, child in _samples(msgtype, msg, topic, f"{p}, topic {topic}, message {k}"):
                 header_ns.append(h_ns)
                 receive_ns.append(int(timestamp))
                 quats.append(q)
                 pairs.append((parent, child))
                 index.append(k)
+        declared = sum(int(c.msgcount) for c in conns)
+        if declared and n_read != declared:  # a damaged index or table: messages would be lost without a word
+            raise LogFormatError(
+                f"{p}, topic {topic}: the bag says it holds {declared} messages there, but {n_read} could be read: "
+                "the bag is damaged"
+            )
     finally:
         with contextlib.suppress(Exception):  # a damaged bag may fail to close too: the error above tells
             reader.close()
