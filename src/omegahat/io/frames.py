@@ -81,7 +81,7 @@ def _pandas_times(df, time: str | None):
         s = df[name]
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
             return _nanoseconds(s, name), name
-        return s.to_numpy(dtype=float, na_value=np.nan), name
+        return _numbers(df, [name], "pandas")[:, 0], name
     idx = df.index
     if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
         return _nanoseconds(idx, "index"), None
@@ -127,15 +127,38 @@ def _polars_times(df, time: str | None):
             scale = {"ns": 1, "us": 1_000, "ms": 1_000_000}[s.dtype.time_unit]
             return s.to_physical().to_numpy().astype(np.int64) * scale, name
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
-    return s.cast(pl.Float64).to_numpy(), name
+    return _numbers(df, [name], "polars")[:, 0], name
 
 
 def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
+    """The columns ``cols`` as floats ``(rows, len(cols))`` (missing values: NaN); a value that is not a number
+    (text, a complex number) is an error naming its row and column."""
     if frame_kind == "pandas":
-        return df[cols].to_numpy(dtype=float, na_value=np.nan)
+        try:
+            return df[cols].to_numpy(dtype=float, na_value=np.nan)
+        except (ValueError, TypeError) as exc:
+            raise _not_a_number(df, cols, frame_kind, exc) from None
     import polars as pl
 
-    return df.select([pl.col(c).cast(pl.Float64) for c in cols]).to_numpy().astype(float)
+    out = df.select([pl.col(c).cast(pl.Float64, strict=False) for c in cols])
+    lost = [c for c in cols if out.get_column(c).null_count() > df.get_column(c).null_count()]
+    if lost:
+        raise _not_a_number(df, lost, frame_kind, None)
+    return out.to_numpy().astype(float)
+
+
+def _not_a_number(df, cols: list[str], frame_kind: str, exc: Exception | None) -> LogFormatError:
+    """The error for the first value of ``cols`` that is not a real number."""
+    for c in cols:
+        values = df[c].to_list() if frame_kind == "polars" else df[c].tolist()
+        for k, v in enumerate(values):
+            if v is None or isinstance(v, bool | int | float | np.integer | np.floating):
+                continue
+            try:
+                float(v)
+            except (ValueError, TypeError):
+                return LogFormatError(f"DataFrame, row {k}, column {c}: {v!r} is not a number")
+    return LogFormatError(f"DataFrame, column(s) {', '.join(map(str, cols))}: not numbers ({exc})")
 
 
 def open_frame(
