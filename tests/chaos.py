@@ -5,8 +5,8 @@
 Motive, Vicon, C3D, ROS 1 and ROS 2 bags) and knows how many rows reading it gives.
 
 **Mutations** (:data:`TEXT_MUTATIONS`, :data:`BINARY_MUTATIONS`), seeded: byte flips, truncation, a block of
-zeros, a duplicated block; for text also a stray quote, CR-LF or CR-only line ends, a deleted or doubled line, a
-line broken in two.
+zeros, a duplicated block; for text also a stray quote (anywhere, or opening a field), CR-LF or CR-only line ends, a
+deleted or doubled line, a line broken in two.
 
 **Outcomes** (:func:`read_case`), each case exactly one of:
 
@@ -38,7 +38,9 @@ import numpy as np
 from omegahat.io import read_log
 
 FAILURES = ("unnamed", "silent", "traceback", "crash")
-TEXT_MUTATIONS = ("flip", "truncate", "zeros", "duplicate", "quote", "crlf", "cr", "drop_line", "double_line", "split")
+TEXT_MUTATIONS = (
+    "flip", "truncate", "zeros", "duplicate", "quote", "quote_field", "crlf", "cr", "drop_line", "double_line", "split",
+)  # fmt: skip
 BINARY_MUTATIONS = ("flip", "truncate", "zeros", "duplicate")
 _DROPPED = re.compile(r"dropped (\d+) duplicated sample")
 
@@ -155,10 +157,15 @@ def mutate(data: bytes, kind: str, rng: np.random.Generator) -> tuple[bytes, int
     body = [i for i, line in enumerate(lines) if line.strip()]
     i = body[int(rng.integers(len(body)))]
     start, end = _line_span(lines, i)
-    if kind == "quote":
+    if kind == "quote":  # anywhere in a line
         line = lines[i]
         k = int(rng.integers(len(line) + 1))
         lines[i] = line[:k] + b'"' + line[k:]
+    elif kind == "quote_field":  # opening a field: the start of a quoted field that never ends
+        fields = lines[i].split(b",")
+        j = int(rng.integers(len(fields)))
+        fields[j] = b'"' + fields[j]
+        lines[i] = b",".join(fields)
     elif kind == "drop_line":
         del lines[i]
     elif kind == "double_line":
@@ -246,12 +253,16 @@ def write_case(seed: Seed, folder: Path, data: bytes) -> Path:
     return folder / seed.entry
 
 
-def run_cases(seed: Seed, folder: Path, n: int, base_seed: int = 0) -> list[Case]:
-    """``n`` mutated files of ``seed``, mutations in turn, each from its own seed ``base_seed + k`` (replayable:
-    ``mutate(seed data, kind, np.random.default_rng(base_seed + k))``); the case folders are kept for replay."""
+def run_cases(
+    seed: Seed, folder: Path, n: int, base_seed: int = 0, mutations: tuple[str, ...] | None = None
+) -> list[Case]:
+    """``n`` mutated files of ``seed``, ``mutations`` (default: the seed's) in turn, each from its own seed
+    ``base_seed + k`` (replayable: ``mutate(seed data, kind, np.random.default_rng(base_seed + k))``); the case
+    folders are kept for replay."""
+    kinds = seed.mutations if mutations is None else mutations
     cases = []
     for k in range(n):
-        kind = seed.mutations[k % len(seed.mutations)]
+        kind = kinds[k % len(kinds)]
         rng = np.random.default_rng(base_seed + k)
         data, start, end = mutate(seed.files[seed.target], kind, rng)
         case_dir = folder / f"{seed.name}-{base_seed + k}"
