@@ -1,7 +1,7 @@
 """The chaos suite, the readers (issue 23): seeded mutations of a valid file of every reader (byte flips,
 truncation, blocks of zeros or duplicated, stray quotes, CR-LF and CR-only line ends, lines deleted, doubled or
 broken), each read: a message naming the file, or the right rows; never a traceback, never rows lost without a word
-(``tests/chaos.py`` says how each outcome is told). ``benchmarks/chaos.py`` runs the same with many more cases.
+(``tests/chaos_files.py`` says how each outcome is told). ``benchmarks/chaos.py`` runs the same with many more cases.
 
 A (reader, mutation) pair that fails today in a reader another change is fixing is a strict expected failure,
 with the reason and a replayable case in :data:`KNOWN`: it fails once fixed, and then its marker goes.
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-import chaos
+import chaos_files as chaos
 
 CASES = 8  #: mutated files per (reader, mutation) pair: 49 pairs, 392 files
 

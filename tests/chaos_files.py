@@ -283,7 +283,7 @@ def run_cases(
 _CHILD = """
 import json, sys
 from pathlib import Path
-from chaos import classify_read
+from chaos_files import classify_read
 from omegahat.io import read_log
 options = json.loads(sys.argv[1])
 for line in sys.stdin:
