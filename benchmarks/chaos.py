@@ -4,8 +4,9 @@ the tests run in CI (``tests/test_chaos_*.py``, the same engines: ``tests/chaos_
 
 Counts per part: cases; messages (an error naming the file, a refusal that changed nothing, a disk full or an
 interruption reported in one line with the output as it was); the right result (the right rows, a call accepted
-as its twin accepts it, a killed run cleaned up by the next); **tracebacks** and process crashes; **silent losses** (rows lost or merged without a word, a refusal that changed the estimator, an output
-left partial); messages without the file's name; temporary files left. Failures in code other changes are fixing
+as its twin accepts it, a killed run cleaned up by the next); **tracebacks** and process crashes; **silent
+losses** (rows lost or merged without a word, a refusal that changed the estimator, an output left partial);
+messages without the file's name; temporary files left. Failures in code other changes are fixing
 (issue 23's CSV items and item 5, the C3D reader) are listed by their cause, so that what remains is plain.
 
     python benchmarks/chaos.py                       # 100 files per (reader, mutation), 300 API sequences ...
