@@ -149,3 +149,11 @@ def test_an_interrupt_that_surfaces_as_numbas_system_error(log, tmp_path, capsys
     monkeypatch.setattr(estimator_module.SarrasEstimator, "run", broken)
     with pytest.raises(SystemError, match="a real bug"):
         main(["estimate", str(log), "-o", str(tmp_path / "o.csv"), "--no-progress"])
+
+
+def test_the_help_states_the_exit_statuses(capsys):
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"{128 + signal.SIGINT} interrupted by SIGINT (Ctrl-C), {128 + signal.SIGTERM} by SIGTERM" in text
+    assert "the temporary file of a killed run (SIGKILL, power loss) is removed by the next run" in text

@@ -30,6 +30,15 @@ SUBCOMMANDS = {
 }
 #: the signals that interrupt a command (one message, exit 128 + their number)
 INTERRUPTS = (signal.SIGINT, signal.SIGTERM)
+EPILOG = """\
+exit status: 0 done; 2 refused: an option, an input or an output it cannot take (one line on standard error,
+  before any work where the options are wrong or beyond a stated limit); 130 interrupted by SIGINT (Ctrl-C),
+  143 by SIGTERM.
+outputs are whole or absent: written under a temporary name beside them (.NAME.TOKEN.part) and renamed when
+  complete, so a failed or interrupted run leaves the previous output as it was; the temporary file of a killed
+  run (SIGKILL, power loss) is removed by the next run writing the same output. An output that is a symbolic
+  link is written through to the file it points to.
+"""
 
 
 def positive_float(text: str) -> float:
@@ -97,6 +106,8 @@ def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentPa
     parser = argparse.ArgumentParser(
         prog="omegahat",
         description="Angular velocity of a rigid body from attitude measurements, without gyroscopes.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"omegahat {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
