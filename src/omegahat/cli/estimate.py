@@ -33,19 +33,18 @@ two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
-from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
+from omegahat.io import ReadOptions, check_output, open_log, open_output
+from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
-from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
 from omegahat.observer.gains import ObserverGains
 
@@ -58,7 +57,7 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references); one direction
                               alone (a sun sensor) needs a tumbling body and --inertia (its own observer)
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
-        empty fields (or nan) are missing samples; other columns are ignored.
+        an attitude with an empty field, nan or inf is a missing sample; other columns are ignored.
         other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
@@ -305,10 +304,6 @@ def _given_gains(args, stream) -> ObserverGains | None:
     return ObserverGains(k=_per_direction(args.k, n, "k"), l_offset=_per_direction(args.l, n, "l"))
 
 
-def _terminate(signum, frame):
-    raise KeyboardInterrupt("terminated")
-
-
 def run(args: argparse.Namespace) -> int:
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
@@ -351,19 +346,13 @@ def run(args: argparse.Namespace) -> int:
         bar.n = min(stream.done, stream.size) if by_bytes else rows
         bar.refresh()
 
-    def writer(s: LogStream) -> OmegaWriter | TwistBagWriter:
+    def writer(s: LogStream) -> AtomicOutput:
         return open_output(out, kind, s, frame_id=args.frame_id, topic=args.output_topic)
 
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
-    try:
-        with bar:
-            summary = estimate_stream(stream, settings, writer, report=print, progress=progress, spell=cli_option)
-            bar.n = bar.total
-            bar.refresh()
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+    with bar:
+        summary = estimate_stream(stream, settings, writer, report=print, progress=progress, spell=cli_option)
+        bar.n = bar.total
+        bar.refresh()
     compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
     print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
     print("\n".join(summary.lines))
