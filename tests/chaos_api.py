@@ -21,8 +21,8 @@ R0 = Rotation.from_rotvec([0.2, -0.3, 0.5])
 
 ESTIMATORS = {
     "sarras": lambda: SarrasEstimator(J, gains=ObserverGains.constant(2.0, 2.0, n=3)),
-    "omegahat": lambda: SupervisedKalmanEstimator(J, rate_hz=100.0, measurement_sigma=1e-3),
-    "mekf": lambda: MEKF(J, measurement_sigma=1e-3),
+    "omegahat": lambda: SupervisedKalmanEstimator(J, rate_hz=100.0, measurement_noise=1e-3),
+    "mekf": lambda: MEKF(J, measurement_noise=1e-3),
     "differencing": lambda: DifferencingEstimator(),
 }
 
@@ -135,12 +135,12 @@ def calls(draw):
     return out
 
 
-def call(est, c):
+def call(est, c) -> np.ndarray:
+    """The call's estimate as one array: a row ``(ωx, ωy, ωz, status)`` per sample."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        if c[0] == "update":
-            return est.update(c[1], c[2], c[3])
-        return est.run(c[1], c[2], c[3])
+        got = est.update(c[1], c[2], c[3]) if c[0] == "update" else est.run(c[1], c[2], c[3])
+    return np.column_stack([np.atleast_2d(got.omega), np.atleast_1d(np.asarray(got.status, dtype=float))])
 
 
 def twin_outcomes(name: str, sequence) -> Counter:

@@ -31,11 +31,7 @@ from chaos_api import ESTIMATORS, attitude, call, calls, frames, twin_outcomes
 from omegahat import DifferencingEstimator
 
 #: estimators that fail a property today, and why (strict: the marker must go when the fix lands)
-COMPLEX = "omegahat.measurements drops a complex q's or torque's imaginary part (issue 23 item 5, fixed elsewhere)"
-KNOWN = {
-    ("sarras", "refusal"): "update('1.0', q) moves the estimator before refusing (issue 23 item 5, fixed elsewhere)",
-    **{(name, "complex"): COMPLEX for name in ("sarras", "omegahat", "mekf", "differencing")},
-}
+KNOWN: dict[tuple[str, str], str] = {}
 FAST = settings(
     max_examples=40, derandomize=True, database=None, suppress_health_check=[HealthCheck.too_slow], deadline=None
 )

@@ -18,11 +18,6 @@ CASES = 8  #: mutated files per (reader, mutation) pair: 49 pairs, 392 files
 #: (reader, mutation) -> why it fails today (each reproducible: ``chaos.mutate(seed, mutation, rng(seed))``)
 KNOWN = {
     ("csv", "flip"): "a byte that is not UTF-8 gives UnicodeDecodeError without the file's name (csvlog: rng 2)",
-    ("csv", "quote_field"): "a quote opening a field folds the later lines into it, rows lost (issue 23 item 2)",
-    ("csv", "cr"): "CR-only line ends give _csv.Error: new-line character seen in unquoted field (issue 23 item 3)",
-    ("motive", "quote"): "a stray quote: rows lost without a word (mocap's CSV path, as item 2)",
-    ("motive", "quote_field"): "a quote opening a field: rows lost without a word (mocap's CSV path, as item 2)",
-    ("vicon", "quote_field"): "a quote opening a field: rows lost without a word (mocap's CSV path, as item 2)",
     ("c3d", "truncate"): "ezc3d aborts the process (std::out_of_range, SIGABRT) on a truncated file",
 }
 
