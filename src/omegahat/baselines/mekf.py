@@ -48,6 +48,7 @@ skipped when nearly collinear (``min_angle_deg``); a non-finite sample is skippe
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -267,6 +268,11 @@ class FilterStep:
     P: np.ndarray
 
 
+def _finite(R: np.ndarray | None, x: np.ndarray, P: np.ndarray) -> bool:
+    """Whether the filter's state is finite (R̂ when there is one, the rate part x, P): the guard."""
+    return bool(np.all(np.isfinite(x)) and np.all(np.isfinite(P)) and (R is None or np.all(np.isfinite(R))))
+
+
 class MEKF(Estimator):
     """The gyro-less MEKF of the module docstring behind the estimator interface.
 
@@ -352,14 +358,21 @@ class MEKF(Estimator):
         self.reset()
 
     def reset(self) -> None:
+        """Forget every sample: back to the prior (R₀ or none, ω̂₀, P₀), counters cleared."""
         self.R: np.ndarray | None = None if self.R0 is None else self.R0.copy()
         self.omega = self.omega0.copy()
         self.accel = np.zeros(3)
-        prior = [self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3
-        self.P = np.diag(prior if self.q_a is None else prior + [self.sigma_accel0**2] * 3)
+        self.P = self.prior_covariance()
+        self.n_skipped = 0
+        self.n_restarts = 0  #: steps whose result was not finite, restarted from their sample (the guard)
+        self.restarted = False  #: whether the last :meth:`step` restarted the filter
         self.t: float | None = None
         self._tau = np.zeros(3)
-        self.n_skipped = 0
+
+    def prior_covariance(self) -> np.ndarray:
+        """``P₀ = diag(σ_θ0² I, σ_ω0² I[, σ_a0² I])``: the start's, and a restart's (the guard)."""
+        prior = [self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3
+        return np.diag(prior if self.q_a is None else prior + [self.sigma_accel0**2] * 3)
 
     def _checks(self) -> dict:
         """The keyword arguments of :func:`omegahat.measurements.checked_sample` / ``checked_log``."""
@@ -380,7 +393,7 @@ class MEKF(Estimator):
         (:mod:`omegahat.measurements`) and leaves the state as it was.
         """
         self.step(t, measurement, torque)
-        return self.omega.copy()
+        return np.full(3, np.nan) if self.restarted else self.omega.copy()
 
     def step(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> FilterStep:
         """:meth:`update`, returning the step's prior, transition and posterior (:class:`FilterStep`): the record a
@@ -406,11 +419,12 @@ class MEKF(Estimator):
             )
         prior = (R, omega, P)
         m = sample.value
-        if sample.status != ms.OK:
+        propagated = _finite(R, omega, P)  # the guard: no fix on a state that is not finite
+        if propagated and sample.status != ms.OK:
             self.n_skipped += 1
-        elif R is None:  # first fix initialises the attitude
+        elif propagated and R is None:  # first fix initialises the attitude
             R = m if self.references is None else initial_attitude(m, self.references)
-        else:
+        elif propagated and R is not None:
             if self.references is None:
                 z, H = attitude_innovation(R, m)
             else:
@@ -419,6 +433,13 @@ class MEKF(Estimator):
         self.R, self.omega, self.P, self.t, self._tau = R, omega[:3], P, sample.t, sample.torque.copy()
         if self.q_a is not None:
             self.accel = omega[3:]
+        self.restarted = not (propagated and _finite(R, omega, P))
+        if self.restarted:  # the guard (mekf_kernel's docstring): restart from this sample with the prior
+            self.n_restarts += 1
+            self.omega, self.P, self.accel = self.omega0.copy(), self.prior_covariance(), np.zeros(3)
+            self.R = None
+            if sample.status == ms.OK:
+                self.R = m if self.references is None else initial_attitude(m, self.references)
         return FilterStep(prior[0], prior[1], prior[2], Phi, R, omega, P)
 
     def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
@@ -435,7 +456,7 @@ class MEKF(Estimator):
         state = np.array(
             [np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega, *self.accel]
         )
-        out, R, P, n_skipped = kernel.run_log(
+        out, R, P, n_skipped, n_restarts = kernel.run_log(
             log.times,
             np.ascontiguousarray(log.values),
             log.valid,
@@ -455,9 +476,20 @@ class MEKF(Estimator):
             np.zeros((3, 3)) if self.R is None else np.array(self.R, dtype=float, order="C"),
             np.ascontiguousarray(self.P, dtype=float),
             np.ascontiguousarray(self._tau, dtype=float),
+            self.omega0,
+            self.prior_covariance(),
         )
         self.R = R if state[2] else None
         self.omega, self.P, self.t, self._tau = state[3:6].copy(), P, float(log.times[-1]), log.torques[-1].copy()
         self.accel = state[6:9].copy()
         self.n_skipped += int(n_skipped)
+        self.n_restarts += int(n_restarts)
+        self.restarted = bool(np.isnan(out[-1, 0]))
+        if n_restarts:
+            warnings.warn(
+                f"restarted {n_restarts} times: a step's result was not finite (a gap or torque too large for the "
+                "model); the estimate is NaN at those samples",
+                RuntimeWarning,
+                stacklevel=2,
+            )
         return out

@@ -15,7 +15,8 @@ default x,y,z,w, or ``q0..q3``/``q1..q4`` columns).
 
 Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per sample (duplicates dropped by
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
-through) or ``unavailable`` (no estimate yet: ``nan``). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
+through), ``unavailable`` (no estimate yet: ``nan``) or ``restarted`` (``nan``: the step to that sample
+could not be taken and the estimator started again from it). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
 and renamed at the end: whole or absent.
 
@@ -62,7 +63,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         rotations (--body), ROS 1 bags (.bag) and ROS 2 bags (directory) (--topic, frames).
         Equal times: the same attitude is one sample (dropped), different attitudes are an error.
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
-        unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
+        unavailable (no estimate yet: nan) | restarted (nan: the step could not be taken, started
+        again from that sample); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
 example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
          omegahat estimate "Take 01.csv" --body hand --preset mocap --smooth -o omega.csv

@@ -16,7 +16,10 @@ temporary file *in the target directory* and renames it over the target only whe
 * ``predicted``: no usable sample at that time (missing, skipped, nearly collinear directions): the estimate was
   predicted through;
 * ``unavailable``: no estimate yet (before the first valid sample, and at it: one attitude gives no rate; with a
-  warm start until the second); the rate columns are ``nan`` there, never 0.
+  warm start until the second); the rate columns are ``nan`` there, never 0;
+* ``restarted``: the estimator could not take the step to this sample (its result was not finite: a gap too long
+  for the model, a torque or gains too large) and started again from it; ``nan`` there, then ``unavailable`` until
+  the restart's warm start gives an estimate again.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ if TYPE_CHECKING:  # for annotations only (rosbag imports this module; the regis
 __all__ = [
     "CORRECTED",
     "PREDICTED",
+    "RESTARTED",
     "STATUS_WORDS",
     "UNAVAILABLE",
     "AtomicOutput",
@@ -50,8 +54,8 @@ __all__ = [
     "output_kind",
 ]
 
-UNAVAILABLE, CORRECTED, PREDICTED = 0, 1, 2
-STATUS_WORDS = ("unavailable", "corrected", "predicted")
+UNAVAILABLE, CORRECTED, PREDICTED, RESTARTED = 0, 1, 2, 3
+STATUS_WORDS = ("unavailable", "corrected", "predicted", "restarted")
 HEADER = "t,wx,wy,wz,status"
 
 
@@ -186,7 +190,7 @@ class OmegaWriter(AtomicOutput):
 
     def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None:
         """Append rows: the times of ``chunk`` (:class:`~omegahat.io.registry.LogChunk`, plus ``t0``),
-        ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
+        ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED/RESTARTED."""
         codes = pa.array(np.asarray(status, dtype=np.int8))
         t = chunk.t + self.t0 if self.t0 else chunk.t
         table = pa.table(

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat.io.columns import LogFormatError
-from omegahat.io.output import CORRECTED, PREDICTED, UNAVAILABLE
+from omegahat.io.output import CORRECTED, PREDICTED, RESTARTED, UNAVAILABLE
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream, prefetch
 from omegahat.io.single_direction import estimate_single_direction
 from omegahat.io.smoothing import write_smoothed
@@ -330,7 +330,9 @@ class _Run:
         self.valid_seen += ok.size
         status = np.where(st == ms.OK, CORRECTED, PREDICTED).astype(np.int8)
         status[:first] = UNAVAILABLE
-        W[status == UNAVAILABLE] = np.nan
+        status[~np.all(np.isfinite(W), axis=1)] = UNAVAILABLE  # no estimate (after a restart): never labelled one
+        status[st == ms.RESTARTED] = RESTARTED
+        W[(status == UNAVAILABLE) | (status == RESTARTED)] = np.nan
         self.writer.write(chunk, W, status)
         s.rows += len(chunk)
         dt = np.diff(chunk.t if self.t_prev is None else np.concatenate([[self.t_prev], chunk.t]))
@@ -519,6 +521,11 @@ def _summary_lines(
         lines.append(
             f"skipped {skipped} of {s.rows} samples ({s.n_missing} missing, {s.n_collinear} with nearly "
             "collinear directions): predicted through (status 'predicted')"
+        )
+    if getattr(est, "n_restarts", 0):
+        lines.append(
+            f"restarted {est.n_restarts} times: a step's result was not finite (a gap too long for the model, a "
+            "torque or gains too large); no estimate there until the next warm start (status 'restarted')"
         )
     if bad.count:
         first = "; ".join(f"{stream.label} {lab}: {why.split(' (')[0]}" for lab, why in bad.first)

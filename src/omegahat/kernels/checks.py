@@ -11,7 +11,9 @@ r"""The compiled input checks (Numba), written once: every estimator's samples, 
 
 Every check returns ``(status, info)``: below :data:`ERROR` the sample is used (:data:`OK`) or skipped
 (:data:`MISSING`: a NaN or inf in it; :data:`COLLINEAR`); from :data:`ERROR` on it is rejected and ``info`` is the
-offending value (documented with each code). :func:`check_sample` runs the checks of one sample in the order
+offending value (documented with each code). One more code below :data:`ERROR` is an estimator's, not a check's:
+:data:`RESTARTED`, a sample at which the step could not be taken (its result was not finite) and the estimator
+started again from that sample. :func:`check_sample` runs the checks of one sample in the order
 time, time order, torque, measurement and reports the first that fails.
 """
 
@@ -34,10 +36,12 @@ __all__ = [
     "NOT_PROPER",
     "OK",
     "QUAT_NORM",
+    "RESTARTED",
     "TIME_NOT_FINITE",
     "TIME_ORDER",
     "TORQUE_NOT_FINITE",
     "ZERO_DIRECTION",
+    "all_finite",
     "check_batch",
     "check_sample",
     "check_time",
@@ -51,6 +55,7 @@ __all__ = [
 OK = 0  #: a valid sample
 MISSING = 1  #: NaN or inf somewhere in the sample: skipped, the estimator keeps predicting
 COLLINEAR = 2  #: measured directions nearly collinear: skipped like a missing sample, counted separately
+RESTARTED = 3  #: the step to this sample gave a non-finite state: the estimator restarted from the sample (no estimate)
 ERROR = 10
 NOT_ORTHOGONAL = 10  #: info = ‖RᵀR − I‖_F
 NOT_PROPER = 11  #: info = det R (a reflection)
@@ -67,7 +72,8 @@ KIND_DIRECTIONS = 2
 
 
 @numba.njit(cache=True)
-def _all_finite(a):
+def all_finite(a):
+    """Whether every entry of the array ``a`` is finite (no NaN, no ±inf)."""
     for x in a.flat:
         if not np.isfinite(x):
             return False
@@ -77,7 +83,7 @@ def _all_finite(a):
 @numba.njit(cache=True)
 def _check_matrix(R, tol):
     """``(status, info)`` of one 3×3 matrix by (M1): MISSING, NOT_ORTHOGONAL, NOT_PROPER or OK."""
-    if not _all_finite(R):
+    if not all_finite(R):
         return MISSING, np.nan
     err = rot.orthogonality_error(R)
     if err > tol:
@@ -91,7 +97,7 @@ def _check_matrix(R, tol):
 @numba.njit(cache=True)
 def _quat_matrix(q, scalar_first, tol, R):
     """Write the rotation matrix of quaternion ``q`` into ``R`` after (M2); return ``(status, info)``."""
-    if not _all_finite(q):
+    if not all_finite(q):
         return MISSING, np.nan
     if scalar_first:
         w, x, y, z = q[0], q[1], q[2], q[3]
@@ -115,7 +121,7 @@ def _rows_from_matrix(V, R, r):
 @numba.njit(cache=True)
 def _normalise_directions(b, min_sin, r):
     """Normalise the rows of ``b`` into ``r``; ``(status, info)``: MISSING, ZERO_DIRECTION, COLLINEAR (M3) or OK."""
-    if not _all_finite(b):
+    if not all_finite(b):
         return MISSING, np.nan
     n = b.shape[0]
     for i in range(n):

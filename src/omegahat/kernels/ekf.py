@@ -68,6 +68,7 @@ __all__ = [
     "MAX_SUBSTEPS",
     "NOMINAL_SUBSTEP_ANGLE",
     "ekf_attitude_update",
+    "ekf_finite",
     "ekf_propagate",
     "ekf_substeps",
     "ekf_vector_update",
@@ -111,6 +112,21 @@ def _sym(A):
 def _torque_at(tau0, tau1, s):
     """The first-order hold at the fraction ``s`` of the interval."""
     return (tau0[0] + s * (tau1[0] - tau0[0]), tau0[1] + s * (tau1[1] - tau0[1]), tau0[2] + s * (tau1[2] - tau0[2]))
+
+
+@numba.njit(cache=True)
+def ekf_finite(R, w, a, P):
+    """Whether the filter's whole state (R̂, ω̂, â, P) is finite: the guard every caller applies after a step."""
+    for x in R.flat:
+        if not math.isfinite(x):
+            return False
+    for i in range(3):
+        if not (math.isfinite(w[i]) and math.isfinite(a[i])):
+            return False
+    for x in P.flat:
+        if not math.isfinite(x):
+            return False
+    return True
 
 
 @numba.njit(cache=True)

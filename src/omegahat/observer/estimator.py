@@ -44,6 +44,11 @@ Input is checked by :mod:`omegahat.measurements` (one policy for every estimator
   no correction; counted in ``n_missing``, its time in ``skipped_times``; ``largest_interval`` reports the longest
   interval seen (gaps need nothing else: the prediction runs over them);
 * direction measurements within ``min_angle_deg`` of collinear → skipped the same way, counted in ``n_collinear``;
+* a step whose result is not finite (a gap too long for the model's substeps while the rate is not constant, a
+  torque or gains beyond floating point) → status ``RESTARTED``: the state is discarded and the estimator starts
+  again from that sample (a warm start at the next valid one); ω̂ is NaN there and until that warm start, never a
+  diverged value; counted in ``n_restarts`` (:data:`omegahat.kernels.checks.RESTARTED`). A long gap at a constant
+  rate (no torque, ``J = j I``) is predicted exactly, whatever its length;
 * not a rotation, a quaternion far from unit norm, a zero direction, a time not after the previous one or not
   finite, a non-finite torque, wrong shapes → :class:`omegahat.measurements.MeasurementError` (a ``ValueError``)
   naming the sample and the value. ``run`` is atomic: it names the first rejected sample and leaves the state as
@@ -67,7 +72,7 @@ from omegahat.observer.gains import ObserverGains
 from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, STATE, EstimatorState
 from omegahat.validation import as_inertia, as_positive, as_vector3
 
-__all__ = ["EstimatorState", "SarrasEstimator", "SkippedSamplesWarning"]
+__all__ = ["EstimatorState", "RestartedWarning", "SarrasEstimator", "SkippedSamplesWarning"]
 
 
 _OMEGA_HAT = slice(STATE.omega_hat, STATE.omega_hat + 3)  # ω̂ in the flat state
@@ -75,6 +80,10 @@ _OMEGA_HAT = slice(STATE.omega_hat, STATE.omega_hat + 3)  # ω̂ in the flat sta
 
 class SkippedSamplesWarning(UserWarning):
     """``run`` skipped samples (missing or collinear); their times are in ``estimator.skipped_times``."""
+
+
+class RestartedWarning(SkippedSamplesWarning):
+    """``run`` restarted the estimator at samples whose step could not be taken (status ``RESTARTED``)."""
 
 
 class SarrasEstimator(Estimator):
@@ -176,6 +185,7 @@ class SarrasEstimator(Estimator):
         self._x = sampled.initial_state_vector(self.gains.n, self.omega_hat0)
         self.n_missing = 0
         self.n_collinear = 0
+        self.n_restarts = 0
         self.skipped_times: list[float] = []
         self.largest_interval = 0.0
         self.last_status = None
@@ -219,7 +229,9 @@ class SarrasEstimator(Estimator):
             raise ms.rejection_error(status, info, "the sample", t)
         self._x = x
         self.last_status = status
-        if status != ms.OK:
+        if status == ms.RESTARTED:
+            self.n_restarts += 1
+        elif status != ms.OK:
             self._note_skipped(status, t)
         if t - t_prev > self.largest_interval:  # NaN before the first sample: comparison False
             self.largest_interval = t - t_prev
@@ -249,7 +261,8 @@ class SarrasEstimator(Estimator):
         t_prev = self._x[STATE.t]
         self._x = x
         self.last_status = status
-        skipped = status != ms.OK
+        skipped = (status == ms.MISSING) | (status == ms.COLLINEAR)
+        warn_restarts(self, status, T)
         if T:
             gaps = np.diff(np.concatenate([[t_prev], times])) if np.isfinite(t_prev) else np.diff(times)
             if gaps.size:
@@ -267,3 +280,16 @@ class SarrasEstimator(Estimator):
                 stacklevel=2,
             )
         return W
+
+
+def warn_restarts(est: Estimator, status: np.ndarray, T: int) -> None:
+    """Count the samples of ``status`` at which ``est`` restarted (``est.n_restarts``) and warn once if any."""
+    n = int(np.count_nonzero(status == ms.RESTARTED))
+    if n:
+        est.n_restarts += n  # type: ignore[attr-defined]
+        warnings.warn(
+            f"restarted {n} times in {T} samples: a step's result was not finite (a gap too long for the model, a "
+            "torque or gains too large); the estimate is NaN there until the next warm start (status 'restarted')",
+            RestartedWarning,
+            stacklevel=3,
+        )

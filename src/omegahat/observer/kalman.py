@@ -32,7 +32,7 @@ from omegahat import measurements as ms
 from omegahat.interface import Estimator, Measurement, Measurements
 from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 from omegahat.observer import supervised
-from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
+from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning, warn_restarts
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE
 from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
@@ -151,6 +151,7 @@ class SupervisedKalmanEstimator(Estimator):
         self.last_status: np.ndarray | None = None
         self.n_missing = 0
         self.n_collinear = 0
+        self.n_restarts = 0  #: samples at which the observer restarted (status RESTARTED; the EKF's: ``restarts``)
         self.skipped_times: list[float] = []
 
     @property
@@ -202,11 +203,12 @@ class SupervisedKalmanEstimator(Estimator):
         self.last_source = np.array([xe[EKF_STATE.source]])
         self.last_status = np.array([status])
         self._count_skipped(self.last_status, np.array([float(t)]))
+        self.n_restarts += int(status == ms.RESTARTED)
         return w
 
     def _count_skipped(self, status: np.ndarray, times: np.ndarray) -> int:
         """Count the skipped samples (``n_missing``, ``n_collinear``, ``skipped_times``); returns how many."""
-        skipped = status != ms.OK
+        skipped = (status == ms.MISSING) | (status == ms.COLLINEAR)
         self.n_missing += int(np.count_nonzero(status == ms.MISSING))
         self.n_collinear += int(np.count_nonzero(status == ms.COLLINEAR))
         self.skipped_times.extend(times[skipped].tolist())
@@ -231,6 +233,7 @@ class SupervisedKalmanEstimator(Estimator):
         self.last_source = source
         self.last_status = status
         skipped = self._count_skipped(status, times)
+        warn_restarts(self, status, T)
         if skipped:
             warnings.warn(
                 f"skipped {skipped} of {T} samples (missing or nearly collinear); both parts were predicted "

@@ -218,19 +218,65 @@ def _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim):
 
 
 @numba.njit(cache=True)
+def _isotropic(Jm):
+    """Whether the inertia (a 9-tuple) is ``j I``: then Euler's equations without torque keep ω constant."""
+    return (
+        Jm[1] == 0.0 and Jm[2] == 0.0 and Jm[3] == 0.0 and Jm[5] == 0.0 and Jm[6] == 0.0 and Jm[7] == 0.0
+        and Jm[0] == Jm[4] and Jm[4] == Jm[8]
+    )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _predict_constant(w, h, D, aim):
+    """(P) over ``h`` in one exact step for a constant ω̂ ≠ 0 (no torque, isotropic J: (E1) gives ω̂̇ = 0), for
+    intervals of any length: ``ΔR̂ = exp(h ω̂×)``, ``∫|ω̂| dt = h|ω̂|`` and, with ``A = 0`` in (A1),
+    ``Γ̇ = I − W Γ``, ``W = ω̂×``, solved exactly (``θ = h|ω̂|``, Rodrigues' form of ``exp(−W s)`` integrated)::
+
+        Γ ← exp(−W h) Γ + h I − (1 − cos θ)/|ω̂|² W + (h − sin θ/|ω̂|)/|ω̂|² W²                  (A2)
+
+    ``w`` is unchanged; returns ``∫|ω̂| dt``."""
+    w0, w1, w2 = w[0], w[1], w[2]
+    speed = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    theta = h * speed
+    E = exp_matrix(h * w0, h * w1, h * w2)
+    for a in range(3):
+        for b in range(3):
+            D[a, b] = E[3 * a + b]
+    W = skew(w0, w1, w2)
+    W2 = matmul(W, W)
+    B = matmul(exp_matrix(-h * w0, -h * w1, -h * w2), (aim[0], aim[1], aim[2], aim[3], aim[4], aim[5], aim[6],
+                                                         aim[7], aim[8]))  # fmt: skip
+    c1 = (1.0 - math.cos(theta)) / (speed * speed)
+    c2 = (h - math.sin(theta) / speed) / (speed * speed)
+    for i in range(9):
+        aim[i] = B[i] - c1 * W[i] + c2 * W2[i]
+    for i in (0, 4, 8):
+        aim[i] += h
+    return theta
+
+
+@numba.njit(cache=True)
 def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, aim):
     """(P) for ω̂ and ΔR̂ over h with the torque ``τ(s) = τ_a + (τ_b − τ_a) s/h`` (``τ_b = τ_a``: held):
     ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3), ``aim`` ← Γ (A1) carried on; returns
     ``∫|ω̂| dt``. RKMK4 in substeps of angle ``h_sub (|ω̂| + h|J⁻¹τ|) ≤ max_angle``: classical RK4 for ω̂, for
     ``ΔR̂ = exp(u)`` the stages ``u̇ = dexp⁻¹(ω̂)`` (R5), and ``∫|ω̂|`` with the same weights. Exact (ΔR̂ = exp(h ω̂))
-    for a constant ω̂."""
+    for a constant ω̂. An interval that would need more than :data:`MAX_SUBSTEPS` substeps (a long gap, a huge
+    torque or rate) is predicted exactly when ω̂ is constant (no torque, J = j I: :func:`_predict_constant`) and
+    otherwise refused: ``w`` ← NaN and NaN returned (the step's caller then restarts the estimator)."""
     fa = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, tau_a[0], tau_a[1], tau_a[2])  # J⁻¹τ at both ends
     fb = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, tau_b[0], tau_b[1], tau_b[2])
     f_max = max(math.sqrt(fa[0] * fa[0] + fa[1] * fa[1] + fa[2] * fa[2]),
                 math.sqrt(fb[0] * fb[0] + fb[1] * fb[1] + fb[2] * fb[2]))  # fmt: skip
     w0, w1, w2 = w[0], w[1], w[2]
     angle = h * (math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) + h * f_max)
-    n_sub = max(1, min(MAX_SUBSTEPS, math.ceil(angle / max_angle)))
+    need = angle / max_angle
+    if not need <= MAX_SUBSTEPS:  # too long for substeps (or not finite): exact if ω̂ is constant, else refused
+        if f_max == 0.0 and _isotropic(Jm):
+            return _predict_constant(w, h, D, aim)
+        w[0] = w[1] = w[2] = np.nan  # the step cannot be taken: the caller restarts the estimator
+        return np.nan
+    n_sub = max(1, math.ceil(need))
     hs = h / n_sub
     d0, d1, d2 = tau_b[0] - tau_a[0], tau_b[1] - tau_a[1], tau_b[2] - tau_a[2]
     int_abs = 0.0
@@ -357,6 +403,26 @@ def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
 
 
 @numba.njit(cache=True)
+def _restart(out, t, r_meas, valid):
+    """The guard's restart (status ``RESTARTED``): the step to ``t`` gave a non-finite state (a gap too long for
+    the model, an overflowing torque, gains beyond floating point), so the state is discarded and the estimator
+    starts again from this sample: ``r`` ← the measurement when it is valid (``e = 0``, a warm start waiting for
+    the next valid sample), else uninitialised; ω̂ is NaN (no estimate) until that warm start. Returns the code."""
+    out[STATE.omega_hat : STATE.omega_hat + 3] = np.nan
+    out[STATE.aim :] = 0.0  # Γ, r, e (the sample's torque stays: it is held from t)
+    if valid:
+        out[STATE.stage] = WARM_PENDING
+        out[STATE.t_meas] = t
+        for i in range(r_meas.shape[0]):
+            for a in range(3):
+                out[STATE.r + 3 * i + a] = r_meas[i, a]
+    else:
+        out[STATE.stage] = UNINITIALISED
+        out[STATE.t_meas] = np.nan
+    return checks.RESTARTED
+
+
+@numba.njit(cache=True)
 def step_into(x, p, t, m, kind, tau, out, wk):
     """Check one sample and advance the state ``x`` into ``out``; returns ``(status, info)`` (the codes of
     :mod:`omegahat.kernels.checks`). On a rejection ``out`` is unspecified and ``x`` untouched. ``wk``: scratch
@@ -384,10 +450,11 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     stage = x[STATE.stage]
     if stage == UNINITIALISED:
         if valid:  # the first valid sample sets r; e from the given r̂₀ (default: r̂ = r)
-            out[STATE.stage] = WARM_PENDING if p[PARAMS.warm_start] != 0.0 else RUNNING
+            restarting = not math.isfinite(w[0])  # after a restart: always a warm start, never r̂₀
+            out[STATE.stage] = WARM_PENDING if p[PARAMS.warm_start] != 0.0 or restarting else RUNNING
             out[STATE.t_meas] = t
             r[:, :] = r_meas
-            if p[PARAMS.has_r_hat0] != 0.0:
+            if p[PARAMS.has_r_hat0] != 0.0 and not restarting:
                 e[:, :] = p[PARAMS.k + 6 * n : PARAMS.k + 9 * n].reshape(n, 3) - r_meas
             else:
                 e[:, :] = 0.0
@@ -399,6 +466,8 @@ def step_into(x, p, t, m, kind, tau, out, wk):
             out[STATE.aim : STATE.aim + 9] = 0.0
             out[STATE.stage] = RUNNING
             out[STATE.t_meas] = t
+            if not checks.all_finite(out[STATE.omega_hat :]):
+                return _restart(out, t, r_meas, True), info
         return status, info
     h_pred = t - x[STATE.t]
     aim = out[STATE.aim : STATE.aim + 9]
@@ -409,6 +478,8 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     if valid:  # the correction's interval: since the last valid sample (a skipped one only adds substeps)
         _correct(Jinv, k, p[PARAMS.isotropic_rate], w, r, e, r_meas, aim)
         out[STATE.t_meas] = t
+    if not checks.all_finite(out[STATE.omega_hat :]):  # ω̂, τ, Γ, r, e: the guard of every step
+        return _restart(out, t, r_meas, valid), info
     return status, info
 
 

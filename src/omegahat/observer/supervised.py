@@ -15,7 +15,7 @@ stationary noise level (rad/s, from the gain design)::
 
     ν̄ ← (1 − α) ν̄ + α ν / m                       (S1, the innovation consistency, m = the fix's dimension)
     c ← c + 1 if d > max(κ s, κ σ_obs) else 0       (S2, persistent disagreement with the observer)
-    lost = ν̄ > ν_max  or  c ≥ c_max  or  ω̂_EKF not finite                                                 (S3)
+    lost = ν̄ > ν_max  or  c ≥ c_max  or  the EKF's state (R̂, ω̂, â, P) not finite                            (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from omegahat.kernels import checks
-from omegahat.kernels.ekf import EKF_SCRATCH, ekf_attitude_update, ekf_propagate, ekf_vector_update
+from omegahat.kernels.ekf import EKF_SCRATCH, ekf_attitude_update, ekf_finite, ekf_propagate, ekf_vector_update
 from omegahat.kernels.rotation import wahba
 from omegahat.observer import sampled
 from omegahat.observer.sampled import PARAMS, RUNNING, STATE, WARM_PENDING
@@ -127,6 +127,8 @@ def _reinitialise(xe, pe, w_obs, R_meas):
     R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     R[:, :] = R_meas
     xe[EKF_STATE.omega : EKF_STATE.omega + 3] = w_obs
+    if not checks.all_finite(xe[EKF_STATE.accel : EKF_STATE.accel + 3]):  # a diverged estimate is not kept
+        xe[EKF_STATE.accel : EKF_STATE.accel + 3] = 0.0
     P = _covariance(xe, pe)
     P[:, :] = 0.0
     var_w = pe[EKF_PARAMS.sigma_obs] ** 2 / 3.0
@@ -163,6 +165,10 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     if status >= checks.ERROR:
         return status, info, w_obs
     xe_out[:] = xe
+    xe_out[EKF_STATE.source] = FROM_OBSERVER
+    if status == checks.RESTARTED:  # the observer restarted (no estimate): the EKF starts again after it
+        xe_out[EKF_STATE.started] = 0.0
+        return status, info, w_obs
     n = int(p[PARAMS.n])
     R = xe_out[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     w = xe_out[EKF_STATE.omega : EKF_STATE.omega + 3]
@@ -180,9 +186,12 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
             R, w, a, P, t - xs[STATE.t], held, tau_end, Jm, Jinv, pe[EKF_PARAMS.q], pe[EKF_PARAMS.q_a],
             pe[EKF_PARAMS.dynamic] != 0.0, pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle],
         )  # fmt: skip
-    xe_out[EKF_STATE.source] = FROM_OBSERVER
+    finite = started and ekf_finite(R, w, a, P)  # the EKF's guard
     if status != checks.OK:  # skipped: both parts predicted through it; the EKF is not judged without a fix
-        if started and xe[EKF_STATE.source] == FROM_EKF and math.isfinite(w[0] + w[1] + w[2]):
+        if started and not finite:  # its step could not be taken: it starts again from the observer at a fix
+            xe_out[EKF_STATE.started] = 0.0
+            xe_out[EKF_STATE.resets] += 1.0
+        elif started and xe[EKF_STATE.source] == FROM_EKF:
             xe_out[EKF_STATE.source] = FROM_EKF
             return status, info, w
         return status, info, w_obs
@@ -190,8 +199,13 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     _measured_attitude(p, m, kind, r_meas, R_work, R_meas)
     warm_started = xs[STATE.stage] == WARM_PENDING and xs_out[STATE.stage] == RUNNING
     if not started or warm_started:  # the first fix, or the observer's warm start: the EKF starts from it
+        if math.isfinite(w_obs[0]):  # not while the observer restarts (NaN until its warm start)
+            _reinitialise(xe_out, pe, w_obs, R_meas)
+            xe_out[EKF_STATE.started] = 1.0
+        return status, info, w_obs
+    if not finite:  # (S3) for a propagation that could not be taken: restarted from the observer (S4)
         _reinitialise(xe_out, pe, w_obs, R_meas)
-        xe_out[EKF_STATE.started] = 1.0
+        xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
@@ -211,7 +225,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     lost = (
         not nis_avg <= pe[EKF_PARAMS.nis_max]  # NaN counts as lost
         or disagree >= pe[EKF_PARAMS.disagree_max]
-        or not math.isfinite(d)
+        or not ekf_finite(R, w, a, P)
     )  # (S3)
     if lost:  # (S4)
         _reinitialise(xe_out, pe, w_obs, R_meas)
