@@ -25,7 +25,7 @@ from omegahat.kernels.rotation import wahba
 __all__ = ["run_log"]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def run_log(
     times, meas, valid, torques, references, directions, dynamic, J, J_inv, q, meas_var, max_step, max_angle,
     linear_hold, q_a, state, R, P, tau, omega0, P0,
@@ -71,14 +71,18 @@ def run_log(
             out[j, c] = omega[c]
         if not finite:  # the guard: restart from this sample with the prior
             n_restarts += 1
-            omega[:] = omega0
-            accel[:] = 0.0
-            P[:, :] = P0
+            for c in range(3):  # element loops, not slice assignments (which compile a shape check's message)
+                omega[c] = omega0[c]
+                accel[c] = 0.0
+            for a in range(P.shape[0]):
+                for b in range(P.shape[1]):
+                    P[a, b] = P0[a, b]
             has_R = valid[j]
             if has_R:
                 R = wahba(weights, references, meas[j]) if directions else meas[j].copy()
             out[j, :] = np.nan
     state[0], state[1], state[2] = t_prev, 1.0 if has_t else 0.0, 1.0 if has_R else 0.0
-    state[3:6] = omega
-    state[6:9] = accel
+    for c in range(3):
+        state[3 + c] = omega[c]
+        state[6 + c] = accel[c]
     return out, R, P, n_skipped, n_restarts

@@ -46,6 +46,7 @@ from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_o
 from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.presets import PRESETS
 
@@ -264,6 +265,7 @@ def _terminate(signum, frame):
 
 
 def run(args: argparse.Namespace) -> int:
+    compiled = compiling.seconds()
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
@@ -315,7 +317,6 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-    compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
-    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
+    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiling.wait_note(compiled)}")
     print("\n".join(summary.lines))
     return 0

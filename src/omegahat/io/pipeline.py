@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import re
 import sys
-import threading
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -46,6 +45,7 @@ from omegahat.io.output import CORRECTED, PREDICTED, RESTARTED, UNAVAILABLE
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream, prefetch
 from omegahat.io.single_direction import estimate_single_direction
 from omegahat.io.smoothing import write_smoothed
+from omegahat.kernels import compiling
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
@@ -259,34 +259,27 @@ def time_unit_warning(h: float, t0: float, unit: str, settings: EstimateSettings
     return None
 
 
-def _check_head(head, stream, refs, bad, settings, report) -> float:
+def _check_head(head, stream, refs, bad, settings) -> None:
     """Validate the head with the estimator's own compiled checks (a throwaway estimator: this also compiles, or
-    loads from the cache, the kernels the run needs, and says so if it takes long); only if it rejects a sample
-    are the samples checked one by one (:class:`BadSamples`). Returns the seconds it took."""
-    timer = threading.Timer(0.5, lambda: report("compiling kernels, once (later runs load them from the cache) ..."))
-    t0 = time.perf_counter()
-    timer.start()
-    try:
-        probe = SarrasEstimator(
-            np.eye(3),
-            gains=ObserverGains.constant(1.0, 1.0, n=refs.shape[0]),
-            references=refs,
-            measurement="directions" if stream.kind == "directions" else "attitude",
-            warm_start=False,
-            rotation_tol=settings.rotation_tol,
-            quat_norm_tol=settings.quat_norm_tol,
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SkippedSamplesWarning)
-            for c in head:
-                try:
-                    probe.run(c.t, c.data, c.torque)
-                except ms.MeasurementError:
-                    bad.check(c)  # raises naming the line, or (skip_bad_samples) turns bad samples into missing
-                    probe.run(c.t, c.data, c.torque)
-    finally:
-        timer.cancel()
-    return time.perf_counter() - t0
+    loads from the cache, the kernels the run needs); only if it rejects a sample are the samples checked one by one
+    (:class:`BadSamples`)."""
+    probe = SarrasEstimator(
+        np.eye(3),
+        gains=ObserverGains.constant(1.0, 1.0, n=refs.shape[0]),
+        references=refs,
+        measurement="directions" if stream.kind == "directions" else "attitude",
+        warm_start=False,
+        rotation_tol=settings.rotation_tol,
+        quat_norm_tol=settings.quat_norm_tol,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SkippedSamplesWarning)
+        for c in head:
+            try:
+                probe.run(c.t, c.data, c.torque)
+            except ms.MeasurementError:
+                bad.check(c)  # raises naming the line, or (skip_bad_samples) turns bad samples into missing
+                probe.run(c.t, c.data, c.torque)
 
 
 class _Run:
@@ -306,7 +299,7 @@ class _Run:
 
     def feed(self, chunk) -> None:
         s = self.summary
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), compiling.seconds()
         try:
             W = self._estimate(chunk)
         except ms.MeasurementError:  # a sample is not a rotation: find it (line, column), skip it or stop there
@@ -317,7 +310,7 @@ class _Run:
             raise ValueError(
                 re.sub(r"sample (\d+)", lambda m: f"{self.stream.label} {lab[int(m.group(1))]}", str(exc))
             ) from None
-        s.elapsed += time.perf_counter() - t0
+        s.elapsed += time.perf_counter() - t0 - (compiling.seconds() - c0)  # compiling is not estimating
         st = self.est.last_status
         ok = np.flatnonzero(st == ms.OK)
         need = 1 if self.start == "fit" else 2  # the valid sample from which on there is an estimate
@@ -392,7 +385,9 @@ def estimate_stream(
     summary = RunSummary()
     chunks = prefetch(stream.chunks())
     head, n_head = _head(chunks)
-    summary.compile_s = _check_head(head, stream, refs, bad, settings, announce or _stderr)
+    compiled_before = compiling.seconds()
+    compiling.announce_with(announce or _stderr)  # said when a compilation starts (here or at the first chunk)
+    _check_head(head, stream, refs, bad, settings)
     t_h = np.concatenate([c.t for c in head])
     data_h = np.concatenate([c.data for c in head])
     tau_h = np.concatenate([c.torque for c in head]) if stream.has_torque else None
@@ -464,6 +459,8 @@ def estimate_stream(
             job.feed(chunk)
             if progress is not None:
                 progress(summary.rows)
+    compiling.announce_with(None)
+    summary.compile_s = compiling.seconds() - compiled_before
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_missing, summary.n_collinear, summary.n_bad = est.n_missing, est.n_collinear, bad.count

@@ -71,7 +71,7 @@ KIND_QUAT = 1
 KIND_DIRECTIONS = 2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def all_finite(a):
     """Whether every entry of the array ``a`` is finite (no NaN, no ±inf)."""
     for x in a.flat:
@@ -80,7 +80,7 @@ def all_finite(a):
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _check_matrix(R, tol):
     """``(status, info)`` of one 3×3 matrix by (M1): MISSING, NOT_ORTHOGONAL, NOT_PROPER or OK."""
     if not all_finite(R):
@@ -94,7 +94,7 @@ def _check_matrix(R, tol):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _quat_matrix(q, scalar_first, tol, R):
     """Write the rotation matrix of quaternion ``q`` into ``R`` after (M2); return ``(status, info)``."""
     if not all_finite(q):
@@ -110,7 +110,7 @@ def _quat_matrix(q, scalar_first, tol, R):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _rows_from_matrix(V, R, r):
     """``r = V R``: row i is ``Rᵀ v_i``."""
     M = mat3(R)
@@ -118,7 +118,7 @@ def _rows_from_matrix(V, R, r):
         r[i, 0], r[i, 1], r[i, 2] = matvec_transposed(M, V[i, 0], V[i, 1], V[i, 2])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _normalise_directions(b, min_sin, r):
     """Normalise the rows of ``b`` into ``r``; ``(status, info)``: MISSING, ZERO_DIRECTION, COLLINEAR (M3) or OK."""
     if not all_finite(b):
@@ -140,7 +140,7 @@ def _normalise_directions(b, min_sin, r):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work):
     """One sample of any kind to directions ``r (n, 3)`` (written in place); returns ``(status, info)``.
 
@@ -160,7 +160,7 @@ def convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_si
     return _normalise_directions(m, min_sin, r)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_time(t, t_prev):
     """(T) for a sample at ``t`` after one at ``t_prev`` (NaN: none yet): ``(status, info)``, TIME_NOT_FINITE
     (info t), TIME_ORDER (info t_prev) or OK."""
@@ -171,7 +171,7 @@ def check_time(t, t_prev):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_times(times, t_prev):
     """:func:`check_time` along ``times`` (the first after ``t_prev``): ``(first_bad, status, info)``, first_bad −1
     when every time passes."""
@@ -183,7 +183,7 @@ def check_times(times, t_prev):
     return -1, OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_torque(tau):
     """(T) for a torque ``(3,)``: ``(TORQUE_NOT_FINITE, the first non-finite component)`` or ``(OK, 0)``."""
     for a in range(3):
@@ -192,7 +192,7 @@ def check_torque(tau):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_sample(t, t_prev, tau, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work):
     """Every check of one sample in order (time, time order, torque, then :func:`convert_sample`); returns
     ``(status, info)`` of the first that fails, or the converter's (OK, MISSING or COLLINEAR)."""
@@ -205,7 +205,7 @@ def check_sample(t, t_prev, tau, m, kind, V, scalar_first, rotation_tol, quat_no
     return convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_batch(times, t_prev, taus, timed, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
     """:func:`check_sample` (``timed``) or :func:`convert_sample` over ``m (T, a, b)``, stopping at the first
     rejected sample. Returns ``(r (T, n, 3), status (T,), first_bad, info)``; ``first_bad = −1`` when none."""
@@ -240,7 +240,7 @@ def check_batch(times, t_prev, taus, timed, m, kind, V, scalar_first, rotation_t
     return r, status, -1, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def status_batch(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
     """:func:`convert_sample`'s ``(status, info)`` for every sample of ``m (T, a, b)``, without stopping."""
     T = m.shape[0]

@@ -175,6 +175,7 @@ class SarrasEstimator(Estimator):
             self.J, gains, self.references, self.r_hat0, self.rotation_tol, self.quat_norm_tol, self.min_angle_deg,
             self.max_substep_angle, self.scalar_first, self.warm_start, torque_hold, self.isotropic_rate,
         )  # fmt: skip
+        self._params.flags.writeable = False  # read-only everywhere: one compiled specialisation for every caller
         self._n_directions = None if measurement == "attitude" else n
         self.reset()
 

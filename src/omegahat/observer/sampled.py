@@ -28,7 +28,7 @@ from omegahat.kernels import checks
 from omegahat.kernels.dynamics import euler_rate
 from omegahat.kernels.observer import innovation, stiffness
 from omegahat.kernels.rotation import dexpinv, exp_matrix, rotvec_from_matrix, wahba
-from omegahat.kernels.vec3 import inverse, mat3, matmul, matvec, skew, solve
+from omegahat.kernels.vec3 import inverse, matmul, matvec, skew, solve
 from omegahat.observer.gains import ObserverGains
 
 __all__ = [
@@ -185,7 +185,7 @@ def initial_state_vector(n: int, omega_hat0: ArrayLike) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ the steps
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _diag_plus(d, p, X, q, Y):
     """``d I + p X + q Y`` for 9-tuples."""
     return (
@@ -195,7 +195,7 @@ def _diag_plus(d, p, X, q, Y):
     )  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim):
     """(A1) over one substep, in place: the aim ``Γ = Φ_θω Φ_ωω⁻¹`` maps a rate error at the end of the interval
     to the attitude error it has caused since the last valid sample (``δθ = Γ δω``). From the linearised error
@@ -217,7 +217,7 @@ def _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim):
         aim[i] = G[i] + hs * F[i] - c * (WF[i] + FA[i])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _isotropic(Jm):
     """Whether the inertia (a 9-tuple) is ``j I``: then Euler's equations without torque keep ω constant."""
     return (
@@ -226,7 +226,7 @@ def _isotropic(Jm):
     )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _predict_constant(w, h, D, aim):
     """(P) over ``h`` in one exact step for a constant ω̂ ≠ 0 (no torque, isotropic J: (E1) gives ω̂̇ = 0), for
     intervals of any length: ``ΔR̂ = exp(h ω̂×)``, ``∫|ω̂| dt = h|ω̂|`` and, with ``A = 0`` in (A1),
@@ -255,7 +255,7 @@ def _predict_constant(w, h, D, aim):
     return theta
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, aim):
     """(P) for ω̂ and ΔR̂ over h with the torque ``τ(s) = τ_a + (τ_b − τ_a) s/h`` (``τ_b = τ_a``: held):
     ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3), ``aim`` ← Γ (A1) carried on; returns
@@ -325,7 +325,7 @@ def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, aim):
     return int_abs
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _predict_directions(r, e, D, decay, i):
     """(P) for direction i: ``r ← ΔR̂ᵀ r`` and ``e ← decay ΔR̂ᵀ e`` (row form ``rᵀ ΔR̂``), in place."""
     p0 = r[i, 0] * D[0, 0] + r[i, 1] * D[1, 0] + r[i, 2] * D[2, 0]
@@ -338,7 +338,7 @@ def _predict_directions(r, e, D, decay, i):
     e[i, 0], e[i, 1], e[i, 2] = e0, e1, e2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _correct(Jinv, k, iso_rate, w, r, e, r_meas, aim):
     """(I), (C) and (R) at a valid sample: ``Δ_i = r_i,meas − r_i,pred``; the innovation accumulated over the
     interval, ``y = Σ innovation(k_i, r̂_i, −Δ_i)`` (O1 with the mismatch ``−Δ_i``); the aimed, implicit
@@ -383,7 +383,7 @@ def _correct(Jinv, k, iso_rate, w, r, e, r_meas, aim):
     aim[:] = 0.0  # the attitude is known at a valid sample
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
     """(W) at the second valid sample, ``h`` after the first: Wahba's rotation A carrying the first sample's
     directions onto the second's (R6), ω_avg = log(Aᵀ)/h, half a step of Euler's equations to the sample's time;
@@ -402,7 +402,7 @@ def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
     w[0], w[1], w[2] = u0 + 0.5 * h * f0, u1 + 0.5 * h * f1, u2 + 0.5 * h * f2  # midpoint rate → the sample's
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _restart(out, t, r_meas, valid):
     """The guard's restart (status ``RESTARTED``): the step to ``t`` gave a non-finite state (a gap too long for
     the model, an overflowing torque, gains beyond floating point), so the state is discarded and the estimator
@@ -422,13 +422,15 @@ def _restart(out, t, r_meas, valid):
     return checks.RESTARTED
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step_into(x, p, t, m, kind, tau, out, wk):
     """Check one sample and advance the state ``x`` into ``out``; returns ``(status, info)`` (the codes of
     :mod:`omegahat.kernels.checks`). On a rejection ``out`` is unspecified and ``x`` untouched. ``wk``: scratch
     ``(n + 6, 3)``."""
     n = int(p[PARAMS.n])
-    Jm, Jinv = mat3(p[PARAMS.J : PARAMS.J + 9].reshape(3, 3)), mat3(p[PARAMS.Jinv : PARAMS.Jinv + 9].reshape(3, 3))
+    o, oi = PARAMS.J, PARAMS.Jinv
+    Jm = (p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5], p[o + 6], p[o + 7], p[o + 8])
+    Jinv = (p[oi], p[oi + 1], p[oi + 2], p[oi + 3], p[oi + 4], p[oi + 5], p[oi + 6], p[oi + 7], p[oi + 8])
     k = p[PARAMS.k : PARAMS.k + n]
     l_off = p[PARAMS.k + n : PARAMS.k + 2 * n]
     l_slope = p[PARAMS.k + 2 * n : PARAMS.k + 3 * n]
@@ -440,9 +442,11 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     )  # fmt: skip
     if status >= checks.ERROR:
         return status, info
-    out[:] = x
+    for i in range(x.size):  # element loops, not slice assignments: those compile a shape check and its message
+        out[i] = x[i]
     out[STATE.t] = t
-    out[STATE.torque : STATE.torque + 3] = tau
+    for a in range(3):
+        out[STATE.torque + a] = tau[a]
     w = out[STATE.omega_hat : STATE.omega_hat + 3]
     r = out[STATE.r : STATE.r + 3 * n].reshape(n, 3)
     e = out[STATE.r + 3 * n : STATE.r + 6 * n].reshape(n, 3)
@@ -453,11 +457,11 @@ def step_into(x, p, t, m, kind, tau, out, wk):
             restarting = not math.isfinite(w[0])  # after a restart: always a warm start, never r̂₀
             out[STATE.stage] = WARM_PENDING if p[PARAMS.warm_start] != 0.0 or restarting else RUNNING
             out[STATE.t_meas] = t
-            r[:, :] = r_meas
-            if p[PARAMS.has_r_hat0] != 0.0 and not restarting:
-                e[:, :] = p[PARAMS.k + 6 * n : PARAMS.k + 9 * n].reshape(n, 3) - r_meas
-            else:
-                e[:, :] = 0.0
+            given = p[PARAMS.has_r_hat0] != 0.0 and not restarting
+            for i in range(n):
+                for a in range(3):
+                    r[i, a] = r_meas[i, a]
+                    e[i, a] = p[PARAMS.k + 6 * n + 3 * i + a] - r_meas[i, a] if given else 0.0
         return status, info
     held = x[STATE.torque : STATE.torque + 3]
     if stage == WARM_PENDING:
@@ -467,7 +471,7 @@ def step_into(x, p, t, m, kind, tau, out, wk):
             out[STATE.stage] = RUNNING
             out[STATE.t_meas] = t
             if not checks.all_finite(out[STATE.omega_hat :]):
-                return _restart(out, t, r_meas, True), info
+                return _restart(out, t, r_meas, valid), info
         return status, info
     h_pred = t - x[STATE.t]
     aim = out[STATE.aim : STATE.aim + 9]
@@ -483,7 +487,7 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     return status, info
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step(x, p, t, m, kind, tau):
     """The pure step: ``(new state, status, info)``; ``x`` is not modified. ``m`` is 2-D (a matrix ``(3, 3)``, a
     quaternion ``(1, 4)`` or directions ``(n, 3)``), ``kind`` one of the ``KIND_*`` codes."""
@@ -492,7 +496,7 @@ def step(x, p, t, m, kind, tau):
     return out, status, info
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def run(x, p, times, m, kind, taus):
     """:func:`step_into` over a log: ``(final state, ω̂ (T, 3), status (T,), first_bad, info)``; at the first
     rejected sample it stops and returns the state it started from (``first_bad`` its index, else −1)."""

@@ -113,20 +113,22 @@ def initial_ekf_state() -> np.ndarray:
     return x
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _covariance(xe, pe):
     """The EKF's P inside its flat state: 6×6, or 9×9 when it carries the unknown acceleration."""
     n = 9 if pe[EKF_PARAMS.q_a] > 0.0 else 6
     return xe[EKF_STATE.P : EKF_STATE.P + n * n].reshape(n, n)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _reinitialise(xe, pe, w_obs, R_meas):
     """(S4): the EKF restarted from the observer's rate and the measured attitude (an unknown acceleration it
     carries keeps its estimate, with its prior variance again)."""
     R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
-    R[:, :] = R_meas
-    xe[EKF_STATE.omega : EKF_STATE.omega + 3] = w_obs
+    for a in range(3):  # element loops, not slice assignments: those compile a shape check and its message
+        xe[EKF_STATE.omega + a] = w_obs[a]
+        for b in range(3):
+            R[a, b] = R_meas[a, b]
     if not checks.all_finite(xe[EKF_STATE.accel : EKF_STATE.accel + 3]):  # a diverged estimate is not kept
         xe[EKF_STATE.accel : EKF_STATE.accel + 3] = 0.0
     P = _covariance(xe, pe)
@@ -141,21 +143,26 @@ def _reinitialise(xe, pe, w_obs, R_meas):
     xe[EKF_STATE.disagree] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _measured_attitude(p, m, kind, r_meas, R_work, out):
     """The sample's attitude R (body → inertial) into ``out``: the matrix itself, the quaternion's matrix (the
     checks left it in ``R_work``) or Wahba's attitude from the directions (``R v_i ≈ …``: ``R r_i = v_i``)."""
+    # element loops, not slice assignments: those compile a shape check and its message
     if kind == checks.KIND_MATRIX:
-        out[:, :] = m
+        for a in range(9):
+            out[a // 3, a % 3] = m[a // 3, a % 3]
     elif kind == checks.KIND_QUAT:
-        out[:, :] = R_work
+        for a in range(9):
+            out[a // 3, a % 3] = R_work[a // 3, a % 3]
     else:
         n = int(p[PARAMS.n])
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
-        out[:, :] = wahba(p[PARAMS.k : PARAMS.k + n], V, r_meas)
+        R = wahba(p[PARAMS.k : PARAMS.k + n], V, r_meas)
+        for a in range(9):
+            out[a // 3, a % 3] = R[a // 3, a % 3]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     """One sample: the observer (``xs`` → ``xs_out``), the EKF and the supervisor (``xe`` → ``xe_out``); returns
     ``(status, info, ω̂)``. On a rejection the outputs are unspecified and the inputs untouched. ``wk``: the
@@ -164,7 +171,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     w_obs = xs_out[STATE.omega_hat : STATE.omega_hat + 3]
     if status >= checks.ERROR:
         return status, info, w_obs
-    xe_out[:] = xe
+    for i in range(xe.size):
+        xe_out[i] = xe[i]
     xe_out[EKF_STATE.source] = FROM_OBSERVER
     if status == checks.RESTARTED:  # the observer restarted (no estimate): the EKF starts again after it
         xe_out[EKF_STATE.started] = 0.0
@@ -237,7 +245,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     return status, info, w
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step(xs, p, xe, pe, t, m, kind, tau):
     """The pure step: ``(observer state, EKF state, ω̂ (3,), status, info)``; the inputs are not modified."""
     xs_out = np.empty_like(xs)
@@ -248,7 +256,7 @@ def step(xs, p, xe, pe, t, m, kind, tau):
     return xs_out, xe_out, w.copy(), status, info
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def run(xs, p, xe, pe, times, m, kind, taus):
     """:func:`step_into` over a log: ``(observer state, EKF state, ω̂ (T, 3), source (T,), status (T,), first_bad,
     info)``; at the first rejected sample it stops and returns the states it started from."""
