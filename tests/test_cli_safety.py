@@ -267,6 +267,7 @@ def test_compilation_is_announced_and_reported_whole(log, tmp_path, capsys, monk
     Numba fires its own (deterministic: no sleep, no wall-clock bound on the compilation)."""
     ticks = iter([100.0, 100.8])
     monkeypatch.setattr(compiling, "clock", lambda: next(ticks, None) or time.perf_counter())
+    monkeypatch.setattr(compiling, "NOTICE_DELAY", 0.0)  # said at once (the real delay is half a second)
     real_run = estimator_module.SarrasEstimator.run
     calls = {"n": 0}
 
@@ -286,6 +287,23 @@ def test_compilation_is_announced_and_reported_whole(log, tmp_path, capsys, monk
     ).groups()
     assert float(share) >= 0.8 and float(whole) > 0.0
     assert float(out.split("estimated in ")[1].split(" s")[0]) < 0.5
+
+
+def test_brief_compilation_is_not_announced(monkeypatch):
+    """A compilation that ends before the notice's delay says nothing (a cached kernel asking for literal arguments
+    first makes such an attempt); the notice stays pending for the next, longer one."""
+    said = []
+    monkeypatch.setattr(compiling, "NOTICE_DELAY", 3600.0)
+    compiling.announce_with(said.append)
+    data = {"dispatcher": None, "args": (), "return_type": None}
+    with event.trigger_event("numba:compile", data=data):
+        pass
+    assert said == []
+    monkeypatch.setattr(compiling, "NOTICE_DELAY", 0.0)
+    with event.trigger_event("numba:compile", data=data):
+        pass
+    compiling.announce_with(None)
+    assert said == [compiling.NOTICE]
 
 
 def test_nested_compilations_count_once(monkeypatch):

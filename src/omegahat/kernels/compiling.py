@@ -2,7 +2,9 @@
 
 A listener on Numba's ``numba:compile`` events (fired for compilations only: a kernel loaded from the cache fires
 none) adds up the wall time of the outermost compilations (a kernel compiling the kernels it calls counts once) in
-:func:`seconds`, and calls the notice set by :func:`announce_with` once, when the first compilation starts. The
+:func:`seconds`, and calls the notice set by :func:`announce_with` once, when a compilation has gone on for
+:data:`NOTICE_DELAY` seconds (a brief one, such as the discarded first attempt of a kernel that asks for literal
+arguments before it loads from the cache, says nothing). The
 commands report both with :func:`process_seconds`, the time since the process started (imports included): the
 user reads how long the run took in all and how much of it was compiling, not a part of the wait.
 """
@@ -10,6 +12,7 @@ user reads how long the run took in all and how much of it was compiling, not a 
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections.abc import Callable
 
@@ -20,6 +23,7 @@ __all__ = ["NOTICE", "announce_with", "process_seconds", "seconds", "wait_note"]
 NOTICE = "compiling kernels, once (later runs load them from the cache) ..."  #: what the notice says by default
 _T_IMPORT = time.perf_counter()
 clock = time.perf_counter  #: the compilations' clock (a test may stand another in)
+NOTICE_DELAY = 0.5  #: seconds a compilation must last before the notice is said (0: at once)
 
 
 class _Listener(event.Listener):
@@ -30,19 +34,31 @@ class _Listener(event.Listener):
         self.t0 = 0.0
         self.total = 0.0
         self.notice: Callable[[str], None] | None = None
+        self.timer: threading.Timer | None = None
+
+    def _say(self) -> None:
+        notice, self.notice = self.notice, None
+        if notice is not None:
+            notice(NOTICE)
 
     def on_start(self, ev: event.Event) -> None:
         self.depth += 1
         if self.depth == 1:
             self.t0 = clock()
-            notice, self.notice = self.notice, None
-            if notice is not None:
-                notice(NOTICE)
+            if self.notice is not None and NOTICE_DELAY <= 0.0:
+                self._say()
+            elif self.notice is not None:
+                self.timer = threading.Timer(NOTICE_DELAY, self._say)
+                self.timer.daemon = True
+                self.timer.start()
 
     def on_end(self, ev: event.Event) -> None:
         self.depth -= 1
         if self.depth == 0:
             self.total += clock() - self.t0
+            if self.timer is not None:
+                self.timer.cancel()  # not said yet if it was brief: the next compilation may say it
+                self.timer = None
 
 
 _LISTENER = _Listener()
