@@ -16,7 +16,8 @@ quaternions: NPZ ``q`` arrays, default scalar last, or ``q0..q3``/``q1..q4`` col
 
 Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per sample (duplicates dropped by
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
-through) or ``unavailable`` (no estimate yet: ``nan``). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
+through), ``unavailable`` (no estimate yet: ``nan``) or ``restarted`` (``nan``: the step to that sample
+could not be taken and the estimator started again from it). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
 and renamed at the end: whole or absent.
 
@@ -46,6 +47,7 @@ from omegahat.io.pipeline import estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
+from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
 HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
@@ -64,7 +66,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         bags (.bag) and ROS 2 bags (directory) (--topic, frames).
         Equal times: the same attitude is one sample (dropped), different attitudes are an error.
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
-        unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
+        unavailable (no estimate yet: nan) | restarted (nan: the step could not be taken, started
+        again from that sample); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
 example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
          omegahat estimate "Take 01.csv" --body hand --preset mocap --smooth -o omega.csv
@@ -305,6 +308,7 @@ def _given_gains(args, stream) -> ObserverGains | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    compiled = compiling.seconds()
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
@@ -353,7 +357,6 @@ def run(args: argparse.Namespace) -> int:
         summary = estimate_stream(stream, settings, writer, report=print, progress=progress, spell=cli_option)
         bar.n = bar.total
         bar.refresh()
-    compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
-    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
+    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiling.wait_note(compiled)}")
     print("\n".join(summary.lines))
     return 0

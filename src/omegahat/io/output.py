@@ -24,7 +24,10 @@ says what each row is:
 * ``predicted``: no usable sample at that time (missing, skipped, nearly collinear directions): the estimate was
   predicted through;
 * ``unavailable``: no estimate yet (before the first valid sample, and at it: one attitude gives no rate; with a
-  warm start until the second); the rate columns are ``nan`` there, never 0.
+  warm start until the second); the rate columns are ``nan`` there, never 0;
+* ``restarted``: the estimator could not take the step to this sample (its result was not finite: a gap too long
+  for the model, a torque or gains too large) and started again from it; ``nan`` there, then ``unavailable`` until
+  the restart's warm start gives an estimate again.
 
 :func:`staged_folder` gives the laboratory's commands the same guarantee for a folder of files: each file
 appears whole, or not at all.
@@ -60,6 +63,7 @@ if TYPE_CHECKING:  # for annotations only (the registry is imported where it is 
 __all__ = [
     "CORRECTED",
     "PREDICTED",
+    "RESTARTED",
     "STATUS_WORDS",
     "UNAVAILABLE",
     "AtomicOutput",
@@ -75,7 +79,7 @@ __all__ = [
 ]
 
 # the estimators' statuses, one enum (omegahat.interface.Status; "restarted" too), written as their words
-UNAVAILABLE, CORRECTED, PREDICTED = Status.UNAVAILABLE, Status.CORRECTED, Status.PREDICTED
+UNAVAILABLE, CORRECTED, PREDICTED, RESTARTED = Status.UNAVAILABLE, Status.CORRECTED, Status.PREDICTED, Status.RESTARTED
 HEADER = "t,wx,wy,wz,status"
 PART_SUFFIX = ".part"
 
@@ -345,7 +349,7 @@ class OmegaWriter(AtomicOutput):
 
     def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None:
         """Append rows: the times of ``chunk`` (:class:`~omegahat.io.registry.LogChunk`, plus ``t0``),
-        ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED."""
+        ``omega (m, 3)``, ``status (m,)`` codes UNAVAILABLE/CORRECTED/PREDICTED/RESTARTED."""
         codes = pa.array(np.asarray(status, dtype=np.int8))
         t = chunk.t + self.t0 if self.t0 else chunk.t
         table = pa.table(
