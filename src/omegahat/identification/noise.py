@@ -6,11 +6,14 @@ noise of ``σ`` rad per axis) plus ``h³`` times the angular jerk. Over a window
 jerk's share is small; over one where it moves fast it dominates. The noise is white and the same everywhere, the
 motion is not (a hand at rest and in a quick turn; a vehicle cruising and manoeuvring), so ::
 
-    σ_q² = Q₁₀{ median_{k ∈ window} |d_k|² } / (20 · 2.366)                                          (N1)
+    σ_q² = Q₁₀{ median_{k ∈ window} |d_k|² } / (20 · c_W),   c_W = F⁻¹_χ²₃( B⁻¹_{m,m}(0.1) )            (N1)
 
-— the 10th percentile over windows of ``W`` samples of the window's median ``|d|²`` (2.366: the median of χ² with
-3 degrees of freedom) — is the noise of the quietest tenth of the log: exactly the white noise where some of the
-log is quiet, an upper bound where none is. :mod:`omegahat.identification.identify` bounds the likelihood's noise
+— the 10th percentile over windows of ``W = 2m − 1`` samples of the window's median ``|d|²`` — is the noise of the
+quietest tenth of the log: the white noise where some of the log is quiet, an upper bound where none is. ``c_W`` is
+what that percentile is for white noise alone: the median of ``W`` independent ``χ²₃`` values is their ``m``-th
+order statistic, whose distribution function is ``F`` pushed through the regularised incomplete beta function
+``I(m, m)``; its 10th percentile is ``F⁻¹(B⁻¹_{m,m}(0.1))`` (``scipy.stats.beta``, ``chi2``). So a log of white
+noise alone gets its σ back, not the low tail of its windows. :mod:`omegahat.identification.identify` bounds the likelihood's noise
 by it: a stationary Gaussian model fitted by likelihood to a motion with bursts otherwise explains the bursts'
 unpredictability as sensor noise (measured on BROAD at 28.6 Hz: 3.6 mrad from the likelihood against 0.1 mrad at
 rest), and then smooths the motion away.
@@ -18,14 +21,24 @@ rest), and then smooths the motion away.
 
 from __future__ import annotations
 
-import numpy as np
+import functools
 
-__all__ = ["CHI2_3_MEDIAN", "QUANTILE", "WINDOW_S", "quiet_noise"]
+import numpy as np
+from scipy.stats import beta, chi2
+
+__all__ = ["CHI2_3_MEDIAN", "QUANTILE", "WINDOW_S", "quiet_noise", "window_quantile"]
 
 CHI2_3_MEDIAN = 2.3660  #: the median of χ² with 3 degrees of freedom
-WINDOW_S = 0.25  #: s: the windows of (N1) (at least 16 samples)
+WINDOW_S = 0.25  #: s: the windows of (N1) (at least 31 samples)
 QUANTILE = 0.1  #: the share of the quietest windows of (N1)
-_MIN_WINDOW = 16
+_MIN_WINDOW = 31
+
+
+@functools.cache
+def window_quantile(w: int, quantile: float = QUANTILE) -> float:
+    """``c_W`` of (N1): the ``quantile`` of the median of ``w`` (odd) independent ``χ²₃`` values."""
+    m = (w + 1) // 2
+    return float(chi2.ppf(beta.ppf(quantile, m, w - m + 1), 3))
 
 
 def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:
@@ -44,13 +57,11 @@ def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:
     d2 = np.where(ok & np.isfinite(d2), d2, np.nan)
     if np.count_nonzero(np.isfinite(d2)) < 8:
         return float("nan")
-    w = max(_MIN_WINDOW, round(WINDOW_S / h))
+    w = max(_MIN_WINDOW, round(WINDOW_S / h)) | 1  # odd: a median is one sample
     n = d2.size // w
-    if n < 5:  # too short for windows: the log's median
-        level = float(np.nanmedian(d2))
-    else:
-        windows = d2[: n * w].reshape(n, w)
-        enough = np.count_nonzero(np.isfinite(windows), axis=1) >= w // 2
-        medians = np.nanmedian(windows[enough], axis=1) if enough.any() else np.array([np.nanmedian(d2)])
-        level = float(np.quantile(medians, QUANTILE))
-    return float(np.sqrt(level / (20.0 * CHI2_3_MEDIAN)))
+    windows = d2[: n * w].reshape(n, w)
+    full = np.all(np.isfinite(windows), axis=1) if n else np.zeros(0, dtype=bool)
+    if np.count_nonzero(full) < 5:  # too short (or gappy) for windows: the log's median
+        return float(np.sqrt(float(np.nanmedian(d2)) / (20.0 * CHI2_3_MEDIAN)))
+    medians = np.median(windows[full], axis=1)
+    return float(np.sqrt(float(np.quantile(medians, QUANTILE)) / (20.0 * window_quantile(w))))
