@@ -14,9 +14,9 @@ what that percentile is for white noise alone: the median of ``W`` independent `
 order statistic, whose distribution function is ``F`` pushed through the regularised incomplete beta function
 ``I(m, m)``; its 10th percentile is ``F⁻¹(B⁻¹_{m,m}(0.1))`` (``scipy.stats.beta``, ``chi2``). So a log of white
 noise alone gets its σ back, not the low tail of its windows. :mod:`omegahat.identification.identify` bounds the
-likelihood's noise by it: a stationary Gaussian model fitted by likelihood to a motion with bursts otherwise explains the bursts'
-unpredictability as sensor noise (measured on BROAD at 28.6 Hz: 3.6 mrad from the likelihood against 0.1 mrad at
-rest), and then smooths the motion away.
+likelihood's noise by it: a stationary Gaussian model fitted by likelihood to a motion with bursts otherwise
+explains the bursts' unpredictability as sensor noise (measured on BROAD at 28.6 Hz: 3.6 mrad from the likelihood
+against 0.1 mrad at rest), and then smooths the motion away.
 """
 
 from __future__ import annotations
