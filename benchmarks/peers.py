@@ -49,7 +49,7 @@ def run_recording(f, t, b, taus):
     """ω̂ at every sample and R̂ every CHUNK samples (the compiled ``run`` chunk by chunk)."""
     W, Rs = [], []
     for s in range(0, t.size, CHUNK):
-        W.append(f.run(t[s : s + CHUNK], b[s : s + CHUNK], taus[s : s + CHUNK]))
+        W.append(f.run(t[s : s + CHUNK], b[s : s + CHUNK], taus[s : s + CHUNK]).omega)
         Rs.append(f.R.copy())
     return np.vstack(W), np.array(Rs)
 

@@ -30,9 +30,9 @@ def _run(scenario, as_published):
     truth, b = simulate(scenario, seed=0)
     f = source_filter(scenario, as_published=as_published)
     k5 = round(5.0 / scenario.h)
-    W = f.run(truth.t[: k5 + 1], b[: k5 + 1], truth.torque[: k5 + 1])
+    W = f.run(truth.t[: k5 + 1], b[: k5 + 1], truth.torque[: k5 + 1]).omega
     e_R5 = _attitude_error_deg(truth.R[k5], f.R)
-    W = np.vstack([W, f.run(truth.t[k5 + 1 :], b[k5 + 1 :], truth.torque[k5 + 1 :])])
+    W = np.vstack([W, f.run(truth.t[k5 + 1 :], b[k5 + 1 :], truth.torque[k5 + 1 :]).omega])
     e = estimate_errors(W, truth.omega, always_estimates=True)
     return truth.t, e, e_R5, _attitude_error_deg(truth.R[-1], f.R)
 

@@ -93,7 +93,10 @@ def predictive_scenario() -> Scenario:
 def source_filter(scenario: Scenario, *, as_published: bool) -> TSO3Filter:
     """The scenario's filter with the source's settings, started where the source starts it (R̂ = I, ω̂ = 0)."""
     cls = MinimumEnergyFilter if scenario.name == "minimum-energy" else PredictiveFilter
-    return cls(J=scenario.J, references=scenario.references, R0=np.eye(3), as_published=as_published, **scenario.filter)
+    return cls(
+        scenario.J, references=scenario.references, R0=np.eye(3), omega_hat0=np.zeros(3), as_published=as_published,
+        **scenario.filter,
+    )  # fmt: skip
 
 
 def simulate(
@@ -185,7 +188,7 @@ def basilisk_case(case: BasiliskCase, seed: int = 42, *, as_published: bool = Tr
         for j in range(case.half):  # one update at a time, to count the CKF's updates (P before each)
             ckf += int(use[j].any() and np.max(np.abs(P)) > ekf_switch)
             sekf_run_log(times[j : j + 1], cos[j : j + 1], use[j : j + 1], BASILISK_NORMALS, np.zeros(3), params,
-                         state, X, x, P)  # fmt: skip
+                         state, X, x, P, _BASILISK_P0)  # fmt: skip
             peak = max(peak, float(np.hypot(X[3], X[4])))
         results.append((np.concatenate([X[:3], -X[3:]]), P.copy()))
     return BasiliskRun(results[0][0], results[1][0], results[0][1], results[1][1], _BASILISK_P0.copy(), ckf, peak)
