@@ -12,20 +12,31 @@ import argparse
 import dataclasses
 from pathlib import Path
 
+from omegahat.lab import peer_scenarios as P
 from omegahat.lab import scenarios as S
 from omegahat.lab.evaluation import comparison as C
+from omegahat.lab.evaluation import peer_methods as PM
 from omegahat.lab.evaluation import robustness as RB
 
-HELP = "Compare omegahat with differencing, a spline and an EKF on the standard scenarios."
+HELP = "Compare omegahat with differencing, a spline, an EKF and published gyro-free filters on standard scenarios."
+
+#: every method (the comparison's, then the gyro-free peers' and the one-direction observer's)
+METHODS = (*C.METHODS, *PM.METHODS)
+#: every scenario: the attitude scenarios, then those whose sensor gives directions
+SCENARIOS = [*S.names(), *P.DIRECTION_SCENARIOS]
+
+
+def _scenario(name: str) -> S.Scenario | P.DirectionScenario:
+    return P.DIRECTION_SCENARIOS[name] if name in P.DIRECTION_SCENARIOS else S.get(name)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scenario",
         action="append",
-        choices=S.names(),
+        choices=SCENARIOS,
         metavar="NAME",
-        help=f"scenario to run (repeatable; default: all). One of: {', '.join(S.names())}",
+        help=f"scenario to run (repeatable; default: all). One of: {', '.join(SCENARIOS)}",
     )
     parser.add_argument("--out", type=Path, default=Path("compare-out"), help="output folder (compare-out/)")
     parser.add_argument(
@@ -37,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--method",
         action="append",
-        choices=[m.name for m in C.METHODS],
+        choices=[m.name for m in METHODS],
         metavar="NAME",
         help="method to run (repeatable; default: all)",
     )
@@ -51,13 +62,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    names = args.scenario or S.names()
-    methods = [m for m in C.METHODS if args.method is None or m.name in args.method]
+    names = args.scenario or SCENARIOS
+    methods = [m for m in METHODS if args.method is None or m.name in args.method]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows, skipped = [], []
     for name in names:
-        sc = S.get(name)
+        sc = _scenario(name)
         reason = C.unavailable(sc)
         if reason is not None:
             skipped.append(reason)
