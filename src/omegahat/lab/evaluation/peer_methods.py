@@ -28,7 +28,7 @@ from omegahat.lab import peer_scenarios as P
 from omegahat.lab.evaluation.comparison import Method, filter_noise
 from omegahat.observer.single_direction import SingleDirectionEstimator
 
-__all__ = ["METHODS"]
+__all__ = ["METHODS", "MIN_ENERGY_GRID", "PREDICTIVE_GRID", "SEKF_GRID"]
 
 _TSO3_INPUTS = ("attitude", "directions")
 _ONE = ("one-direction",)
@@ -63,16 +63,19 @@ def _sekf(sc, q):
 
 
 _BANDWIDTHS_HZ = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0)
+MIN_ENERGY_GRID = tuple(10.0**p for p in range(-10, 9, 2))  #: the minimum-energy filter's process weight 1/ρ
+PREDICTIVE_GRID = tuple(10.0**p for p in range(0, 17, 2))  #: the predictive filter's ratio q/ρ
+SEKF_GRID = tuple(10.0**p for p in range(-10, 7, 2))  #: the sun-line SEKF's process noise q, (rad/s²)²
 
 #: The peers' rows and the one-direction observer's (module docstring), after the comparison's own METHODS.
 METHODS = (
     Method(
         "min-energy", True, "the process weight 1/rho (the source's q_i = 0.1, K0 = I6, alpha = 0.01/s)",
-        tuple(10.0**p for p in range(-10, 9, 2)), _min_energy, True, _TSO3_INPUTS,
+        MIN_ENERGY_GRID, _min_energy, True, _TSO3_INPUTS,
     ),
     Method(
         "predictive", True, "the ratio q/rho of residual to disturbance weights (the source's k_R = 0.7/s)",
-        tuple(10.0**p for p in range(0, 17, 2)), _predictive, True, _TSO3_INPUTS,
+        PREDICTIVE_GRID, _predictive, True, _TSO3_INPUTS,
     ),
     Method(
         "single-direction", True, "bandwidth_hz of omegahat's one-direction observer (Sarras-type)", _BANDWIDTHS_HZ,
@@ -84,6 +87,6 @@ METHODS = (
     ),
     Method(
         "sunline-sekf", True, "process noise q (rad/s^2)^2 of the rates' random walk (sigma_rate0 = w_M)",
-        tuple(10.0**p for p in range(-10, 3, 2)), _sekf, True, _ONE,
+        SEKF_GRID, _sekf, True, _ONE,
     ),
 )  # fmt: skip
