@@ -109,7 +109,7 @@ def _jbar(sc):
     return float(np.trace(np.asarray(sc.J_model))) / 3.0
 
 
-def filter_noise(sc) -> float:
+def filter_noise(sc: S.Scenario | P.DirectionScenario) -> float:
     """The measurement noise a filter is told: the scenario's, floored (a filter needs a positive variance)."""
     return max(float(sc.measurement_noise), 1e-6)
 
