@@ -304,9 +304,12 @@ def _load(sc, seed, duration):
 
 def _score_real(run, w):
     """The fair in-band score of :func:`omegahat.lab.evaluation.broad.score` (10 Hz zero-phase low-pass of the error,
-    motion samples away from gaps, best continuous shift within ±3 samples), and the zero-shift RMS."""
+    motion samples away from gaps, best continuous shift within ±3 samples), and the zero-shift RMS; infinite for
+    an estimate that diverged (:func:`_run_method` marks its rows inf: they are not samples to score around)."""
     from omegahat.lab.evaluation import broad
 
+    if np.isinf(w).any():
+        return math.inf, math.inf
     s = broad.score(run.extra, w)
     return s.rms, s.zero_shift_rms
 
