@@ -115,7 +115,7 @@ def test_known_torque_and_inertia(tmp_path, capsys):
 
 def test_with_the_inertia_the_default_estimator_is_the_supervised_kalman(tmp_path, capsys):
     """A 5 Hz star tracker (10 arcsec) on a spacecraft with known inertia and torque: given --inertia, the command
-    uses the observer supervising an EKF (it says so, with the process noise it chose from the log) and beats the
+    uses the observer supervising the EKF of the model it identified (it says so, with why) and beats the
     fixed-gain observer it would otherwise use (--estimator sarras) against the CF4 truth."""
     J = np.array([300.0, 250.0, 200.0])
     tau = np.array([0.5, 0.0, -0.2])
@@ -135,7 +135,9 @@ def test_with_the_inertia_the_default_estimator_is_the_supervised_kalman(tmp_pat
             capsys, "estimate", src, "-o", dst, "--inertia", *J, "--estimator", choice, "--no-progress"
         )
         assert code == 0, err
-        assert ("estimator: omegahat (the observer supervising a gyro-less EKF" in out) == (choice == "auto")
+        assert ("the model's filter runs" in out and "estimator used: omegahat (observer at" in out) == (
+            choice == "auto"
+        )  # the identified model's supervised EKF, said with why
         w = read_output(dst)[:, 1:]
         errors[choice] = np.sqrt(np.mean((w[t >= 100.0] - truth.omega[t >= 100.0]) ** 2))
     assert re.search(r"rate noise [0-9.e+-]+ rad/s\^1\.5, chosen from the log", out) is None  # only for auto

@@ -129,7 +129,7 @@ def test_automatic_gains_by_default_are_those_of_the_command(tmp_path, capsys):
     src, dst = tmp_path / "log.csv", tmp_path / "omega.csv"
     df.to_csv(src, index=False, float_format="%.17g")
     assert main(["estimate", str(src), "-o", str(dst), "--inertia", "1", "1", "1.6", "--no-progress"]) == 0
-    assert "chosen from the log" in capsys.readouterr().out
+    assert "model identified from the log" in capsys.readouterr().out
     table, status = read_omega_csv(dst)
     np.testing.assert_allclose(out[W].to_numpy(), table[:, 1:], rtol=0, atol=1e-12)
     assert list(out["status"]) == list(status)

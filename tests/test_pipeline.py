@@ -32,7 +32,8 @@ def test_the_same_data_get_the_same_gains_as_csv_and_as_npz(tmp_path):
     """100,000 rows: the CSV reader hands on chunks of ~2 MB (~30,000 rows), the NPZ reader of 131,072 rows, so the
     head of the log (the chunks up to 32,768 rows) was 66,000 rows of one and 100,000 of the other, and the gains
     chosen from it differed (2.82 Hz against 2.61 Hz before). The head analysed is now 32,768 rows of both, and the
-    log's length is extrapolated from the bytes read for the head alone (not those read ahead)."""
+    log's length is extrapolated from the bytes read for the head alone (not those read ahead). The default now
+    identifies its model from the head: the same holds for what it identifies."""
     t = np.arange(100_000) / 200.0
     rot, _ = attitude(t, Angle(0.1, [(0.3, 0.2, 0.0)]), Angle(0.0, [(0.2, 0.13, 1.0)]), Angle(0.0, [(0.4, 0.07, 2.0)]))
     rot = noisy(rot, 1e-3, 1)
@@ -42,8 +43,8 @@ def test_the_same_data_get_the_same_gains_as_csv_and_as_npz(tmp_path):
     said = {}
     for name in ("a.csv", "a.npz"):
         lines = _printed(["estimate", str(tmp_path / name), "-o", str(tmp_path / f"{name}.out.csv"), "--no-progress"])
-        said[name] = [line for line in lines if line.startswith(("gains:", "gains used:"))]
-    assert said["a.csv"] == said["a.npz"] and len(said["a.csv"]) == 2  # the gains and why, to the last digit
+        said[name] = [line for line in lines if line.startswith(("model identified", "expected RMS", "estimator used"))]
+    assert said["a.csv"] == said["a.npz"] and len(said["a.csv"]) == 3  # the model, why, what ran: to the last digit
     a, b = (np.loadtxt(tmp_path / f"{n}.out.csv", delimiter=",", skiprows=1, usecols=(1, 2, 3)) for n in said)
     np.testing.assert_array_equal(a, b)
 
@@ -81,9 +82,11 @@ def test_messages_name_options_as_the_caller_spells_them_and_errors_carry_them()
     assert "exceeds <quat_norm_tol=0.001> (pass <quat_norm_tol=1.0> to accept it, or <skip_bad_samples=True>" in message
     assert raised.value.options == (("skip_bad_samples", True), ("quat_norm_tol", 1.0))
     assert "--" not in message
-    with pytest.raises(ValueError, match=re.escape("<smooth=True> needs <preset=mocap>")) as raised:
-        estimate_stream(_stream(q, t), EstimateSettings(smooth=True), lambda _: _Sink(), spell=spell)
-    assert raised.value.options == (("preset", "mocap"),)
+    with pytest.raises(ValueError, match=re.escape("<smooth=True> smooths with the model identified")) as raised:
+        settings = EstimateSettings(smooth=True, bandwidth_hz=2.0)
+        estimate_stream(_stream(q, t), settings, lambda _: _Sink(), spell=spell)
+    assert "drop <bandwidth_hz>" in str(raised.value)
+    assert raised.value.options == (("smooth", None),)
 
 
 def test_the_command_and_estimate_frame_each_spell_them_their_way(tmp_path, capsys):

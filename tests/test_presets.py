@@ -171,7 +171,7 @@ def test_cli_preset_causal_and_smooth(tmp_path, capsys):
     [
         (["--preset", "mocap", "--inertia", "1", "2", "3"], r"--preset mocap chooses the model .* drop --inertia"),
         (["--preset", "mocap", "--bandwidth", "2"], r"drop --bandwidth or the preset"),
-        (["--smooth"], r"--smooth needs --preset mocap"),
+        (["--smooth", "--bandwidth", "2"], r"--smooth smooths with the model identified .* drop --bandwidth"),
     ],
 )
 def test_cli_preset_conflicts_are_named(tmp_path, capsys, extra, match):
@@ -213,7 +213,7 @@ def test_cli_preset_refuses_one_direction_and_smooth_refuses_directions(tmp_path
     b = np.einsum("tji,nj->tni", rot.as_matrix(), refs)
     for n, extra, match in (
         (1, ["--preset", "mocap"], "--preset mocap needs attitudes or two directions or more"),
-        (2, ["--preset", "mocap", "--smooth"], "--smooth takes attitudes"),
+        (2, ["--preset", "mocap", "--smooth"], "--smooth with --preset mocap takes attitudes"),
     ):
         names = ["t"] + [f"b{i + 1}{c}" for i in range(n) for c in "xyz"]
         rows = np.column_stack([t, b[:, :n].reshape(t.size, -1)])

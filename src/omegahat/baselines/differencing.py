@@ -50,6 +50,7 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator, batch_status, one_of
+from omegahat.validation import as_vector3
 
 __all__ = ["SCHEMES", "DifferencingEstimator", "Scheme", "log_difference", "lowpass", "lowpass_reference"]
 
@@ -192,6 +193,8 @@ class DifferencingEstimator(StreamingEstimator):
     cutoff_hz : cut-off of the first-order low-pass in Hz, or ``None`` for raw differences.
     scalar_first, rotation_tol, quat_norm_tol : quaternion order and the tolerances of the input checks
         (:mod:`omegahat.measurements`, the same for every estimator).
+    omega_hat0 : backward only: the rate at the first valid sample (rad/s, body axes; a rate known otherwise, such
+        as ``omegahat estimate``'s least-squares start), which has no difference yet; default: none (NaN there).
 
     Statuses: ``unavailable`` until two (backward) or three (central) valid samples, ``predicted`` at a skipped
     sample (the last estimate held), ``corrected`` elsewhere. Attributes after ``update``: ``estimate_time`` (the
@@ -206,8 +209,12 @@ class DifferencingEstimator(StreamingEstimator):
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
+        omega_hat0: ArrayLike | None = None,
     ) -> None:
         self.scheme: Scheme = one_of("scheme", scheme, Scheme)
+        if omega_hat0 is not None and self.scheme != "backward":
+            raise ValueError("omega_hat0 is for the backward scheme (central has no estimate at the first sample)")
+        self.omega_hat0 = None if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.cutoff_hz = _check_cutoff_hz(cutoff_hz)
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
@@ -256,6 +263,8 @@ class DifferencingEstimator(StreamingEstimator):
             if self._t:
                 raw = so3.log(self._R[-1].T @ R) / (t - self._t[-1])  # (D1)
                 when = t
+            elif self.omega_hat0 is not None:  # the first valid sample: the given rate
+                raw, when = self.omega_hat0.copy(), t
             self._R, self._t = [R], [t]
         else:
             if len(self._t) == 2:
@@ -295,6 +304,8 @@ class DifferencingEstimator(StreamingEstimator):
         log = ms.checked_log(t, data, torque, **self._checks())
         times, R = log.times, log.values
         est, valid = _differences(times, R, self.scheme)
+        if self.omega_hat0 is not None and valid.any():  # the first valid sample: the given rate (as update)
+            est[np.flatnonzero(valid)[0]] = self.omega_hat0
         if self.cutoff_hz is not None:
             est = lowpass(est, times, self.cutoff_hz)  # NaN rows are ignored by the filter
         est = _hold_skipped(est, valid, self.scheme)
@@ -305,7 +316,7 @@ class DifferencingEstimator(StreamingEstimator):
         self._t = [float(times[j]) for j in iv[-keep:]]
         self.n_skipped = int(times.size - iv.size)
         self._t_last = float(times[-1]) if times.size else None
-        if self.scheme == "backward" and iv.size >= 2:
+        if self.scheme == "backward" and iv.size >= (1 if self.omega_hat0 is not None else 2):
             self._y, self._y_time = est[iv[-1]].copy(), float(times[iv[-1]])
         elif self.scheme == "central" and iv.size >= 3:
             self._y, self._y_time = est[iv[-2]].copy(), float(times[iv[-2]])

@@ -241,10 +241,10 @@ class SunlineSEKF(CompiledEstimator):
 
     def _reset_state(self) -> None:
         X = None if self.direction0 is None else self._initial_state(self.direction0)
-        self._commit((X, np.zeros(5), self.P0.copy(), 0, None, 0))
+        self._commit((X, np.zeros(5), self.P0.copy(), 0, None))
 
     def _commit(self, state: Any) -> None:
-        self.X, self.x, self.P, self.axis, self.t, self.n_restarts = state
+        self.X, self.x, self.P, self.axis, self.t = state
 
     def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
         """One update (:func:`sekf_step`): the NumPy path, the oracle of :meth:`run`."""
@@ -269,7 +269,7 @@ class SunlineSEKF(CompiledEstimator):
             if restarted:  # from this sample, as at the start
                 X, x, P, axis = None if b is None else self._initial_state(b), np.zeros(5), self.P0.copy(), 0
                 restart_warning(1, 1)
-        state = (X, x, P, axis, float(t), self.n_restarts + restarted)
+        state = (X, x, P, axis, float(t))
         if restarted:
             return state, _NAN3, ms.RESTARTED, 0.0
         return state, _NAN3 if X is None else body_rate(X, axis), int(code), float(info)
@@ -292,7 +292,5 @@ class SunlineSEKF(CompiledEstimator):
             times, np.ascontiguousarray(values[:, 0]), use, np.eye(3), self.omega_hat0, params, state, X, x, P,
             self.P0,
         )  # fmt: skip
-        restarts = int(np.count_nonzero(restarted))
-        restart_warning(restarts, T)
-        new = (X if state[2] else None, x, P, int(state[3]), float(times[-1]), self.n_restarts + restarts)
+        new = (X if state[2] else None, x, P, int(state[3]), float(times[-1]))  # restarts: counted by the base
         return new, out, np.where(restarted, ms.RESTARTED, codes), -1, 0.0

@@ -97,7 +97,8 @@ def restart_warning(restarts: int, total: int) -> None:
 
 class FilterState(NamedTuple):
     """A TSO(3) filter's state: ``R`` (None before the first valid sample), ``omega``, ``gain``, the time ``t`` of
-    the last sample (None: none yet), ``prev`` its directions (None: skipped), ``tau`` its torque, ``n_restarts``."""
+    the last sample (None: none yet), ``prev`` its directions (None: skipped), ``tau`` its torque (the restarts are
+    counted by :class:`~omegahat.observer.compiled.CompiledEstimator`)."""
 
     R: np.ndarray | None
     omega: np.ndarray
@@ -105,7 +106,6 @@ class FilterState(NamedTuple):
     t: float | None
     prev: np.ndarray | None
     tau: np.ndarray
-    n_restarts: int
 
 
 class TSO3Filter(CompiledEstimator):
@@ -179,12 +179,12 @@ class TSO3Filter(CompiledEstimator):
         self._commit(
             FilterState(
                 None if self.R0 is None else self.R0.copy(), self.omega_hat0.copy(), self._initial_gain(), None,
-                None, np.zeros(3), 0,
+                None, np.zeros(3),
             )
         )  # fmt: skip
 
     def _commit(self, state: Any) -> None:
-        self.R, self.omega, self.gain, self.t, self._prev, self._tau, self.n_restarts = state
+        self.R, self.omega, self.gain, self.t, self._prev, self._tau = state
 
     def _previous_time(self) -> float:
         return np.nan if self.t is None else self.t
@@ -210,9 +210,7 @@ class TSO3Filter(CompiledEstimator):
         valid = code == ms.OK
         if valid and R is None:
             R = initial_attitude(value, self.directions)
-        state = FilterState(
-            R, omega, gain, float(t), value if valid else None, np.array(tau, dtype=float), self.n_restarts + restarted
-        )
+        state = FilterState(R, omega, gain, float(t), value if valid else None, np.array(tau, dtype=float))
         if restarted:
             return state, _NAN3, ms.RESTARTED, 0.0
         return state, omega, int(code), float(info)
@@ -238,11 +236,9 @@ class TSO3Filter(CompiledEstimator):
         out, restarted = self._run_compiled(
             times, np.ascontiguousarray(values), codes == ms.OK, taus, state, R, gain, prev
         )
-        restarts = int(np.count_nonzero(restarted))
-        codes = np.where(restarted, ms.RESTARTED, codes)
-        restart_warning(restarts, T)
+        codes = np.where(restarted, ms.RESTARTED, codes)  # counted and warned about by the base's run
         new = FilterState(
             R if state[2] else None, state[4:7].copy(), gain, float(times[-1]), prev if state[3] else None,
-            state[7:10].copy(), self.n_restarts + restarts,
+            state[7:10].copy(),
         )  # fmt: skip
         return new, out, codes, -1, 0.0

@@ -10,7 +10,7 @@
 ``docs/theory/identification.md`` gives the equations and what was measured.
 """
 
-from omegahat.identification.identify import Candidate, Identification, identify
+from omegahat.identification.identify import MIN_SAMPLES, Candidate, Identification, identify
 from omegahat.identification.likelihood import MODELS, Model
 
-__all__ = ["MODELS", "Candidate", "Identification", "Model", "identify"]
+__all__ = ["MIN_SAMPLES", "MODELS", "Candidate", "Identification", "Model", "identify"]

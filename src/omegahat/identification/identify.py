@@ -55,13 +55,14 @@ from omegahat.identification.noise import quiet_noise
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.validation import as_directions, as_inertia
 
-__all__ = ["Candidate", "Identification", "identify", "steady_rate_error"]
+__all__ = ["MIN_SAMPLES", "Candidate", "Identification", "identify", "steady_rate_error"]
 
 KINEMATIC = ("rate", "acceleration")  #: the candidates when J is not given
-GRID = tuple(10.0**p for p in range(-4, 5))  #: Λ candidates (decades) before the refinement
+GRID = tuple(10.0**p for p in range(-8, 5))  #: Λ candidates (decades) before the refinement (down to a constant rate)
 LAMBDA_MAX = GRID[-1]  #: the grid's top: the model's fast limit
 REFINE_STEPS = 8  #: golden-section steps in log Λ around the best grid point
 N_PARAMS = 2  #: Λ and σ, for every model
+MIN_SAMPLES = 20  #: valid samples below which no model is identified (two parameters, a noise bound of windows)
 MISFIT_MAX = 10.0  #: a model whose innovations exceed the identified noise's by more has lost track (step 5)
 GAIN_REQUIRED = 0.9  #: the model runs only if it predicts at most this fraction of differencing's error (step 5)
 SIGMA_FLOOR = 1e-9  #: rad: below any real sensor (float32 quaternions carry ~6e-8)
@@ -114,7 +115,9 @@ class Identification:
         estimator's others (``references``, ``measurement``, ``omega_hat0``, ``warm_start``, ``rotation_tol``,
         ``quat_norm_tol``; the ones differencing does not take are left out for it)."""
         if not self.use_model and options.get("measurement", "attitude") == "attitude":
-            keep = {k: v for k, v in options.items() if k in ("rotation_tol", "quat_norm_tol", "scalar_first")}
+            keep = {
+                k: v for k, v in options.items() if k in ("rotation_tol", "quat_norm_tol", "scalar_first", "omega_hat0")
+            }
             return DifferencingEstimator(scheme="backward", **keep)  # type: ignore[arg-type]
         return self.model_estimator(**options)  # directions: differencing takes attitudes only
 
@@ -137,6 +140,20 @@ class Identification:
             disturbance_noise=root if second_order else None,
             **options,  # type: ignore[arg-type]
         )
+
+    def start_window(self) -> float:
+        """Seconds of log the ``fit`` start fits its rate over: the length ``L`` at which the least-squares slope's
+        noise (3 axes, ``n = L/h`` samples of noise σ) equals the filter's expected steady error ``e``::
+
+            3 · 12 σ² h / L³ = e²   ⇒   L = (36 σ² h / e²)^(1/3)                                          (W)
+
+        so that the filter starts about as close as it will stay (a shorter window starts it noisier, a longer one
+        averages more of the motion away); at least two samples."""
+        h = 1.0 / self.rate_hz
+        e, sigma = self.expected_rms, max(self.chosen.sigma, SIGMA_FLOOR)
+        if not (np.isfinite(e) and e > 0.0):
+            return 2.0 * h
+        return max(float(np.cbrt(36.0 * sigma**2 * h / e**2)), 2.0 * h)
 
     def explain(self) -> str:
         """The lines ``omegahat estimate`` prints: the model chosen and why, and the expected errors."""
@@ -281,8 +298,10 @@ def identify(
     t = np.asarray(t, dtype=float)
     data = np.asarray(data, dtype=float)
     valid, R = _attitudes(data, kind, references)
-    if np.count_nonzero(valid) < 4:
-        raise ValueError(f"at least 4 valid samples are needed to identify a model; got {np.count_nonzero(valid)}")
+    if np.count_nonzero(valid) < MIN_SAMPLES:
+        raise ValueError(
+            f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
+        )
     tv = t[valid]
     h = float(np.median(np.diff(tv)))
     if not h > 0:

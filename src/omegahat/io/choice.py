@@ -17,12 +17,13 @@ whatever the reader's chunk size, so that the same data get the same gains in ev
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 
 from omegahat.baselines.differencing import DifferencingEstimator
-from omegahat.identification import Identification, identify
+from omegahat.identification import MIN_SAMPLES, Identification, identify
 from omegahat.identification.smoother import ModelSmoother
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
@@ -137,8 +138,9 @@ def attitude_choice(
         flag=bandwidth_option,
     )  # fmt: skip
     fixed_gains = settings.estimator == "sarras" or settings.gains is not None or settings.bandwidth_hz is not None
-    if settings.preset is None and fixed_gains:
-        report(text)
+    if settings.preset is None:
+        if fixed_gains:  # the identified path says its own choice
+            report(text)
     elif stream.has_torque:
         raise ValueError(
             f"{spell('preset', settings.preset)} is for bodies whose torque is unknown, but the log has torque "
@@ -163,11 +165,19 @@ def attitude_choice(
     if settings.start == "fit":
         window = autogain.fit_window(omega_b, motion.rate_hz)
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
-    est, described = _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell, (t_h, data_h, tau_h))
-    return Choice(est, gains, text, _used(described, J, settings.start), spacing=motion.h)
+
+    def fit_start(window: float) -> np.ndarray:  # (F) over ``window`` seconds of the head
+        return autogain.initial_rate(tv, rot, window, J, motion.torque)
+
+    est, described = _estimator(
+        settings, motion, J, gains, refs, stream, omega0, report, spell, (t_h, data_h, tau_h), fit_start
+    )
+    return Choice(est, gains, text, _used(described, J, settings.inertia is not None, settings.start), spacing=motion.h)
 
 
-def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell, head) -> tuple[Estimator, Estimator]:
+def _estimator(
+    settings, motion, J, gains, refs, stream, omega0, report, spell, head, fit_start
+) -> tuple[Estimator, Estimator]:
     """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
     default one (the observer supervising a gyro-less EKF, its process noise chosen from the log) when the model is
     given, or asked for; else the fixed-gain observer with ``gains``; or the preset's."""
@@ -197,11 +207,21 @@ def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell, 
     choice = settings.estimator
     if choice == "auto" and (settings.gains is not None or settings.bandwidth_hz is not None):
         choice = "sarras"  # gains or a bandwidth given: the fixed-gain observer they describe
+    valid = int(np.count_nonzero(np.all(np.isfinite(head[1].reshape(head[1].shape[0], -1)), axis=1)))
+    if choice == "auto" and valid < MIN_SAMPLES:
+        report(
+            f"only {valid} valid samples: too few to identify a model (at least {MIN_SAMPLES}); the fixed-gain "
+            "observer runs with the gains below"
+        )
+        choice = "sarras"
     if choice == "sarras":
         sarras = SarrasEstimator(J, gains=gains, **common)
         return sarras, sarras
     ident = _identified(settings, stream, refs, head)
     report(ident.explain())
+    if settings.start == "fit":  # over the identified filter's own window (W), and its error the EKF's prior
+        common["omega_hat0"] = fit_start(ident.start_window())
+        common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
     if settings.smooth:
         report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
@@ -229,8 +249,9 @@ def _identified(settings: EstimateSettings, stream: LogStream, refs: np.ndarray,
     )
 
 
-def _used(est: Estimator, J: np.ndarray, start: str) -> Callable[[], str]:
+def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Callable[[], str]:
     """The closing line saying what ran (after the run: the restarts counted)."""
+    body = f"J diag = {np.diag(J).tolist()}" if inertia_given else "no inertia given (the observer's J = I)"
 
     def line() -> str:
         if isinstance(est, DifferencingEstimator):
@@ -238,11 +259,11 @@ def _used(est: Estimator, J: np.ndarray, start: str) -> Callable[[], str]:
         if isinstance(est, SupervisedKalmanEstimator):
             return (
                 f"estimator used: omegahat (observer at {est.observer_rate:.4g} rad/s, EKF rate noise "
-                f"{est.rate_noise:.3g} rad/s^1.5, {est.restarts} restarts), J diag = {np.diag(J).tolist()}, "
+                f"{est.rate_noise:.3g} rad/s^1.5, {est.restarts} restarts), {body}, "
                 f"start: {start}"
             )
         gains: ObserverGains = est.gains  # type: ignore[attr-defined]  # the fixed-gain observer
         k_text, l_text = (np.array2string(a, precision=4) for a in (gains.k, gains.l_offset))
-        return f"gains used: k = {k_text}, l = {l_text}, J diag = {np.diag(J).tolist()}, start: {start}"
+        return f"gains used: k = {k_text}, l = {l_text}, {body}, start: {start}"
 
     return line

@@ -59,6 +59,9 @@ class SupervisedKalmanEstimator(CompiledEstimator):
     omega_hat0 : the initial rate estimate (default 0); ``warm_start`` (default: on unless ``omega_hat0`` or
         ``r_hat0`` is given) takes it from the first two samples instead. ``r_hat0``: the observer's initial
         filtered directions (default: the first measurement); the EKF always starts from a measured attitude.
+    omega_hat0_noise : the RMS error of ``omega_hat0`` (rad/s, of the 3-vector): the EKF's rate prior at its first
+        start (default: the observer's stationary noise, as at every restart). A rate fitted over a window of the
+        log is known far better than the observer's noise: without it the EKF would start as if from scratch.
     torque_hold : ``"zero"`` (default) or ``"linear"``, for both parts (as the observer's).
     observer_bandwidth : the observer's isotropic rate per hertz of sample rate (default 1: the observer's error
         halves every sample).
@@ -79,6 +82,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         references: ArrayLike | None = None,
         measurement: MeasurementKind | None = None,
         omega_hat0: ArrayLike | None = None,
+        omega_hat0_noise: float | None = None,
         r_hat0: ArrayLike | None = None,
         warm_start: bool | None = None,
         torque_hold: TorqueHold = "zero",
@@ -130,6 +134,9 @@ class SupervisedKalmanEstimator(CompiledEstimator):
             "meas_var": self.measurement_noise**2,
             "sigma_theta": sigma_theta,
             "sigma_obs": self.observer_noise,
+            "sigma_start": 0.0
+            if omega_hat0_noise is None or omega_hat0 is None
+            else float(as_positive(omega_hat0_noise, "omega_hat0_noise")[0]),
             "alpha": 1.0 / float(nis_window),
             "nis_max": float(as_positive(nis_max, "nis_max")[0]),
             "kappa": float(as_positive(disagreement_factor, "disagreement_factor")[0]),

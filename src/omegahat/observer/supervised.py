@@ -82,7 +82,8 @@ EKF_STATE = EkfStateLayout(
 class EkfParamLayout(NamedTuple):
     """Offsets in the EKF's flat parameters: process-noise PSD q, measurement variance, σ_θ of a reset, σ_obs,
     α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad), the unknown acceleration's PSD q_a
-    (rad²/s⁵; 0: not carried) and its prior σ (rad/s²)."""
+    (rad²/s⁵; 0: not carried) and its prior σ (rad/s²), and σ of the rate it starts from at the first fix (rad/s,
+    the 3-vector's RMS; 0: σ_obs, the observer's)."""
 
     q: int
     meas_var: int
@@ -97,12 +98,13 @@ class EkfParamLayout(NamedTuple):
     max_angle: int
     q_a: int
     sigma_accel: int
+    sigma_start: int
     size: int
 
 
 EKF_PARAMS = EkfParamLayout(
     q=0, meas_var=1, sigma_theta=2, sigma_obs=3, alpha=4, nis_max=5, kappa=6, disagree_max=7, dynamic=8, max_step=9,
-    max_angle=10, q_a=11, sigma_accel=12, size=13,
+    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, size=14,
 )  # fmt: skip
 
 
@@ -121,9 +123,9 @@ def _covariance(xe, pe):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _reinitialise(xe, pe, w_obs, R_meas):
-    """(S4): the EKF restarted from the observer's rate and the measured attitude (an unknown acceleration it
-    carries keeps its estimate, with its prior variance again)."""
+def _reinitialise(xe, pe, w_obs, R_meas, sigma_w):
+    """(S4): the EKF restarted from the observer's rate (its error's RMS ``sigma_w``) and the measured attitude (an
+    unknown acceleration it carries keeps its estimate, with its prior variance again)."""
     R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     for a in range(3):  # element loops, not slice assignments: those compile a shape check and its message
         xe[EKF_STATE.omega + a] = w_obs[a]
@@ -133,7 +135,7 @@ def _reinitialise(xe, pe, w_obs, R_meas):
         xe[EKF_STATE.accel : EKF_STATE.accel + 3] = 0.0
     P = _covariance(xe, pe)
     P[:, :] = 0.0
-    var_w = pe[EKF_PARAMS.sigma_obs] ** 2 / 3.0
+    var_w = sigma_w**2 / 3.0
     for i in range(3):
         P[i, i] = pe[EKF_PARAMS.sigma_theta] ** 2
         P[3 + i, 3 + i] = var_w
@@ -208,11 +210,12 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     warm_started = xs[STATE.stage] == WARM_PENDING and xs_out[STATE.stage] == RUNNING
     if not started or warm_started:  # the first fix, or the observer's warm start: the EKF starts from it
         if math.isfinite(w_obs[0]):  # not while the observer restarts (NaN until its warm start)
-            _reinitialise(xe_out, pe, w_obs, R_meas)
+            first = xe[EKF_STATE.resets] == 0.0 and pe[EKF_PARAMS.sigma_start] > 0.0  # a given start's own σ
+            _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_start if first else EKF_PARAMS.sigma_obs])
             xe_out[EKF_STATE.started] = 1.0
         return status, info, w_obs
     if not finite:  # (S3) for a propagation that could not be taken: restarted from the observer (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas)
+        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs])
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     if kind == checks.KIND_DIRECTIONS:
@@ -236,7 +239,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         or not ekf_finite(R, w, a, P)
     )  # (S3)
     if lost:  # (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas)
+        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs])
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     xe_out[EKF_STATE.nis_avg] = nis_avg
