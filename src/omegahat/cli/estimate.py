@@ -45,6 +45,7 @@ from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_o
 from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.io.timestamps import DUPLICATE_CHOICES
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.presets import PRESETS
 
@@ -62,7 +63,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
         bags (.bag) and ROS 2 bags (directory) (--topic, frames).
-        Equal times: the same attitude is one sample (dropped), different attitudes are an error.
+        Equal times: the same attitude is one sample (dropped), different attitudes are an error
+        (--duplicate-times first|last keeps one, counted and reported).
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
         unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
@@ -137,6 +139,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="rows the header spans (names joined per column, e.g. a group title over W,X,Y,Z); 0: no header, "
         "columns by position",
+    )
+    conv.add_argument(
+        "--duplicate-times",
+        choices=DUPLICATE_CHOICES,
+        default="error",
+        help="samples at one time whose attitudes differ: error (default: a broken time source; the message names "
+        "both lines), or keep the first or the last of them (the others dropped, counted and reported)",
     )
     conv.add_argument(
         "--quaternion-order",
@@ -298,6 +307,7 @@ def run(args: argparse.Namespace) -> int:
         header_rows=args.header_rows,
         rate=args.rate,
         times=args.times,
+        duplicate_times=args.duplicate_times,
     )
     out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
     stream = open_log(args.input, options)
