@@ -35,14 +35,16 @@ import argparse
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
+from omegahat.cli import many
 from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
-from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, estimate_stream
+from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
 from omegahat.io.timestamps import DUPLICATE_CHOICES
@@ -104,9 +106,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "input",
         type=Path,
+        nargs="+",
         metavar="INPUT",
         help="attitude data: an omegahat log (.csv, .npz), a Motive or Vicon CSV export, a C3D file, a ROS 1 bag "
-        "(.bag) or a ROS 2 bag (directory); recognised from the file",
+        "(.bag) or a ROS 2 bag (directory); recognised from the file. Several files, a directory or a quoted glob "
+        "('logs/**/*.csv'): every log in them, -o then names a directory (see 'many files' below)",
     )
     parser.add_argument(
         "-o",
@@ -114,8 +118,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         required=True,
         help="output: X.csv (t,wx,wy,wz,status; rad/s, body axes); for a bag input also X.bag (ROS 1) or X "
-        "(ROS 2 directory) of geometry_msgs/TwistStamped",
+        "(ROS 2 directory) of geometry_msgs/TwistStamped; with many inputs a directory (OUTDIR)",
     )
+    many.add_arguments(parser)
     conv = parser.add_argument_group("conventions of the input")
     conv.add_argument("--time-unit", choices=list(TIME_UNITS), default="s", help="unit of the time column (default s)")
     conv.add_argument("--time-column", default="t", metavar="NAME", help="name of the time column (default t)")
@@ -291,6 +296,25 @@ def _terminate(signum, frame):
 
 
 def run(args: argparse.Namespace) -> int:
+    """One input (a file, or a ROS 2 bag directory): :func:`estimate_file`; several, a directory or a glob:
+    :func:`omegahat.cli.many.run_many`, which runs :func:`estimate_file` on each."""
+    if many.is_many(args.input):
+        return many.run_many(args, estimate_file)
+    many.refuse_batch_options(args)
+    args.input = args.input[0]
+    estimate_file(args)
+    return 0
+
+
+def estimate_file(
+    args: argparse.Namespace,
+    report: Callable[[str], None] = print,
+    on_chunk: Callable[[int], None] | None = None,
+    announce: Callable[[str], None] | None = None,
+) -> tuple[LogStream, RunSummary]:
+    """``omegahat estimate args.input -o args.output``: what was read and chosen, and the closing lines, go to
+    ``report``; ``on_chunk(rows)`` after each chunk (a stop request may raise ``KeyboardInterrupt`` there: the
+    output is then absent); ``announce``: the compilation notice (default standard error)."""
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
@@ -333,6 +357,8 @@ def run(args: argparse.Namespace) -> int:
     def progress(rows: int) -> None:
         bar.n = min(stream.done, stream.size) if by_bytes else rows
         bar.refresh()
+        if on_chunk is not None:
+            on_chunk(rows)
 
     def writer(s: LogStream) -> OmegaWriter | TwistBagWriter:
         return open_output(out, kind, s, frame_id=args.frame_id, topic=args.output_topic)
@@ -341,13 +367,14 @@ def run(args: argparse.Namespace) -> int:
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
     try:
         with bar:
-            summary = estimate_stream(stream, settings, writer, report=print, progress=progress)
+            summary = estimate_stream(stream, settings, writer, report=report, progress=progress, announce=announce)
             bar.n = bar.total
             bar.refresh()
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
     compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
-    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
-    print("\n".join(summary.lines))
-    return 0
+    report(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
+    for line in summary.lines:
+        report(line)
+    return stream, summary
