@@ -17,7 +17,8 @@ Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
 through) or ``unavailable`` (no estimate yet: ``nan``). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
-and renamed at the end: whole or absent.
+and renamed at the end: whole or absent. Several inputs, a directory or a glob: :mod:`omegahat.cli.many` runs
+:func:`estimate_file` on each (``-o`` a directory, a summary table).
 
 Estimator: with ``--inertia`` (a model) and no gains given, omegahat's default estimator, the observer supervising a
 gyro-less Kalman filter (its process noise chosen from the log, :func:`omegahat.observer.autogain.choose_rate_noise`);
@@ -70,10 +71,14 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
         unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
+many:   several inputs, a directory or a quoted glob: each log as alone, with the same options; -o OUTDIR gets
+        one CSV per input (same name) and omegahat-summary.csv/.txt (file, format, rows, estimator, expected
+        error, status); exit 0: all written, 1: some failed (named in the summary), 130: interrupted
 example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
          omegahat estimate "Take 01.csv" --body hand --preset mocap --smooth -o omega.csv
          omegahat estimate dirs.csv -o omega.csv "--references=0,0,9.81;-0.9,15.5,-41.3"
          omegahat estimate run.bag --topic /vicon/body/pose -o twist.bag
+         omegahat estimate takes/ 'more/**/*.tsv' -o omega/
 """
 
 PROGRESS_MIN_BYTES = 4_000_000  # show progress bars from this input size on (unless told otherwise)

@@ -49,7 +49,7 @@ from pathlib import Path
 from omegahat.cli import positive_int
 from omegahat.cli.many_run import STATUSES, SUMMARY_CSV, SUMMARY_TXT, Job, OneFile, Outcome, run_jobs
 from omegahat.io.output import HEADER
-from omegahat.io.registry import DIRECTORY, registered_extensions
+from omegahat.io.registry import registered_extensions
 from omegahat.io.rosbag import is_ros2_bag
 
 __all__ = ["EXISTING", "SUMMARY_CSV", "SUMMARY_TXT", "add_arguments", "is_many", "refuse_batch_options", "run_many"]
@@ -122,7 +122,7 @@ def _skip_reason(path: Path) -> str | None:
     if path.name in (SUMMARY_CSV, SUMMARY_TXT):
         return "the summary of an earlier batch"
     ext = path.suffix.lower()
-    if ext not in registered_extensions() or ext == DIRECTORY:
+    if ext not in registered_extensions():
         return f"no format reads {ext or 'files without extension'}"
     if ext == ".csv":
         with open(path, "rb") as f:
@@ -134,7 +134,7 @@ def _skip_reason(path: Path) -> str | None:
 def _glob_root(pattern: str) -> Path:
     """The directory of a glob before its first wildcard (``takes/**/*.csv`` → ``takes``)."""
     parts = Path(pattern).parts
-    plain = [p for p in parts[: next(i for i, p in enumerate(parts) if glob.has_magic(p))]]
+    plain = parts[: next(i for i, p in enumerate(parts) if glob.has_magic(p))]
     return Path(*plain) if plain else Path(".")
 
 

@@ -6,8 +6,9 @@ summary, and an error becomes the file's row (its first line in the table, all o
 file never stops the others.
 
 * ``--jobs 1``: in this process, one file after another.
-* ``--jobs N`` (default: the cores): a pool of N processes (:func:`start_method`), larger files first, so that
-  a long one does not finish alone at the end. Each process loads the compiled kernels from the cache once.
+* ``--jobs N`` (default: the cores this process may use, :func:`cores`): a pool of N processes
+  (:func:`start_method`), larger files first, so that a long one does not finish alone at the end. Each process
+  loads the compiled kernels from the cache once.
 * ``--dask ADDRESS``: one task per file on the cluster's workers (``local``: a ``LocalCluster`` on this machine,
   one single-threaded process per core), as ``omegahat montecarlo --dask`` does. The workers read the inputs and
   write the outputs at the paths of this machine, so those must be on a file system they share.
@@ -51,6 +52,7 @@ __all__ = [
     "Job",
     "OneFile",
     "Outcome",
+    "cores",
     "dask_jobs",
     "run_job",
     "run_jobs",
@@ -211,10 +213,15 @@ def run_jobs(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[l
         return [], False, "(nothing to run)"
     if args.dask is not None:
         return _on_dask(jobs, args, one)
-    n = min(args.jobs or os.cpu_count() or 1, len(jobs))
+    n = min(args.jobs or cores(), len(jobs))
     if n == 1:
         return _here(jobs, args, one)
     return _in_pool(jobs, args, one, n)
+
+
+def cores() -> int:
+    """The cores this process may run on (its affinity, where the system has one), the default of ``--jobs``."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def _here(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[list[Outcome], bool, str]:
