@@ -57,7 +57,7 @@ def main() -> int:
         for kind, value in CANDIDATES:
             ratios = []
             for n, tr in trials.items():
-                w = estimator(kind, value, tr.fs).run(tr.t, tr.R)
+                w = estimator(kind, value, tr.fs).run(tr.t, tr.R).omega
                 ratios.append(broad.score(tr, w).rms / bars[n] if np.all(np.isfinite(w)) else np.inf)
             cells.append("/".join(f"{r:.2f}" if r < 100 else "div." for r in ratios))
         fs = native["01"].fs / step

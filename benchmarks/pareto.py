@@ -40,7 +40,7 @@ def main():
     report = []
     for rate in rates:
         for sigma in noises:
-            group = [e for e in evs if e.rate_hz == rate and e.noise_std_rad == sigma]
+            group = [e for e in evs if e.rate_hz == rate and e.measurement_noise == sigma]
             front = gs.pareto_front([e.convergence_time for e in group], [e.noise_rms for e in group])
             report += [
                 f"\n{rate:g} Hz, σ = {sigma:g} rad — the Pareto front:\n",

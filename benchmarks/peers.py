@@ -14,7 +14,7 @@ Run: ``python benchmarks/peers.py [--seeds 10]``; writes its section of RESULTS.
   0.5 s updates, a heading change halfway): the test's pass criteria, the CKF updates and the peak rate estimate
   (the truth is at rest).
 
-Scores (:mod:`omegahat.evaluation.metrics`): e_ω = |ω̂ − ω|, e_R the angle of R̂ᵀR; t_c the convergence time (S1) of
+Scores (:mod:`omegahat.lab.evaluation.metrics`): e_ω = |ω̂ − ω|, e_R the angle of R̂ᵀR; t_c the convergence time (S1) of
 e_ω at 1 °/s; steady = RMS over 50–100 s; peak = max e_ω over the first 10 s. Cost: CPU time (process time, best of
 5) of one compiled ``run`` over the 10 001 samples, per sample.
 """
@@ -25,10 +25,10 @@ import argparse
 import time
 
 import numpy as np
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.sunline_sekf import SunlineSEKF
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.lab.peer_scenarios import (
     BASILISK_CASES,
     basilisk_case,

@@ -42,13 +42,13 @@ TARGETS = "causal <= 0.9x backward differencing at 286 Hz, <= 0.7x at 29 and 10 
 
 def fixed_gain(trial):
     b = OLD_DEFAULT_B * trial.fs / (2000 / 7)
-    est = SarrasEstimator(np.eye(3), gains=bandwidth_gains(np.eye(3), b), warm_start=False)
-    return est.run(trial.t, trial.R)
+    est = SarrasEstimator(np.eye(3), gains=bandwidth_gains(np.eye(3), b / (2 * np.pi)), warm_start=False)
+    return est.run(trial.t, trial.R).omega
 
 
 def preset(trial):
     """As ``omegahat estimate --preset mocap``: the attitude noise measured on the log's head, then the estimator."""
-    return MocapPreset(trial.fs).run(trial.t, trial.R)
+    return MocapPreset(rate_hz=trial.fs).run(trial.t, trial.R).omega
 
 
 def main() -> int:

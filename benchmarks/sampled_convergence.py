@@ -35,7 +35,7 @@ def gaps(hs, horizon=2.0):
         stride = round(h / h_min)
         sel = slice(0, None, stride)
         est = SarrasEstimator(prob.J, gains=prob.gains, references=prob.references, r_hat0=prob.r_hat0)
-        W = est.run(t_out[sel], cont.r[sel])
+        W = est.run(t_out[sel], cont.r[sel]).omega
         gap = np.linalg.norm(W - cont.omega_hat[sel], axis=1)
         t = t_out[sel]
         rows.append((h, gap[np.isclose(t, 0.5)][0], gap[np.isclose(t, 1.0)][0], gap[t > 0].max()))

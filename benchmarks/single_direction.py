@@ -110,7 +110,7 @@ def main() -> None:
     first_run: dict[str, np.ndarray] = {}
     for wb in args.bandwidths:
         for method in METHODS:
-            k, l = default_gains(J, method, wb)
+            k, l = default_gains(J, method, wb / (2 * np.pi))
             W_hat, _ = run_single_direction(t, noisy, J, method=method, k=k, l=l)
             ok, tc, rms = score(t, W_hat, W)
             first_run[f"{method}, ω_b = {wb:g}"] = np.linalg.norm(W_hat[:, 0] - W[:, 0], axis=1)
@@ -133,7 +133,7 @@ def main() -> None:
     nan = float("nan")
     # The Sarras-type observer's filter error |r̂ − b| (the innovation it acts on) over the last 100 s, second by
     # second (the run continued in 1 s chunks from its state: the same run): does a failure show in the data?
-    k, l = default_gains(J, "sarras", args.bandwidths[-1])
+    k, l = default_gains(J, "sarras", args.bandwidths[-1] / (2 * np.pi))
     state, innov = None, []
     step = round(RATE_HZ)
     for c in range(0, t.size, step):
@@ -152,7 +152,7 @@ def main() -> None:
         est = st["since"] >= DEFAULT_WINDOW_S
         flagged += int(np.sum(est & (lam < DEFAULT_THRESHOLD)))
         total += int(est.sum())
-    k, l = default_gains(J, "sarras", args.bandwidths[-1])
+    k, l = default_gains(J, "sarras", args.bandwidths[-1] / (2 * np.pi))
     Wh, _ = run_single_direction(ts, noisy_s, J, k=k, l=l)
     b_end = exact_s[-1]
     along = np.abs(np.sum((Wh[-1] - Ws[-1]) * b_end, axis=1))

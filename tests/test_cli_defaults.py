@@ -147,10 +147,11 @@ def test_numbered_quaternion_columns_need_the_order(tmp_path, capsys):
     src = write_csv(tmp_path / "q0.csv", t, rot, header=("time", "q0", "q1", "q2", "q3"))  # q0 is the scalar
     code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--time-column", "time")
     assert code == 2
-    assert "columns q0, q1, q2, q3 do not say which is the scalar part" in err and "--quaternion-order wxyz" in err
-    code, _, _ = run(
-        capsys, "estimate", src, "-o", tmp_path / "o.csv", "--time-column", "time", "--quaternion-order", "wxyz"
+    assert (
+        "columns q0, q1, q2, q3 do not say which is the scalar part" in err
+        and "--scalar-first (q0 is the scalar)" in err
     )
+    code, _, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", "--time-column", "time", "--scalar-first")
     assert code == 0
     np.testing.assert_allclose(read_output(tmp_path / "o.csv")[1], np.broadcast_to(OMEGA, (300, 3)), atol=1e-9)
 
@@ -160,11 +161,11 @@ def test_npz_quaternion_order(tmp_path, capsys):
     q = constant_rate(t, OMEGA).as_quat(scalar_first=True)
     src, dst = tmp_path / "w.npz", tmp_path / "o.csv"
     np.savez(src, t=t, q=q)
-    code, out, _ = run(capsys, "estimate", src, "-o", dst, "--quaternion-order", "wxyz")
+    code, out, _ = run(capsys, "estimate", src, "-o", dst, "--scalar-first")
     assert code == 0
     np.testing.assert_allclose(read_output(dst)[1], np.broadcast_to(OMEGA, (300, 3)), atol=1e-9)
     code, out, _ = run(capsys, "estimate", src, "-o", dst)  # no order given: the assumption is said
-    assert "note: quaternion order of array q: x, y, z, w (SciPy's default; pass --quaternion-order wxyz" in out
+    assert "note: quaternion order of array q: x, y, z, w (SciPy's default; pass --scalar-first" in out
 
 
 def test_help_states_columns_units_conventions_and_output_frame(capsys):
@@ -177,7 +178,8 @@ def test_help_states_columns_units_conventions_and_output_frame(capsys):
         "tau_x,tau_y,tau_z",
         "--time-unit {s,ms,us,ns}",
         "--rotation {body-to-inertial,inertial-to-body}",
-        "--quaternion-order {wxyz,xyzw}",
+        "--scalar-first",
+        "--scalar-last",
         "rad/s in body axes",
         "bandwidth in Hz",
         "unavailable",

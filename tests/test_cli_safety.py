@@ -181,8 +181,8 @@ def test_npz_scalar_first_must_be_a_real_boolean(tmp_path, capsys):
         assert code == 2
         assert "q.npz, array scalar_first: must be a single boolean (numpy True or False)" in err
     np.savez(tmp_path / "q.npz", t=t, q=q, scalar_first=True)
-    code, _, err = run(capsys, "estimate", tmp_path / "q.npz", "-o", tmp_path / "o.csv", "--quaternion-order", "xyzw")
-    assert code == 2 and "array scalar_first: True contradicts --quaternion-order xyzw" in err
+    code, _, err = run(capsys, "estimate", tmp_path / "q.npz", "-o", tmp_path / "o.csv", "--scalar-last")
+    assert code == 2 and "array scalar_first: True contradicts --scalar-last" in err
 
 
 def test_npz_errors_name_the_array(tmp_path, capsys):

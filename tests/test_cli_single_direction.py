@@ -47,11 +47,12 @@ def test_one_direction_tumbling_converges_with_the_inertia(tmp_path, capsys):
     assert code == 0, err
     assert "warning: one measured direction: the rate about it is not observable at an instant" in out
     assert "no span flagged" in out
-    assert "skipped 2 of 600 samples (missing): predicted through" in out
+    assert "skipped 2 of 600 samples (2 missing, 0 with nearly collinear directions): predicted through" in out
     W, status = _read(dst)
     assert list(status[99:103]) == ["corrected", "predicted", "predicted", "corrected"]
+    assert status[0] == "unavailable" and np.isnan(W[0]).all()  # one direction at one instant gives no rate
     err_norm = np.linalg.norm(W - tr.omega, axis=1)
-    assert err_norm[0] > 0.5 and err_norm[t > 30].max() < 2e-3  # measured 5.0e-4
+    assert err_norm[1] > 0.4 and err_norm[t > 30].max() < 2e-3  # 1 sample from rest (|ω| 0.54): 0.45; then 5.0e-4
 
 
 def test_one_direction_spin_about_it_is_reported_with_the_axis(tmp_path, capsys):
@@ -62,7 +63,7 @@ def test_one_direction_spin_about_it_is_reported_with_the_axis(tmp_path, capsys)
     assert code == 0, err
     assert "note: with one direction the estimator is the single-direction observer, started from rest" in out
     W, status = _read(dst)
-    assert list(status[:3]) == ["unavailable", "unavailable", "corrected"] and np.isnan(W[:2]).all()
+    assert list(status[:4]) == ["unavailable"] * 3 + ["corrected"] and np.isnan(W[:3]).all()  # rate: 2nd valid
     assert "none given: J = I, a constant rate; pass --inertia" in out
     assert "warning: no excitation on 198 of 300 samples (first at line 104)" in out  # t = 10.2 s: a full window
     assert "body axis [0. 0. 1.] is not observable" in out

@@ -17,6 +17,7 @@ import pytest
 
 from omegahat import so3
 from omegahat.cli import main
+from omegahat.interface import Status
 from omegahat.lab.control import (
     AttitudePD,
     EstimatorFeed,
@@ -247,5 +248,8 @@ def test_torque_handed_over_after_the_sample_equals_the_torque_given_with_it():
             streamed[k] = feed.rate(t[k], R[k], W[k])
             feed.hold(taus[k])
         feed.estimator.reset()
-        np.testing.assert_array_equal(feed.estimator.run(t, R, torques=taus), streamed)
+        batch = feed.estimator.run(t, R, torque=taus)
+        assert batch.status[0] == Status.UNAVAILABLE  # the feed's stand-in there: the state's ω̂₀ (module docstring)
+        np.testing.assert_array_equal(batch.omega[1:], streamed[1:])
+        np.testing.assert_array_equal(streamed[0], np.zeros(3))
         assert np.abs(streamed[-10:] - W[-10:]).max() < 1e-6  # and, noise-free, the estimates are right

@@ -41,7 +41,7 @@ def test_measured_trade_off_follows_the_linearised_design():
 def test_sweep_uses_common_noise_per_sensor_and_covers_the_grid():
     evs = gs.sweep(J, [5.0, 20.0], [50.0], [50.0], [1e-3, 5e-3], seed=2, horizon=3.0)
     assert len(evs) == 4
-    assert {(e.rate_hz, e.noise_std_rad) for e in evs} == {(50.0, 1e-3), (50.0, 5e-3)}
+    assert {(e.rate_hz, e.measurement_noise) for e in evs} == {(50.0, 1e-3), (50.0, 5e-3)}
     # common random numbers: re-evaluating one point with its (rate, noise) seed gives the same number
     again = gs.evaluate_gains(
         J,
@@ -51,10 +51,10 @@ def test_sweep_uses_common_noise_per_sensor_and_covers_the_grid():
         seed=np.random.SeedSequence(2, spawn_key=(0, 1)),
         horizon=3.0,
     )
-    point = next(e for e in evs if e.noise_std_rad == 5e-3 and e.gains.k[0] == 20.0)
+    point = next(e for e in evs if e.measurement_noise == 5e-3 and e.gains.k[0] == 20.0)
     assert again.noise_rms == point.noise_rms
     # noise scales with σ for the same gains (linear filter of the same noise shape)
-    low = next(e for e in evs if e.noise_std_rad == 1e-3 and e.gains.k[0] == 20.0)
+    low = next(e for e in evs if e.measurement_noise == 1e-3 and e.gains.k[0] == 20.0)
     assert point.noise_rms / low.noise_rms == pytest.approx(5.0, rel=0.25)
 
 
@@ -77,7 +77,7 @@ def test_recommendation_errors_are_named():
         gs.recommend_gains(J, 100.0, 1e-3, max_noise=1e-6, bandwidths_hz=[1.0], horizon=2.0)
     with pytest.raises(ValueError, match=r"no candidate meets max_convergence_time = 0\.001 s"):
         gs.recommend_gains(J, 100.0, 1e-3, max_convergence_time=1e-3, bandwidths_hz=[1.0], horizon=2.0)
-    with pytest.raises(ValueError, match="noise_std_rad must be non-negative and finite; got -1"):
+    with pytest.raises(ValueError, match="measurement_noise must be non-negative and finite; got -1"):
         gs.evaluate_gains(J, ObserverGains.constant(1.0, 1.0, n=3), 10.0, -1)
     with pytest.raises(ValueError, match=r"settle must be in \(0, 1\); got 2"):
         gs.evaluate_gains(J, ObserverGains.constant(1.0, 1.0, n=3), 10.0, 0.0, settle=2)

@@ -6,9 +6,9 @@ criteria on its five cases."""
 
 import numpy as np
 import pytest
-from omegahat.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from scipy.spatial.transform import Rotation
 
+from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, steady_rms
 from omegahat.lab.peer_scenarios import (
     BASILISK_CASES,
     basilisk_case,

@@ -10,6 +10,7 @@ import pytest
 from logmaker import Angle, attitude, constant_rate, noisy, write_csv
 from omegahat import so3
 from omegahat.cli import main
+from omegahat.interface import Status
 from omegahat.observer.presets import (
     MOCAP_JERK_NOISE,
     MOCAP_SWITCH_HZ,
@@ -32,14 +33,14 @@ def test_the_rule_switches_model_at_80_hz_and_scales_with_the_rate():
     assert slow.kind == "constant-rate" and slow.disturbance_noise is None
     # (P2): a fixed tracking index Λ = σ_a h^1.5 / σ_m = 10
     for m in (slow, slower):
-        assert m.rate_noise * (1 / m.rate_hz) ** 1.5 / m.measurement_sigma == pytest.approx(10.0, rel=1e-12)
+        assert m.rate_noise * (1 / m.rate_hz) ** 1.5 / m.measurement_noise == pytest.approx(10.0, rel=1e-12)
     # the lag of (P2) is a fixed number of samples (a fixed tracking index), (P1) tracks ramps without one
     assert 0.2 < filter_lag(28.57) * 28.57 < 0.5
     assert filter_lag(28.57) * 28.57 == pytest.approx(filter_lag(9.52) * 9.52, rel=1e-6)
     # (P1)'s attitude noise follows a noisy log's measured one, never below the motion-capture value
-    assert mocap_model(285.7, noise_std=1e-5).measurement_sigma == 1e-3
-    assert mocap_model(285.7, noise_std=1e-3).measurement_sigma == pytest.approx(1e-2)
-    assert mocap_model(28.57, noise_std=1e-3).measurement_sigma == 1e-3
+    assert mocap_model(285.7, measurement_noise=1e-5).measurement_noise == 1e-3
+    assert mocap_model(285.7, measurement_noise=1e-3).measurement_noise == pytest.approx(1e-2)
+    assert mocap_model(28.57, measurement_noise=1e-3).measurement_noise == 1e-3
     with pytest.raises(ValueError, match=r"rate_hz"):
         mocap_model(-1.0)
 
@@ -61,19 +62,21 @@ def test_smoothing_removes_the_causal_lag(rate_hz):
     def lag(w):
         return -np.sum((w - omega)[inner] * omega_dot) / np.sum(omega_dot**2)
 
-    causal = mocap_estimator(rate_hz).run(t, rot.as_matrix())
+    causal = mocap_estimator(rate_hz).run(t, rot.as_matrix()).omega
     smoothed = smooth(t, rot.as_matrix())
     assert lag(causal) > 0.1 / rate_hz  # a tenth of a sample at least
     assert abs(lag(smoothed)) < 1e-4 * lag(causal)
     assert np.abs(smoothed - omega)[inner].max() < 0.1 * np.abs(causal - omega)[inner].max()
-    np.testing.assert_array_equal(MocapSmoother(rate_hz).run(t, rot.as_matrix()), smooth(t, rot, rate_hz=rate_hz))
+    smoothed_estimate = MocapSmoother(rate_hz=rate_hz).run(t, rot.as_matrix())
+    np.testing.assert_array_equal(smoothed_estimate.omega, smooth(t, rot, rate_hz=rate_hz))
+    assert np.all(smoothed_estimate.status == Status.CORRECTED)
 
 
 def test_the_settling_weights_follow_the_kalman_recursion_and_settle():
     # (P4) against the scalar constant-rate filter's closed form: after the first fix, P = diag(σ², 1) gives the
     # posterior rate variance 1 and then, one step on, the 2×2 update of Φ P Φᵀ + Q (written out here).
     m = mocap_model(28.57)
-    h, s2, q = 1 / 28.57, m.measurement_sigma**2, m.rate_noise**2
+    h, s2, q = 1 / 28.57, m.measurement_noise**2, m.rate_noise**2
     v = rate_variance_after_start(m, h, 200)
     assert v[0] == pytest.approx(1.0)
     P = np.array([[s2, 0.0], [0.0, 1.0]])
@@ -106,7 +109,7 @@ def test_smoothing_bridges_missing_samples_and_checks_its_input():
         smooth(t, q)
     with pytest.raises(ValueError, match=r"smoothing needs at least 3 samples; got 2"):
         smooth(t[:2], constant_rate(t[:2], w).as_quat())
-    with pytest.raises(ValueError, match=r"preset must be one of \('mocap',\); got 'robot'"):
+    with pytest.raises(ValueError, match=r"preset must be one of mocap; got 'robot'"):
         smooth(t, q, preset="robot")
 
 
@@ -114,13 +117,13 @@ def test_preset_estimator_streams_as_it_runs_and_measures_the_noise_itself():
     t = np.arange(0.0, 3.0, 0.01)
     rot, _ = _wobble(t)
     R = noisy(rot, 1e-3, seed=2).as_matrix()
-    given = MocapPreset(100.0, noise_std=1e-3)
-    batch = given.run(t, R)
+    given = MocapPreset(rate_hz=100.0, measurement_noise=1e-3)
+    batch = given.run(t, R).omega
     given.reset()
-    stream = np.array([given.update(tk, Rk) for tk, Rk in zip(t, R, strict=True)])
+    stream = np.array([given.update(tk, Rk).omega for tk, Rk in zip(t, R, strict=True)])
     np.testing.assert_allclose(stream, batch, atol=1e-12)
-    measured = MocapPreset(100.0).run(t, R)  # the noise measured on the log, as the command does
-    np.testing.assert_array_equal(measured, mocap_estimator(100.0, attitude_noise(t, R)).run(t, R))
+    measured = MocapPreset(rate_hz=100.0).run(t, R).omega  # the noise measured on the log, as the command does
+    np.testing.assert_array_equal(measured, mocap_estimator(100.0, attitude_noise(t, R)).run(t, R).omega)
     assert 5e-4 < attitude_noise(t, R) < 2e-3  # the 1 mrad it was made with
 
 

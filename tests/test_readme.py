@@ -64,7 +64,7 @@ def test_directions_example_recovers_the_rate(capsys: pytest.CaptureFixture[str]
     ns, out = run_block(2, capsys)
     assert float(out) < 1e-9
     ns["est"].reset()  # run continues from the current state; from a fresh start, the whole second half is on it
-    W = ns["est"].run(ns["t"], ns["b"])
+    W = ns["est"].run(ns["t"], ns["b"]).omega
     assert np.abs(W[ns["t"].size // 2 :] - [0.3, -0.2, 0.5]).max() < 1e-9
 
 

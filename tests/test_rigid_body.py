@@ -289,7 +289,7 @@ def test_torque_constructors_check_their_input():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"R0": np.diag([1.0, 1.0, -1.0])}, r"R0 is a reflection, not a rotation: det R = -1"),
+        ({"R0": np.diag([1.0, 1.0, -1.0])}, r"R0: a reflection, not a rotation: det R = -1"),
         ({"R0": 1.01 * np.eye(3)}, r"R0 is not a rotation matrix: ‖RᵀR − I‖_F = 0.0348 exceeds 1e-09"),
         ({"R0": [0.0, 0.0, 0.0, 1.001]}, r"R0 is not a unit quaternion: ‖q‖ = 1.001, \|‖q‖ − 1\| exceeds 1e-09"),
         (

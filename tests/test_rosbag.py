@@ -232,9 +232,9 @@ def test_estimates_match_the_estimator_fed_directly(tmp_path):
     stamps, q, _ = motion(80)
     write_bag(tmp_path / "run.bag", 1, {"/p": ("geometry_msgs/msg/PoseStamped", pose_messages(stamps, q))})
     rec = read_log(tmp_path / "run.bag")
-    gains = bandwidth_gains(J_AXI, 30.0)
+    gains = bandwidth_gains(J_AXI, 30.0 / (2 * np.pi))  # 30 rad/s
     est = SarrasEstimator(J_AXI, gains=gains, warm_start=True)
-    expected = est.run((stamps - stamps[0]) * 1e-9, q)
+    expected = est.run((stamps - stamps[0]) * 1e-9, q).omega
     k, l = ([repr(float(x)) for x in a] for a in (gains.k, gains.l_offset))
     assert run_cli(tmp_path / "run.bag", "-o", tmp_path / "w.csv", "--start", "warm", "--k", *k, "--l", *l) == 0
     table, status = read_omega_csv(tmp_path / "w.csv")

@@ -10,6 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
+from omegahat.interface import Status
 from omegahat.observer import continuous
 from omegahat.observer.single_direction import (
     LostExcitationWarning,
@@ -99,7 +100,7 @@ def test_converges_on_torque_free_tumbling_body_from_rest(method):
     directions at 10 Hz, start ω̂ = 0 with |ω| = 0.54 rad/s: the error falls below 1e-3 rad/s and stays there."""
     t = np.arange(0.0, 80.0, 0.1)
     tr, b = _tumble([0.3, 0.2, -0.4], t)
-    k, l = default_gains(J, method, 1.0)
+    k, l = default_gains(J, method, 1.0 / (2 * np.pi))  # 1 rad/s
     W, _ = run_single_direction(t, b, J, method=method, k=k, l=l)
     err = np.linalg.norm(W - tr.omega, axis=1)
     assert err[0] > 0.5
@@ -115,7 +116,7 @@ def test_known_torque_is_used_and_an_ignored_one_biases_the_estimate(method):
     tau = np.array([0.02, -0.01, 0.015])
     tr = integrate(RigidBody(J), np.eye(3), [0.3, 0.2, -0.4], t, torque=tau)
     b = np.einsum("tji,j->ti", tr.R, V)
-    k, l = default_gains(J, method, 1.0)
+    k, l = default_gains(J, method, 1.0 / (2 * np.pi))  # 1 rad/s
     given, _ = run_single_direction(t, b, J, method=method, k=k, l=l, torques=tr.torque)
     withheld, _ = run_single_direction(t, b, J, method=method, k=k, l=l)
     late = t > 40
@@ -150,9 +151,9 @@ def test_spin_about_the_measured_direction_is_detected_and_its_rate_is_not_recov
     first window, names e3, and the estimate keeps its initial error about e3 (nothing can correct it)."""
     t = np.arange(0.0, 30.0, 0.1)
     _, b = _tumble([0.0, 0.0, 0.8], t, v=np.array([0.0, 0.0, 1.0]))
-    est = SingleDirectionEstimator(J, [0, 0, 1], method=method, omega_hat0=[0.0, 0.0, 0.3])
+    est = SingleDirectionEstimator(J, reference=[0, 0, 1], method=method, omega_hat0=[0.0, 0.0, 0.3])
     with pytest.warns(LostExcitationWarning, match=r"rate about the body axis \[.*1\.\] is not observable"):
-        W = est.run(t, b)
+        W = est.run(t, b).omega
     assert est.unobservable[t >= 10.0].all() and not est.unobservable[t < 10.0].any()
     assert abs(abs(est.weak_axis[-1, 2]) - 1.0) < 1e-12
     np.testing.assert_allclose(W, np.tile([0.0, 0.0, 0.3], (t.size, 1)), rtol=0, atol=1e-12)  # the truth: 0.8 e3
@@ -163,7 +164,7 @@ def test_tumbling_body_is_not_flagged_even_with_sun_sensor_noise():
     t = np.arange(0.0, 60.0, 0.1)
     _, b = _tumble([0.3, 0.2, -0.4], t)
     b = b + np.random.default_rng(3).normal(0.0, np.radians(0.1), b.shape)
-    est = SingleDirectionEstimator(J, V)
+    est = SingleDirectionEstimator(J, reference=V)
     with warnings.catch_warnings():
         warnings.simplefilter("error", LostExcitationWarning)
         est.run(t, b)
@@ -212,11 +213,12 @@ def test_missing_samples_are_predicted_through_and_state_continues_across_calls(
     t = np.arange(0.0, 20.0, 0.1)
     tr, b = _tumble([0.3, 0.2, -0.4], t)
     b[50:55] = np.nan
-    one = SingleDirectionEstimator(J, V, bandwidth=1.0)
-    W1 = one.run(t, b)
-    two = SingleDirectionEstimator(J, V, bandwidth=1.0)
-    W2 = np.concatenate([two.run(t[:100], b[:100]), two.run(t[100:], b[100:])])
-    assert np.all(np.isfinite(W1[50:55]))
+    one = SingleDirectionEstimator(J, reference=V, bandwidth_hz=1.0 / (2 * np.pi))
+    W1, status = one.run(t, b)
+    two = SingleDirectionEstimator(J, reference=V, bandwidth_hz=1.0 / (2 * np.pi))
+    W2 = np.concatenate([two.run(t[:100], b[:100]).omega, two.run(t[100:], b[100:]).omega])
+    assert np.all(np.isfinite(W1[50:55])) and np.all(status[50:55] == Status.PREDICTED)
+    assert status[0] == Status.UNAVAILABLE and np.all(np.isnan(W1[0]))  # one direction at one instant: no rate
     np.testing.assert_allclose(W1, W2, rtol=0, atol=1e-12)
     assert np.linalg.norm(W1[-1] - tr.omega[-1]) < 0.01
 
@@ -225,7 +227,7 @@ def test_one_reference_in_the_n_direction_api_points_to_the_single_direction_est
     import omegahat
 
     with pytest.raises(ValueError, match=r"references holds one direction: .* use omegahat\.SingleDirectionEstimator"):
-        omegahat.sensor_gains(J, rate_hz=10.0, noise_std_rad=1e-3, bandwidth_hz=0.1, references=[[0.0, 0.0, 1.0]])
+        omegahat.sensor_gains(J, rate_hz=10.0, measurement_noise=1e-3, bandwidth_hz=0.1, references=[[0.0, 0.0, 1.0]])
     assert omegahat.SingleDirectionEstimator is SingleDirectionEstimator
 
 
@@ -251,14 +253,19 @@ def test_errors():
     with pytest.raises(ValueError, match="give both k and l, or neither"):
         SingleDirectionEstimator(J, k=1.0)
     with pytest.raises(ValueError, match="reference must be a non-zero vector"):
-        SingleDirectionEstimator(J, [0, 0, 0])
-    with pytest.raises(ValueError, match=r"no valid direction sample \(every row has a NaN\)"):
-        SingleDirectionEstimator(J).run(t, np.full((3, 3), np.nan))
+        SingleDirectionEstimator(J, reference=[0, 0, 0])
+    none = SingleDirectionEstimator(J).run(t, np.full((3, 3), np.nan))  # no valid sample: no estimate, no error
+    assert np.all(np.isnan(none.omega)) and np.all(none.status == Status.UNAVAILABLE)
     with pytest.raises(ValueError, match=r"b must have shape \(T, 3\) with T = len\(t\) = 3"):
         SingleDirectionEstimator(J).run(t, b[:2])
     with pytest.raises(ValueError, match=r"b must have shape \(T, 3\) with T = len\(t\) = 3"):
         excitation(t, b[:2])
     est = SingleDirectionEstimator(J)
     est.run(t, b)
-    with pytest.raises(ValueError, match=r"sample 0: time 1\.0 is not after the previous one"):
+    with pytest.raises(ValueError, match=r"sample 0: time t = 1\.0 is not after the previous sample's t = 2\.0"):
         est.run(t[1:], b[1:])
+    with pytest.raises(ValueError, match=r"the sample \(t = 3\.0\): measured direction b1 has zero length"):
+        est.update(3.0, [0.0, 0.0, 0.0])  # refused by the one input path, and nothing changes:
+    np.testing.assert_allclose(
+        est.update(3.0, b[0]).omega, SingleDirectionEstimator(J).run([*t, 3.0], [*b, b[0]]).omega[-1]
+    )

@@ -8,6 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.mekf import MEKF
+from omegahat.interface import Status
 from omegahat.lab import scenarios as S
 from omegahat.lab.evaluation import robustness as RB
 from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, steady_rms
@@ -19,7 +20,7 @@ from omegahat.simulation.rigid_body import RigidBody, Torque, integrate
 
 def _make(sc, sigma_a=1e-4, warm=True, **kw):
     return SupervisedKalmanEstimator(
-        sc.J_model, rate_hz=sc.rate_hz, measurement_sigma=max(sc.attitude_sigma, 1e-6), rate_noise=sigma_a,
+        sc.J_model, rate_hz=sc.rate_hz, measurement_noise=max(sc.measurement_noise, 1e-6), rate_noise=sigma_a,
         omega_hat0=None if warm else sc.omega_hat0, warm_start=warm, **kw,
     )  # fmt: skip
 
@@ -53,8 +54,8 @@ def test_steady_state_is_the_ekfs():
     est = _make(sc, sigma_a)
     ours = steady_rms(run.t, estimate_errors(est.run(run.t, run.R_meas, run.torque), run.omega), 100.0)
     mekf = MEKF(
-        sc.J_model, "dynamic", q=(np.trace(sc.J_model) / 3 * sigma_a) ** 2, measurement_sigma=sc.attitude_sigma,
-        omega0=sc.omega_hat0, sigma_omega0=sc.omega_max,
+        sc.J_model, model="dynamic", q=(np.trace(sc.J_model) / 3 * sigma_a) ** 2,
+        measurement_noise=sc.measurement_noise, omega_hat0=sc.omega_hat0, sigma_omega0=sc.omega_max,
     )  # fmt: skip
     theirs = steady_rms(run.t, estimate_errors(mekf.run(run.t, run.R_meas, run.torque), run.omega), 100.0)
     assert ours <= 1.1 * theirs
@@ -71,7 +72,7 @@ def test_lost_ekf_is_restarted_from_the_observer():
     t = np.arange(0.0, 60.0 + 1e-9, 0.2)
     pulse = Torque.of_time(lambda s: np.array([20.0, 0.0, 0.0]) * (20.0 <= s < 20.5))
     traj = integrate(RigidBody(J), np.eye(3), [0.01, 0.0, 0.0], t, pulse, max_step=0.01)
-    R_meas = sensors.noisy_attitudes(traj.R, sc.attitude_sigma, np.random.default_rng(5))
+    R_meas = sensors.noisy_attitudes(traj.R, sc.measurement_noise, np.random.default_rng(5))
     est = _make(sc, 1e-6)
     err = estimate_errors(est.run(t, R_meas), traj.omega)
     assert err[(t > 20.5) & (t < 22.0)].max() > 0.01  # the pulse was felt
@@ -83,13 +84,15 @@ def test_run_equals_update_loop_and_rejection_keeps_the_state():
     sc = S.get("tumble")
     run = S.simulate(sc, 3, duration=40.0)
     batch = _make(sc, warm=False)
-    W = batch.run(run.t, run.R_meas, run.torque)
+    W, status = batch.run(run.t, run.R_meas, run.torque)
     stream = _make(sc, warm=False)
     q = Rotation.from_matrix(run.R_meas).as_quat()
     for j in range(run.t.size):
-        np.testing.assert_allclose(stream.update(run.t[j], q[j], run.torque[j]), W[j], rtol=0, atol=1e-12)
+        w, s = stream.update(run.t[j], q[j], run.torque[j])
+        np.testing.assert_allclose(w, W[j], rtol=0, atol=1e-12)
+        assert s == status[j]
     before = (stream.observer.state_vector, stream.ekf_covariance, stream.omega_hat)
-    with pytest.raises(MeasurementError, match=r"quaternion far from unit norm: ‖q‖ = 2"):
+    with pytest.raises(MeasurementError, match=r"quaternion far from unit norm: \|q\| = 2"):
         stream.update(run.t[-1] + 1.0, 2.0 * q[-1])
     after = (stream.observer.state_vector, stream.ekf_covariance, stream.omega_hat)
     for x, y in zip(before, after, strict=True):
@@ -108,8 +111,9 @@ def test_missing_sample_is_predicted_through():
     R[30] = np.nan
     est = _make(sc)
     with pytest.warns(UserWarning, match=r"skipped 1 of 61 samples"):
-        W = est.run(run.t, R, run.torque)
-    assert np.all(np.isfinite(W))
+        W, status = est.run(run.t, R, run.torque)
+    assert np.all(np.isfinite(W[1:])) and status[0] == Status.UNAVAILABLE  # warm: an estimate from the 2nd sample
+    assert status[30] == Status.PREDICTED
     assert np.linalg.norm(W[30] - run.omega[30]) < sc.converged_tol
 
 

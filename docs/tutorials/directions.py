@@ -25,11 +25,11 @@ b[:, 1] *= 48.0  # (m/s² and µT here)
 
 # --- 3. Gains for two directions at 50 Hz with 2 mrad of noise: a 0.2 Hz bandwidth ------------------------------
 J = np.eye(3)  # inertia unknown: the identity makes the model "rate locally constant"
-gains = sensor_gains(J, rate_hz=rate, noise_std_rad=2e-3, bandwidth_hz=0.2, references=V)
+gains = sensor_gains(J, rate_hz=rate, measurement_noise=2e-3, bandwidth_hz=0.2, references=V)
 
 # --- 4. Estimate from the raw directions: references=V, one (2, 3) measurement per sample -------------------------
 est = SarrasEstimator(J, gains=gains, references=V, warm_start=True)
-omega_hat = est.run(t, b)
+omega_hat = est.run(t, b).omega  # rad/s, body axes (and .status: corrected, predicted, unavailable)
 rms = np.sqrt(np.mean((omega_hat[t > 5.0] - w) ** 2))
 print(f"rms error after 5 s: {rms:.4f} rad/s per axis (true rate {w} rad/s)")
 print("the last estimate:", np.round(omega_hat[-1], 4))

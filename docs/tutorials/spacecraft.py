@@ -56,13 +56,13 @@ noise = Rotation.from_rotvec(rng.normal(0.0, sigma, (t.size, 3)))
 q_meas = (Rotation.from_quat(q_true) * noise).as_quat()  # star tracker quaternions, x, y, z, w
 
 # --- 3. Gains for this sensor, and the noise they will leave ----------------------------------------------
-gains = sensor_gains(J, rate_hz=rate_hz, noise_std_rad=sigma, bandwidth_hz=0.05)
+gains = sensor_gains(J, rate_hz=rate_hz, measurement_noise=sigma, bandwidth_hz=0.05)
 predicted = predicted_noise_std(J, gains, rate_hz, sigma)
 print("gains k =", np.round(gains.k, 1), " predicted noise per axis (rad/s):", predicted)
 
 # --- 4. Estimate: the whole log at once (est.update(t, q, tau) does the same one fix at a time) ---------------
 est = SarrasEstimator(J, gains=gains, warm_start=True)
-omega_hat = est.run(t, q_meas, tau)
+omega_hat = est.run(t, q_meas, tau).omega  # NaN at the first fix: a warm start needs two
 
 settled = t > 60.0  # after the warm start and the first bandwidth time constants
 rms = np.sqrt(np.mean((omega_hat[settled] - omega_true[settled]) ** 2, axis=0))

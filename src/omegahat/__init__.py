@@ -6,6 +6,9 @@ The core is the continuous, globally exponential observer of I. Sarras, with the
 below are the public API; they are imported on first use, so that ``import omegahat`` (and the command line) stays
 light.
 
+Every estimator implements one contract, :mod:`omegahat.interface` (``run``, ``update``, ``reset``, an
+:class:`~omegahat.interface.Estimate` with a :class:`~omegahat.interface.Status` per sample).
+
 Packages: :mod:`omegahat.kernels` (compiled primitives), :mod:`omegahat.observer`, :mod:`omegahat.simulation`,
 :mod:`omegahat.lab.campaigns`, :mod:`omegahat.baselines`, :mod:`omegahat.lab.evaluation`, :mod:`omegahat.io`,
 :mod:`omegahat.cli`; modules :mod:`omegahat.so3`, :mod:`omegahat.measurements`.
@@ -19,6 +22,10 @@ __version__ = "0.1.0"
 
 #: public name -> the module that defines it
 _PUBLIC = {
+    "Estimate": "omegahat.interface",
+    "Estimator": "omegahat.interface",
+    "Status": "omegahat.interface",
+    "StreamingEstimator": "omegahat.interface",
     "SarrasEstimator": "omegahat.observer.estimator",
     "SupervisedKalmanEstimator": "omegahat.observer.kalman",
     "SingleDirectionEstimator": "omegahat.observer.single_direction",

@@ -46,12 +46,24 @@ and for one sample; :func:`describe_rejection` turns any rejection status into i
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from omegahat.conversion import (
+    as_references,
+    log_array,
+    real_array,
+    sample_array,
+    sample_time,
+    times_array,
+    tolerances,
+    torque_vector,
+    torques_array,
+)
 from omegahat.interface import Measurement, Measurements
 from omegahat.kernels.checks import (
     COLLINEAR,
@@ -76,7 +88,6 @@ from omegahat.kernels.checks import (
     convert_sample,
     status_batch,
 )
-from omegahat.validation import as_directions, as_positive
 
 __all__ = [
     "COLLINEAR",
@@ -114,12 +125,17 @@ __all__ = [
     "checked_log",
     "checked_sample",
     "checked_times",
+    "conversion",
     "convert_sample",
     "describe_rejection",
     "log_array",
+    "python_option",
+    "real_array",
     "rejection_error",
     "sample_array",
     "sample_status",
+    "sample_time",
+    "suggested_tolerance",
     "times_array",
     "tolerances",
     "torque_vector",
@@ -130,10 +146,6 @@ ROTATION_TOL = 1e-3  #: (P) default bound on ‖RᵀR − I‖_F of a measured r
 QUAT_NORM_TOL = 1e-3  #: (P) default bound on |‖q‖ − 1| of a measured quaternion (M2)
 MIN_ANGLE_DEG = 1.0  #: (M3) default: measured directions closer to collinear than this are skipped
 PROBLEM_ROTATION_TOL = 1e-9  #: (P) bound for problem definitions (initial attitudes of simulations), matrix and quat
-
-
-_ZERO3 = np.zeros(3)
-_ZERO3.flags.writeable = False
 
 
 class MeasurementError(ValueError):
@@ -184,16 +196,46 @@ class CheckedSample(NamedTuple):
 # ------------------------------------------------------------------------------------------------ messages
 
 
-def describe_rejection(status: int, info: float, where: str, t: float | None = None) -> str:
-    """The message for a rejected sample, the same whichever estimator rejects it.
+def python_option(key: str, value: object = None) -> str:
+    """An option as Python spells it in a message: ``rotation_tol`` (no value) or ``rotation_tol=0.02``."""
+    return key if value is None else f"{key}={value!r}"
 
-    ``where`` names the sample (``"sample 3"``, ``"the sample"``); ``t`` is its time (needed for the time checks;
-    for the others it is printed after ``where`` when given, e.g. ``"sample 3 (t = 0.01) is not a rotation
-    matrix: ..."``).
+
+def suggested_tolerance(status: int, info: float) -> tuple[str, float] | None:
+    """The tolerance option that would accept a sample rejected with ``(status, info)`` and a value for it (twice the
+    sample's own excess, to 2 significant digits), or None when no tolerance would (a reflection, a zero direction,
+    times and torques)."""
+    if status == NOT_ORTHOGONAL:
+        return "rotation_tol", float(f"{2 * float(info):.2g}")
+    if status == QUAT_NORM:
+        return "quat_norm_tol", float(f"{2 * abs(float(info) - 1):.2g}")
+    return None
+
+
+def describe_rejection(
+    status: int,
+    info: float,
+    where: str,
+    t: float | None = None,
+    *,
+    option: Callable[[str, object], str] = python_option,
+    skip: bool = False,
+    tolerances: tuple[float, float] | None = None,
+) -> str:
+    """The message for a rejected sample, the same whichever estimator (or ``omegahat estimate``) rejects it.
+
+    ``where`` names the sample (``"sample 3"``, ``"the sample"``, ``"line 5, columns qw..qz"``); ``t`` is its time
+    (needed for the time checks; for the others it is printed after ``where`` when given). The remedy names the
+    options as ``option(key, value)`` spells them (default :func:`python_option`; the command passes its flags'
+    spelling), with a suggested tolerance that would accept the sample; ``skip``: also name ``skip_bad_samples``;
+    ``tolerances``: the ``(rotation_tol, quat_norm_tol)`` in force, printed with their names.
     """
     info = float(info)
     label = where if t is None else f"{where} (t = {float(t)!r})"
     t_text = repr(float(info if t is None else t))
+    rot_tol, quat_tol = (None, None) if tolerances is None else tolerances
+    other = f", or {option('skip_bad_samples', True)} to skip such samples" if skip else ", or fix the data"
+    skips = f" ({option('skip_bad_samples', True)} skips such samples)" if skip else ""
     if status == TIME_ORDER:
         return (
             f"{where}: time t = {t_text} is not after the previous sample's t = {info!r} "
@@ -203,20 +245,23 @@ def describe_rejection(status: int, info: float, where: str, t: float | None = N
         return f"{where}: time t = {t_text} is not finite"
     if status == TORQUE_NOT_FINITE:
         return f"{label}: torque must be finite; got {info!r}"
+    accept = suggested_tolerance(status, info)
+    pass_ = "" if accept is None else f"pass {option(*accept)} to accept it"
     if status == NOT_ORTHOGONAL:
         return (
-            f"{label} is not a rotation matrix: ‖RᵀR − I‖ = {info:.3g} exceeds rotation_tol "
-            "(pass rotation_tol to accept it, or fix the data)"
+            f"{label}: not a rotation matrix: |R^T R - I| = {info:.3g} exceeds {option('rotation_tol', rot_tol)} "
+            f"({pass_}{other})"
         )
     if status == NOT_PROPER:
-        return f"{label} is a reflection, not a rotation: det R = {info:.6g} < 0"
+        return f"{label}: a reflection, not a rotation: det R = {info:.6g} < 0{skips}"
     if status == QUAT_NORM:
         return (
-            f"{label} is a quaternion far from unit norm: ‖q‖ = {info:.6g} "
-            "(|‖q‖ − 1| exceeds quat_norm_tol; is it a quaternion at all, and in which order?)"
+            f"{label}: a quaternion far from unit norm: |q| = {info:.6g}, |(|q| - 1)| exceeds "
+            f"{option('quat_norm_tol', quat_tol)} ({pass_}{other}; is it a quaternion, and its order right: "
+            f"{option('scalar_first', None)}?)"
         )
     if status == ZERO_DIRECTION:
-        return f"{label}: measured direction {int(info)} has zero norm"
+        return f"{label}: measured direction b{int(info) + 1} has zero length{skips}"
     return f"{label}: rejected (status {status})"
 
 
@@ -237,94 +282,6 @@ def _raise_first(first_bad, status, info, batch):
         raise rejection_error(int(status[first_bad]), float(info), _where(first_bad, batch))
 
 
-# ------------------------------------------------------------------------------------------------ shapes
-
-
-def as_references(references: ArrayLike | None, n_default: int = 3) -> np.ndarray:
-    """Inertial reference directions ``(n, 3)``, normalised; default the first ``n_default`` axes (rows of R)."""
-    if references is None:
-        return np.eye(3)[:n_default].copy()
-    return np.ascontiguousarray(as_directions(references, name="references"))
-
-
-def sample_array(measurement: Measurement, n: int | None = None) -> tuple[np.ndarray, int]:
-    """One sample as ``(m 2-D, kind)`` for :func:`convert_sample`, shape checked (values are not): an attitude
-    (``n`` None: a matrix, a quaternion or a single Rotation) or ``n`` body-frame directions ``(n, 3)``."""
-    if isinstance(measurement, Rotation):
-        if not measurement.single:
-            raise ValueError(f"update takes one sample; got a Rotation holding {len(measurement)}")
-        return measurement.as_matrix(), KIND_MATRIX
-    m = np.ascontiguousarray(measurement, dtype=float)
-    if n is None:
-        if m.shape == (3, 3):
-            return m, KIND_MATRIX
-        if m.shape == (4,):
-            return m.reshape(1, 4), KIND_QUAT
-        raise ValueError(
-            f"an attitude sample must be a 3x3 matrix, a quaternion (4,) or a Rotation; got shape {m.shape}"
-        )
-    if m.shape != (n, 3):
-        raise ValueError(f"a direction sample must have shape ({n}, 3) (one row per reference); got shape {m.shape}")
-    return m, KIND_DIRECTIONS
-
-
-def log_array(measurements: Measurements, T: int, n: int | None = None) -> tuple[np.ndarray, int]:
-    """A log of ``T`` samples as ``(m (T, a, b), kind)``, shape checked: attitudes (``n`` None: matrices
-    ``(T, 3, 3)``, quaternions ``(T, 4)``, a Rotation of T or a list of T Rotations) or directions ``(T, n, 3)``."""
-    if isinstance(measurements, list | tuple) and measurements and all(isinstance(x, Rotation) for x in measurements):
-        measurements = Rotation.concatenate(measurements)
-    if isinstance(measurements, Rotation):
-        m = np.atleast_3d(measurements.as_matrix()).reshape(-1, 3, 3)
-        if n is not None:
-            raise ValueError(f"measurements must have shape (T, {n}, 3) with T = {T} samples; got a Rotation")
-        if m.shape[0] != T:
-            raise ValueError(f"{m.shape[0]} measurements for {T} times")
-        return np.ascontiguousarray(m), KIND_MATRIX
-    m = np.asarray(measurements, dtype=float)
-    if n is None and m.shape == (T, 3, 3):
-        return np.ascontiguousarray(m), KIND_MATRIX
-    if n is None and m.shape == (T, 4):
-        return np.ascontiguousarray(m.reshape(T, 1, 4)), KIND_QUAT
-    if n is not None and m.shape == (T, n, 3):
-        return np.ascontiguousarray(m), KIND_DIRECTIONS
-    want = "(T, 3, 3) or (T, 4)" if n is None else f"(T, {n}, 3)"
-    raise ValueError(f"measurements must have shape {want} with T = {T} samples; got shape {m.shape}")
-
-
-def tolerances(rotation_tol: float, quat_norm_tol: float) -> tuple[float, float]:
-    """An estimator's ``(rotation_tol, quat_norm_tol)`` (P), checked positive and finite."""
-    return float(as_positive(rotation_tol, "rotation_tol")[0]), float(as_positive(quat_norm_tol, "quat_norm_tol")[0])
-
-
-def times_array(times: ArrayLike) -> np.ndarray:
-    """Sample times as a C-contiguous float array ``(T,)`` (shape checked; values by :func:`check_time`)."""
-    t = np.ascontiguousarray(times, dtype=float)
-    if t.ndim != 1:
-        raise ValueError(f"times must have shape (T,); got shape {t.shape}")
-    return t
-
-
-def torque_vector(torque: ArrayLike | None) -> np.ndarray:
-    """The torque of one sample ``(3,)`` (None: a shared read-only zero), shape checked (values by
-    :func:`check_torque`)."""
-    if torque is None:
-        return _ZERO3
-    tau = np.ascontiguousarray(torque, dtype=float)
-    if tau.shape != (3,):
-        raise ValueError(f"torque must be a 3-vector; got shape {tau.shape}")
-    return tau
-
-
-def torques_array(torques: ArrayLike | None, T: int) -> np.ndarray:
-    """The torques of a log ``(T, 3)`` (None: zeros), shape checked (values by :func:`check_torque`)."""
-    if torques is None:
-        return np.zeros((T, 3))
-    taus = np.ascontiguousarray(torques, dtype=float)
-    if taus.shape != (T, 3):
-        raise ValueError(f"torques must have shape ({T}, 3); got shape {taus.shape}")
-    return taus
-
-
 # ------------------------------------------------------------------------------------------------ the checks
 
 
@@ -332,8 +289,8 @@ def _previous(t_prev: float | None) -> float:
     return np.nan if t_prev is None else float(t_prev)
 
 
-def _conversion(
-    n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg
+def conversion(
+    n: int | None, scalar_first: bool, rotation_tol: float, quat_norm_tol: float, min_angle_deg: float
 ) -> tuple[np.ndarray, bool, float, float, float]:
     """The converter's ``(V, scalar_first, rotation_tol, quat_norm_tol, min_sin)`` for attitudes (``n`` None;
     ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape)."""
@@ -371,11 +328,11 @@ def checked_log(
     sample, named ``"sample j (t = ...)"`` (j its index in this call), and ``ValueError`` for wrong shapes.
     """
     t = times_array(times)
-    n = None if references is None else as_references(references).shape[0]
+    n = None if references is None else np.atleast_2d(references).shape[0]  # only the count matters here
     m, kind = log_array(measurements, t.size, n)
     taus = torques_array(torques, t.size)
-    conversion = _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
-    r, status, first_bad, info = check_batch(t, _previous(t_prev), taus, True, m, kind, *conversion)
+    conv = conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    r, status, first_bad, info = check_batch(t, _previous(t_prev), taus, True, m, kind, *conv)
     if first_bad >= 0:
         raise rejection_error(int(status[first_bad]), float(info), f"sample {first_bad}", float(t[first_bad]))
     return CheckedLog(t, r, taus, status)
@@ -395,17 +352,18 @@ def checked_sample(
 ) -> CheckedSample:
     """One sample through (M1)–(M3) and (T) against the previous time ``t_prev``: the estimators' streaming input
     path (:func:`checked_log` for one sample, named ``"the sample"``)."""
-    n = None if references is None else as_references(references).shape[0]
+    n = None if references is None else np.atleast_2d(references).shape[0]  # only the count matters here
+    t = sample_time(t)
     m, kind = sample_array(measurement, n)
     tau = torque_vector(torque)
     r = np.full((3 if n is None else n, 3), np.nan)
-    conversion = _conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
-    status, info = check_sample(float(t), _previous(t_prev), tau, m, kind, *conversion, r, np.empty((3, 3)))
+    conv = conversion(n, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    status, info = check_sample(t, _previous(t_prev), tau, m, kind, *conv, r, np.empty((3, 3)))
     if status >= ERROR:
         raise rejection_error(status, info, "the sample", t)
     if status != OK:
         r[:] = np.nan
-    return CheckedSample(float(t), r, tau, int(status))
+    return CheckedSample(t, r, tau, int(status))
 
 
 def as_rotation(
@@ -488,7 +446,7 @@ def sample_status(
         m, kind, batch = _attitude_array(a)
         if len(batch) != 1:
             raise ValueError(f"attitude samples must have shape (T, 3, 3) or (T, 4); got shape {a.shape}")
-    conv = _conversion(a.shape[1] if directions else None, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
+    conv = conversion(a.shape[1] if directions else None, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg)
     return status_batch(m, kind, *conv)
 
 

@@ -34,11 +34,13 @@ Delay, stated plainly:
 
 Samples that are not finite (NaN or inf anywhere) are skipped: the next valid sample is differenced against
 the last valid one over the longer interval, and the outputs at skipped samples hold the last estimate
-(``n_skipped`` counts them). Until two (backward) or three (central) valid samples have been seen there is
-no estimate: NaN.
+(``n_skipped`` counts them; their status is ``predicted``). Until two (backward) or three (central) valid samples
+have been seen there is no estimate: NaN (status ``unavailable``).
 """
 
 from __future__ import annotations
+
+from typing import Literal, TypeAlias, get_args
 
 import numba
 import numpy as np
@@ -47,17 +49,13 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator, batch_status, one_of
 
-__all__ = ["SCHEMES", "DifferencingEstimator", "log_difference", "lowpass", "lowpass_reference"]
+__all__ = ["SCHEMES", "DifferencingEstimator", "Scheme", "log_difference", "lowpass", "lowpass_reference"]
 
-SCHEMES = ("backward", "central")
-
-
-def _check_scheme(scheme):
-    if scheme not in SCHEMES:
-        raise ValueError(f"scheme must be one of {SCHEMES}; got {scheme!r}")
-    return scheme
+#: (D1), causal, or (D2), one sample late
+Scheme: TypeAlias = Literal["backward", "central"]
+SCHEMES: tuple[str, ...] = get_args(Scheme)
 
 
 def _check_cutoff_hz(cutoff_hz):
@@ -111,7 +109,7 @@ def _hold_skipped(est, valid, scheme):
 def log_difference(
     times: ArrayLike,
     attitudes: ArrayLike | Rotation,
-    scheme: str = "backward",
+    scheme: Scheme = "backward",
     scalar_first: bool = False,
     rotation_tol: float = ms.ROTATION_TOL,
     quat_norm_tol: float = ms.QUAT_NORM_TOL,
@@ -122,7 +120,7 @@ def log_difference(
     :func:`omegahat.measurements.checked_log` (the tolerances are its). NaN before the first estimate (and, for
     ``"central"``, from the last valid sample on); skipped non-finite samples hold the last estimate.
     """
-    _check_scheme(scheme)
+    one_of("scheme", scheme, Scheme)
     log = ms.checked_log(
         times, attitudes, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
     )
@@ -184,34 +182,36 @@ def lowpass(x: ArrayLike, times: ArrayLike, cutoff_hz: float) -> np.ndarray:
     return _lowpass_kernel(x, t, c)
 
 
-class DifferencingEstimator(Estimator):
+class DifferencingEstimator(StreamingEstimator):
     """Log-map differencing of attitudes (D1 or D2), optionally followed by the causal low-pass (LP).
 
-    Parameters
-    ----------
+    Parameters (keyword-only)
+    -------------------------
     scheme : ``"backward"`` (causal) or ``"central"`` (one sample of delay: ``update`` returns ω̂ for the
         previous sample time, see the module docstring).
     cutoff_hz : cut-off of the first-order low-pass in Hz, or ``None`` for raw differences.
     scalar_first, rotation_tol, quat_norm_tol : quaternion order and the tolerances of the input checks
         (:mod:`omegahat.measurements`, the same for every estimator).
 
-    Attributes after ``update``: ``estimate_time`` (the time the returned ω̂ is for), ``n_skipped`` (non-finite
-    samples skipped so far).
+    Statuses: ``unavailable`` until two (backward) or three (central) valid samples, ``predicted`` at a skipped
+    sample (the last estimate held), ``corrected`` elsewhere. Attributes after ``update``: ``estimate_time`` (the
+    time the returned ω̂ is for), ``n_skipped`` (non-finite samples skipped so far).
     """
 
     def __init__(
         self,
-        scheme: str = "backward",
+        *,
+        scheme: Scheme = "backward",
         cutoff_hz: float | None = None,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
-    ):
-        self.scheme = _check_scheme(scheme)
+    ) -> None:
+        self.scheme: Scheme = one_of("scheme", scheme, Scheme)
         self.cutoff_hz = _check_cutoff_hz(cutoff_hz)
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
-        self.causal = scheme == "backward"
+        self.causal = scheme == "backward"  # per instance: the scheme decides
         self.reset()
 
     @property
@@ -220,6 +220,7 @@ class DifferencingEstimator(Estimator):
         return 0 if self.scheme == "backward" else 1
 
     def reset(self) -> None:
+        """Forget every sample."""
         self._R: list[np.ndarray] = []  # the last valid attitudes, at most 2 kept: [R_{k-1}, R_k]
         self._t: list[float] = []
         self._y = np.full(3, np.nan)  # last output (after the low-pass)
@@ -235,16 +236,21 @@ class DifferencingEstimator(Estimator):
             "quat_norm_tol": self.quat_norm_tol,
         }
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
+    def _output(self, status: Status) -> Estimate:
+        if not np.all(np.isfinite(self._y)):
+            return Estimate(self._y.copy(), Status.UNAVAILABLE)
+        return Estimate(self._y.copy(), status)
+
+    def update(self, t: float, sample: Measurement, torque: ArrayLike | None = None) -> Estimate:
         """Take the attitude sampled at ``t``; return ω̂ (for ``t`` if backward, for the previous sample time
-        if central), shape ``(3,)``; NaN until enough samples. A non-finite sample is skipped (held
-        output)."""
-        sample = ms.checked_sample(t, measurement, t_prev=self._t_last, **self._checks())  # raises: state kept
-        t, R = sample.t, sample.value
+        if central), NaN (``unavailable``) until enough samples. A non-finite sample is skipped (the output held,
+        ``predicted``); ``torque`` is not used."""
+        sample_ = ms.checked_sample(t, sample, t_prev=self._t_last, **self._checks())  # raises: kept
+        t, R = sample_.t, sample_.value
         self._t_last = t
-        if sample.status != ms.OK:
+        if sample_.status != ms.OK:
             self.n_skipped += 1
-            return self._y.copy()
+            return self._output(Status.PREDICTED)
         raw, when = None, np.nan  # the new estimate, if any, and its time (set together)
         if self.scheme == "backward":
             if self._t:
@@ -268,30 +274,40 @@ class DifferencingEstimator(Estimator):
                 self._y = self._y + a * (raw - self._y)
             self._y_time = when
             self.estimate_time = when
-        return self._y.copy()
+        return self._output(Status.CORRECTED)
 
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ for every sample time, ``(T, 3)``, row k for ``times[k]`` (for ``"central"`` too: rows are
-        not delayed, and the last is NaN). Vectorised differences, compiled low-pass; on the valid samples it
-        equals feeding ``update`` (shifted by ``delay_samples``). Starts afresh and leaves the streaming state
-        as if the log had been fed through ``update``."""
-        log = ms.checked_log(times, measurements, **self._checks())
-        t, R = log.times, log.values
-        est, valid = _differences(t, R, self.scheme)
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """ω̂ for every sample time, ``(T, 3)``, row k for ``t[k]`` (for ``"central"`` too: rows are not delayed,
+        and the last is ``unavailable``). From a fresh estimator: vectorised differences and the compiled
+        low-pass, equal on the valid samples to feeding ``update`` (shifted by ``delay_samples``), leaving the
+        streaming state as if the log had been fed through ``update``; after samples were fed, the ``update``
+        loop itself (continuing from them), its rows moved back by ``delay_samples`` (the last ones then have no
+        estimate yet: ``unavailable``). ``torque`` is not used."""
+        if self._t_last is not None:
+            fed = super().run(t, data, torque)
+            d = self.delay_samples
+            if d == 0 or fed.status.size == 0:
+                return fed
+            omega = np.full_like(fed.omega, np.nan)
+            status = np.full_like(fed.status, Status.UNAVAILABLE)
+            omega[:-d], status[:-d] = fed.omega[d:], fed.status[d:]  # update's answer at sample k is for k - d
+            return Estimate(omega, status)
+        log = ms.checked_log(t, data, **self._checks())
+        times, R = log.times, log.values
+        est, valid = _differences(times, R, self.scheme)
         if self.cutoff_hz is not None:
-            est = lowpass(est, t, self.cutoff_hz)  # NaN rows are ignored by the filter
+            est = lowpass(est, times, self.cutoff_hz)  # NaN rows are ignored by the filter
         est = _hold_skipped(est, valid, self.scheme)
         # Streaming state consistent with the log.
-        self.reset()
         iv = np.flatnonzero(valid)
         keep = 1 if self.scheme == "backward" else 2
         self._R = [R[j] for j in iv[-keep:]]
-        self._t = [float(t[j]) for j in iv[-keep:]]
-        self.n_skipped = int(t.size - iv.size)
-        self._t_last = float(t[-1]) if t.size else None
+        self._t = [float(times[j]) for j in iv[-keep:]]
+        self.n_skipped = int(times.size - iv.size)
+        self._t_last = float(times[-1]) if times.size else None
         if self.scheme == "backward" and iv.size >= 2:
-            self._y, self._y_time = est[iv[-1]].copy(), float(t[iv[-1]])
+            self._y, self._y_time = est[iv[-1]].copy(), float(times[iv[-1]])
         elif self.scheme == "central" and iv.size >= 3:
-            self._y, self._y_time = est[iv[-2]].copy(), float(t[iv[-2]])
+            self._y, self._y_time = est[iv[-2]].copy(), float(times[iv[-2]])
         self.estimate_time = self._y_time
-        return est
+        return Estimate(est, batch_status(valid, est))

@@ -49,6 +49,7 @@ skipped when nearly collinear (``min_angle_deg``); a non-finite sample is skippe
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Literal, TypeAlias, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -56,8 +57,9 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat.baselines import mekf_kernel as kernel
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import Measurement, TorqueHold, one_of
 from omegahat.kernels.ekf import COVARIANCE_SUBSTEP_ANGLE, MAX_SUBSTEPS, NOMINAL_SUBSTEP_ANGLE
+from omegahat.observer.compiled import CompiledEstimator
 from omegahat.simulation.rigid_body import RigidBody, Torque, cf4_step
 from omegahat.validation import as_directions, as_inertia, as_positive, as_vector3
 
@@ -65,6 +67,7 @@ __all__ = [
     "MEKF",
     "MODELS",
     "FilterStep",
+    "Model",
     "attitude_innovation",
     "discretize",
     "initial_attitude",
@@ -76,7 +79,10 @@ __all__ = [
     "vector_innovation",
 ]
 
-MODELS = ("dynamic", "kinematic")
+#: the process model (E2): Euler's equations with J and τ known, or a rate driven by white noise
+Model: TypeAlias = Literal["dynamic", "kinematic"]
+MODELS: tuple[str, ...] = get_args(Model)
+_NO_RATE = np.full(3, np.nan)
 
 
 def _exp(v) -> np.ndarray:
@@ -267,22 +273,24 @@ class FilterStep:
     P: np.ndarray
 
 
-class MEKF(Estimator):
-    """The gyro-less MEKF of the module docstring behind the estimator interface.
+class MEKF(CompiledEstimator):
+    """The gyro-less MEKF of the module docstring behind the estimator contract.
 
     Parameters
     ----------
-    J : inertia (3 numbers, 9 numbers or 3×3); needed by the dynamic model, ignored by the kinematic one.
+    J : inertia (3 numbers, 9 numbers or 3×3); needed by the dynamic model, ignored by the kinematic one; the one
+        positional argument.
     model : ``"dynamic"`` (J and τ known; q is the torque-noise PSD, N²·m²·s) or ``"kinematic"`` (ω̇ white
         noise; q in rad²/s³).
     q : process-noise PSD (the filter's one tuning knob).
-    measurement_sigma : standard deviation of the attitude noise (rad per axis) or of each direction
+    measurement_noise : the attitude noise (rad, one standard deviation per axis), or that of each direction
         component.
     references : ``None`` for attitude measurements, else the known inertial directions ``(n, 3)``; samples
         are then body-frame measurements ``(n, 3)``.
-    omega0, sigma_omega0 : initial rate estimate (rad/s) and its standard deviation.
+    omega_hat0, sigma_omega0 : initial rate estimate (rad/s; default 0, and then no estimate at the first fix) and
+        its standard deviation.
     R0, sigma_theta0 : initial attitude (``None``: the first valid measurement) and its standard deviation
-        (rad; default ``measurement_sigma`` for attitude fixes, 0.1 rad for directions).
+        (rad; default ``measurement_noise`` for attitude fixes, 0.1 rad for directions).
     max_step, max_angle : bounds on a propagation substep, s (default: none) and rad (the body's turn).
     torque_hold : ``"zero"`` (default: a sample's torque held until the next) or ``"linear"`` (interpolated to the
         next sample's torque; causal, as the next torque arrives with the next sample).
@@ -292,39 +300,42 @@ class MEKF(Estimator):
         :mod:`omegahat.kernels.ekf`. ``accel`` holds its estimate.
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`
         (the same for every estimator; ``R0`` is checked with the same tolerances).
+
+    :meth:`update` runs the NumPy functions above (the oracle), :meth:`run` their compiled twin
+    (:mod:`omegahat.baselines.mekf_kernel`); conversion, refusal, counting and statuses are the compiled
+    estimators' shared base (:class:`omegahat.observer.compiled.CompiledEstimator`).
     """
 
     def __init__(
         self,
         J: ArrayLike | None = None,
-        model: str = "dynamic",
+        *,
+        model: Model = "dynamic",
         q: float = 1e-4,
-        measurement_sigma: float = 1e-3,
+        measurement_noise: float = 1e-3,
         references: ArrayLike | None = None,
-        omega0: ArrayLike = (0.0, 0.0, 0.0),
+        omega_hat0: ArrayLike | None = None,
         sigma_omega0: float = 1.0,
         R0: ArrayLike | Rotation | None = None,
         sigma_theta0: float | None = None,
         max_step: float = np.inf,
         max_angle: float = NOMINAL_SUBSTEP_ANGLE,
-        torque_hold: str = "zero",
+        torque_hold: TorqueHold = "zero",
         disturbance_noise: float | None = None,
         sigma_accel0: float = 1.0,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
         min_angle_deg: float = ms.MIN_ANGLE_DEG,
-    ):
-        if model not in MODELS:
-            raise ValueError(f"model must be one of {MODELS}; got {model!r}")
-        self.model = model
+    ) -> None:
+        self.model: Model = one_of("model", model, Model)
         if model == "dynamic" and J is None:
             raise ValueError("J must be given for the dynamic model (use model='kinematic' when it is unknown)")
         self.body = RigidBody(as_inertia(np.eye(3) if J is None else J))
         self.q = float(as_positive(q, "q")[0])
-        self.measurement_sigma = float(as_positive(measurement_sigma, "measurement_sigma")[0])
+        self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
         self.references = None if references is None else as_directions(references, "references")
-        self.omega0 = as_vector3(omega0, "omega0")
+        self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.sigma_omega0 = float(as_positive(sigma_omega0, "sigma_omega0")[0])
         self.q_a = (
             None if disturbance_noise is None else float(as_positive(disturbance_noise, "disturbance_noise")[0]) ** 2
@@ -340,113 +351,91 @@ class MEKF(Estimator):
             tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
             self.R0 = ms.as_rotation(R0, "R0", scalar_first=self.scalar_first, **tols)
         if sigma_theta0 is None:
-            sigma_theta0 = self.measurement_sigma if self.references is None else 0.1
+            sigma_theta0 = self.measurement_noise if self.references is None else 0.1
         self.sigma_theta0 = float(as_positive(sigma_theta0, "sigma_theta0")[0])
         if not max_step > 0:  # inf (no bound) is allowed
             raise ValueError(f"max_step must be positive (inf: no bound); got {max_step!r}")
         self.max_step = float(max_step)
         self.max_angle = float(as_positive(max_angle, "max_angle")[0])
-        if torque_hold not in ("zero", "linear"):
-            raise ValueError(f"torque_hold must be one of ('zero', 'linear'); got {torque_hold!r}")
-        self.torque_hold = torque_hold
+        self.torque_hold: TorqueHold = one_of("torque_hold", torque_hold, TorqueHold)
+        n = None if self.references is None else self.references.shape[0]
+        self._conversion = ms.conversion(n, self.scalar_first, self.rotation_tol, self.quat_norm_tol, min_angle_deg)
+        self._configure_input(n_directions=n, rate_given=omega_hat0 is not None)
         self.reset()
 
-    def reset(self) -> None:
+    def _reset_state(self) -> None:
         self.R: np.ndarray | None = None if self.R0 is None else self.R0.copy()
-        self.omega = self.omega0.copy()
+        self.omega = self.omega_hat0.copy()
         self.accel = np.zeros(3)
         prior = [self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3
         self.P = np.diag(prior if self.q_a is None else prior + [self.sigma_accel0**2] * 3)
         self.t: float | None = None
         self._tau = np.zeros(3)
-        self.n_skipped = 0
+        self.last_step: FilterStep | None = None
 
-    def _checks(self) -> dict:
-        """The keyword arguments of :func:`omegahat.measurements.checked_sample` / ``checked_log``."""
-        return {
-            "references": self.references,
-            "t_prev": self.t,
-            "scalar_first": self.scalar_first,
-            "rotation_tol": self.rotation_tol,
-            "quat_norm_tol": self.quat_norm_tol,
-            "min_angle_deg": self.min_angle_deg,
-        }
-
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """Propagate to ``t`` (with the previous sample's torque held), fuse the sample, return ω̂(t) ``(3,)``.
-
-        The NumPy path (the oracle of :meth:`run`). A skipped sample (non-finite, or nearly collinear
-        directions) is propagated through only and counted in ``n_skipped``; a rejected one raises
-        (:mod:`omegahat.measurements`) and leaves the state as it was.
-        """
-        self.step(t, measurement, torque)
-        return self.omega.copy()
+    def _previous_time(self) -> float:
+        return np.nan if self.t is None else self.t
 
     def step(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> FilterStep:
         """:meth:`update`, returning the step's prior, transition and posterior (:class:`FilterStep`): the record a
         fixed-interval smoother (:mod:`omegahat.baselines.rts`) runs backwards over."""
-        sample = ms.checked_sample(t, measurement, torque, **self._checks())
+        self.update(t, measurement, torque)
+        return self.last_step  # type: ignore[return-value]  # set by every accepted update
+
+    def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
+        """Propagate to ``t`` (with the previous sample's torque held, or the line to this one's), fuse the sample:
+        the NumPy path, the oracle of :meth:`run`. A skipped sample is propagated through only."""
+        value = np.full((3 if self.references is None else self.references.shape[0], 3), np.nan)
+        code, info = ms.check_sample(t, self._previous_time(), tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        if code >= ms.ERROR:
+            return None, _NO_RATE, int(code), float(info)
         R, P = self.R, self.P
         omega = self.omega if self.q_a is None else np.concatenate([self.omega, self.accel])
         Phi = None
         if self.t is not None and R is not None:
             R, omega, P, Phi = propagate_with_transition(
-                R,
-                omega,
-                P,
-                sample.t - self.t,
-                self._tau,
-                self.body,
-                self.q,
-                self.model,
-                self.max_step,
-                self.max_angle,
-                sample.torque if self.torque_hold == "linear" else None,
-                self.q_a,
-            )
+                R, omega, P, t - self.t, self._tau, self.body, self.q, self.model, self.max_step, self.max_angle,
+                tau if self.torque_hold == "linear" else None, self.q_a,
+            )  # fmt: skip
         prior = (R, omega, P)
-        m = sample.value
-        if sample.status != ms.OK:
-            self.n_skipped += 1
-        elif R is None:  # first fix initialises the attitude
-            R = m if self.references is None else initial_attitude(m, self.references)
-        else:
-            if self.references is None:
-                z, H = attitude_innovation(R, m)
+        if code == ms.OK:  # else skipped: propagated through only
+            if R is None:  # the first fix initialises the attitude
+                R = value if self.references is None else initial_attitude(value, self.references)
             else:
-                z, H = vector_innovation(R, m, self.references)
-            R, omega, P = update(R, omega, P, z, H, self.measurement_sigma**2)
-        self.R, self.omega, self.P, self.t, self._tau = R, omega[:3], P, sample.t, sample.torque.copy()
-        if self.q_a is not None:
-            self.accel = omega[3:]
-        return FilterStep(prior[0], prior[1], prior[2], Phi, R, omega, P)
+                if self.references is None:
+                    z, H = attitude_innovation(R, value)
+                else:
+                    z, H = vector_innovation(R, value, self.references)
+                R, omega, P = update(R, omega, P, z, H, self.measurement_noise**2)
+        record = FilterStep(prior[0], prior[1], prior[2], Phi, R, omega, P)
+        return (R, omega, P, t, tau.copy(), record), omega[:3], int(code), float(info)
 
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample of a log, ``(T, 3)``: the same as calling :meth:`update` sample by sample (it
-        continues from the current state, does not reset, and leaves the state as ``update`` would), but in one
-        compiled call (:mod:`omegahat.baselines.mekf_kernel`, on :mod:`omegahat.kernels.ekf`). The log is checked first
-        (:func:`omegahat.measurements.checked_log`): on a rejected sample the error names it and the state is left
-        unchanged."""
-        log = ms.checked_log(times, measurements, torques, **self._checks())
-        T = log.times.size
-        if T == 0:
-            return np.empty((0, 3))
+    def _run(
+        self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
+    ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
+        """The log checked (compiled), then the compiled filter (:mod:`omegahat.baselines.mekf_kernel`)."""
+        T = times.size
+        values, codes, first_bad, info = ms.check_batch(
+            times, self._previous_time(), taus, True, m, kind, *self._conversion
+        )
+        if first_bad >= 0:
+            return None, np.empty((T, 3)), codes, int(first_bad), float(info)
         directions = self.references is not None
         state = np.array(
             [np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega, *self.accel]
         )
-        out, R, P, n_skipped = kernel.run_log(
-            log.times,
-            np.ascontiguousarray(log.values),
-            log.valid,
-            log.torques,
+        out, R, P, _ = kernel.run_log(
+            times,
+            np.ascontiguousarray(values),
+            codes == ms.OK,
+            taus,
             np.ascontiguousarray(self.references) if directions else np.zeros((0, 3)),
             directions,
             self.model == "dynamic",
             np.ascontiguousarray(self.body.J),
             np.ascontiguousarray(self.body.J_inv),
             self.q,
-            self.measurement_sigma**2,
+            self.measurement_noise**2,
             self.max_step,
             self.max_angle,
             self.torque_hold == "linear",
@@ -456,8 +445,11 @@ class MEKF(Estimator):
             np.ascontiguousarray(self.P, dtype=float),
             np.ascontiguousarray(self._tau, dtype=float),
         )
-        self.R = R if state[2] else None
-        self.omega, self.P, self.t, self._tau = state[3:6].copy(), P, float(log.times[-1]), log.torques[-1].copy()
-        self.accel = state[6:9].copy()
-        self.n_skipped += int(n_skipped)
-        return out
+        omega = state[3:6] if self.q_a is None else state[3:9]
+        return (R if state[2] else None, omega.copy(), P, float(times[-1]), taus[-1].copy(), None), out, codes, -1, 0.0
+
+    def _commit(self, state: Any) -> None:
+        self.R, omega, self.P, self.t, self._tau, self.last_step = state
+        self.omega = omega[:3].copy()
+        if self.q_a is not None:
+            self.accel = omega[3:6].copy()

@@ -28,15 +28,16 @@ filter (not the compiled one) plus one 6×6 or 9×9 solve per sample.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import NoReturn, cast
+from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.mekf import MEKF, FilterStep
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import Estimate, Estimator, Measurement, Measurements, batch_status
 
 __all__ = ["DIVERGED_TURN", "RTSSmoother", "Smoothed", "rts_backward", "smooth_log"]
 
@@ -47,14 +48,16 @@ DIVERGED_TURN = 16 * np.pi
 @dataclass(frozen=True)
 class Smoothed:
     """A smoothed log: ``omega (T, 3)`` rad/s body axes, ``accel (T, 3)`` (zeros without the acceleration state),
-    ``R (T, 3, 3)`` (NaN before the first fix), ``P (T, n, n)`` the smoothed covariances, and the forward
-    (filtered) rates ``omega_filtered (T, 3)``."""
+    ``R (T, 3, 3)`` (NaN before the first fix), ``P (T, n, n)`` the smoothed covariances, the forward
+    (filtered) rates ``omega_filtered (T, 3)``, and ``usable (T,)``: False where the filter skipped the sample
+    (all True from :func:`rts_backward` alone: :func:`smooth_log` fills it)."""
 
     omega: np.ndarray
     accel: np.ndarray
     R: np.ndarray
     P: np.ndarray
     omega_filtered: np.ndarray
+    usable: np.ndarray
 
 
 def rts_backward(steps: list[FilterStep]) -> Smoothed:
@@ -82,7 +85,7 @@ def rts_backward(steps: list[FilterStep]) -> Smoothed:
         P = here.P + C @ (P_s[k + 1] - nxt.P_prior) @ C.T  # (R4)
         P_s[k] = 0.5 * (P + P.T)
     accel = x_s[:, 3:6] if na == 2 else np.zeros((T, 3))
-    return Smoothed(x_s[:, :3].copy(), accel.copy(), R_s, P_s, filtered)
+    return Smoothed(x_s[:, :3].copy(), accel.copy(), R_s, P_s, filtered, np.ones(T, dtype=bool))
 
 
 def smooth_log(filt: MEKF, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> Smoothed:
@@ -95,8 +98,11 @@ def smooth_log(filt: MEKF, times: ArrayLike, measurements: Measurements, torques
     samples = cast("Sequence[Measurement]", measurements)  # indexable: an array, a Rotation or a sequence
     taus = None if torques is None else np.asarray(torques, dtype=float)
     steps = []
+    usable = np.ones(t.size, dtype=bool)
     for j in range(t.size):
+        skipped = filt.n_skipped
         steps.append(filt.step(float(t[j]), samples[j], None if taus is None else taus[j]))
+        usable[j] = filt.n_skipped == skipped
         turn = float(np.linalg.norm(filt.omega)) * (t[j + 1] - t[j] if j + 1 < t.size else 0.0)
         if not np.isfinite(turn) or turn > DIVERGED_TURN:
             # Sampled attitudes cannot tell turns beyond π apart: the filter has diverged. Stop here rather than
@@ -107,33 +113,30 @@ def smooth_log(filt: MEKF, times: ArrayLike, measurements: Measurements, torques
             )
     if not steps:
         empty = np.empty((0, 3))
-        return Smoothed(empty, empty, np.empty((0, 3, 3)), np.empty((0, 0, 0)), empty)
-    return rts_backward(steps)
+        return Smoothed(empty, empty, np.empty((0, 3, 3)), np.empty((0, 0, 0)), empty, usable)
+    return replace(rts_backward(steps), usable=usable)
 
 
 class RTSSmoother(Estimator):
-    """The MEKF's fixed-interval smoother behind the estimator interface: offline only (``run``; ``causal = False``).
+    """The MEKF's fixed-interval smoother behind the estimator contract: offline only (``run``; ``causal = False``).
 
-    ``filter_factory`` builds the forward filter (an :class:`omegahat.baselines.mekf.MEKF`) afresh for each
-    ``run``; ``last`` keeps the last run's :class:`Smoothed`.
+    ``filter_factory`` (keyword-only) builds the forward filter (an :class:`omegahat.baselines.mekf.MEKF`) afresh
+    for each ``run``; ``last`` keeps the last run's :class:`Smoothed`. Statuses: ``unavailable`` before the
+    filter's first fix (no attitude yet), ``predicted`` at a skipped sample, ``corrected`` elsewhere.
     """
 
     causal = False
 
-    def __init__(self, filter_factory: Callable[[], MEKF]):
+    def __init__(self, *, filter_factory: Callable[[], MEKF]) -> None:
         self.filter_factory = filter_factory
         self.last: Smoothed | None = None
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
-        raise NotImplementedError(
-            "RTSSmoother is offline (a fixed-interval smoother needs the whole record): call run(times, measurements)"
-        )
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """Smoothed ω̂ at every sample, ``(T, 3)``."""
-        self.last = smooth_log(self.filter_factory(), times, measurements, torques)
-        return self.last.omega
-
-    def reset(self) -> None:
-        """Forget the last run (each run starts from a new filter)."""
-        self.last = None
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """Smoothed ω̂ at every sample, ``(T, 3)``, and the statuses."""
+        filt = self.filter_factory()
+        checks = {k: getattr(filt, k) for k in ("references", "scalar_first", "rotation_tol", "quat_norm_tol")}
+        ms.checked_log(t, data, torque, min_angle_deg=filt.min_angle_deg, **checks)  # refused whole, sample named
+        self.last = smooth_log(filt, t, data, torque)
+        omega = np.where(np.isfinite(self.last.R[:, 0, 0])[:, None], self.last.omega, np.nan)
+        self.n_skipped = filt.n_skipped
+        return Estimate(omega, batch_status(self.last.usable, omega))

@@ -21,15 +21,13 @@ about any axis from its centre (``Log`` is unique), as any log-map method does.
 
 from __future__ import annotations
 
-from typing import NoReturn
-
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import Estimate, Estimator, Measurements, batch_status
 
 __all__ = ["SavitzkyGolayEstimator", "right_jacobian", "savgol_rate"]
 
@@ -69,6 +67,10 @@ def savgol_rate(
     log = ms.checked_log(
         times, attitudes, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
     )
+    return _savgol(log, int(window), int(order))
+
+
+def _savgol(log: ms.CheckedLog, window: int, order: int) -> np.ndarray:
     t, R, valid = log.times, log.values, log.valid
     T, n, p = t.size, int(window) // 2, int(order)
     out = np.full((T, 3), np.nan)
@@ -96,34 +98,30 @@ def savgol_rate(
 
 
 class SavitzkyGolayEstimator(Estimator):
-    """(G1)–(G3) behind the estimator interface: offline only (``run``), ``causal = False``; knobs ``window``
-    (samples, odd) and ``order``."""
+    """(G1)–(G3) behind the estimator contract: offline only (``run``), ``causal = False``; knobs (keyword-only)
+    ``window`` (samples, odd) and ``order``. Where a window has too few valid samples, or its centre is missing,
+    there is no estimate (status ``unavailable``)."""
 
     causal = False
 
     def __init__(
         self,
+        *,
         window: int = 11,
         order: int = 2,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
-    ):
+    ) -> None:
         _check_knobs(window, order)
         self.window, self.order = int(window), int(order)
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
-        raise NotImplementedError(
-            "SavitzkyGolayEstimator is offline (the window reaches past the sample): call run(times, measurements)"
-        )
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample time, ``(T, 3)`` (``torques`` are ignored)."""
-        return savgol_rate(
-            times, measurements, self.window, self.order, self.scalar_first, self.rotation_tol, self.quat_norm_tol
-        )
-
-    def reset(self) -> None:
-        """Nothing to forget: ``run`` is stateless."""
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """ω̂ at every sample time, ``(T, 3)``, and the statuses (``torque`` is not used)."""
+        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
+        log = ms.checked_log(t, data, scalar_first=self.scalar_first, **tols)
+        omega = _savgol(log, self.window, self.order)
+        self.n_skipped = int(np.count_nonzero(~log.valid))
+        return Estimate(omega, batch_status(log.valid, omega))

@@ -13,14 +13,12 @@ attitude noise passes through to the rate, amplified like differencing.
 
 from __future__ import annotations
 
-from typing import NoReturn
-
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import Estimate, Estimator, Measurements, batch_status
 
 __all__ = ["SplineEstimator", "spline_rate"]
 
@@ -42,6 +40,10 @@ def spline_rate(
     log = ms.checked_log(
         times, attitudes, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
     )
+    return _spline(log, attitudes)
+
+
+def _spline(log: ms.CheckedLog, attitudes: Measurements) -> np.ndarray:
     if isinstance(attitudes, Rotation):
         return RotationSpline(log.times, attitudes)(log.times, 1)
     valid = log.valid
@@ -52,30 +54,29 @@ def spline_rate(
 
 
 class SplineEstimator(Estimator):
-    """``RotationSpline`` behind the estimator interface: offline only (``run``), ``causal = False``.
+    """``RotationSpline`` behind the estimator contract: offline only (``run``), ``causal = False``; a skipped
+    (non-finite) sample is bridged by the spline (status ``predicted``).
 
-    ``scalar_first``, ``rotation_tol``, ``quat_norm_tol``: the input checks of :mod:`omegahat.measurements`.
+    ``scalar_first``, ``rotation_tol``, ``quat_norm_tol`` (keyword-only): the input checks of
+    :mod:`omegahat.measurements`.
     """
 
     causal = False
 
     def __init__(
         self,
+        *,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
-    ):
+    ) -> None:
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
-        raise NotImplementedError(
-            "SplineEstimator is offline (the spline needs the whole record): call run(times, measurements)"
-        )
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample time, ``(T, 3)`` (``torques`` are ignored)."""
-        return spline_rate(times, measurements, self.scalar_first, self.rotation_tol, self.quat_norm_tol)
-
-    def reset(self) -> None:
-        """Nothing to forget: ``run`` is stateless."""
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """ω̂ at every sample time, ``(T, 3)``, and the statuses (``torque`` is not used)."""
+        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
+        log = ms.checked_log(t, data, scalar_first=self.scalar_first, **tols)
+        omega = _spline(log, data)
+        self.n_skipped = int(np.count_nonzero(~log.valid))
+        return Estimate(omega, batch_status(log.valid, omega))

@@ -1,8 +1,9 @@
 r"""``omegahat estimate INPUT -o OUTPUT``: angular velocity from attitude data, in whatever format it is.
 
 A thin shell: the options become :class:`omegahat.io.ReadOptions` (how to read the input) and
-:class:`omegahat.io.pipeline.EstimateSettings` (what to estimate with), and :func:`omegahat.io.pipeline.estimate_stream`
-does the work on the stream :func:`omegahat.io.open_log` opens, writing through :func:`omegahat.io.open_output`.
+:class:`omegahat.io.settings.EstimateSettings` (what to estimate with), and :func:`omegahat.io.pipeline.estimate_stream`
+does the work on the stream :func:`omegahat.io.open_log` opens, writing through :func:`omegahat.io.open_output`;
+messages name the options as flags (:func:`cli_option`).
 
 Input (:mod:`omegahat.io`, recognised from the file): omegahat's CSV (a header naming the columns: ``t`` plus a
 quaternion ``qw,qx,qy,qz``, a rotation matrix ``r11..r33`` or body-frame directions ``b1x,b1y,b1z,b2x,...``
@@ -10,8 +11,8 @@ with ``--references``; optionally the torque ``tau_x,tau_y,tau_z``, N·m, body a
 Motive or Vicon CSV export or a C3D file (``--body``); a ROS 1 bag (``.bag``) or ROS 2 bag (directory) with
 ``--topic`` and, for transforms, ``--parent-frame``/``--child-frame``. Conventions, each an option with a stated
 default: ``--time-unit s``, ``--rotation body-to-inertial`` (``v_inertial = R v_body``; spacecraft logs often store
-the inverse: ``inertial-to-body``), ``--quaternion-order`` (only for unnamed quaternions: NPZ ``q`` arrays,
-default x,y,z,w, or ``q0..q3``/``q1..q4`` columns).
+the inverse: ``inertial-to-body``), ``--scalar-first``/``--scalar-last`` (SciPy's name; only for unnamed
+quaternions: NPZ ``q`` arrays, default scalar last, or ``q0..q3``/``q1..q4`` columns).
 
 Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per sample (duplicates dropped by
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
@@ -45,12 +46,12 @@ from tqdm import tqdm
 from omegahat import measurements as ms
 from omegahat.cli import many
 from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
-from omegahat.io.pipeline import ESTIMATORS, STARTS, EstimateSettings, RunSummary, estimate_stream
+from omegahat.io.pipeline import RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
 from omegahat.io.timestamps import DUPLICATE_CHOICES
 from omegahat.observer.gains import ObserverGains
-from omegahat.observer.presets import PRESETS
 
 HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
 EPILOG = """\
@@ -82,6 +83,21 @@ example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
 """
 
 PROGRESS_MIN_BYTES = 4_000_000  # show progress bars from this input size on (unless told otherwise)
+
+#: option keys (:class:`omegahat.io.settings.EstimateSettings`' fields, :class:`omegahat.io.ReadOptions`') whose flag
+#: is not ``--`` and the key with dashes
+FLAGS = {"bandwidth_hz": "--bandwidth", "gains": "--k/--l"}
+
+
+def cli_option(key: str, value: object = None) -> str:
+    """An option as the command line spells it in messages: ``--rotation-tol 0.02``, ``--skip-bad-samples`` (a
+    switch: value None or True), ``"--references=X,Y,Z"`` (quoted: ``;`` ends a shell command)."""
+    flag = FLAGS.get(key, "--" + key.replace("_", "-"))
+    if key == "references" and value is not None:
+        return f'"{flag}={value}"'
+    if value is None or value is True:
+        return flag
+    return f"{flag} {value:g}" if isinstance(value, float) else f"{flag} {value}"
 
 
 def _numbers(text: str) -> list[float]:
@@ -157,11 +173,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="samples at one time whose attitudes differ: error (default: a broken time source; the message names "
         "both lines), or keep the first or the last of them (the others dropped, counted and reported)",
     )
-    conv.add_argument(
-        "--quaternion-order",
-        choices=["wxyz", "xyzw"],
-        help="order of unnamed quaternions: NPZ array q (default xyzw, SciPy) or columns q0..q3 / q1..q4 "
-        "(required there); named columns qw,qx,qy,qz need none",
+    order = conv.add_mutually_exclusive_group()
+    order.add_argument(
+        "--scalar-first",
+        dest="scalar_first",
+        action="store_const",
+        const=True,
+        default=None,
+        help="unnamed quaternions are w,x,y,z (SciPy's scalar_first=True): NPZ array q (default: scalar last) or "
+        "columns q0..q3 / q1..q4 (one of --scalar-first/--scalar-last required there); named columns qw,qx,qy,qz "
+        "need neither",
+    )
+    order.add_argument(
+        "--scalar-last",
+        dest="scalar_first",
+        action="store_const",
+        const=False,
+        help="unnamed quaternions are x,y,z,w (SciPy's default)",
     )
     model = parser.add_argument_group("model and gains")
     model.add_argument(
@@ -324,7 +352,7 @@ def estimate_file(
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
         time_unit=args.time_unit,
-        quaternion_order=args.quaternion_order,
+        scalar_first=args.scalar_first,
         rotation=args.rotation,
         time_column=args.time_column,
         body=args.body,
@@ -350,7 +378,6 @@ def estimate_file(
         skip_bad_samples=args.skip_bad_samples,
         rotation_tol=args.rotation_tol,
         quat_norm_tol=args.quat_norm_tol,
-        cli=True,
         preset=args.preset,
         smooth=args.smooth,
     )
@@ -372,7 +399,9 @@ def estimate_file(
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
     try:
         with bar:
-            summary = estimate_stream(stream, settings, writer, report=report, progress=progress, announce=announce)
+            summary = estimate_stream(
+                stream, settings, writer, report=report, progress=progress, announce=announce, spell=cli_option
+            )
             bar.n = bar.total
             bar.refresh()
     finally:

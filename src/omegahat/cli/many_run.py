@@ -42,7 +42,6 @@ from typing import Any, Protocol
 
 from tqdm import tqdm
 
-from omegahat.io.pipeline import RunSummary
 from omegahat.io.registry import LogStream
 
 __all__ = [
@@ -52,6 +51,7 @@ __all__ = [
     "Job",
     "OneFile",
     "Outcome",
+    "Summary",
     "cores",
     "dask_jobs",
     "run_job",
@@ -65,6 +65,15 @@ SUMMARY_TXT = "omegahat-summary.txt"  #: the table, the files skipped, and every
 _EXPECTED = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s")
 
 
+class Summary(Protocol):
+    """What the table takes from a run's :class:`omegahat.io.pipeline.RunSummary` (the loop's own module is
+    imported by the two shells over it only): the rows written, the gains' text, the closing lines."""
+
+    rows: int
+    gains_text: str
+    lines: list[str]
+
+
 class OneFile(Protocol):
     """The one-file function (:func:`omegahat.cli.estimate.estimate_file`)."""
 
@@ -74,7 +83,7 @@ class OneFile(Protocol):
         report: Callable[[str], None] = ...,
         on_chunk: Callable[[int], None] | None = ...,
         announce: Callable[[str], None] | None = ...,
-    ) -> tuple[LogStream, RunSummary]: ...
+    ) -> tuple[LogStream, Summary]: ...
 
 
 @dataclass(frozen=True)
@@ -137,7 +146,7 @@ def _init_process(event: Any) -> None:
     _Stop.process_event = event
 
 
-def _estimator(args: argparse.Namespace, stream: LogStream, summary: RunSummary) -> str:
+def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) -> str:
     """The estimator and model of a run, for the table, from the options and the run's closing line."""
     model = "J given" if args.inertia is not None else "J = I"
     if args.preset is not None:

@@ -5,7 +5,7 @@ removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups,
 
 * time: ``t`` (or the name given as ``time_column``);
 * quaternion: ``qw, qx, qy, qz`` (the names say which is the scalar part), or the ambiguous ``q0, q1, q2, q3`` /
-  ``q1, q2, q3, q4``, whose scalar part only the ``quaternion_order`` option can say;
+  ``q1, q2, q3, q4``, whose scalar part only the ``scalar_first`` option can say (SciPy's name);
 * rotation matrix ``r11 … r33`` (``rij`` = row i, column j);
 * body-frame directions ``b1x, b1y, b1z, b2x, …`` (numbered without gaps; one direction alone goes to
   :mod:`omegahat.io.single_direction`);
@@ -104,14 +104,12 @@ def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
     return None
 
 
-def layout(
-    names: Iterable[str], where: str, time_column: str | None = "t", quaternion_order: str | None = None
-) -> Layout:
+def layout(names: Iterable[str], where: str, time_column: str | None = "t", scalar_first: bool | None = None) -> Layout:
     """The :class:`Layout` of a log whose columns are ``names`` (normalised); ``where`` prefixes every message.
     ``time_column`` None: the time is not among the columns (a DataFrame's index); ``Layout.time`` is then ``""``.
 
     Raises :class:`LogFormatError` for a missing time column, no or several attitude groups, incomplete groups,
-    and numbered quaternion columns without ``quaternion_order``.
+    and numbered quaternion columns without ``scalar_first`` (True: the first is the scalar; False: the last).
     """
     normalised = [normalise_name(n) for n in names]
     present = set(normalised)
@@ -151,13 +149,12 @@ def layout(
     elif missing:
         raise LogFormatError(f"{where}: missing {kind} column(s) {', '.join(missing)}")
     if numbered is not None:
-        if quaternion_order not in QUATERNION_ORDERS:
+        if scalar_first is None:
             raise LogFormatError(
                 f"{where}: columns {', '.join(numbered)} do not say which is the scalar part of the quaternion; "
-                f"pass --quaternion-order wxyz ({numbered[0]} is the scalar) or --quaternion-order xyzw "
-                f"({numbered[3]} is the scalar)"
+                f"pass --scalar-first ({numbered[0]} is the scalar) or --scalar-last ({numbered[3]} is the scalar)"
             )
-        cols = list(_NUMBERED[numbered][quaternion_order])
+        cols = list(_NUMBERED[numbered][QUATERNION_ORDERS[0] if scalar_first else QUATERNION_ORDERS[1]])
     if time_column and time_column in cols:
         raise LogFormatError(
             f"{where}: the time column {time_column!r} is one of the attitude columns ({', '.join(cols)}); name the "

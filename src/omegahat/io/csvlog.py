@@ -156,7 +156,7 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         if not _blank(clean(r, comment, False), comment)
     ]
     try:
-        lay = layout(names, where, time_column, options.quaternion_order)
+        lay = layout(names, where, time_column, options.scalar_first)
     except LogFormatError as exc:
         raise LogFormatError(f"{exc}{_hint(original, rows, sample, mapped)}") from None
     labels = [_label(o, n) for o, n in zip(original, names, strict=True)]
@@ -171,10 +171,10 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     stream.t0 = times.base * scale
     if times.exact:
         stream.meta["time_base"] = times.base  # in the file's unit, exactly (descriptions)
-    if lay.kind == "quaternion" and options.quaternion_order and lay.quaternion_named:
+    if lay.kind == "quaternion" and options.scalar_first is not None and lay.quaternion_named:
         stream.notes.append(
-            f"--quaternion-order {options.quaternion_order} not needed: the header names qw,qx,qy,qz say which is "
-            "the scalar part"
+            f"--scalar-{'first' if options.scalar_first else 'last'} not needed: the header names qw,qx,qy,qz say "
+            "which is the scalar part"
         )
     if delim != "," and fmt.blanks is None:
         stream.notes.append(

@@ -26,13 +26,14 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from omegahat.interface import STATUS_WORDS
 from omegahat.io.colmap import apply_columns, frame_names
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name
-from omegahat.io.output import STATUS_WORDS
 from omegahat.io.registry import LogStream, ReadOptions, checked_stream
 from omegahat.io.timestamps import sort_by_time
 
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
     import polars as pl
     from numpy.typing import ArrayLike
 
+    from omegahat.io.settings import Start
     from omegahat.observer.gains import ObserverGains  # loads the compiled kernels: imported when estimate_frame runs
 
 __all__ = ["estimate_frame", "open_frame"]
@@ -236,8 +238,10 @@ def estimate_frame(
     columns: str | dict | None = None,
     header_rows: int | None = None,
     duplicate_times: str = "error",
-    start: str = "fit",
+    start: Start = "fit",
     skip_bad_samples: bool = False,
+    rotation_tol: float | None = None,
+    quat_norm_tol: float | None = None,
     verbose: bool = False,
 ) -> pd.DataFrame | pl.DataFrame:
     """Angular velocity (rad/s, body axes) for every row of a pandas or Polars DataFrame (module docstring).
@@ -250,15 +254,18 @@ def estimate_frame(
     attitude input the default is the three rows of R). ``time_unit`` (``s``, ``ms``, ``us``, ``ns``) of float
     times; ``rotation``: ``body-to-inertial`` (default) or ``inertial-to-body``; ``start``: ``fit`` (default: a
     least-squares rate over the first window), ``warm`` (from the first two samples) or ``zero``;
-    ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising; ``columns`` (a column
-    map, as ``--columns``: ``{"t": "Time", "qw": "W", ...}`` or positions) and ``header_rows`` (a ``MultiIndex``'s
-    levels, joined per column): :mod:`omegahat.io.colmap`. ``duplicate_times``: rows at one time whose attitudes
-    differ are refused (``"error"``, the default) or the ``"first"`` or ``"last"`` of them is kept, the others
-    getting its estimate (:mod:`omegahat.io.timestamps`, rule 3), with a warning that counts them. ``verbose``: print
-    what was read and chosen. Samples skipped (missing) are reported with a
-    :class:`~omegahat.observer.estimator.SkippedSamplesWarning`.
+    ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising; ``rotation_tol``,
+    ``quat_norm_tol``: the input checks' tolerances (None: :mod:`omegahat.measurements`' defaults); ``columns`` (a
+    column map, as ``--columns``: ``{"t": "Time", "qw": "W", ...}`` or positions) and ``header_rows`` (a
+    ``MultiIndex``'s levels, joined per column): :mod:`omegahat.io.colmap`. ``duplicate_times``: rows at one time
+    whose attitudes differ are refused (``"error"``, the default) or the ``"first"`` or ``"last"`` of them is kept,
+    the others getting its estimate (:mod:`omegahat.io.timestamps`, rule 3), with a warning that counts them.
+    ``verbose``: print what was read and chosen. Samples skipped (missing) are reported with a
+    :class:`~omegahat.observer.estimator.SkippedSamplesWarning`. Errors name these arguments (and carry them:
+    ``exc.options``).
     """
-    from omegahat.io.pipeline import EstimateSettings, estimate_stream
+    from omegahat.io.pipeline import estimate_stream
+    from omegahat.io.settings import EstimateSettings
 
     options = ReadOptions(
         time_unit=time_unit,
@@ -276,13 +283,18 @@ def estimate_frame(
         start=start,
         skip_bad_samples=skip_bad_samples,
     )
+    if rotation_tol is not None:  # else the measurements' default
+        settings = replace(settings, rotation_tol=rotation_tol)
+    if quat_norm_tol is not None:
+        settings = replace(settings, quat_norm_tol=quat_norm_tol)
     n = len(df)
     collector = _Collector(n)
-    summary = estimate_stream(stream, settings, lambda _: collector, report=print if verbose else _quiet)
+    report = print if verbose else _quiet
+    summary = estimate_stream(stream, settings, lambda _: collector, report=report, spell=_argument)
     collector.spread(stream.meta["row_t"])
     if verbose:
         print("\n".join(summary.lines))
-    if summary.n_missing + summary.n_collinear:
+    if summary.n_skipped:
         from omegahat.observer.estimator import SkippedSamplesWarning
 
         skipped = next(line for line in summary.lines if line.startswith("skipped"))
@@ -312,3 +324,14 @@ def _polars_output(df: pl.DataFrame, W: np.ndarray, status: np.ndarray, time_nam
 
 def _quiet(text: str) -> None:
     del text
+
+
+def _argument(key: str, value: object = None) -> str:
+    """An option as :func:`estimate_frame` takes it: its argument (``rotation_tol=0.02``)."""
+    if key == "scalar_first":  # a frame's quaternion columns are named, or given in x, y, z, w order
+        return "the order of the quaternion= columns (x, y, z, w)"
+    if key == "references" and value is not None:  # an example of the form, not a value
+        return "references=[(x, y, z)]" if value == "X,Y,Z" else "references= (n, 3)"
+    from omegahat.measurements import python_option  # loaded by then (the pipeline calls this)
+
+    return python_option(key, value)

@@ -6,8 +6,9 @@ non-finite entry is a missing sample.
 
 **Quaternion order of ``q``.** An array cannot say which component is the scalar. The order comes from, in this
 order: a ``scalar_first`` entry in the file, which must be a true boolean (``numpy.bool_`` or a 0-d bool array;
-the string ``"False"`` or the number 0 are refused rather than guessed); the ``quaternion_order`` option
-(``--quaternion-order``); else SciPy's scalar-last ``(x, y, z, w)``, and the stream's notes say it was assumed.
+the string ``"False"`` or the number 0 are refused rather than guessed); the ``scalar_first`` option
+(``--scalar-first``/``--scalar-last``); else SciPy's scalar-last ``(x, y, z, w)``, and the stream's notes say it was
+assumed.
 A file entry and an option that disagree are an error.
 
 NPZ files are read whole (``numpy.load`` of each array) and handed on in chunks
@@ -28,7 +29,7 @@ from omegahat.io.registry import LogStream, ReadOptions
 __all__ = ["open_npz"]
 
 
-def _scalar_first(z, path: str, option: str | None) -> tuple[bool, str]:
+def _scalar_first(z, path: str, option: bool | None) -> tuple[bool, str]:
     """``(scalar_first, note)`` for a ``q`` array (module docstring)."""
     if "scalar_first" in z.files:
         a = z["scalar_first"]
@@ -36,18 +37,19 @@ def _scalar_first(z, path: str, option: str | None) -> tuple[bool, str]:
             shown = a.item() if a.size == 1 else a
             raise _Err(
                 f"{path}, array scalar_first: must be a single boolean (numpy True or False); got {shown!r} of dtype "
-                f"{a.dtype} (write np.savez(..., scalar_first=True), or drop it and pass --quaternion-order)"
+                f"{a.dtype} (write np.savez(..., scalar_first=True), or drop it and pass --scalar-first or "
+                "--scalar-last)"
             )
         sf = bool(a)
-        if option is not None and sf != (option == "wxyz"):
-            raise _Err(f"{path}, array scalar_first: {sf} contradicts --quaternion-order {option}; drop one of them")
+        if option is not None and sf != option:
+            flag = "--scalar-first" if option else "--scalar-last"
+            raise _Err(f"{path}, array scalar_first: {sf} contradicts {flag}; drop one of them")
         return sf, ""
     if option is not None:
-        return option == "wxyz", ""
+        return option, ""
     return (
         False,
-        f"quaternion order of array q: x, y, z, w (SciPy's default; pass --quaternion-order wxyz if {path}'s q is "
-        "scalar first)",
+        f"quaternion order of array q: x, y, z, w (SciPy's default; pass --scalar-first if {path}'s q is scalar first)",
     )
 
 
@@ -86,7 +88,7 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             raise _Err(f"{path}: attitude given more than one way ({', '.join(whole + columns)}); keep one")
         if "q" in whole:
             q = get("q", f"({T}, 4)", lambda s: s == (T, 4))
-            sf, note = _scalar_first(z, path, options.quaternion_order)
+            sf, note = _scalar_first(z, path, options.scalar_first)
             notes += [note] if note else []
             data, kind, name = (np.roll(q, -1, axis=1) if sf else q), "quaternion", "q"
         elif "R" in whole:
@@ -95,7 +97,7 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             ok = lambda s: len(s) == 3 and s[0] == T and s[1] >= 1 and s[2] == 3  # noqa: E731
             data, kind, name = get("b", f"({T}, n, 3)", ok), "directions", "b"
         else:
-            lay = layout([n for n in names if n not in ("tau",)], path, "t", options.quaternion_order)
+            lay = layout([n for n in names if n not in ("tau",)], path, "t", options.scalar_first)
             kind, name = lay.kind, ",".join(lay.attitude)
             flat = np.column_stack([get(c, f"({T},)", lambda s: s == (T,)) for c in lay.attitude])
             data = (

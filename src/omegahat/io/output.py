@@ -33,6 +33,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
 
+from omegahat.interface import STATUS_WORDS, Status
+
 if TYPE_CHECKING:  # for annotations only (rosbag imports this module; the registry is imported where it is used)
     from omegahat.io.registry import LogChunk, LogStream
     from omegahat.io.rosbag import TwistBagWriter
@@ -50,8 +52,8 @@ __all__ = [
     "output_kind",
 ]
 
-UNAVAILABLE, CORRECTED, PREDICTED = 0, 1, 2
-STATUS_WORDS = ("unavailable", "corrected", "predicted")
+# the estimators' statuses, one enum (omegahat.interface.Status; "restarted" too), written as their words
+UNAVAILABLE, CORRECTED, PREDICTED = Status.UNAVAILABLE, Status.CORRECTED, Status.PREDICTED
 HEADER = "t,wx,wy,wz,status"
 
 

@@ -156,7 +156,7 @@ class Normaliser:
         fix = f"; the columns read: {self.hint} — correct it to name the attitude's columns" if self.hint else ""
         raise LogFormatError(
             f"{self.where(label, self.columns)}: {what}, and so are {self.head_plain} of the first {self.head_valid} "
-            f"samples: these columns do not hold a rotation{fix} (or the right --quaternion-order)"
+            f"samples: these columns do not hold a rotation{fix} (or the right --scalar-first/--scalar-last)"
         )
 
     def notes(self) -> list[str]:

@@ -49,7 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat.io.colmap import ColumnMap, parse_columns
-from omegahat.io.columns import QUATERNION_ORDERS, LogFormatError
+from omegahat.io.columns import LogFormatError
 from omegahat.io.precision import Normaliser
 from omegahat.io.timestamps import DUPLICATE_CHOICES, TimePolicy
 
@@ -83,13 +83,13 @@ STAMPS = ("header", "receive")
 DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)
 CHUNK_ROWS = 1 << 17  #: rows per chunk of formats read whole (NPZ, bags, exports, DataFrames)
 #: options for logs whose columns are named by omegahat's rules (CSV, NPZ): the default of register_format
-COLUMN_OPTIONS = ("time_unit", "quaternion_order", "time_column")
+COLUMN_OPTIONS = ("time_unit", "scalar_first", "time_column")
 #: options of the formats read column by column through a column map (omegahat.io.colmap): text logs
 MAP_OPTIONS = ("columns", "header_rows")
 #: option -> its name on the command line (messages say both where it matters)
 OPTION_FLAGS = {
     "time_unit": "--time-unit",
-    "quaternion_order": "--quaternion-order",
+    "scalar_first": "--scalar-first",
     "time_column": "--time-column",
     "body": "--body",
     "topic": "--topic",
@@ -107,7 +107,8 @@ OPTION_FLAGS = {
 class ReadOptions:
     """How to read a log: conventions the file itself may not state, and which body or topic to read.
 
-    ``time_unit``, ``quaternion_order``, ``time_column``: omegahat's CSV and NPZ logs (module docstring);
+    ``time_unit``, ``scalar_first`` (the quaternion order, as SciPy names it: True ``w, x, y, z``, False
+    ``x, y, z, w``), ``time_column``: omegahat's CSV and NPZ logs (module docstring);
     ``columns`` (a column map: ``"t=1,qw=2,..."`` or ``{"t": "Time", "qw": 2}``) and ``header_rows`` (rows the
     header spans; 0: none): text logs (:mod:`omegahat.io.colmap`); ``rotation``: every attitude format; ``body``:
     the rigid body of a Motive, Vicon, Qualisys or C3D file; ``topic``, ``parent_frame``, ``child_frame``,
@@ -118,7 +119,7 @@ class ReadOptions:
     take when they differ from their defaults."""
 
     time_unit: str = "s"
-    quaternion_order: str | None = None  # None: the names say it (qw..), else the format's documented default
+    scalar_first: bool | None = None  # None: the names say it (qw..), else the format's documented default
     rotation: str = "body-to-inertial"
     time_column: str = "t"
     body: str | None = None
@@ -143,8 +144,8 @@ class ReadOptions:
             raise ValueError(f"rate must be a positive number of Hz; got {self.rate!r}")
         if self.time_unit not in TIME_UNITS:
             raise ValueError(f"time unit must be one of {', '.join(TIME_UNITS)}; got {self.time_unit!r}")
-        if self.quaternion_order not in (None, *QUATERNION_ORDERS):
-            raise ValueError(f"quaternion order must be wxyz or xyzw; got {self.quaternion_order!r}")
+        if self.scalar_first not in (None, True, False):
+            raise ValueError(f"scalar_first must be True, False or None; got {self.scalar_first!r}")
         if self.rotation not in ROTATIONS:
             raise ValueError(f"rotation must be {' or '.join(ROTATIONS)}; got {self.rotation!r}")
         if self.duplicate_times not in DUPLICATE_CHOICES:

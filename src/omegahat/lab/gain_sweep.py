@@ -64,7 +64,7 @@ class Evaluation:
 
     gains: ObserverGains
     rate_hz: float
-    noise_std_rad: float
+    measurement_noise: float
     convergence_time: float
     noise_rms: float
     predicted_noise_rms: float  #: tuning.predicted_noise_std (norm over the axes), the linearised prediction
@@ -81,7 +81,7 @@ def evaluate_gains(
     J: ArrayLike,
     gains: ObserverGains,
     rate_hz: float,
-    noise_std_rad: float,
+    measurement_noise: float,
     seed: int | np.random.SeedSequence = 0,
     horizon: float = 10.0,
     omega0: ArrayLike = DEFAULT_OMEGA0,
@@ -95,9 +95,9 @@ def evaluate_gains(
     (for sweeps)."""
     J = as_inertia(J)
     rate = float(as_positive(rate_hz, "rate_hz")[0])
-    sigma = float(noise_std_rad)
+    sigma = float(measurement_noise)
     if not (math.isfinite(sigma) and sigma >= 0):
-        raise ValueError(f"noise_std_rad must be non-negative and finite; got {noise_std_rad!r}")
+        raise ValueError(f"measurement_noise must be non-negative and finite; got {measurement_noise!r}")
     horizon = float(as_positive(horizon, "horizon")[0])
     omega0 = as_vector3(omega0, "omega0")
     if not 0 < settle < 1:
@@ -175,7 +175,7 @@ def plot_pareto(evaluations: Iterable[Evaluation], ax: Axes | None = None) -> Ax
         _, ax = plt.subplots(figsize=(6.5, 4.5))
     groups: dict[tuple[float, float], list[Evaluation]] = {}
     for e in evaluations:
-        groups.setdefault((e.rate_hz, e.noise_std_rad), []).append(e)
+        groups.setdefault((e.rate_hz, e.measurement_noise), []).append(e)
     for (rate, sigma), evs in groups.items():
         x = np.array([e.convergence_time for e in evs])
         y = np.array([e.noise_rms for e in evs])
@@ -210,7 +210,7 @@ class Recommendation:
 def recommend_gains(
     J: ArrayLike,
     rate_hz: float,
-    noise_std_rad: float,
+    measurement_noise: float,
     max_noise: float | None = None,
     max_convergence_time: float | None = None,
     bandwidths_hz: ArrayLike | None = None,
@@ -219,7 +219,7 @@ def recommend_gains(
     references: ArrayLike | None = None,
     **kwargs: Any,
 ) -> Recommendation:
-    """Gains for an attitude sensor sampled at ``rate_hz`` with noise ``noise_std_rad`` (rad per axis).
+    """Gains for an attitude sensor sampled at ``rate_hz`` with noise ``measurement_noise`` (rad per axis).
 
     Candidates are :func:`omegahat.observer.tuning.sensor_gains` at each bandwidth of ``bandwidths_hz`` (default 16
     bandwidths, geometric, from ``min(0.05 Hz, rate/500)`` to ``rate/5``), each measured by
@@ -230,7 +230,7 @@ def recommend_gains(
     """
     J = as_inertia(J)
     rate = float(as_positive(rate_hz, "rate_hz")[0])
-    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
+    sigma = float(as_positive(measurement_noise, "measurement_noise")[0])
     if (max_noise is None) == (max_convergence_time is None):
         raise ValueError(
             f"give exactly one of max_noise or max_convergence_time; got max_noise={max_noise!r}, "

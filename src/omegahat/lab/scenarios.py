@@ -62,7 +62,7 @@ class Scenario:
     omega_max: float = 1.0  # bound on |ω| given to the estimators (rad/s): the MEKF's prior σ_ω0
     duration: float = 10.0  # s
     rate_hz: float = 100.0
-    attitude_sigma: float = 0.0  # rad per axis
+    measurement_noise: float = 0.0  # rad per axis
     # Commanded torque, known to the estimators: piecewise constant, ((t_start, (τx, τy, τz)), ...), N·m.
     known_torque: tuple = ()
     disturbance: np.ndarray = field(default_factory=lambda: np.zeros(3))  # unknown constant torque, N·m
@@ -113,7 +113,7 @@ _SLEW: dict[str, Any] = dict(
     omega_max=0.3,
     duration=300.0,
     rate_hz=5.0,
-    attitude_sigma=10.0 * ARCSEC,
+    measurement_noise=10.0 * ARCSEC,
     known_torque=_BANG_BANG,
     converged_tol=2e-3,
     steady_after=150.0,
@@ -128,7 +128,7 @@ _TUMBLE: dict[str, Any] = dict(
     omega_hat0=np.zeros(3),
     duration=300.0,
     rate_hz=1.0,
-    attitude_sigma=np.radians(0.1),
+    measurement_noise=np.radians(0.1),
     converged_tol=1e-2,
     steady_after=150.0,
 )
@@ -141,7 +141,7 @@ _BROAD: dict[str, Any] = dict(
     converged_tol=0.1,
     steady_after=0.0,
     rate_hz=2000.0 / 7.0,
-    attitude_sigma=np.radians(0.05),
+    measurement_noise=np.radians(0.05),
 )
 
 SCENARIOS: dict[str, Scenario] = {
@@ -244,5 +244,5 @@ def simulate(scenario: Scenario, seed: int, duration: float | None = None) -> Ru
         R, w = piece.R[-1], piece.omega[-1]
     R_true, w_true = np.concatenate(R_all), np.concatenate(w_all)
     rng = np.random.default_rng(np.random.SeedSequence(seed))
-    R_meas = sensors.noisy_attitudes(R_true, scenario.attitude_sigma, rng)
+    R_meas = sensors.noisy_attitudes(R_true, scenario.measurement_noise, rng)
     return Run(t, R_meas, tau_known, w_true, R_true)

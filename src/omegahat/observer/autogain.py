@@ -464,7 +464,7 @@ def choose_rate_noise(motion: LogMotion) -> tuple[float, str]:
     sigma = max(motion.sigma, 1e-6)
     best: tuple[float, float, float] | None = None
     for sigma_a in RATE_NOISE_GRID:
-        est = SupervisedKalmanEstimator(motion.J, rate_hz=motion.rate_hz, measurement_sigma=sigma, rate_noise=sigma_a)
+        est = SupervisedKalmanEstimator(motion.J, rate_hz=motion.rate_hz, measurement_noise=sigma, rate_noise=sigma_a)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             est.run(motion.t, R, tau)

@@ -41,28 +41,32 @@ Input is checked by :mod:`omegahat.measurements` (one policy for every estimator
 (the state is left exactly as it was whenever a sample is rejected):
 
 * a NaN or inf anywhere in the measurement → the sample is **skipped**: the state is predicted to its time,
-  no correction; counted in ``n_missing``, its time in ``skipped_times``; ``largest_interval`` reports the longest
-  interval seen (gaps need nothing else: the prediction runs over them);
-* direction measurements within ``min_angle_deg`` of collinear → skipped the same way, counted in ``n_collinear``;
+  no correction (status ``predicted``); counted in ``n_skipped``, its time in ``skipped_times``;
+  ``largest_interval`` reports the longest interval seen (gaps need nothing else: the prediction runs over them);
+* direction measurements within ``min_angle_deg`` of collinear → skipped the same way (of ``n_skipped``, counted
+  in ``n_collinear``);
 * not a rotation, a quaternion far from unit norm, a zero direction, a time not after the previous one or not
-  finite, a non-finite torque, wrong shapes → :class:`omegahat.measurements.MeasurementError` (a ``ValueError``)
-  naming the sample and the value. ``run`` is atomic: it names the first rejected sample and leaves the state as
-  it was before the call.
+  finite, a non-finite torque → :class:`omegahat.measurements.MeasurementError` (a ``ValueError``) naming the
+  sample and the value; a wrong shape → ``ValueError``; a time or a value that is not a real number →
+  ``TypeError``. ``run`` is atomic: it names the first rejected sample and leaves the state as it was before the
+  call.
 
 The compiled step is :mod:`omegahat.observer.sampled` (``update`` and ``run`` call the same function);
-:mod:`omegahat.observer.reference` is its plain NumPy oracle.
+:mod:`omegahat.observer.reference` is its plain NumPy oracle. Conversion, refusal, counting, statuses and warnings
+are the compiled estimators' shared base, :class:`omegahat.observer.compiled.CompiledEstimator`.
 """
 
 from __future__ import annotations
 
-import warnings
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import MeasurementKind, TorqueHold, one_of
 from omegahat.observer import sampled
+from omegahat.observer.compiled import CompiledEstimator, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, STATE, EstimatorState
 from omegahat.validation import as_inertia, as_positive, as_vector3
@@ -73,22 +77,19 @@ __all__ = ["EstimatorState", "SarrasEstimator", "SkippedSamplesWarning"]
 _OMEGA_HAT = slice(STATE.omega_hat, STATE.omega_hat + 3)  # ω̂ in the flat state
 
 
-class SkippedSamplesWarning(UserWarning):
-    """``run`` skipped samples (missing or collinear); their times are in ``estimator.skipped_times``."""
-
-
-class SarrasEstimator(Estimator):
+class SarrasEstimator(CompiledEstimator):
     """Sampled Sarras estimator (module docstring: equations, input, bad-input behaviour).
 
     Parameters
     ----------
-    J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
+    J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD; the one positional argument.
     gains : :class:`omegahat.observer.gains.ObserverGains` for ``n`` directions (required): ``theorem_gains``,
         :func:`omegahat.observer.tuning.sensor_gains` or your own.
     references : inertial directions ``v_i`` ``(n, 3)``. With ``measurement="attitude"`` (default when no
         references are given) they default to the first ``n`` inertial axes (rows of R); with
         ``measurement="directions"`` (default when references are given) they are required.
-    omega_hat0 : initial estimate (default 0). ``r_hat0`` : initial ``r̂_i`` ``(n, 3)`` (default: first sample).
+    omega_hat0 : initial estimate (default 0; given, it is the estimate at the first valid sample, else there is
+        none there). ``r_hat0`` : initial ``r̂_i`` ``(n, 3)`` (default: first sample).
     scalar_first : quaternion order (default False: SciPy's ``(x, y, z, w)``).
     rotation_tol, quat_norm_tol, min_angle_deg : input checks (:mod:`omegahat.measurements`).
     max_substep_angle : bound on the prediction's substep angle (rad).
@@ -110,7 +111,7 @@ class SarrasEstimator(Estimator):
         *,
         gains: ObserverGains,
         references: ArrayLike | None = None,
-        measurement: str | None = None,
+        measurement: MeasurementKind | None = None,
         omega_hat0: ArrayLike | None = None,
         r_hat0: ArrayLike | None = None,
         scalar_first: bool = False,
@@ -119,9 +120,9 @@ class SarrasEstimator(Estimator):
         min_angle_deg: float = ms.MIN_ANGLE_DEG,
         max_substep_angle: float = MAX_SUBSTEP_ANGLE,
         warm_start: bool | None = None,
-        torque_hold: str = "zero",
+        torque_hold: TorqueHold = "zero",
         isotropic_rate: float | None = None,
-    ):
+    ) -> None:
         self.J = as_inertia(J)
         if not isinstance(gains, ObserverGains):
             raise TypeError(f"gains must be an omegahat.observer.gains.ObserverGains; got {type(gains).__name__}")
@@ -129,9 +130,7 @@ class SarrasEstimator(Estimator):
         n = gains.n
         if measurement is None:
             measurement = "attitude" if references is None else "directions"
-        if measurement not in ("attitude", "directions"):
-            raise ValueError(f"measurement must be 'attitude' or 'directions'; got {measurement!r}")
-        self.measurement = measurement
+        self.measurement: MeasurementKind = one_of("measurement", measurement, MeasurementKind)
         if references is None:
             if measurement == "directions":
                 raise ValueError("measurement='directions' needs the inertial references (n, 3)")
@@ -154,9 +153,7 @@ class SarrasEstimator(Estimator):
             raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
         self.min_angle_deg = float(min_angle_deg)
         self.warm_start = (omega_hat0 is None and r_hat0 is None) if warm_start is None else bool(warm_start)
-        if torque_hold not in sampled.TORQUE_HOLDS:
-            raise ValueError(f"torque_hold must be one of {sampled.TORQUE_HOLDS}; got {torque_hold!r}")
-        self.torque_hold = torque_hold
+        self.torque_hold: TorqueHold = one_of("torque_hold", torque_hold, TorqueHold)
         if isotropic_rate is None:
             isotropic_rate = gains.isotropic_rate
         self.isotropic_rate = (
@@ -166,19 +163,16 @@ class SarrasEstimator(Estimator):
             self.J, gains, self.references, self.r_hat0, self.rotation_tol, self.quat_norm_tol, self.min_angle_deg,
             self.max_substep_angle, self.scalar_first, self.warm_start, torque_hold, self.isotropic_rate,
         )  # fmt: skip
-        self._n_directions = None if measurement == "attitude" else n
+        self._configure_input(
+            n_directions=None if measurement == "attitude" else n,
+            rate_given=omega_hat0 is not None and not self.warm_start,
+        )
         self.reset()
 
     # -- state ------------------------------------------------------------------------------------------------
 
-    def reset(self) -> None:
-        """Forget every sample: back to ``ω̂₀``, uninitialised, counters cleared."""
+    def _reset_state(self) -> None:
         self._x = sampled.initial_state_vector(self.gains.n, self.omega_hat0)
-        self.n_missing = 0
-        self.n_collinear = 0
-        self.skipped_times: list[float] = []
-        self.largest_interval = 0.0
-        self.last_status = None
 
     @property
     def state(self) -> EstimatorState:
@@ -187,6 +181,7 @@ class SarrasEstimator(Estimator):
 
     @property
     def omega_hat(self) -> np.ndarray:
+        """The state's ω̂ (rad/s; ``omega_hat0`` before the first sample)."""
         return self._x[_OMEGA_HAT].copy()
 
     @property
@@ -207,63 +202,17 @@ class SarrasEstimator(Estimator):
             raise ValueError(f"a state vector of shape {self._x.shape} is needed; got {np.shape(x)}")
         self._x = np.array(x, dtype=float)
 
-    # -- estimation -------------------------------------------------------------------------------------------
+    # -- the compiled step (the base converts, refuses, counts) -------------------------------------------------
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """Take the sample at time ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""
-        m, kind = ms.sample_array(measurement, self._n_directions)
-        tau = ms.torque_vector(torque)
-        t_prev = self._x[STATE.t]
-        x, status, info = sampled.step(self._x, self._params, float(t), m, kind, tau)
-        if status >= ms.ERROR:
-            raise ms.rejection_error(status, info, "the sample", t)
-        self._x = x
-        self.last_status = status
-        if status != ms.OK:
-            self._note_skipped(status, t)
-        if t - t_prev > self.largest_interval:  # NaN before the first sample: comparison False
-            self.largest_interval = t - t_prev
-        return x[_OMEGA_HAT].copy()
+    def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
+        x, status, info = sampled.step(self._x, self._params, t, m, kind, tau)
+        return x, x[_OMEGA_HAT], status, info
 
-    def _note_skipped(self, status, t):
-        if status == ms.MISSING:
-            self.n_missing += 1
-        else:
-            self.n_collinear += 1
-        self.skipped_times.append(float(t))
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample of a log ``(T, 3)``, continuing from the current state (:meth:`reset` first for
-        a fresh start). Same compiled step as :meth:`update`; atomic on rejection (see the module docstring).
-
-        ``times (T,)``; ``measurements`` ``(T, 3, 3)``, ``(T, 4)``, a ``Rotation`` of T, or ``(T, n, 3)``;
-        ``torques (T, 3)`` or None. Per-sample statuses are left in ``last_status``.
-        """
-        times = ms.times_array(times)
-        T = times.size
-        m, kind = ms.log_array(measurements, T, self._n_directions)
-        taus = ms.torques_array(torques, T)
+    def _run(
+        self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
+    ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
         x, W, status, first_bad, info = sampled.run(self._x, self._params, times, m, kind, taus)
-        if first_bad >= 0:
-            raise ms.rejection_error(int(status[first_bad]), info, f"sample {first_bad}", times[first_bad])
-        t_prev = self._x[STATE.t]
-        self._x = x
-        self.last_status = status
-        skipped = status != ms.OK
-        if T:
-            gaps = np.diff(np.concatenate([[t_prev], times])) if np.isfinite(t_prev) else np.diff(times)
-            if gaps.size:
-                self.largest_interval = max(self.largest_interval, float(gaps.max()))
-        if skipped.any():
-            n_miss = int(np.count_nonzero(status == ms.MISSING))
-            n_col = int(np.count_nonzero(status == ms.COLLINEAR))
-            self.n_missing += n_miss
-            self.n_collinear += n_col
-            self.skipped_times.extend(times[skipped].tolist())
-            warnings.warn(
-                f"skipped {n_miss + n_col} of {T} samples ({n_miss} missing: NaN/inf, {n_col} with nearly "
-                "collinear directions); the estimate was predicted through them (times in skipped_times)",
-                SkippedSamplesWarning,
-                stacklevel=2,
-            )
-        return W
+        return x, W, status, int(first_bad), float(info)
+
+    def _commit(self, state: Any) -> None:
+        self._x = state

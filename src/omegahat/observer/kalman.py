@@ -23,16 +23,17 @@ that the EKF's basin contains the observer's noise ball are *measured* (the robu
 
 from __future__ import annotations
 
-import warnings
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import MeasurementKind, TorqueHold
 from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 from omegahat.observer import supervised
-from omegahat.observer.estimator import SarrasEstimator, SkippedSamplesWarning
+from omegahat.observer.compiled import CompiledEstimator
+from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE
 from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
@@ -42,14 +43,15 @@ from omegahat.validation import as_positive
 __all__ = ["SupervisedKalmanEstimator"]
 
 
-class SupervisedKalmanEstimator(Estimator):
+class SupervisedKalmanEstimator(CompiledEstimator):
     """The Sarras observer supervising a gyro-less EKF (module docstring).
 
     Parameters
     ----------
     J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
     rate_hz : the nominal sample rate (Hz); the observer's bandwidth is ``observer_bandwidth × rate_hz`` rad/s.
-    measurement_sigma : attitude noise per axis (rad), or the noise of each direction component.
+    measurement_noise : the attitude noise (rad, one standard deviation per axis), or that of each direction
+        component.
     rate_noise : the EKF's process noise σ_a (rad/s^1.5): the torque noise PSD is ``q = (tr(J)/3 · σ_a)²``;
         it models what the known torque leaves out.
     references, measurement, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg, max_substep_angle :
@@ -57,7 +59,7 @@ class SupervisedKalmanEstimator(Estimator):
     omega_hat0 : the initial rate estimate (default 0); ``warm_start`` (default: on unless ``omega_hat0`` or
         ``r_hat0`` is given) takes it from the first two samples instead. ``r_hat0``: the observer's initial
         filtered directions (default: the first measurement); the EKF always starts from a measured attitude.
-    torque_hold : ``"linear"`` (default) or ``"zero"``, for both parts.
+    torque_hold : ``"zero"`` (default) or ``"linear"``, for both parts (as the observer's).
     observer_bandwidth : the observer's isotropic rate per hertz of sample rate (default 1: the observer's error
         halves every sample).
     disturbance_noise, sigma_accel0 : for a body whose torque (or inertia) is not fully known: None (default) or
@@ -72,14 +74,14 @@ class SupervisedKalmanEstimator(Estimator):
         J: ArrayLike,
         *,
         rate_hz: float,
-        measurement_sigma: float,
+        measurement_noise: float,
         rate_noise: float = 1e-4,
         references: ArrayLike | None = None,
-        measurement: str | None = None,
+        measurement: MeasurementKind | None = None,
         omega_hat0: ArrayLike | None = None,
         r_hat0: ArrayLike | None = None,
         warm_start: bool | None = None,
-        torque_hold: str = "zero",
+        torque_hold: TorqueHold = "zero",
         observer_bandwidth: float = 1.0,
         disturbance_noise: float | None = None,
         sigma_accel0: float = 1.0,
@@ -92,9 +94,9 @@ class SupervisedKalmanEstimator(Estimator):
         nis_max: float = 4.0,
         disagreement_factor: float = 5.0,
         disagreement_samples: int = 3,
-    ):
+    ) -> None:
         self.rate_hz = float(as_positive(rate_hz, "rate_hz")[0])
-        self.measurement_sigma = float(as_positive(measurement_sigma, "measurement_sigma")[0])
+        self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
         self.rate_noise = float(as_positive(rate_noise, "rate_noise")[0])
         self.observer_rate = float(as_positive(observer_bandwidth, "observer_bandwidth")[0]) * self.rate_hz
         n = 3 if references is None else np.atleast_2d(np.asarray(references)).shape[0]
@@ -117,15 +119,15 @@ class SupervisedKalmanEstimator(Estimator):
         self.J = self.observer.J
         #: the observer's stationary noise, total over the three axes (rad/s): the supervisor's yardstick
         self.observer_noise = float(
-            np.sqrt(3.0) * isotropic_noise_std(self.rate_hz, self.measurement_sigma, self.observer_rate)
+            np.sqrt(3.0) * isotropic_noise_std(self.rate_hz, self.measurement_noise, self.observer_rate)
         )
         jbar = float(np.trace(self.J)) / 3.0
-        sigma_theta = self.measurement_sigma if self.observer.measurement == "attitude" else 0.1
+        sigma_theta = self.measurement_noise if self.observer.measurement == "attitude" else 0.1
         if not nis_window >= 1.0:
             raise ValueError(f"nis_window must be at least 1 sample; got {nis_window!r}")
         values = {
             "q": (jbar * self.rate_noise) ** 2,
-            "meas_var": self.measurement_sigma**2,
+            "meas_var": self.measurement_noise**2,
             "sigma_theta": sigma_theta,
             "sigma_obs": self.observer_noise,
             "alpha": 1.0 / float(nis_window),
@@ -141,17 +143,17 @@ class SupervisedKalmanEstimator(Estimator):
             "sigma_accel": float(as_positive(sigma_accel0, "sigma_accel0")[0]),
         }
         self._ekf_params = np.array([values[name] for name in EKF_PARAMS._fields if name != "size"])
+        self._configure_input(
+            n_directions=None if self.observer.measurement == "attitude" else n,
+            rate_given=omega_hat0 is not None and not self.observer.warm_start,
+        )
         self.reset()
 
-    def reset(self) -> None:
-        """Forget every sample: both parts back to their initial state, counters cleared."""
+    def _reset_state(self) -> None:
         self.observer.reset()
         self._xe = supervised.initial_ekf_state()
+        #: per sample of the last ``update`` or ``run``: 1 where the output is the EKF's, 0 where the observer's
         self.last_source: np.ndarray | None = None
-        self.last_status: np.ndarray | None = None
-        self.n_missing = 0
-        self.n_collinear = 0
-        self.skipped_times: list[float] = []
 
     @property
     def measurement(self) -> str:
@@ -188,54 +190,22 @@ class SupervisedKalmanEstimator(Estimator):
         ``disturbance_noise`` is given)."""
         return self._xe[EKF_STATE.accel : EKF_STATE.accel + 3].copy()
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """Take the sample at ``t`` (``torque`` known from ``t`` on, None = 0) and return ω̂(t) ``(3,)``."""
-        m, kind = ms.sample_array(measurement, None if self.measurement == "attitude" else self.observer.gains.n)
-        tau = ms.torque_vector(torque)
+    # -- the compiled step (the base converts, refuses, counts) -------------------------------------------------
+
+    def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
         xs, xe, w, status, info = supervised.step(
-            self.observer.state_vector, self.observer.params, self._xe, self._ekf_params, float(t), m, kind, tau
+            self.observer.state_vector, self.observer.params, self._xe, self._ekf_params, t, m, kind, tau
         )
-        if status >= ms.ERROR:
-            raise ms.rejection_error(status, info, "the sample", t)
-        self.observer.state_vector = xs
-        self._xe = xe
-        self.last_source = np.array([xe[EKF_STATE.source]])
-        self.last_status = np.array([status])
-        self._count_skipped(self.last_status, np.array([float(t)]))
-        return w
+        return (xs, xe, np.array([xe[EKF_STATE.source]])), w, int(status), float(info)
 
-    def _count_skipped(self, status: np.ndarray, times: np.ndarray) -> int:
-        """Count the skipped samples (``n_missing``, ``n_collinear``, ``skipped_times``); returns how many."""
-        skipped = status != ms.OK
-        self.n_missing += int(np.count_nonzero(status == ms.MISSING))
-        self.n_collinear += int(np.count_nonzero(status == ms.COLLINEAR))
-        self.skipped_times.extend(times[skipped].tolist())
-        return int(skipped.sum())
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample of a log ``(T, 3)``, continuing from the current state; atomic on rejection (the
-        error names the first rejected sample and both states are left as they were). ``last_source`` then holds,
-        per sample, 1 where the output is the EKF's and 0 where it is the observer's."""
-        times = ms.times_array(times)
-        T = times.size
-        n = None if self.measurement == "attitude" else self.observer.gains.n
-        m, kind = ms.log_array(measurements, T, n)
-        taus = ms.torques_array(torques, T)
+    def _run(
+        self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
+    ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
         xs, xe, W, source, status, first_bad, info = supervised.run(
             self.observer.state_vector, self.observer.params, self._xe, self._ekf_params, times, m, kind, taus
         )
-        if first_bad >= 0:
-            raise ms.rejection_error(int(status[first_bad]), info, f"sample {first_bad}", times[first_bad])
+        return (xs, xe, source), W, status, int(first_bad), float(info)
+
+    def _commit(self, state: Any) -> None:
+        xs, self._xe, self.last_source = state
         self.observer.state_vector = xs
-        self._xe = xe
-        self.last_source = source
-        self.last_status = status
-        skipped = self._count_skipped(status, times)
-        if skipped:
-            warnings.warn(
-                f"skipped {skipped} of {T} samples (missing or nearly collinear); both parts were predicted "
-                "through them",
-                SkippedSamplesWarning,
-                stacklevel=2,
-            )
-        return W

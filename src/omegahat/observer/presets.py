@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from typing import NoReturn
+from typing import Literal, TypeAlias, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -61,7 +61,15 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.interface import (
+    Estimate,
+    Estimator,
+    Measurement,
+    Measurements,
+    StreamingEstimator,
+    batch_status,
+    one_of,
+)
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SkippedSamplesWarning
 from omegahat.observer.kalman import SupervisedKalmanEstimator
@@ -74,6 +82,7 @@ __all__ = [
     "MocapModel",
     "MocapPreset",
     "MocapSmoother",
+    "Preset",
     "attitude_noise",
     "estimator_for",
     "filter_lag",
@@ -83,9 +92,11 @@ __all__ = [
     "smooth",
 ]
 
-PRESETS = ("mocap",)
+#: the presets a user can type
+Preset: TypeAlias = Literal["mocap"]
+PRESETS: tuple[str, ...] = get_args(Preset)
 MOCAP_SWITCH_HZ = 80.0  #: (P1) at and above this sample rate, (P2) below
-MOCAP_MEASUREMENT_SIGMA = 1e-3  #: σ_m, rad per axis
+MOCAP_MEASUREMENT_NOISE = 1e-3  #: σ_m, rad per axis
 MOCAP_JERK_NOISE = 1500.0  #: σ_d of (P1), rad/s^2.5
 MOCAP_TRACKING_INDEX = 10.0  #: Λ of (P2)
 MOCAP_NOISE_FACTOR = 10.0  #: (P1): σ_m = max(σ_m, this × the log's measured noise)
@@ -98,11 +109,11 @@ _NO_CONSISTENCY_TEST = 1e6  # supervisor thresholds that never fire on finite nu
 class MocapModel:
     """What the preset runs at one sample rate: ``kind`` ``"constant-acceleration"`` (P1) or ``"constant-rate"``
     (P2), the EKF's ``rate_noise`` σ_a (rad/s^1.5), ``disturbance_noise`` σ_d (rad/s^2.5, or None) and
-    ``measurement_sigma`` σ_m (rad)."""
+    ``measurement_noise`` σ_m (rad)."""
 
     kind: str
     rate_hz: float
-    measurement_sigma: float
+    measurement_noise: float
     rate_noise: float
     disturbance_noise: float | None
 
@@ -110,11 +121,11 @@ class MocapModel:
         if self.disturbance_noise is not None:
             return (
                 f"{self.kind} model (rate {self.rate_hz:.4g} Hz >= {MOCAP_SWITCH_HZ:g} Hz): angular jerk noise "
-                f"{self.disturbance_noise:g} rad/s^2.5, attitude noise {self.measurement_sigma:g} rad"
+                f"{self.disturbance_noise:g} rad/s^2.5, attitude noise {self.measurement_noise:g} rad"
             )
         return (
             f"{self.kind} model (rate {self.rate_hz:.4g} Hz < {MOCAP_SWITCH_HZ:g} Hz): rate noise "
-            f"{self.rate_noise:.4g} rad/s^1.5, attitude noise {self.measurement_sigma:g} rad"
+            f"{self.rate_noise:.4g} rad/s^1.5, attitude noise {self.measurement_noise:g} rad"
         )
 
 
@@ -129,23 +140,26 @@ def attitude_noise(times: ArrayLike, attitudes: Measurements) -> float:
     return autogain.measure_motion(log.times[ok], Rotation.from_matrix(log.values[ok])).sigma
 
 
-def mocap_model(rate_hz: float, noise_std: float | None = None) -> MocapModel:
-    """(P1) or (P2) at ``rate_hz``; ``noise_std`` the log's σ̂ (None: motion-capture grade, 1e-4 rad or less)."""
+def mocap_model(rate_hz: float, measurement_noise: float | None = None) -> MocapModel:
+    """(P1) or (P2) at ``rate_hz``; ``measurement_noise`` the log's attitude noise σ̂ (rad per axis; None:
+    motion-capture grade, 1e-4 rad or less). The model's own ``measurement_noise`` is σ_m of (P1), (P2)."""
     f = float(as_positive(rate_hz, "rate_hz")[0])
-    sm = MOCAP_MEASUREMENT_SIGMA
+    sm = MOCAP_MEASUREMENT_NOISE
     if f >= MOCAP_SWITCH_HZ:
-        if noise_std is not None:
-            sm = max(sm, MOCAP_NOISE_FACTOR * float(as_positive(noise_std, "noise_std")[0]))
+        if measurement_noise is not None:
+            sm = max(sm, MOCAP_NOISE_FACTOR * float(as_positive(measurement_noise, "measurement_noise")[0]))
         return MocapModel("constant-acceleration", f, sm, _RATE_NOISE_FLOOR, MOCAP_JERK_NOISE)
     h = 1.0 / f
     return MocapModel("constant-rate", f, sm, MOCAP_TRACKING_INDEX * sm / h**1.5, None)
 
 
-def mocap_estimator(rate_hz: float, noise_std: float | None = None, **options: object) -> SupervisedKalmanEstimator:
-    """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``noise_std`` (σ̂; module
+def mocap_estimator(
+    rate_hz: float, measurement_noise: float | None = None, **options: object
+) -> SupervisedKalmanEstimator:
+    """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``measurement_noise`` (σ̂; module
     docstring). ``options`` go to :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input
     tolerances, ...)."""
-    return estimator_for(mocap_model(rate_hz, noise_std), **options)
+    return estimator_for(mocap_model(rate_hz, measurement_noise), **options)
 
 
 def estimator_for(model: MocapModel, **options: object) -> SupervisedKalmanEstimator:
@@ -154,7 +168,7 @@ def estimator_for(model: MocapModel, **options: object) -> SupervisedKalmanEstim
     return SupervisedKalmanEstimator(
         np.eye(3),
         rate_hz=model.rate_hz,
-        measurement_sigma=model.measurement_sigma,
+        measurement_noise=model.measurement_noise,
         rate_noise=model.rate_noise,
         disturbance_noise=model.disturbance_noise,
         nis_max=_NO_CONSISTENCY_TEST,
@@ -167,18 +181,17 @@ def smooth(
     times: ArrayLike,
     attitudes: Measurements,
     rate_hz: float | None = None,
-    preset: str = "mocap",
-    noise_std: float | None = None,
+    preset: Preset = "mocap",
+    measurement_noise: float | None = None,
     **options: object,
 ) -> np.ndarray:
     """Zero-lag ω̂ ``(T, 3)`` (rad/s, body axes) at every sample of a whole log, by (P3).
 
     ``attitudes``: matrices, quaternions (``scalar_first`` in ``options``) or a ``Rotation``, body → inertial;
-    ``rate_hz``: the sample rate (default: from the median spacing); ``noise_std``: the attitude noise σ̂ (default:
-    measured, :func:`attitude_noise`). The log is checked once, as every estimator checks it
-    (:func:`omegahat.measurements.checked_log`)."""
-    if preset not in PRESETS:
-        raise ValueError(f"preset must be one of {PRESETS}; got {preset!r}")
+    ``rate_hz``: the sample rate (default: from the median spacing); ``measurement_noise``: the log's attitude
+    noise σ̂ (rad per axis; default: measured, :func:`attitude_noise`). The log is checked once, as every estimator
+    checks it (:func:`omegahat.measurements.checked_log`)."""
+    one_of("preset", preset, Preset)
     checks = {k: options.pop(k) for k in ("scalar_first", "rotation_tol", "quat_norm_tol") if k in options}
     log = ms.checked_log(times, attitudes, **checks)  # type: ignore[arg-type]
     t, R = log.times, np.where(log.valid[:, None, None], log.values, np.nan)
@@ -186,16 +199,16 @@ def smooth(
         raise ValueError(f"smoothing needs at least 3 samples; got {t.size}")
     if rate_hz is None:
         rate_hz = 1.0 / float(np.median(np.diff(t)))
-    if noise_std is None:
-        noise_std = attitude_noise(t, R)
+    if measurement_noise is None:
+        measurement_noise = attitude_noise(t, R)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SkippedSamplesWarning)  # missing samples: the caller counts them
-        forward = mocap_estimator(rate_hz, noise_std, **options).run(t, R)
-        backward = -mocap_estimator(rate_hz, noise_std, **options).run(t[-1] - t[::-1], R[::-1])[::-1]
-    d = filter_lag(rate_hz, noise_std)
+        forward = mocap_estimator(rate_hz, measurement_noise, **options).run(t, R).omega
+        backward = -mocap_estimator(rate_hz, measurement_noise, **options).run(t[-1] - t[::-1], R[::-1]).omega[::-1]
+    d = filter_lag(rate_hz, measurement_noise)
     if d > 0:
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
-    settling = rate_variance_after_start(mocap_model(rate_hz, noise_std), 1.0 / rate_hz, t.size)
+    settling = rate_variance_after_start(mocap_model(rate_hz, measurement_noise), 1.0 / rate_hz, t.size)
     settling[0] = np.inf  # a pass's first sample carries no rate: weight 0 (the other pass has settled there)
     weights = np.stack([1.0 / settling, 1.0 / settling[::-1]])[:, :, None] * np.ones((1, 1, 3))  # (P4)
     both = np.stack([forward, backward])
@@ -215,16 +228,16 @@ def rate_variance_after_start(model: MocapModel, h: float, n: int) -> np.ndarray
     if model.disturbance_noise is not None:
         Phi = np.array([[1.0, h, h * h / 2], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
         c = np.array([[h**5 / 20, h**4 / 8, h**3 / 6], [h**4 / 8, h**3 / 3, h**2 / 2], [h**3 / 6, h**2 / 2, h]])
-        Q, P = model.disturbance_noise**2 * c, np.diag([model.measurement_sigma**2, 1.0, 1.0])
+        Q, P = model.disturbance_noise**2 * c, np.diag([model.measurement_noise**2, 1.0, 1.0])
     else:
         Phi = np.array([[1.0, h], [0.0, 1.0]])
         Q = model.rate_noise**2 * np.array([[h**3 / 3, h**2 / 2], [h**2 / 2, h]])
-        P = np.diag([model.measurement_sigma**2, 1.0])
+        P = np.diag([model.measurement_noise**2, 1.0])
     out = np.empty(n)
     for k in range(n):
         if k:
             P = Phi @ P @ Phi.T + Q
-        gain = P[:, 0] / (P[0, 0] + model.measurement_sigma**2)
+        gain = P[:, 0] / (P[0, 0] + model.measurement_noise**2)
         P = P - np.outer(gain, P[0, :])
         out[k] = P[1, 1]
         if k > 10 and abs(out[k] - out[k - 1]) <= 1e-9 * out[k]:
@@ -233,15 +246,15 @@ def rate_variance_after_start(model: MocapModel, h: float, n: int) -> np.ndarray
     return out
 
 
-def filter_lag(rate_hz: float, noise_std: float | None = None) -> float:
+def filter_lag(rate_hz: float, measurement_noise: float | None = None) -> float:
     """The preset filter's lag ``d`` (s) of (P3): its steady rate error on a noise-free turn at constant angular
     acceleration ``α`` is ``−α d`` (a filter that tracks ramps, (P1), has none)."""
-    if mocap_model(rate_hz, noise_std).disturbance_noise is not None:
+    if mocap_model(rate_hz, measurement_noise).disturbance_noise is not None:
         return 0.0
     alpha, axis = 0.05, np.array([0.6, 0.0, 0.8])
     t = np.arange(0.0, 400.0 / rate_hz, 1.0 / rate_hz)  # the filter settles within ~20 samples
     R = so3.exp(np.outer(0.5 * alpha * t**2, axis))
-    omega = mocap_estimator(rate_hz, noise_std, omega_hat0=np.zeros(3)).run(t, R)
+    omega = mocap_estimator(rate_hz, measurement_noise, omega_hat0=np.zeros(3)).run(t, R).omega
     error = (omega - np.outer(alpha * t, axis))[t.size // 2 :] @ axis
     return float(-np.mean(error) / alpha)
 
@@ -254,45 +267,67 @@ def _shifted(t, w, d):
     return CubicSpline(t[ok], w[ok], axis=0)(t + d)
 
 
-class MocapPreset(Estimator):
-    """``omegahat estimate --preset mocap`` behind the estimator interface (causal). ``noise_std``: the log's σ̂;
-    None: :meth:`run` measures it on the log's head first (:func:`attitude_noise`), as the command does, and
-    :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade noise."""
+class MocapPreset(StreamingEstimator):
+    """``omegahat estimate --preset mocap`` behind the estimator contract (causal). ``measurement_noise``: the
+    log's σ̂; None: :meth:`run` on a fresh estimator measures it on the log's head first (:func:`attitude_noise`), as the
+    command does, and :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade
+    noise. ``options`` go to :func:`mocap_estimator`. The torque is not used (the preset is for unknown ones)."""
 
-    def __init__(self, rate_hz: float, noise_std: float | None = None, **options: object):
-        self.rate_hz, self.noise_std, self.options = rate_hz, noise_std, options
+    def __init__(self, *, rate_hz: float, measurement_noise: float | None = None, **options: object) -> None:
+        self.rate_hz, self.measurement_noise, self.options = rate_hz, measurement_noise, options
         self.reset()
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at ``t`` (``torque`` ignored: the preset is for unknown ones)."""
-        return self.estimator.update(t, measurement)
+    @property
+    def n_skipped(self) -> int:  # type: ignore[override]  # the estimator's own count
+        return self.estimator.n_skipped
 
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample ``(T, 3)``; a fresh estimator for the log when the noise was not given."""
-        if self.noise_std is None:
-            self.estimator = mocap_estimator(self.rate_hz, attitude_noise(times, measurements), **self.options)
-        return self.estimator.run(times, measurements)
+    def update(self, t: float, sample: Measurement, torque: ArrayLike | None = None) -> Estimate:
+        """The estimate at ``t`` (``torque`` not used)."""
+        self._fresh = False
+        return self.estimator.update(t, sample)
+
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """The estimate at every sample; from a fresh state without ``measurement_noise``, an estimator for the log's
+        measured noise (``torque`` not used)."""
+        if self.measurement_noise is None and self._fresh:
+            self.estimator = mocap_estimator(self.rate_hz, attitude_noise(t, data), **self.options)
+        self._fresh = False
+        return self.estimator.run(t, data)
 
     def reset(self) -> None:
         """Back to a new estimator (nothing seen)."""
-        self.estimator = mocap_estimator(self.rate_hz, self.noise_std, **self.options)
+        self.estimator = mocap_estimator(self.rate_hz, self.measurement_noise, **self.options)
+        self._fresh = True
 
 
 class MocapSmoother(Estimator):
-    """:func:`smooth` behind the estimator interface: offline only (``run``), ``causal = False``; ``rate_hz`` as
-    there (None: from the log)."""
+    """:func:`smooth` behind the estimator contract: offline only (``run``), ``causal = False``; ``rate_hz`` and
+    ``measurement_noise`` (keyword-only) as there (None: from the log), and the input checks of
+    :mod:`omegahat.measurements`. A missing sample is bridged by both passes (status ``predicted``)."""
 
     causal = False
 
-    def __init__(self, rate_hz: float | None = None, noise_std: float | None = None):
-        self.rate_hz, self.noise_std = rate_hz, noise_std
+    def __init__(
+        self,
+        *,
+        rate_hz: float | None = None,
+        measurement_noise: float | None = None,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+    ) -> None:
+        self.rate_hz, self.measurement_noise = rate_hz, measurement_noise
+        self.scalar_first = bool(scalar_first)
+        self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> NoReturn:
-        raise NotImplementedError("MocapSmoother is offline (it runs backwards too): call run(times, measurements)")
-
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """Zero-lag ω̂ at every sample, ``(T, 3)`` (``torques`` are ignored: the preset is for unknown ones)."""
-        return smooth(times, measurements, rate_hz=self.rate_hz, noise_std=self.noise_std)
-
-    def reset(self) -> None:
-        """Nothing to forget: ``run`` is stateless."""
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """Zero-lag ω̂ at every sample ``(T, 3)`` and the statuses (``torque`` not used: the preset is for unknown
+        ones)."""
+        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
+        log = ms.checked_log(t, data, scalar_first=self.scalar_first, **tols)
+        R = np.where(log.valid[:, None, None], log.values, np.nan)  # the checked log, NaN where skipped
+        omega = smooth(
+            log.times, R, self.rate_hz, measurement_noise=self.measurement_noise
+        )  # R is checked: no second verdict
+        self.n_skipped = int(np.count_nonzero(~log.valid))
+        return Estimate(omega, batch_status(log.valid, omega))

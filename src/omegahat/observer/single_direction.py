@@ -38,12 +38,13 @@ For a spherical body (J = c I) the last term vanishes: V never increases, and un
 (the classical PE lemma of adaptive identification). It is *not* Magnis and Petit's observer (IEEE TAC 61(9),
 2016), whose equations were not available to this project (``docs/theory/single_direction.md``).
 
-**Sampled realisation** (both methods, plain NumPy, many runs at once). Between samples ``t_k`` and ``t_{k+1}`` the
-observer is integrated by classical RK4 in equal substeps (``rate · substep ≤ 0.5`` with ``rate`` the largest of
-``l``, ``k/J_m`` and the turning rates), with the measured direction moved along the great circle from ``b_k`` to
-``b_{k+1}`` at constant rate and the torque held at ``τ_k``; a missing sample (NaN) instead moves b along the
-estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle starts from there (causal: the estimate at
-``t_k`` uses samples up to ``t_k``)::
+**Sampled realisation** (both methods; here in plain NumPy, many runs at once: :func:`run_single_direction`, the
+oracle of the compiled step :mod:`omegahat.observer.single_direction_step` that :class:`SingleDirectionEstimator`
+runs). Between samples ``t_k`` and ``t_{k+1}`` the observer is integrated by classical RK4 in equal substeps
+(``rate · substep ≤ 0.5`` with ``rate`` the largest of ``l``, ``k/J_m`` and the turning rates), with the measured
+direction moved along the great circle from ``b_k`` to ``b_{k+1}`` at constant rate and the torque held at ``τ_k``; a
+missing sample (NaN) instead moves b along the estimate, ``ḃ = b × ω̂``, and the next valid sample's great circle
+starts from there (causal: the estimate at ``t_k`` uses samples up to ``t_k``)::
 
     ḃ = b × w,   w = −(θ_k / h_k) (b_k × b_{k+1}) / |b_k × b_{k+1}|,  θ_k = ∠(b_k, b_{k+1})          (D8)
 
@@ -58,16 +59,22 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import Literal, TypeAlias, get_args
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from omegahat import measurements as ms
+from omegahat.interface import Estimate, Status, StreamingEstimator, one_of
+from omegahat.observer import single_direction_step as step
 from omegahat.observer.continuous import OUTPUT_SIGN_CORRECTED
 from omegahat.validation import as_inertia, as_positive, as_vector3
 
 __all__ = [
     "METHODS",
+    "SUBSTEP_RATE",
     "LostExcitationWarning",
+    "Method",
     "SingleDirectionEstimator",
     "default_gains",
     "excitation",
@@ -77,10 +84,13 @@ __all__ = [
     "sarras_rhs",
 ]
 
-METHODS = ("sarras", "gradient")
+#: the observer of (D2)–(D4), or the gradient one of (D6)
+Method: TypeAlias = Literal["sarras", "gradient"]
+METHODS: tuple[str, ...] = get_args(Method)
 DEFAULT_WINDOW_S = 10.0  #: the excitation window T (s)
+DEFAULT_BANDWIDTH_HZ = 0.5 / (2 * math.pi)  #: 0.5 rad/s: the gains' default bandwidth (Hz)
 DEFAULT_THRESHOLD = 1e-3  #: λ_min(G) below this is flagged (a cone of half-angle 1.8°)
-_SUBSTEP_RATE = 0.5  # rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
+SUBSTEP_RATE = 0.5  #: rate · substep: RK4 is accurate to ~3e-4 per substep there, stable to 2.78
 
 
 class LostExcitationWarning(UserWarning):
@@ -133,12 +143,12 @@ def gradient_rhs(
     return w_dot, b_dot
 
 
-def default_gains(J: ArrayLike, method: str, bandwidth: float) -> tuple[float, float]:
-    """``(k, l)`` for a bandwidth ``ω_b`` (rad/s): sarras ``k = ω_b J_M`` (every observable mode at least
-    ``ω_b`` once r̂ ≈ b), ``l = 4 ω_b``; gradient ``k = ω_b² J_M`` (natural frequency at least ω_b),
+def default_gains(J: ArrayLike, method: Method, bandwidth_hz: float) -> tuple[float, float]:
+    """``(k, l)`` for a bandwidth ``ω_b = 2π bandwidth_hz`` (rad/s): sarras ``k = ω_b J_M`` (every observable mode
+    at least ``ω_b`` once r̂ ≈ b), ``l = 4 ω_b``; gradient ``k = ω_b² J_M`` (natural frequency at least ω_b),
     ``l = 2 ω_b`` (damping ratio 1 for the slowest axis)."""
     J = as_inertia(J)
-    wb = float(as_positive(bandwidth, "bandwidth")[0])
+    wb = 2 * math.pi * float(as_positive(bandwidth_hz, "bandwidth_hz")[0])
     J_M = float(np.linalg.eigvalsh(J)[-1])
     if method == "sarras":
         return wb * J_M, 4.0 * wb
@@ -170,7 +180,7 @@ def run_single_direction(
     b: ArrayLike,
     J: ArrayLike,
     *,
-    method: str = "sarras",
+    method: Method = "sarras",
     k: float,
     l: float,
     omega_hat0: ArrayLike | None = None,
@@ -186,8 +196,7 @@ def run_single_direction(
     default the first sample) broadcast to ``(B, 3)``; ``torques`` ``(T, 3)`` or ``(T, B, 3)``, held over each
     interval. The first sample must be valid unless ``state`` is given.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
+    one_of("method", method, Method)
     J = as_inertia(J)
     J_inv = _inv(J)
     k = float(as_positive(k, "k")[0])
@@ -256,7 +265,7 @@ def run_single_direction(
         if not math.isfinite(rate):
             n_sub = 1
         else:
-            n_sub = max(1, math.ceil(h * rate / _SUBSTEP_RATE))
+            n_sub = max(1, math.ceil(h * rate / SUBSTEP_RATE))
         dt = h / n_sub
         bb = b_cur
         for _ in range(n_sub):  # classical RK4 on (x1, x2, b)
@@ -285,9 +294,10 @@ def excitation(
 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The monitor of the module docstring over samples ``t (T,)``, ``b (T, 3)`` (NaN rows skipped).
 
-    Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector:
-    the unobservable axis when λ_min is small) and the state to continue from. ``G_k`` counts as established once
-    ``window_s`` has elapsed since the first valid sample (``state["since"]``, per sample).
+    Returns ``λ_min(G_k)`` ``(T,)`` (NaN before any valid sample), the weakest axis ``(T, 3)`` (its eigenvector,
+    the largest component positive: the unobservable axis when λ_min is small) and the state to continue from.
+    ``G_k`` counts as established once ``window_s`` has elapsed since the first valid sample (``state["since"]``,
+    per sample).
     """
     T_w = float(as_positive(window_s, "window_s")[0])
     t = np.asarray(t, dtype=float)
@@ -310,35 +320,42 @@ def excitation(
             t0 = float(t[j]) if t0 is None else t0
         if W > 0:
             vals, vecs = np.linalg.eigh(S / W)
-            lam[j], axis[j] = vals[0], vecs[:, 0]
+            v = vecs[:, 0]
+            lam[j], axis[j] = vals[0], v if v[np.argmax(np.abs(v))] >= 0 else -v
         since[j] = 0.0 if t0 is None else t[j] - t0
     state = {"S": S, "W": W, "t": t_last, "t0": t0, "since": since, "window_s": T_w}
     return lam, axis, state
 
 
-class SingleDirectionEstimator:
+class SingleDirectionEstimator(StreamingEstimator):
     """ω from one measured direction ``b = Rᵀ v``: the Sarras-type observer (default) or the gradient one.
 
-    ``J`` the inertia (as ``omegahat.RigidBody``; the identity means "a constant rate"), ``reference`` the inertial
-    direction ``v`` (only its being one direction matters to the observer; it is kept for the caller), ``method``
-    ``"sarras"`` or ``"gradient"``, gains ``k``, ``l`` or a ``bandwidth`` (rad/s, :func:`default_gains`; default
-    0.5), ``omega_hat0`` (default 0), ``r_hat0`` (default the first sample), ``window_s`` and ``threshold`` of the
-    excitation monitor, ``sign`` of the output map (−1: the paper's misprint, for tests only).
+    ``J`` the inertia (as ``omegahat.RigidBody``; the identity means "a constant rate"; the one positional
+    argument), and keyword-only: ``reference`` the inertial direction ``v`` (only its being one direction matters
+    to the observer; it is kept for the caller), ``method`` ``"sarras"`` or ``"gradient"``, gains ``k``, ``l`` or a
+    ``bandwidth_hz`` (Hz, :func:`default_gains`; default :data:`DEFAULT_BANDWIDTH_HZ`), ``omega_hat0`` (default 0;
+    given, it is the estimate at the first valid sample, else there is none there), ``r_hat0`` (default the first
+    sample), ``window_s`` and ``threshold`` of the excitation monitor, ``sign`` of the output map (−1: the paper's
+    misprint, for tests only).
 
-    :meth:`run` returns ω̂ ``(T, 3)`` (rad/s, body axes) and sets ``excitation`` (λ_min of the windowed Gramian per
-    sample), ``weak_axis`` and ``unobservable`` (bool per sample); it warns :class:`LostExcitationWarning` when
-    some samples are unobservable. Successive calls continue from the last state.
+    Samples ``(3,)`` (``run``: ``(T, 3)``; or ``(1, 3)`` and ``(T, 1, 3)``) go through the one input path
+    (:mod:`omegahat.measurements`: a zero direction, a time not after the previous one, a non-finite torque are
+    refused and change nothing; a NaN or inf makes the sample missing: predicted along the estimate, status
+    ``predicted``). :meth:`run` and :meth:`update`
+    set ``excitation`` (λ_min of the windowed Gramian per sample of the call), ``weak_axis`` and ``unobservable``
+    (bool per sample); ``run`` warns :class:`LostExcitationWarning` when some samples are unobservable. Successive
+    calls continue from the last state.
     """
 
     def __init__(
         self,
         J: ArrayLike,
-        reference: ArrayLike = (0.0, 0.0, 1.0),
         *,
-        method: str = "sarras",
+        reference: ArrayLike = (0.0, 0.0, 1.0),
+        method: Method = "sarras",
         k: float | None = None,
         l: float | None = None,
-        bandwidth: float = 0.5,
+        bandwidth_hz: float = DEFAULT_BANDWIDTH_HZ,
         omega_hat0: ArrayLike | None = None,
         r_hat0: ArrayLike | None = None,
         window_s: float = DEFAULT_WINDOW_S,
@@ -351,9 +368,9 @@ class SingleDirectionEstimator:
             raise ValueError("reference must be a non-zero vector")
         self.reference = v / np.linalg.norm(v)
         if (k is None) != (l is None):
-            raise ValueError("give both k and l, or neither (then bandwidth sets them)")
-        k0, l0 = default_gains(self.J, method, bandwidth)
-        self.method = method
+            raise ValueError("give both k and l, or neither (then bandwidth_hz sets them)")
+        k0, l0 = default_gains(self.J, method, bandwidth_hz)
+        self.method: Method = method
         self.k = k0 if k is None else float(as_positive(k, "k")[0])
         self.l = l0 if l is None else float(as_positive(l, "l")[0])
         self.omega_hat0 = None if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
@@ -361,49 +378,73 @@ class SingleDirectionEstimator:
         self.window_s = float(as_positive(window_s, "window_s")[0])
         self.threshold = float(as_positive(threshold, "threshold")[0])
         self.sign = float(sign)
-        self._state: dict | None = None
-        self._monitor: dict | None = None
+        self._params = step.pack_params(
+            self.J, gradient=method == "gradient", k=self.k, l=self.l, sign=self.sign, substep_rate=SUBSTEP_RATE,
+            window_s=self.window_s, threshold=self.threshold, omega_hat0=self.omega_hat0, r_hat0=self.r_hat0,
+        )  # fmt: skip
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every sample."""
+        self._state = step.initial_state()
+        self._t_last: float | None = None
+        self._n_valid = 0
+        self.n_skipped = 0
         self.excitation = np.empty(0)
         self.weak_axis = np.empty((0, 3))
         self.unobservable = np.empty(0, dtype=bool)
 
-    def run(self, t: ArrayLike, b: ArrayLike, torques: ArrayLike | None = None) -> np.ndarray:
-        """ω̂ at every sample of ``t (T,)``, ``b (T, 3)`` (NaN rows: missing, predicted through)."""
-        t = np.asarray(t, dtype=float)
-        b = np.asarray(b, dtype=float)
-        if b.ndim != 2 or b.shape != (t.size, 3):
-            raise ValueError(f"b must have shape (T, 3) with T = len(t) = {t.size}; got shape {b.shape}")
-        if self._state is None:
-            first = np.flatnonzero(np.all(np.isfinite(b), axis=1))
-            if first.size == 0:
-                raise ValueError("no valid direction sample (every row has a NaN)")
-            f = int(first[0])  # nothing to estimate from before the first valid sample
-            W = np.full((t.size, 3), np.nan)
-            W[f:], self._state = run_single_direction(
-                t[f:], b[f:], self.J, method=self.method, k=self.k, l=self.l, omega_hat0=self.omega_hat0,
-                r_hat0=self.r_hat0, torques=None if torques is None else np.asarray(torques, float)[f:],
-                sign=self.sign,
-            )  # fmt: skip
-        else:
-            W, self._state = run_single_direction(
-                t, b, self.J, method=self.method, k=self.k, l=self.l, torques=torques, sign=self.sign,
-                state=self._state,
-            )  # fmt: skip
-        self._fill_monitor(t, b)
-        return W
+    def _checks(self) -> dict:
+        return {"references": self.reference[None], "t_prev": self._t_last, "min_angle_deg": 0.0}
 
-    def _fill_monitor(self, t: np.ndarray, b: np.ndarray) -> None:
-        lam, axis, self._monitor = excitation(t, b, self.window_s, state=self._monitor)
-        established = self._monitor["since"] >= self.window_s
-        self.excitation, self.weak_axis = lam, axis
-        self.unobservable = established & (np.nan_to_num(lam, nan=0.0) < self.threshold)
+    def update(self, t: float, sample: ArrayLike, torque: ArrayLike | None = None) -> Estimate:
+        """The estimate at ``t`` from the direction ``sample (3,)`` (``torque`` known from ``t`` on)."""
+        b = ms.real_array(sample, "a sample")
+        b = b[0] if b.shape == (1, 3) else b
+        if b.shape != (3,):
+            raise ValueError(f"a one-direction sample must have shape (3,); got shape {b.shape}")
+        s = ms.checked_sample(t, b[None], torque, **self._checks())
+        omega, status = self._advance(np.array([s.t]), s.value[None, 0], s.torque[None])
+        return Estimate(omega[0], Status(status[0]))
+
+    def run(self, t: ArrayLike, data: ArrayLike, torque: ArrayLike | None = None) -> Estimate:
+        """The estimate at every sample of ``t (T,)``, ``data (T, 3)`` (NaN rows: missing, predicted through);
+        atomic (a refused sample raises naming it, and nothing changes)."""
+        times = ms.times_array(t)
+        b = ms.real_array(data, "measurements")
+        if b.shape == (times.size, 1, 3):  # one direction in the (T, n, 3) layout of the n-direction estimators
+            b = b[:, 0]
+        if b.shape != (times.size, 3):
+            raise ValueError(f"b must have shape (T, 3) with T = len(t) = {times.size}; got shape {b.shape}")
+        log = ms.checked_log(times, b[:, None, :], torque, **self._checks())
+        omega, status = self._advance(log.times, log.values[:, 0], log.torques)
         if self.unobservable.any():
             j = int(np.flatnonzero(self.unobservable)[0])
+            lam, axis = self.excitation[j], self.weak_axis[j]
             warnings.warn(
-                f"{int(self.unobservable.sum())} of {t.size} samples (from t = {t[j]:.6g} s) without excitation: the "
-                f"measured direction stayed within a cone of about {math.degrees(math.sqrt(max(lam[j], 0.0))):.2g} "
-                f"deg over the last {self.window_s:g} s, so the rate about the body axis "
-                f"{np.array2string(axis[j], precision=3)} is not observable (a spin about the measured direction)",
+                f"{int(self.unobservable.sum())} of {times.size} samples (from t = {times[j]:.6g} s) without "
+                f"excitation: the measured direction stayed within a cone of about "
+                f"{math.degrees(math.sqrt(max(lam, 0.0))):.2g} deg over the last {self.window_s:g} s, so the rate "
+                f"about the body axis {np.array2string(axis, precision=3)} is not observable (a spin about the "
+                "measured direction)",
                 LostExcitationWarning,
-                stacklevel=3,
+                stacklevel=2,
             )
+        return Estimate(omega, status)
+
+    def _advance(self, t: np.ndarray, b: np.ndarray, torques: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The checked samples (unit directions, NaN where missing) through the compiled observer and monitor
+        (:func:`omegahat.observer.single_direction_step.advance`: NaN before the first valid sample)."""
+        ok = np.all(np.isfinite(b), axis=1)
+        W, lam, axis, self.unobservable, self._state = step.advance(self._params, self._state, t, b, torques)
+        if t.size:
+            self._t_last = float(t[-1])
+        self.excitation, self.weak_axis = lam, axis
+        status = np.where(ok, Status.CORRECTED, Status.PREDICTED).astype(np.int8)
+        need = 1 if self.omega_hat0 is not None else 2  # one direction at one instant gives no rate
+        seen = self._n_valid + np.cumsum(ok)
+        status[seen < need] = Status.UNAVAILABLE
+        W[seen < need] = np.nan
+        self._n_valid = min(self._n_valid + int(ok.sum()), 2)
+        self.n_skipped += int((~ok).sum())
+        return W, status

@@ -68,17 +68,20 @@ def _geometry(references: ArrayLike | None) -> np.ndarray:
 
 
 def bandwidth_gains(
-    J: ArrayLike, bandwidth: float, references: ArrayLike | None = None, l_per_bandwidth: float = 10.0
+    J: ArrayLike, bandwidth_hz: float, references: ArrayLike | None = None, l_per_bandwidth: float = 10.0
 ) -> ObserverGains:
-    """The simple rule used by ``omegahat estimate --bandwidth`` and ``omegahat compare``.
+    """The simple rule ``omegahat compare`` tunes the fixed-gain observer with (``omegahat estimate --bandwidth``
+    and ``estimate_frame(bandwidth_hz=…)`` use :func:`sensor_gains`, through
+    :func:`omegahat.observer.autogain.gains_for_bandwidth`).
 
-    Equal ``k_i = b (tr J / 3) / μ₁`` with ``μ₁ = λ_min Σ (I − v_i v_iᵀ)`` (2 for the three rows of R, 1 for two
-    orthogonal rows) and ``l_i = l_per_bandwidth · b``: the continuous linearised error ``ż = −J⁻¹ M z`` then
-    decays at about ``b`` rad/s for a near-isotropic body. It ignores the sample rate; :func:`sensor_gains` is the
-    rate- and noise-aware design (slowest mode at least ``b``, using ``J_M``).
+    With ``b = 2π bandwidth_hz`` (rad/s): equal ``k_i = b (tr J / 3) / μ₁`` with ``μ₁ = λ_min Σ (I − v_i v_iᵀ)``
+    (2 for the three rows of R, 1 for two orthogonal rows) and ``l_i = l_per_bandwidth · b``: the continuous
+    linearised error ``ż = −J⁻¹ M z`` then decays at about ``b`` rad/s for a near-isotropic body. It ignores the
+    sample rate; :func:`sensor_gains` is the rate- and noise-aware design (slowest mode at least ``b``, using
+    ``J_M``).
     """
     J = as_inertia(J)
-    b = float(as_positive(bandwidth, "bandwidth")[0])
+    b = 2 * np.pi * float(as_positive(bandwidth_hz, "bandwidth_hz")[0])
     v = _geometry(references)
     mu1 = float(np.linalg.eigvalsh(np.eye(3) * v.shape[0] - v.T @ v)[0])
     k = b * np.trace(J) / 3.0 / mu1
@@ -89,7 +92,7 @@ def bandwidth_gains(
 def sensor_gains(
     J: ArrayLike,
     rate_hz: float,
-    noise_std_rad: float,
+    measurement_noise: float,
     bandwidth_hz: float | None = None,
     convergence_time: float | None = None,
     angular_accel: float | None = None,
@@ -100,14 +103,15 @@ def sensor_gains(
 
     Give exactly one of ``bandwidth_hz`` (Hz, below Nyquist ``rate_hz / 2``), ``convergence_time`` (s, the
     time constant of the slowest linearised mode) or ``angular_accel`` (rad/s², a typical |ω̇|: the bandwidth
-    then balances lag and noise). ``noise_std_rad`` is the attitude noise per axis (rad, white); ``references``
+    then balances lag and noise). ``measurement_noise`` is the attitude noise (rad, one standard deviation per
+    axis, white; for direction sensors, that of each direction component); ``references``
     the inertial directions (default the three rows of R). See :func:`predicted_noise_std` for the noise the
     result will give.
     """
     J = as_inertia(J)
     J_m, J_M = inertia_bounds(J)
     rate = float(as_positive(rate_hz, "rate_hz")[0])
-    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
+    sigma = float(as_positive(measurement_noise, "measurement_noise")[0])
     given = {
         name: v
         for name, v in (
@@ -152,11 +156,12 @@ def predicted_noise_std(
     J: ArrayLike,
     gains: ObserverGains,
     rate_hz: float,
-    noise_std_rad: float,
+    measurement_noise: float,
     references: ArrayLike | None = None,
     R: ArrayLike | None = None,
 ) -> np.ndarray:
-    """Predicted stationary std of each component of ``ω̂ − ω`` (rad/s, body axes) for white attitude noise.
+    """Predicted stationary std of each component of ``ω̂ − ω`` (rad/s, body axes) for white attitude noise of
+    ``measurement_noise`` rad per axis.
 
     Solves (L) of the module docstring exactly: the stationary covariance of ``x_k = (z_k, δ_k)`` with
     ``x⁺ = [[G, −B], [0, 0]] x + [B; I] δ_{k+1}`` from ``scipy.linalg.solve_discrete_lyapunov``. ``R`` is the
@@ -166,7 +171,7 @@ def predicted_noise_std(
     """
     J = as_inertia(J)
     h = 1.0 / float(as_positive(rate_hz, "rate_hz")[0])
-    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
+    sigma = float(as_positive(measurement_noise, "measurement_noise")[0])
     v = _geometry(references if references is not None else np.eye(3)[: gains.n])
     if v.shape[0] != gains.n:
         raise ValueError(f"{gains.n} gains were given for {v.shape[0]} reference directions")
@@ -182,12 +187,12 @@ def predicted_noise_std(
     return np.sqrt(np.diag(P)[:3])
 
 
-def isotropic_noise_std(rate_hz: float, noise_std_rad: float, bandwidth: float) -> float:
-    """Predicted stationary std per axis of ``ω̂ − ω`` (rad/s) for the isotropic correction (every error mode at
-    ``bandwidth`` rad/s, ``SarrasEstimator(isotropic_rate=…)``) and white attitude noise ``noise_std_rad`` per
-    axis at ``rate_hz``: (N) of the module docstring with ``a = h b``."""
+def isotropic_noise_std(rate_hz: float, measurement_noise: float, isotropic_rate: float) -> float:
+    """Predicted stationary std per axis of ``ω̂ − ω`` (rad/s) for the isotropic correction (every error mode
+    decaying at ``isotropic_rate`` b rad/s, ``SarrasEstimator(isotropic_rate=…)``) and white attitude noise
+    ``measurement_noise`` (rad per axis) at ``rate_hz``: (N) of the module docstring with ``a = h b``."""
     h = 1.0 / float(as_positive(rate_hz, "rate_hz")[0])
-    sigma = float(as_positive(noise_std_rad, "noise_std_rad")[0])
-    a = h * float(as_positive(bandwidth, "bandwidth")[0])
+    sigma = float(as_positive(measurement_noise, "measurement_noise")[0])
+    a = h * float(as_positive(isotropic_rate, "isotropic_rate")[0])
     g = 1.0 / (1.0 + a)
     return float(sigma * (a / h) / (1.0 + a) * np.sqrt(2.0 / (1.0 + g)))

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import so3
-from omegahat.interface import Estimator
+from omegahat.interface import Estimator, Status, StreamingEstimator
 from omegahat.lab.control.controller import AttitudePD, Reference, error_angle
 from omegahat.lab.evaluation.metrics import convergence_time, steady_rms
 from omegahat.measurements import sample_array
@@ -147,12 +147,16 @@ def _observer_of(estimator: Estimator) -> SarrasEstimator | None:
 
 
 class EstimatorFeed(RateFeed):
-    """Any :class:`omegahat.interface.Estimator` fed the measured attitudes; the torque reaches a model-based one
-    (the Sarras observer or the default estimator, built with ``torque_hold="zero"``) through :meth:`hold`."""
+    """Any streaming :class:`omegahat.interface.StreamingEstimator` fed the measured attitudes; the torque reaches a
+    model-based one (the Sarras observer or the default estimator, built with ``torque_hold="zero"``) through
+    :meth:`hold`."""
 
-    def __init__(self, estimator: Estimator, name: str = "estimator") -> None:
-        if not isinstance(estimator, Estimator):
-            raise TypeError(f"estimator must be an omegahat Estimator; got {type(estimator).__name__}")
+    def __init__(self, estimator: StreamingEstimator, name: str = "estimator") -> None:
+        if not isinstance(estimator, StreamingEstimator):
+            raise TypeError(
+                f"estimator must be an omegahat Estimator fed one sample at a time (a StreamingEstimator); got "
+                f"{type(estimator).__name__}"
+            )
         self.estimator = estimator
         self.name = name
         self._observer = _observer_of(estimator)
@@ -163,7 +167,12 @@ class EstimatorFeed(RateFeed):
         self.estimator.reset()
 
     def rate(self, t: float, R_meas: np.ndarray, omega_true: np.ndarray) -> np.ndarray:
-        return np.asarray(self.estimator.update(t, R_meas), dtype=float)
+        """The estimate at ``t``; before a model-based estimator has one (its first sample), its state's rate (its
+        initial ω̂₀) stands in, so that the controller acts from the first sample (NaN: no command)."""
+        omega, status = self.estimator.update(t, R_meas)
+        if status == Status.UNAVAILABLE and self._observer is not None:
+            return self.estimator.omega_hat  # type: ignore[attr-defined]  # Sarras or the default estimator
+        return np.asarray(omega, dtype=float)
 
     def hold(self, tau: np.ndarray) -> None:
         if self._observer is not None:
@@ -187,11 +196,11 @@ class WrongSignFeed(EstimatorFeed):
     def rate(self, t: float, R_meas: np.ndarray, omega_true: np.ndarray) -> np.ndarray:
         est = self._sarras
         if not est.state.initialised:  # the first sample: nothing to predict from yet
-            return est.update(t, R_meas)
+            return super().rate(t, R_meas, omega_true)
         x = est.state_vector
         m, kind = sample_array(np.full((3, 3), np.nan), None)  # a missing sample: the prediction alone
         predicted, _, _ = step(x, est.params, float(t), m, kind, x[_TORQUE])
-        corrected = est.update(t, R_meas)
+        corrected = super().rate(t, R_meas, omega_true)
         wrong = 2.0 * predicted[_OMEGA] - corrected
         x = est.state_vector
         x[_OMEGA] = wrong

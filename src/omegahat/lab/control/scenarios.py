@@ -117,11 +117,11 @@ def make_feed(name: str, scenario: ControlScenario) -> RateFeed:
         return GyroFeed()
     if name == "omegahat":
         est = SupervisedKalmanEstimator(
-            J, rate_hz=scenario.rate_hz, measurement_sigma=scenario.sigma, rate_noise=1e-6, torque_hold="zero"
+            J, rate_hz=scenario.rate_hz, measurement_noise=scenario.sigma, rate_noise=1e-6, torque_hold="zero"
         )
         return EstimatorFeed(est, name="omegahat")
     if name == "differencing":
-        return EstimatorFeed(DifferencingEstimator("backward"), name="differencing")
+        return EstimatorFeed(DifferencingEstimator(scheme="backward"), name="differencing")
     if name in ("observer", "wrong-sign"):
         obs = SarrasEstimator(
             J,

@@ -50,6 +50,7 @@ from omegahat.baselines.mekf import MEKF
 from omegahat.baselines.rts import RTSSmoother
 from omegahat.baselines.savgol import SavitzkyGolayEstimator
 from omegahat.baselines.spline import SplineEstimator
+from omegahat.interface import Status
 from omegahat.lab import scenarios as S
 from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
 from omegahat.observer.estimator import SarrasEstimator
@@ -102,7 +103,7 @@ def _jbar(sc):
 
 
 def _meas_sigma(sc):
-    return max(float(sc.attitude_sigma), 1e-6)  # a filter needs a positive measurement variance
+    return max(float(sc.measurement_noise), 1e-6)  # a filter needs a positive measurement variance
 
 
 def _supervised(warm_start):
@@ -112,7 +113,7 @@ def _supervised(warm_start):
         return SupervisedKalmanEstimator(
             sc.J_model,
             rate_hz=sc.rate_hz,
-            measurement_sigma=_meas_sigma(sc),
+            measurement_noise=_meas_sigma(sc),
             rate_noise=sigma_a,
             omega_hat0=None if warm_start else sc.omega_hat0,
             warm_start=warm_start,
@@ -125,7 +126,7 @@ def _unknown_torque(sc, sigma_d):
     # The default estimator with the unknown-acceleration state (K5): its knob is that state's random-walk noise;
     # the torque noise is then a floor (1e-6 rad/s^1.5), since the new state takes what the model lacks.
     return SupervisedKalmanEstimator(
-        sc.J_model, rate_hz=sc.rate_hz, measurement_sigma=_meas_sigma(sc), rate_noise=1e-6, disturbance_noise=sigma_d
+        sc.J_model, rate_hz=sc.rate_hz, measurement_noise=_meas_sigma(sc), rate_noise=1e-6, disturbance_noise=sigma_d
     )
 
 
@@ -133,7 +134,8 @@ def _sarras(warm_start):
     def make(sc, b_rel):
         # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
         # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
-        gains = bandwidth_gains(sc.J_model, b_rel * sc.rate_hz)  # three rows: k = b tr(J)/6, l = 10 b
+        b = b_rel * sc.rate_hz  # rad/s; three rows: k = b tr(J)/6, l = 10 b
+        gains = bandwidth_gains(sc.J_model, b / (2 * np.pi))
         return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0, warm_start=warm_start)
 
     return make
@@ -143,14 +145,19 @@ def _mekf(model):
     def make(sc, sigma_a):
         q = (_jbar(sc) * sigma_a) ** 2 if model == "dynamic" else sigma_a**2
         return MEKF(
-            sc.J_model, model, q=q, measurement_sigma=_meas_sigma(sc), omega0=sc.omega_hat0, sigma_omega0=sc.omega_max
+            sc.J_model,
+            model=model,
+            q=q,
+            measurement_noise=_meas_sigma(sc),
+            omega_hat0=sc.omega_hat0,
+            sigma_omega0=sc.omega_max,
         )
 
     return make
 
 
 def _mekf_rts(sc, sigma_a):
-    return RTSSmoother(lambda: _mekf("dynamic")(sc, sigma_a))
+    return RTSSmoother(filter_factory=lambda: _mekf("dynamic")(sc, sigma_a))
 
 
 _CUTOFFS = (None, 0.25, 0.1, 0.025, 0.01)  # × sample rate
@@ -196,14 +203,14 @@ METHODS = (
         True,
         "low-pass cut-off (x rate; none = raw)",
         _CUTOFFS,
-        lambda sc, c: DifferencingEstimator("backward", None if c is None else c * sc.rate_hz),
+        lambda sc, c: DifferencingEstimator(scheme="backward", cutoff_hz=None if c is None else c * sc.rate_hz),
     ),
     Method(
         "diff-central",
         False,
         "low-pass cut-off (x rate; none = raw)",
         _CUTOFFS,
-        lambda sc, c: DifferencingEstimator("central", None if c is None else c * sc.rate_hz),
+        lambda sc, c: DifferencingEstimator(scheme="central", cutoff_hz=None if c is None else c * sc.rate_hz),
     ),
     Method("spline", False, "none", (None,), lambda sc, _: SplineEstimator()),
     Method(
@@ -211,7 +218,7 @@ METHODS = (
         False,
         "Savitzky-Golay on SO(3): (window samples, polynomial order)",
         _SAVGOL,
-        lambda sc, wo: SavitzkyGolayEstimator(*wo),
+        lambda sc, wo: SavitzkyGolayEstimator(window=wo[0], order=wo[1]),
     ),
     Method(
         "mekf-dynamic", True, "rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)", _SIGMA_A, _mekf("dynamic"), True
@@ -230,7 +237,7 @@ METHODS = (
         True,
         "none: the mocap preset (J and tau unknown; model and gains from the sample rate)",
         (None,),
-        lambda sc, _: MocapPreset(sc.rate_hz),
+        lambda sc, _: MocapPreset(rate_hz=sc.rate_hz),
         True,
     ),
     Method(
@@ -238,7 +245,7 @@ METHODS = (
         False,
         "none: the mocap preset's zero-lag smoother (forward and backward passes averaged)",
         (None,),
-        lambda sc, _: MocapSmoother(sc.rate_hz),
+        lambda sc, _: MocapSmoother(rate_hz=sc.rate_hz),
         True,
     ),
 )
@@ -252,13 +259,13 @@ def _run_method(method, sc, value, run):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # skipped samples are expected on real data
         try:
-            w = est.run(run.t, run.R_meas, run.torque)
+            w, status = est.run(run.t, run.R_meas, run.torque)
         except (np.linalg.LinAlgError, FloatingPointError) as exc:  # e.g. an EKF whose state became NaN
-            w = np.full((run.t.size, 3), np.inf)
+            w, status = np.full((run.t.size, 3), np.inf), np.full(run.t.size, Status.CORRECTED)
             failure = f"{type(exc).__name__}: {exc}"
     cost = (time.perf_counter() - t0) / run.t.size
-    if method.always_estimates:
-        bad = ~np.all(np.isfinite(w), axis=1)
+    if method.always_estimates:  # a non-finite estimate where the method says it has one: diverged
+        bad = ~np.all(np.isfinite(w), axis=1) & (status != Status.UNAVAILABLE)
         if bad.any():
             w = np.where(bad[:, None], np.inf, w)
             failure = failure or f"non-finite estimate from t = {run.t[np.flatnonzero(bad)[0]]:g} s"

@@ -32,17 +32,25 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from omegahat.interface import Estimate, Status
+
 __all__ = ["convergence_time", "estimate_errors", "first_below", "steady_rms"]
 
 
-def estimate_errors(estimate: ArrayLike, truth: ArrayLike, *, always_estimates: bool = False) -> np.ndarray:
+def estimate_errors(estimate: ArrayLike | Estimate, truth: ArrayLike, *, always_estimates: bool = False) -> np.ndarray:
     """``e_k = |ω̂_k − ω_k|`` for ``(T, 3)`` arrays: NaN where a row of ``estimate`` holds a NaN (no estimate), inf
     where it holds an inf (diverged). For a method that ``always_estimates`` (a recursive filter) every
-    non-finite row is divergence: inf."""
+    non-finite row is divergence: inf, but where an :class:`omegahat.interface.Estimate`'s status says there is
+    no estimate yet (``unavailable``: NaN)."""
+    status = None
+    if isinstance(estimate, Estimate):
+        estimate, status = estimate
     estimate = np.asarray(estimate, dtype=float)
     err = np.linalg.norm(estimate - np.asarray(truth, dtype=float), axis=-1)
     if always_estimates:
         err = np.where(np.all(np.isfinite(estimate), axis=-1), err, np.inf)
+    if status is not None:
+        err[np.asarray(status) == Status.UNAVAILABLE] = np.nan
     return err
 
 

@@ -134,7 +134,7 @@ def draw_case(config: RobustnessConfig, index: int) -> Case:
 def _omegahat(config: RobustnessConfig, case: Case) -> Estimator:
     refs = TWO_DIRECTIONS if case.directions else None
     return SupervisedKalmanEstimator(
-        config.J, rate_hz=case.rate_hz, measurement_sigma=case.sigma,
+        config.J, rate_hz=case.rate_hz, measurement_noise=case.sigma,
         rate_noise=config.rate_noise, references=refs, omega_hat0=case.omega_hat0, r_hat0=case.r_hat0, warm_start=False,
     )  # fmt: skip
 
@@ -151,8 +151,9 @@ def _sarras(config: RobustnessConfig, case: Case) -> Estimator:
 
 def _mekf(config: RobustnessConfig, case: Case) -> Estimator:
     return MEKF(
-        config.J, "dynamic", q=(np.trace(config.J) / 3.0 * config.rate_noise) ** 2, measurement_sigma=case.sigma,
-        references=TWO_DIRECTIONS if case.directions else None, omega0=case.omega_hat0,
+        config.J, model="dynamic", q=(np.trace(config.J) / 3.0 * config.rate_noise) ** 2,
+        measurement_noise=case.sigma, references=TWO_DIRECTIONS if case.directions else None,
+        omega_hat0=case.omega_hat0,
         sigma_omega0=config.omega_max + config.omega_hat0_max,
     )  # fmt: skip
 

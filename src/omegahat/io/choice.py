@@ -1,0 +1,220 @@
+r"""The estimator of ``omegahat estimate`` for a stream of attitudes or of two directions and more, from its head.
+
+:func:`attitude_choice` is the picker the loop (:func:`omegahat.io.pipeline.estimate_stream`) calls for such a
+stream (a stream of one direction has its own, :func:`omegahat.io.single_direction.single_direction_choice`). From
+the head of the stream (its first :data:`omegahat.observer.autogain.HEAD_SAMPLES` rows, exactly: the same rows
+whatever the reader's chunk size, so that the same data get the same gains in every format) it:
+
+1. measures the sample rate, the attitude noise and the motion (:func:`omegahat.observer.autogain.measure_motion`),
+   and warns when the sample spacing is implausible for the time unit (:func:`time_unit_warning`);
+2. chooses the gains (:func:`omegahat.observer.autogain.select_gains`: automatic unless gains or a bandwidth are
+   given); with J and τ given, warns when Euler's equations fit the other rotation convention markedly better;
+3. starts: ``fit`` (a least-squares rate over the first window), ``warm`` (from the first two samples) or ``zero``;
+4. builds the estimator: the default one (the observer supervising a gyro-less EKF, its process noise chosen from
+   the log) when the inertia is given, or asked for; else the fixed-gain observer; or the ``mocap`` preset's
+   (causal, or its zero-lag smoother: a batch estimator).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from omegahat.interface import Estimator
+from omegahat.io.columns import LogFormatError
+from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
+from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
+from omegahat.observer import autogain
+from omegahat.observer.estimator import SarrasEstimator
+from omegahat.observer.gains import ObserverGains
+from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.observer.presets import (
+    MOCAP_SWITCH_HZ,
+    MOCAP_TUNED_NOISE,
+    MocapSmoother,
+    mocap_estimator,
+    mocap_model,
+)
+from omegahat.validation import as_directions, as_inertia
+
+__all__ = ["attitude_choice", "inertia", "references", "time_unit_warning"]
+
+
+def inertia(settings: EstimateSettings, spell: Spelling) -> np.ndarray:
+    """The settings' inertia (default identity: a locally constant rate), checked."""
+    if settings.inertia is None:
+        return np.eye(3)
+    return as_inertia(np.asarray(settings.inertia, dtype=float), name=spell("inertia", None))
+
+
+def references(settings: EstimateSettings, stream: LogStream, spell: Spelling) -> np.ndarray:
+    """The inertial directions of a direction stream (required, one per direction) or of the attitude's rows
+    (default the three rows of R)."""
+    refs = settings.references
+    if stream.kind == "directions":
+        n = stream.n_directions
+        if refs is None:
+            raise naming(
+                ValueError(
+                    f"{stream.source} holds {n} body-frame directions (b1..b{n}): give their inertial directions "
+                    f"with {spell('references', 'X,Y,Z;X,Y,Z')} (one per direction, quoted)"
+                ),
+                ("references", None),
+            )
+        if len(refs) != n:
+            raise ValueError(f"{stream.source} holds {n} directions but {spell('references', None)} gives {len(refs)}")
+    if refs is None:
+        return np.eye(3)
+    return as_directions(np.array(refs, dtype=float), name=spell("references", None))
+
+
+def time_unit_warning(h: float, t0: float, unit: str, spell: Spelling) -> str | None:
+    """A warning when samples ``h`` s apart (first time ``t0``) are implausible in ``unit`` (rates outside
+    0.5 Hz – 5 kHz, or times beyond 1e11), suggesting the unit that would make them plausible."""
+    rate = 1.0 / h
+    if abs(t0) > 1e11 or not (0.5 <= rate <= 5000.0):
+        scale = TIME_UNITS[unit]
+        better = [u for u, f in TIME_UNITS.items() if u != unit and 0.5 <= 1.0 / (h / scale * f) <= 5000.0]
+        tip = "".join(
+            f"; if the times are in {u}, pass {spell('time_unit', u)} ({scale / (h * TIME_UNITS[u]):.4g} Hz)"
+            for u in better[:1]
+        )
+        return f"warning: samples are {h:.4g} s apart ({rate:.4g} Hz) with {spell('time_unit', unit)}{tip}"
+    return None
+
+
+def _head_arrays(head: list[LogChunk], stream: LogStream):
+    """The first HEAD_SAMPLES rows of the head: times, data, torques (or None)."""
+    n = autogain.HEAD_SAMPLES
+    t = np.concatenate([c.t for c in head])[:n]
+    data = np.concatenate([c.data for c in head])[:n]
+    tau = np.concatenate([c.torque for c in head])[:n] if stream.has_torque else None
+    return t, data, tau
+
+
+def attitude_choice(
+    stream: LogStream,
+    settings: EstimateSettings,
+    head: list[LogChunk],
+    report: Callable[[str], None],
+    spell: Spelling,
+    head_done: int = 0,
+) -> Choice:
+    """The estimator for an attitude or multi-direction ``stream`` from its checked ``head`` (module docstring);
+    ``head_done``: the stream's progress (``stream.done``: bytes of a text file) when the head had been read, from
+    which the whole log's length is extrapolated when the stream does not know its rows in advance."""
+    J, refs = inertia(settings, spell), references(settings, stream, spell)
+    t_h, data_h, tau_h = _head_arrays(head, stream)
+    n_head = t_h.size
+    ok = np.all(np.isfinite(data_h.reshape(n_head, -1)), axis=1)
+    if ok.sum() < 3:
+        raise LogFormatError(
+            f"{stream.source}: only {int(ok.sum())} usable samples in the first {n_head}; at least 3 "
+            "are needed to estimate a rate"
+        )
+    tv, rot = autogain.log_rotations(t_h, data_h, stream.kind, refs)
+    motion = autogain.measure_motion(tv, rot, J, None if tau_h is None else tau_h[ok])
+    rows_read = sum(len(c) for c in head)
+    if rows_read < autogain.HEAD_SAMPLES or stream.n_rows_hint == rows_read:  # the head is the whole log
+        duration = float(head[-1].t[-1] - t_h[0])
+    else:  # the whole log's duration, extrapolated from the head by its rows (or, for text, its bytes)
+        total = stream.n_rows_hint or (stream.size / max(head_done, 1) * rows_read)
+        duration = float(t_h[-1] - t_h[0]) * total / n_head
+    options = stream.options
+    unit = options.time_unit if options is not None else "s"
+    warning = time_unit_warning(motion.h, float(stream.t0 + t_h[0]), unit, spell)
+    if warning:
+        report(warning)
+    bandwidth_option = spell("bandwidth_hz", None)
+    gains, text, omega_b = autogain.select_gains(
+        motion, duration, settings.start, refs, gains=settings.gains, bandwidth_hz=settings.bandwidth_hz,
+        flag=bandwidth_option,
+    )  # fmt: skip
+    if settings.preset is None:
+        report(text)
+    elif stream.has_torque:
+        raise ValueError(
+            f"{spell('preset', settings.preset)} is for bodies whose torque is unknown, but the log has torque "
+            f"columns; to use them, drop the preset and give {spell('inertia', None)}"
+        )
+    elif settings.smooth and stream.kind == "directions":
+        raise ValueError(f"{spell('smooth', True)} takes attitudes (quaternions or rotation matrices)")
+    rotation = options.rotation if options is not None else ROTATIONS[0]
+    if settings.inertia is not None and stream.has_torque and stream.kind != "directions":
+        given, other = autogain.convention_check(motion)
+        if other < 0.5 * given:
+            flip = ROTATIONS[1 - ROTATIONS.index(rotation)]
+            report(
+                f"warning: Euler's equations with this J and torque fit the data {given / other:.1f}x better with "
+                f"the attitude inverted (residual {other:.3g} against {given:.3g} N m): is the log {flip}? "
+                f"(pass {spell('rotation', flip)})"
+            )
+    omega0 = None
+    if settings.start == "fit":
+        window = autogain.fit_window(omega_b, motion.rate_hz)
+        omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
+    est, described = _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell)
+    return Choice(est, gains, text, _used(described, J, settings.start), spacing=motion.h)
+
+
+def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell) -> tuple[Estimator, Estimator]:
+    """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
+    default one (the observer supervising a gyro-less EKF, its process noise chosen from the log) when the model is
+    given, or asked for; else the fixed-gain observer with ``gains``; or the preset's."""
+    common = {
+        "references": refs,
+        "measurement": "directions" if stream.kind == "directions" else "attitude",
+        "warm_start": settings.start == "warm",
+        "omega_hat0": omega0,  # None (warm, zero): no estimate at the first valid sample
+        "rotation_tol": settings.rotation_tol,
+        "quat_norm_tol": settings.quat_norm_tol,
+    }
+    if settings.preset is not None:
+        how = "forward and backward passes averaged (zero lag)" if settings.smooth else "causal"
+        described = mocap_model(motion.rate_hz, motion.sigma).describe()
+        report(f"estimator: {spell('preset', settings.preset)} ({how}): {described}")
+        if motion.rate_hz >= MOCAP_SWITCH_HZ and motion.sigma > MOCAP_TUNED_NOISE:
+            report(
+                f"warning: the log's attitude noise ({motion.sigma:.2g} rad) is above that of the recordings the "
+                f"preset was tuned on (optical motion capture of a hand, up to {MOCAP_TUNED_NOISE:g} rad): on a "
+                "slow or smooth motion, omegahat without the preset (gains chosen from this log) may be more accurate"
+            )
+        causal = mocap_estimator(motion.rate_hz, motion.sigma, **common)
+        if not settings.smooth:
+            return causal, causal
+        tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
+        return MocapSmoother(rate_hz=motion.rate_hz, measurement_noise=motion.sigma, **tols), causal
+    choice = settings.estimator
+    if choice == "auto":
+        model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None
+        choice = "omegahat" if model else "sarras"
+    if choice == "sarras":
+        sarras = SarrasEstimator(J, gains=gains, **common)
+        return sarras, sarras
+    sigma_a, text = autogain.choose_rate_noise(motion)
+    report(
+        "estimator: omegahat (the observer supervising a gyro-less EKF, as the inertia is given); "
+        f"{text}; its observer runs at {motion.rate_hz:.4g} rad/s (the sample rate), not at the bandwidth above"
+    )
+    kalman = SupervisedKalmanEstimator(
+        J, rate_hz=motion.rate_hz, measurement_noise=max(motion.sigma, 1e-6), rate_noise=sigma_a, **common
+    )
+    return kalman, kalman
+
+
+def _used(est: Estimator, J: np.ndarray, start: str) -> Callable[[], str]:
+    """The closing line saying what ran (after the run: the restarts counted)."""
+
+    def line() -> str:
+        if isinstance(est, SupervisedKalmanEstimator):
+            return (
+                f"estimator used: omegahat (observer at {est.observer_rate:.4g} rad/s, EKF rate noise "
+                f"{est.rate_noise:.3g} rad/s^1.5, {est.restarts} restarts), J diag = {np.diag(J).tolist()}, "
+                f"start: {start}"
+            )
+        gains: ObserverGains = est.gains  # type: ignore[attr-defined]  # the fixed-gain observer
+        k_text, l_text = (np.array2string(a, precision=4) for a in (gains.k, gains.l_offset))
+        return f"gains used: k = {k_text}, l = {l_text}, J diag = {np.diag(J).tolist()}, start: {start}"
+
+    return line
