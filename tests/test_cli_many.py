@@ -210,7 +210,8 @@ def test_duplicate_times_are_counted_in_the_batch_summary(tmp_path, capsys):
     assert "--duplicate-times last: kept the last sample at each of 1 time(s) whose samples differ, dropped 1" in notes
 
 
-def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path):
+@pytest.mark.parametrize(("sig", "jobs"), [(signal.SIGINT, "2"), (signal.SIGTERM, "1")])
+def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path, sig, jobs):
     d = tmp_path / "in"
     for k in range(40):
         good_log(d / f"t{k:02d}.csv", k, n=3000)
@@ -229,14 +230,14 @@ def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path):
         str(out),
         *OPTS,
         "--jobs",
-        "2",
+        jobs,
     ]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 300
     while not (out.exists() and any(p.name.startswith("t") for p in out.iterdir())):
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
+    proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr and "stopping: the files running stop at their next chunk" in stderr

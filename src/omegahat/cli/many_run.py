@@ -247,6 +247,8 @@ def _here(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[list
                     break
         except KeyboardInterrupt:
             interrupted = True
+    if interrupted:
+        _stopping()
     done = {o.index for o in outcomes}
     outcomes += [Outcome(j.index, j.shown, j.name, "not run") for j in jobs if j.index not in done]
     return outcomes, interrupted, f"in {time.perf_counter() - t0:.1f} s in this process"
