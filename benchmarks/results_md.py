@@ -27,6 +27,17 @@ def write_section(title: str, body: str) -> None:
     RESULTS.write_text(text)
 
 
+def drop_section(title: str) -> None:
+    """Remove the section whose first line is ``title`` (a section a script no longer writes under that title)."""
+    if not RESULTS.exists():
+        return
+    text = RESULTS.read_text()
+    if title in text:
+        start = text.index(title)
+        nxt = text.find("\n## ", start + 1)
+        RESULTS.write_text(text[:start].rstrip("\n") + "\n" + (text[nxt:] if nxt >= 0 else ""))
+
+
 def machine_line() -> str:
     """``Machine: … Python …; date.`` — where and when a result was measured."""
     cpu = ""

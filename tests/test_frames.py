@@ -168,3 +168,56 @@ def test_errors_name_what_is_wrong():
     pdf = pl.DataFrame({"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
     with pytest.raises(LogFormatError, match=r"no time column 't'; give time='column'"):
         omegahat.estimate_frame(pdf)
+
+
+# ------------------------------------------------------------------------------ issue 23: what else users pass in
+
+
+def test_a_timezone_aware_index_counts_real_seconds_across_a_clock_change():
+    # 2024-03-31 in Paris: the clocks go from 02:00 to 03:00 local time in the middle of these 2 s. The samples are
+    # 10 ms apart in real time; as wall-clock times they would be an hour apart there.
+    t, _, q, _ = motion()
+    start = pd.Timestamp("2024-03-31 00:59:59", tz="UTC")
+    utc = start + pd.to_timedelta(np.round(t * 1e9).astype(np.int64), unit="ns")
+    naive = pd.DataFrame(q, columns=["qx", "qy", "qz", "qw"], index=pd.DatetimeIndex(utc.tz_localize(None)))
+    paris = naive.set_axis(pd.DatetimeIndex(utc).tz_convert("Europe/Paris"), axis=0)
+    assert paris.index[0].hour == 1 and paris.index[-1].hour == 3  # the clock change is inside
+    out = omegahat.estimate_frame(paris, **FIXED)
+    assert out.index.equals(paris.index)
+    np.testing.assert_allclose(out[W].to_numpy(), direct(t, q), rtol=0, atol=1e-12)
+    column = naive.reset_index(names="when")  # an aware time column too
+    column["when"] = paris.index
+    out = omegahat.estimate_frame(column, **FIXED, time="when")
+    np.testing.assert_allclose(out[W].to_numpy(), direct(t, q), rtol=0, atol=1e-12)
+
+
+def test_a_polars_lazyframe_is_collected():
+    t, _, q, _ = motion()
+    eager = pl.DataFrame({"t": t, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    out = omegahat.estimate_frame(eager.lazy().filter(pl.col("t") >= 0), **FIXED)
+    assert isinstance(out, pl.DataFrame) and out.columns == ["t", "wx", "wy", "wz", "status"]
+    np.testing.assert_allclose(out.select(W).to_numpy(), direct(t, q), rtol=0, atol=1e-13)
+
+
+def test_a_polars_timezone_aware_column():
+    t, _, q, _ = motion()
+    utc = (np.datetime64("2024-03-31T00:59:59") + np.round(t * 1e6).astype("timedelta64[us]")).astype("datetime64[us]")
+    df = pl.DataFrame({"when": utc, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    df = df.with_columns(pl.col("when").dt.replace_time_zone("UTC").dt.convert_time_zone("Europe/Paris"))
+    out = omegahat.estimate_frame(df, **FIXED, time="when")
+    np.testing.assert_allclose(out.select(W).to_numpy(), direct(t, q), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda df: df["qx"], r"takes a pandas or Polars DataFrame; got pandas.Series \(a single column: pass the"),
+        (lambda df: pl.from_pandas(df)["qx"], r"got polars.Series"),
+        (lambda df: df.to_numpy(), r"got numpy.ndarray"),
+    ],
+)  # fmt: skip
+def test_other_objects_are_refused_with_a_message(make, match):
+    t, _, q, _ = motion(20)
+    df = pd.DataFrame(q, columns=["qx", "qy", "qz", "qw"]).assign(t=t)
+    with pytest.raises(TypeError, match=match):
+        omegahat.estimate_frame(make(df), **FIXED)

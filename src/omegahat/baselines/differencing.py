@@ -244,8 +244,8 @@ class DifferencingEstimator(StreamingEstimator):
     def update(self, t: float, sample: Measurement, torque: ArrayLike | None = None) -> Estimate:
         """Take the attitude sampled at ``t``; return ω̂ (for ``t`` if backward, for the previous sample time
         if central), NaN (``unavailable``) until enough samples. A non-finite sample is skipped (the output held,
-        ``predicted``); ``torque`` is not used."""
-        sample_ = ms.checked_sample(t, sample, t_prev=self._t_last, **self._checks())  # raises: kept
+        ``predicted``); ``torque`` is checked like every estimator's but not used."""
+        sample_ = ms.checked_sample(t, sample, torque, t_prev=self._t_last, **self._checks())  # raises: kept
         t, R = sample_.t, sample_.value
         self._t_last = t
         if sample_.status != ms.OK:
@@ -282,7 +282,7 @@ class DifferencingEstimator(StreamingEstimator):
         low-pass, equal on the valid samples to feeding ``update`` (shifted by ``delay_samples``), leaving the
         streaming state as if the log had been fed through ``update``; after samples were fed, the ``update``
         loop itself (continuing from them), its rows moved back by ``delay_samples`` (the last ones then have no
-        estimate yet: ``unavailable``). ``torque`` is not used."""
+        estimate yet: ``unavailable``). ``torque`` is checked like every estimator's but not used."""
         if self._t_last is not None:
             fed = super().run(t, data, torque)
             d = self.delay_samples
@@ -292,7 +292,7 @@ class DifferencingEstimator(StreamingEstimator):
             status = np.full_like(fed.status, Status.UNAVAILABLE)
             omega[:-d], status[:-d] = fed.omega[d:], fed.status[d:]  # update's answer at sample k is for k - d
             return Estimate(omega, status)
-        log = ms.checked_log(t, data, **self._checks())
+        log = ms.checked_log(t, data, torque, **self._checks())
         times, R = log.times, log.values
         est, valid = _differences(times, R, self.scheme)
         if self.cutoff_hz is not None:

@@ -273,6 +273,11 @@ class FilterStep:
     P: np.ndarray
 
 
+def _finite(R: np.ndarray | None, x: np.ndarray, P: np.ndarray) -> bool:
+    """Whether the filter's state is finite (R̂ when there is one, the rate part x, P): the guard."""
+    return bool(np.all(np.isfinite(x)) and np.all(np.isfinite(P)) and (R is None or np.all(np.isfinite(R))))
+
+
 class MEKF(CompiledEstimator):
     """The gyro-less MEKF of the module docstring behind the estimator contract.
 
@@ -363,12 +368,16 @@ class MEKF(CompiledEstimator):
         self._configure_input(n_directions=n, rate_given=omega_hat0 is not None)
         self.reset()
 
+    def prior_covariance(self) -> np.ndarray:
+        """``P₀ = diag(σ_θ0² I, σ_ω0² I[, σ_a0² I])``: the start's, and a restart's (the guard)."""
+        prior = [self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3
+        return np.diag(prior if self.q_a is None else prior + [self.sigma_accel0**2] * 3)
+
     def _reset_state(self) -> None:
         self.R: np.ndarray | None = None if self.R0 is None else self.R0.copy()
         self.omega = self.omega_hat0.copy()
         self.accel = np.zeros(3)
-        prior = [self.sigma_theta0**2] * 3 + [self.sigma_omega0**2] * 3
-        self.P = np.diag(prior if self.q_a is None else prior + [self.sigma_accel0**2] * 3)
+        self.P = self.prior_covariance()
         self.t: float | None = None
         self._tau = np.zeros(3)
         self.last_step: FilterStep | None = None
@@ -398,7 +407,8 @@ class MEKF(CompiledEstimator):
                 tau if self.torque_hold == "linear" else None, self.q_a,
             )  # fmt: skip
         prior = (R, omega, P)
-        if code == ms.OK:  # else skipped: propagated through only
+        propagated = _finite(R, omega, P)  # the guard: no fix on a state that is not finite
+        if propagated and code == ms.OK:  # else skipped: propagated through only
             if R is None:  # the first fix initialises the attitude
                 R = value if self.references is None else initial_attitude(value, self.references)
             else:
@@ -408,6 +418,12 @@ class MEKF(CompiledEstimator):
                     z, H = vector_innovation(R, value, self.references)
                 R, omega, P = update(R, omega, P, z, H, self.measurement_noise**2)
         record = FilterStep(prior[0], prior[1], prior[2], Phi, R, omega, P)
+        if not (propagated and _finite(R, omega, P)):  # the guard (mekf_kernel's docstring): restart from the sample
+            R = None
+            if code == ms.OK:
+                R = value if self.references is None else initial_attitude(value, self.references)
+            omega = self.omega_hat0.copy() if self.q_a is None else np.concatenate([self.omega_hat0, np.zeros(3)])
+            return (R, omega, self.prior_covariance(), t, tau.copy(), record), _NO_RATE, ms.RESTARTED, 0.0
         return (R, omega, P, t, tau.copy(), record), omega[:3], int(code), float(info)
 
     def _run(
@@ -424,7 +440,7 @@ class MEKF(CompiledEstimator):
         state = np.array(
             [np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega, *self.accel]
         )
-        out, R, P, _ = kernel.run_log(
+        out, R, P, _, _ = kernel.run_log(
             times,
             np.ascontiguousarray(values),
             codes == ms.OK,
@@ -444,7 +460,10 @@ class MEKF(CompiledEstimator):
             np.zeros((3, 3)) if self.R is None else np.array(self.R, dtype=float, order="C"),
             np.ascontiguousarray(self.P, dtype=float),
             np.ascontiguousarray(self._tau, dtype=float),
+            np.ascontiguousarray(self.omega_hat0, dtype=float),
+            self.prior_covariance(),
         )
+        codes[~np.all(np.isfinite(out), axis=1)] = ms.RESTARTED  # the kernel writes NaN only where it restarted
         omega = state[3:6] if self.q_a is None else state[3:9]
         return (R if state[2] else None, omega.copy(), P, float(times[-1]), taus[-1].copy(), None), out, codes, -1, 0.0
 

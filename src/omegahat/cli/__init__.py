@@ -1,21 +1,45 @@
-"""The ``omegahat`` command: thin subcommands over the public API."""
+"""The ``omegahat`` command: thin subcommands over the public API.
+
+Every subcommand ends in one of three ways, never with a traceback for what a user gave it:
+
+* done: exit 0;
+* refused (a bad option, an input it cannot read, an output it cannot write, a request beyond a stated limit):
+  one line ``omegahat COMMAND: error: ...`` on standard error, exit 2; options are checked before any work;
+* interrupted by SIGINT (Ctrl-C) or SIGTERM: one line ``omegahat COMMAND: interrupted by SIGINT ...``, exit
+  ``128 + the signal's number`` (130 for SIGINT, 143 for SIGTERM, as a shell reports a process the signal
+  stopped). Outputs are whole or absent (:mod:`omegahat.io.output`): the temporary files are removed.
+"""
 
 from __future__ import annotations
 
 import argparse
 import importlib
 import math
+import signal
 import sys
-from collections.abc import Collection
+import threading
+from collections.abc import Callable, Collection
 
 # Subcommand name -> module in omegahat.cli.
 SUBCOMMANDS = {
     "paper": "omegahat.lab.cli.paper",
     "estimate": "omegahat.cli.estimate",
+    "calibrate": "omegahat.cli.calibrate",
     "compare": "omegahat.lab.cli.compare",
     "montecarlo": "omegahat.lab.cli.montecarlo",
     "control": "omegahat.lab.cli.control",
 }
+#: the signals that interrupt a command (one message, exit 128 + their number)
+INTERRUPTS = (signal.SIGINT, signal.SIGTERM)
+EPILOG = """\
+exit status: 0 done; 2 refused: an option, an input or an output it cannot take (one line on standard error,
+  before any work where the options are wrong or beyond a stated limit); 130 interrupted by SIGINT (Ctrl-C),
+  143 by SIGTERM.
+outputs are whole or absent: written under a temporary name beside them (.NAME.TOKEN.part) and renamed when
+  complete, so a failed or interrupted run leaves the previous output as it was; the temporary file of a killed
+  run (SIGKILL, power loss) is removed by the next run writing the same output. An output that is a symbolic
+  link is written through to the file it points to.
+"""
 
 
 def positive_float(text: str) -> float:
@@ -29,15 +53,50 @@ def positive_float(text: str) -> float:
     return value
 
 
-def positive_int(text: str) -> int:
-    """An argparse type: an integer ≥ 1."""
+def _integer(text: str) -> int:
+    """An integer written as one (``20``) or as an integral number (``1e6``)."""
     try:
-        value = int(text)
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not (math.isfinite(value) and value.is_integer()):
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
+    return int(value)
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer ≥ 1."""
+    value = _integer(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
     return value
+
+
+def natural_int(text: str) -> int:
+    """An argparse type: an integer ≥ 0 (a seed, a count that may be zero)."""
+    value = _integer(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def bounded_int(low: int, high: int, why: str) -> Callable[[str], int]:
+    """An argparse type: an integer from ``low`` to ``high``; ``why`` says, in the message, what the upper limit
+    protects (``"the results are held in memory"``)."""
+
+    def parse(text: str) -> int:
+        value = positive_int(text) if low == 1 else natural_int(text) if low == 0 else _integer(text)
+        if value < low:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {low}, got {text!r}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"{text} is more than omegahat takes here: at most {high:,} ({why})")
+        return value
+
+    return parse
 
 
 def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentParser:
@@ -48,6 +107,8 @@ def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentPa
     parser = argparse.ArgumentParser(
         prog="omegahat",
         description="Angular velocity of a rigid body from attitude measurements, without gyroscopes.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"omegahat {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -66,16 +127,53 @@ def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentPa
     return parser
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def interrupted_by(exc: BaseException) -> KeyboardInterrupt | None:
+    """The interrupt behind ``exc``: itself, or (an interrupt raised while a compiled function ran comes out as a
+    ``SystemError`` of Numba's dispatcher) the one it was raised from."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run ``omegahat COMMAND ...`` (module docstring); returns the exit status."""
+    previous = {}
+    if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread only
+        previous = {s: signal.signal(s, _interrupt) for s in INTERRUPTS}
     words = sys.argv[1:] if argv is None else argv
     first = next((w for w in words if not w.startswith("-")), None)
-    parser = build_parser([first] if first in SUBCOMMANDS else None)
-    args = parser.parse_args(argv)
+    command = first if first in SUBCOMMANDS else "COMMAND"
     try:
-        return int(args._run(args) or 0)
-    except (ValueError, OSError) as exc:
-        print(f"omegahat {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        parser = build_parser([first] if first in SUBCOMMANDS else None)
+        args = parser.parse_args(argv)
+        command = args.command
+        try:
+            return int(args._run(args) or 0)
+        except (ValueError, OSError) as exc:
+            print(f"omegahat {command}: error: {exc}", file=sys.stderr)
+            return 2
+        except MemoryError as exc:
+            print(f"omegahat {command}: error: out of memory ({exc or 'no details'})", file=sys.stderr)
+            return 2
+    except (KeyboardInterrupt, SystemError) as exc:
+        stop = interrupted_by(exc)
+        if stop is None:
+            raise
+        name = str(stop) if str(stop) in signal.Signals.__members__ else "SIGINT"
+        print(f"omegahat {command}: interrupted by {name} (outputs are whole or absent)", file=sys.stderr)
+        return 128 + int(signal.Signals[name])
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -16,7 +16,8 @@ quaternions: NPZ ``q`` arrays, default scalar last, or ``q0..q3``/``q1..q4`` col
 
 Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per sample (duplicates dropped by
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
-through) or ``unavailable`` (no estimate yet: ``nan``). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
+through), ``unavailable`` (no estimate yet: ``nan``) or ``restarted`` (``nan``: the step to that sample
+could not be taken and the estimator started again from it). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
 and renamed at the end: whole or absent. Several inputs, a directory or a glob: :mod:`omegahat.cli.many` runs
 :func:`estimate_file` on each (``-o`` a directory, a summary table).
@@ -34,9 +35,7 @@ two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
-import threading
 from collections.abc import Callable
 from pathlib import Path
 
@@ -45,12 +44,14 @@ from tqdm import tqdm
 
 from omegahat import measurements as ms
 from omegahat.cli import many
-from omegahat.io import OmegaWriter, ReadOptions, check_output, open_log, open_output
+from omegahat.io import ReadOptions, check_output, open_log, open_output
+from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
-from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC, TwistBagWriter
+from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
 from omegahat.io.timestamps import DUPLICATE_CHOICES
+from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
 HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
@@ -62,7 +63,7 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references); one direction
                               alone (a sun sensor) needs a tumbling body and --inertia (its own observer)
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
-        empty fields (or nan) are missing samples; other columns are ignored.
+        an attitude with an empty field, nan or inf is a missing sample; other columns are ignored.
         other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
@@ -70,11 +71,12 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         Equal times: the same attitude is one sample (dropped), different attitudes are an error
         (--duplicate-times first|last keeps one, counted and reported).
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
-        unavailable (no estimate yet: nan); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
+        unavailable (no estimate yet: nan) | restarted (nan: the step could not be taken, started
+        again from that sample); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
 many:   several inputs, a directory or a quoted glob: each log as alone, with the same options; -o OUTDIR gets
         one CSV per input (same name) and omegahat-summary.csv/.txt (file, format, rows, estimator, expected
-        error, status); exit 0: all written, 1: some failed (named in the summary), 130: interrupted
+        error, status); exit 0: all written, 1: some failed (named in the summary), 130/143: interrupted
 example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
          omegahat estimate "Take 01.csv" --body hand --preset mocap --smooth -o omega.csv
          omegahat estimate dirs.csv -o omega.csv "--references=0,0,9.81;-0.9,15.5,-41.3"
@@ -324,10 +326,6 @@ def _given_gains(args, stream) -> ObserverGains | None:
     return ObserverGains(k=_per_direction(args.k, n, "k"), l_offset=_per_direction(args.l, n, "l"))
 
 
-def _terminate(signum, frame):
-    raise KeyboardInterrupt("terminated")
-
-
 def run(args: argparse.Namespace) -> int:
     """One input (a file, or a ROS 2 bag directory): :func:`estimate_file`; several, a directory or a glob:
     :func:`omegahat.cli.many.run_many`, which runs :func:`estimate_file` on each."""
@@ -348,6 +346,7 @@ def estimate_file(
     """``omegahat estimate args.input -o args.output``: what was read and chosen, and the closing lines, go to
     ``report``; ``on_chunk(rows)`` after each chunk (a stop request may raise ``KeyboardInterrupt`` there: the
     output is then absent); ``announce``: the compilation notice (default standard error)."""
+    compiled = compiling.seconds()
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
     options = ReadOptions(
@@ -392,23 +391,16 @@ def estimate_file(
         if on_chunk is not None:
             on_chunk(rows)
 
-    def writer(s: LogStream) -> OmegaWriter | TwistBagWriter:
+    def writer(s: LogStream) -> AtomicOutput:
         return open_output(out, kind, s, frame_id=args.frame_id, topic=args.output_topic)
 
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
-    try:
-        with bar:
-            summary = estimate_stream(
-                stream, settings, writer, report=report, progress=progress, announce=announce, spell=cli_option
-            )
-            bar.n = bar.total
-            bar.refresh()
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-    compiled = f" (kernels compiled once in {summary.compile_s:.1f} s before)" if summary.compile_s > 0.5 else ""
-    report(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiled}")
+    with bar:
+        summary = estimate_stream(
+            stream, settings, writer, report=report, progress=progress, announce=announce, spell=cli_option
+        )
+        bar.n = bar.total
+        bar.refresh()
+    report(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiling.wait_note(compiled)}")
     for line in summary.lines:
         report(line)
     return stream, summary

@@ -29,9 +29,10 @@ Every output is written as by the one-file command: under a temporary name, rena
 **The summary**: a table printed at the end (file, format, rows, estimator, expected error, status with the
 one-line message of a failure) and written beside the outputs: :data:`SUMMARY_CSV` (one row per input, every
 note) and :data:`SUMMARY_TXT` (the table, the skipped files, and each file's full report). A file that fails
-does not stop the others; the exit code is 0 when every file was written (or kept), 1 when some failed, 130 when
-interrupted (Ctrl-C or SIGTERM: the files running finish or are abandoned whole, none is left half-written,
-the rest are not started, and the summary says which is which), 2 when there is nothing to run.
+does not stop the others; the exit code is 0 when every file was written (or kept), 1 when some failed, 2 when
+there is nothing to run, and that of an interrupted command (:mod:`omegahat.cli`: 130 for Ctrl-C, 143 for
+SIGTERM) when stopped: the files running finish or stop, none is left half-written, the rest are not started,
+and the summary, written all the same, says which is which.
 """
 
 from __future__ import annotations
@@ -285,7 +286,7 @@ def run_many(args: argparse.Namespace, one: OneFile) -> int:
     outdir.mkdir(parents=True, exist_ok=True)
     for j in todo:
         Path(j.output).parent.mkdir(parents=True, exist_ok=True)
-    outcomes, interrupted, where = run_jobs(todo, args, one)
+    outcomes, interrupt, where = run_jobs(todo, args, one)
     outcomes = sorted(kept + outcomes, key=lambda o: o.index)
     table = summary_table(outcomes)
     print(table)
@@ -293,8 +294,8 @@ def run_many(args: argparse.Namespace, one: OneFile) -> int:
     tally = ", ".join(f"{counts[s]} {s}" for s in STATUSES if counts[s])
     write_summary(outdir, outcomes, table, skipped, notes)
     print(f"{len(outcomes)} files ({tally}) {where}; summary: {outdir / SUMMARY_CSV}, {outdir / SUMMARY_TXT}")
-    if interrupted:
-        return 130
+    if interrupt is not None:
+        raise interrupt  # the command's own ending: one line, exit 130 (SIGINT) or 143 (SIGTERM)
     return 1 if counts.get("failed") else 0
 
 

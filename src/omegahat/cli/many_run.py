@@ -13,11 +13,13 @@ file never stops the others.
   one single-threaded process per core), as ``omegahat montecarlo --dask`` does. The workers read the inputs and
   write the outputs at the paths of this machine, so those must be on a file system they share.
 
-**Stopping.** Ctrl-C or SIGTERM in the command sets a stop flag that every file checks before it starts and
-after every chunk it writes: a file not started is not run (``not run``), one running stops at its next chunk
-(``interrupted``) or finishes (``ok``); either way its output is whole or absent, as the one-file command
-guarantees. The pool's processes ignore Ctrl-C themselves (it reaches the whole process group), so that the flag
-alone decides; the flag is a ``multiprocessing`` event for the pool and a ``distributed.Event`` on a cluster.
+**Stopping.** Ctrl-C or SIGTERM (the command's handlers raise ``KeyboardInterrupt``) sets a stop flag that every
+file checks before it starts and after every chunk it writes: a file not started is not run (``not run``), one
+running stops at its next chunk (``interrupted``) or finishes (``ok``); either way its output is whole or absent,
+as the one-file command guarantees. The pool's processes ignore both signals themselves (Ctrl-C reaches the whole
+process group), so that the flag alone decides; the flag is a ``multiprocessing`` event for the pool and a
+``distributed.Event`` on a cluster. In ``--jobs 1`` the signal interrupts the file running (its output absent).
+The interrupt is handed back (:func:`run_jobs`) to be raised once the summary is written.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ from typing import Any, Protocol
 
 from tqdm import tqdm
 
+from omegahat.cli import interrupted_by
 from omegahat.io.registry import LogStream
 
 __all__ = [
@@ -51,6 +54,7 @@ __all__ = [
     "Job",
     "OneFile",
     "Outcome",
+    "Stopped",
     "Summary",
     "cores",
     "dask_jobs",
@@ -62,6 +66,7 @@ __all__ = [
 STATUSES = ("ok", "failed", "kept", "interrupted", "not run")  #: an :class:`Outcome`'s status, in the tally's order
 SUMMARY_CSV = "omegahat-summary.csv"  #: the batch's table, one row per input, beside the outputs
 SUMMARY_TXT = "omegahat-summary.txt"  #: the table, the files skipped, and every file's report
+_ABSENT = "stopped while running; no output written"
 _EXPECTED = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s")
 
 
@@ -141,8 +146,10 @@ class _Stop:
 
 
 def _init_process(event: Any) -> None:
-    """In each pool process: Ctrl-C reaches it with the command, but only the flag stops its file (cleanly)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """In each pool process: Ctrl-C reaches it with the command (and SIGTERM may), but only the flag stops its
+    file (cleanly)."""
+    for s in (signal.SIGINT, signal.SIGTERM):  # the command's handlers, inherited by a forked process
+        signal.signal(s, signal.SIG_IGN)
     _Stop.process_event = event
 
 
@@ -158,8 +165,13 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
     return f"sarras, {model}"
 
 
+class Stopped(KeyboardInterrupt):
+    """A file stopped by the batch's stop flag (not by a signal to the process running it)."""
+
+
 def run_job(one: OneFile, args: argparse.Namespace, job: Job, stop: _Stop | None = None) -> Outcome:
-    """Run one file as ``omegahat estimate`` does (module docstring); never raises for the file's own errors."""
+    """Run one file as ``omegahat estimate`` does (module docstring). The file's own errors become its outcome;
+    an interrupt of the process running it (Ctrl-C in ``--jobs 1``) is raised, the file's output being absent."""
     stop = _Stop() if stop is None else stop
     out = Outcome(job.index, job.shown, job.name, "not run")
     if stop.is_set():
@@ -170,20 +182,24 @@ def run_job(one: OneFile, args: argparse.Namespace, job: Job, stop: _Stop | None
 
     def on_chunk(rows: int) -> None:
         if stop.is_set():
-            raise KeyboardInterrupt("stopped")
+            raise Stopped("stopped")
 
     t0 = time.perf_counter()
     try:
         stream, summary = one(mine, report=lines.append, on_chunk=on_chunk, announce=lines.append)
-    except KeyboardInterrupt:
-        out.status, out.message = "interrupted", "stopped while running; no output written"
     except (ValueError, OSError) as exc:  # the file's own error, as the one-file command prints it
         out.status, out.message = "failed", str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         lines.append(f"error: {exc}")
-    except Exception as exc:  # a bug: this file's row says so, the others go on
-        out.status = "failed"
-        out.message = f"internal error ({type(exc).__name__}: {exc}); please report it".splitlines()[0]
-        lines.append(f"error: {out.message}")
+    except BaseException as exc:
+        cause = interrupted_by(exc)  # an interrupt inside compiled code comes out wrapped in a SystemError
+        if isinstance(cause, Stopped):
+            out.status, out.message = "interrupted", _ABSENT
+        elif cause is not None or not isinstance(exc, Exception):
+            raise
+        else:  # a bug: this file's row says so, the others go on
+            out.status = "failed"
+            out.message = f"internal error ({type(exc).__name__}: {exc}); please report it".splitlines()[0]
+            lines.append(f"error: {out.message}")
     else:
         out.status, out.format, out.rows = "ok", stream.format, summary.rows
         out.estimator = _estimator(args, stream, summary)
@@ -196,30 +212,19 @@ def run_job(one: OneFile, args: argparse.Namespace, job: Job, stop: _Stop | None
     return out
 
 
-@contextmanager
-def _sigterm_as_ctrl_c() -> Iterator[None]:
-    """SIGTERM stops the batch as Ctrl-C does, while it runs (only the main thread can install a handler)."""
-
-    def term(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt("terminated")
-
-    previous = signal.signal(signal.SIGTERM, term) if threading.current_thread() is threading.main_thread() else None
-    try:
-        yield
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-
-
 def _bar(args: argparse.Namespace, total: int) -> tqdm:
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     return tqdm(total=total, unit="file", desc="estimating", disable=not show, file=sys.stderr)
 
 
-def run_jobs(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[list[Outcome], bool, str]:
-    """``(outcomes, interrupted, where it ran)`` of every job, in any order."""
+Ran = tuple[list[Outcome], KeyboardInterrupt | None, str]  #: outcomes, the interrupt that stopped the batch, where
+
+
+def run_jobs(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> Ran:
+    """``(outcomes, interrupt, where it ran)`` of every job, in any order; ``interrupt``: the SIGINT or SIGTERM
+    (a ``KeyboardInterrupt``) that stopped the batch, for the caller to raise once the summary is written."""
     if not jobs:
-        return [], False, "(nothing to run)"
+        return [], None, "(nothing to run)"
     if args.dask is not None:
         return _on_dask(jobs, args, one)
     n = min(args.jobs or cores(), len(jobs))
@@ -233,25 +238,27 @@ def cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
-def _here(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[list[Outcome], bool, str]:
+def _here(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> Ran:
     outcomes: list[Outcome] = []
-    interrupted = False
+    interrupt = None
+    current: Job | None = None
     t0 = time.perf_counter()
-    with _bar(args, len(jobs)) as bar, _sigterm_as_ctrl_c():
+    with _bar(args, len(jobs)) as bar:
         try:
             for job in jobs:
+                current = job
                 outcomes.append(run_job(one, args, job))
                 bar.update()
-                if outcomes[-1].status == "interrupted":
-                    interrupted = True
-                    break
-        except KeyboardInterrupt:
-            interrupted = True
-    if interrupted:
-        _stopping()
+        except BaseException as exc:
+            interrupt = interrupted_by(exc)
+            if interrupt is None:
+                raise
+            _stopping()
+            if current is not None and all(o.index != current.index for o in outcomes):
+                outcomes.append(Outcome(current.index, current.shown, current.name, "interrupted", _ABSENT))
     done = {o.index for o in outcomes}
     outcomes += [Outcome(j.index, j.shown, j.name, "not run") for j in jobs if j.index not in done]
-    return outcomes, interrupted, f"in {time.perf_counter() - t0:.1f} s in this process"
+    return outcomes, interrupt, f"in {time.perf_counter() - t0:.1f} s in this process"
 
 
 def _largest_first(jobs: list[Job]) -> list[Job]:
@@ -264,33 +271,44 @@ def _largest_first(jobs: list[Job]) -> list[Job]:
     return sorted(jobs, key=size, reverse=True)
 
 
-def _in_pool(jobs: list[Job], args: argparse.Namespace, one: OneFile, n: int) -> tuple[list[Outcome], bool, str]:
+def _in_pool(jobs: list[Job], args: argparse.Namespace, one: OneFile, n: int) -> Ran:
     ctx = multiprocessing.get_context(start_method())
     event = ctx.Event()
     outcomes: list[Outcome] = []
-    interrupted = False
+    interrupt = None
     t0 = time.perf_counter()
     sys.stdout.flush()  # a forked process would print again what is still buffered
     sys.stderr.flush()
     with ProcessPoolExecutor(n, mp_context=ctx, initializer=_init_process, initargs=(event,)) as pool:
         # submitting starts the processes (all at once, with fork): before any thread (the bar's) exists here
         futures = [pool.submit(run_job, one, args, job) for job in _largest_first(jobs)]
-        with _bar(args, len(jobs)) as bar, _sigterm_as_ctrl_c():
+        with _bar(args, len(jobs)) as bar:
             try:
                 for f in futures_completed(futures):
                     outcomes.append(f.result())
                     bar.update()
-            except KeyboardInterrupt:
-                interrupted = True
+            except KeyboardInterrupt as exc:
+                interrupt = exc
                 event.set()
-                _stopping()
-                previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C: the files are stopping
-                try:
+                with _deaf():
                     got = {o.index for o in outcomes}
                     outcomes += [o for o in (f.result() for f in futures) if o.index not in got]
-                finally:
-                    signal.signal(signal.SIGINT, previous)
-    return outcomes, interrupted, f"in {time.perf_counter() - t0:.1f} s on {n} processes"
+    return outcomes, interrupt, f"in {time.perf_counter() - t0:.1f} s on {n} processes"
+
+
+@contextmanager
+def _deaf() -> Iterator[None]:
+    """While the files stop: said once, and a second Ctrl-C (or SIGTERM) waits for them instead of abandoning them."""
+    _stopping()
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def start_method() -> str:
@@ -307,7 +325,7 @@ def _stopping() -> None:
     )
 
 
-def _on_dask(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[list[Outcome], bool, str]:
+def _on_dask(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> Ran:
     try:
         import distributed
     except ModuleNotFoundError as exc:  # pragma: no cover - exercised only without the extra
@@ -317,15 +335,17 @@ def _on_dask(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[l
     if args.dask == "local":
         with distributed.LocalCluster(threads_per_worker=1, dashboard_address=None) as cluster:
             with distributed.Client(cluster) as client:
-                outcomes, interrupted = dask_jobs(client, jobs, args, one)
+                outcomes, interrupt = dask_jobs(client, jobs, args, one)
     else:
         with distributed.Client(args.dask) as client:
-            outcomes, interrupted = dask_jobs(client, jobs, args, one)
-    return outcomes, interrupted, f"in {time.perf_counter() - t0:.1f} s on the Dask cluster {args.dask}"
+            outcomes, interrupt = dask_jobs(client, jobs, args, one)
+    return outcomes, interrupt, f"in {time.perf_counter() - t0:.1f} s on the Dask cluster {args.dask}"
 
 
-def dask_jobs(client: Any, jobs: list[Job], args: argparse.Namespace, one: OneFile) -> tuple[list[Outcome], bool]:
-    """Every job as a task on ``client``'s cluster: ``(outcomes, interrupted)``."""
+def dask_jobs(
+    client: Any, jobs: list[Job], args: argparse.Namespace, one: OneFile
+) -> tuple[list[Outcome], KeyboardInterrupt | None]:
+    """Every job as a task on ``client``'s cluster: ``(outcomes, the interrupt that stopped them or None)``."""
     import distributed
 
     name = f"omegahat-stop-{uuid.uuid4().hex}"
@@ -333,16 +353,16 @@ def dask_jobs(client: Any, jobs: list[Job], args: argparse.Namespace, one: OneFi
     stop = _Stop(name)
     futures = [client.submit(run_job, one, args, job, stop, pure=False) for job in _largest_first(jobs)]
     outcomes: list[Outcome] = []
-    interrupted = False
-    with _bar(args, len(jobs)) as bar, _sigterm_as_ctrl_c():
+    interrupt = None
+    with _bar(args, len(jobs)) as bar:
         try:
             for f in distributed.as_completed(futures):
                 outcomes.append(f.result())
                 bar.update()
-        except KeyboardInterrupt:
-            interrupted = True
+        except KeyboardInterrupt as exc:
+            interrupt = exc
             event.set()
-            _stopping()
-            got = {o.index for o in outcomes}
-            outcomes += [o for o in client.gather(futures) if o.index not in got]
-    return outcomes, interrupted
+            with _deaf():
+                got = {o.index for o in outcomes}
+                outcomes += [o for o in client.gather(futures) if o.index not in got]
+    return outcomes, interrupt

@@ -12,9 +12,11 @@
    policy (:mod:`omegahat.io.timestamps`);
    :func:`read_log` reads a whole stream into an :class:`AttitudeLog`.
 3. :func:`omegahat.io.pipeline.estimate_stream` runs a stream through the estimator with automatic gains and
-   writes the result through :func:`open_output` (:mod:`omegahat.io.output`: CSV with a status column, or
-   ``geometry_msgs/TwistStamped`` bags), whole or absent. ``omegahat estimate`` and :func:`estimate_frame` are
-   thin shells over it.
+   writes the result through :func:`open_output`: the output formats are registered here too, beside the input
+   formats, with :func:`register_writer` (:mod:`omegahat.io.writers`): CSV with a status column
+   (:mod:`omegahat.io.output`, which also says how every output is whole or absent) and
+   ``geometry_msgs/TwistStamped`` bags (:mod:`omegahat.io.rosbag`). ``omegahat estimate`` and
+   :func:`estimate_frame` are thin shells over it.
 """
 
 from omegahat.io.c3d import open_c3d
@@ -25,7 +27,7 @@ from omegahat.io.frames import estimate_frame, open_frame
 from omegahat.io.logs import AttitudeLog, read_csv, read_log, read_npz, write_omega_csv
 from omegahat.io.mocap import is_motive, is_vicon, open_motive_csv, open_vicon_csv
 from omegahat.io.npzlog import open_npz
-from omegahat.io.output import OmegaWriter, check_output, check_output_path, open_output, output_kind
+from omegahat.io.output import OmegaWriter, check_output_path
 from omegahat.io.qualisys import is_qtm_6d, open_qtm_6d
 from omegahat.io.registry import (
     COLUMN_OPTIONS,
@@ -39,9 +41,10 @@ from omegahat.io.registry import (
     open_log,
     register_format,
 )
-from omegahat.io.rosbag import is_ros2_bag, open_bag
+from omegahat.io.rosbag import is_ros2_bag, open_bag, open_twist_output
 from omegahat.io.timestamps import DUPLICATE_TOL
 from omegahat.io.trajectories import is_euroc, is_kitti, is_tum, open_euroc, open_kitti, open_tum
+from omegahat.io.writers import check_output, open_output, output_kind, register_writer
 
 _BAG = ("topic", "parent_frame", "child_frame", "stamp")
 # Sniffing formats before the plain one of their extension (registry.detect_format): the order below is the order
@@ -65,6 +68,30 @@ register_format(".bag", open_bag, name="rosbag1", title="a ROS 1 bag", options=_
 register_format(
     (DIRECTORY, ".db3", ".mcap"), open_bag, name="rosbag2", title="a ROS 2 bag", sniff=is_ros2_bag, options=_BAG
 )
+
+
+def _csv_writer(path, stream: LogStream) -> OmegaWriter:
+    return OmegaWriter(path, t0=stream.t0)  # times as the file states them
+
+
+# The order of the listing in messages: .csv, .bag (ROS 1) or a name without extension (ROS 2 bag directory). A bag
+# output copies the input messages' stamps and frames, and is never overwritten (a ROS 2 bag is a directory).
+register_writer(".csv", _csv_writer, name="csv", title=".csv", noun="CSV file")
+for _ending, _name, _title in (
+    (".bag", "rosbag1", ".bag (ROS 1)"),
+    ("", "rosbag2", "a name without extension (ROS 2 bag directory)"),
+):
+    register_writer(
+        _ending,
+        open_twist_output,
+        name=_name,
+        title=_title,
+        noun="bag",
+        inputs=("rosbag1", "rosbag2"),
+        settings=("frame_id", "topic"),
+        overwrite=False,
+        why_inputs="its stamps and frames",
+    )
 
 __all__ = [
     "DUPLICATE_TOL",
@@ -93,6 +120,7 @@ __all__ = [
     "read_log",
     "read_npz",
     "register_format",
+    "register_writer",
     "suggest_columns",
     "write_omega_csv",
 ]

@@ -5,7 +5,9 @@ case): a quaternion ``qx, qy, qz, qw`` (or the names given by ``quaternion=``, i
 rotation matrix ``r11 … r33``, or body-frame directions ``b1x, b1y, b1z, b2x, …`` with ``references=``;
 optionally the torque ``tau_x, tau_y, tau_z``. Time is the column ``t`` (seconds, or ``time_unit``) or the one
 named by ``time=``; for pandas, without such a column, a ``DatetimeIndex``, ``TimedeltaIndex`` or floating-point
-index. Datetime and duration times are used as integer nanoseconds, so that equal stamps compare exactly.
+index. Datetime and duration times are used as integer nanoseconds, so that equal stamps compare exactly; a
+timezone-aware time is the instant it names (a clock change is no gap). A Polars ``LazyFrame`` is collected first
+(the estimate needs every row; the result is a ``DataFrame``); anything else (a ``Series``, an array) is refused.
 
 :func:`open_frame` turns the frame into a :class:`~omegahat.io.registry.LogStream` (rows in time order, labelled by
 their position in the frame) and passes it through :func:`~omegahat.io.registry.checked_stream`, so a frame gets
@@ -14,7 +16,8 @@ any order are sorted; exact duplicates dropped; conflicting ones refused, naming
 :func:`estimate_frame`, the path of ``omegahat estimate`` (:func:`omegahat.io.pipeline.estimate_stream`):
 automatic gains by default, the fit start, bad samples named by row.
 
-Missing values (NaN, ``None``, ``pd.NA``, Polars nulls) in the attitude make the sample missing: skipped and
+Missing values (NaN, ``None``, ``pd.NA``, Polars nulls; also ±inf, as in every input) in the attitude make the
+sample missing: skipped and
 predicted through. The output is **indexed like the input**: for pandas a frame with the input's index and
 columns ``wx, wy, wz`` (rad/s, body axes) and ``status`` (``corrected``, ``predicted``, ``unavailable``, as in
 the command's output; join it to the input with ``df.join(out)``), for Polars a frame with the input's rows in the
@@ -48,11 +51,27 @@ if TYPE_CHECKING:
 __all__ = ["estimate_frame", "open_frame"]
 
 
-def _kind_of_frame(df) -> str:
+def _as_frame(df) -> tuple[pd.DataFrame | pl.DataFrame, str]:
+    """``(frame, "pandas" | "polars")``: a DataFrame as it is, a Polars LazyFrame collected; anything else (a
+    Series, an array) refused with a message."""
     module = type(df).__module__.split(".")[0]
-    if module in ("pandas", "polars"):
-        return module
-    raise TypeError(f"estimate_frame takes a pandas or Polars DataFrame; got {type(df).__module__}.{type(df).__name__}")
+    if module == "pandas":
+        import pandas as pd
+
+        if isinstance(df, pd.DataFrame):
+            return df, "pandas"
+    elif module == "polars":
+        import polars as pl
+
+        if isinstance(df, pl.LazyFrame):
+            return df.collect(), "polars"
+        if isinstance(df, pl.DataFrame):
+            return df, "polars"
+    raise TypeError(
+        f"estimate_frame takes a pandas or Polars DataFrame; got {module}.{type(df).__name__}"
+        + (" (a single column: pass the whole frame)" if type(df).__name__ == "Series" else "")
+        + " (a Polars LazyFrame is collected first)"
+    )
 
 
 def _pandas_times(df, time: str | None):
@@ -64,11 +83,11 @@ def _pandas_times(df, time: str | None):
             raise LogFormatError(f"DataFrame: no time column {name!r} (found: {', '.join(map(str, df.columns))})")
         s = df[name]
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
-            return _nanoseconds(s.to_numpy(), name), name
-        return s.to_numpy(dtype=float, na_value=np.nan), name
+            return _nanoseconds(s, name), name
+        return _numbers(df, [name], "pandas")[:, 0], name
     idx = df.index
     if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
-        return _nanoseconds(idx.to_numpy(), "index"), None
+        return _nanoseconds(idx, "index"), None
     if pd.api.types.is_float_dtype(idx):
         return idx.to_numpy(dtype=float), None
     raise LogFormatError(
@@ -77,11 +96,23 @@ def _pandas_times(df, time: str | None):
     )
 
 
-def _nanoseconds(values: np.ndarray, name: str) -> np.ndarray:
-    if np.isnat(values).any():
-        k = int(np.flatnonzero(np.isnat(values))[0])
+def _nanoseconds(values, name: str) -> np.ndarray:
+    """Integer nanoseconds of pandas datetimes (since 1970, UTC: a timezone-aware time is the instant it names,
+    so that a clock change is no gap) or durations."""
+    import pandas as pd
+
+    timedelta = pd.api.types.is_timedelta64_dtype(values)
+    idx = pd.TimedeltaIndex(values) if timedelta else pd.DatetimeIndex(values)
+    missing = np.asarray(idx.isna())
+    if missing.any():
+        k = int(np.flatnonzero(missing)[0])
         raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
-    return values.astype("datetime64[ns]" if values.dtype.kind == "M" else "timedelta64[ns]").astype(np.int64)
+    if not timedelta and idx.tz is not None:
+        idx = idx.tz_convert("UTC").tz_localize(None)
+    try:
+        return np.array(idx.as_unit("ns").asi8, dtype=np.int64)
+    except (OverflowError, pd.errors.OutOfBoundsDatetime, pd.errors.OutOfBoundsTimedelta) as exc:
+        raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold ({exc})") from None
 
 
 def _polars_times(df, time: str | None):
@@ -99,19 +130,42 @@ def _polars_times(df, time: str | None):
             scale = {"ns": 1, "us": 1_000, "ms": 1_000_000}[s.dtype.time_unit]
             return s.to_physical().to_numpy().astype(np.int64) * scale, name
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
-    return s.cast(pl.Float64).to_numpy(), name
+    return _numbers(df, [name], "polars")[:, 0], name
 
 
 def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
+    """The columns ``cols`` as floats ``(rows, len(cols))`` (missing values: NaN); a value that is not a number
+    (text, a complex number) is an error naming its row and column."""
     if frame_kind == "pandas":
-        return df[cols].to_numpy(dtype=float, na_value=np.nan)
+        try:
+            return df[cols].to_numpy(dtype=float, na_value=np.nan)
+        except (ValueError, TypeError) as exc:
+            raise _not_a_number(df, cols, frame_kind, exc) from None
     import polars as pl
 
-    return df.select([pl.col(c).cast(pl.Float64) for c in cols]).to_numpy().astype(float)
+    out = df.select([pl.col(c).cast(pl.Float64, strict=False) for c in cols])
+    lost = [c for c in cols if out.get_column(c).null_count() > df.get_column(c).null_count()]
+    if lost:
+        raise _not_a_number(df, lost, frame_kind, None)
+    return out.to_numpy().astype(float)
+
+
+def _not_a_number(df, cols: list[str], frame_kind: str, exc: Exception | None) -> LogFormatError:
+    """The error for the first value of ``cols`` that is not a real number."""
+    for c in cols:
+        values = df[c].to_list() if frame_kind == "polars" else df[c].tolist()
+        for k, v in enumerate(values):
+            if v is None or isinstance(v, bool | int | float | np.integer | np.floating):
+                continue
+            try:
+                float(v)
+            except (ValueError, TypeError):
+                return LogFormatError(f"DataFrame, row {k}, column {c}: {v!r} is not a number")
+    return LogFormatError(f"DataFrame, column(s) {', '.join(map(str, cols))}: not numbers ({exc})")
 
 
 def open_frame(
-    df: pd.DataFrame | pl.DataFrame,
+    df: pd.DataFrame | pl.DataFrame | pl.LazyFrame,
     options: ReadOptions | None = None,
     *,
     time: str | None = None,
@@ -120,7 +174,7 @@ def open_frame(
     """A checked stream of a pandas or Polars frame's rows in time order (module docstring); ``meta`` holds the
     frame's kind, the time column used (None: the index) and each row's time (``"row_t"``, seconds since ``t0``)."""
     options = ReadOptions() if options is None else options
-    frame_kind = _kind_of_frame(df)
+    df, frame_kind = _as_frame(df)
     names = frame_names(list(df.columns), options.header_rows)
     if frame_kind == "pandas" and [str(c) for c in df.columns] != names:
         df = df.set_axis(names, axis=1)  # type: ignore[union-attr]  # a MultiIndex's levels joined (header_rows)
@@ -225,7 +279,7 @@ class _Collector:
 
 
 def estimate_frame(
-    df: pd.DataFrame | pl.DataFrame,
+    df: pd.DataFrame | pl.DataFrame | pl.LazyFrame,
     *,
     gains: ObserverGains | None = None,
     bandwidth_hz: float | None = None,
@@ -267,6 +321,7 @@ def estimate_frame(
     from omegahat.io.pipeline import estimate_stream
     from omegahat.io.settings import EstimateSettings
 
+    df, _ = _as_frame(df)
     options = ReadOptions(
         time_unit=time_unit,
         rotation=rotation,

@@ -11,14 +11,23 @@ the string ``"False"`` or the number 0 are refused rather than guessed); the ``s
 assumed.
 A file entry and an option that disagree are an error.
 
-NPZ files are read whole (``numpy.load`` of each array) and handed on in chunks
-(:meth:`~omegahat.io.registry.LogStream.from_arrays`).
+NPZ files are read whole and handed on in chunks (:meth:`~omegahat.io.registry.LogStream.from_arrays`), so what
+they may hold is checked before anything is read: every array must be a NumPy ``.npy`` array (never unpickled)
+of real numbers or booleans, its shape (from its header) the one expected, its header consistent with the bytes
+the archive holds for it, and the arrays read must not exceed :data:`MAX_NPZ_BYTES` in memory. An archive whose
+headers claim more (a "zip bomb" that expands a megabyte into gigabytes) is refused with a message stating the
+limit, before a byte of it is decompressed; so are members compressed otherwise than numpy writes them (stored or
+deflated: Python's ``zipfile`` bounds the output of neither bzip2 nor LZMA). Members that are not arrays omegahat
+reads are ignored, like other columns of a CSV; a damaged archive (a bad CRC, a truncated member) is an error
+naming the array.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import zipfile
+from typing import IO
 
 import numpy as np
 
@@ -26,13 +35,152 @@ from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUM
 from omegahat.io.columns import LogFormatError as _Err
 from omegahat.io.registry import LogStream, ReadOptions
 
-__all__ = ["open_npz"]
+__all__ = ["MAX_NPZ_BYTES", "open_npz"]
+
+#: bytes of arrays read from one NPZ log at most (it is read whole): 1 GiB, 16 M samples of t, q and tau
+MAX_NPZ_BYTES = 1 << 30
+_NPY_MAGIC = b"\x93NUMPY"
+#: what reading a damaged or unusual archive raises (a bad CRC, a truncated or encrypted member, a method zipfile
+#: does not implement, a damaged compressed stream)
+_ARCHIVE_ERRORS = (OSError, EOFError, ValueError, zipfile.BadZipFile, RuntimeError, NotImplementedError)
 
 
-def _scalar_first(z, path: str, option: bool | None) -> tuple[bool, str]:
+_METHODS = {zipfile.ZIP_BZIP2: "bzip2", zipfile.ZIP_LZMA: "LZMA"}
+
+
+def _size(n: float) -> str:
+    """``32 MB``, ``3.2 kB``: a byte count for a message."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{int(n)} bytes"
+
+
+class _Archive:
+    """The arrays of an NPZ archive by name (``t`` for the member ``t.npy``), checked from their headers before
+    they are read (module docstring)."""
+
+    def __init__(self, zf: zipfile.ZipFile, path: str):
+        self.zf, self.path, self.read_bytes = zf, path, 0
+        self.members: dict[str, zipfile.ZipInfo] = {}
+        for info in zf.infolist():
+            name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+            self.members.setdefault(name, info)
+        self.headers: dict[str, tuple[tuple[int, ...], bool, np.dtype, int]] = {}
+
+    @property
+    def files(self) -> list[str]:
+        return list(self.members)
+
+    def _fail(self, name: str, why: str) -> _Err:
+        return _Err(f"{self.path}, array {name}: {why}")
+
+    def header(self, name: str) -> tuple[tuple[int, ...], bool, np.dtype, int]:
+        """``(shape, fortran_order, dtype, offset of the data)`` from the array's header."""
+        if name in self.headers:
+            return self.headers[name]
+        info = self.members[name]
+        if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+            # zipfile decompresses bzip2 and LZMA members without a bound on the output of one read, so that even a
+            # header could expand to gigabytes; numpy.savez and savez_compressed never write them
+            raise self._fail(
+                name,
+                f"compressed with method {info.compress_type} ({_METHODS.get(info.compress_type, 'unknown')}), which "
+                "numpy never writes; omegahat reads the members numpy.savez (stored) and numpy.savez_compressed "
+                "(deflate) write",
+            )
+        try:
+            with self.zf.open(info) as f:
+                start = f.read(len(_NPY_MAGIC))
+                if start != _NPY_MAGIC:
+                    shown = start + f.read(8 - len(start))
+                    raise self._fail(name, f"not a NumPy .npy array (it starts with {shown!r})")
+                f.seek(0)
+                version = np.lib.format.read_magic(f)
+                if version == (1, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_1_0(f)
+                elif version == (2, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_2_0(f)
+                else:
+                    raise self._fail(
+                        name,
+                        f"a .npy array of format version {version[0]}.{version[1]}, which "
+                        "omegahat does not read (save it with numpy.savez, without field names)",
+                    )
+                offset = f.tell()
+        except _Err:
+            raise
+        except _ARCHIVE_ERRORS as exc:
+            raise self._fail(name, f"cannot be read ({exc})") from None
+        self.headers[name] = (tuple(shape), bool(fortran), dtype, offset)
+        return self.headers[name]
+
+    def get(self, name: str, want: str, shape_ok) -> np.ndarray:
+        """The array ``name`` as floats, its dtype, ``shape_ok(shape)`` (``want`` says what is expected), size and
+        the memory limit checked from its header before it is read."""
+        shape, _, dtype, offset = self.header(name)
+        if dtype.kind == "c":
+            raise self._fail(name, f"expected real numbers, got dtype {dtype}")
+        if dtype.hasobject or dtype.fields is not None or not (np.issubdtype(dtype, np.number) or dtype == np.bool_):
+            raise self._fail(name, f"expected numbers, got dtype {dtype}")
+        if not shape_ok(shape):
+            raise self._fail(name, f"expected shape {want}, got {shape}")
+        count = math.prod(shape)
+        nbytes = count * dtype.itemsize
+        held = self.members[name].file_size - offset
+        if nbytes != held:
+            raise self._fail(
+                name,
+                f"damaged: its header says shape {shape} of {dtype} ({nbytes} bytes) but the archive holds "
+                f"{held} bytes for it",
+            )
+        if self.read_bytes + nbytes > MAX_NPZ_BYTES:
+            raise self._fail(
+                name,
+                f"{_size(nbytes)} (shape {shape} of {dtype}) with the arrays before it would be "
+                f"{_size(self.read_bytes + nbytes)} in memory; omegahat reads at most {_size(MAX_NPZ_BYTES)} of "
+                "arrays from an NPZ log (it is read whole): split the log, or write it as CSV (read in chunks)",
+            )
+        out = self._read(name)
+        self.read_bytes += nbytes
+        return np.asarray(out, dtype=float)
+
+    def small(self, name: str, limit: int = 64) -> np.ndarray:
+        """A small array of any dtype but objects as it is stored (a flag such as ``scalar_first``); a larger one
+        as an empty array of its dtype (its values are not needed to refuse it)."""
+        shape, _, dtype, _ = self.header(name)
+        if dtype.hasobject or math.prod(shape) > limit:
+            return np.empty(0, dtype=object if dtype.hasobject else dtype)
+        return self._read(name)
+
+    def _read(self, name: str) -> np.ndarray:
+        shape, fortran, dtype, offset = self.header(name)
+        out = np.empty(math.prod(shape), dtype=dtype)
+        try:
+            with self.zf.open(self.members[name]) as f:
+                f.seek(offset)
+                if out.nbytes:
+                    _read_into(f, out.view(np.uint8))
+                f.read(1)  # at the end: zipfile checks the member's CRC
+        except _ARCHIVE_ERRORS as exc:
+            raise self._fail(name, f"cannot be read ({exc})") from None
+        return out.reshape(shape, order="F" if fortran else "C")
+
+
+def _read_into(f: IO[bytes], buffer: np.ndarray) -> None:
+    """Fill ``buffer`` (bytes) from ``f``; a member that ends early is damaged."""
+    done = 0
+    while done < buffer.size:
+        n = f.readinto(buffer[done:])  # type: ignore[attr-defined]
+        if not n:
+            raise EOFError(f"the member ends after {done} of {buffer.size} bytes")
+        done += n
+
+
+def _scalar_first(z: _Archive, path: str, option: bool | None) -> tuple[bool, str]:
     """``(scalar_first, note)`` for a ``q`` array (module docstring)."""
     if "scalar_first" in z.files:
-        a = z["scalar_first"]
+        a = z.small("scalar_first")
         if a.dtype != np.bool_ or a.shape != ():
             shown = a.item() if a.size == 1 else a
             raise _Err(
@@ -57,26 +205,18 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open an NPZ log (module docstring)."""
     path = os.fspath(path)
     try:
-        z = np.load(path, allow_pickle=False)
-        if not hasattr(z, "files"):
-            raise ValueError("it holds a single array, not named arrays")
+        with open(path, "rb") as f:
+            start = f.read(len(_NPY_MAGIC))
+        if start == _NPY_MAGIC:
+            raise ValueError("it holds a single array (numpy.save), not named arrays (numpy.savez)")
+        zf = zipfile.ZipFile(path)
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise _Err(f"{path}: not a readable .npz file ({exc})") from None
     notes = []
-    with z:
-        names = list(z.files)
-
-        def get(name, want: str, shape_ok):
-            try:
-                a = z[name]
-            except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
-                raise _Err(f"{path}, array {name}: cannot be read ({exc})") from None
-            if not (np.issubdtype(a.dtype, np.number) or a.dtype == np.bool_):
-                raise _Err(f"{path}, array {name}: expected numbers, got dtype {a.dtype}")
-            a = np.asarray(a, dtype=float)
-            if not shape_ok(a.shape):
-                raise _Err(f"{path}, array {name}: expected shape {want}, got {a.shape}")
-            return a
+    with zf:
+        z = _Archive(zf, path)
+        names = z.files
+        get = z.get
 
         if "t" not in names:
             raise _Err(f"{path}: no array 't' (found: {', '.join(names) or 'none'})")

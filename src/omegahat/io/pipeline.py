@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import re
 import sys
-import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -40,12 +39,13 @@ from typing import Protocol
 import numpy as np
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimate
+from omegahat.interface import Estimate, Status
 from omegahat.io.choice import attitude_choice, references
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import LogChunk, LogStream, prefetch
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
 from omegahat.io.single_direction import single_direction_choice
+from omegahat.kernels import compiling
 from omegahat.observer import autogain
 from omegahat.observer.compiled import SkippedSamplesWarning
 from omegahat.observer.estimator import SarrasEstimator
@@ -123,35 +123,28 @@ class BadSamples:
             self.first.append((label, self._why(int(st[j]), float(info[j]), f"{stream.label} {label}")))
 
 
-def _check_head(head: list[LogChunk], stream: LogStream, refs: np.ndarray, bad: BadSamples, announce) -> float:
+def _check_head(head: list[LogChunk], stream: LogStream, refs: np.ndarray, bad: BadSamples) -> None:
     """Validate the head with the estimator's own compiled checks (a throwaway estimator: this also compiles, or
-    loads from the cache, the kernels the run needs, and says so if it takes long); only if it rejects a sample
-    are the samples checked one by one (:class:`BadSamples`). Returns the seconds it took."""
-    timer = threading.Timer(0.5, lambda: announce("compiling kernels, once (later runs load them from the cache) ..."))
-    t0 = time.perf_counter()
-    timer.start()
+    loads from the cache, the kernels the run needs); only if it rejects a sample are the samples checked one by one
+    (:class:`BadSamples`)."""
     settings = bad.settings
-    try:
-        probe = SarrasEstimator(
-            np.eye(3),
-            gains=ObserverGains.constant(1.0, 1.0, n=refs.shape[0]),
-            references=refs,
-            measurement="directions" if stream.kind == "directions" else "attitude",
-            warm_start=False,
-            rotation_tol=settings.rotation_tol,
-            quat_norm_tol=settings.quat_norm_tol,
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SkippedSamplesWarning)
-            for c in head:
-                try:
-                    probe.run(c.t, c.data, c.torque)
-                except ms.MeasurementError:
-                    bad.check(c)  # raises naming the line, or (skip_bad_samples) turns bad samples into missing
-                    probe.run(c.t, c.data, c.torque)
-    finally:
-        timer.cancel()
-    return time.perf_counter() - t0
+    probe = SarrasEstimator(
+        np.eye(3),
+        gains=ObserverGains.constant(1.0, 1.0, n=refs.shape[0]),
+        references=refs,
+        measurement="directions" if stream.kind == "directions" else "attitude",
+        warm_start=False,
+        rotation_tol=settings.rotation_tol,
+        quat_norm_tol=settings.quat_norm_tol,
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SkippedSamplesWarning)
+        for c in head:
+            try:
+                probe.run(c.t, c.data, c.torque)
+            except ms.MeasurementError:
+                bad.check(c)  # raises naming the line, or (skip_bad_samples) turns bad samples into missing
+                probe.run(c.t, c.data, c.torque)
 
 
 class _Run:
@@ -172,7 +165,7 @@ class _Run:
     def _checked(self, chunks: list[LogChunk]) -> Estimate:
         """The estimate over ``chunks`` (one, or the whole stream for a batch estimator): a sample that is not a
         rotation is found (line, column) and skipped, or stops the run there."""
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), compiling.seconds()
         join = (lambda xs: xs[0]) if len(chunks) == 1 else np.concatenate
         t, data = join([c.t for c in chunks]), join([c.data for c in chunks])
         torque = None if chunks[0].torque is None else join([c.torque for c in chunks])
@@ -187,13 +180,18 @@ class _Run:
             raise ValueError(
                 re.sub(r"sample (\d+)", lambda m: f"{self.stream.label} {labels[int(m.group(1))]}", str(exc))
             ) from None
-        self.summary.elapsed += time.perf_counter() - t0
+        self.summary.elapsed += time.perf_counter() - t0 - (compiling.seconds() - c0)  # compiling is not estimating
         return est
 
     def write(self, chunk: LogChunk, est: Estimate) -> None:
         s = self.summary
         if self.choice.after_chunk is not None:
             self.choice.after_chunk(chunk, est)
+        # an estimator's contract: NaN exactly where there is no estimate; a row without a finite estimate is never
+        # labelled as one (belt and braces: the compiled steps' guard already ensures it)
+        no_rate = ~np.all(np.isfinite(est.omega), axis=1) & np.isin(est.status, (Status.CORRECTED, Status.PREDICTED))
+        if no_rate.any():
+            est = Estimate(est.omega, np.where(no_rate, np.int8(Status.UNAVAILABLE), est.status))
         self.writer.write(chunk, est.omega, est.status)
         s.rows += len(chunk)
         if self.t_prev is None and self.choice.spacing is None and len(chunk) > 1:
@@ -259,34 +257,40 @@ def estimate_stream(
     n_notes = len(stream.notes)
     settings.check(spell)
     summary = RunSummary()
-    bad = BadSamples(settings, stream, spell)
-    source = stream.chunks()
-    head: list[LogChunk] = []
-    if stream.kind == "directions" and stream.n_directions == 1:  # one direction: its own observer (no attitude)
-        if settings.preset is not None:
-            raise ValueError(f"{spell('preset', settings.preset)} needs attitudes or two directions or more")
-        choice = single_direction_choice(stream, settings, report, spell)
-        chunks = prefetch(source)
-    else:
-        head = _head(source)  # read here, not ahead: what was read so far is the head's (its share of the log)
-        head_done = stream.done
-        chunks = prefetch(source)  # the rest is read while the kernels compile
-        refs = references(settings, stream, spell)
-        summary.compile_s = _check_head(head, stream, refs, bad, announce or _stderr)
-        choice = attitude_choice(stream, settings, head, report, spell, head_done)
-    summary.gains, summary.gains_text = choice.gains, choice.gains_text
-    est = choice.estimator
-    with open_writer(stream) as writer:
-        job = _Run(choice, stream, writer, bad, summary)
-        if not est.streaming:  # the whole stream first (a smoother runs backwards too)
-            job.feed_all([*head, *chunks])
-            head.clear()
-        while head:  # the head first (releasing it as it goes), then the rest of the stream
-            job.feed(head.pop(0))
-        for chunk in chunks:
-            job.feed(chunk)
-            if progress is not None:
-                progress(summary.rows)
+    compiled_before = compiling.seconds()
+    compiling.announce_with(announce or _stderr)  # said when a compilation starts (the head's check, a chunk)
+    try:
+        bad = BadSamples(settings, stream, spell)
+        source = stream.chunks()
+        head: list[LogChunk] = []
+        if stream.kind == "directions" and stream.n_directions == 1:  # one direction: its own observer (no attitude)
+            if settings.preset is not None:
+                raise ValueError(f"{spell('preset', settings.preset)} needs attitudes or two directions or more")
+            choice = single_direction_choice(stream, settings, report, spell)
+            chunks = prefetch(source)
+        else:
+            head = _head(source)  # read here, not ahead: what was read so far is the head's (its share of the log)
+            head_done = stream.done
+            chunks = prefetch(source)  # the rest is read while the kernels compile
+            refs = references(settings, stream, spell)
+            _check_head(head, stream, refs, bad)
+            choice = attitude_choice(stream, settings, head, report, spell, head_done)
+        summary.gains, summary.gains_text = choice.gains, choice.gains_text
+        est = choice.estimator
+        with open_writer(stream) as writer:
+            job = _Run(choice, stream, writer, bad, summary)
+            if not est.streaming:  # the whole stream first (a smoother runs backwards too)
+                job.feed_all([*head, *chunks])
+                head.clear()
+            while head:  # the head first (releasing it as it goes), then the rest of the stream
+                job.feed(head.pop(0))
+            for chunk in chunks:
+                job.feed(chunk)
+                if progress is not None:
+                    progress(summary.rows)
+    finally:
+        compiling.announce_with(None)
+    summary.compile_s = compiling.seconds() - compiled_before
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_skipped, summary.n_collinear, summary.n_bad = est.n_skipped, getattr(est, "n_collinear", 0), bad.count
@@ -300,6 +304,12 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
         lines.append(
             f"skipped {s.n_skipped} of {s.rows} samples ({s.n_skipped - s.n_collinear} missing, {s.n_collinear} with "
             "nearly collinear directions): predicted through (status 'predicted')"
+        )
+    n_restarts = getattr(choice.estimator, "n_restarts", 0)
+    if n_restarts:
+        lines.append(
+            f"restarted {n_restarts} times: a step's result was not finite (a gap too long for the model, a "
+            "torque or gains too large); no estimate there until the next warm start (status 'restarted')"
         )
     if bad.count:
         first = "; ".join(f"{why.split(' (')[0]}" for _, why in bad.first)

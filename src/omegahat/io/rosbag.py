@@ -37,20 +37,25 @@ recorded at that message's receive time; ``twist.linear`` is NaN (not estimated)
 bag, a name without extension a ROS 2 bag directory (SQLite storage). The bag is written under a temporary name
 beside the target and renamed when complete, so the output is whole or absent; an existing output is never
 overwritten (a ROS 2 bag is a directory, which cannot be replaced atomically).
+
+**Damaged bags** (a damaged chunk, a truncated payload, random bytes, a damaged ROS 2 database) are errors naming
+the bag, and the topic and message where known: whatever rosbags' parsers raise on damaged bytes becomes a
+:class:`~omegahat.io.LogFormatError`. A message is never dropped silently: the messages read on the topic must be
+as many as the bag's own count says (its index, or a ROS 2 bag's ``metadata.yaml``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
-import shutil
-import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from omegahat.io.columns import LogFormatError
-from omegahat.io.output import AtomicOutput
+from omegahat.io.output import AtomicOutput, PartFile, remove_stale_parts, target_of, write_error
 from omegahat.io.registry import LogChunk, LogStream, ReadOptions
 from omegahat.io.timestamps import sort_by_time
 
@@ -58,7 +63,15 @@ if TYPE_CHECKING:  # rosbags is optional: imported where it is used
     from rosbags.rosbag1 import Writer as Bag1Writer
     from rosbags.rosbag2 import Writer as Bag2Writer
 
-__all__ = ["DEFAULT_TWIST_TOPIC", "SUPPORTED_TYPES", "TwistBagWriter", "bag_path", "is_ros2_bag", "open_bag"]
+__all__ = [
+    "DEFAULT_TWIST_TOPIC",
+    "SUPPORTED_TYPES",
+    "TwistBagWriter",
+    "bag_path",
+    "is_ros2_bag",
+    "open_bag",
+    "open_twist_output",
+]
 
 DEFAULT_TWIST_TOPIC = "/omegahat/twist"
 
@@ -150,6 +163,37 @@ def _samples(msgtype: str, msg, topic: str, where: str):
         yield _stamp_ns(msg.header), _quat(msg.orientation), None, _frame(msg.header.frame_id)
 
 
+def _why(exc: BaseException) -> str:
+    """An exception from rosbags or a decompressor as words: its type and message."""
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _decoded(reader, conns, where: str) -> Iterator[tuple[int, int, Any]]:
+    """``(index, receive time ns, message)`` of the topic's messages; a message that cannot be read or decoded
+    (a damaged chunk, a truncated payload) is an error naming it. rosbags' parsers raise many kinds of exception
+    on damaged bytes (their own, ``struct.error``, ``UnicodeDecodeError``, a decompressor's ``OSError`` or
+    ``RuntimeError``), so any exception of theirs becomes a :class:`~x`."""
+    messages = reader.messages(connections=conns)
+    k = 0
+    while True:
+        try:
+            conn, timestamp, raw = next(messages)
+        except StopIteration:
+            return
+        except Exception as exc:
+            raise LogFormatError(f"{where}: cannot read message {k}: the bag is damaged there ({_why(exc)})") from None
+        try:
+            msg = reader.deserialize(raw, conn.msgtype)
+        except Exception as exc:
+            raise LogFormatError(
+                f"{where}, message {k}: cannot be decoded as {conn.msgtype.replace('/msg/', '/')} ({len(raw)} bytes: "
+                f"{_why(exc)}); the bag is damaged there"
+            ) from None
+        yield k, int(timestamp), msg
+        k += 1
+
+
 def _describe_topics(connections) -> str:
     seen: dict[str, str] = {}
     for c in connections:
@@ -166,7 +210,7 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     message. The whole topic is read now (to sort it by stamp) and handed on in chunks.
     """
     _rosbags()
-    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
     topic, parent_frame, child_frame, stamp = options.topic, options.parent_frame, options.child_frame, options.stamp
@@ -179,8 +223,8 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     try:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.LATEST))
         reader.open()
-    except (AnyReaderError, OSError) as exc:
-        raise LogFormatError(f"{p}: cannot open the bag ({exc})") from None
+    except Exception as exc:  # damaged bytes raise anything from rosbags' parsers (module docstring)
+        raise LogFormatError(f"{p}: cannot open the bag ({_why(exc)})") from None
     try:
         supported = [c for c in reader.connections if c.msgtype in SUPPORTED_TYPES]
         if topic is None:
@@ -204,16 +248,24 @@ def open_bag(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
                 f"readable types: {', '.join(t.replace('/msg/', '/') for t in SUPPORTED_TYPES)}"
             )
         header_ns, receive_ns, quats, pairs, index = [], [], [], [], []
-        for k, (conn, timestamp, raw) in enumerate(reader.messages(connections=conns)):
-            msg = reader.deserialize(raw, conn.msgtype)
+        n_read = 0
+        for k, timestamp, msg in _decoded(reader, conns, f"{p}, topic {topic}"):
+            n_read += 1
             for h_ns, q, parent, child in _samples(msgtype, msg, topic, f"{p}, topic {topic}, message {k}"):
                 header_ns.append(h_ns)
                 receive_ns.append(int(timestamp))
                 quats.append(q)
                 pairs.append((parent, child))
                 index.append(k)
+        declared = sum(int(c.msgcount) for c in conns)
+        if declared and n_read != declared:  # a damaged index or table: messages would be lost without a word
+            raise LogFormatError(
+                f"{p}, topic {topic}: the bag says it holds {declared} messages there, but {n_read} could be read: "
+                "the bag is damaged"
+            )
     finally:
-        reader.close()
+        with contextlib.suppress(Exception):  # a damaged bag may fail to close too: the error above tells
+            reader.close()
     if not quats:
         raise LogFormatError(f"{p}, topic {topic}: no messages")
     pair_set = sorted(set(pairs), key=lambda x: (x[0] or "", x[1] or ""))
@@ -305,7 +357,9 @@ class TwistBagWriter(AtomicOutput):
     """Chunked, atomic writer of ``geometry_msgs/TwistStamped`` (module docstring), with the interface of
     :class:`omegahat.io.output.OmegaWriter`: ``write(chunk, omega, status)`` takes the stamps from the chunk's
     ``extra`` (``header_ns``, ``receive_ns``: rows of a bag's stream), the bag appears on a clean exit of the
-    ``with`` block, never on an exception. ``path`` ending in ``.bag``: ROS 1, otherwise a ROS 2 bag directory."""
+    ``with`` block, never on an exception. ``path`` ending in ``.bag``: ROS 1, otherwise a ROS 2 bag directory.
+    The bag is written in a temporary folder beside it (:class:`omegahat.io.output.PartFile`); a failure (disk
+    full, a storage error) removes it and names the output."""
 
     def __init__(
         self,
@@ -321,12 +375,17 @@ class TwistBagWriter(AtomicOutput):
         self.path = Path(path)
         if not frame_id:
             raise ValueError("a TwistStamped output needs the body frame's name (frame_id)")
-        if self.path.exists():
+        self.target = target_of(self.path)
+        if self.target.exists():
             raise FileExistsError(f"{self.path} exists; omegahat does not overwrite a bag (choose another output)")
         self.ros_version = 1 if self.path.suffix == ".bag" else 2
         self.frame_id, self.topic, self.source, self.rows = frame_id, topic, source, 0
-        self._staging = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".partial", dir=self.path.parent))
-        target = self._staging / self.path.name
+        self.removed_stale = remove_stale_parts(self.path)
+        try:
+            self._staging = PartFile(self.target, folder=True)
+        except OSError as exc:
+            raise write_error(exc, self.path) from exc
+        inner = self._staging.path / self.target.name
         self._writer: Bag1Writer | Bag2Writer
         try:
             if self.ros_version == 1:
@@ -334,19 +393,22 @@ class TwistBagWriter(AtomicOutput):
 
                 self._ts = get_typestore(Stores.ROS1_NOETIC)
                 self._serialize = self._ts.serialize_ros1
-                self._writer = Bag1Writer(target)
+                self._writer = Bag1Writer(inner)
             else:
                 from rosbags.rosbag2 import Writer as Bag2Writer
 
                 self._ts = get_typestore(Stores.LATEST)
                 self._serialize = self._ts.serialize_cdr
-                self._writer = Bag2Writer(target, version=8)
+                self._writer = Bag2Writer(inner, version=8)
             self._writer.open()
             self._conn = self._writer.add_connection(topic, _TWIST, typestore=self._ts)
+        except Exception as exc:
+            self._staging.discard()
+            raise write_error(exc, self.path) from exc
         except BaseException:
-            shutil.rmtree(self._staging, ignore_errors=True)
+            self._staging.discard()
             raise
-        self._target = target
+        self._inner = inner
 
     def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None:
         """One message per row of ``chunk`` (stamps from ``chunk.extra``), ``omega (m, 3)`` rad/s."""
@@ -354,28 +416,66 @@ class TwistBagWriter(AtomicOutput):
             raise ValueError("a TwistStamped output needs the input messages' stamps (a bag input)")
         header_ns, receive_ns = chunk.extra["header_ns"], chunk.extra["receive_ns"]
         messages = _twist_messages(self._ts, header_ns, omega, self.frame_id, self.ros_version, self.rows)
-        for k, msg in enumerate(messages):
-            self._writer.write(self._conn, int(receive_ns[k]), self._serialize(msg, _TWIST))
+        try:
+            for k, msg in enumerate(messages):
+                self._writer.write(self._conn, int(receive_ns[k]), self._serialize(msg, _TWIST))
+        except _storage_errors() as exc:  # disk full, the storage's own errors (SQLite: "disk is full")
+            raise write_error(exc, self.path) from exc
         self.rows += len(chunk)
 
     def describe(self) -> str:
         """What was written, for the command's closing line."""
+        link = "" if self.target == self.path else f" (a link: written to {self.target})"
         return (
-            f"{self.rows} geometry_msgs/TwistStamped to ROS {self.ros_version} bag {self.path}, topic {self.topic}, "
-            f"frame_id {self.frame_id!r} (body frame)"
+            f"{self.rows} geometry_msgs/TwistStamped to ROS {self.ros_version} bag {self.path}{link}, topic "
+            f"{self.topic}, frame_id {self.frame_id!r} (body frame)"
             + (f", header stamps copied from {self.source}" if self.source else ", header stamps copied")
+            + self.stale_note()
         )
 
     def commit(self) -> None:
-        self._writer.close()
-        try:
-            os.rename(self._target, self.path)
-        finally:
-            shutil.rmtree(self._staging, ignore_errors=True)
-
-    def abort(self) -> None:
+        """Close the bag and move it onto the target; on any failure nothing is left behind."""
         try:
             self._writer.close()
-        except Exception:
-            pass
-        shutil.rmtree(self._staging, ignore_errors=True)
+            if self.target.exists():  # appeared while we wrote: still never overwritten
+                raise FileExistsError(f"{self.path} exists; omegahat does not overwrite a bag (choose another output)")
+            os.rename(self._inner, self.target)
+        except FileExistsError:
+            self._staging.discard()
+            raise
+        except _storage_errors() as exc:
+            self._staging.discard()
+            raise write_error(exc, self.path) from exc
+        except BaseException:
+            self._staging.discard()
+            raise
+        self._staging.discard()
+
+    def abort(self) -> None:
+        """Remove the temporary folder; the target is left as it was."""
+        with contextlib.suppress(Exception):
+            self._writer.close()
+        self._staging.discard()
+
+
+def open_twist_output(
+    path: str | os.PathLike[str], stream: LogStream, *, frame_id: str | None = None, topic: str | None = None
+) -> TwistBagWriter:
+    """The :class:`TwistBagWriter` of a bag stream's estimates (the opener of the writers' registry,
+    :mod:`omegahat.io.writers`): ``frame_id`` default the body frame the input names, else ``"body"``; ``topic``
+    default :data:`DEFAULT_TWIST_TOPIC`."""
+    frame = frame_id or stream.meta.get("child") or "body"
+    return TwistBagWriter(path, frame_id=frame, topic=topic or DEFAULT_TWIST_TOPIC, source=stream.meta.get("topic"))
+
+
+def _storage_errors() -> tuple[type[Exception], ...]:
+    """The errors of a storage that cannot be written or read: the system's (disk full), SQLite's ("database or
+    disk is full") and rosbags' own."""
+    import sqlite3
+
+    from rosbags.rosbag1 import ReaderError as Bag1ReaderError
+    from rosbags.rosbag1 import WriterError as Bag1WriterError
+    from rosbags.rosbag2 import ReaderError as Bag2ReaderError
+    from rosbags.rosbag2 import WriterError as Bag2WriterError
+
+    return (OSError, sqlite3.Error, Bag1WriterError, Bag2WriterError, Bag1ReaderError, Bag2ReaderError)

@@ -7,7 +7,8 @@
 :mod:`omegahat.kernels.dynamics`          Euler's equations, their error form, the CF4 Lie-group step
 :mod:`omegahat.kernels.observer`          the observer's own terms: innovation, filter decay, stiffness, output map
 :mod:`omegahat.kernels.ekf`               the gyro-less multiplicative EKF's step: propagation, the two fixes
-:mod:`omegahat.kernels.cache`             the on-disk cache, invalidated by any change to compiled code
+:mod:`omegahat.kernels.cache`             the on-disk cache: invalidated by any change to compiled code, private
+:mod:`omegahat.kernels.compiling`         the time spent compiling, measured, and the notice when it starts
 ========================================  =====================================================================
 
 Names are public within the package; the kernels that use them (the simulation engine, the sampled estimator, the
@@ -16,3 +17,4 @@ function defined.
 """
 
 from omegahat.kernels import cache as cache  # first: registers the cache locator
+from omegahat.kernels import compiling as compiling  # then: times every compilation from the start

@@ -11,7 +11,9 @@ r"""The compiled input checks (Numba), written once: every estimator's samples, 
 
 Every check returns ``(status, info)``: below :data:`ERROR` the sample is used (:data:`OK`) or skipped
 (:data:`MISSING`: a NaN or inf in it; :data:`COLLINEAR`); from :data:`ERROR` on it is rejected and ``info`` is the
-offending value (documented with each code). :func:`check_sample` runs the checks of one sample in the order
+offending value (documented with each code). One more code below :data:`ERROR` is an estimator's, not a check's:
+:data:`RESTARTED`, a sample at which the step could not be taken (its result was not finite) and the estimator
+started again from that sample. :func:`check_sample` runs the checks of one sample in the order
 time, time order, torque, measurement and reports the first that fails.
 """
 
@@ -34,10 +36,12 @@ __all__ = [
     "NOT_PROPER",
     "OK",
     "QUAT_NORM",
+    "RESTARTED",
     "TIME_NOT_FINITE",
     "TIME_ORDER",
     "TORQUE_NOT_FINITE",
     "ZERO_DIRECTION",
+    "all_finite",
     "check_batch",
     "check_sample",
     "check_time",
@@ -51,6 +55,7 @@ __all__ = [
 OK = 0  #: a valid sample
 MISSING = 1  #: NaN or inf somewhere in the sample: skipped, the estimator keeps predicting
 COLLINEAR = 2  #: measured directions nearly collinear: skipped like a missing sample, counted separately
+RESTARTED = 3  #: the step to this sample gave a non-finite state: the estimator restarted from the sample (no estimate)
 ERROR = 10
 NOT_ORTHOGONAL = 10  #: info = ‖RᵀR − I‖_F
 NOT_PROPER = 11  #: info = det R (a reflection)
@@ -66,18 +71,19 @@ KIND_QUAT = 1
 KIND_DIRECTIONS = 2
 
 
-@numba.njit(cache=True)
-def _all_finite(a):
+@numba.njit(cache=True, error_model="numpy")
+def all_finite(a):
+    """Whether every entry of the array ``a`` is finite (no NaN, no ±inf)."""
     for x in a.flat:
         if not np.isfinite(x):
             return False
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _check_matrix(R, tol):
     """``(status, info)`` of one 3×3 matrix by (M1): MISSING, NOT_ORTHOGONAL, NOT_PROPER or OK."""
-    if not _all_finite(R):
+    if not all_finite(R):
         return MISSING, np.nan
     err = rot.orthogonality_error(R)
     if err > tol:
@@ -88,10 +94,10 @@ def _check_matrix(R, tol):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _quat_matrix(q, scalar_first, tol, R):
     """Write the rotation matrix of quaternion ``q`` into ``R`` after (M2); return ``(status, info)``."""
-    if not _all_finite(q):
+    if not all_finite(q):
         return MISSING, np.nan
     if scalar_first:
         w, x, y, z = q[0], q[1], q[2], q[3]
@@ -104,7 +110,7 @@ def _quat_matrix(q, scalar_first, tol, R):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _rows_from_matrix(V, R, r):
     """``r = V R``: row i is ``Rᵀ v_i``."""
     M = mat3(R)
@@ -112,10 +118,10 @@ def _rows_from_matrix(V, R, r):
         r[i, 0], r[i, 1], r[i, 2] = matvec_transposed(M, V[i, 0], V[i, 1], V[i, 2])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _normalise_directions(b, min_sin, r):
     """Normalise the rows of ``b`` into ``r``; ``(status, info)``: MISSING, ZERO_DIRECTION, COLLINEAR (M3) or OK."""
-    if not _all_finite(b):
+    if not all_finite(b):
         return MISSING, np.nan
     n = b.shape[0]
     for i in range(n):
@@ -134,7 +140,7 @@ def _normalise_directions(b, min_sin, r):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work):
     """One sample of any kind to directions ``r (n, 3)`` (written in place); returns ``(status, info)``.
 
@@ -154,7 +160,7 @@ def convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_si
     return _normalise_directions(m, min_sin, r)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_time(t, t_prev):
     """(T) for a sample at ``t`` after one at ``t_prev`` (NaN: none yet): ``(status, info)``, TIME_NOT_FINITE
     (info t), TIME_ORDER (info t_prev) or OK."""
@@ -165,7 +171,7 @@ def check_time(t, t_prev):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_times(times, t_prev):
     """:func:`check_time` along ``times`` (the first after ``t_prev``): ``(first_bad, status, info)``, first_bad −1
     when every time passes."""
@@ -177,7 +183,7 @@ def check_times(times, t_prev):
     return -1, OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_torque(tau):
     """(T) for a torque ``(3,)``: ``(TORQUE_NOT_FINITE, the first non-finite component)`` or ``(OK, 0)``."""
     for a in range(3):
@@ -186,7 +192,7 @@ def check_torque(tau):
     return OK, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_sample(t, t_prev, tau, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work):
     """Every check of one sample in order (time, time order, torque, then :func:`convert_sample`); returns
     ``(status, info)`` of the first that fails, or the converter's (OK, MISSING or COLLINEAR)."""
@@ -199,7 +205,7 @@ def check_sample(t, t_prev, tau, m, kind, V, scalar_first, rotation_tol, quat_no
     return convert_sample(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin, r, R_work)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def check_batch(times, t_prev, taus, timed, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
     """:func:`check_sample` (``timed``) or :func:`convert_sample` over ``m (T, a, b)``, stopping at the first
     rejected sample. Returns ``(r (T, n, 3), status (T,), first_bad, info)``; ``first_bad = −1`` when none."""
@@ -234,7 +240,7 @@ def check_batch(times, t_prev, taus, timed, m, kind, V, scalar_first, rotation_t
     return r, status, -1, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def status_batch(m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin):
     """:func:`convert_sample`'s ``(status, info)`` for every sample of ``m (T, a, b)``, without stopping."""
     T = m.shape[0]

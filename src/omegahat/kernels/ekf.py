@@ -68,6 +68,7 @@ __all__ = [
     "MAX_SUBSTEPS",
     "NOMINAL_SUBSTEP_ANGLE",
     "ekf_attitude_update",
+    "ekf_finite",
     "ekf_propagate",
     "ekf_substeps",
     "ekf_vector_update",
@@ -81,7 +82,7 @@ MAX_SUBSTEPS = 10_000  #: cap per interval: a diverged filter (|ω̂| huge or no
 _I3 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _block(P, i, j):
     return (
         P[i, j], P[i, j + 1], P[i, j + 2], P[i + 1, j], P[i + 1, j + 1], P[i + 1, j + 2],
@@ -89,31 +90,46 @@ def _block(P, i, j):
     )  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _put(P, i, j, B):
     for a in range(3):
         for b in range(3):
             P[i + a, j + b] = B[3 * a + b]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _add(A, B, C):
     """``A + B + C`` for 9-tuples."""
     return lincomb(1.0, lincomb(1.0, A, 1.0, B), 1.0, C)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _sym(A):
     return lincomb(0.5, A, 0.5, transposed(A))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _torque_at(tau0, tau1, s):
     """The first-order hold at the fraction ``s`` of the interval."""
     return (tau0[0] + s * (tau1[0] - tau0[0]), tau0[1] + s * (tau1[1] - tau0[1]), tau0[2] + s * (tau1[2] - tau0[2]))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
+def ekf_finite(R, w, a, P):
+    """Whether the filter's whole state (R̂, ω̂, â, P) is finite: the guard every caller applies after a step."""
+    for x in R.flat:
+        if not math.isfinite(x):
+            return False
+    for i in range(3):
+        if not (math.isfinite(w[i]) and math.isfinite(a[i])):
+            return False
+    for x in P.flat:
+        if not math.isfinite(x):
+            return False
+    return True
+
+
+@numba.njit(cache=True, error_model="numpy")
 def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
     """The number of substeps of an interval ``h`` (module docstring)."""
     f0 = matvec(mat3(Jinv), tau0[0], tau0[1], tau0[2])
@@ -130,7 +146,7 @@ def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
     return int(min(n, MAX_SUBSTEPS))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step, max_angle):
     """(K1)–(K3) over ``h`` in place; returns the number of the nominal state's substeps. ``a`` is the estimated
     unknown angular acceleration (used when ``P`` is 9×9: (K5)); the covariance takes substeps of at most
@@ -156,7 +172,7 @@ def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step,
     return n
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _nominal_step(R, w, dt, sa, sm, sb, tau0, tau1, Jm, Ji, dynamic):
     """The nominal state over one substep, the torque at the fractions ``sa``, ``sm``, ``sb`` of the interval."""
     w0, w1, w2 = w[0], w[1], w[2]
@@ -170,7 +186,7 @@ def _nominal_step(R, w, dt, sa, sm, sb, tau0, tau1, Jm, Ji, dynamic):
     _put(R, 0, 0, matmul(mat3(R), matrix_from_quat(p[0], p[1], p[2], p[3])))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _propagate_covariance(P, w, dt, Jm, Ji, Qw, q_a, dynamic, aug):
     """``P ← Φ P Φᵀ + Q_d`` over ``dt`` with (K2), (K3) (and (K5) when ``aug``) at the current ω̂, in place."""
     w0, w1, w2 = w[0], w[1], w[2]
@@ -228,7 +244,7 @@ def _propagate_covariance(P, w, dt, Jm, Ji, Qw, q_a, dynamic, aug):
     _put(P, 3, 3, lincomb(1.0, N11, 1.0, Q11))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _joseph(P, Ks, C, var):
     """(K4) in blocks, in place, for ``H = [C, 0 …]`` and the gain blocks ``Ks[i]`` (9 floats each):
     ``M = (I − KH) P``, ``M_ij = P_ij − K_i C P_0j``; ``N_ij = M_ij − M_i0 (K_j C)ᵀ + σ² K_i K_jᵀ``."""
@@ -266,7 +282,7 @@ def _joseph(P, Ks, C, var):
     _put(P, 3, 3, _sym(N11))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _gains(P, C, Si, Ks):
     """``K_i = P_i0 Cᵀ S⁻¹`` for every block row of P, into ``Ks`` (one row of 9 per block)."""
     Ct = transposed(C)
@@ -276,7 +292,7 @@ def _gains(P, C, Si, Ks):
             Ks[i, k] = K[k]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _apply(Ks, dx, r0, r1, r2):
     """``δx += K r``: ``dx`` holds the correction, 3 per block."""
     for i in range(Ks.shape[0]):
@@ -284,7 +300,7 @@ def _apply(Ks, dx, r0, r1, r2):
             dx[3 * i + c] += Ks[i, 3 * c] * r0 + Ks[i, 3 * c + 1] * r1 + Ks[i, 3 * c + 2] * r2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _reset(R, w, a, dx, aug):
     """(E8): ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂`` (and ``â ← â + δâ``)."""
     _put(R, 0, 0, matmul(mat3(R), exp_matrix(dx[0], dx[1], dx[2])))
@@ -294,7 +310,7 @@ def _reset(R, w, a, dx, aug):
             a[c] += dx[6 + c]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def ekf_attitude_update(R, w, a, P, R_meas, meas_var, scratch):
     """The attitude fix (E5) with (K4) and the reset, in place; returns ν (3 degrees of freedom). ``scratch``:
     at least :data:`EKF_SCRATCH` floats."""
@@ -315,7 +331,7 @@ def ekf_attitude_update(R, w, a, P, R_meas, meas_var, scratch):
     return z0 * s0 + z1 * s1 + z2 * s2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def ekf_vector_update(R, w, a, P, b, references, meas_var, scratch):
     """The direction fix (E6), one direction after the other, with (K4) and the reset, in place; returns ν."""
     nb = P.shape[0] // 3

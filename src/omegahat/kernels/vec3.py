@@ -2,8 +2,11 @@
 
 Vectors are passed and returned as three floats and 3×3 matrices as a 9-tuple in row-major order (``mat3``):
 after inlining, LLVM keeps them in registers, vectorises the lane loops that call them, and hoists a matrix's
-loads out of a loop (it cannot prove that an array is not written through another array). Every function is
-``inline="always"`` and performs its operations in the order written, so kernels that call it get the same bits.
+loads out of a loop (it cannot prove that an array is not written through another array). Every function performs
+its operations in the order written (no fast-math), so kernels that call it get the same bits whether LLVM inlines
+it or not. None is inlined at Numba's IR level (``inline="always"``): that copied each 3×3 product's typed IR into
+every call site and tripled the EKF's compile time (``benchmarks/first_run.py``); the matrix ones are
+``forceinline`` instead (compiled once, always inlined by LLVM).
 """
 
 from __future__ import annotations
@@ -63,13 +66,13 @@ def matvec_transposed(M, x0, x1, x2):
     )
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def solve(M, y0, y1, y2):
     """``M⁻¹ y`` by the adjugate (Cramer's rule, :func:`inverse`), for a well-conditioned 9-tuple ``M``."""
     return matvec(inverse(M), y0, y1, y2)
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def matmul(A, B):
     """``A B`` for 9-tuples, each entry summed left to right."""
     return (
@@ -81,7 +84,7 @@ def matmul(A, B):
     )  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def inverse(M):
     """``M⁻¹`` by the adjugate, for a well-conditioned 9-tuple ``M``."""
     c00 = M[4] * M[8] - M[5] * M[7]
@@ -97,19 +100,19 @@ def inverse(M):
     return (c00 / det, c10 / det, c20 / det, c01 / det, c11 / det, c21 / det, c02 / det, c12 / det, c22 / det)
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def skew(a0, a1, a2):
     """``a×`` as a 9-tuple: ``skew(a) x = a × x``."""
     return (0.0, -a2, a1, a2, 0.0, -a0, -a1, a0, 0.0)
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def transposed(A):
     """``Aᵀ`` of a 9-tuple."""
     return (A[0], A[3], A[6], A[1], A[4], A[7], A[2], A[5], A[8])
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def lincomb(a, A, b, B):
     """``a A + b B`` for 9-tuples and scalars a, b."""
     return (

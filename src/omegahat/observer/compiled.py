@@ -20,7 +20,12 @@ the estimator), and how to commit a state. The base does the rest, the same way 
    sample is CORRECTED, a skipped one PREDICTED, except that there is no estimate (UNAVAILABLE, ``omega`` NaN)
    before the first valid sample, nor at it unless the initial rate was given (``rate_given``: one attitude gives
    no rate; a warm start waits for the second sample).
-5. **Warnings**: ``run`` warns once per call (:class:`SkippedSamplesWarning`) when it skipped samples.
+5. **Restarts.** A step whose result is not finite (a gap too long for the model, a torque or gains beyond
+   floating point) restarts the estimator from that sample (code ``RESTARTED``, :mod:`omegahat.kernels.checks`):
+   status RESTARTED, ``omega`` NaN there and until the next estimate, never a diverged value; counted in
+   ``n_restarts``.
+6. **Warnings**: ``run`` warns once per call when it skipped samples (:class:`SkippedSamplesWarning`) and when it
+   restarted (:class:`RestartedWarning`).
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ from numpy.typing import ArrayLike
 from omegahat import measurements as ms
 from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator
 
-__all__ = ["STATUS_OF_CODE", "CompiledEstimator", "SkippedSamplesWarning"]
+__all__ = ["STATUS_OF_CODE", "CompiledEstimator", "RestartedWarning", "SkippedSamplesWarning"]
 
 #: The compiled steps' per-sample codes below ``ERROR`` (:mod:`omegahat.kernels.checks`) and the estimate's status
 #: they give, in one place: a used sample is corrected, a skipped one predicted through. A code a compiled step adds
@@ -44,6 +49,7 @@ STATUS_OF_CODE: dict[int, Status] = {
     ms.OK: Status.CORRECTED,
     ms.MISSING: Status.PREDICTED,
     ms.COLLINEAR: Status.PREDICTED,
+    ms.RESTARTED: Status.RESTARTED,
 }
 _SKIPPED = (ms.MISSING, ms.COLLINEAR)  # the codes n_skipped counts
 
@@ -56,6 +62,10 @@ _new = tuple.__new__
 
 class SkippedSamplesWarning(UserWarning):
     """``run`` skipped samples (missing or collinear); their times are in ``estimator.skipped_times``."""
+
+
+class RestartedWarning(SkippedSamplesWarning):
+    """``run`` restarted the estimator at samples whose step could not be taken (status ``RESTARTED``)."""
 
 
 class CompiledEstimator(StreamingEstimator):
@@ -100,6 +110,7 @@ class CompiledEstimator(StreamingEstimator):
         self._reset_state()
         self.n_skipped = 0
         self.n_collinear = 0
+        self.n_restarts = 0
         self.skipped_times: list[float] = []
         self.largest_interval = 0.0
         self._n_valid = 0
@@ -125,6 +136,9 @@ class CompiledEstimator(StreamingEstimator):
             status = _CORRECTED
         else:
             status = STATUS_OF_CODE[code]
+            if code == ms.RESTARTED:
+                self.n_restarts += 1
+                return Estimate(_NAN3.copy(), status)
             if code in _SKIPPED:
                 self.n_skipped += 1
                 self.n_collinear += code == ms.COLLINEAR
@@ -162,6 +176,18 @@ class CompiledEstimator(StreamingEstimator):
             status[seen < self._need] = Status.UNAVAILABLE
             W[seen < self._need] = np.nan
         self._n_valid = min(self._n_valid + int(np.count_nonzero(valid)), 2)
+        restarted = codes == ms.RESTARTED
+        W[restarted] = np.nan
+        n_restarts = int(np.count_nonzero(restarted))
+        if n_restarts:
+            self.n_restarts += n_restarts
+            warnings.warn(
+                f"restarted {n_restarts} times in {T} samples: a step's result was not finite (a gap too long for the "
+                "model, a torque or gains too large); the estimate is NaN there until the next warm start (status "
+                "'restarted')",
+                RestartedWarning,
+                stacklevel=2,
+            )
         skipped = np.isin(codes, _SKIPPED)
         if skipped.any():
             n_skip = int(np.count_nonzero(skipped))

@@ -45,6 +45,11 @@ Input is checked by :mod:`omegahat.measurements` (one policy for every estimator
   ``largest_interval`` reports the longest interval seen (gaps need nothing else: the prediction runs over them);
 * direction measurements within ``min_angle_deg`` of collinear → skipped the same way (of ``n_skipped``, counted
   in ``n_collinear``);
+* a step whose result is not finite (a gap too long for the model's substeps while the rate is not constant, a
+  torque or gains beyond floating point) → status ``RESTARTED``: the state is discarded and the estimator starts
+  again from that sample (a warm start at the next valid one); ω̂ is NaN there and until that warm start, never a
+  diverged value; counted in ``n_restarts`` (:data:`omegahat.kernels.checks.RESTARTED`). A long gap at a constant
+  rate (no torque, ``J = j I``) is predicted exactly, whatever its length;
 * not a rotation, a quaternion far from unit norm, a zero direction, a time not after the previous one or not
   finite, a non-finite torque → :class:`omegahat.measurements.MeasurementError` (a ``ValueError``) naming the
   sample and the value; a wrong shape → ``ValueError``; a time or a value that is not a real number →
@@ -66,12 +71,12 @@ from numpy.typing import ArrayLike
 from omegahat import measurements as ms
 from omegahat.interface import MeasurementKind, TorqueHold, one_of
 from omegahat.observer import sampled
-from omegahat.observer.compiled import CompiledEstimator, SkippedSamplesWarning
+from omegahat.observer.compiled import CompiledEstimator, RestartedWarning, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, STATE, EstimatorState
 from omegahat.validation import as_inertia, as_positive, as_vector3
 
-__all__ = ["EstimatorState", "SarrasEstimator", "SkippedSamplesWarning"]
+__all__ = ["EstimatorState", "RestartedWarning", "SarrasEstimator", "SkippedSamplesWarning"]
 
 
 _OMEGA_HAT = slice(STATE.omega_hat, STATE.omega_hat + 3)  # ω̂ in the flat state
@@ -163,6 +168,7 @@ class SarrasEstimator(CompiledEstimator):
             self.J, gains, self.references, self.r_hat0, self.rotation_tol, self.quat_norm_tol, self.min_angle_deg,
             self.max_substep_angle, self.scalar_first, self.warm_start, torque_hold, self.isotropic_rate,
         )  # fmt: skip
+        self._params.flags.writeable = False  # read-only everywhere: one compiled specialisation for every caller
         self._configure_input(
             n_directions=None if measurement == "attitude" else n,
             rate_given=omega_hat0 is not None and not self.warm_start,

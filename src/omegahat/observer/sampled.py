@@ -28,7 +28,7 @@ from omegahat.kernels import checks
 from omegahat.kernels.dynamics import euler_rate
 from omegahat.kernels.observer import innovation, stiffness
 from omegahat.kernels.rotation import dexpinv, exp_matrix, rotvec_from_matrix, wahba
-from omegahat.kernels.vec3 import inverse, mat3, matmul, matvec, skew, solve
+from omegahat.kernels.vec3 import inverse, matmul, matvec, skew, solve
 from omegahat.observer.gains import ObserverGains
 
 __all__ = [
@@ -185,7 +185,7 @@ def initial_state_vector(n: int, omega_hat0: ArrayLike) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------ the steps
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _diag_plus(d, p, X, q, Y):
     """``d I + p X + q Y`` for 9-tuples."""
     return (
@@ -195,7 +195,7 @@ def _diag_plus(d, p, X, q, Y):
     )  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim):
     """(A1) over one substep, in place: the aim ``Γ = Φ_θω Φ_ωω⁻¹`` maps a rate error at the end of the interval
     to the attitude error it has caused since the last valid sample (``δθ = Γ δω``). From the linearised error
@@ -217,20 +217,66 @@ def _advance_aim(Jm, Jinv, w0, w1, w2, hs, aim):
         aim[i] = G[i] + hs * F[i] - c * (WF[i] + FA[i])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
+def _isotropic(Jm):
+    """Whether the inertia (a 9-tuple) is ``j I``: then Euler's equations without torque keep ω constant."""
+    return (
+        Jm[1] == 0.0 and Jm[2] == 0.0 and Jm[3] == 0.0 and Jm[5] == 0.0 and Jm[6] == 0.0 and Jm[7] == 0.0
+        and Jm[0] == Jm[4] and Jm[4] == Jm[8]
+    )  # fmt: skip
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _predict_constant(w, h, D, aim):
+    """(P) over ``h`` in one exact step for a constant ω̂ ≠ 0 (no torque, isotropic J: (E1) gives ω̂̇ = 0), for
+    intervals of any length: ``ΔR̂ = exp(h ω̂×)``, ``∫|ω̂| dt = h|ω̂|`` and, with ``A = 0`` in (A1),
+    ``Γ̇ = I − W Γ``, ``W = ω̂×``, solved exactly (``θ = h|ω̂|``, Rodrigues' form of ``exp(−W s)`` integrated)::
+
+        Γ ← exp(−W h) Γ + h I − (1 − cos θ)/|ω̂|² W + (h − sin θ/|ω̂|)/|ω̂|² W²                  (A2)
+
+    ``w`` is unchanged; returns ``∫|ω̂| dt``."""
+    w0, w1, w2 = w[0], w[1], w[2]
+    speed = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    theta = h * speed
+    E = exp_matrix(h * w0, h * w1, h * w2)
+    for a in range(3):
+        for b in range(3):
+            D[a, b] = E[3 * a + b]
+    W = skew(w0, w1, w2)
+    W2 = matmul(W, W)
+    B = matmul(exp_matrix(-h * w0, -h * w1, -h * w2), (aim[0], aim[1], aim[2], aim[3], aim[4], aim[5], aim[6],
+                                                         aim[7], aim[8]))  # fmt: skip
+    c1 = (1.0 - math.cos(theta)) / (speed * speed)
+    c2 = (h - math.sin(theta) / speed) / (speed * speed)
+    for i in range(9):
+        aim[i] = B[i] - c1 * W[i] + c2 * W2[i]
+    for i in (0, 4, 8):
+        aim[i] += h
+    return theta
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, aim):
     """(P) for ω̂ and ΔR̂ over h with the torque ``τ(s) = τ_a + (τ_b − τ_a) s/h`` (``τ_b = τ_a``: held):
     ``w`` ← ω̂(t + h) in place, ``D`` ← ΔR̂ (3×3), ``aim`` ← Γ (A1) carried on; returns
     ``∫|ω̂| dt``. RKMK4 in substeps of angle ``h_sub (|ω̂| + h|J⁻¹τ|) ≤ max_angle``: classical RK4 for ω̂, for
     ``ΔR̂ = exp(u)`` the stages ``u̇ = dexp⁻¹(ω̂)`` (R5), and ``∫|ω̂|`` with the same weights. Exact (ΔR̂ = exp(h ω̂))
-    for a constant ω̂."""
+    for a constant ω̂. An interval that would need more than :data:`MAX_SUBSTEPS` substeps (a long gap, a huge
+    torque or rate) is predicted exactly when ω̂ is constant (no torque, J = j I: :func:`_predict_constant`) and
+    otherwise refused: ``w`` ← NaN and NaN returned (the step's caller then restarts the estimator)."""
     fa = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, tau_a[0], tau_a[1], tau_a[2])  # J⁻¹τ at both ends
     fb = euler_rate(Jm, Jinv, 0.0, 0.0, 0.0, tau_b[0], tau_b[1], tau_b[2])
     f_max = max(math.sqrt(fa[0] * fa[0] + fa[1] * fa[1] + fa[2] * fa[2]),
                 math.sqrt(fb[0] * fb[0] + fb[1] * fb[1] + fb[2] * fb[2]))  # fmt: skip
     w0, w1, w2 = w[0], w[1], w[2]
     angle = h * (math.sqrt(w0 * w0 + w1 * w1 + w2 * w2) + h * f_max)
-    n_sub = max(1, min(MAX_SUBSTEPS, math.ceil(angle / max_angle)))
+    need = angle / max_angle
+    if not need <= MAX_SUBSTEPS:  # too long for substeps (or not finite): exact if ω̂ is constant, else refused
+        if f_max == 0.0 and _isotropic(Jm):
+            return _predict_constant(w, h, D, aim)
+        w[0] = w[1] = w[2] = np.nan  # the step cannot be taken: the caller restarts the estimator
+        return np.nan
+    n_sub = max(1, math.ceil(need))
     hs = h / n_sub
     d0, d1, d2 = tau_b[0] - tau_a[0], tau_b[1] - tau_a[1], tau_b[2] - tau_a[2]
     int_abs = 0.0
@@ -279,7 +325,7 @@ def _predict_rate(Jm, Jinv, max_angle, w, tau_a, tau_b, h, D, aim):
     return int_abs
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _predict_directions(r, e, D, decay, i):
     """(P) for direction i: ``r ← ΔR̂ᵀ r`` and ``e ← decay ΔR̂ᵀ e`` (row form ``rᵀ ΔR̂``), in place."""
     p0 = r[i, 0] * D[0, 0] + r[i, 1] * D[1, 0] + r[i, 2] * D[2, 0]
@@ -292,7 +338,7 @@ def _predict_directions(r, e, D, decay, i):
     e[i, 0], e[i, 1], e[i, 2] = e0, e1, e2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _correct(Jinv, k, iso_rate, w, r, e, r_meas, aim):
     """(I), (C) and (R) at a valid sample: ``Δ_i = r_i,meas − r_i,pred``; the innovation accumulated over the
     interval, ``y = Σ innovation(k_i, r̂_i, −Δ_i)`` (O1 with the mismatch ``−Δ_i``); the aimed, implicit
@@ -337,7 +383,7 @@ def _correct(Jinv, k, iso_rate, w, r, e, r_meas, aim):
     aim[:] = 0.0  # the attitude is known at a valid sample
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
     """(W) at the second valid sample, ``h`` after the first: Wahba's rotation A carrying the first sample's
     directions onto the second's (R6), ω_avg = log(Aᵀ)/h, half a step of Euler's equations to the sample's time;
@@ -356,13 +402,35 @@ def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
     w[0], w[1], w[2] = u0 + 0.5 * h * f0, u1 + 0.5 * h * f1, u2 + 0.5 * h * f2  # midpoint rate → the sample's
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
+def _restart(out, t, r_meas, valid):
+    """The guard's restart (status ``RESTARTED``): the step to ``t`` gave a non-finite state (a gap too long for
+    the model, an overflowing torque, gains beyond floating point), so the state is discarded and the estimator
+    starts again from this sample: ``r`` ← the measurement when it is valid (``e = 0``, a warm start waiting for
+    the next valid sample), else uninitialised; ω̂ is NaN (no estimate) until that warm start. Returns the code."""
+    out[STATE.omega_hat : STATE.omega_hat + 3] = np.nan
+    out[STATE.aim :] = 0.0  # Γ, r, e (the sample's torque stays: it is held from t)
+    if valid:
+        out[STATE.stage] = WARM_PENDING
+        out[STATE.t_meas] = t
+        for i in range(r_meas.shape[0]):
+            for a in range(3):
+                out[STATE.r + 3 * i + a] = r_meas[i, a]
+    else:
+        out[STATE.stage] = UNINITIALISED
+        out[STATE.t_meas] = np.nan
+    return checks.RESTARTED
+
+
+@numba.njit(cache=True, error_model="numpy")
 def step_into(x, p, t, m, kind, tau, out, wk):
     """Check one sample and advance the state ``x`` into ``out``; returns ``(status, info)`` (the codes of
     :mod:`omegahat.kernels.checks`). On a rejection ``out`` is unspecified and ``x`` untouched. ``wk``: scratch
     ``(n + 6, 3)``."""
     n = int(p[PARAMS.n])
-    Jm, Jinv = mat3(p[PARAMS.J : PARAMS.J + 9].reshape(3, 3)), mat3(p[PARAMS.Jinv : PARAMS.Jinv + 9].reshape(3, 3))
+    o, oi = PARAMS.J, PARAMS.Jinv
+    Jm = (p[o], p[o + 1], p[o + 2], p[o + 3], p[o + 4], p[o + 5], p[o + 6], p[o + 7], p[o + 8])
+    Jinv = (p[oi], p[oi + 1], p[oi + 2], p[oi + 3], p[oi + 4], p[oi + 5], p[oi + 6], p[oi + 7], p[oi + 8])
     k = p[PARAMS.k : PARAMS.k + n]
     l_off = p[PARAMS.k + n : PARAMS.k + 2 * n]
     l_slope = p[PARAMS.k + 2 * n : PARAMS.k + 3 * n]
@@ -374,9 +442,11 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     )  # fmt: skip
     if status >= checks.ERROR:
         return status, info
-    out[:] = x
+    for i in range(x.size):  # element loops, not slice assignments: those compile a shape check and its message
+        out[i] = x[i]
     out[STATE.t] = t
-    out[STATE.torque : STATE.torque + 3] = tau
+    for a in range(3):
+        out[STATE.torque + a] = tau[a]
     w = out[STATE.omega_hat : STATE.omega_hat + 3]
     r = out[STATE.r : STATE.r + 3 * n].reshape(n, 3)
     e = out[STATE.r + 3 * n : STATE.r + 6 * n].reshape(n, 3)
@@ -384,13 +454,14 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     stage = x[STATE.stage]
     if stage == UNINITIALISED:
         if valid:  # the first valid sample sets r; e from the given r̂₀ (default: r̂ = r)
-            out[STATE.stage] = WARM_PENDING if p[PARAMS.warm_start] != 0.0 else RUNNING
+            restarting = not math.isfinite(w[0])  # after a restart: always a warm start, never r̂₀
+            out[STATE.stage] = WARM_PENDING if p[PARAMS.warm_start] != 0.0 or restarting else RUNNING
             out[STATE.t_meas] = t
-            r[:, :] = r_meas
-            if p[PARAMS.has_r_hat0] != 0.0:
-                e[:, :] = p[PARAMS.k + 6 * n : PARAMS.k + 9 * n].reshape(n, 3) - r_meas
-            else:
-                e[:, :] = 0.0
+            given = p[PARAMS.has_r_hat0] != 0.0 and not restarting
+            for i in range(n):
+                for a in range(3):
+                    r[i, a] = r_meas[i, a]
+                    e[i, a] = p[PARAMS.k + 6 * n + 3 * i + a] - r_meas[i, a] if given else 0.0
         return status, info
     held = x[STATE.torque : STATE.torque + 3]
     if stage == WARM_PENDING:
@@ -399,6 +470,8 @@ def step_into(x, p, t, m, kind, tau, out, wk):
             out[STATE.aim : STATE.aim + 9] = 0.0
             out[STATE.stage] = RUNNING
             out[STATE.t_meas] = t
+            if not checks.all_finite(out[STATE.omega_hat :]):
+                return _restart(out, t, r_meas, valid), info
         return status, info
     h_pred = t - x[STATE.t]
     aim = out[STATE.aim : STATE.aim + 9]
@@ -409,10 +482,12 @@ def step_into(x, p, t, m, kind, tau, out, wk):
     if valid:  # the correction's interval: since the last valid sample (a skipped one only adds substeps)
         _correct(Jinv, k, p[PARAMS.isotropic_rate], w, r, e, r_meas, aim)
         out[STATE.t_meas] = t
+    if not checks.all_finite(out[STATE.omega_hat :]):  # ω̂, τ, Γ, r, e: the guard of every step
+        return _restart(out, t, r_meas, valid), info
     return status, info
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step(x, p, t, m, kind, tau):
     """The pure step: ``(new state, status, info)``; ``x`` is not modified. ``m`` is 2-D (a matrix ``(3, 3)``, a
     quaternion ``(1, 4)`` or directions ``(n, 3)``), ``kind`` one of the ``KIND_*`` codes."""
@@ -421,7 +496,7 @@ def step(x, p, t, m, kind, tau):
     return out, status, info
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def run(x, p, times, m, kind, taus):
     """:func:`step_into` over a log: ``(final state, ω̂ (T, 3), status (T,), first_bad, info)``; at the first
     rejected sample it stops and returns the state it started from (``first_bad`` its index, else −1)."""

@@ -15,7 +15,7 @@ stationary noise level (rad/s, from the gain design)::
 
     ν̄ ← (1 − α) ν̄ + α ν / m                       (S1, the innovation consistency, m = the fix's dimension)
     c ← c + 1 if d > max(κ s, κ σ_obs) else 0       (S2, persistent disagreement with the observer)
-    lost = ν̄ > ν_max  or  c ≥ c_max  or  ω̂_EKF not finite                                                 (S3)
+    lost = ν̄ > ν_max  or  c ≥ c_max  or  the EKF's state (R̂, ω̂, â, P) not finite                            (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
@@ -31,7 +31,7 @@ import numba
 import numpy as np
 
 from omegahat.kernels import checks
-from omegahat.kernels.ekf import EKF_SCRATCH, ekf_attitude_update, ekf_propagate, ekf_vector_update
+from omegahat.kernels.ekf import EKF_SCRATCH, ekf_attitude_update, ekf_finite, ekf_propagate, ekf_vector_update
 from omegahat.kernels.rotation import wahba
 from omegahat.observer import sampled
 from omegahat.observer.sampled import PARAMS, RUNNING, STATE, WARM_PENDING
@@ -113,20 +113,24 @@ def initial_ekf_state() -> np.ndarray:
     return x
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _covariance(xe, pe):
     """The EKF's P inside its flat state: 6×6, or 9×9 when it carries the unknown acceleration."""
     n = 9 if pe[EKF_PARAMS.q_a] > 0.0 else 6
     return xe[EKF_STATE.P : EKF_STATE.P + n * n].reshape(n, n)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _reinitialise(xe, pe, w_obs, R_meas):
     """(S4): the EKF restarted from the observer's rate and the measured attitude (an unknown acceleration it
     carries keeps its estimate, with its prior variance again)."""
     R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
-    R[:, :] = R_meas
-    xe[EKF_STATE.omega : EKF_STATE.omega + 3] = w_obs
+    for a in range(3):  # element loops, not slice assignments: those compile a shape check and its message
+        xe[EKF_STATE.omega + a] = w_obs[a]
+        for b in range(3):
+            R[a, b] = R_meas[a, b]
+    if not checks.all_finite(xe[EKF_STATE.accel : EKF_STATE.accel + 3]):  # a diverged estimate is not kept
+        xe[EKF_STATE.accel : EKF_STATE.accel + 3] = 0.0
     P = _covariance(xe, pe)
     P[:, :] = 0.0
     var_w = pe[EKF_PARAMS.sigma_obs] ** 2 / 3.0
@@ -139,21 +143,26 @@ def _reinitialise(xe, pe, w_obs, R_meas):
     xe[EKF_STATE.disagree] = 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _measured_attitude(p, m, kind, r_meas, R_work, out):
     """The sample's attitude R (body → inertial) into ``out``: the matrix itself, the quaternion's matrix (the
     checks left it in ``R_work``) or Wahba's attitude from the directions (``R v_i ≈ …``: ``R r_i = v_i``)."""
+    # element loops, not slice assignments: those compile a shape check and its message
     if kind == checks.KIND_MATRIX:
-        out[:, :] = m
+        for a in range(9):
+            out[a // 3, a % 3] = m[a // 3, a % 3]
     elif kind == checks.KIND_QUAT:
-        out[:, :] = R_work
+        for a in range(9):
+            out[a // 3, a % 3] = R_work[a // 3, a % 3]
     else:
         n = int(p[PARAMS.n])
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
-        out[:, :] = wahba(p[PARAMS.k : PARAMS.k + n], V, r_meas)
+        R = wahba(p[PARAMS.k : PARAMS.k + n], V, r_meas)
+        for a in range(9):
+            out[a // 3, a % 3] = R[a // 3, a % 3]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     """One sample: the observer (``xs`` → ``xs_out``), the EKF and the supervisor (``xe`` → ``xe_out``); returns
     ``(status, info, ω̂)``. On a rejection the outputs are unspecified and the inputs untouched. ``wk``: the
@@ -162,7 +171,12 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     w_obs = xs_out[STATE.omega_hat : STATE.omega_hat + 3]
     if status >= checks.ERROR:
         return status, info, w_obs
-    xe_out[:] = xe
+    for i in range(xe.size):
+        xe_out[i] = xe[i]
+    xe_out[EKF_STATE.source] = FROM_OBSERVER
+    if status == checks.RESTARTED:  # the observer restarted (no estimate): the EKF starts again after it
+        xe_out[EKF_STATE.started] = 0.0
+        return status, info, w_obs
     n = int(p[PARAMS.n])
     R = xe_out[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     w = xe_out[EKF_STATE.omega : EKF_STATE.omega + 3]
@@ -180,9 +194,12 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
             R, w, a, P, t - xs[STATE.t], held, tau_end, Jm, Jinv, pe[EKF_PARAMS.q], pe[EKF_PARAMS.q_a],
             pe[EKF_PARAMS.dynamic] != 0.0, pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle],
         )  # fmt: skip
-    xe_out[EKF_STATE.source] = FROM_OBSERVER
+    finite = started and ekf_finite(R, w, a, P)  # the EKF's guard
     if status != checks.OK:  # skipped: both parts predicted through it; the EKF is not judged without a fix
-        if started and xe[EKF_STATE.source] == FROM_EKF and math.isfinite(w[0] + w[1] + w[2]):
+        if started and not finite:  # its step could not be taken: it starts again from the observer at a fix
+            xe_out[EKF_STATE.started] = 0.0
+            xe_out[EKF_STATE.resets] += 1.0
+        elif started and xe[EKF_STATE.source] == FROM_EKF:
             xe_out[EKF_STATE.source] = FROM_EKF
             return status, info, w
         return status, info, w_obs
@@ -190,8 +207,13 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     _measured_attitude(p, m, kind, r_meas, R_work, R_meas)
     warm_started = xs[STATE.stage] == WARM_PENDING and xs_out[STATE.stage] == RUNNING
     if not started or warm_started:  # the first fix, or the observer's warm start: the EKF starts from it
+        if math.isfinite(w_obs[0]):  # not while the observer restarts (NaN until its warm start)
+            _reinitialise(xe_out, pe, w_obs, R_meas)
+            xe_out[EKF_STATE.started] = 1.0
+        return status, info, w_obs
+    if not finite:  # (S3) for a propagation that could not be taken: restarted from the observer (S4)
         _reinitialise(xe_out, pe, w_obs, R_meas)
-        xe_out[EKF_STATE.started] = 1.0
+        xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
@@ -211,7 +233,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     lost = (
         not nis_avg <= pe[EKF_PARAMS.nis_max]  # NaN counts as lost
         or disagree >= pe[EKF_PARAMS.disagree_max]
-        or not math.isfinite(d)
+        or not ekf_finite(R, w, a, P)
     )  # (S3)
     if lost:  # (S4)
         _reinitialise(xe_out, pe, w_obs, R_meas)
@@ -223,7 +245,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     return status, info, w
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def step(xs, p, xe, pe, t, m, kind, tau):
     """The pure step: ``(observer state, EKF state, ω̂ (3,), status, info)``; the inputs are not modified."""
     xs_out = np.empty_like(xs)
@@ -234,7 +256,7 @@ def step(xs, p, xe, pe, t, m, kind, tau):
     return xs_out, xe_out, w.copy(), status, info
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def run(xs, p, xe, pe, times, m, kind, taus):
     """:func:`step_into` over a log: ``(observer state, EKF state, ω̂ (T, 3), source (T,), status (T,), first_bad,
     info)``; at the first rejected sample it stops and returns the states it started from."""

@@ -4,7 +4,11 @@ Two equal campaigns give the same numbers: every run draws from its own seed (:m
 The TOML file has the sections ``[campaign]`` (runs, seed, chunk size, horizon, output step, tolerances and the
 envelope's thresholds), ``[body]`` (J, references, omega_max), ``[initial]`` (the initial-condition ranges),
 ``[torque]`` (terms, amplitude, frequency range) and one ``[gains.NAME]`` table per gain set (``kind`` =
-"theorem", "constant" or "affine"); errors name the section, the key and the value.
+"theorem", "constant" or "affine"); errors name the file, the section, the key and the value.
+
+A campaign holds every run's results in memory (the error ratio E(t)/E(0) at every output time, per gain set:
+:attr:`Campaign.result_bytes`); one that would hold more than :data:`MAX_RESULT_BYTES` is refused when it is made,
+before any run, with the limit in the message.
 """
 
 from __future__ import annotations
@@ -22,7 +26,18 @@ import numpy as np
 from omegahat.observer.gains import ObserverGains, theorem_gains
 from omegahat.validation import as_directions, as_inertia
 
-__all__ = ["Campaign", "campaign_from_dict", "campaign_from_toml", "load_campaign", "replace", "run_seed"]
+__all__ = [
+    "MAX_RESULT_BYTES",
+    "Campaign",
+    "campaign_from_dict",
+    "campaign_from_toml",
+    "load_campaign",
+    "replace",
+    "run_seed",
+]
+
+#: bytes of results a campaign may hold (4 GiB; merging the chunks' results briefly needs about twice as much)
+MAX_RESULT_BYTES = 4 << 30
 
 
 @dataclass(frozen=True)
@@ -74,6 +89,20 @@ class Campaign:
             raise ValueError(f"Campaign: torque_frequency must be (low, high) with 0 < low <= high; got {(lo, hi)!r}")
         if self.p_zero + self.p_opposite > 1:
             raise ValueError(f"Campaign: p_zero + p_opposite must not exceed 1; got {self.p_zero} + {self.p_opposite}")
+        if self.result_bytes > MAX_RESULT_BYTES:
+            times = self.horizon / self.dt_out + 1
+            raise ValueError(
+                f"Campaign: {self.runs:,} runs x {len(self.gains)} gain sets would hold {self.result_bytes:.3g} bytes "
+                f"of results ({times:.4g} output times per run and gain set); omegahat holds at most "
+                f"{MAX_RESULT_BYTES:.3g} bytes ({MAX_RESULT_BYTES >> 30} GiB): fewer runs, a larger dt_out, or several "
+                "campaigns with different seeds"
+            )
+
+    @property
+    def result_bytes(self) -> float:
+        """Bytes of results the campaign holds: per run and gain set, E(t)/E(0) at every output time and a dozen
+        numbers (:class:`omegahat.lab.campaigns.diagnostics.GainSetResult`)."""
+        return float(self.runs) * len(self.gains) * 8.0 * (self.horizon / self.dt_out + 1 + _RESULT_SCALARS)
 
     @property
     def t_out(self) -> np.ndarray:
@@ -111,6 +140,7 @@ _SECTIONS = {
     },
     "torque": {"terms": "torque_terms", "amplitude": "torque_amplitude", "frequency": "torque_frequency"},
 }
+_RESULT_SCALARS = 11  # per run, at most 8 bytes each: the other fields of GainSetResult (index, flags, rates, steps)
 _INTEGER = {"runs", "seed", "chunk_size", "max_steps", "torque_terms"}
 # (lower, lower inclusive, upper, upper inclusive) for scalar settings
 _RANGES = {
@@ -248,7 +278,13 @@ def campaign_from_toml(text: str, source: str = "config") -> Campaign:
 def load_campaign(path: str | os.PathLike[str]) -> Campaign:
     """Read a campaign from a TOML file (see ``examples/campaign.toml``)."""
     path = Path(path)
-    return campaign_from_toml(path.read_text(), str(path))
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{path}: not a TOML file (not UTF-8 text: byte {exc.start} is {exc.object[exc.start]:#04x})"
+        ) from None
+    return campaign_from_toml(text, str(path))
 
 
 def replace(campaign: Campaign, **changes: Any) -> Campaign:

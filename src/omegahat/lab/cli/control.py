@@ -1,5 +1,9 @@
 """``omegahat control [--out DIR]``: the attitude controller fed a gyro, omegahat's estimate or differenced
-attitudes, in closed loop (detumble, 180° slew, the measured basin), with figures and a summary."""
+attitudes, in closed loop (detumble, 180° slew, the measured basin), with figures and a summary.
+
+Checked before any work: ``--runs`` from 1 to :data:`MAX_RUNS`, ``--seed`` a non-negative integer (a
+``SeedSequence`` entropy), the plant available, ``--out`` a folder (or absent). The files appear in ``--out`` only
+when all are written."""
 
 from __future__ import annotations
 
@@ -7,7 +11,8 @@ import argparse
 import time
 from pathlib import Path
 
-from omegahat.cli import positive_float, positive_int
+from omegahat.cli import bounded_int, natural_int, positive_float
+from omegahat.io.output import check_output_folder, staged_folder
 from omegahat.lab.control import basin, report
 from omegahat.lab.control.closed_loop import ClosedLoopRun, Plant
 from omegahat.lab.control.scenarios import ARCSEC, ControlScenario, detumble, run_scenario, slew
@@ -19,12 +24,19 @@ HELP = (
 
 FEEDS = ("gyro", "omegahat", "differencing")
 SWEEP_DEG = (90.0, 150.0, 170.0, 179.0, 179.9, 180.0)
+#: basin runs at most: every run's results, and a row of basin_runs.csv, are held in memory
+MAX_RUNS = 100_000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("control-out"), help="output folder (control-out/)")
-    parser.add_argument("--runs", type=positive_int, default=20, help="Monte-Carlo runs of the basin (20)")
-    parser.add_argument("--seed", type=int, default=2026, help="the basin's SeedSequence entropy (2026)")
+    parser.add_argument(
+        "--runs",
+        type=bounded_int(1, MAX_RUNS, "every run's results are held in memory"),
+        default=20,
+        help="Monte-Carlo runs of the basin (20)",
+    )
+    parser.add_argument("--seed", type=natural_int, default=2026, help="the basin's SeedSequence entropy (2026)")
     parser.add_argument(
         "--sigma-arcsec",
         type=positive_float,
@@ -57,8 +69,15 @@ def _plant(name: str, scenario: ControlScenario) -> Plant | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
+    _plant(args.plant, detumble())  # refused now rather than after the first scenarios
+    check_output_folder(args.out)
+    with staged_folder(args.out) as stage:
+        elapsed = _run(args, stage)
+    print(f"done in {elapsed:.1f} s; figures, CSV files and summary.md in {args.out}/")
+    return 0
+
+
+def _run(args: argparse.Namespace, out: Path) -> float:
     start = time.perf_counter()
     table: list[dict] = []
     common = {"sigma": args.sigma_arcsec * ARCSEC, "natural_frequency": args.natural_frequency}
@@ -110,5 +129,4 @@ def run(args: argparse.Namespace) -> int:
         "settled: error angle <= 1e-3 rad and rate error <= 1e-3 rad/s."
     )
     (out / "summary.md").write_text(report.summary_markdown(table, basin_rows, SWEEP_DEG, sweep, FEEDS, header))
-    print(f"done in {time.perf_counter() - start:.1f} s; figures, CSV files and summary.md in {out}/")
-    return 0
+    return time.perf_counter() - start

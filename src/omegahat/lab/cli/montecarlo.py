@@ -1,4 +1,8 @@
-"""``omegahat montecarlo CONFIG.toml [--out DIR]``: a Monte-Carlo campaign against the global exponential claim."""
+"""``omegahat montecarlo CONFIG.toml [--out DIR]``: a Monte-Carlo campaign against the global exponential claim.
+
+Checked before any work: the configuration (:func:`omegahat.lab.campaigns.load_campaign`: every value, and a
+campaign whose results would exceed :data:`omegahat.lab.campaigns.config.MAX_RESULT_BYTES` in memory), ``--runs``,
+``--horizon``, ``--out`` a folder (or absent). The files appear in ``--out`` only when all are written."""
 
 from __future__ import annotations
 
@@ -6,7 +10,8 @@ import argparse
 import time
 from pathlib import Path
 
-from omegahat.cli import positive_int
+from omegahat.cli import positive_float, positive_int
+from omegahat.io.output import check_output_folder, staged_folder
 from omegahat.lab import campaigns
 
 HELP = (
@@ -36,7 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "counterexamples (omegahat.lab.evaluation.uniformity)",
     )
     parser.add_argument("--gains", default=None, help="with --observers: the gain set (default: the first)")
-    parser.add_argument("--horizon", type=float, default=None, help="with --observers: override the horizon (s)")
+    parser.add_argument(
+        "--horizon", type=positive_float, default=None, help="with --observers: override the horizon (s)"
+    )
 
 
 def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int:
@@ -49,8 +56,8 @@ def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int
     if show is not None:
         print()
     text = uniformity.markdown(rows)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "uniformity.md").write_text(text)
+    with staged_folder(args.out) as stage:
+        (stage / "uniformity.md").write_text(text)
     print(text, end="")
     print(f"same draws for every observer: {uniformity.same_draws(rows)}; written to {args.out}/uniformity.md")
     return 0
@@ -60,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
     campaign = campaigns.load_campaign(args.config)
     if args.runs is not None:
         campaign = campaigns.replace(campaign, runs=args.runs)
+    check_output_folder(args.out)
     if args.observers is not None:
         return run_observers(campaign, args)
     start = time.perf_counter()
@@ -70,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
 
         results = distributed.run_campaign_on(campaign, args.dask, progress=not args.no_progress)
     elapsed = time.perf_counter() - start
-    summary = campaigns.write_outputs(campaign, results, args.out)
+    with staged_folder(args.out) as stage:
+        summary = campaigns.write_outputs(campaign, results, stage)
     print(f"{campaign.runs} runs in {elapsed:.1f} s; outputs in {args.out}/")
     for name, s in summary["gain_sets"].items():
         lam = "n/a" if s["worst_lambda"] is None else f"{s['worst_lambda']:.4g}/s"

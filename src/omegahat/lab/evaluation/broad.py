@@ -39,6 +39,13 @@ lost track in a gap time to recover; it keeps 85–95 % of the motion samples.
 
 Low-rate motion capture: :meth:`Trial.decimated` keeps every ``n``-th sample (attitude, labels and the gyro at
 those instants) and remembers the native trial, whose gyro the score interpolates.
+
+Any recording: :func:`score` takes anything shaped like a :class:`Trial` (:class:`Scorable`: sample times, rate,
+gaps, motion labels, and a reference rate at its own times on the log's clock), so the recordings of the
+development corpus (:mod:`omegahat.lab.evaluation.corpus`) are scored by this one definition. A reference on its own
+clock and rate (a calibrated gyroscope) may end before the log or have gaps: samples whose shifted instants
+``t_k ± max_shift·h`` leave it, or fall in a step of the reference longer than 2.5 × its median, are unusable like
+attitude gaps. ``cutoff_hz=math.inf`` scores without the low-pass (a simulation's exact truth).
 """
 
 from __future__ import annotations
@@ -47,6 +54,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 import scipy.io
@@ -62,6 +70,7 @@ __all__ = [
     "DEFAULT_CUTOFF_HZ",
     "NOTICE_DIFFERENCING_RMS",
     "TRIALS",
+    "Scorable",
     "Score",
     "Trial",
     "data_dir",
@@ -146,6 +155,16 @@ class Trial:
         """Samples without an optical attitude ``(N,)``."""
         return ~np.all(np.isfinite(self.R), axis=(1, 2))
 
+    @property
+    def reference_times(self) -> np.ndarray:
+        """Times of the score's reference: the native trial's samples."""
+        return (self.native or self).t
+
+    @property
+    def reference_rates(self) -> np.ndarray:
+        """The score's reference ``(N_native, 3)``: the native trial's bias-corrected gyroscope."""
+        return (self.native or self).gyro_corrected
+
     def _need_movement(self, what: str) -> np.ndarray:
         if self.movement is None:
             raise ValueError(f"trial {self.name!r} has no movement labels: {what} needs them (use a .mat trial)")
@@ -226,6 +245,28 @@ def load_csv_cut(path: str | os.PathLike[str] | None = None) -> Trial:
 # ------------------------------------------------------------------------------------------------- scoring
 
 
+class Scorable(Protocol):
+    """What :func:`score` needs of a recording (a :class:`Trial`, a corpus recording): ``name``; sample times
+    ``t (N,)`` s and rate ``fs`` Hz; ``gaps (N,)`` (no attitude); ``movement (N,)`` the samples to score (None:
+    unlabelled, not scorable); the reference rate ``reference_rates (M, 3)`` (rad/s, body axes) at
+    ``reference_times (M,)`` on the log's clock, strictly increasing."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def t(self) -> np.ndarray: ...
+    @property
+    def fs(self) -> float: ...
+    @property
+    def movement(self) -> np.ndarray | None: ...
+    @property
+    def gaps(self) -> np.ndarray: ...
+    @property
+    def reference_times(self) -> np.ndarray: ...
+    @property
+    def reference_rates(self) -> np.ndarray: ...
+
+
 @dataclass(frozen=True)
 class Score:
     """``rms`` (rad/s) at the best ``shift`` (samples of the scored log; the estimate ω̂_k is compared with
@@ -257,8 +298,8 @@ def _bridge(e, ok):
 
 
 def _check_score_options(trial, cutoff_hz, order, gap_margin_s, max_shift, resolution):
-    if not 0 < cutoff_hz < trial.fs / 2:
-        raise ValueError(f"cutoff_hz must be in (0, fs/2 = {trial.fs / 2:g}); got {cutoff_hz!r}")
+    if not (0 < cutoff_hz < trial.fs / 2 or cutoff_hz == math.inf):
+        raise ValueError(f"cutoff_hz must be in (0, fs/2 = {trial.fs / 2:g}); got {cutoff_hz!r} (or inf: no low-pass)")
     if int(order) != order or order < 1:
         raise ValueError(f"order must be a positive integer; got {order!r}")
     if not gap_margin_s >= 0:
@@ -269,8 +310,18 @@ def _check_score_options(trial, cutoff_hz, order, gap_margin_s, max_shift, resol
         raise ValueError(f"resolution must be in (0, 1] samples; got {resolution!r}")
 
 
+def _outside_reference(t: np.ndarray, reach: float, ref_t: np.ndarray) -> np.ndarray:
+    """Samples whose instants ``t ± reach`` leave the reference's span or meet one of its long steps."""
+    lo, hi = t - reach, t + reach
+    out = (lo < ref_t[0]) | (hi > ref_t[-1])
+    steps = np.diff(ref_t)
+    for j in np.flatnonzero(steps > 2.5 * np.median(steps)):
+        out |= (hi >= ref_t[j]) & (lo <= ref_t[j + 1])
+    return out
+
+
 def score(
-    trial: Trial,
+    trial: Scorable,
     estimate: ArrayLike,
     cutoff_hz: float | None = None,
     order: int = 4,
@@ -278,9 +329,11 @@ def score(
     max_shift: float = 3.0,
     resolution: float = 0.1,
 ) -> Score:
-    """In-band RMS error of ``estimate (N, 3)`` (rad/s, one row per sample of ``trial``), module docstring.
+    """In-band RMS error of ``estimate (N, 3)`` (rad/s, one row per sample of ``trial``, a :class:`Trial` or any
+    :class:`Scorable` recording), module docstring.
 
-    ``resolution=1`` searches whole-sample shifts only (NOTICE.md's rule; no refinement)."""
+    ``resolution=1`` searches whole-sample shifts only (NOTICE.md's rule; no refinement); ``cutoff_hz=math.inf``
+    leaves out the low-pass."""
     w = np.asarray(estimate, dtype=float)
     N = trial.t.size
     if w.shape != (N, 3):
@@ -290,9 +343,11 @@ def score(
     if cutoff_hz is None:
         cutoff_hz = min(DEFAULT_CUTOFF_HZ, 0.4 * trial.fs)
     _check_score_options(trial, cutoff_hz, order, gap_margin_s, max_shift, resolution)
-    movement = trial._need_movement("scoring")
-    source = trial.native or trial
-    reference = CubicSpline(source.t, source.gyro_corrected, axis=0)
+    movement = trial.movement
+    if movement is None:
+        raise ValueError(f"trial {trial.name!r} has no movement labels: scoring needs them (use a .mat trial)")
+    ref_t = trial.reference_times
+    reference = CubicSpline(ref_t, trial.reference_rates, axis=0)
     h = 1.0 / trial.fs
 
     # Scored samples: motion, away (margin + max shift) from gaps, non-finite estimates and the record's ends.
@@ -300,7 +355,7 @@ def score(
     if not finite.any():
         raise ValueError(f"the estimate has no finite row for trial {trial.name!r}")
     reach_shift = math.ceil(max_shift)
-    unusable = trial.gaps | ~finite
+    unusable = trial.gaps | ~finite | _outside_reference(trial.t, reach_shift * h, ref_t)
     unusable[: reach_shift + 1] = True
     unusable[-(reach_shift + 1) :] = True
     reach = round(gap_margin_s * trial.fs) + reach_shift
@@ -310,13 +365,17 @@ def score(
     if not scored.any():
         raise ValueError(f"no motion sample of trial {trial.name!r} is {gap_margin_s} s away from gaps")
 
-    sos = butter(int(order), cutoff_hz, fs=trial.fs, output="sos")
+    if cutoff_hz == math.inf:
+        band = lambda x: x  # noqa: E731
+    else:
+        sos = butter(int(order), cutoff_hz, fs=trial.fs, output="sos")
+        band = lambda x: sosfiltfilt(sos, x, axis=0)  # noqa: E731
     # The filter is linear: filter the estimate once, and the shifted reference for each shift.
-    w_f = sosfiltfilt(sos, _bridge(w, finite), axis=0)
+    w_f = band(_bridge(w, finite))
 
     def rms_at(s: float) -> float:
-        g = reference(np.clip(trial.t + s * h, source.t[0], source.t[-1]))
-        e_f = w_f - sosfiltfilt(sos, g, axis=0)
+        g = reference(np.clip(trial.t + s * h, ref_t[0], ref_t[-1]))
+        e_f = w_f - band(g)
         return float(np.sqrt(np.mean(np.sum(e_f[scored] ** 2, axis=1))))
 
     n_grid = round(max_shift / resolution)
@@ -330,8 +389,8 @@ def score(
         if found.fun < best_rms:
             best, best_rms = float(found.x), float(found.fun)
     zero = by_shift[0.0] if 0.0 in by_shift else rms_at(0.0)
-    g0 = source.gyro_corrected if trial.native is None else trial.gyro - trial.gyro_bias
-    gyro_rms = float(np.sqrt(np.mean(np.sum(g0[scored] ** 2, axis=1))))
+    g0 = reference(trial.t[scored])  # the reference at the log's own samples (its knots, for a native trial)
+    gyro_rms = float(np.sqrt(np.mean(np.sum(g0**2, axis=1))))
     return Score(best_rms, best, zero, int(scored.sum()), by_shift, gyro_rms)
 
 

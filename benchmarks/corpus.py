@@ -1,0 +1,276 @@
+"""Build the development corpus of issue 24 from local copies of public recordings and an independent plant.
+
+Run: ``python benchmarks/corpus.py SRC_DIR OUT_DIR [--only broad upenn plant]`` (a few minutes on 2 cores), then
+``OMEGAHAT_CORPUS_DIR=OUT_DIR python benchmarks/real_world.py``. Nothing of the data is committed; each recording
+becomes ``OUT_DIR/NAME.npz`` (:mod:`omegahat.lab.evaluation.corpus`: an omegahat NPZ log, so ``omegahat estimate
+OUT_DIR/NAME.npz -o out.csv`` runs on it, plus its reference rate), and ``OUT_DIR/NOTICE.md`` lists the sources,
+their licences and what was changed.
+
+* ``SRC_DIR/broad/*.mat``: BROAD trials (D. Laidig, M. Caruso, A. Cereatti, T. Seel, Data 6(7), 2021,
+  doi:10.3390/data6070072, CC BY 4.0; ``dlaidig/broad``), and ``trials.json`` for their descriptions. Trials 02,
+  07, 09 and 16 are kept for acceptance and are never converted, even if present. The optical attitude as it is; the
+  reference is the gyroscope calibrated against it by :func:`omegahat.calibration.calibrate` (clock offset, frame
+  rotation, bias: one calibration shared by every method); the ``movement`` labels are the scored samples; the
+  harness also scores every 10th and 30th sample (29 and 10 Hz), as ``benchmarks/real_data.py`` does.
+* ``SRC_DIR/upenn/vicon/viconRotN.mat`` with ``upenn/imu/imuRawN.mat`` (UPenn ESE 650 Vicon and IMU recordings,
+  from ``yashv28/Orientation-Estimation-using-Unscented-Kalman-Filter``; the repository states no licence: local
+  use, never redistributed): ``rots (3, 3, N)`` body → world at ~100 Hz, ``vals (6, M)`` raw ADC counts
+  (accelerometer, then gyroscope rows in an order the calibration finds). Both logs' stamps are arrival times with
+  jitter (Vicon: up to 28 ms off a regular 100 Hz, in sets 1-6; no frame dropped or repeated): each log's times are
+  replaced by the straight line fitted to them over the sample index (the residuals are in ``meta["notes"]``).
+  The gyroscope is calibrated with a general scale matrix (raw counts, permuted axes); where it is stuck
+  (:func:`stuck_gyro`) its samples are left out. A set whose matrix is ill-conditioned (condition number above
+  :data:`MAX_CONDITION`: a channel that does not respond, as the first gyro axis of set 2) is not converted.
+* The independent plant (needs ``omegahat[mujoco]``): :mod:`omegahat.lab.evaluation.plant_logs`, 24 logs of issue
+  24's grid and the varying-motion case, each also written as ``NAME.csv`` (what ``omegahat estimate`` reads;
+  ``meta["command"]`` has the options its model needs) and ``NAME-truth.csv`` (``t, wx, wy, wz``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+from omegahat import so3
+from omegahat.calibration import calibrate
+from omegahat.cli.calibrate import table
+from omegahat.lab.evaluation import broad
+from omegahat.lab.evaluation.corpus import Recording, save_recording
+
+ACCEPTANCE = ("02", "07", "09", "16")  #: BROAD trials kept for acceptance: never converted
+PARTS = ("broad", "upenn", "plant")
+BROAD_SOURCE = (
+    "BROAD: D. Laidig, M. Caruso, A. Cereatti, T. Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "
+    "Estimation', Data 6(7), 2021, doi:10.3390/data6070072 (github.com/dlaidig/broad)"
+)
+BROAD_LICENCE = "CC BY 4.0 (https://creativecommons.org/licenses/by/4.0/)"
+UPENN_SOURCE = (
+    "UPenn ESE 650 (Learning in Robotics) orientation-tracking data: Vicon rotations and raw IMU counts, as in "
+    "github.com/yashv28/Orientation-Estimation-using-Unscented-Kalman-Filter"
+)
+UPENN_LICENCE = "not stated by the repository: used locally for development, never redistributed"
+
+
+def _calibration_meta(cal) -> dict:
+    d = cal.to_dict()
+    d.pop("covariance")
+    return d
+
+
+def convert_broad(src: Path, out: Path) -> list[str]:
+    described = {}
+    if (src / "trials.json").exists():
+        described = {k: v["description"] for k, v in json.loads((src / "trials.json").read_text())["trials"].items()}
+    written = []
+    for path in sorted(src.glob("*.mat")):
+        if path.name[:2] in ACCEPTANCE:
+            print(f"  {path.name}: an acceptance trial: not converted")
+            continue
+        trial = broad.load_trial(path)
+        cal = calibrate(trial.t, trial.R, trial.t, trial.gyro)
+        ref_t, ref_w = cal.apply(trial.t, trial.gyro)
+        q = np.full((trial.t.size, 4), np.nan)
+        ok = ~trial.gaps
+        q[ok] = so3.to_quat(trial.R[ok])
+        name = f"broad-{path.stem}"
+        meta = {
+            "source": f"{BROAD_SOURCE}, trial {path.stem}",
+            "licence": BROAD_LICENCE,
+            "description": described.get(path.stem, ""),
+            "changes": "optical quaternion unchanged (stored scalar first); the gyroscope calibrated against it "
+            "(offset, rotation, bias) and mapped into the body frame on the attitude's clock",
+            "calibration": _calibration_meta(cal),
+            "decimate": [10, 30],
+            "score": {},
+            "truth": False,
+            "command": f"omegahat estimate {name}.npz -o out.csv",
+            "notes": [f"{int(trial.gaps.sum())} samples without optical attitude"],
+        }
+        rec = Recording(name, trial.t, "quaternion", q, ref_t, ref_w, np.asarray(trial.movement), meta)
+        save_recording(out / f"{name}.npz", rec)
+        written.append(name)
+        print(f"  {name}: {trial.t.size} samples at {trial.fs:.4g} Hz; calibration: offset {cal.offset * 1e3:+.2f} "
+              f"± {cal.offset_std * 1e3:.2f} ms, rotation {np.degrees(np.linalg.norm(so3.log(cal.rotation))):.3f} deg, "
+              f"bias {np.array2string(cal.bias, precision=4)} rad/s", flush=True)  # fmt: skip
+    return written
+
+
+def _regular(t: np.ndarray) -> tuple[np.ndarray, str]:
+    """The least-squares line through the stamps over the sample index, as seconds after the first stamp (Unix
+    times carry only 0.2 µs in a float), and how far the stamps were from it."""
+    k = np.arange(t.size)
+    rel = t - t[0]
+    slope, intercept = np.polyfit(k, rel, 1)
+    line = intercept + slope * k
+    r = rel - line
+    return (
+        line,
+        f"{1 / slope:.5g} Hz, stamps off the line by {1e3 * r.std():.2g} ms RMS, {1e3 * abs(r).max():.2g} ms max",
+    )
+
+
+STUCK_COUNTS = np.array([382.0, 383.0, 384.0])  #: the UPenn gyroscope's value while it does not respond
+STUCK_MIN_SAMPLES = 10
+MAX_CONDITION = 3.0  #: a calibrated scale matrix less well conditioned than this has a dead channel
+
+
+def stuck_gyro(g: np.ndarray) -> np.ndarray:
+    """Samples where the UPenn gyroscope is stuck: runs of at least :data:`STUCK_MIN_SAMPLES` with every axis
+    within 2 counts of :data:`STUCK_COUNTS` (seen in sets 2, 4, 5, 8, 9, 10 for 0.5-2.5 s while the Vicon shows
+    the board turning; its rest value is about (370, 374, 375)), and 5 samples either side."""
+    near = np.all(np.abs(g - STUCK_COUNTS) <= 2.0, axis=1)
+    edges = np.diff(np.concatenate([[0], near.astype(int), [0]]))
+    out = np.zeros(g.shape[0], dtype=bool)
+    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        if b - a >= STUCK_MIN_SAMPLES:
+            out[max(0, a - 5) : b + 5] = True
+    return out
+
+
+def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
+    written, tables = [], {}
+    sets = sorted(int(p.stem.removeprefix("viconRot")) for p in (src / "vicon").glob("viconRot*.mat"))
+    for n in sets:
+        imu_path = src / "imu" / f"imuRaw{n}.mat"
+        if not imu_path.exists():
+            continue
+        v = scipy.io.loadmat(src / "vicon" / f"viconRot{n}.mat")
+        imu = scipy.io.loadmat(imu_path)
+        R = np.ascontiguousarray(np.moveaxis(np.asarray(v["rots"], dtype=float), 2, 0))
+        bad = ~np.all(np.isfinite(R), axis=(1, 2))
+        ts_v, ts_i = np.asarray(v["ts"], dtype=float).ravel(), np.asarray(imu["ts"], dtype=float).ravel()
+        t_v, vicon_note = _regular(ts_v)
+        t_i, imu_note = _regular(ts_i)
+        origin = ts_v[0] + t_v[0]  # Unix time of the first Vicon sample: times below count from it
+        t_i += (ts_i[0] - ts_v[0]) - t_v[0]
+        t_v -= t_v[0]
+        g = np.asarray(imu["vals"], dtype=float)[3:6].T  # the gyroscope's counts, in the order stored
+        stuck = stuck_gyro(g)
+        t_i, g = t_i[~stuck], g[~stuck]  # left out: the calibration and the score treat the holes as gaps
+        cal = calibrate(t_v, R, t_i, g, scale="matrix")
+        sv = np.linalg.svd(cal.matrix, compute_uv=False)
+        if sv[-1] < sv[0] / MAX_CONDITION:
+            print(f"  upenn-{n:02d}: not converted: a gyroscope channel does not respond (scale factors "
+                  f"{np.array2string(cal.scale, precision=3)} counts per rad/s; singular values of A "
+                  f"{np.array2string(sv, precision=3)}): no reference", flush=True)  # fmt: skip
+            tables[f"upenn-{n:02d} (not converted)"] = table(cal, "counts")
+            continue
+        ref_t, ref_w = cal.apply(t_i, g)
+        q = np.full((t_v.size, 4), np.nan)
+        q[~bad] = so3.to_quat(R[~bad])
+        name = f"upenn-{n:02d}"
+        meta = {
+            "source": f"{UPENN_SOURCE}: vicon/viconRot{n}.mat, imu/imuRaw{n}.mat (rows 4-6 of vals: the gyroscope)",
+            "licence": UPENN_LICENCE,
+            "description": f"hand-held IMU board tracked by Vicon, set {n}",
+            "changes": "times regularised (notes) and counted from the first Vicon sample (Unix time "
+            f"{origin:.6f}); Vicon rotations as quaternions; the gyroscope's raw counts calibrated with a scale "
+            "matrix and mapped into the body frame, rad/s, on the Vicon's clock",
+            "calibration": _calibration_meta(cal),
+            "decimate": [],
+            "score": {},
+            "truth": False,
+            "command": f"omegahat estimate {name}.npz -o out.csv",
+            "notes": [
+                f"Vicon: {vicon_note}",
+                f"IMU: {imu_note}",
+                f"{int(bad.sum())} Vicon samples missing",
+                f"{int(stuck.sum())} gyroscope samples left out (stuck at {STUCK_COUNTS.tolist()} counts)",
+            ],
+        }
+        rec = Recording(name, t_v, "quaternion", q, ref_t, ref_w, np.ones(t_v.size, bool), meta)
+        save_recording(out / f"{name}.npz", rec)
+        written.append(name)
+        tables[name] = table(cal, "counts")
+        print(f"  {name}: {t_v.size} Vicon samples; {cal.axis_map()}; offset {cal.offset * 1e3:+.1f} ± "
+              f"{cal.offset_std * 1e3:.1f} ms", flush=True)  # fmt: skip
+    return written, tables
+
+
+def _write_csv(path: Path, rec: Recording) -> None:
+    if rec.kind == "quaternion":
+        cols, data = ["qw", "qx", "qy", "qz"], np.roll(rec.data, 1, axis=1)
+    else:
+        n = rec.data.shape[1]
+        cols, data = [f"b{i + 1}{a}" for i in range(n) for a in "xyz"], rec.data.reshape(rec.t.size, -1)
+    parts = [rec.t[:, None], data]
+    if rec.torque is not None:
+        cols += ["tau_x", "tau_y", "tau_z"]
+        parts.append(rec.torque)
+    np.savetxt(path, np.hstack(parts), delimiter=",", header=",".join(["t", *cols]), comments="", fmt="%.17g")
+
+
+def convert_plant(out: Path) -> list[str]:
+    from omegahat.lab.evaluation.plant_logs import plant_grid, varying_motion
+
+    written = []
+    for rec in [*plant_grid(0), varying_motion(0)]:
+        save_recording(out / f"{rec.name}.npz", rec)
+        _write_csv(out / f"{rec.name}.csv", rec)
+        k = np.searchsorted(rec.reference_times, rec.t)
+        truth = np.column_stack([rec.t, rec.reference_rates[k]])
+        np.savetxt(out / f"{rec.name}-truth.csv", truth, delimiter=",", header="t,wx,wy,wz", comments="", fmt="%.17g")
+        written.append(rec.name)
+    print(f"  {len(written)} plant logs", flush=True)
+    return written
+
+
+NOTICE = """# The development corpus of issue 24 (built by benchmarks/corpus.py; not part of omegahat)
+
+Each `NAME.npz` is one recording: an omegahat NPZ log (`omegahat estimate NAME.npz -o out.csv`) plus its reference
+rate; `meta` inside says where it comes from, its licence, what was changed and the calibration applied.
+
+- `broad-*`: {broad}. Licence: {broad_licence}. Changes: the gyroscope is calibrated against the optical attitude
+  and stored in the body frame; the optical attitude is unchanged. Trials 02, 07, 09 and 16 are not included.
+- `upenn-*`: {upenn}. Licence: {upenn_licence}.
+- `plant-*`: generated with MuJoCo by omegahat.lab.evaluation.plant_logs (also as `NAME.csv` and `NAME-truth.csv`).
+"""
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("src", type=Path, help="directory holding broad/ and upenn/ (either may be absent)")
+    ap.add_argument("out", type=Path, help="where to write the recordings")
+    ap.add_argument("--only", nargs="+", choices=PARTS, default=list(PARTS))
+    args = ap.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    written: list[str] = []
+    if "broad" in args.only:
+        if (args.src / "broad").is_dir():
+            print("BROAD:")
+            written += convert_broad(args.src / "broad", args.out)
+        else:
+            print(f"BROAD: skipped ({args.src / 'broad'} absent)")
+    if "upenn" in args.only:
+        if (args.src / "upenn" / "vicon").is_dir():
+            print("UPenn:")
+            names, tables = convert_upenn(args.src / "upenn", args.out)
+            written += names
+            for name, table in tables.items():
+                print(f"\n{name} (gyro counts = A omega + bias):\n{table}")
+        else:
+            print(f"UPenn: skipped ({args.src / 'upenn' / 'vicon'} absent)")
+    if "plant" in args.only:
+        try:
+            import mujoco  # noqa: F401
+        except ImportError:
+            print("plant: skipped (MuJoCo absent: pip install omegahat[mujoco])")
+        else:
+            print("plant:")
+            written += convert_plant(args.out)
+    (args.out / "NOTICE.md").write_text(
+        NOTICE.format(broad=BROAD_SOURCE, broad_licence=BROAD_LICENCE, upenn=UPENN_SOURCE, upenn_licence=UPENN_LICENCE)
+    )
+    print(f"\nwrote {len(written)} recordings to {args.out} in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,207 @@
+"""Every method on every recording of the development corpus of issue 24, by one score: the "before" table.
+
+Run: ``python benchmarks/corpus.py SRC_DIR OUT_DIR`` once, then ``OMEGAHAT_CORPUS_DIR=OUT_DIR python
+benchmarks/real_world.py [--only PATTERN ...] [--methods NAME ...] [--no-decimate]`` (about an hour on 2 shared
+cores for the whole corpus). Skips cleanly without a corpus.
+
+Score: :func:`omegahat.lab.evaluation.broad.score` through :func:`omegahat.lab.evaluation.corpus.evaluate`: the
+error against the recording's reference (a gyroscope calibrated once against the attitude by ``omegahat
+calibrate``'s fit, shared by every method; or the plant's truth), zero-phase low-passed at min(10 Hz, 0.4 × rate),
+RMS over the scored samples 1 s from gaps, at the best continuous shift within ±3 samples; the plant's logs without
+the low-pass and without a shift. BROAD recordings are also scored at every 10th and 30th sample (29 and 10 Hz),
+against the native gyroscope.
+
+Methods: :data:`omegahat.lab.evaluation.corpus.METHODS` (differencing, RotationSpline, Savitzky-Golay, ``omegahat
+estimate`` as it runs with no option, ``--estimator sarras``, the best ``--bandwidth`` in hindsight, ``--preset
+mocap``, ``--preset mocap --smooth``, the MEKF), the omegahat ones through the pipeline of ``omegahat estimate``.
+Ratios: every method to backward differencing; ``--smooth`` also to the best of central differencing and
+RotationSpline; the default to the best bandwidth in hindsight. "predicted": the method's own expected RMS error
+when it prints one. Writes ``benchmarks/real_world.csv`` (every row) and its section of RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import fnmatch
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from omegahat.lab.evaluation.broad import Score
+from omegahat.lab.evaluation.corpus import METHODS, Row, corpus_dir, evaluate, load_recording, recordings
+from results_md import RESULTS, machine_line, write_section
+
+CSV = Path(__file__).with_name("real_world.csv")
+SUMMARY = (  # the ratio columns
+    "omegahat estimate",
+    "--estimator sarras",
+    "--bandwidth, best in hindsight",
+    "--preset mocap",
+    "--preset mocap --smooth",
+    "MEKF",
+)
+HINDSIGHT = "--bandwidth, best in hindsight"
+SECTION = "## Real-world corpus of issue 24 (benchmarks/real_world.py)"
+
+
+def _fmt(x: float | None, spec: str = ".4g") -> str:
+    return "–" if x is None or not math.isfinite(x) else format(x, spec)
+
+
+def _geomean(xs: list[float]) -> float | None:
+    xs = [x for x in xs if x is not None and math.isfinite(x) and x > 0]
+    return math.exp(sum(map(math.log, xs)) / len(xs)) if xs else None
+
+
+HEADER = ["recording", "samples", "method", "causal", "rms_rad_s", "shift_samples", "zero_shift_rms", "n_scored",
+          "ratio_to_backward", "ratio_to_best_offline", "predicted_rad_s", "cpu_us_per_sample", "note"]  # fmt: skip
+
+
+def _write_csv(rows: list[Row]) -> None:
+    with open(CSV, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(HEADER)
+        for r in rows:
+            s = r.score
+            w.writerow([
+                r.recording, r.samples, r.method, r.causal, _fmt(s and s.rms, ".6g"), _fmt(s and s.shift, ".3f"),
+                _fmt(s and s.zero_shift_rms, ".6g"), s.n_samples if s else "", _fmt(r.ratio, ".4f"),
+                _fmt(r.offline_ratio, ".4f"), _fmt(r.predicted, ".4g"), _fmt(r.cpu_s * 1e6 / max(r.samples, 1), ".3g"),
+                r.note.replace("\n", " ")[:400],
+            ])  # fmt: skip
+
+
+def summary_table(rows: list[Row]) -> str:
+    """One line per recording: backward differencing's score, each summary method's ratio to it, ``--smooth``'s
+    ratio to the best offline peer, the default's ratio to the best bandwidth in hindsight and its predicted over
+    measured error; then geometric means by group."""
+    recs = list(dict.fromkeys(r.recording for r in rows))
+    by = {(r.recording, r.method): r for r in rows}
+
+    def rms(name: str, method: str) -> float | None:
+        r = by.get((name, method))
+        return r.score.rms if r is not None and r.score is not None else None
+
+    short = {"omegahat estimate": "default", "--bandwidth, best in hindsight": "best --bandwidth"}
+    head = ["recording", "backward diff. (rad/s)", *(f"{short.get(m, m)} ÷ bwd" for m in SUMMARY),
+            "--smooth ÷ best offline", "default ÷ best --bandwidth", "default: predicted ÷ measured"]  # fmt: skip
+    lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    groups: dict[str, list[list[float | None]]] = {}
+    for name in recs:
+        ratios = [by[(name, m)].ratio if (name, m) in by else None for m in SUMMARY]
+        smooth = by.get((name, "--preset mocap --smooth"))
+        default, hind = rms(name, "omegahat estimate"), rms(name, HINDSIGHT)
+        extra = [
+            smooth.offline_ratio if smooth else None,
+            default / hind if default is not None and hind else None,
+        ]
+        est = by.get((name, "omegahat estimate"))
+        pm = est.predicted / est.score.rms if est and est.predicted and est.score else None
+        cells = [_fmt(rms(name, "backward diff."))] + [_fmt(x, ".3f") for x in ratios + extra] + [_fmt(pm, ".2f")]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+        groups.setdefault(group, []).append(ratios + extra)
+    lines += ["", "| group (geometric mean) | n | " + " | ".join(head[2:-1]) + " |", "|" + " --- |" * (len(head) - 1)]
+    for g, vals in groups.items():
+        means = [_geomean([v[i] for v in vals]) for i in range(len(vals[0]))]  # type: ignore[misc]
+        lines.append(f"| {g} | {len(vals)} | " + " | ".join(_fmt(m, ".3f") for m in means) + " |")
+    return "\n".join(lines)
+
+
+def read_csv(path: Path = CSV) -> list[Row]:
+    """The rows a previous run wrote (its scores as far as the CSV keeps them), to redo the table without rerunning."""
+
+    def num(text: str) -> float | None:
+        return None if text in ("", "–") else float(text)
+
+    rows = []
+    with open(path, newline="", encoding="utf-8") as f:
+        for d in csv.DictReader(f):
+            rms = num(d["rms_rad_s"])
+            s = None
+            if rms is not None:
+                shift, zero = num(d["shift_samples"]) or 0.0, num(d["zero_shift_rms"]) or math.nan
+                s = Score(rms, shift, zero, int(d["n_scored"]), {}, math.nan)
+            cpu = (num(d["cpu_us_per_sample"]) or 0.0) * int(d["samples"]) * 1e-6
+            rows.append(Row(d["recording"], int(d["samples"]), d["method"], d["causal"] == "True", s, cpu,
+                            num(d["predicted_rad_s"]), num(d["ratio_to_backward"]), num(d["ratio_to_best_offline"]),
+                            d["note"]))  # fmt: skip
+    return rows
+
+
+def _measured_line() -> str:
+    """The machine-and-date line of this script's section in RESULTS.md (when the table was measured)."""
+    text = RESULTS.read_text() if RESULTS.exists() else ""
+    if SECTION in text:
+        body = text[text.index(SECTION) + len(SECTION) :].lstrip()
+        if body.startswith("Machine:"):
+            return body.split(" Command:")[0]
+    raise SystemExit(f"--from-csv: no measured section '{SECTION}' in {RESULTS} to take the date from")
+
+
+INTRO = (
+    "Fair score (rad/s) of backward differencing, and each method's score as a ratio to it (below 1: better); "
+    "`--smooth` also to the best of central differencing and RotationSpline (on the plant's noise-free logs the "
+    "spline is exact to 5e-9 rad/s, so that ratio means nothing there); the default over the best `--bandwidth` in "
+    "hindsight; the default's own predicted RMS error over its measured score (printed only by the fixed-gain "
+    "path). Ratios in the thousands are estimates that diverged (the preset and the MEKF after optical gaps, "
+    "written as 'corrected' estimates of up to 1e7 rad/s): they dominate the geometric means of their group. "
+    "Every method and figure per recording: `benchmarks/real_world.csv`."
+)
+
+
+def write_results(rows: list[Row], names: list[str], n_recordings: int, measured: str | None = None) -> None:
+    """Write the section of RESULTS.md (``measured``: its machine-and-date line, default now)."""
+    corpus = f"{n_recordings} recordings: {', '.join(names)}; BROAD also at every 10th and 30th sample"
+    command = f"Command: `python benchmarks/real_world.py` on the corpus of `benchmarks/corpus.py` ({corpus})."
+    write_section(SECTION, f"{measured or machine_line()} {command} {INTRO}\n\n" + summary_table(rows))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("corpus", nargs="?", type=Path, help="corpus directory (default $OMEGAHAT_CORPUS_DIR or ../corpus)")
+    ap.add_argument("--only", nargs="+", metavar="PATTERN", help="recordings whose name matches (fnmatch)")
+    ap.add_argument("--methods", nargs="+", metavar="NAME", help="methods to run (default all)")
+    ap.add_argument("--no-decimate", action="store_true", help="native rates only")
+    ap.add_argument("--no-write", action="store_true", help="print only (no CSV, no RESULTS.md)")
+    ap.add_argument("--from-csv", action="store_true", help="redo the table and section from real_world.csv")
+    args = ap.parse_args(argv)
+    if args.from_csv:
+        rows = read_csv()
+        recs = {r.recording.split("@")[0] for r in rows}
+        write_results(rows, sorted({n.split("-")[0] for n in recs}), len(recs), _measured_line())
+        print(summary_table(rows))
+        return 0
+    paths = recordings(args.corpus or corpus_dir())
+    if args.only:
+        paths = [p for p in paths if any(fnmatch.fnmatch(p.stem, pat) for pat in args.only)]
+    if not paths:
+        print(f"skipped: no corpus recordings in {args.corpus or corpus_dir()} (build it with benchmarks/corpus.py)")
+        return 0
+    methods = [m for m in METHODS if args.methods is None or m.name in args.methods]
+    warnings.simplefilter("ignore")  # skipped samples etc.: every method alike, counted in the notes
+    rows: list[Row] = []
+    t0 = time.perf_counter()
+    for path in paths:
+        rec = load_recording(path)
+        steps = [1] + ([] if args.no_decimate else list(rec.meta.get("decimate", [])))
+        for step in steps:
+            r = rec.decimated(step)
+            got = evaluate(r, methods)
+            rows += got
+            line = "  ".join(f"{g.method}: {_fmt(g.score.rms if g.score else None)}" for g in got)
+            print(f"{r.name} ({r.fs:.4g} Hz, {r.t.size} samples): {line}", flush=True)
+    table = summary_table(rows)
+    print("\n" + table + f"\n\n{len(rows)} rows in {time.perf_counter() - t0:.0f} s")
+    if args.no_write:
+        return 0
+    _write_csv(rows)
+    write_results(rows, sorted({p.stem.split("-")[0] for p in paths}), len(paths))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

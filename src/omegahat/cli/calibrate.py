@@ -1,0 +1,253 @@
+r"""``omegahat calibrate ATTITUDE GYRO``: a gyroscope calibrated against an attitude log of the same body.
+
+A thin shell over :func:`omegahat.calibration.calibrate` (the method: its docstring and ``docs/calibrate.md``). The
+attitude log is read by :func:`omegahat.io.read_log` (every format ``omegahat estimate`` reads, with the same
+conventions options); the gyroscope log is a CSV whose header names ``t, gx, gy, gz`` (or the columns given) or an
+NPZ with arrays ``t`` and ``gx, gy, gz`` (or ``g (M, 3)``): :func:`read_gyro`. Prints the table (:func:`table`:
+each quantity ± one standard deviation), writes it as JSON with ``-o``
+(:meth:`omegahat.calibration.Calibration.save`), and draws the residuals with ``--plot FILE.png`` (Matplotlib,
+imported only then).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import os
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from omegahat import so3
+from omegahat.calibration import DEFAULT_MAX_OFFSET, MODES, Calibration, band_limited, calibrate
+from omegahat.cli import positive_float
+from omegahat.io import LogFormatError, ReadOptions, read_log
+from omegahat.io.registry import ROTATIONS, TIME_UNITS
+
+HELP = "Calibrate a gyroscope against an attitude log of the same body: clock offset, frame rotation, bias, scale."
+EPILOG = """\
+model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
+        matrix (--scale matrix: raw counts, permuted or mirrored axes); omega in body axes, rad/s
+gyro:   a CSV with a header t,gx,gy,gz (any order, any case; other columns ignored) or an NPZ with arrays t and
+        gx,gy,gz or g (M, 3); its own clock and rate
+example: omegahat calibrate vicon.csv imu.csv --scale axes -o calibration.json --plot residuals.png
+         omegahat calibrate mocap.npz raw_imu.csv --gyro-unit raw --scale matrix
+"""
+GYRO_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "raw": 1.0}
+
+
+def read_gyro(
+    path: str | os.PathLike[str], columns: tuple[str, str, str] = ("gx", "gy", "gz"), time_column: str = "t"
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(t (M,), g (M, 3))`` of a gyroscope log (module docstring); errors name the line (CSV) or array (NPZ)."""
+    path = os.fspath(path)
+    want = [time_column.lower(), *(c.lower() for c in columns)]
+    if path.lower().endswith(".npz"):
+        return _read_npz(path, want)
+    with open(path, encoding="utf-8-sig", newline="") as f:
+        rows = csv.reader(f)
+        header = next(rows, None)
+        if header is None:
+            raise LogFormatError(f"{path}: empty file (expected a header naming {', '.join(want)})")
+        names = [h.strip().lower() for h in header]
+        missing = [w for w in want if w not in names]
+        if missing:
+            raise LogFormatError(
+                f"{path}: no column {', '.join(missing)} (found: {', '.join(names)}); name the gyro's columns with "
+                "--gyro-columns and its time with --gyro-time-column"
+            )
+        idx = [names.index(w) for w in want]
+        out = []
+        for line, row in enumerate(rows, start=2):
+            if not row or all(not c.strip() for c in row):
+                continue
+            values = []
+            for i in idx:
+                try:
+                    values.append(float(row[i]))
+                except (ValueError, IndexError):
+                    shown = repr(row[i]) if i < len(row) else "nothing"
+                    raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
+            out.append(values)
+    if not out:
+        raise LogFormatError(f"{path}: no rows after the header")
+    a = np.array(out)
+    return a[:, 0], a[:, 1:]
+
+
+def _read_npz(path: str, want: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k.lower(): np.asarray(z[k], dtype=float) for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise LogFormatError(f"{path}: not a readable .npz file of numbers ({exc})") from None
+    if want[0] not in arrays:
+        raise LogFormatError(f"{path}: no array {want[0]!r} (found: {', '.join(arrays)})")
+    t = arrays[want[0]].ravel()
+    if all(c in arrays for c in want[1:]):
+        g = np.column_stack([arrays[c].ravel() for c in want[1:]])
+    elif "g" in arrays:
+        g = arrays["g"]
+    else:
+        raise LogFormatError(f"{path}: no arrays {', '.join(want[1:])} nor g (M, 3) (found: {', '.join(arrays)})")
+    if g.shape != (t.size, 3):
+        raise LogFormatError(f"{path}: the gyro must be ({t.size}, 3), one row per time; got {g.shape}")
+    return t, g
+
+
+def table(cal: Calibration, unit: str = "rad/s") -> str:
+    """The printed table of a calibration: each quantity ± one standard deviation."""
+
+    def vec(v, s, fmt):
+        return "[" + ", ".join(f"{a:{fmt}} ± {e:.2g}" for a, e in zip(v, s, strict=True)) + "]"
+
+    deg = np.degrees(so3.log(cal.rotation))
+    lines = [
+        f"clock offset   {cal.offset:+.5f} s ± {cal.offset_std:.2g} s (gyro clock - attitude clock)",
+        f"rotation       gyro <- body: rotation vector {np.array2string(deg, precision=3)} deg, "
+        f"± [{', '.join(f'{e:.2g}' for e in np.degrees(cal.rotation_std))}] deg about the gyro axes"
+        + ("" if cal.mode != "matrix" else " (nearest rotation to the matrix)"),
+        "               rows " + "; ".join(np.array2string(r, precision=5) for r in cal.rotation),
+        f"bias           {vec(cal.bias, cal.bias_std, '.5g')} {unit}",
+    ]
+    if cal.mode != "none":
+        std = cal.scale_std if cal.scale_std is not None else np.full(3, np.nan)
+        per = f"{unit} per rad/s" if unit != "rad/s" else "(1 = none)"
+        lines.append(f"scale          {vec(cal.scale, std, '.6g')} {per}")
+    if cal.matrix_std is not None:
+        for i in range(3):
+            lines.append(f"matrix row {i + 1}   {vec(cal.matrix[i], cal.matrix_std[i], '.5g')}")
+        lines.append(f"axes           {cal.axis_map()}")
+    lines.append(
+        f"residual RMS   {np.array2string(cal.residual_rms, precision=3)} {unit} per axis, in band "
+        f"(< {cal.cutoff_hz:.3g} Hz), {cal.n_samples} samples; rate varies by "
+        f"{np.array2string(cal.excitation, precision=3)} rad/s along its principal axes"
+    )
+    return "\n".join(lines + [f"note: {n}" for n in cal.notes])
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
+    parser.epilog = EPILOG
+    parser.add_argument(
+        "attitude", type=Path, metavar="ATTITUDE", help="attitude log (any format omegahat estimate reads)"
+    )
+    parser.add_argument("gyro", type=Path, metavar="GYRO", help="gyroscope log: CSV t,gx,gy,gz or NPZ")
+    parser.add_argument("-o", "--output", type=Path, help="write the calibration as JSON (for benchmarks/corpus.py)")
+    parser.add_argument("--plot", type=Path, metavar="FILE.png", help="draw the band-limited gyro, model and residuals")
+    fit = parser.add_argument_group("the fit")
+    fit.add_argument(
+        "--scale",
+        choices=MODES,
+        default="none",
+        help="scale factors: none (default), axes (one per gyro axis) or matrix (a general 3x3: raw counts, permuted "
+        "or mirrored axes)",
+    )
+    fit.add_argument(
+        "--gyro-unit", choices=list(GYRO_UNITS), default="rad/s", help="unit of the gyro columns (raw needs --scale)"
+    )
+    fit.add_argument(
+        "--cutoff", type=positive_float, metavar="HZ", help="band of the fit (default min(10 Hz, 0.4 x slower rate))"
+    )
+    fit.add_argument(
+        "--offset", type=float, default=0.0, metavar="S", help="guess of the clock offset, gyro time - attitude time"
+    )
+    fit.add_argument(
+        "--max-offset",
+        type=positive_float,
+        default=DEFAULT_MAX_OFFSET,
+        metavar="S",
+        help=f"search the offset within the guess +- this (default {DEFAULT_MAX_OFFSET:g} s)",
+    )
+    att = parser.add_argument_group("conventions of the attitude log (as omegahat estimate)")
+    att.add_argument("--time-unit", choices=list(TIME_UNITS), default="s")
+    att.add_argument("--time-column", default="t", metavar="NAME")
+    att.add_argument("--rotation", choices=ROTATIONS, default="body-to-inertial")
+    order = att.add_mutually_exclusive_group()
+    order.add_argument(
+        "--scalar-first",
+        dest="scalar_first",
+        action="store_const",
+        const=True,
+        default=None,
+        help="unnamed quaternions are w,x,y,z",
+    )
+    order.add_argument(
+        "--scalar-last",
+        dest="scalar_first",
+        action="store_const",
+        const=False,
+        help="unnamed quaternions are x,y,z,w (SciPy's default)",
+    )
+    att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon or C3D file")
+    gyr = parser.add_argument_group("the gyroscope log")
+    gyr.add_argument("--gyro-columns", default="gx,gy,gz", metavar="X,Y,Z", help="its rate columns (default gx,gy,gz)")
+    gyr.add_argument("--gyro-time-column", default="t", metavar="NAME", help="its time column (default t)")
+    gyr.add_argument("--gyro-time-unit", choices=list(TIME_UNITS), default="s", help="unit of its times (default s)")
+
+
+def run(args: argparse.Namespace) -> int:
+    for p in (args.attitude, args.gyro):
+        if not p.exists():
+            raise FileNotFoundError(f"[Errno 2] No such file or directory: '{p}'")
+    if args.gyro_unit == "raw" and args.scale == "none":
+        raise ValueError("--gyro-unit raw needs scale factors: add --scale axes or --scale matrix")
+    columns = tuple(c.strip() for c in args.gyro_columns.split(","))
+    if len(columns) != 3:
+        raise ValueError(f"--gyro-columns names 3 columns x,y,z; got {args.gyro_columns!r}")
+    options = ReadOptions(
+        time_unit=args.time_unit,
+        time_column=args.time_column,
+        rotation=args.rotation,
+        scalar_first=args.scalar_first,
+        body=args.body,
+    )
+    log = read_log(args.attitude, options=options)
+    if log.kind == "directions":
+        raise ValueError(
+            f"{args.attitude}: calibrate needs attitudes (quaternions or rotation matrices), not directions"
+        )
+    t_g, g = read_gyro(args.gyro, (columns[0], columns[1], columns[2]), args.gyro_time_column)
+    t_g = t_g * TIME_UNITS[args.gyro_time_unit]
+    g = g * GYRO_UNITS[args.gyro_unit]
+    t_a = log.absolute_times
+    cal = calibrate(t_a, log.data, t_g, g, scale=args.scale, cutoff_hz=args.cutoff, offset_guess=args.offset,
+                    max_offset=args.max_offset)  # fmt: skip
+    unit = "counts" if args.gyro_unit == "raw" else "rad/s"
+    print(f"calibrated {args.gyro} against {args.attitude}: gyro(t + offset) = A omega_body(t) + bias")
+    print(table(cal, unit))
+    if args.output is not None:
+        cal.save(args.output)
+        print(f"wrote {args.output}")
+    if args.plot is not None:
+        plot(cal, band_limited(cal, t_a, log.data, t_g, g), args.plot, unit)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def plot(cal: Calibration, series: tuple, path: Path, unit: str) -> None:
+    """The band-limited gyro against the model, and their difference, on the samples the fit used."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t, G, model, used = series
+    t = t - t[0]
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(10, 6))
+    for i, color in enumerate(("tab:red", "tab:green", "tab:blue")):
+        top.plot(t, np.where(used, G[:, i], np.nan), color=color, lw=0.8, label=f"gyro {'xyz'[i]} (band-limited)")
+        top.plot(t, np.where(used, model[:, i], np.nan), color=color, lw=0.8, ls="--", label=f"model {'xyz'[i]}")
+        bottom.plot(t, np.where(used, G[:, i] - model[:, i], np.nan), color=color, lw=0.6, label=f"{'xyz'[i]}")
+    top.set_ylabel(unit)
+    top.legend(ncol=3, fontsize=7)
+    sign = "+" if cal.offset >= 0 else "-"
+    top.set_title(f"gyro(t {sign} {abs(cal.offset):.4f} s) against A omega(t) + b, below {cal.cutoff_hz:.3g} Hz")
+    bottom.set_ylabel(f"residual, {unit}")
+    bottom.set_xlabel("s from the attitude log's first sample")
+    bottom.legend(ncol=3, fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,210 @@
+"""``omegahat calibrate`` and :mod:`omegahat.calibration`: simulated offsets, rotations, biases and scales recovered
+within the printed uncertainties, and bad inputs named.
+
+The simulated body turns by three Euler angles (intrinsic x, y, z), each a sum of sinusoids; its body rate is the
+closed form ``ω = R_zᵀ R_yᵀ e₁ ȧ + R_zᵀ e₂ ḃ + e₃ ċ`` (independent of the code under test, which differentiates
+the attitude samples by a spline). The gyroscope samples ``A ω(t) + b + noise`` at its own rate and clock.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat.calibration import Calibration, calibrate
+from omegahat.cli import main
+from omegahat.cli.calibrate import read_gyro, table
+from omegahat.io import LogFormatError
+
+
+def euler_motion(seed: int, single_axis: bool = False):
+    """``(R(t), ω(t))``: body → inertial and its body rate (module docstring)."""
+    rng = np.random.default_rng(seed)
+    f = rng.uniform(0.1, 1.5, (3, 4))
+    phase = rng.uniform(0, 2 * np.pi, (3, 4))
+    amp = rng.uniform(0.2, 0.8, (3, 4))
+    if single_axis:
+        amp[1:] = 0.0
+
+    def angles(t):
+        arg = 2 * np.pi * f[None] * t[:, None, None] + phase[None]
+        return (amp[None] * np.sin(arg)).sum(-1), (amp[None] * 2 * np.pi * f[None] * np.cos(arg)).sum(-1)
+
+    def R(t):
+        return Rotation.from_euler("XYZ", angles(t)[0]).as_matrix()
+
+    def omega(t):
+        a, ad = angles(t)
+        Ry = Rotation.from_euler("Y", a[:, 1:2]).as_matrix()
+        Rz = Rotation.from_euler("Z", a[:, 2:3]).as_matrix()
+        e = np.eye(3)
+        w = np.einsum("nji,nkj,nk->ni", Rz, Ry, ad[:, 0:1] * e[0])
+        w += np.einsum("nji,nj->ni", Rz, ad[:, 1:2] * e[1])
+        return w + ad[:, 2:3] * e[2]
+
+    return R, omega
+
+
+def test_euler_motion_rate_is_the_derivative_of_its_attitude():
+    R, omega = euler_motion(3)
+    t, h = np.linspace(0.0, 5.0, 501), 1e-5
+    S = np.einsum("nji,njk->nik", R(t), (R(t + h) - R(t - h)) / (2 * h))  # Rᵀ Ṙ = ω×
+    np.testing.assert_allclose(np.stack([S[:, 2, 1], S[:, 0, 2], S[:, 1, 0]], -1), omega(t), atol=1e-6)
+
+
+def simulated(seed, mode="none", fa=100.0, fg=200.0, duration=30.0, sigma=1e-3, gyro_noise=0.01, single_axis=False):
+    """Attitude at ``fa`` Hz with ``sigma`` rad noise, gyro at ``fg`` Hz on a clock ``delta`` s ahead; the truth."""
+    rng = np.random.default_rng(seed + 1000)
+    R, omega = euler_motion(seed, single_axis)
+    delta = rng.uniform(-0.3, 0.3)
+    Rc = Rotation.random(random_state=seed).as_matrix()
+    b = rng.normal(0, 0.05, 3)
+    s = 1 + rng.normal(0, 0.05, 3) if mode != "none" else np.ones(3)
+    A = s[:, None] * Rc
+    if mode == "matrix":
+        A = A + rng.normal(0, 0.02, (3, 3))
+    ta = np.arange(0, duration, 1 / fa) + 1.0
+    Ra = R(ta) @ Rotation.from_rotvec(rng.normal(0, sigma, (ta.size, 3))).as_matrix()
+    tg_true = np.arange(0, duration + 2, 1 / fg) + rng.uniform(0, 1 / fg)
+    g = omega(tg_true) @ A.T + b + rng.normal(0, gyro_noise, (tg_true.size, 3))
+    return (ta, Ra, tg_true + delta, g), {"delta": delta, "A": A, "Rc": Rc, "b": b, "s": s, "omega": omega}
+
+
+def z_scores(cal: Calibration, truth: dict) -> list[float]:
+    z = [(cal.offset - truth["delta"]) / cal.offset_std, *((cal.bias - truth["b"]) / cal.bias_std)]
+    if cal.mode == "matrix":
+        return z + list(((cal.matrix - truth["A"]) / cal.matrix_std).ravel())
+    phi = Rotation.from_matrix(truth["Rc"] @ cal.rotation.T).as_rotvec()  # truth = Exp(φ) estimate
+    z += list(phi / cal.rotation_std)
+    if cal.mode == "axes":
+        z += list((cal.scale - truth["s"]) / cal.scale_std)
+    return z
+
+
+@pytest.mark.parametrize("mode", ["none", "axes", "matrix"])
+def test_recovers_offset_rotation_bias_and_scale_within_the_printed_uncertainties(mode):
+    z = []
+    for seed in range(8):
+        data, truth = simulated(seed, mode)
+        cal = calibrate(*data, scale=mode)
+        z += z_scores(cal, truth)
+        assert abs(cal.offset - truth["delta"]) < 1e-4  # the 100 Hz attitude's period is 1e-2 s
+    z = np.array(z)
+    # Coverage: the standard deviations are neither far too small (z² ≫ 1) nor useless (z² ≪ 1).
+    assert 0.3 < np.mean(z**2) < 2.0, np.mean(z**2)
+    assert np.mean(np.abs(z) < 3) >= 0.97
+
+
+def test_apply_maps_the_gyro_onto_the_body_rate_and_the_attitude_clock():
+    data, truth = simulated(5, "axes", gyro_noise=0.0)
+    cal = calibrate(*data, scale="axes")
+    t, w = cal.apply(data[2], data[3])
+    inside = (t > 2) & (t < 29)
+    np.testing.assert_allclose(w[inside], truth["omega"](t[inside]), atol=2e-3 * np.abs(w).max())
+
+
+def test_a_permuted_mirrored_axis_set_is_found_by_the_matrix():
+    rng = np.random.default_rng(2)
+    R, omega = euler_motion(2)
+    ta = np.arange(0, 30, 0.01)
+    tg = np.arange(0, 31, 0.0095) + 0.04
+    P = np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], float)  # gx = +bz, gy = +bx, gz = +by (det +1)
+    A = 60.0 * P * np.array([[1.0], [1.0], [-1.0]])  # and the third axis mirrored: det < 0
+    g = omega(tg - 0.04) @ A.T + np.array([370.0, 373.0, 375.0]) + rng.normal(0, 1.0, (tg.size, 3))
+    cal = calibrate(ta, R(ta), tg, np.round(g), scale="matrix")
+    assert cal.axis_map() == "gx = +bz, gy = +bx, gz = -by"
+    assert any("mirrors" in n for n in cal.notes)
+    np.testing.assert_allclose(cal.matrix, A, atol=0.6)
+    np.testing.assert_allclose(cal.bias, [370, 373, 375], atol=0.5)
+    assert abs(cal.offset - 0.04) < 1e-3
+
+
+def test_bad_inputs_are_named():
+    (ta, Ra, tg, g), _ = simulated(0)
+    with pytest.raises(ValueError, match="do not overlap in time"):
+        calibrate(ta, Ra, tg + 100.0, g)
+    with pytest.raises(ValueError, match="too few samples to calibrate: 5 valid"):
+        calibrate(ta[:5], Ra[:5], tg, g)
+    with pytest.raises(ValueError, match=r"too few samples to calibrate: 300 valid attitude samples"):
+        calibrate(ta[:300], Ra[:300], tg, g)
+    with pytest.raises(ValueError, match=r"too few samples to calibrate: \d+ attitude samples overlap the gyro"):
+        calibrate(ta, Ra, tg[:1000], g[:1000])
+    with pytest.raises(ValueError, match="scale must be one of none, axes, matrix"):
+        calibrate(ta, Ra, tg, g, scale="diagonal")
+    with pytest.raises(ValueError, match=r"gyro must have shape \(\d+, 3\)"):
+        calibrate(ta, Ra, tg, g[:, :2])
+    with pytest.raises(ValueError, match="cutoff_hz must be in"):
+        calibrate(ta, Ra, tg, g, cutoff_hz=60.0)
+    (ta, Ra, tg, g), _ = simulated(0, single_axis=True)
+    with pytest.raises(ValueError, match=r"cannot identify a frame rotation.*two non-parallel axes"):
+        calibrate(ta, Ra, tg, g)
+    still = np.repeat(np.eye(3)[None], ta.size, axis=0)
+    with pytest.raises(ValueError, match="the body hardly rotates"):
+        calibrate(ta, still, tg, 0.01 + 0 * g)
+
+
+def test_a_rotation_about_one_axis_cannot_identify_scale_factors_either():
+    (ta, Ra, tg, g), _ = simulated(1, single_axis=True)
+    with pytest.raises(ValueError, match=r"cannot identify scale factors.*three independent axes"):
+        calibrate(ta, Ra, tg, g, scale="axes")
+
+
+def _write_logs(tmp_path, data):
+    ta, Ra, tg, g = data
+    q = Rotation.from_matrix(Ra).as_quat()  # x, y, z, w
+    att = tmp_path / "mocap.csv"
+    np.savetxt(att, np.column_stack([ta, q[:, 3], q[:, :3]]), delimiter=",", header="t,qw,qx,qy,qz", comments="")
+    gyro = tmp_path / "imu.csv"
+    np.savetxt(gyro, np.column_stack([tg, np.degrees(g)]), delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.10g")
+    return att, gyro
+
+
+def test_command_prints_writes_json_and_plots(tmp_path, capsys):
+    data, truth = simulated(4, "axes")
+    att, gyro = _write_logs(tmp_path, data)
+    out, png = tmp_path / "cal.json", tmp_path / "res.png"
+    code = main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "--scale", "axes", "-o", str(out),
+                 "--plot", str(png)])  # fmt: skip
+    text = capsys.readouterr().out
+    assert code == 0
+    assert "clock offset" in text and "scale" in text and f"wrote {out}" in text
+    d = json.loads(out.read_text())
+    assert abs(d["offset"] - truth["delta"]) < 5 * d["offset_std"] + 1e-6
+    np.testing.assert_allclose(d["scale"], truth["s"], atol=5 * max(d["scale_std"]))
+    loaded = Calibration.load(out)
+    np.testing.assert_array_equal(loaded.matrix, np.array(d["matrix"]))
+    assert table(loaded) == table(Calibration.load(out)) and loaded.scale_std is not None
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(ValueError, match="not a calibration written by omegahat calibrate"):
+        Calibration.load(tmp_path / "bad.json")
+    assert png.stat().st_size > 10_000
+
+
+def test_command_messages(tmp_path, capsys):
+    data, _ = simulated(4)
+    att, gyro = _write_logs(tmp_path, data)
+    assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "raw"]) == 2
+    assert "--gyro-unit raw needs scale factors" in capsys.readouterr().err
+    assert main(["calibrate", str(att), str(gyro), "--gyro-columns", "wx,wy,wz"]) == 2
+    assert "no column wx, wy, wz" in capsys.readouterr().err
+    assert main(["calibrate", str(att), str(tmp_path / "none.csv")]) == 2
+    assert "No such file" in capsys.readouterr().err
+    lines = gyro.read_text().splitlines()
+    lines[7] = lines[7].split(",")[0] + ",abc,1,2"
+    gyro.write_text("\n".join(lines) + "\n")
+    with pytest.raises(LogFormatError, match="line 8, column gx: 'abc' is not a number"):
+        read_gyro(gyro)
+
+
+def test_read_gyro_npz(tmp_path):
+    t = np.arange(5.0)
+    np.savez(tmp_path / "g.npz", t=t, g=np.ones((5, 3)))
+    tt, g = read_gyro(tmp_path / "g.npz")
+    np.testing.assert_array_equal(tt, t)
+    assert g.shape == (5, 3)
+    np.savez(tmp_path / "h.npz", t=t, g=np.ones((4, 3)))
+    with pytest.raises(LogFormatError, match=r"the gyro must be \(5, 3\)"):
+        read_gyro(tmp_path / "h.npz")

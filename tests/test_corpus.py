@@ -1,0 +1,281 @@
+"""The development corpus: its recording format, the harness (methods as a user runs them, the one score), the
+conversion script on small synthetic copies of the public data sets, and the independent plant.
+
+The real corpus (``benchmarks/corpus.py SRC OUT``, then ``$OMEGAHAT_CORPUS_DIR=OUT``) is checked when present and
+skipped cleanly otherwise.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+from scipy.spatial.transform import Rotation
+
+from omegahat.cli import main
+from omegahat.lab.evaluation import broad
+from omegahat.lab.evaluation.corpus import (
+    METHODS,
+    Method,
+    Outcome,
+    Recording,
+    evaluate,
+    load_recording,
+    pipeline_method,
+    recordings,
+    save_recording,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _script(name: str):
+    """A script of ``benchmarks/`` as a module (they are not a package)."""
+    spec = importlib.util.spec_from_file_location(f"bench_{name}", ROOT / "benchmarks" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def turning(t):
+    """``(R(t), ω(t))``: a turn about a fixed unit axis ``a``, ``R = Exp(θ(t) a)``, so ``ω = θ̇ a`` in body axes
+    (and inertial ones) exactly: a closed form."""
+    axis = np.array([1.0, 2.0, 2.0]) / 3.0
+    theta = 0.8 * t + 0.1 * np.sin(1.3 * t)
+    rate = (0.8 + 0.13 * np.cos(1.3 * t))[:, None] * axis
+    return Rotation.from_rotvec(theta[:, None] * axis).as_matrix(), rate
+
+
+def synthetic(kind="quaternion", fs=100.0, duration=20.0, noise=0.0, seed=0) -> Recording:
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration, 1 / fs)
+    R, _ = turning(t)
+    if noise:
+        R = R @ Rotation.from_rotvec(rng.normal(0, noise, (t.size, 3))).as_matrix()
+    tr = np.arange(0.0, duration, 1e-3)
+    _, wr = turning(tr)
+    refs = None
+    if kind == "quaternion":
+        data = Rotation.from_matrix(R).as_quat()
+    else:
+        refs = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+        data = np.einsum("tji,nj->tni", R, refs)
+    meta = {"source": "test", "score": {"cutoff_hz": "none", "max_shift": 0}, "decimate": [5]}
+    return Recording("synthetic", t, kind, data, tr, wr, t > 2.0, meta, refs)
+
+
+def test_a_recording_round_trips_and_is_an_omegahat_log(tmp_path, capsys):
+    rec = synthetic(noise=1e-4)
+    rec.data[50:53] = np.nan  # a gap
+    path = tmp_path / "rec.npz"
+    save_recording(path, rec)
+    back = load_recording(path)
+    np.testing.assert_array_equal(back.t, rec.t)
+    np.testing.assert_array_equal(back.data, rec.data)  # scalar first on disk, scalar last in memory
+    np.testing.assert_array_equal(back.reference_rates, rec.reference_rates)
+    assert back.meta["source"] == "test" and back.gaps.sum() == 3
+    # `omegahat estimate` reads it as it is, and the harness's pipeline method gives the same rates
+    out = tmp_path / "w.csv"
+    assert main(["estimate", str(path), "-o", str(out)]) == 0
+    capsys.readouterr()
+    cli = np.genfromtxt(out, delimiter=",", skip_header=1, usecols=(1, 2, 3))
+    harness = pipeline_method("omegahat estimate").run(back).omega
+    ok = np.isfinite(cli).all(axis=1)
+    np.testing.assert_allclose(cli[ok], harness[ok], rtol=1e-12, atol=1e-12)
+
+
+def test_direction_recordings_give_their_wahba_attitude():
+    rec = synthetic("directions")
+    R, _ = turning(rec.t)
+    np.testing.assert_allclose(rec.R, R, atol=1e-12)
+
+
+def test_decimated_recordings_keep_the_native_reference():
+    rec = synthetic()
+    low = rec.decimated(5)
+    assert low.t.size == rec.t.size // 5 and low.fs == pytest.approx(20.0)
+    assert low.reference_times is rec.reference_times and low.score_options()["max_shift"] == 0
+    with pytest.raises(ValueError, match="step must be a positive integer; got 0"):
+        rec.decimated(0)
+
+
+def test_score_of_a_recording_without_low_pass_is_the_plain_rms():
+    # cutoff "none", no shift: the score is sqrt(mean |ω̂ − ω|²) over the scored samples, computed here by hand.
+    rec = synthetic()
+    _, w = turning(rec.t)
+    err = np.random.default_rng(1).normal(0, 0.01, w.shape)
+    s = broad.score(rec, w + err, **rec.score_options())
+    scored = rec.movement & (rec.t >= 1.0 + 1e-9) & (rec.t <= rec.t[-1] - 1.0 - 1e-9)  # 1 s from the ends
+    expect = math.sqrt(np.mean(np.sum(err[scored] ** 2, axis=1)))
+    assert s.n_samples == scored.sum()
+    assert s.rms == pytest.approx(expect, rel=1e-12)
+
+
+def test_score_leaves_out_samples_beyond_or_inside_gaps_of_the_reference():
+    rec = synthetic()
+    _, w = turning(rec.t)
+    keep = (rec.reference_times < 8.0) | (rec.reference_times > 9.0)  # a 1 s hole in the reference
+    holed = Recording(
+        rec.name, rec.t, rec.kind, rec.data, rec.reference_times[keep], rec.reference_rates[keep], rec.movement,
+        rec.meta,
+    )  # fmt: skip
+    garbage = w.copy()
+    inside = (rec.t > 8.0) & (rec.t < 9.0)
+    garbage[inside] = 10.0  # must not count: the reference has nothing there
+    s = broad.score(holed, garbage, **rec.score_options())
+    full = broad.score(rec, w, **rec.score_options())
+    assert s.rms < 1e-6  # the spline is exact to 1e-6 on this smooth rate
+    assert full.n_samples - s.n_samples == (1.0 + 2 * 1.0) * 100 + 1  # the hole and the 1 s margin either side
+
+
+def test_evaluate_scores_every_method_and_names_failures():
+    rec = synthetic("quaternion", noise=0.0)
+
+    def broken(_: Recording) -> Outcome:
+        raise ValueError("boom")
+
+    methods = [
+        METHODS[0],
+        Method("exact", lambda r: Outcome(turning(r.t)[1], predicted=0.5), False),
+        Method("broken", broken, True),
+        Method("not here", broken, True, lambda r: "does not apply"),
+    ]
+    rows = {r.method: r for r in evaluate(rec, methods)}
+    assert rows["exact"].score.rms < 1e-12 and rows["exact"].ratio < 1e-6 and rows["exact"].predicted == 0.5
+    assert rows["backward diff."].ratio == 1.0
+    assert rows["broken"].score is None and rows["broken"].note == "failed: boom"
+    assert rows["not here"].score is None and rows["not here"].note == "does not apply"
+    # backward differencing on a rate that changes: its O(h) error against the closed form, 0.5 h |ω̇| at most
+    h = 1 / rec.fs
+    assert 1e-5 < rows["backward diff."].score.rms < 0.5 * h * 0.13 * 1.3 + 1e-9
+
+
+def test_every_method_of_the_table_runs_on_a_short_log():
+    rec = synthetic("quaternion", fs=50.0, duration=12.0, noise=1e-3)
+    rows = evaluate(rec)
+    assert [r.method for r in rows] == [m.name for m in METHODS]
+    for r in rows:
+        assert r.score is not None or r.note, r
+        if r.score is not None:
+            assert np.isfinite(r.score.rms) and r.score.rms < 1.0, (r.method, r.score)
+
+
+# ---------------------------------------------------------------------------------- the conversion script
+
+
+def _fake_broad(path: Path, seed: int, offset_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A BROAD-like trial: 286 Hz, optical quaternion (scalar first) with a gap, a gyro in a frame turned by 0.5°,
+    biased, on a clock ``offset_s`` ahead; ``movement`` from 2 s to the end − 2 s."""
+    fs = 2000 / 7
+    t = np.arange(0, 30, 1 / fs)
+    rng = np.random.default_rng(seed)
+    R = Rotation.from_euler("XYZ", np.column_stack([np.sin(0.7 * t), 0.5 * np.sin(1.1 * t + 1), np.cos(0.5 * t)]))
+    # the body rate from SciPy's spline through a finely sampled copy (1 ms), the gyro interpolated from it
+    fine = np.arange(-1, 31, 1e-3)
+    Rf = Rotation.from_euler(
+        "XYZ", np.column_stack([np.sin(0.7 * fine), 0.5 * np.sin(1.1 * fine + 1), np.cos(0.5 * fine)])
+    )
+    from scipy.spatial.transform import RotationSpline
+
+    wf = RotationSpline(fine, Rf)(fine, 1)
+    Rc = Rotation.from_rotvec(np.radians([0.5, -0.3, 0.2])).as_matrix()
+    bias = np.array([0.004, -0.002, 0.006])
+    g = np.array([np.interp(t - offset_s, fine, wf[:, j]) for j in range(3)]).T @ Rc.T + bias
+    g += rng.normal(0, 0.003, g.shape)
+    q = R.as_quat(scalar_first=True)
+    q[1000:1010] = np.nan
+    movement = ((t > 2) & (t < 28)).astype(float)[:, None]
+    scipy.io.savemat(path, {"opt_quat": q, "imu_gyr": g, "movement": movement, "sampling_rate": np.array([[fs]])})
+    return Rc, bias
+
+
+def _fake_upenn(src: Path, n: int, stuck: bool) -> None:
+    """A UPenn-like set: Vicon rotations (3, 3, N) at 100 Hz with jittered stamps, raw counts with the gyro rows
+    permuted (z, x, y) at 59 counts per rad/s around (370, 374, 375), stuck at (382, 383, 384) for 1 s if asked."""
+    rng = np.random.default_rng(n)
+    t = 1.3e9 + np.arange(0, 40, 0.01)
+    u = t - t[0]
+    ang = np.column_stack([0.8 * np.sin(0.9 * u), 0.6 * np.sin(1.3 * u + 1), 0.7 * np.cos(0.6 * u)])
+    R = Rotation.from_euler("XYZ", ang)
+    from scipy.spatial.transform import RotationSpline
+
+    w = RotationSpline(u, R)(u, 1)
+    counts = np.column_stack([w[:, 2], w[:, 0], w[:, 1]]) * 59.0 + np.array([370.0, 374.0, 375.0])
+    counts = np.round(counts + rng.normal(0, 0.5, counts.shape))
+    if stuck:
+        counts[1500:1600] = [382, 383, 384]
+    vals = np.vstack([np.full((3, t.size), 500.0), counts.T]).astype(np.uint16)
+    (src / "vicon").mkdir(parents=True, exist_ok=True)
+    (src / "imu").mkdir(parents=True, exist_ok=True)
+    jitter = rng.uniform(0, 0.004, t.size)
+    scipy.io.savemat(
+        src / "vicon" / f"viconRot{n}.mat", {"rots": np.moveaxis(R.as_matrix(), 0, 2), "ts": (t + jitter)[None]}
+    )
+    scipy.io.savemat(src / "imu" / f"imuRaw{n}.mat", {"vals": vals, "ts": (t + 0.004 + jitter)[None]})
+
+
+def test_conversion_script_on_synthetic_copies(tmp_path, capsys):
+    corpus = _script("corpus")
+    src, out = tmp_path / "src", tmp_path / "out"
+    (src / "broad").mkdir(parents=True)
+    Rc, bias = _fake_broad(src / "broad" / "03_fake_trial.mat", 3, offset_s=0.004)
+    _fake_broad(src / "broad" / "07_acceptance_trial.mat", 7)
+    _fake_upenn(src / "upenn", 1, stuck=True)
+    assert corpus.main([str(src), str(out), "--only", "broad", "upenn"]) == 0
+    text = capsys.readouterr().out
+    assert "07_acceptance_trial.mat: an acceptance trial: not converted" in text
+    names = sorted(p.stem for p in recordings(out))
+    assert names == ["broad-03_fake_trial", "upenn-01"]
+    rec = load_recording(out / "broad-03_fake_trial.npz")
+    cal = rec.meta["calibration"]
+    assert abs(cal["offset"] - 0.004) < 5 * cal["offset_std"] + 2e-5
+    np.testing.assert_allclose(cal["bias"], bias, atol=5e-4)
+    np.testing.assert_allclose(np.array(cal["rotation"]), Rc, atol=2e-4)
+    assert rec.meta["decimate"] == [10, 30] and "CC BY 4.0" in rec.meta["licence"]
+    up = load_recording(out / "upenn-01.npz")
+    assert up.meta["calibration"]["mode"] == "matrix"
+    assert "gx = +bz, gy = +bx, gz = +by" in text
+    assert any("110 gyroscope samples left out (stuck" in n for n in up.meta["notes"])  # 100 + 5 either side
+    np.testing.assert_allclose(np.diff(up.t), np.median(np.diff(up.t)), atol=1e-9)  # stamps regularised
+    # its reference is the body rate: differencing the Vicon attitude agrees with it
+    s = broad.score(up, METHODS[1].run(up).omega, **up.score_options())
+    assert s.rms < 0.02 and s.gyro_rms > 0.5
+    assert (out / "NOTICE.md").exists()
+
+
+# ---------------------------------------------------------------------------------- the independent plant
+
+
+def test_plant_truth_agrees_with_its_attitude_and_conserves_momentum():
+    pytest.importorskip("mujoco")
+    from omegahat.lab.evaluation.plant_logs import J_PLANT, simulate, smooth_torque
+
+    t, R, w, tau = simulate(smooth_torque(0), duration=2.0)
+    from scipy.spatial.transform import RotationSpline
+
+    spline = RotationSpline(t, Rotation.from_matrix(R))(t, 1)  # SciPy, independent of MuJoCo and of omegahat
+    np.testing.assert_allclose(spline[5:-5], w[5:-5], atol=1e-6)
+    assert tau.shape == (t.size, 3) and np.abs(tau).max() > 0.1
+    t0, R0, w0, _ = simulate(lambda x: np.zeros((np.size(x), 3)), duration=2.0)
+    L = np.einsum("tij,jk,tk->ti", R0, J_PLANT, w0)  # torque-free: R J ω constant in the inertial frame
+    np.testing.assert_allclose(L, np.repeat(L[:1], t0.size, axis=0), atol=1e-9)
+
+
+# ---------------------------------------------------------------------------------- the real corpus, if built
+
+CORPUS = recordings()
+needs_corpus = pytest.mark.skipif(not CORPUS, reason="no corpus (benchmarks/corpus.py; $OMEGAHAT_CORPUS_DIR)")
+
+
+@needs_corpus
+def test_the_built_corpus_holds_no_acceptance_trial_and_every_recording_loads():
+    for path in CORPUS:
+        assert not any(path.stem.startswith(f"broad-{k}") for k in ("02", "07", "09", "16")), path
+        rec = load_recording(path)
+        assert rec.movement.any() and np.isfinite(rec.reference_rates).all(), path
+        json.dumps(rec.meta)
