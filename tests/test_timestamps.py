@@ -18,7 +18,7 @@ from omegahat.observer.tuning import predicted_noise_std, sensor_gains
 from recording_files import J_AXI, noisy, torque_free_axisymmetric
 
 
-def tidy(t, kind, data, torque=None, cuts=()):
+def tidy(t, kind, data, torque=None, cuts=(), duplicate_times="error"):
     """``(times, data, labels, notes)`` the one path hands on for these samples, given in chunks cut at ``cuts``
     (labels ``sample k``)."""
     t, data = np.asarray(t, dtype=float), np.asarray(data, dtype=float)
@@ -30,7 +30,7 @@ def tidy(t, kind, data, torque=None, cuts=()):
             yield LogChunk(t[a:b], data[a:b], tau, np.arange(a, b))
 
     stream = LogStream("s", kind, 0, torque is not None, "sample", chunks)
-    checked_stream(stream, ReadOptions())
+    checked_stream(stream, ReadOptions(duplicate_times=duplicate_times))
     parts = list(stream.chunks())
     cat = [np.concatenate([getattr(c, f) for c in parts]) for f in ("t", "data", "labels")]
     return (*cat, stream.notes)
@@ -65,6 +65,51 @@ def test_conflicting_duplicates_are_refused_naming_both_samples_and_the_angle():
             tidy(t, "matrix", R, cuts=cuts)
     with pytest.raises(LogFormatError, match=r"attitudes 1\.146° apart"):
         tidy(t, "matrix", R)
+
+
+def test_conflicting_duplicates_message_offers_the_way_through():
+    R = Rotation.from_rotvec([[0, 0, 0], [0, 0, 0.01], [0, 0, 0.03]]).as_matrix()
+    with pytest.raises(LogFormatError, match=r"pass --duplicate-times first or last \(duplicate_times= in Python\)"):
+        tidy([0.0, 0.1, 0.1], "matrix", R)
+    with pytest.raises(ValueError, match=r"duplicate times must be one of error, first, last; got 'middle'"):
+        ReadOptions(duplicate_times="middle")
+
+
+@pytest.mark.parametrize("choice", ["first", "last"])
+def test_conflicting_duplicates_keep_the_first_or_last_counted_with_the_largest_angle(choice):
+    """Times 0.1 (three samples: two differ by 0.5°, the third is the same as the first) and 0.3 (two differ by 2°):
+    ``first`` keeps the first sample of each time, ``last`` the last, wherever the chunks are cut; exact
+    duplicates are counted as before; the note names the largest difference, its angle from SciPy."""
+    rv = np.zeros((7, 3))
+    rv[:, 2] = [0.0, 0.10, 0.10 + np.radians(0.5), 0.10, 0.20, 0.30, 0.30 + np.radians(2.0)]
+    rv[:, 0] = np.arange(7) * 0.01  # every attitude distinct but the exact duplicate below
+    rv[3] = rv[1]
+    q = Rotation.from_rotvec(rv).as_quat()
+    t = np.array([0.0, 0.1, 0.1, 0.1, 0.2, 0.3, 0.3])
+    kept = [0, 1, 4, 5] if choice == "first" else [0, 3, 4, 6]
+    dropped_exact = 1 if choice == "first" else 0  # "last": sample 3 is compared with sample 2, which it is not
+    angle = Rotation.from_rotvec(rv[6]).inv() * Rotation.from_rotvec(rv[5])
+    for cuts in [(), (2,), (3,), (6,), (1, 2, 3, 4, 5, 6)]:
+        t_out, d_out, labels, notes = tidy(t, "quaternion", q, cuts=cuts, duplicate_times=choice)
+        np.testing.assert_array_equal(labels, kept, err_msg=str(cuts))
+        np.testing.assert_array_equal(d_out, q[kept])
+        np.testing.assert_array_equal(t_out, t[kept])
+        conflict_note = notes[-1]
+        assert conflict_note.startswith(
+            f"--duplicate-times {choice}: kept the {choice} sample at each of 2 time(s) whose samples differ, "
+            f"dropped {3 - dropped_exact}; the largest difference: s, sample 5 and sample 6, time 0.3, attitudes "
+        ), (cuts, notes)
+        shown = float(conflict_note.split("attitudes ")[1].split("°")[0])
+        assert shown == pytest.approx(np.degrees(angle.magnitude()), rel=1e-3)
+        assert len(notes) == 1 + dropped_exact
+
+
+def test_with_first_an_exact_copy_after_a_conflict_is_still_a_duplicate():
+    q = Rotation.from_rotvec([[0, 0, 0], [0, 0, 0.1], [0, 0, 0.2], [0, 0, 0.1], [0, 0, 0.3]]).as_quat()
+    _, _, labels, notes = tidy([0.0, 0.1, 0.1, 0.1, 0.2], "quaternion", q, duplicate_times="first")
+    np.testing.assert_array_equal(labels, [0, 1, 4])
+    assert notes[0] == "dropped 1 duplicated sample(s) (same time, same attitude)"
+    assert "kept the first sample at each of 1 time(s) whose samples differ, dropped 1;" in notes[1]
 
 
 def test_conflicting_torques_at_one_time_are_refused():
@@ -154,3 +199,65 @@ def test_jitter_dropped_frames_and_duplicates_leave_the_rate_unchanged_within_no
     back = np.argsort(order)
     W_rows = W_j[back]
     np.testing.assert_array_equal(W_rows[t_j.size :], W_rows[dup])
+
+
+def test_tum_ground_truth_with_a_conflicting_stamp_through_the_command(tmp_path, capsys):
+    """As in TUM's fr2_desk ground truth: absolute stamps (1.3e9 s, 4 decimals) and one stamp written twice with
+    poses 0.61° apart. By default the command stops naming both lines and the option; with ``first`` the output
+    is, bit for bit, that of the file without the second line; with ``last``, that of the file without the first."""
+    from omegahat.cli import main
+    from recording_files import read_omega_csv
+    from vendor_files import decimal_seconds, write_tum
+
+    t = np.arange(300) / 100.0
+    R, _ = torque_free_axisymmetric(t)
+    q = Rotation.from_matrix(R).as_quat()
+    extra = (Rotation.from_quat(q[150]) * Rotation.from_rotvec([0.0, np.radians(0.61), 0.0])).as_quat()
+    stamps = decimal_seconds(1311868163, t + 0.8697, decimals=4)
+    both = write_tum(
+        tmp_path / "gt.txt", [*stamps[:151], stamps[150], *stamps[151:]], np.vstack([q[:151], extra, q[151:]])
+    )
+    first = write_tum(tmp_path / "first.txt", stamps, q)
+    last = write_tum(tmp_path / "last.txt", stamps, np.vstack([q[:150], extra, q[151:]]))
+    cli = ["--inertia", "1", "1", "1.6", "--no-progress"]
+
+    def run(path, *opts):
+        out = tmp_path / f"{path.stem}-{'-'.join(opts) or 'plain'}.csv"
+        code = main(["estimate", str(path), "-o", str(out), *cli, *opts])
+        return code, out, capsys.readouterr()
+
+    code, out, printed = run(both)
+    assert code == 2 and not out.exists()
+    # lines: 2 comments, then the samples; sample 150 is on line 153, its twin on line 154
+    assert "gt.txt, line 153 and line 154: two samples at the same time 1311868165.3697 with" in printed.err
+    assert "attitudes 0.61° apart" in printed.err and "--duplicate-times first or last" in printed.err
+    for choice, reference in (("first", first), ("last", last)):
+        code, out, printed = run(both, "--duplicate-times", choice)
+        assert code == 0, printed.err
+        assert (
+            f"note: --duplicate-times {choice}: kept the {choice} sample at each of 1 time(s) whose samples differ, "
+            "dropped 1; the largest difference: " in printed.out
+        )
+        assert "gt.txt, line 153 and line 154, time 1311868165.3697, attitudes 0.61° apart" in printed.out
+        code, ref_out, _ = run(reference)
+        assert code == 0
+        np.testing.assert_array_equal(read_omega_csv(out)[0], read_omega_csv(ref_out)[0])
+
+
+def test_estimate_frame_keeps_the_last_and_gives_the_dropped_row_its_estimate():
+    t = np.arange(200) / 100.0
+    R, _ = torque_free_axisymmetric(t)
+    q = Rotation.from_matrix(R).as_quat()
+    df = pd.DataFrame(q, columns=["qx", "qy", "qz", "qw"])
+    df["t"] = t
+    twin = df.iloc[[100]].copy()
+    twin[["qx", "qy", "qz", "qw"]] = (Rotation.from_quat(q[100]) * Rotation.from_rotvec([0.01, 0, 0])).as_quat()
+    doubled = pd.concat([df.iloc[:101], twin, df.iloc[101:]], ignore_index=True)
+    with pytest.raises(LogFormatError, match=r"row 100 and row 101: two samples at the same time"):
+        estimate_frame(doubled, inertia=J_AXI)
+    with pytest.warns(UserWarning, match=r"--duplicate-times last: kept the last sample at each of 1 time\(s\)"):
+        W = estimate_frame(doubled, inertia=J_AXI, duplicate_times="last")[["wx", "wy", "wz"]].to_numpy()
+    clean = pd.concat([df.iloc[:100], twin, df.iloc[101:]], ignore_index=True)
+    W_ref = estimate_frame(clean, inertia=J_AXI)[["wx", "wy", "wz"]].to_numpy()
+    np.testing.assert_array_equal(np.delete(W, 100, axis=0), W_ref)
+    np.testing.assert_array_equal(W[100], W[101])

@@ -131,7 +131,7 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
-def _interrupted_by(exc: BaseException) -> KeyboardInterrupt | None:
+def interrupted_by(exc: BaseException) -> KeyboardInterrupt | None:
     """The interrupt behind ``exc``: itself, or (an interrupt raised while a compiled function ran comes out as a
     ``SystemError`` of Numba's dispatcher) the one it was raised from."""
     seen: set[int] = set()
@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"omegahat {command}: error: out of memory ({exc or 'no details'})", file=sys.stderr)
             return 2
     except (KeyboardInterrupt, SystemError) as exc:
-        stop = _interrupted_by(exc)
+        stop = interrupted_by(exc)
         if stop is None:
             raise
         name = str(stop) if str(stop) in signal.Signals.__members__ else "SIGINT"

@@ -19,7 +19,8 @@ the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no 
 through), ``unavailable`` (no estimate yet: ``nan``) or ``restarted`` (``nan``: the step to that sample
 could not be taken and the estimator started again from it). For a bag input also ``-o X.bag`` (ROS 1) or ``-o X``
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
-and renamed at the end: whole or absent.
+and renamed at the end: whole or absent. Several inputs, a directory or a glob: :mod:`omegahat.cli.many` runs
+:func:`estimate_file` on each (``-o`` a directory, a summary table).
 
 Estimator: by default the model (a random-walk rate or acceleration; with ``--inertia``, Euler's equations with or
 without an unknown torque) and its noises identified from the log by their likelihood
@@ -38,18 +39,21 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
+from omegahat.cli import many
 from omegahat.io import ReadOptions, check_output, open_log, open_output
 from omegahat.io.output import AtomicOutput
-from omegahat.io.pipeline import estimate_stream
+from omegahat.io.pipeline import RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
+from omegahat.io.timestamps import DUPLICATE_CHOICES
 from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
@@ -67,15 +71,20 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
         bags (.bag) and ROS 2 bags (directory) (--topic, frames).
-        Equal times: the same attitude is one sample (dropped), different attitudes are an error.
+        Equal times: the same attitude is one sample (dropped), different attitudes are an error
+        (--duplicate-times first|last keeps one, counted and reported).
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
         unavailable (no estimate yet: nan) | restarted (nan: the step could not be taken, started
         again from that sample); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
         geometry_msgs/TwistStamped in the body frame, header stamps copied
+many:   several inputs, a directory or a quoted glob: each log as alone, with the same options; -o OUTDIR gets
+        one CSV per input (same name) and omegahat-summary.csv/.txt (file, format, rows, estimator, expected
+        error, status); exit 0: all written, 1: some failed (named in the summary), 130/143: interrupted
 example: omegahat estimate log.csv -o omega.csv --inertia 300 250 200
          omegahat estimate "Take 01.csv" --body hand --preset mocap --smooth -o omega.csv
          omegahat estimate dirs.csv -o omega.csv "--references=0,0,9.81;-0.9,15.5,-41.3"
          omegahat estimate run.bag --topic /vicon/body/pose -o twist.bag
+         omegahat estimate takes/ 'more/**/*.tsv' -o omega/
 """
 
 PROGRESS_MIN_BYTES = 4_000_000  # show progress bars from this input size on (unless told otherwise)
@@ -123,9 +132,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "input",
         type=Path,
+        nargs="+",
         metavar="INPUT",
         help="attitude data: an omegahat log (.csv, .npz), a Motive or Vicon CSV export, a C3D file, a ROS 1 bag "
-        "(.bag) or a ROS 2 bag (directory); recognised from the file",
+        "(.bag) or a ROS 2 bag (directory); recognised from the file. Several files, a directory or a quoted glob "
+        "('logs/**/*.csv'): every log in them, -o then names a directory (see 'many files' below)",
     )
     parser.add_argument(
         "-o",
@@ -133,8 +144,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         required=True,
         help="output: X.csv (t,wx,wy,wz,status; rad/s, body axes); for a bag input also X.bag (ROS 1) or X "
-        "(ROS 2 directory) of geometry_msgs/TwistStamped",
+        "(ROS 2 directory) of geometry_msgs/TwistStamped; with many inputs a directory (OUTDIR)",
     )
+    many.add_arguments(parser)
     conv = parser.add_argument_group("conventions of the input")
     conv.add_argument("--time-unit", choices=list(TIME_UNITS), default="s", help="unit of the time column (default s)")
     conv.add_argument("--time-column", default="t", metavar="NAME", help="name of the time column (default t)")
@@ -158,6 +170,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="rows the header spans (names joined per column, e.g. a group title over W,X,Y,Z); 0: no header, "
         "columns by position",
+    )
+    conv.add_argument(
+        "--duplicate-times",
+        choices=DUPLICATE_CHOICES,
+        default="error",
+        help="samples at one time whose attitudes differ: error (default: a broken time source; the message names "
+        "both lines), or keep the first or the last of them (the others dropped, counted and reported)",
     )
     order = conv.add_mutually_exclusive_group()
     order.add_argument(
@@ -312,6 +331,25 @@ def _given_gains(args, stream) -> ObserverGains | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """One input (a file, or a ROS 2 bag directory): :func:`estimate_file`; several, a directory or a glob:
+    :func:`omegahat.cli.many.run_many`, which runs :func:`estimate_file` on each."""
+    if many.is_many(args.input):
+        return many.run_many(args, estimate_file)
+    many.refuse_batch_options(args)
+    args.input = args.input[0]
+    estimate_file(args)
+    return 0
+
+
+def estimate_file(
+    args: argparse.Namespace,
+    report: Callable[[str], None] = print,
+    on_chunk: Callable[[int], None] | None = None,
+    announce: Callable[[str], None] | None = None,
+) -> tuple[LogStream, RunSummary]:
+    """``omegahat estimate args.input -o args.output``: what was read and chosen, and the closing lines, go to
+    ``report``; ``on_chunk(rows)`` after each chunk (a stop request may raise ``KeyboardInterrupt`` there: the
+    output is then absent); ``announce``: the compilation notice (default standard error)."""
     compiled = compiling.seconds()
     if not args.input.exists():
         raise FileNotFoundError(f"[Errno 2] No such file or directory: '{args.input}'")
@@ -329,6 +367,7 @@ def run(args: argparse.Namespace) -> int:
         header_rows=args.header_rows,
         rate=args.rate,
         times=args.times,
+        duplicate_times=args.duplicate_times,
     )
     out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
     stream = open_log(args.input, options)
@@ -353,14 +392,19 @@ def run(args: argparse.Namespace) -> int:
     def progress(rows: int) -> None:
         bar.n = min(stream.done, stream.size) if by_bytes else rows
         bar.refresh()
+        if on_chunk is not None:
+            on_chunk(rows)
 
     def writer(s: LogStream) -> AtomicOutput:
         return open_output(out, kind, s, frame_id=args.frame_id, topic=args.output_topic)
 
     with bar:
-        summary = estimate_stream(stream, settings, writer, report=print, progress=progress, spell=cli_option)
+        summary = estimate_stream(
+            stream, settings, writer, report=report, progress=progress, announce=announce, spell=cli_option
+        )
         bar.n = bar.total
         bar.refresh()
-    print(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiling.wait_note(compiled)}")
-    print("\n".join(summary.lines))
-    return 0
+    report(f"wrote {summary.output}; estimated in {summary.elapsed:.2f} s{compiling.wait_note(compiled)}")
+    for line in summary.lines:
+        report(line)
+    return stream, summary

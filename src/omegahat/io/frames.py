@@ -291,6 +291,7 @@ def estimate_frame(
     rotation: str = "body-to-inertial",
     columns: str | dict | None = None,
     header_rows: int | None = None,
+    duplicate_times: str = "error",
     start: Start = "fit",
     skip_bad_samples: bool = False,
     rotation_tol: float | None = None,
@@ -310,15 +311,24 @@ def estimate_frame(
     ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising; ``rotation_tol``,
     ``quat_norm_tol``: the input checks' tolerances (None: :mod:`omegahat.measurements`' defaults); ``columns`` (a
     column map, as ``--columns``: ``{"t": "Time", "qw": "W", ...}`` or positions) and ``header_rows`` (a
-    ``MultiIndex``'s levels, joined per column): :mod:`omegahat.io.colmap`. ``verbose``: print what was read and
-    chosen. Samples skipped (missing) are reported with a :class:`~omegahat.observer.estimator.SkippedSamplesWarning`.
-    Errors name these arguments (and carry them: ``exc.options``).
+    ``MultiIndex``'s levels, joined per column): :mod:`omegahat.io.colmap`. ``duplicate_times``: rows at one time
+    whose attitudes differ are refused (``"error"``, the default) or the ``"first"`` or ``"last"`` of them is kept,
+    the others getting its estimate (:mod:`omegahat.io.timestamps`, rule 3), with a warning that counts them.
+    ``verbose``: print what was read and chosen. Samples skipped (missing) are reported with a
+    :class:`~omegahat.observer.estimator.SkippedSamplesWarning`. Errors name these arguments (and carry them:
+    ``exc.options``).
     """
     from omegahat.io.pipeline import estimate_stream
     from omegahat.io.settings import EstimateSettings
 
     df, _ = _as_frame(df)
-    options = ReadOptions(time_unit=time_unit, rotation=rotation, columns=columns, header_rows=header_rows)
+    options = ReadOptions(
+        time_unit=time_unit,
+        rotation=rotation,
+        columns=columns,
+        header_rows=header_rows,
+        duplicate_times=duplicate_times,
+    )
     stream = open_frame(df, options, time=time, quaternion=quaternion)
     settings = EstimateSettings(
         inertia=inertia,
@@ -344,6 +354,9 @@ def estimate_frame(
 
         skipped = next(line for line in summary.lines if line.startswith("skipped"))
         warnings.warn(SkippedSamplesWarning(skipped), stacklevel=2)
+    for note in summary.lines:  # rows dropped as the caller chose (duplicate_times): said even when not verbose
+        if note.startswith("note: --duplicate-times"):
+            warnings.warn(note.removeprefix("note: "), stacklevel=2)
     W, status = collector.omega, np.array(STATUS_WORDS)[collector.status]
     if stream.meta["frame"] == "pandas":
         return _pandas_output(df, W, status)

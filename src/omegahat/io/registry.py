@@ -24,8 +24,8 @@ asked first, in registration order, and the first that recognises the file wins;
 * **attitudes**: the precision policy of :mod:`omegahat.io.precision` (rounded and interpolated rotations
   normalised within the tolerance the file's digits allow, and counted; columns that hold no rotation named);
 * **times**: finite, and the timestamp policy of :mod:`omegahat.io.timestamps` (in order; exact duplicates
-  dropped; conflicting ones refused), across chunk boundaries, every message naming the line (array index,
-  message, frame or row) of both samples.
+  dropped; conflicting ones refused unless ``duplicate_times`` keeps the first or last), across chunk boundaries,
+  every message naming the line (array index, message, frame or row) of both samples.
 
 **Column maps** (``ReadOptions.columns``, ``header_rows``: :mod:`omegahat.io.colmap`) are read by the formats that
 take them (omegahat's CSV); when one is given for a file that another format recognises (a Motive export read
@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike
 from omegahat.io.colmap import ColumnMap, parse_columns
 from omegahat.io.columns import LogFormatError
 from omegahat.io.precision import Normaliser
-from omegahat.io.timestamps import TimePolicy
+from omegahat.io.timestamps import DUPLICATE_CHOICES, TimePolicy
 
 __all__ = [
     "CHUNK_ROWS",
@@ -113,8 +113,10 @@ class ReadOptions:
     header spans; 0: none): text logs (:mod:`omegahat.io.colmap`); ``rotation``: every attitude format; ``body``:
     the rigid body of a Motive, Vicon, Qualisys or C3D file; ``topic``, ``parent_frame``, ``child_frame``,
     ``stamp`` (``header`` or ``receive`` time): ROS bags; ``rate`` (Hz) or ``times`` (a file of one time per line):
-    the times of pose lists that have none (KITTI). A format refuses the options it does not take when they differ
-    from their defaults."""
+    the times of pose lists that have none (KITTI); ``duplicate_times``: every format, what to do with samples at
+    one time whose attitudes differ (:data:`omegahat.io.timestamps.DUPLICATE_CHOICES`: ``error``, the default, or
+    keep the ``first`` or the ``last``, counted and reported). A format refuses the selection options it does not
+    take when they differ from their defaults."""
 
     time_unit: str = "s"
     scalar_first: bool | None = None  # None: the names say it (qw..), else the format's documented default
@@ -129,6 +131,7 @@ class ReadOptions:
     header_rows: int | None = None  # None: the format's own (one header row for a CSV)
     rate: float | None = None
     times: str | None = None
+    duplicate_times: str = "error"
     chunk_bytes: int = 1 << 21  # CSV: bytes per chunk (memory stays proportional to this, not to the log)
 
     def __post_init__(self):
@@ -145,6 +148,10 @@ class ReadOptions:
             raise ValueError(f"scalar_first must be True, False or None; got {self.scalar_first!r}")
         if self.rotation not in ROTATIONS:
             raise ValueError(f"rotation must be {' or '.join(ROTATIONS)}; got {self.rotation!r}")
+        if self.duplicate_times not in DUPLICATE_CHOICES:
+            raise ValueError(
+                f"duplicate times must be one of {', '.join(DUPLICATE_CHOICES)}; got {self.duplicate_times!r}"
+            )
         if self.stamp not in STAMPS:
             raise ValueError(f"stamp must be {' or '.join(STAMPS)}; got {self.stamp!r}")
 
@@ -368,7 +375,14 @@ def _checked(stream: LogStream, raw, options: ReadOptions) -> Iterator[LogChunk]
             f"{stream.source}: --rotation applies to attitude input; body-frame directions (b1x, ...) are already "
             "in body axes (leave --rotation out)"
         )
-    policy = TimePolicy(stream.kind, stream.where, stream.label, stream.time_name)
+    policy = TimePolicy(
+        stream.kind,
+        stream.where,
+        stream.label,
+        stream.time_name,
+        options.duplicate_times,
+        int(stream.meta.get("time_base", 0)),
+    )
     precise = Normaliser(stream.kind, stream.digits, stream.where, stream.attitude_name, stream.columns, stream.label)
     for chunk in raw():
         t = chunk.t * scale if scale != 1.0 else np.asarray(chunk.t, dtype=float)

@@ -15,9 +15,14 @@ NPZ logs, ROS bags, Motive, Vicon and C3D exports, DataFrames):
    agree too. A missing sample (NaN) at the time of a valid one is dropped as well: it carries nothing the valid
    one lacks. A dropped sample has no row in a file output; :func:`omegahat.estimate_frame`, whose output follows
    the input's rows, gives it the estimate of the sample kept in its place.
-3. **Conflicting duplicates are rejected.** Two samples at the same time with different attitudes cannot both be
-   right, and guessing which one is would hide a broken time source: :class:`~omegahat.io.LogFormatError` names
-   both samples, the time and the angle between the two attitudes.
+3. **Conflicting duplicates are rejected by default.** Two samples at the same time with different attitudes
+   cannot both be right, and guessing which one is would hide a broken time source:
+   :class:`~omegahat.io.LogFormatError` names both samples, the time and the angle between the two attitudes, and
+   the option that reads on. Real ground truth has them (TUM's ``fr2_desk`` ground truth, two poses 0.61° apart
+   at one stamp; EuRoC's ``V1_02``), so a user who has looked may choose (:data:`DUPLICATE_CHOICES`,
+   ``ReadOptions.duplicate_times``, ``--duplicate-times``) to keep the ``first`` or the ``last`` sample of each
+   such time; the others are dropped, counted and reported with the largest difference and where it was — never
+   silently.
 4. **Order.** Files written sample by sample (CSV, NPZ, Motive, Vicon, C3D) must have non-decreasing times; a time
    going backwards is an error naming the line (array index, frame). Message streams (ROS bags) and DataFrames,
    where delivery or a join can reorder rows, are sorted by time by their readers (:func:`sort_by_time`, a stable
@@ -49,9 +54,10 @@ import pyarrow.compute as pc
 
 from omegahat.io.columns import LogFormatError
 
-__all__ = ["DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "sort_by_time"]
+__all__ = ["DUPLICATE_CHOICES", "DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "sort_by_time"]
 
 DUPLICATE_TOL = 1e-6  #: ‖R_a − R_b‖_F (≈ √2 × the angle in rad) below which two samples at one time are the same
+DUPLICATE_CHOICES = ("error", "first", "last")  #: (3) what to do with samples at one time that disagree
 EXACT_FROM = float(2**20)  #: (5) times from this magnitude on are made relative before they become floats
 _DECIMAL = pa.decimal128(38, 18)  # 20 integer digits (ns since 1970: 19) and 18 decimals
 _DIFFERENCE = pa.decimal128(37, 18)  # one digit less, so that a difference still fits 38 digits
@@ -124,15 +130,18 @@ def _comparable(kind: str, row: np.ndarray) -> np.ndarray:
     return np.asarray(row, dtype=float)
 
 
-def _difference(kind: str, a: np.ndarray, b: np.ndarray) -> str | None:
-    """None if two samples at one time agree (rule 2), else what differs (for the message of rule 3)."""
+def _difference(kind: str, a: np.ndarray, b: np.ndarray) -> tuple[str, float] | None:
+    """None if two samples at one time agree (rule 2), else what differs (for the messages of rule 3) and by how
+    much (degrees between attitudes, else the largest difference of the values), to report the largest."""
     ca, cb = _comparable(kind, a), _comparable(kind, b)
     if ca.shape == cb.shape and np.sqrt(np.sum((ca - cb) ** 2)) <= DUPLICATE_TOL:
         return None
     if ca.shape == (3, 3) and cb.shape == (3, 3):
         cos = np.clip((np.trace(ca.T @ cb) - 1.0) / 2.0, -1.0, 1.0)
-        return f"attitudes {np.degrees(np.arccos(cos)):.4g}° apart"
-    return f"values differing by up to {np.abs(ca - cb).max():.3g}"
+        angle = float(np.degrees(np.arccos(cos)))
+        return f"attitudes {angle:.4g}° apart", angle
+    size = float(np.abs(ca - cb).max())
+    return f"values differing by up to {size:.3g}", size
 
 
 class TimePolicy:
@@ -140,21 +149,45 @@ class TimePolicy:
 
     ``where(label, column)`` names a sample for messages (:meth:`omegahat.io.registry.LogStream.where`),
     ``unit`` is the labels' word (``"line"``, ``"index"``, ``"message"`` ...), ``time_name`` the time column named
-    in messages. :meth:`feed` takes arrays ``(t, raw_t, data, torque, labels, extra)`` of one chunk (``t`` in
-    seconds, ``raw_t`` as the file writes it, for messages) and returns the indices of the rows to hand on and the
-    concatenated arrays they index; :meth:`finish` returns the last sample held back.
+    in messages, ``duplicates`` one of :data:`DUPLICATE_CHOICES` (rule 3; checked by
+    :class:`omegahat.io.ReadOptions`), ``time_base`` the integer :class:`ExactTimes` subtracted from the raw times
+    (added back in messages). :meth:`feed` takes arrays ``(t, raw_t,
+    data, torque, labels, extra)`` of one chunk (``t`` in seconds, ``raw_t`` as the file writes it, for messages)
+    and returns the indices of the rows to hand on and the concatenated arrays they index; :meth:`finish` returns
+    the last sample held back.
     """
 
-    def __init__(self, kind: str, where: Callable[..., str], unit: str, time_name: str | None):
+    def __init__(
+        self,
+        kind: str,
+        where: Callable[..., str],
+        unit: str,
+        time_name: str | None,
+        duplicates: str = "error",
+        time_base: int = 0,
+    ):
         self.kind, self.where, self.unit, self.time_name = kind, where, unit, time_name
-        self.n_dropped = 0
+        self.time_base = time_base  # (5): raw times are relative to it; messages show the time the file writes
+        self.duplicates = duplicates
+        self.n_dropped = 0  # exact duplicates (rule 2)
+        self.n_conflicts = 0  # samples dropped from times whose samples disagree (rule 3, first or last)
+        self.n_conflict_times = 0
+        self._worst: tuple[float, str] | None = None  # the largest disagreement: (size, where and what)
+        self._conflict_time: float | None = None  # the time last counted in n_conflict_times
         self._held: tuple | None = None  # the last kept sample so far, as a tuple of length-1 arrays
 
     def notes(self) -> list[str]:
         """What was changed, for the stream's notes (empty when nothing was)."""
-        if not self.n_dropped:
-            return []
-        return [f"dropped {self.n_dropped} duplicated sample(s) (same time, same attitude)"]
+        notes = []
+        if self.n_dropped:
+            notes.append(f"dropped {self.n_dropped} duplicated sample(s) (same time, same attitude)")
+        if self.n_conflicts and self._worst is not None:
+            notes.append(
+                f"--duplicate-times {self.duplicates}: kept the {self.duplicates} sample at each of "
+                f"{self.n_conflict_times} time(s) whose samples differ, dropped {self.n_conflicts}; the largest "
+                f"difference: {self._worst[1]}"
+            )
+        return notes
 
     def feed(self, arrays: tuple) -> tuple[tuple, slice | np.ndarray]:
         """``(arrays with the held sample in front, the rows to hand on now: a slice or indices)``."""
@@ -169,9 +202,9 @@ class TimePolicy:
         if back.size:
             k = int(back[0]) + 1
             raise LogFormatError(
-                f"{self.where(int(labels[k]), self.time_name)}: time {_num(raw[k])} is not after {_num(raw[k - 1])} "
-                f"({self.unit} {int(labels[k - 1])}); times must increase (equal times only for duplicates of one "
-                "sample)"
+                f"{self.where(int(labels[k]), self.time_name)}: time {self._num(raw[k])} is not after "
+                f"{self._num(raw[k - 1])} ({self.unit} {int(labels[k - 1])}); times must increase (equal times only "
+                "for duplicates of one sample)"
             )
         equal = np.flatnonzero(d == 0) + 1
         if not equal.size:  # the usual case: everything but the last sample, which waits for the next chunk
@@ -188,6 +221,12 @@ class TimePolicy:
         held, self._held = self._held, None
         return held
 
+    def _num(self, x) -> str:
+        """A raw time as the file writes it (its exact base added back as decimals: a float would round it)."""
+        if not self.time_base:
+            return repr(float(x))
+        return str(Decimal(self.time_base) + Decimal(repr(float(x))))
+
     def _duplicates(self, equal: np.ndarray, keep: np.ndarray, arrays: tuple) -> None:
         t, raw, data, torque, labels, _ = arrays
         n = t.size
@@ -200,28 +239,41 @@ class TimePolicy:
                 current = j - 1
             if not valid[j]:
                 keep[j] = False  # a missing sample at the time of another: nothing to add
+                self.n_dropped += 1
             elif not valid[current]:
                 keep[current] = False  # the valid sample stands for the missing one kept so far
+                self.n_dropped += 1
                 current = j
             else:
                 what = _difference(self.kind, flat[current], flat[j])
                 if what is None and torque is not None:
-                    scale = 1.0 + np.abs(torque[current]).max()
-                    if np.abs(torque[j] - torque[current]).max() > DUPLICATE_TOL * scale:
-                        what = "different torques"
-                if what is not None:
+                    size = float(np.abs(torque[j] - torque[current]).max())
+                    if size > DUPLICATE_TOL * (1.0 + np.abs(torque[current]).max()):
+                        what = (f"different torques (by up to {size:.3g})", size)
+                if what is None:
+                    keep[j] = False
+                    self.n_dropped += 1
+                    continue
+                place = f"{self.where(int(labels[current]))} and {self.unit} {int(labels[j])}"
+                if self.duplicates == "error":
                     raise LogFormatError(
-                        f"{self.where(int(labels[current]))} and {self.unit} {int(labels[j])}: two samples at the same "
-                        f"time {_num(raw[j])} with {what}. Duplicated timestamps must carry the same attitude "
-                        "(omegahat drops those); conflicting ones mean a broken time source: fix the time column "
-                        "(for a ROS bag, try the receive time: --stamp receive)"
+                        f"{place}: two samples at the same time {self._num(raw[j])} with {what[0]}. Duplicated "
+                        "timestamps must carry the same attitude (omegahat drops those); conflicting ones mean a "
+                        "broken time source: fix the time column (for a ROS bag, try the receive time: --stamp "
+                        "receive), or pass --duplicate-times first or last (duplicate_times= in Python) to keep one "
+                        "sample of each such time (the others are dropped, counted and reported)"
                     )
-                keep[j] = False
-        self.n_dropped += int(np.count_nonzero(~keep))
-
-
-def _num(x) -> str:
-    return repr(float(x))
+                self.n_conflicts += 1
+                if self._conflict_time != t[j]:  # by value: a time's samples may straddle two chunks
+                    self.n_conflict_times += 1
+                    self._conflict_time = float(t[j])
+                if self._worst is None or what[1] > self._worst[0]:
+                    self._worst = (what[1], f"{place}, time {self._num(raw[j])}, {what[0]}")
+                if self.duplicates == "first":
+                    keep[j] = False
+                else:  # last: the later sample stands for the time
+                    keep[current] = False
+                    current = j
 
 
 def _concat(a, b):
