@@ -228,7 +228,7 @@ class UserWidePackageLocator(_PackageStampMixin, caching.UserWideCacheLocator):
     beside it."""
 
     @classmethod
-    def from_function(cls, py_func, py_file):
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> caching._CacheLocator | None:
         locator = super().from_function(py_func, py_file)
         if isinstance(locator, cls) and shipped_folder(_beside(py_file)):
             _SHIPPED_BESIDE[locator.get_cache_path()] = _beside(py_file)
@@ -243,7 +243,7 @@ class ShippedPackageLocator(_PackageStampMixin, caching.InTreeCacheLocator):
         """Nothing to make: the folder is read only."""
 
     @classmethod
-    def from_function(cls, py_func, py_file):
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> ShippedPackageLocator | None:
         if not _in_package(py_file) or not shipped_folder(_beside(py_file)):
             return None
         _READ_ONLY.add(_beside(py_file))

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-__all__ = ["STEPS", "main", "run", "write_logs"]
+__all__ = ["STEPS", "compiled_here", "main", "run", "write_logs"]
 
 RATE_HZ = 100.0  #: the logs' sample rate
 SECONDS = 20.0  #: the logs' length
@@ -102,6 +102,23 @@ STEPS: tuple[tuple[str, Callable[[dict[str, Path], Path], None]], ...] = (
     ("paper's simulation", _paper),
     ("MEKF and its smoother", _mekf),
 )
+
+
+def compiled_here() -> list[str]:
+    """The omegahat kernels (module-level compiled functions) this process compiled rather than loaded from the cache,
+    as ``"module.name(types)"``: a specialisation that is not among the cache hits. (A kernel that asks for literal
+    arguments first tries, and discards, a non-literal compilation; that attempt leaves no specialisation.)"""
+    from numba.core.dispatcher import Dispatcher
+
+    found = []
+    for name, module in list(sys.modules.items()):
+        if name != "omegahat" and not name.startswith("omegahat."):
+            continue
+        for attr, value in list(vars(module).items()):
+            if isinstance(value, Dispatcher) and value.__module__ == name:
+                hits = value.stats.cache_hits
+                found += [f"{name}.{attr}{sig}" for sig in value.overloads if hits.get(sig, 0) == 0]
+    return sorted(found)
 
 
 def run(folder: Path, say: Callable[[str], None] = print) -> list[str]:
