@@ -201,8 +201,9 @@ def main() -> None:
         )
     if empty:
         body += (
-            "**Empty cache** (an editable install, a wheel built with `OMEGAHAT_SKIP_WARMUP=1`, another Numba: "
-            "`NUMBA_CACHE_DIR` a fresh empty folder, then filled):\n\n" + HEAD + "\n".join(empty) + "\n\n"
+            "**Empty cache** (a fresh install's first run before the wheel shipped its kernels; now an editable "
+            "install's, a wheel's built with `OMEGAHAT_SKIP_WARMUP=1`, or beside another Numba: `NUMBA_CACHE_DIR` a "
+            "fresh empty folder, then filled):\n\n" + HEAD + "\n".join(empty) + "\n\n"
         )
     if suite_row:
         body += (

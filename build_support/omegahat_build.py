@@ -30,6 +30,7 @@ import sys
 import tempfile
 import time
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 
 from setuptools import build_meta
@@ -88,7 +89,7 @@ def get_requires_for_build_wheel(config_settings: dict | None = None) -> list[st
     return requires if skipped() else requires + runtime_dependencies()
 
 
-def warm_up(build_lib: Path, say=print) -> bool:
+def warm_up(build_lib: Path, say: Callable[[str], None] = print) -> bool:
     """Run the warm-up on the package copied in ``build_lib`` (its stale cache files removed first); True when every
     step ran. ``say`` gets the child's report, or why it failed."""
     build_lib = build_lib.resolve()
