@@ -14,6 +14,9 @@ Run: ``python benchmarks/peers.py [--seeds 10]``; writes its section of RESULTS.
   0.5 s updates, a heading change halfway): the test's pass criteria, the CKF updates and the peak rate estimate
   (the truth is at rest).
 
+* The CPU cost per sample of ``run`` of the methods of ``omegahat compare`` on its direction scenarios
+  (:data:`COMPARE_TUNED`), beside compare's wall-time column.
+
 Scores (:mod:`omegahat.lab.evaluation.metrics`): e_ω = |ω̂ − ω|, e_R the angle of R̂ᵀR; t_c the convergence time (S1) of
 e_ω at 1 °/s; steady = RMS over 50–100 s; peak = max e_ω over the first 10 s. Cost: CPU time (process time, best of
 5) of one compiled ``run`` over the 10 001 samples, per sample.
@@ -49,7 +52,7 @@ def run_recording(f, t, b, taus):
     """ω̂ at every sample and R̂ every CHUNK samples (the compiled ``run`` chunk by chunk)."""
     W, Rs = [], []
     for s in range(0, t.size, CHUNK):
-        W.append(f.run(t[s : s + CHUNK], b[s : s + CHUNK], taus[s : s + CHUNK]))
+        W.append(f.run(t[s : s + CHUNK], b[s : s + CHUNK], taus[s : s + CHUNK]).omega)
         Rs.append(f.R.copy())
     return np.vstack(W), np.array(Rs)
 
@@ -126,6 +129,43 @@ def sekf_cost() -> float:
     return best / t.size * 1e6
 
 
+#: The knob values ``omegahat compare --scenario two-directions --scenario two-directions-heavy --scenario
+#: one-direction`` chose (its tuning rule, seed 1), per scenario and method: the costs are measured at those.
+COMPARE_TUNED = {
+    "two-directions": {"omegahat": 1e-6, "mekf-dynamic": 1e-6, "sarras-cold": 1e-3, "min-energy": 1e-2,
+                       "predictive": 1e4},
+    "two-directions-heavy": {"omegahat": 1e-6, "mekf-dynamic": 1e-6, "sarras-cold": 1e-3, "min-energy": 1e-2,
+                             "predictive": 1e4},
+    "one-direction": {"single-direction": 0.03, "single-direction-gradient": 0.1, "sunline-sekf": 0.01},
+}  # fmt: skip
+
+
+def compare_cost_rows() -> list[str]:
+    """CPU µs per sample of ``run`` (best of 3, after one warm-up call) of compare's methods on its direction
+    scenarios' scored log (seed 2), at the knob values compare chose: the cost column of ``omegahat compare`` is
+    wall time on a shared machine; this is the CPU time of the same calls."""
+    from omegahat.lab import peer_scenarios as P
+    from omegahat.lab.evaluation import comparison as C
+    from omegahat.lab.evaluation import peer_methods as PM
+
+    methods = {m.name: m for m in (*C.METHODS, *PM.METHODS)}
+    rows = []
+    for name, tuned in COMPARE_TUNED.items():
+        sc = P.DIRECTION_SCENARIOS[name]
+        run = P.simulate_directions(sc, C.SCORED_SEED)
+        for method, value in tuned.items():
+            best = np.inf
+            for k in range(4):
+                est = methods[method].make(sc, value)
+                c0 = time.process_time()
+                est.run(run.t, run.R_meas, run.torque)
+                if k:  # the first call compiles or loads the kernels
+                    best = min(best, time.process_time() - c0)
+            rows.append(f"| {name} | {method} | {value:g} | {run.t.size} | {best / run.t.size * 1e6:.3g} |")
+            print(rows[-1], flush=True)
+    return rows
+
+
 def basilisk_rows() -> list[str]:
     rows = []
     for as_published in (True, False):
@@ -149,6 +189,7 @@ def main() -> None:
     rows = tso3_rows(args.seeds)
     brows = basilisk_rows()
     sekf_us = sekf_cost()
+    crows = compare_cost_rows()
     elapsed = time.perf_counter() - t0
     body = (
         f"Command: `python benchmarks/peers.py --seeds {args.seeds}` ({elapsed:.0f} s). {machine_line()}\n\n"
@@ -170,7 +211,11 @@ def main() -> None:
         "| form | updates per half | noise | headings | state error | covariance miss | test | CKF updates | "
         "peak rate |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n" + "\n".join(brows) + "\n\n"
         f"Cost of the SEKF's compiled run (omegahat's interface: one unit direction per sample): {sekf_us:.2g} CPU µs "
-        "per sample (10 000 samples, best of 5)."
+        "per sample (10 000 samples, best of 5).\n\n"
+        "Cost on `omegahat compare`'s direction scenarios (its scored log, seed 2; the knob values compare chose): CPU "
+        "µs per sample of `run`, best of 3 after a warm-up call (compare's own cost column is wall time).\n\n"
+        "| scenario | method | knob | samples | CPU µs per sample |\n| --- | --- | --- | --- | --- |\n"
+        + "\n".join(crows)
     )
     print(body)
     write_section("## Gyro-free peers on their sources' simulations (benchmarks/peers.py)", body)

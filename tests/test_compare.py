@@ -40,7 +40,9 @@ def test_compare_writes_its_files_and_is_deterministic(tmp_path, capsys):
         "mekf-rts",
         "omegahat-mocap",
         "omegahat-mocap-smooth",
-    ]
+        "min-energy",
+        "predictive",
+    ]  # the gyro-free peers (issue 26) take attitudes too; the one-direction rows do not run here
     # The fixed point the table must agree with: on noise-free samples at 100 Hz, raw backward differencing is
     # first order, |error| ≈ h |ω̇| / 2 at t_k, i.e. well above 1e-4 and below 0.1 rad/s on the paper's body.
     back = next(r for r in rows if r["method"] == "diff-backward")
@@ -61,3 +63,28 @@ def test_compare_rejects_an_unknown_scenario(capsys):
     with pytest.raises(SystemExit):
         main(["compare", "--scenario", "nope"])
     assert "invalid choice: 'nope'" in capsys.readouterr().err
+
+
+def test_direction_scenarios_run_the_methods_that_take_directions(tmp_path):
+    """Two directions: the methods that take directions, with the scenario's references; one direction: the
+    one-direction observer and the sun-line SEKF, with the error across the direction (never above the whole
+    error); attitude-only methods (the spline) are not run there."""
+    out = tmp_path / "dirs"
+    args = ["compare", "--scenario", "two-directions", "--scenario", "one-direction", "--duration", "20"]
+    for m in ("omegahat", "mekf-kinematic", "spline", "min-energy", "predictive", "single-direction", "sunline-sekf"):
+        args += ["--method", m]
+    assert main([*args, "--robustness-runs", "0", "--out", str(out)]) == 0
+    with open(out / "results.csv") as f:
+        rows = list(csv.DictReader(f))
+    ran = {(r["scenario"], r["method"]) for r in rows}
+    assert ran == {
+        ("two-directions", "omegahat"), ("two-directions", "mekf-kinematic"), ("two-directions", "min-energy"),
+        ("two-directions", "predictive"), ("one-direction", "single-direction"), ("one-direction", "sunline-sekf"),
+    }  # fmt: skip
+    for r in rows:
+        across, whole = float(r["steady_rms_across"]), float(r["steady_rms"])
+        if r["scenario"] == "one-direction":
+            assert 0 < across <= whole
+        else:
+            assert across != across  # NaN: not a one-direction scenario
+    assert "One direction: steady RMS of the error across" in (out / "results.md").read_text()

@@ -21,9 +21,12 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.differencing import DifferencingEstimator
 from omegahat.baselines.mekf import MEKF
+from omegahat.baselines.predictive_geom import PredictiveFilter
 from omegahat.baselines.rts import RTSSmoother
 from omegahat.baselines.savgol import SavitzkyGolayEstimator
 from omegahat.baselines.spline import SplineEstimator
+from omegahat.baselines.sunline_sekf import SunlineSEKF
+from omegahat.baselines.tso3_min_energy import MinimumEnergyFilter
 from omegahat.interface import STATUS_WORDS, Estimate, Estimator, Status, StreamingEstimator
 from omegahat.measurements import MeasurementError
 from omegahat.observer.estimator import SarrasEstimator
@@ -77,7 +80,15 @@ ESTIMATORS = {
     "savitzky-golay": (lambda: SavitzkyGolayEstimator(window=5, order=2), "quaternion"),
     "mocap-smoother": (lambda: MocapSmoother(rate_hz=RATE, measurement_noise=1e-4), "quaternion"),
     "rts-smoother": (lambda: RTSSmoother(filter_factory=lambda: MEKF(J, q=1e-4, measurement_noise=1e-4)), "matrix"),
+    # the gyro-free peers (issue 26), started on the rate like the one-direction observer
+    "min-energy": (lambda: MinimumEnergyFilter(J, omega_hat0=W), "quaternion"),
+    "min-energy-directions": (lambda: MinimumEnergyFilter(J, references=V2, omega_hat0=W), "directions"),
+    "predictive": (lambda: PredictiveFilter(J, omega_hat0=W), "matrix"),
+    # a kinematic filter: its rates a random walk brisk enough for this fast turn (noise-free samples)
+    "sunline-sekf": (lambda: SunlineSEKF(omega_hat0=W, measurement_noise=1e-3, process_noise=1.0), "one-direction"),
 }
+#: estimators of the rate across the measured direction only (the rate about it is not estimated)
+ACROSS_ONLY = {"sunline-sekf"}
 NAMES = list(ESTIMATORS)
 STREAMING = [n for n in NAMES if isinstance(ESTIMATORS[n][0](), StreamingEstimator)]
 CLASSES = {type(ESTIMATORS[n][0]()) for n in NAMES}
@@ -94,11 +105,12 @@ def assert_same(a: Estimate, b: Estimate, atol: float = 1e-12) -> None:
 
 
 def test_the_suite_covers_every_estimator():
-    assert len(STREAMING) == 10 and len(NAMES) - len(STREAMING) == 4
+    assert len(STREAMING) == 14 and len(NAMES) - len(STREAMING) == 4
     names = {c.__name__ for c in CLASSES}
     assert names == {
         "SarrasEstimator", "SupervisedKalmanEstimator", "MocapPreset", "MEKF", "DifferencingEstimator",
         "SingleDirectionEstimator", "SplineEstimator", "SavitzkyGolayEstimator", "MocapSmoother", "RTSSmoother",
+        "MinimumEnergyFilter", "PredictiveFilter", "SunlineSEKF",
     }  # fmt: skip
 
 
@@ -115,7 +127,11 @@ def test_run_gives_an_estimate_and_a_status_per_sample(name):
     assert np.all(np.isnan(omega[none])) and np.all(np.isfinite(omega[~none]))  # NaN exactly where there is none
     assert not np.any(status == Status.PREDICTED)  # a clean log: nothing skipped
     assert none.sum() <= 2 and np.all(status[10:-10] == Status.CORRECTED)  # at the ends at most
-    assert np.abs(omega[20:-20] - W).max() < 0.05  # and they are estimates of the rate
+    want = np.broadcast_to(W, (T, 3))
+    if name in ACROSS_ONLY:  # the rate across the measured direction b
+        b = data / np.linalg.norm(data, axis=-1, keepdims=True)
+        want = W - (b @ W)[:, None] * b
+    assert np.abs(omega[20:-20] - want[20:-20]).max() < 0.05  # and they are estimates of the rate
     assert est.n_skipped == 0
     assert [STATUS_WORDS[s] for s in (0, 1, 2, 3)] == ["unavailable", "corrected", "predicted", "restarted"]
 

@@ -1,6 +1,7 @@
-"""One input path: the same bad log is rejected by every estimator (Sarras, MEKF, differencing, spline) with the same
-message, the one omegahat.measurements.describe_rejection gives; the same tolerances hold everywhere; problem
-definitions go through the same check with the stated tighter tolerance.
+"""One input path: the same bad log is rejected by every estimator (Sarras, MEKF, differencing, spline, the two TSO(3)
+filters; with one direction the one-direction observer and the sun-line SEKF) with the same message, the one
+omegahat.measurements.describe_rejection gives; the same tolerances hold everywhere; problem definitions go through
+the same check with the stated tighter tolerance.
 
 The expected messages are written out by hand below (numbers chosen to print exactly); the test also checks that
 describe_rejection produces exactly those words, so that the estimators, measurements and this file agree. (Every
@@ -17,9 +18,14 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat.baselines.differencing import DifferencingEstimator
 from omegahat.baselines.mekf import MEKF
+from omegahat.baselines.predictive_geom import PredictiveFilter
 from omegahat.baselines.spline import SplineEstimator
+from omegahat.baselines.sunline_sekf import SunlineSEKF
+from omegahat.baselines.tso3_min_energy import MinimumEnergyFilter
+from omegahat.interface import Status
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
+from omegahat.observer.single_direction import SingleDirectionEstimator
 from omegahat.simulation import CoupledProblem
 from omegahat.simulation.rigid_body import RigidBody, integrate
 
@@ -44,16 +50,33 @@ def mekf(references=None):
     )
 
 
+def min_energy(references=None):
+    return MinimumEnergyFilter(J, references=references)
+
+
+def predictive(references=None):
+    return PredictiveFilter(J, references=references)
+
+
 ATTITUDE_ESTIMATORS = {
     # Sarras: the estimator as it is today (its own wording for times and torques, the same words)
     "sarras": sarras,
     "mekf": mekf,
     "differencing": DifferencingEstimator,
     "spline": SplineEstimator,
+    "min-energy": min_energy,
+    "predictive": predictive,
 }
-STREAMING = ("sarras", "mekf", "differencing")  # the spline is offline: no update
-DIRECTION_ESTIMATORS = {"sarras": sarras, "mekf": mekf}
-CLASSES = {"sarras": SarrasEstimator, "mekf": MEKF, "differencing": DifferencingEstimator, "spline": SplineEstimator}
+STREAMING = ("sarras", "mekf", "differencing", "min-energy", "predictive")  # the spline is offline: no update
+DIRECTION_ESTIMATORS = {"sarras": sarras, "mekf": mekf, "min-energy": min_energy, "predictive": predictive}
+CLASSES = {
+    "sarras": SarrasEstimator, "mekf": MEKF, "differencing": DifferencingEstimator, "spline": SplineEstimator,
+    "min-energy": MinimumEnergyFilter, "predictive": PredictiveFilter,
+}  # fmt: skip
+ONE_DIRECTION_ESTIMATORS = {  # one measured direction: the n = 1 path of omegahat.measurements
+    "single-direction": lambda: SingleDirectionEstimator(J, reference=REFS[0]),
+    "sunline-sekf": SunlineSEKF,
+}
 
 
 def not_a_rotation():
@@ -195,7 +218,27 @@ def test_direction_input_is_checked_the_same_way(name):
         DIRECTION_ESTIMATORS[name](REFS).update(0.0, np.eye(3))
 
 
-@pytest.mark.parametrize("name", ["sarras", "mekf"])
+@pytest.mark.parametrize("name", list(ONE_DIRECTION_ESTIMATORS))
+def test_one_direction_input_is_checked_the_same_way(name):
+    b = ROT.inv().apply(REFS[0])  # (T, 3): one direction per sample, Rᵀ v
+    zero = b.copy()
+    zero[3] = 0.0
+    expected = "sample 3 (t = 0.375): measured direction b1 has zero length"
+    with pytest.raises(ms.MeasurementError, match=f"^{re.escape(expected)}$"):
+        ONE_DIRECTION_ESTIMATORS[name]().run(TIMES, zero)
+    message = f"measurements must have shape (T, 3) or (T, 1, 3) with T = {T} samples; got shape (6, 2, 3)"
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        ONE_DIRECTION_ESTIMATORS[name]().run(TIMES, np.stack([b, b], axis=1))
+    message = "a one-direction sample must have shape (3,) or (1, 3); got shape (2, 3)"
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        ONE_DIRECTION_ESTIMATORS[name]().update(0.0, np.eye(3)[:2])
+    est = ONE_DIRECTION_ESTIMATORS[name]()
+    whole = est.run(TIMES, b)  # (T, 3) and (T, 1, 3) are the same log; no sample is skipped as collinear
+    assert est.n_skipped == 0 and np.all(whole.status[2:] == Status.CORRECTED)
+    np.testing.assert_array_equal(ONE_DIRECTION_ESTIMATORS[name]().run(TIMES, b[:, None]).omega, whole.omega)
+
+
+@pytest.mark.parametrize("name", ["sarras", "mekf", "min-energy", "predictive"])
 def test_a_torque_that_is_not_finite_is_rejected_the_same_way(name):
     # differencing and the spline do not use torques: they are not checked there
     torques = np.zeros((T, 3))

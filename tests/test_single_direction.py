@@ -256,8 +256,12 @@ def test_errors():
         SingleDirectionEstimator(J, reference=[0, 0, 0])
     none = SingleDirectionEstimator(J).run(t, np.full((3, 3), np.nan))  # no valid sample: no estimate, no error
     assert np.all(np.isnan(none.omega)) and np.all(none.status == Status.UNAVAILABLE)
-    with pytest.raises(ValueError, match=r"b must have shape \(T, 3\) with T = len\(t\) = 3"):
+    with pytest.raises(
+        ValueError, match=r"^measurements must have shape \(T, 3\) or \(T, 1, 3\) with T = 3 samples; got shape"
+    ):  # the one input path's message (measurements' n = 1 path), as for every estimator
         SingleDirectionEstimator(J).run(t, b[:2])
+    with pytest.raises(ValueError, match=r"^a one-direction sample must have shape \(3,\) or \(1, 3\); got shape"):
+        SingleDirectionEstimator(J).update(0.0, b[:2])
     with pytest.raises(ValueError, match=r"b must have shape \(T, 3\) with T = len\(t\) = 3"):
         excitation(t, b[:2])
     est = SingleDirectionEstimator(J)

@@ -3,6 +3,8 @@ Riccati solution, finite-difference Jacobians, the integral of the transition (S
 invariance under a frame switch, convergence on a spin it models exactly; and its compiled loop against the NumPy
 steps to 1e-10, with the interface's direction samples and with the source's coarse sun sensors."""
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.integrate
@@ -21,8 +23,10 @@ from omegahat.baselines.sunline_sekf import (
     switch,
     time_update,
 )
+from omegahat.interface import Status
 from omegahat.lab.peer_scenarios import BASILISK_NORMALS
 from omegahat.measurements import MeasurementError
+from omegahat.observer.compiled import SkippedSamplesWarning
 
 RNG = np.random.default_rng(2026)
 
@@ -50,8 +54,8 @@ def test_covariance_settles_at_scipys_discrete_algebraic_riccati_solution():
     d /= np.linalg.norm(d)
     h, q, var = 0.5, 0.01, 1e-3
     t = h * np.arange(400)
-    f = SunlineSEKF(measurement_sigma=np.sqrt(var), process_noise=q, direction0=d)
-    np.testing.assert_allclose(f.run(t, np.broadcast_to(d, (t.size, 3))), 0.0, atol=1e-15)
+    f = SunlineSEKF(measurement_noise=np.sqrt(var), process_noise=q, direction0=d, omega_hat0=np.zeros(3))
+    np.testing.assert_allclose(f.run(t, np.broadcast_to(d, (t.size, 3))).omega, 0.0, atol=1e-15)
     X = np.concatenate([d, [0.0, 0.0]])
     Phi = np.eye(5) + h * dynamics_matrix(X, 0)
     G = noise_map(X, 0, h, False)
@@ -125,8 +129,8 @@ def test_converges_on_a_spin_it_models_exactly():
     for h in (0.1, 0.05):
         t = np.arange(0.0, 300.0, h)
         b = np.einsum("tji,j->ti", Rotation.from_rotvec(np.outer(t, w)).as_matrix(), v)
-        est = SunlineSEKF(measurement_sigma=1e-3, process_noise=1e-6).run(t, b)
-        errors.append(np.linalg.norm(est[-1] - w))
+        est = SunlineSEKF(measurement_noise=1e-3, process_noise=1e-6).run(t, b)
+        errors.append(np.linalg.norm(est.omega[-1] - w))
     assert errors[0] < 1e-4 and errors[1] < errors[0] / 3.5, errors
 
 
@@ -143,15 +147,20 @@ def _sequence(T=300, h=0.25):
 @pytest.mark.parametrize("direction0", [None, (0.0, 0.6, 0.8)])
 def test_compiled_run_equals_the_numpy_steps(as_published, direction0):
     t, b = _sequence()
-    fast = SunlineSEKF(as_published=as_published, direction0=direction0, omega0=(0.02, -0.01, 0.03))
-    slow = SunlineSEKF(as_published=as_published, direction0=direction0, omega0=(0.02, -0.01, 0.03))
-    got = np.vstack([fast.run(t[:120], b[:120]), fast.run(t[120:], b[120:, None, :])])
-    want, axes = [], []
-    for j in range(t.size):
-        want.append(slow.update(t[j], b[j]))
-        axes.append(slow.axis)
+    fast = SunlineSEKF(as_published=as_published, direction0=direction0, omega_hat0=(0.02, -0.01, 0.03))
+    slow = SunlineSEKF(as_published=as_published, direction0=direction0, omega_hat0=(0.02, -0.01, 0.03))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SkippedSamplesWarning)
+        got = [fast.run(t[:120], b[:120]), fast.run(t[120:], b[120:, None, :])]
+        want, axes = [], []
+        for j in range(t.size):
+            want.append(slow.update(t[j], b[j]))
+            axes.append(slow.axis)
     assert np.count_nonzero(np.diff(axes)) >= 1 and fast.axis == slow.axis  # the run switches frames
-    np.testing.assert_allclose(got, want, rtol=0, atol=1e-10)
+    status = np.array([w.status for w in want])
+    assert np.all(status[:2] == Status.UNAVAILABLE) and set(status[2:]) == {Status.CORRECTED, Status.PREDICTED}
+    np.testing.assert_array_equal(np.concatenate([g.status for g in got]), status)
+    np.testing.assert_allclose(np.vstack([g.omega for g in got]), [w.omega for w in want], rtol=0, atol=1e-10)
     np.testing.assert_allclose(fast.P, slow.P, atol=1e-10)
     np.testing.assert_allclose(fast.X, slow.X, atol=1e-10)
 
@@ -166,7 +175,10 @@ def test_compiled_loop_equals_the_numpy_steps_with_the_sources_sun_sensors():
     params = np.array([0.01, 0.001, 16 / 9, SWITCH_COS, 1.0])
     state = np.array([np.nan, 0.0, 1.0, 0.0])
     Xc, xc, Pc = X.copy(), x.copy(), P.copy()
-    out = sunline_kernel.run_log(h * np.arange(T), cos, use, BASILISK_NORMALS, np.zeros(3), params, state, Xc, xc, Pc)
+    out, restarted = sunline_kernel.run_log(
+        h * np.arange(T), cos, use, BASILISK_NORMALS, np.zeros(3), params, state, Xc, xc, Pc, P.copy()
+    )
+    assert not restarted.any()
     axis, ckf = 0, 0
     for j in range(T):
         rows = np.flatnonzero(use[j])
@@ -183,9 +195,9 @@ def test_compiled_loop_equals_the_numpy_steps_with_the_sources_sun_sensors():
 
 def test_input_is_checked():
     f = SunlineSEKF()
-    with pytest.raises(ValueError, match=r"measurements must have shape \(T, 1, 3\) with T = 2 samples"):
+    with pytest.raises(ValueError, match=r"measurements must have shape \(T, 3\) or \(T, 1, 3\) with T = 2 samples"):
         f.run([0.0, 1.0], np.ones((2, 2, 3)))
-    with pytest.raises(MeasurementError, match=r"sample 1 \(t = 1.0\): measured direction 0 has zero norm"):
+    with pytest.raises(MeasurementError, match=r"^sample 1 \(t = 1.0\): measured direction b1 has zero length"):
         f.run([0.0, 1.0], [[0.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
     f.update(2.0, [0.0, 0.0, 1.0])
     with pytest.raises(MeasurementError, match="is not after the previous sample's"):
@@ -201,8 +213,32 @@ def test_input_is_checked():
 
 def test_one_sample_is_named_as_such():
     f = SunlineSEKF()
-    with pytest.raises(ValueError, match=r"a direction sample must have shape \(3,\) or \(1, 3\); got shape \(2, 3\)"):
+    with pytest.raises(
+        ValueError, match=r"a one-direction sample must have shape \(3,\) or \(1, 3\); got shape \(2, 3\)"
+    ):
         f.update(0.0, np.eye(3)[:2])
     with pytest.raises(MeasurementError, match=r"the sample \(t = 0.0\): torque must be finite"):
         f.update(0.0, [0.0, 0.0, 1.0], [0.0, np.inf, 0.0])
     assert f.t is None and f.X is None
+
+
+def test_an_update_that_is_not_finite_restarts_from_the_sample():
+    """A state that cannot stay finite (here after a gap of 1e200 s: Φ P Φᵀ overflows) is never written as an
+    estimate: that sample's estimate is NaN with the status RESTARTED and the filter starts again from it (the
+    sample's direction, P₀); the compiled run and the NumPy steps agree."""
+    t, b = np.array([0.0, 0.5, 1e200]), np.array([[0.0, 0.6, 0.8], [0.0, 0.8, 0.6], [0.6, 0.8, 0.0]])
+    results = []
+    for path in ("run", "update"):
+        f = SunlineSEKF(omega_hat0=np.zeros(3))
+        with pytest.warns(RuntimeWarning, match="restarted at 1 of"):
+            if path == "run":
+                omega, status = f.run(t, b)
+            else:
+                out = [f.update(tj, bj) for tj, bj in zip(t, b, strict=True)]
+                omega, status = np.array([o.omega for o in out]), np.array([o.status for o in out])
+        assert list(status) == [Status.CORRECTED, Status.CORRECTED, Status.RESTARTED] and f.n_restarts == 1
+        assert np.all(np.isfinite(omega[:2])) and np.all(np.isnan(omega[2]))
+        np.testing.assert_array_equal(f.X, [0.6, 0.8, 0.0, 0.0, 0.0])  # from the sample and ω̂₀ = 0
+        np.testing.assert_array_equal(f.P, f.P0)
+        results.append(omega)
+    np.testing.assert_allclose(results[0], results[1], atol=1e-12)

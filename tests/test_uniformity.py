@@ -2,7 +2,8 @@
 
 References: the truth integrated on its own by SciPy (DOP853 on Euler's equations), the paper's erratum (the
 printed output map does not converge with the paper's constant l = 1), closed forms for the rate (U2) and the
-campaign's own draws (draw_problem, a second path to the same numbers).
+campaign's own draws (draw_problem, a second path to the same numbers); the sampled gyro-free peers on the same
+draws, and on a spin they follow exactly.
 """
 
 from __future__ import annotations
@@ -16,9 +17,11 @@ from scipy.integrate import solve_ivp
 
 from omegahat.lab.campaigns.config import Campaign
 from omegahat.lab.campaigns.draws import draw_problem
+from omegahat.lab.evaluation import peer_uniformity as PU
 from omegahat.lab.evaluation import uniformity as u
 from omegahat.observer import continuous as cont
 from omegahat.observer.gains import ObserverGains, theorem_gains
+from omegahat.simulation.torque import Torque
 
 J = np.diag([3.0, 2.0, 1.0])
 REFS = np.eye(3)[:2]
@@ -159,3 +162,28 @@ def test_cli_montecarlo_observers(tmp_path, capsys):
     assert "same draws for every observer: True" in capsys.readouterr().out
     assert main([*argv[:4], "--observers", "salcudean", "--out", str(out)]) == 2
     assert "unknown observer(s) ['salcudean']" in capsys.readouterr().err
+
+
+def test_the_sampled_peers_start_from_the_same_draws():
+    """The gyro-free peers (peer_uniformity) beside the observer: every row from the campaign's draw of that run
+    (draw_problem), the initial error |ω̂₀ − ω₀| (the sun-line SEKF's across its one direction b₀ = R₀ᵀ v₁), the
+    tuned knob in the name."""
+    c = small_campaign(runs=1)
+    rows = u.run_uniformity(c, ["sarras", "min-energy", "sunline-sekf"])
+    assert u.same_draws(rows) and rows[0].observer == "sarras"
+    assert rows[1].observer.startswith("min-energy (1/rho = ") and rows[2].observer.startswith("sunline-sekf, across b")
+    p = draw_problem(c, 0)
+    d = p.omega_hat0 - p.omega0
+    b0 = np.asarray(p.R0).T @ REFS[0]
+    assert rows[1].err0 == pytest.approx(np.linalg.norm(d), rel=1e-12)
+    assert rows[2].err0 == pytest.approx(np.linalg.norm(d - (d @ b0) * b0), rel=1e-9)
+
+
+def test_a_sampled_peer_started_on_a_spin_stays_on_it():
+    """A torque-free spin about a principal axis, the minimum-energy filter started on it: the sampled truth and
+    the filter agree at every output time (the filter is exact there, tests/test_tso3.py)."""
+    t_out = np.linspace(0.0, 2.0, 41)
+    w = np.array([0.0, 0.0, 0.8])
+    peer = PU.TunedPeer(PU.SAMPLED["min-energy"], 1.0)
+    err, restarts = PU.errors(small_campaign(), peer, np.eye(3), w, w, t_out, Torque.none())
+    assert restarts == 0 and err.shape == t_out.shape and err.max() < 1e-9

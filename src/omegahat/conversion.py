@@ -66,7 +66,8 @@ def sample_time(t: object) -> float:
 
 def sample_array(measurement: Measurement, n: int | None = None) -> tuple[np.ndarray, int]:
     """One sample as ``(m 2-D, kind)`` for :func:`convert_sample`, shape checked (values are not): an attitude
-    (``n`` None: a matrix, a quaternion or a single Rotation) or ``n`` body-frame directions ``(n, 3)``."""
+    (``n`` None: a matrix, a quaternion or a single Rotation) or ``n`` body-frame directions ``(n, 3)``; one
+    direction (``n = 1``, the caller's word: the one-direction estimators) also as ``(3,)``."""
     if isinstance(measurement, Rotation):
         if not measurement.single:
             raise ValueError(f"update takes one sample; got a Rotation holding {len(measurement)}")
@@ -80,6 +81,10 @@ def sample_array(measurement: Measurement, n: int | None = None) -> tuple[np.nda
         raise ValueError(
             f"an attitude sample must be a 3x3 matrix, a quaternion (4,) or a Rotation; got shape {m.shape}"
         )
+    if n == 1 and m.shape in ((3,), (1, 3)):
+        return m.reshape(1, 3), KIND_DIRECTIONS
+    if n == 1:
+        raise ValueError(f"a one-direction sample must have shape (3,) or (1, 3); got shape {m.shape}")
     if m.shape != (n, 3):
         raise ValueError(f"a direction sample must have shape ({n}, 3) (one row per reference); got shape {m.shape}")
     return m, KIND_DIRECTIONS
@@ -87,7 +92,8 @@ def sample_array(measurement: Measurement, n: int | None = None) -> tuple[np.nda
 
 def log_array(measurements: Measurements, T: int, n: int | None = None) -> tuple[np.ndarray, int]:
     """A log of ``T`` samples as ``(m (T, a, b), kind)``, shape checked: attitudes (``n`` None: matrices
-    ``(T, 3, 3)``, quaternions ``(T, 4)``, a Rotation of T or a list of T Rotations) or directions ``(T, n, 3)``."""
+    ``(T, 3, 3)``, quaternions ``(T, 4)``, a Rotation of T or a list of T Rotations) or directions ``(T, n, 3)``;
+    one direction (``n = 1``) also as ``(T, 3)``."""
     if isinstance(measurements, list | tuple) and measurements and all(isinstance(x, Rotation) for x in measurements):
         measurements = Rotation.concatenate(measurements)
     if isinstance(measurements, Rotation):
@@ -104,7 +110,9 @@ def log_array(measurements: Measurements, T: int, n: int | None = None) -> tuple
         return np.ascontiguousarray(m.reshape(T, 1, 4)), KIND_QUAT
     if n is not None and m.shape == (T, n, 3):
         return np.ascontiguousarray(m), KIND_DIRECTIONS
-    want = "(T, 3, 3) or (T, 4)" if n is None else f"(T, {n}, 3)"
+    if n == 1 and m.shape == (T, 3):
+        return np.ascontiguousarray(m.reshape(T, 1, 3)), KIND_DIRECTIONS
+    want = "(T, 3, 3) or (T, 4)" if n is None else "(T, 3) or (T, 1, 3)" if n == 1 else f"(T, {n}, 3)"
     raise ValueError(f"measurements must have shape {want} with T = {T} samples; got shape {m.shape}")
 
 

@@ -17,7 +17,10 @@ the rows of ``r = V R`` are the ``r_i``; for ``V = I`` they are the rows of R (R
   magnetometer, say): each row is normalised (a zero row is an error). If the largest angle between two measured
   directions is below ``min_angle_deg`` (M3) the sample is **flagged and skipped** (status :data:`COLLINEAR`),
   not an error: the references are checked non-collinear when an estimator is built, so collinear measurements
-  mean a disturbed sensor at that instant, and a stream rides through such a sample as through a missing one.
+  mean a disturbed sensor at that instant, and a stream rides through such a sample as through a missing one;
+* one measured direction (``n = 1``: only where the caller says so, by giving one reference — the one-direction
+  estimators; the others refuse one reference when built): a sample ``(3,)`` or ``(1, 3)``, a log ``(T, 3)`` or
+  ``(T, 1, 3)``, normalised (a zero direction is an error); (M3) does not apply (there is no pair).
 
 Any non-finite number in a sample (NaN, ±inf) marks it **missing** (status :data:`MISSING`), never an error: the
 estimators skip it. Everything else that is wrong raises :class:`MeasurementError` (a ``ValueError``) naming the
@@ -295,9 +298,12 @@ def conversion(
     n: int | None, scalar_first: bool, rotation_tol: float, quat_norm_tol: float, min_angle_deg: float
 ) -> tuple[np.ndarray, bool, float, float, float]:
     """The converter's ``(V, scalar_first, rotation_tol, quat_norm_tol, min_sin)`` for attitudes (``n`` None;
-    ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape)."""
+    ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape). One
+    direction (``n = 1``: the one-direction estimators, whose caller says so by giving one reference) has no pair
+    to be collinear: (M3) does not apply (``min_sin = 0``), and its samples may also be ``(3,)`` (a log ``(T, 3)``)."""
     V = np.eye(3) if n is None else np.zeros((n, 3))
-    return V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), float(np.sin(np.radians(min_angle_deg)))
+    min_sin = 0.0 if n == 1 else float(np.sin(np.radians(min_angle_deg)))
+    return V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), min_sin
 
 
 def checked_times(times: ArrayLike, *, t_prev: float | None = None, where: str = "sample {j}") -> np.ndarray:
@@ -325,7 +331,8 @@ def checked_log(
     """A whole log through (M1)–(M3) and (T): the estimators' batch input path.
 
     ``measurements``: attitudes (references None) as in :func:`log_array`, giving rotation matrices, or the body
-    directions ``(T, n, 3)`` of the ``references`` ``(n, 3)``, giving unit directions. ``t_prev`` is the time of
+    directions ``(T, n, 3)`` of the ``references`` ``(n, 3)``, giving unit directions (one reference: ``(T, 3)``
+    too, and no collinearity test). ``t_prev`` is the time of
     the sample before ``times[0]`` (None: there is none). Raises :class:`MeasurementError` at the first rejected
     sample, named ``"sample j (t = ...)"`` (j its index in this call), and ``ValueError`` for wrong shapes.
     """

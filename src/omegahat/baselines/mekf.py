@@ -462,6 +462,8 @@ class MEKF(CompiledEstimator):
             np.ascontiguousarray(self._tau, dtype=float),
             np.ascontiguousarray(self.omega_hat0, dtype=float),
             self.prior_covariance(),
+            np.zeros(4),  # the innovations' likelihood, not kept here (omegahat.identification reads it)
+            np.zeros((0, 3, 3)),  # nor the rate covariances
         )
         codes[~np.all(np.isfinite(out), axis=1)] = ms.RESTARTED  # the kernel writes NaN only where it restarted
         omega = state[3:6] if self.q_a is None else state[3:9]

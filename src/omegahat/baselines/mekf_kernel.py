@@ -19,7 +19,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from omegahat.kernels.ekf import EKF_SCRATCH, ekf_attitude_update, ekf_finite, ekf_propagate, ekf_vector_update
+from omegahat.kernels.ekf import (
+    EKF_SCRATCH,
+    LOGDET_SLOT,
+    ekf_attitude_update,
+    ekf_finite,
+    ekf_propagate,
+    ekf_vector_update,
+)
 from omegahat.kernels.rotation import wahba
 
 __all__ = ["run_log"]
@@ -28,14 +35,17 @@ __all__ = ["run_log"]
 @numba.njit(cache=True, error_model="numpy")
 def run_log(
     times, meas, valid, torques, references, directions, dynamic, J, J_inv, q, meas_var, max_step, max_angle,
-    linear_hold, q_a, state, R, P, tau, omega0, P0,
+    linear_hold, q_a, state, R, P, tau, omega0, P0, likelihood, rate_covariances,
 ):  # fmt: skip
     """``MEKF.update`` over a checked log. ``meas``: rotation matrices ``(T, 3, 3)`` or unit directions
     ``(T, n, 3)``; ``valid`` the usable samples. The filter's state goes in and comes out: ``state = [t_prev,
     has_t, has_R, ω̂ (3), â (3)]`` (updated in place), ``R`` (ignored while ``has_R`` is 0), ``P`` (6×6, or 9×9
     with the unknown acceleration ``â`` of PSD ``q_a``), ``tau`` the torque given with the sample at ``t_prev``.
-    ``omega0``, ``P0``: the prior a restart takes (module docstring). Returns ``(ω̂ (T, 3), R, P, n_skipped,
-    n_restarts)``."""
+    ``omega0``, ``P0``: the prior a restart takes (module docstring). ``likelihood`` (4 floats, updated in place):
+    ``[fixes to leave out, Σ log det S, Σ ν, degrees of freedom]`` of the fixes' innovations (the first
+    ``likelihood[0]`` fixes, a diffuse prior's, are counted down and left out). Returns ``(ω̂ (T, 3), R, P,
+    n_skipped, n_restarts)``; ``rate_covariances`` ``(T, 3, 3)`` receives the rate block of P after each sample
+    (``(0, 3, 3)``: not kept; NaN where the filter restarted)."""
     T = times.size
     out = np.empty((T, 3))
     R, P, tau = R.copy(), P.copy(), tau.copy()
@@ -59,16 +69,27 @@ def run_log(
             elif not has_R:  # the first fix initialises the attitude
                 R = wahba(weights, references, meas[j]) if directions else meas[j].copy()
                 has_R = True
-            elif directions:
-                ekf_vector_update(R, omega, accel, P, meas[j], references, meas_var, scratch)
             else:
-                ekf_attitude_update(R, omega, accel, P, meas[j], meas_var, scratch)
+                if directions:
+                    nis = ekf_vector_update(R, omega, accel, P, meas[j], references, meas_var, scratch)
+                else:
+                    nis = ekf_attitude_update(R, omega, accel, P, meas[j], meas_var, scratch)
+                if likelihood[0] > 0.0:
+                    likelihood[0] -= 1.0
+                else:
+                    likelihood[1] += scratch[LOGDET_SLOT]
+                    likelihood[2] += nis
+                    likelihood[3] += 3.0 * (references.shape[0] if directions else 1)
             finite = ekf_finite(R, omega, accel, P)
         t_prev = times[j]
         has_t = True
         tau = torques[j].copy()
         for c in range(3):
             out[j, c] = omega[c]
+        if rate_covariances.shape[0] > 0:
+            for a in range(3):
+                for b in range(3):
+                    rate_covariances[j, a, b] = P[3 + a, 3 + b] if finite else np.nan
         if not finite:  # the guard: restart from this sample with the prior
             n_restarts += 1
             for c in range(3):  # element loops, not slice assignments (which compile a shape check's message)

@@ -101,32 +101,33 @@ def predictive_step(
 
 
 class PredictiveFilter(TSO3Filter):
-    """The geometric predictive filter of the module docstring behind the estimator interface.
+    """The geometric predictive filter of the module docstring behind the estimator contract.
 
-    Keyword-only parameters
-    -----------------------
-    J : inertia (3 numbers, 9 numbers or 3×3), kg·m².
+    Parameters
+    ----------
+    J : inertia (3 numbers, 9 numbers or 3×3), kg·m²; the one positional argument.
     references : ``None`` for attitude samples (their three directions), else the inertial directions ``(n, 3)``.
     residual_weight, disturbance_weight : q and ρ of (G5) (the source: 10⁴ and 4·10⁻³; only q/ρ matters).
     attitude_gain : k_R of (G8), 1/s (the source: 0.7).
-    omega0, R0 : the initial rate (rad/s) and attitude (``None``: the first valid sample's least-squares attitude;
-        the source starts from the identity).
+    omega_hat0, R0 : the initial rate (rad/s; default 0, and then no estimate at the first valid sample) and
+        attitude (``None``: the first valid sample's least-squares attitude; the source starts from the identity).
     as_published : True: the source's second half-step (``J⁻¹δ``, module docstring).
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`.
 
     :meth:`update` runs :func:`predictive_step` (NumPy), :meth:`run` its compiled twin
-    (:mod:`omegahat.baselines.tso3_kernel`).
+    (:mod:`omegahat.baselines.tso3_kernel`); a step that cannot be taken restarts the filter ((C5) of
+    :mod:`omegahat.baselines.tso3_common`).
     """
 
     def __init__(
         self,
-        *,
         J: ArrayLike,
+        *,
         references: ArrayLike | None = None,
         residual_weight: float = 1e4,
         disturbance_weight: float = 4e-3,
         attitude_gain: float = 0.7,
-        omega0: ArrayLike = (0.0, 0.0, 0.0),
+        omega_hat0: ArrayLike | None = None,
         R0: ArrayLike | Rotation | None = None,
         as_published: bool = False,
         scalar_first: bool = False,
@@ -139,29 +140,26 @@ class PredictiveFilter(TSO3Filter):
         self.attitude_gain = float(as_positive(attitude_gain, "attitude_gain")[0])
         self.as_published = bool(as_published)
         super().__init__(
-            J=J, references=references, omega0=omega0, R0=R0, scalar_first=scalar_first, rotation_tol=rotation_tol,
-            quat_norm_tol=quat_norm_tol, min_angle_deg=min_angle_deg,
+            J, references=references, omega_hat0=omega_hat0, R0=R0, scalar_first=scalar_first,
+            rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol, min_angle_deg=min_angle_deg,
         )  # fmt: skip
 
     def _initial_gain(self) -> np.ndarray:
         return np.zeros((6, 6))  # no gain state: the compiled loop's K slot, unused
 
-    def _step(self, R, omega, gain, a, tau, h):
+    def _numpy_step(self, R, omega, gain, a, tau, h):
         stepped = predictive_step(
             R, omega, a, self.directions, tau, h, self.J, self.J_inv, self.residual_weight, self.disturbance_weight,
             self.attitude_gain, self.as_published,
         )  # fmt: skip
         return None if stepped is None else (*stepped, gain)
 
-    def _run_compiled(self, log, state, R, prev):
+    def _run_compiled(self, times, values, valid, taus, state, R, gain, prev):
         n = self.directions.shape[0]
         params = np.array(
             [self.residual_weight, self.disturbance_weight, self.attitude_gain, 1.0 if self.as_published else 0.0]
         )
-        K = np.zeros((6, 6))
-        out, failed = kernel.run_log(
-            kernel.PREDICTIVE, log.times, np.ascontiguousarray(log.values), log.valid, log.torques,
-            np.ascontiguousarray(self.directions), self.J, self.J_inv, np.ones(n), np.ones(n), params, state, R, K,
-            prev,
+        return kernel.run_log(
+            kernel.PREDICTIVE, times, values, valid, taus, np.ascontiguousarray(self.directions), self.J, self.J_inv,
+            np.ones(n), np.ones(n), params, state, R, gain, prev, self.omega_hat0, gain.copy(),
         )  # fmt: skip
-        return out, R, K, failed

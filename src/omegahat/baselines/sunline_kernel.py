@@ -38,6 +38,14 @@ def _hat(v):
 
 
 @numba.njit(cache=True)
+def _finite(X, x, P):
+    for v in P.flat:
+        if not np.isfinite(v):
+            return False
+    return np.all(np.isfinite(X)) and np.all(np.isfinite(x))
+
+
+@numba.njit(cache=True)
 def _step(X, x, P, axis, has_h, h, y, normals, q, meas_var, ekf_switch, switch_cos, as_published):
     """:func:`omegahat.baselines.sunline_sekf.sekf_step` in place on ``X``, ``x``, ``P``; returns the axis. ``y``
     holds the readings of ``normals`` (no rows: no sample)."""
@@ -67,7 +75,7 @@ def _step(X, x, P, axis, has_h, h, y, normals, q, meas_var, ekf_switch, switch_c
         x[:] = Phi @ x
         P[:, :] = Phi @ P @ Phi.T + q * G @ G.T
     m = y.size
-    if m > 0:  # (S7)-(S9)
+    if m > 0 and _finite(X, x, P):  # (S7)-(S9); a state already not finite is left to the caller's restart
         H = np.zeros((m, 5))
         H[:, :3] = normals
         S = H @ P @ H.T + meas_var * np.eye(m)
@@ -85,26 +93,31 @@ def _step(X, x, P, axis, has_h, h, y, normals, q, meas_var, ekf_switch, switch_c
 
 
 @numba.njit(cache=True)
-def run_log(times, values, use, normals, omega0, params, state, X, x, P):
+def _start(X, d, omega0):
+    """``X`` from the direction ``d`` and the body rate ``omega0``: ``(ω₂, ω₃) = −C₂₃ᵀ ω₀`` (axis e₁)."""
+    X[:3] = d
+    C = _frame(X[:3], 0)
+    X[3] = -(C[0, 1] * omega0[0] + C[1, 1] * omega0[1] + C[2, 1] * omega0[2])
+    X[4] = -(C[0, 2] * omega0[0] + C[1, 2] * omega0[1] + C[2, 2] * omega0[2])
+
+
+@numba.njit(cache=True)
+def run_log(times, values, use, normals, omega0, params, state, X, x, P, P0):
     """:meth:`SunlineSEKF.update` over a log. ``values (T, m)``: the readings of the sensors ``normals (m, 3)``
     (omegahat's interface: the unit direction, ``normals = I``); ``use (T, m)``: the readings to take (a sample with
     none is no sample). ``params = [q, σ², ekf_switch, switch_cos, as_published]``. In place: ``state = [t_prev,
     has_t, initialised, axis]``, ``X``, ``x``, ``P``. Not initialised: the first sample with three readings of
-    ``normals = I`` starts X at that direction with (ω₂, ω₃) = −C₂₃ᵀ ``omega0``. Returns ω̂ ``(T, 3)``."""
+    ``normals = I`` starts X at that direction with (ω₂, ω₃) = −C₂₃ᵀ ``omega0``. An update whose result is not
+    finite restarts the filter (x = 0, P = ``P0``, axis e₁, X from the sample as at the start): ω̂ is NaN there.
+    Returns ``(ω̂ (T, 3), restarted (T,))``."""
     T = times.size
     out = np.empty((T, 3))
+    restarted = np.zeros(T, dtype=np.bool_)
     t_prev, has_t, ready, axis = state[0], state[1] != 0.0, state[2] != 0.0, int(state[3])
+    three = values.shape[1] == 3  # the interface's unit direction (normals = I): a sample can start X
     for j in range(T):
         rows = np.flatnonzero(use[j])
-        if not ready:
-            if rows.size == values.shape[1]:
-                X[:3] = values[j]
-                C = _frame(X[:3], 0)
-                X[3] = -(C[0, 1] * omega0[0] + C[1, 1] * omega0[1] + C[2, 1] * omega0[2])
-                X[4] = -(C[0, 2] * omega0[0] + C[1, 2] * omega0[1] + C[2, 2] * omega0[2])
-                ready = True
-                axis = 0
-        else:
+        if ready:
             y = np.empty(rows.size)
             N = np.empty((rows.size, 3))
             for k in range(rows.size):
@@ -114,12 +127,24 @@ def run_log(times, values, use, normals, omega0, params, state, X, x, P):
                 X, x, P, axis, has_t, times[j] - t_prev, y, N, params[0], params[1], params[2], params[3],
                 params[4] != 0.0,
             )  # fmt: skip
+            if not _finite(X, x, P):  # restart from this sample
+                restarted[j] = True
+                x[:] = 0.0
+                P[:, :] = P0
+                axis = 0
+                ready = False
+        if not ready and three and rows.size == 3:
+            _start(X, values[j], omega0)
+            ready = True
+            axis = 0
         t_prev = times[j]
         has_t = True
-        if ready:
+        if restarted[j]:
+            out[j] = np.nan
+        elif ready:
             C = _frame(X[:3], axis)
             out[j] = C @ np.array([0.0, -X[3], -X[4]])
         else:
-            out[j] = omega0
+            out[j] = np.nan  # no direction yet: no estimate
     state[0], state[1], state[2], state[3] = t_prev, 1.0, 1.0 if ready else 0.0, float(axis)
-    return out
+    return out, restarted

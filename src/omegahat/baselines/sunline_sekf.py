@@ -27,10 +27,14 @@ Error state ``x`` (5) and covariance P (5×5). One update over ``h``, at a sampl
     CKF (otherwise):  x = x̄ + K (y − H X − H x̄)  (X not moved)
     P = (I − K H) P⁻ (I − K H)ᵀ + σ² K Kᵀ                        (Joseph form)                       (S9)
 
-With no sample, ``x = x̄`` and ``P = P⁻``. Measurements: the source reads coarse sun sensors, cosines ``y_j = n_j·d``
-of sensors with normals ``n_j`` whose reading exceeds a threshold; omegahat's interface gives the measured unit
-direction ``b`` itself, i.e. three sensors ``n_j = e_j`` always read (``H = [I, 0]``). :func:`sekf_step` takes either
-(``normals``); ``benchmarks/peers.py`` runs the source's unit test with its eight sensors.
+With no sample, ``x = x̄`` and ``P = P⁻``. An update whose result (X, x, P) is not finite restarts the filter from
+that sample, as at its start (d from the sample, the rates from ``omega_hat0``, P₀): the estimate there is NaN with
+the status ``RESTARTED`` (:mod:`omegahat.interface`), never a diverged value.
+
+Measurements: the source reads coarse sun sensors, cosines ``y_j = n_j·d`` of sensors with normals ``n_j`` whose
+reading exceeds a threshold; omegahat's interface gives the measured unit direction ``b`` itself, i.e. three sensors
+``n_j = e_j`` always read (``H = [I, 0]``). :func:`sekf_step` takes either (``normals``); ``benchmarks/peers.py``
+runs the source's unit test with its eight sensors.
 
 **Settings of the source** (its unit test): h = 0.5 s, q = 0.01, σ² = 0.001 (noise std √0.001 per cosine),
 P₀ = diag(0.4, 0.4, 0.4, 0.004, 0.004), EKF/CKF threshold (4/3)², X₀ = [0.7, 0.7, 0, 0, 0], a fixed Sun heading
@@ -57,20 +61,22 @@ it passes when the final state is within 0.1 of the heading (rates 0) and the co
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines import sunline_kernel as kernel
-from omegahat.interface import Estimator, Measurement, Measurements
+from omegahat.baselines.tso3_common import restart_warning
+from omegahat.observer.compiled import CompiledEstimator
 from omegahat.validation import as_positive, as_vector3
 
 __all__ = [
     "SWITCH_COS",
     "SunlineSEKF",
     "body_rate",
-    "checked_direction_log",
     "dynamics_matrix",
     "frame",
     "measurement_update",
@@ -82,6 +88,8 @@ __all__ = [
 
 SWITCH_COS = 0.866  #: (S2) the source's threshold: switch when d is within about 30° of the axis in use
 _AXES = np.eye(3)
+_NAN3 = np.full(3, np.nan)
+_NAN3.flags.writeable = False
 
 
 def frame(d: np.ndarray, axis: int) -> np.ndarray:
@@ -172,66 +180,47 @@ def sekf_step(
     P_prev = P
     if h is not None:
         X, x, P = time_update(X, x, P, axis, h, q, as_published)
-    if y is not None:
+    finite = np.all(np.isfinite(X)) and np.all(np.isfinite(x)) and np.all(np.isfinite(P))
+    if y is not None and finite:  # a state already not finite is left to the caller's restart
         X, x, P = measurement_update(X, x, P, P_prev, y, normals, meas_var, ekf_switch)
     return X, x, 0.5 * (P + P.T), axis
 
 
-def checked_direction_log(
-    times: ArrayLike,
-    measurements: ArrayLike,
-    torques: ArrayLike | None = None,
-    *,
-    t_prev: float | None = None,
-    where: str = "sample {j}",
-) -> ms.CheckedLog:
-    """One measured direction per sample, ``(T, 3)`` or ``(T, 1, 3)``, through the checks of
-    :mod:`omegahat.measurements` (times (T), torques, zero or non-finite directions; one direction: no collinearity
-    test), a rejected sample named ``where.format(j=j)``. ``values`` are the unit directions ``(T, 1, 3)``."""
-    t = ms.times_array(times)
-    m = np.asarray(measurements, dtype=float)
-    if m.shape == (t.size, 3):
-        m = m.reshape(t.size, 1, 3)
-    m, kind = ms.log_array(m, t.size, 1)
-    taus = ms.torques_array(torques, t.size)
-    prev = np.nan if t_prev is None else float(t_prev)
-    r, status, first_bad, info = ms.check_batch(t, prev, taus, True, m, kind, np.zeros((1, 3)), False, 1.0, 1.0, 0.0)
-    if first_bad >= 0:
-        raise ms.rejection_error(int(status[first_bad]), float(info), where.format(j=first_bad), float(t[first_bad]))
-    return ms.CheckedLog(t, r, taus, status)
+class SunlineSEKF(CompiledEstimator):
+    """The sun-line switch-EKF of the module docstring behind the estimator contract: samples are one measured unit
+    direction ``(3,)`` (or ``(1, 3)``; a log ``(T, 3)`` or ``(T, 1, 3)``), in body axes; ω̂ is the body rate
+    perpendicular to it.
 
-
-class SunlineSEKF(Estimator):
-    """The sun-line switch-EKF of the module docstring behind the estimator interface: samples are one measured unit
-    direction ``(3,)`` (or ``(1, 3)``), in body axes; ω̂ is the body rate perpendicular to it.
-
-    Keyword-only parameters
-    -----------------------
-    measurement_sigma : the direction noise's standard deviation per component (σ; the source: √0.001).
+    Parameters (keyword-only: the filter has no inertia)
+    ----------------------------------------------------
+    measurement_noise : the direction noise's standard deviation per component (σ; the source: √0.001).
     process_noise : q of (S6), (rad/s²)²: the rates' variance grows by h² q per update (the source: 0.01).
     sigma_direction0, sigma_rate0 : the initial standard deviations of d and of (ω₂, ω₃) (the source: √0.4, √0.004).
-    direction0 : the initial d (``None``: the first valid sample); omega0 : the initial body rate (its part along d
-        is dropped).
+    direction0 : the initial d (``None``: the first valid sample); omega_hat0 : the initial body rate (its part
+        along d is dropped; default 0, and then no estimate at the first valid sample).
     ekf_switch : the threshold on max|P| above which the update is the CKF's (the source's test: (4/3)²).
     as_published : True: Γ with the source's sign (module docstring).
 
-    The state (``X``, ``x``, ``P``, ``axis``) is public. :meth:`update` runs :func:`sekf_step` (NumPy), :meth:`run`
-    its compiled twin (:mod:`omegahat.baselines.sunline_kernel`).
+    The state (``X``, ``x``, ``P``, ``axis``, the last time ``t``) is public; ``n_restarts`` counts the restarts.
+    :meth:`update` runs :func:`sekf_step` (NumPy), :meth:`run` its compiled twin
+    (:mod:`omegahat.baselines.sunline_kernel`); conversion (the one-direction input path of
+    :mod:`omegahat.measurements`), refusal, counting and statuses are the compiled estimators' shared base.
     """
 
     def __init__(
         self,
         *,
-        measurement_sigma: float = float(np.sqrt(0.001)),
+        measurement_noise: float = float(np.sqrt(0.001)),
         process_noise: float = 0.01,
         sigma_direction0: float = float(np.sqrt(0.4)),
         sigma_rate0: float = float(np.sqrt(0.004)),
         direction0: ArrayLike | None = None,
-        omega0: ArrayLike = (0.0, 0.0, 0.0),
+        omega_hat0: ArrayLike | None = None,
         ekf_switch: float = (4.0 / 3.0) ** 2,
         as_published: bool = False,
     ) -> None:
-        self.meas_var = float(as_positive(measurement_sigma, "measurement_sigma")[0]) ** 2
+        self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
+        self.meas_var = self.measurement_noise**2
         self.q = float(as_positive(process_noise, "process_noise")[0])
         sd = float(as_positive(sigma_direction0, "sigma_direction0")[0])
         sr = float(as_positive(sigma_rate0, "sigma_rate0")[0])
@@ -239,62 +228,71 @@ class SunlineSEKF(Estimator):
         self.direction0 = None if direction0 is None else as_vector3(direction0, "direction0")
         if self.direction0 is not None and not np.linalg.norm(self.direction0) > 0:
             raise ValueError("direction0 must be a non-zero vector")
-        self.omega0 = as_vector3(omega0, "omega0")
+        self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.ekf_switch = float(as_positive(ekf_switch, "ekf_switch")[0])
         self.as_published = bool(as_published)
+        self._conversion = ms.conversion(1, False, ms.ROTATION_TOL, ms.QUAT_NORM_TOL, 0.0)
+        self._configure_input(n_directions=1, rate_given=omega_hat0 is not None)
         self.reset()
 
     def _initial_state(self, d: np.ndarray) -> np.ndarray:
-        """``X`` from a direction and ``omega0`` (S1): ``(ω₂, ω₃) = −C₂₃ᵀ ω₀``."""
-        return np.concatenate([d, -(frame(d, 0)[:, 1:].T @ self.omega0)])
+        """``X`` from a direction and ``omega_hat0`` (S1): ``(ω₂, ω₃) = −C₂₃ᵀ ω̂₀``."""
+        return np.concatenate([d, -(frame(d, 0)[:, 1:].T @ self.omega_hat0)])
 
-    def reset(self) -> None:
-        self.X: np.ndarray | None = None if self.direction0 is None else self._initial_state(self.direction0)
-        self.x = np.zeros(5)
-        self.P = self.P0.copy()
-        self.axis = 0
-        self.t: float | None = None
+    def _reset_state(self) -> None:
+        X = None if self.direction0 is None else self._initial_state(self.direction0)
+        self._commit((X, np.zeros(5), self.P0.copy(), 0, None, 0))
 
-    def _output(self) -> np.ndarray:
-        return self.omega0.copy() if self.X is None else body_rate(self.X, self.axis)
+    def _commit(self, state: Any) -> None:
+        self.X, self.x, self.P, self.axis, self.t, self.n_restarts = state
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """Take the sample at ``t`` (:func:`sekf_step`), return ``ω̂(t)`` ``(3,)``."""
-        m = np.asarray(measurement, dtype=float)
-        if m.shape not in ((3,), (1, 3)):
-            raise ValueError(f"a direction sample must have shape (3,) or (1, 3); got shape {m.shape}")
-        tau = None if torque is None else [ms.torque_vector(torque)]
-        log = checked_direction_log([t], m.reshape(1, 3), tau, t_prev=self.t, where="the sample")
-        b = log.values[0, 0] if log.valid[0] else None
-        if self.X is None:
+    def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
+        """One update (:func:`sekf_step`): the NumPy path, the oracle of :meth:`run`."""
+        value = np.full((1, 3), np.nan)
+        prev_t = np.nan if self.t is None else self.t
+        code, info = ms.check_sample(t, prev_t, tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        if code >= ms.ERROR:
+            return None, _NAN3, int(code), float(info)
+        b = value[0] if code == ms.OK else None
+        X, x, P, axis, restarted = self.X, self.x, self.P, self.axis, False
+        if X is None:
             if b is not None:
-                self.X, self.t = self._initial_state(b), float(t)
-            else:
-                self.t = float(t)
-            return self._output()
-        h = None if self.t is None else float(t) - self.t
-        self.X, self.x, self.P, self.axis = sekf_step(
-            self.X, self.x, self.P, self.axis, h, b, np.eye(3), self.q, self.meas_var, self.ekf_switch,
-            SWITCH_COS, self.as_published,
-        )  # fmt: skip
-        self.t = float(t)
-        return self._output()
+                X = self._initial_state(b)
+        else:
+            h = None if self.t is None else t - self.t
+            with np.errstate(all="ignore"):  # an overflow is caught just below: the filter restarts
+                X, x, P, axis = sekf_step(
+                    X, x, P, axis, h, b, np.eye(3), self.q, self.meas_var, self.ekf_switch, SWITCH_COS,
+                    self.as_published,
+                )  # fmt: skip
+            restarted = not (np.all(np.isfinite(X)) and np.all(np.isfinite(x)) and np.all(np.isfinite(P)))
+            if restarted:  # from this sample, as at the start
+                X, x, P, axis = None if b is None else self._initial_state(b), np.zeros(5), self.P0.copy(), 0
+                restart_warning(1, 1)
+        state = (X, x, P, axis, float(t), self.n_restarts + restarted)
+        if restarted:
+            return state, _NAN3, ms.RESTARTED, 0.0
+        return state, _NAN3 if X is None else body_rate(X, axis), int(code), float(info)
 
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """``ω̂`` at every sample ``(T, 3)``: :meth:`update` sample by sample (from the current state), in one
-        compiled call; the log is checked first (the state is unchanged when it is rejected)."""
-        log = checked_direction_log(times, np.asarray(measurements, dtype=float), torques, t_prev=self.t)
-        T = log.times.size
-        if T == 0:
-            return np.empty((0, 3))
-        state = np.array([np.nan if self.t is None else self.t, self.t is not None, self.X is not None, self.axis])
+    def _run(
+        self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
+    ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
+        """The log checked (compiled), then the compiled filter (:mod:`omegahat.baselines.sunline_kernel`)."""
+        T = times.size
+        prev_t = np.nan if self.t is None else self.t
+        values, codes, first_bad, info = ms.check_batch(times, prev_t, taus, True, m, kind, *self._conversion)
+        if first_bad >= 0:
+            return None, np.empty((T, 3)), codes, int(first_bad), float(info)
+        state = np.array([prev_t, self.t is not None, self.X is not None, self.axis])
         X = np.zeros(5) if self.X is None else self.X.copy()
         x, P = self.x.copy(), np.array(self.P, order="C")
-        use = np.repeat(log.valid[:, None], 3, axis=1)
+        use = np.repeat((codes == ms.OK)[:, None], 3, axis=1)
         params = np.array([self.q, self.meas_var, self.ekf_switch, SWITCH_COS, 1.0 if self.as_published else 0.0])
-        out = kernel.run_log(
-            log.times, np.ascontiguousarray(log.values[:, 0]), use, np.eye(3), self.omega0, params, state, X, x, P
-        )
-        self.X = X if state[2] else None
-        self.x, self.P, self.axis, self.t = x, P, int(state[3]), float(log.times[-1])
-        return out
+        out, restarted = kernel.run_log(
+            times, np.ascontiguousarray(values[:, 0]), use, np.eye(3), self.omega_hat0, params, state, X, x, P,
+            self.P0,
+        )  # fmt: skip
+        restarts = int(np.count_nonzero(restarted))
+        restart_warning(restarts, T)
+        new = (X if state[2] else None, x, P, int(state[3]), float(times[-1]), self.n_restarts + restarts)
+        return new, out, np.where(restarted, ms.RESTARTED, codes), -1, 0.0

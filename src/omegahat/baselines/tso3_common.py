@@ -20,19 +20,30 @@ A missing or skipped sample (:mod:`omegahat.measurements`) drives its step witho
 
 **Start.** ``R0`` when given (the sources start from ``R̂ = I``), else the least-squares attitude of the first valid
 sample (Wahba's problem, as the MEKF's first fix, :func:`omegahat.baselines.mekf.initial_attitude`); no step is
-taken before the attitude is known, and ``ω̂`` stays at ``omega0`` until then.
+taken before the attitude is known, and ``ω̂`` stays at ``omega_hat0`` until then.
 
 **The implicit rate step (C4).** Both filters advance ``ω̂`` by an implicit second-order step of (C1), solved by
 Newton's method from the previous rate: :func:`newton` here (NumPy), the same loop compiled in
 :mod:`omegahat.baselines.tso3_kernel`. It stops when ``max|Δω| ≤ NEWTON_TOL (1 + max|ω|)``, or fails after
-``NEWTON_MAX`` iterations (both defined in the compiled module, so that its cache follows them); the shells then
-raise :class:`StepFailure` (never a NaN written as an estimate).
+``NEWTON_MAX`` iterations (both defined in the compiled module, so that its cache follows them).
+
+**A step that cannot be taken (C5)**: Newton's iteration failed, or the step's result (R̂, ω̂, the gain) is not
+finite. The filter then restarts from that sample, as at its start: ``ω̂ = omega_hat0``, the initial gain, R̂ the
+sample's least-squares attitude (none when the sample is missing: from the next valid one); the estimate there is
+NaN with the status ``RESTARTED`` (:mod:`omegahat.interface`), never a diverged value; ``n_restarts`` counts them.
+
+**The contract.** :class:`TSO3Filter` is a :class:`omegahat.observer.compiled.CompiledEstimator`: ``run`` and
+``update`` return an :class:`omegahat.interface.Estimate`; conversion, refusal, counting and statuses are the base's.
+A sample's status is its own (corrected when valid, predicted when skipped), although with (C3) the estimate at it
+was computed from the sample before.
 """
 
 from __future__ import annotations
 
 import abc
+import warnings
 from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -41,14 +52,13 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat.baselines.mekf import initial_attitude
 from omegahat.baselines.tso3_kernel import NEWTON_MAX, NEWTON_TOL
-from omegahat.interface import Estimator, Measurement, Measurements
-from omegahat.validation import as_inertia, as_vector3
+from omegahat.observer.compiled import CompiledEstimator
+from omegahat.validation import as_directions, as_inertia, as_vector3
 
-__all__ = ["NEWTON_MAX", "NEWTON_TOL", "StepFailure", "TSO3Filter", "exp_so3", "newton"]
+__all__ = ["NEWTON_MAX", "NEWTON_TOL", "FilterState", "TSO3Filter", "exp_so3", "newton", "restart_warning"]
 
-
-class StepFailure(RuntimeError):
-    """A filter's implicit rate step did not converge (the state diverged): no estimate is written."""
+_NAN3 = np.full(3, np.nan)
+_NAN3.flags.writeable = False
 
 
 def exp_so3(phi: np.ndarray) -> np.ndarray:
@@ -62,7 +72,10 @@ def newton(
     """(C4): the root of ``residual`` by Newton's method from ``start``; None when it does not converge."""
     w = np.array(start, dtype=float)
     for _ in range(NEWTON_MAX):
-        step = np.linalg.solve(jacobian(w), residual(w))
+        D, e = jacobian(w), residual(w)
+        if not (np.all(np.isfinite(D)) and np.all(np.isfinite(e))):
+            return None
+        step = np.linalg.solve(D, e)
         w = w - step
         if not np.all(np.isfinite(w)):
             return None
@@ -71,20 +84,46 @@ def newton(
     return None
 
 
-class TSO3Filter(Estimator):
-    """The stateful shell of (C3) over a pure step function; subclasses give the step (NumPy) and its compiled twin.
+def restart_warning(restarts: int, total: int) -> None:
+    """Warn (``RuntimeWarning``) that a call restarted a filter at ``restarts`` of its ``total`` samples (C5)."""
+    if restarts:
+        warnings.warn(
+            f"restarted at {restarts} of {total} samples: the step to them could not be taken (status 'restarted', "
+            "no estimate there; the filter starts again from the sample)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
 
-    Keyword-only settings shared by both filters: ``J`` (inertia), ``references`` (``None``: attitude samples,
-    else the inertial directions ``(n, 3)``, samples ``(n, 3)``), ``omega0`` (rad/s), ``R0`` (``None``: the first
+
+class FilterState(NamedTuple):
+    """A TSO(3) filter's state: ``R`` (None before the first valid sample), ``omega``, ``gain``, the time ``t`` of
+    the last sample (None: none yet), ``prev`` its directions (None: skipped), ``tau`` its torque, ``n_restarts``."""
+
+    R: np.ndarray | None
+    omega: np.ndarray
+    gain: np.ndarray
+    t: float | None
+    prev: np.ndarray | None
+    tau: np.ndarray
+    n_restarts: int
+
+
+class TSO3Filter(CompiledEstimator):
+    """The stateful shell of (C3)–(C5) over a pure step function; subclasses give the step (NumPy) and its compiled
+    twin.
+
+    Settings shared by both filters: ``J`` (inertia; the one positional argument), and keyword-only ``references``
+    (``None``: attitude samples, else the inertial directions ``(n, 3)``, n ≥ 2, samples ``(n, 3)``),
+    ``omega_hat0`` (rad/s; default 0, and then no estimate at the first valid sample), ``R0`` (``None``: the first
     valid sample's least-squares attitude), and the input checks of :mod:`omegahat.measurements`.
     """
 
     def __init__(
         self,
-        *,
         J: ArrayLike,
+        *,
         references: ArrayLike | None,
-        omega0: ArrayLike,
+        omega_hat0: ArrayLike | None,
         R0: ArrayLike | Rotation | None,
         scalar_first: bool,
         rotation_tol: float,
@@ -93,8 +132,8 @@ class TSO3Filter(Estimator):
     ) -> None:
         self.J = as_inertia(J)
         self.J_inv = np.linalg.inv(self.J)
-        self.references = None if references is None else ms.as_references(references)
-        self.omega0 = as_vector3(omega0, "omega0")
+        self.references = None if references is None else as_directions(references, "references")
+        self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
         if not 0 <= min_angle_deg < 90:
@@ -104,6 +143,9 @@ class TSO3Filter(Estimator):
         if R0 is not None:
             tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
             self.R0 = ms.as_rotation(R0, "R0", scalar_first=self.scalar_first, **tols)
+        n = None if self.references is None else self.references.shape[0]
+        self._conversion = ms.conversion(n, self.scalar_first, self.rotation_tol, self.quat_norm_tol, min_angle_deg)
+        self._configure_input(n_directions=n, rate_given=omega_hat0 is not None)
         self.reset()
 
     @property
@@ -115,83 +157,92 @@ class TSO3Filter(Estimator):
 
     @abc.abstractmethod
     def _initial_gain(self) -> np.ndarray:
-        """The filter's extra state at the start (the minimum-energy gain; an empty array for none)."""
+        """The filter's extra state at the start (the minimum-energy gain; zeros for none)."""
 
     @abc.abstractmethod
-    def _step(
+    def _numpy_step(
         self, R: np.ndarray, omega: np.ndarray, gain: np.ndarray, a: np.ndarray | None, tau: np.ndarray, h: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """One NumPy step from the sample ``a`` (None: none) over ``h``; None when it fails."""
+        """One NumPy step from the sample ``a`` (None: none) over ``h``; None when Newton's iteration fails."""
 
     @abc.abstractmethod
-    def _run_compiled(self, log: ms.CheckedLog, state: np.ndarray, R: np.ndarray, prev: np.ndarray) -> tuple:
-        """The compiled loop over a checked log: ``(ω̂ (T, 3), R, gain, failed index or −1)``."""
+    def _run_compiled(
+        self, times: np.ndarray, values: np.ndarray, valid: np.ndarray, taus: np.ndarray, state: np.ndarray,
+        R: np.ndarray, gain: np.ndarray, prev: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """The compiled loop over a checked log, in place on ``state``, ``R``, ``gain``, ``prev``: ``(ω̂ (T, 3),
+        restarted (T,))``."""
 
     # ---------------------------------------------------------------------------------------- the shell
 
-    def reset(self) -> None:
-        self.R: np.ndarray | None = None if self.R0 is None else self.R0.copy()
-        self.omega = self.omega0.copy()
-        self.gain = self._initial_gain()
-        self.t: float | None = None
-        self._prev: np.ndarray | None = None  # the last sample's directions (None: skipped, or no sample yet)
-        self._tau = np.zeros(3)
+    def _reset_state(self) -> None:
+        self._commit(
+            FilterState(
+                None if self.R0 is None else self.R0.copy(), self.omega_hat0.copy(), self._initial_gain(), None,
+                None, np.zeros(3), 0,
+            )
+        )  # fmt: skip
 
-    def _checks(self) -> dict:
-        return {
-            "references": self.references,
-            "t_prev": self.t,
-            "scalar_first": self.scalar_first,
-            "rotation_tol": self.rotation_tol,
-            "quat_norm_tol": self.quat_norm_tol,
-            "min_angle_deg": self.min_angle_deg,
-        }
+    def _commit(self, state: Any) -> None:
+        self.R, self.omega, self.gain, self.t, self._prev, self._tau, self.n_restarts = state
 
-    def update(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> np.ndarray:
-        """Take the sample at ``t``: step from the previous sample's time with the previous sample (C3), keep this
-        one for the next step, return ``ω̂(t)`` ``(3,)``. The NumPy path (the oracle of :meth:`run`)."""
-        sample = ms.checked_sample(t, measurement, torque, **self._checks())
+    def _previous_time(self) -> float:
+        return np.nan if self.t is None else self.t
+
+    def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
+        """Step from the previous sample's time with the previous sample (C3), keep this one for the next step: the
+        NumPy path, the oracle of :meth:`run`; a step that cannot be taken restarts the filter (C5)."""
+        value = np.full(self.directions.shape, np.nan)
+        code, info = ms.check_sample(t, self._previous_time(), tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        if code >= ms.ERROR:
+            return None, _NAN3, int(code), float(info)
         R, omega, gain = self.R, self.omega, self.gain
+        restarted = False
         if self.t is not None and R is not None:
-            stepped = self._step(R, omega, gain, self._prev, self._tau, sample.t - self.t)
-            if stepped is None:
-                raise StepFailure(f"the sample (t = {sample.t!r}): the implicit rate step did not converge")
-            R, omega, gain = stepped
-        valid = sample.status == ms.OK
+            with np.errstate(all="ignore"):  # an overflow is caught just below: the filter restarts
+                stepped = self._numpy_step(R, omega, gain, self._prev, self._tau, t - self.t)
+            restarted = stepped is None or not all(np.all(np.isfinite(x)) for x in stepped)
+            if restarted:  # (C5)
+                R, omega, gain = None, self.omega_hat0.copy(), self._initial_gain()
+                restart_warning(1, 1)
+            else:
+                R, omega, gain = stepped  # type: ignore[misc]  # not None here
+        valid = code == ms.OK
         if valid and R is None:
-            R = initial_attitude(sample.value, self.directions)
-        self.R, self.omega, self.gain, self.t = R, omega, gain, sample.t
-        self._prev = sample.value.copy() if valid else None
-        self._tau = sample.torque.copy()
-        return self.omega.copy()
+            R = initial_attitude(value, self.directions)
+        state = FilterState(
+            R, omega, gain, float(t), value if valid else None, np.array(tau, dtype=float), self.n_restarts + restarted
+        )
+        if restarted:
+            return state, _NAN3, ms.RESTARTED, 0.0
+        return state, omega, int(code), float(info)
 
-    def run(self, times: ArrayLike, measurements: Measurements, torques: ArrayLike | None = None) -> np.ndarray:
-        """``ω̂`` at every sample ``(T, 3)``: the same as :meth:`update` sample by sample (continuing from the current
-        state), in one compiled call. The log is checked first; a failed step raises :class:`StepFailure` naming the
-        sample, and the state is then left as it was before the call."""
-        log = ms.checked_log(times, measurements, torques, **self._checks())
-        if log.times.size == 0:
-            return np.empty((0, 3))
+    def _run(
+        self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
+    ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
+        """The log checked (compiled), then the compiled filter (:mod:`omegahat.baselines.tso3_kernel`)."""
+        T = times.size
+        values, codes, first_bad, info = ms.check_batch(
+            times, self._previous_time(), taus, True, m, kind, *self._conversion
+        )
+        if first_bad >= 0:
+            return None, np.empty((T, 3)), codes, int(first_bad), float(info)
         n = self.directions.shape[0]
         state = np.array(
-            [
-                np.nan if self.t is None else self.t,
-                self.t is not None,
-                self.R is not None,
-                self._prev is not None,
-                *self.omega,
-                *self._tau,
-            ]
-        )
+            [self._previous_time(), self.t is not None, self.R is not None, self._prev is not None, *self.omega,
+             *self._tau]
+        )  # fmt: skip
         R = np.zeros((3, 3)) if self.R is None else np.array(self.R, dtype=float, order="C")
         prev = np.zeros((n, 3)) if self._prev is None else np.array(self._prev, dtype=float, order="C")
-        out, R, gain, failed = self._run_compiled(log, state, R, prev)
-        if failed >= 0:
-            raise StepFailure(
-                f"sample {failed} (t = {float(log.times[failed])!r}): the implicit rate step did not converge"
-            )
-        self.R = R if state[2] else None
-        self.omega, self._tau, self.gain = state[4:7].copy(), state[7:10].copy(), gain
-        self.t = float(log.times[-1])
-        self._prev = prev if state[3] else None
-        return out
+        gain = np.array(self.gain, dtype=float, order="C")
+        out, restarted = self._run_compiled(
+            times, np.ascontiguousarray(values), codes == ms.OK, taus, state, R, gain, prev
+        )
+        restarts = int(np.count_nonzero(restarted))
+        codes = np.where(restarted, ms.RESTARTED, codes)
+        restart_warning(restarts, T)
+        new = FilterState(
+            R if state[2] else None, state[4:7].copy(), gain, float(times[-1]), prev if state[3] else None,
+            state[7:10].copy(), self.n_restarts + restarts,
+        )  # fmt: skip
+        return new, out, codes, -1, 0.0

@@ -2,10 +2,10 @@ r"""The two TSO(3) filters over a whole log in one Numba call: :meth:`omegahat.b
 
 One loop, :func:`run_log`, for both filters (one compiled function, not two: compile time): ``kind`` selects the
 step, :data:`MIN_ENERGY` ((M1)–(M6) of :mod:`omegahat.baselines.tso3_min_energy`) or :data:`PREDICTIVE` ((G1)–(G8)
-of :mod:`omegahat.baselines.predictive_geom`), with the timing (C3) and the Newton iteration (C4) of
-:mod:`omegahat.baselines.tso3_common`. The NumPy functions of those modules are the oracle: ``tests/test_tso3.py``
-checks that :func:`run_log` equals a loop of their ``update`` to 1e-10. Written in the order of the NumPy
-references' formulas (no fast-math, ``docs/DEVELOPING.md``); all arrays C-contiguous float64.
+of :mod:`omegahat.baselines.predictive_geom`), with the timing (C3), the Newton iteration (C4) and the restart
+(C5) of :mod:`omegahat.baselines.tso3_common`. The NumPy functions of those modules are the oracle:
+``tests/test_tso3.py`` checks that :func:`run_log` equals a loop of their ``update`` to 1e-10. Written in the order
+of the NumPy references' formulas (no fast-math, ``docs/DEVELOPING.md``); all arrays C-contiguous float64.
 """
 
 from __future__ import annotations
@@ -50,6 +50,8 @@ def _newton(kind, start, c, J, J_inv, h, tau, second):
         else:
             e = -w + c + 0.5 * h * (J_inv @ (_cross(Jw, w) + tau) + second)
             D = -np.eye(3) + 0.5 * h * J_inv @ (_hat(Jw) - _hat(w) @ J)
+        if not (np.all(np.isfinite(D)) and np.all(np.isfinite(e))):
+            return w, False
         step = np.linalg.solve(D, e)
         w = w - step
         if not np.all(np.isfinite(w)):
@@ -132,18 +134,31 @@ def _predictive_step(R, omega, y, has_y, refs, tau, h, J, J_inv, q, rho, k_R, as
 
 
 @numba.njit(cache=True)
-def run_log(kind, times, values, valid, torques, refs, J, J_inv, q, g, params, state, R, K, prev):
-    """The shell's ``update`` over a checked log; returns ``(ω̂ (T, 3), failed)`` (``failed`` the first sample whose
-    step failed, −1 for none). ``values``: directions ``(T, n, 3)`` (attitude samples: the rotation matrices, whose
-    rows are the directions of ``refs = I``); ``params``: MIN_ENERGY ``[α, 1/ρ, 0, 0]``, PREDICTIVE ``[q, ρ, k_R,
-    as_published]``. In place: ``state = [t_prev, has_t, has_R, has_prev, ω̂ (3), τ_prev (3)]``, ``R``, ``K`` (the
-    minimum-energy gain) and ``prev`` (the last sample's directions)."""
+def _finite(R, omega, K):
+    for x in R.flat:
+        if not np.isfinite(x):
+            return False
+    for x in K.flat:
+        if not np.isfinite(x):
+            return False
+    return np.all(np.isfinite(omega))
+
+
+@numba.njit(cache=True)
+def run_log(kind, times, values, valid, torques, refs, J, J_inv, q, g, params, state, R, K, prev, omega0, K0):
+    """The shell's ``update`` over a checked log; returns ``(ω̂ (T, 3), restarted (T,))``: ``restarted[j]`` when
+    the step to sample j could not be taken ((C5) of :mod:`omegahat.baselines.tso3_common`: Newton failed or the
+    result is not finite); the filter then restarts from sample j with ``omega0`` and the gain ``K0``, its attitude
+    from the sample when valid, and ω̂ there is NaN. ``values``: directions ``(T, n, 3)`` (attitude samples: the
+    rotation matrices, whose rows are the directions of ``refs = I``); ``params``: MIN_ENERGY ``[α, 1/ρ, 0, 0]``,
+    PREDICTIVE ``[q, ρ, k_R, as_published]``. In place: ``state = [t_prev, has_t, has_R, has_prev, ω̂ (3),
+    τ_prev (3)]``, ``R``, ``K`` (the minimum-energy gain) and ``prev`` (the last sample's directions)."""
     T = times.size
     out = np.empty((T, 3))
+    restarted = np.zeros(T, dtype=np.bool_)
     omega = state[4:7].copy()
     tau = state[7:10].copy()
     t_prev, has_t, has_R, has_prev = state[0], state[1] != 0.0, state[2] != 0.0, state[3] != 0.0
-    failed = -1
     for j in range(T):
         if has_t and has_R:
             h = times[j] - t_prev
@@ -154,9 +169,11 @@ def run_log(kind, times, values, valid, torques, refs, J, J_inv, q, g, params, s
                     R, omega, prev, has_prev, refs, tau, h, J, J_inv, params[0], params[1], params[2],
                     params[3] != 0.0,
                 )  # fmt: skip
-            if not ok:
-                failed = j
-                break
+            if not (ok and _finite(R, omega, K)):  # (C5): restart from this sample
+                restarted[j] = True
+                omega[:] = omega0
+                K[:, :] = K0
+                has_R = False
         if valid[j] and not has_R:  # the first valid sample gives the attitude (Wahba, unit weights)
             R[:, :] = wahba(np.ones(refs.shape[0]), refs, values[j])
             has_R = True
@@ -166,8 +183,11 @@ def run_log(kind, times, values, valid, torques, refs, J, J_inv, q, g, params, s
         tau = torques[j].copy()
         t_prev = times[j]
         has_t = True
-        out[j] = omega
+        if restarted[j]:
+            out[j] = np.nan
+        else:
+            out[j] = omega
     state[0], state[1], state[2], state[3] = t_prev, 1.0, 1.0 if has_R else 0.0, 1.0 if has_prev else 0.0
     state[4:7] = omega
     state[7:10] = tau
-    return out, failed
+    return out, restarted

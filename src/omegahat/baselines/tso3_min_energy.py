@@ -141,35 +141,36 @@ def min_energy_step(
 
 
 class MinimumEnergyFilter(TSO3Filter):
-    """The second-order minimum-energy filter of the module docstring behind the estimator interface.
+    """The second-order minimum-energy filter of the module docstring behind the estimator contract.
 
-    Keyword-only parameters
-    -----------------------
-    J : inertia (3 numbers, 9 numbers or 3×3), kg·m².
+    Parameters
+    ----------
+    J : inertia (3 numbers, 9 numbers or 3×3), kg·m²; the one positional argument.
     references : ``None`` for attitude samples (their three directions), else the inertial directions ``(n, 3)``.
     weights : the output cost's weights ``q_i`` (one number or one per direction; the source: 0.1).
     process_weight : ``1/ρ``, the weight of the rate's model error in (M5) (the source: 1).
     alpha : the ``−αK`` term's α, 1/s (the source: 0.01).
     K0 : the initial gain (6×6, or one number times I₆; the source: I₆).
-    omega0, R0 : the initial rate (rad/s) and attitude (``None``: the first valid sample's least-squares attitude;
-        the source starts from the identity).
+    omega_hat0, R0 : the initial rate (rad/s; default 0, and then no estimate at the first valid sample) and
+        attitude (``None``: the first valid sample's least-squares attitude; the source starts from the identity).
     as_published : True: the gradient (M1) without the weights, as in the source script.
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`.
 
     ``gain`` holds K. :meth:`update` runs :func:`min_energy_step` (NumPy), :meth:`run` its compiled twin
-    (:mod:`omegahat.baselines.tso3_kernel`).
+    (:mod:`omegahat.baselines.tso3_kernel`); a step that cannot be taken restarts the filter ((C5) of
+    :mod:`omegahat.baselines.tso3_common`).
     """
 
     def __init__(
         self,
-        *,
         J: ArrayLike,
+        *,
         references: ArrayLike | None = None,
         weights: ArrayLike = 0.1,
         process_weight: float = 1.0,
         alpha: float = 0.01,
         K0: ArrayLike = 1.0,
-        omega0: ArrayLike = (0.0, 0.0, 0.0),
+        omega_hat0: ArrayLike | None = None,
         R0: ArrayLike | Rotation | None = None,
         as_published: bool = False,
         scalar_first: bool = False,
@@ -193,25 +194,22 @@ class MinimumEnergyFilter(TSO3Filter):
             raise ValueError("K0 must be positive definite")
         self.K0 = K
         super().__init__(
-            J=J, references=references, omega0=omega0, R0=R0, scalar_first=scalar_first, rotation_tol=rotation_tol,
-            quat_norm_tol=quat_norm_tol, min_angle_deg=min_angle_deg,
+            J, references=references, omega_hat0=omega_hat0, R0=R0, scalar_first=scalar_first,
+            rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol, min_angle_deg=min_angle_deg,
         )  # fmt: skip
 
     def _initial_gain(self) -> np.ndarray:
         return self.K0.copy()
 
-    def _step(self, R, omega, gain, a, tau, h):
+    def _numpy_step(self, R, omega, gain, a, tau, h):
         return min_energy_step(
             R, omega, gain, a, self.directions, tau, h, self.J, self.J_inv, self.weights, self.gradient_weights,
             self.alpha, self.process_weight,
         )  # fmt: skip
 
-    def _run_compiled(self, log, state, R, prev):
-        K = np.array(self.gain, dtype=float, order="C")
+    def _run_compiled(self, times, values, valid, taus, state, R, gain, prev):
         params = np.array([self.alpha, self.process_weight, 0.0, 0.0])
-        out, failed = kernel.run_log(
-            kernel.MIN_ENERGY, log.times, np.ascontiguousarray(log.values), log.valid, log.torques,
-            np.ascontiguousarray(self.directions), self.J, self.J_inv, self.weights, self.gradient_weights, params,
-            state, R, K, prev,
+        return kernel.run_log(
+            kernel.MIN_ENERGY, times, values, valid, taus, np.ascontiguousarray(self.directions), self.J, self.J_inv,
+            self.weights, self.gradient_weights, params, state, R, gain, prev, self.omega_hat0, self.K0,
         )  # fmt: skip
-        return out, R, K, failed

@@ -21,12 +21,15 @@ could not be taken and the estimator started again from it). For a bag input als
 (ROS 2): ``geometry_msgs/TwistStamped``, header stamps copied. Written under a temporary name beside the target
 and renamed at the end: whole or absent.
 
-Estimator: with ``--inertia`` (a model) and no gains given, omegahat's default estimator, the observer supervising a
-gyro-less Kalman filter (its process noise chosen from the log, :func:`omegahat.observer.autogain.choose_rate_noise`);
-otherwise, or with ``--estimator sarras``, the fixed-gain observer; ``--preset mocap`` for a body whose inertia
-and torques are unknown (:mod:`omegahat.observer.presets`), with ``--smooth`` its offline, zero-lag estimate.
-Gains: automatic unless ``--bandwidth`` (Hz, as ``tuning.sensor_gains(bandwidth_hz=...)``) or ``--k``/``--l`` are
-given (:func:`omegahat.observer.autogain.select_gains`); what was chosen and why is printed. The estimate starts
+Estimator: by default the model (a random-walk rate or acceleration; with ``--inertia``, Euler's equations with or
+without an unknown torque) and its noises identified from the log by their likelihood
+(:func:`omegahat.identification.identify`), and then the observer supervising the model's gyro-less Kalman filter,
+or backward differencing where the model predicts no gain over it (what was found and why is printed);
+``--estimator omegahat`` runs the model's filter whatever the prediction; ``--estimator sarras`` (or ``--bandwidth``,
+``--k``/``--l``) the fixed-gain observer, its gains automatic unless given
+(:func:`omegahat.observer.autogain.select_gains`); ``--preset mocap`` the motion-capture preset
+(:mod:`omegahat.observer.presets`). ``--smooth``: the offline, zero-lag estimate of the identified model (or the
+preset's). The estimate starts
 from a least-squares fit of the rate over the first window of the log (``--start fit``; ``warm``: from the first
 two samples, as ``SarrasEstimator(warm_start=True)``; ``zero``: from rest).
 """
@@ -194,9 +197,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--estimator",
         choices=ESTIMATORS,
         default="auto",
-        help="auto (default): omegahat's default estimator, the observer supervising a gyro-less Kalman filter "
-        "(globally convergent, Kalman-accurate; its process noise chosen from the log), when --inertia is given and "
-        "no --bandwidth or --k/--l; else sarras, the fixed-gain observer with the gains above",
+        help="auto (default): the model and noises identified from the log, then the observer supervising its "
+        "gyro-less Kalman filter, or backward differencing where the model predicts no gain; omegahat: the model's "
+        "filter always; sarras: the fixed-gain observer (also what --bandwidth or --k/--l ask for)",
     )
     model.add_argument(
         "--preset",
@@ -207,8 +210,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     model.add_argument(
         "--smooth",
         action="store_true",
-        help="with --preset: offline, zero-lag estimate of the whole log (forward and backward passes averaged); "
-        "reads the whole log into memory",
+        help="offline, zero-lag estimate of the whole log: the identified model's forward and backward passes "
+        "combined (with --preset: the preset's); any input kind, with or without --inertia; reads the whole log "
+        "into memory",
     )
     model.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     model.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")

@@ -21,6 +21,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from omegahat.baselines.differencing import DifferencingEstimator
+from omegahat.identification import Identification, identify
+from omegahat.identification.smoother import ModelSmoother
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
@@ -37,6 +40,8 @@ from omegahat.observer.presets import (
     mocap_model,
 )
 from omegahat.validation import as_directions, as_inertia
+
+IDENTIFY_SAMPLES = 8192  #: rows of the head the identification fits (the noise bound needs a few seconds of log)
 
 __all__ = ["attitude_choice", "inertia", "references", "time_unit_warning"]
 
@@ -131,7 +136,8 @@ def attitude_choice(
         motion, duration, settings.start, refs, gains=settings.gains, bandwidth_hz=settings.bandwidth_hz,
         flag=bandwidth_option,
     )  # fmt: skip
-    if settings.preset is None:
+    fixed_gains = settings.estimator == "sarras" or settings.gains is not None or settings.bandwidth_hz is not None
+    if settings.preset is None and fixed_gains:
         report(text)
     elif stream.has_torque:
         raise ValueError(
@@ -139,7 +145,10 @@ def attitude_choice(
             f"columns; to use them, drop the preset and give {spell('inertia', None)}"
         )
     elif settings.smooth and stream.kind == "directions":
-        raise ValueError(f"{spell('smooth', True)} takes attitudes (quaternions or rotation matrices)")
+        raise ValueError(
+            f"{spell('smooth', True)} with {spell('preset', settings.preset)} takes attitudes (quaternions "
+            "or rotation matrices); without the preset it takes directions too"
+        )
     rotation = options.rotation if options is not None else ROTATIONS[0]
     if settings.inertia is not None and stream.has_torque and stream.kind != "directions":
         given, other = autogain.convention_check(motion)
@@ -154,11 +163,11 @@ def attitude_choice(
     if settings.start == "fit":
         window = autogain.fit_window(omega_b, motion.rate_hz)
         omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
-    est, described = _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell)
+    est, described = _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell, (t_h, data_h, tau_h))
     return Choice(est, gains, text, _used(described, J, settings.start), spacing=motion.h)
 
 
-def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell) -> tuple[Estimator, Estimator]:
+def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell, head) -> tuple[Estimator, Estimator]:
     """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
     default one (the observer supervising a gyro-less EKF, its process noise chosen from the log) when the model is
     given, or asked for; else the fixed-gain observer with ``gains``; or the preset's."""
@@ -186,27 +195,46 @@ def _estimator(settings, motion, J, gains, refs, stream, omega0, report, spell) 
         tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
         return MocapSmoother(rate_hz=motion.rate_hz, measurement_noise=motion.sigma, **tols), causal
     choice = settings.estimator
-    if choice == "auto":
-        model = settings.inertia is not None and settings.gains is None and settings.bandwidth_hz is None
-        choice = "omegahat" if model else "sarras"
+    if choice == "auto" and (settings.gains is not None or settings.bandwidth_hz is not None):
+        choice = "sarras"  # gains or a bandwidth given: the fixed-gain observer they describe
     if choice == "sarras":
         sarras = SarrasEstimator(J, gains=gains, **common)
         return sarras, sarras
-    sigma_a, text = autogain.choose_rate_noise(motion)
-    report(
-        "estimator: omegahat (the observer supervising a gyro-less EKF, as the inertia is given); "
-        f"{text}; its observer runs at {motion.rate_hz:.4g} rad/s (the sample rate), not at the bandwidth above"
+    ident = _identified(settings, stream, refs, head)
+    report(ident.explain())
+    est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
+    if settings.smooth:
+        report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
+        smoother = ModelSmoother(
+            ident,
+            references=refs if stream.kind == "directions" else None,
+            rotation_tol=settings.rotation_tol,
+            quat_norm_tol=settings.quat_norm_tol,
+        )
+        return smoother, est
+    return est, est
+
+
+def _identified(settings: EstimateSettings, stream: LogStream, refs: np.ndarray, head) -> Identification:
+    """:func:`omegahat.identification.identify` on the first :data:`IDENTIFY_SAMPLES` rows of the head."""
+    t, data, tau = head
+    n = min(t.size, IDENTIFY_SAMPLES)
+    return identify(
+        t[:n],
+        data[:n],
+        stream.kind,
+        J=None if settings.inertia is None else np.asarray(settings.inertia, dtype=float),
+        torque=None if tau is None else tau[:n],
+        references=refs if stream.kind == "directions" else None,
     )
-    kalman = SupervisedKalmanEstimator(
-        J, rate_hz=motion.rate_hz, measurement_noise=max(motion.sigma, 1e-6), rate_noise=sigma_a, **common
-    )
-    return kalman, kalman
 
 
 def _used(est: Estimator, J: np.ndarray, start: str) -> Callable[[], str]:
     """The closing line saying what ran (after the run: the restarts counted)."""
 
     def line() -> str:
+        if isinstance(est, DifferencingEstimator):
+            return f"estimator used: backward differencing (no model: see the identification above), start: {start}"
         if isinstance(est, SupervisedKalmanEstimator):
             return (
                 f"estimator used: omegahat (observer at {est.observer_rate:.4g} rad/s, EKF rate noise "

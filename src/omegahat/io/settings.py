@@ -94,10 +94,17 @@ class EstimateSettings:
 
     def check(self, spell: Spelling = ms.python_option) -> None:
         """Refuse combinations that cannot run (``ValueError`` naming the options with ``spell``)."""
-        if self.smooth and self.preset is None:
+        if self.smooth and (self.estimator == "sarras" or self.gains is not None or self.bandwidth_hz is not None):
+            given = [spell("estimator", "sarras")] if self.estimator == "sarras" else []
+            given += [
+                spell(k, None) for k, v in (("gains", self.gains), ("bandwidth_hz", self.bandwidth_hz)) if v is not None
+            ]
             raise naming(
-                ValueError(f"{spell('smooth', True)} needs {spell('preset', 'mocap')} (the smoother's model)"),
-                ("preset", "mocap"),
+                ValueError(
+                    f"{spell('smooth', True)} smooths with the model identified from the log (or the preset's); it "
+                    f"takes no fixed gains: drop {', '.join(given)}"
+                ),
+                ("smooth", None),
             )
         if self.preset is not None:
             given = [

@@ -12,9 +12,9 @@ r"""The compiled input checks (Numba), written once: every estimator's samples, 
 Every check returns ``(status, info)``: below :data:`ERROR` the sample is used (:data:`OK`) or skipped
 (:data:`MISSING`: a NaN or inf in it; :data:`COLLINEAR`); from :data:`ERROR` on it is rejected and ``info`` is the
 offending value (documented with each code). One more code below :data:`ERROR` is an estimator's, not a check's:
-:data:`RESTARTED`, a sample at which the step could not be taken (its result was not finite) and the estimator
-started again from that sample. :func:`check_sample` runs the checks of one sample in the order
-time, time order, torque, measurement and reports the first that fails.
+:data:`RESTARTED`, a sample at which the step could not be taken and the estimator started again from that sample.
+:func:`check_sample` runs the checks of one sample in the order time, time order, torque, measurement and reports
+the first that fails.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ __all__ = [
 OK = 0  #: a valid sample
 MISSING = 1  #: NaN or inf somewhere in the sample: skipped, the estimator keeps predicting
 COLLINEAR = 2  #: measured directions nearly collinear: skipped like a missing sample, counted separately
-RESTARTED = 3  #: the step to this sample gave a non-finite state: the estimator restarted from the sample (no estimate)
+RESTARTED = 3  #: the step to this sample could not be taken: the estimator restarted from the sample (no estimate)
 ERROR = 10
 NOT_ORTHOGONAL = 10  #: info = ‖RᵀR − I‖_F
 NOT_PROPER = 11  #: info = det R (a reflection)

@@ -45,7 +45,9 @@ or ``R̂ ← R̂ Exp(ω̂ dt)`` (kinematic).
 
 then the reset ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂`` (and ``â ← â + δâ``). Each fix returns the normalised
 innovation squared ``ν = Σ r_iᵀ S_i⁻¹ r_i`` (``r_i`` the sequential innovations, ``S_i`` their covariances):
-the supervisor of :mod:`omegahat.observer.supervised` watches it.
+the supervisor of :mod:`omegahat.observer.supervised` watches it; and it leaves ``Σ log det S_i`` in
+``scratch[LOGDET_SLOT]``: with ν, the fix's share of the innovations' log-likelihood
+``−½ (Σ log det 2π S_i + ν)`` that :mod:`omegahat.identification` maximises.
 
 3×3 blocks are 9-tuples (:mod:`omegahat.kernels.vec3`); ``R`` (3, 3), ``w`` and ``a`` (3,), ``P`` (6, 6 or 9, 9) are
 the caller's C-contiguous float64 arrays, updated in place; ``scratch`` holds at least :data:`EKF_SCRATCH` floats.
@@ -60,11 +62,12 @@ import numpy as np
 
 from omegahat.kernels.dynamics import cf4_increment
 from omegahat.kernels.rotation import exp_matrix, matrix_from_quat, quat_from_matrix, quat_from_rotvec
-from omegahat.kernels.vec3 import inverse, lincomb, mat3, matmul, matvec, matvec_transposed, skew, transposed
+from omegahat.kernels.vec3 import det, inverse, lincomb, mat3, matmul, matvec, matvec_transposed, skew, transposed
 
 __all__ = [
     "COVARIANCE_SUBSTEP_ANGLE",
     "EKF_SCRATCH",
+    "LOGDET_SLOT",
     "MAX_SUBSTEPS",
     "NOMINAL_SUBSTEP_ANGLE",
     "ekf_attitude_update",
@@ -74,7 +77,8 @@ __all__ = [
     "ekf_vector_update",
 ]
 
-EKF_SCRATCH = 45  #: floats of scratch space the fixes need
+EKF_SCRATCH = 46  #: floats of scratch space the fixes need
+LOGDET_SLOT = 45  #: where a fix leaves Σ log det S_i of its innovations (module docstring)
 COVARIANCE_SUBSTEP_ANGLE = 0.2  #: rad: the covariance's substeps turn at most this far
 NOMINAL_SUBSTEP_ANGLE = 0.2  #: rad: the default bound on the nominal state's substeps (CF4, fourth order)
 MAX_SUBSTEPS = 10_000  #: cap per interval: a diverged filter (|ω̂| huge or not finite) must not stall the run
@@ -322,7 +326,9 @@ def ekf_attitude_update(R, w, a, P, R_meas, meas_var, scratch):
     _put(Dm, 0, 0, matmul(transposed(mat3(R)), mat3(R_meas)))
     dq = quat_from_matrix(Dm)
     z0, z1, z2 = 2.0 * dq[0] / dq[3], 2.0 * dq[1] / dq[3], 2.0 * dq[2] / dq[3]
-    Si = inverse(lincomb(1.0, _block(P, 0, 0), meas_var, _I3))
+    S = lincomb(1.0, _block(P, 0, 0), meas_var, _I3)
+    scratch[LOGDET_SLOT] = math.log(det(S))
+    Si = inverse(S)
     _gains(P, _I3, Si, Ks)
     s0, s1, s2 = matvec(Si, z0, z1, z2)
     _apply(Ks, dx, z0, z1, z2)
@@ -340,12 +346,15 @@ def ekf_vector_update(R, w, a, P, b, references, meas_var, scratch):
     dx[:] = 0.0
     Rt = mat3(R)
     nis = 0.0
+    scratch[LOGDET_SLOT] = 0.0
     for i in range(references.shape[0]):
         bh = matvec_transposed(Rt, references[i, 0], references[i, 1], references[i, 2])  # R̂ᵀ v_i
         C = skew(bh[0], bh[1], bh[2])
         Cd = matvec(C, dx[0], dx[1], dx[2])
         r0, r1, r2 = b[i, 0] - bh[0] - Cd[0], b[i, 1] - bh[1] - Cd[1], b[i, 2] - bh[2] - Cd[2]
-        Si = inverse(lincomb(1.0, matmul(matmul(C, _block(P, 0, 0)), transposed(C)), meas_var, _I3))
+        S = lincomb(1.0, matmul(matmul(C, _block(P, 0, 0)), transposed(C)), meas_var, _I3)
+        scratch[LOGDET_SLOT] += math.log(det(S))
+        Si = inverse(S)
         _gains(P, C, Si, Ks)
         s = matvec(Si, r0, r1, r2)
         nis += r0 * s[0] + r1 * s[1] + r2 * s[2]

@@ -16,8 +16,8 @@ import math
 import numba
 
 __all__ = [
-    "cross", "dot", "inverse", "lincomb", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "skew", "solve",
-    "transposed",
+    "cross", "det", "dot", "inverse", "lincomb", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "skew",
+    "solve", "transposed",
 ]  # fmt: skip
 
 
@@ -82,6 +82,12 @@ def matmul(A, B):
         A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
         A[6] * B[2] + A[7] * B[5] + A[8] * B[8],
     )  # fmt: skip
+
+
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
+def det(M):
+    """``det M`` of a 9-tuple, by the first row's cofactors."""
+    return M[0] * (M[4] * M[8] - M[5] * M[7]) + M[1] * (M[5] * M[6] - M[3] * M[8]) + M[2] * (M[3] * M[7] - M[4] * M[6])
 
 
 @numba.njit(cache=True, forceinline=True, error_model="numpy")

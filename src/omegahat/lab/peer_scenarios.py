@@ -12,6 +12,13 @@ r"""The sources' own simulation settings for the three gyro-free peers, defined 
   own pass criteria (:func:`basilisk_passes`).
 
 ``benchmarks/peers.py`` runs them at length and several seeds; ``tests/test_peer_scenarios.py`` runs one seed of each.
+
+* :data:`DIRECTION_SCENARIOS`: the scenarios of ``omegahat compare`` whose sensor gives directions instead of
+  attitudes (:class:`DirectionScenario`, simulated by :func:`simulate_directions`): ``two-directions`` and
+  ``two-directions-heavy``, the two TSO(3) scripts' problems (their J, torque, initial state, directions, noise,
+  100 Hz for 100 s; every estimator cold, from ω̂₀ = 0 and the first sample's attitude), and ``one-direction``, a
+  torque-free tumble of J = diag(3, 2, 1) seen by a sun sensor at 10 Hz with 0.1° of noise per component for
+  300 s (the setting of ``benchmarks/single_direction.py``, one draw), from ω̂₀ = 0.
 """
 
 from __future__ import annotations
@@ -26,20 +33,27 @@ from omegahat.baselines.predictive_geom import PredictiveFilter
 from omegahat.baselines.sunline_kernel import run_log as sekf_run_log
 from omegahat.baselines.tso3_common import TSO3Filter
 from omegahat.baselines.tso3_min_energy import MinimumEnergyFilter
+from omegahat.lab.scenarios import Run
 from omegahat.simulation.rigid_body import RigidBody, Trajectory, integrate
 from omegahat.simulation.torque import Torque
 
 __all__ = [
     "BASILISK_CASES",
     "BASILISK_NORMALS",
+    "DIRECTION_SCENARIOS",
     "BasiliskCase",
     "BasiliskRun",
+    "DirectionScenario",
     "Scenario",
     "basilisk_case",
     "basilisk_passes",
+    "error_across",
+    "kind",
     "min_energy_scenario",
     "predictive_scenario",
+    "references",
     "simulate",
+    "simulate_directions",
     "source_filter",
 ]
 
@@ -93,7 +107,10 @@ def predictive_scenario() -> Scenario:
 def source_filter(scenario: Scenario, *, as_published: bool) -> TSO3Filter:
     """The scenario's filter with the source's settings, started where the source starts it (R̂ = I, ω̂ = 0)."""
     cls = MinimumEnergyFilter if scenario.name == "minimum-energy" else PredictiveFilter
-    return cls(J=scenario.J, references=scenario.references, R0=np.eye(3), as_published=as_published, **scenario.filter)
+    return cls(
+        scenario.J, references=scenario.references, R0=np.eye(3), omega_hat0=np.zeros(3), as_published=as_published,
+        **scenario.filter,
+    )  # fmt: skip
 
 
 def simulate(
@@ -107,6 +124,125 @@ def simulate(
     b = np.einsum("tji,nj->tni", truth.R, scenario.references)
     noise = scenario.sigma if sigma is None else sigma
     return truth, b + noise * np.random.default_rng(seed).normal(size=b.shape)
+
+
+# ------------------------------------------------------------------------------------ compare's direction scenarios
+
+
+@dataclass(frozen=True)
+class DirectionScenario:
+    """A scenario of ``omegahat compare`` whose sensor measures ``n`` known inertial directions ``references``
+    ``(n, 3)`` in the body (``n = 1``: one direction), each with white noise ``measurement_noise`` per component, at
+    ``rate_hz`` for ``duration`` s; the body ``J`` (told to the estimators as it is) starts at ``R0``, ``omega0``
+    under the known ``torque`` (None: none), sampled at the sample times and held. The other fields are those of
+    :class:`omegahat.lab.scenarios.Scenario` that the comparison reads."""
+
+    name: str
+    description: str
+    J: np.ndarray
+    R0: np.ndarray
+    omega0: np.ndarray
+    references: np.ndarray
+    torque: Torque | None
+    rate_hz: float
+    duration: float
+    measurement_noise: float
+    converged_tol: float
+    steady_after: float
+    omega_max: float
+    omega_hat0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    real = False  # simulated
+
+    @property
+    def J_model(self) -> np.ndarray:
+        return self.J
+
+    @property
+    def measurement(self) -> str:
+        """``"directions"`` (n ≥ 2) or ``"one-direction"``."""
+        return "one-direction" if self.references.shape[0] == 1 else "directions"
+
+
+def _from_source(name: str, description: str, source: Scenario) -> DirectionScenario:
+    return DirectionScenario(
+        name, description, source.J, source.R0, source.omega0, source.references, KUBIS_TORQUE, 1.0 / source.h,
+        source.horizon, source.sigma, np.radians(1.0), 50.0, 1.0,
+    )  # fmt: skip
+
+
+_SUN = np.array([[0.3, -0.5, 0.81]]) / np.linalg.norm([0.3, -0.5, 0.81])
+
+#: name -> the direction scenarios of ``omegahat compare`` (module docstring)
+DIRECTION_SCENARIOS: dict[str, DirectionScenario] = {
+    s.name: s
+    for s in (
+        _from_source(
+            "two-directions",
+            "the minimum-energy script's problem: J = diag(6,7,9), two directions (e3, e2) with noise 0.01, known "
+            "sinusoidal torque, 100 Hz",
+            min_energy_scenario(),
+        ),
+        _from_source(
+            "two-directions-heavy",
+            "the predictive script's problem: J = diag(60,70,90), two directions (e2, e3) with noise 0.001, known "
+            "sinusoidal torque, 100 Hz",
+            predictive_scenario(),
+        ),
+        DirectionScenario(
+            "one-direction",
+            "one direction (a sun sensor, 0.1 deg per component) at 10 Hz, J = diag(3,2,1) tumbling torque-free at "
+            "0.5 rad/s",
+            J=np.diag([3.0, 2.0, 1.0]),
+            R0=np.eye(3),
+            omega0=0.5 * np.array([0.6, -0.5, 0.62]) / np.linalg.norm([0.6, -0.5, 0.62]),
+            references=_SUN,
+            torque=None,
+            rate_hz=10.0,
+            duration=300.0,
+            measurement_noise=np.radians(0.1),
+            converged_tol=0.02,  # rad/s, as benchmarks/single_direction.py
+            steady_after=200.0,
+            omega_max=1.0,
+        ),
+    )
+}
+
+
+def simulate_directions(sc: DirectionScenario, seed: int, duration: float | None = None) -> Run:
+    """Truth and noisy directions of a :class:`DirectionScenario` (``duration`` overrides its own), noise drawn from
+    ``numpy.random.default_rng(numpy.random.SeedSequence(seed))`` as the attitude scenarios': a
+    :class:`omegahat.lab.scenarios.Run` whose ``R_meas`` holds the measured directions ``(T, n, 3)`` (one
+    direction: ``(T, 3)``), with the torque at the samples, the true rate and attitude."""
+    h = 1.0 / sc.rate_hz
+    t = h * np.arange(round((sc.duration if duration is None else float(duration)) / h) + 1)
+    truth = integrate(RigidBody(sc.J), sc.R0, sc.omega0, t, sc.torque)
+    b = np.einsum("tji,nj->tni", truth.R, sc.references)
+    b = b + sc.measurement_noise * np.random.default_rng(np.random.SeedSequence(seed)).normal(size=b.shape)
+    return Run(t, b[:, 0] if sc.references.shape[0] == 1 else b, truth.torque, truth.omega, truth.R)
+
+
+def kind(sc: object) -> str:
+    """What a scenario's sensor gives: ``"attitude"`` (the attitude scenarios of :mod:`omegahat.lab.scenarios`),
+    ``"directions"`` (n ≥ 2) or ``"one-direction"``."""
+    return sc.measurement if isinstance(sc, DirectionScenario) else "attitude"
+
+
+def references(sc: object) -> np.ndarray | None:
+    """The inertial directions a direction scenario's sensor measures ``(n, 3)``; None for attitudes."""
+    return sc.references if isinstance(sc, DirectionScenario) else None
+
+
+def error_across(run: Run, sc: DirectionScenario, w: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """``|(I − b bᵀ)(ω̂ − ω)|``, the error across the true measured direction ``b = Rᵀ v`` of a one-direction
+    scenario (the rate about b is not observable at an instant); where ``err`` (the whole error) is not finite
+    (no estimate, or diverged) it is ``err``."""
+    if run.R is None:
+        raise ValueError("the error across the measured direction needs the true attitudes (a simulated run)")
+    b = np.einsum("tji,j->ti", run.R, sc.references[0])
+    d = w - run.omega
+    with np.errstate(invalid="ignore"):
+        across = np.linalg.norm(d - np.sum(d * b, axis=1, keepdims=True) * b, axis=1)
+    return np.where(np.isfinite(err), across, err)
 
 
 # --------------------------------------------------------------------------------------------- Basilisk's test
@@ -185,7 +321,7 @@ def basilisk_case(case: BasiliskCase, seed: int = 42, *, as_published: bool = Tr
         for j in range(case.half):  # one update at a time, to count the CKF's updates (P before each)
             ckf += int(use[j].any() and np.max(np.abs(P)) > ekf_switch)
             sekf_run_log(times[j : j + 1], cos[j : j + 1], use[j : j + 1], BASILISK_NORMALS, np.zeros(3), params,
-                         state, X, x, P)  # fmt: skip
+                         state, X, x, P, _BASILISK_P0)  # fmt: skip
             peak = max(peak, float(np.hypot(X[3], X[4])))
         results.append((np.concatenate([X[:3], -X[3:]]), P.copy()))
     return BasiliskRun(results[0][0], results[1][0], results[0][1], results[1][1], _BASILISK_P0.copy(), ckf, peak)

@@ -17,7 +17,8 @@ the estimator), and how to commit a state. The base does the rest, the same way 
    NaN or inf; or nearly collinear directions), of which ``n_collinear`` collinear, their times in
    ``skipped_times``; ``largest_interval`` the longest interval between two samples seen.
 4. **Statuses** (:class:`omegahat.interface.Status`, from the step's codes by :data:`STATUS_OF_CODE`): a used
-   sample is CORRECTED, a skipped one PREDICTED, except that there is no estimate (UNAVAILABLE, ``omega`` NaN)
+   sample is CORRECTED, a skipped one PREDICTED, one whose step could not be taken RESTARTED (the step then
+   returns NaN there and starts again from the sample), except that there is no estimate (UNAVAILABLE, ``omega`` NaN)
    before the first valid sample, nor at it unless the initial rate was given (``rate_given``: one attitude gives
    no rate; a warm start waits for the second sample).
 5. **Restarts.** A step whose result is not finite (a gap too long for the model, a torque or gains beyond

@@ -395,29 +395,20 @@ class SingleDirectionEstimator(StreamingEstimator):
         self.unobservable = np.empty(0, dtype=bool)
 
     def _checks(self) -> dict:
-        return {"references": self.reference[None], "t_prev": self._t_last, "min_angle_deg": 0.0}
+        return {"references": self.reference[None], "t_prev": self._t_last}  # one reference: the n = 1 input path
 
     def update(self, t: float, sample: ArrayLike, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at ``t`` from the direction ``sample (3,)`` (``torque`` known from ``t`` on)."""
-        b = ms.real_array(sample, "a sample")
-        b = b[0] if b.shape == (1, 3) else b
-        if b.shape != (3,):
-            raise ValueError(f"a one-direction sample must have shape (3,); got shape {b.shape}")
-        s = ms.checked_sample(t, b[None], torque, **self._checks())
-        omega, status = self._advance(np.array([s.t]), s.value[None, 0], s.torque[None])
+        s = ms.checked_sample(t, sample, torque, **self._checks())
+        omega, status = self._advance(np.array([s.t]), s.value, s.torque[None])
         return Estimate(omega[0], Status(status[0]))
 
     def run(self, t: ArrayLike, data: ArrayLike, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at every sample of ``t (T,)``, ``data (T, 3)`` (NaN rows: missing, predicted through);
         atomic (a refused sample raises naming it, and nothing changes)."""
-        times = ms.times_array(t)
-        b = ms.real_array(data, "measurements")
-        if b.shape == (times.size, 1, 3):  # one direction in the (T, n, 3) layout of the n-direction estimators
-            b = b[:, 0]
-        if b.shape != (times.size, 3):
-            raise ValueError(f"b must have shape (T, 3) with T = len(t) = {times.size}; got shape {b.shape}")
-        log = ms.checked_log(times, b[:, None, :], torque, **self._checks())
-        omega, status = self._advance(log.times, log.values[:, 0], log.torques)
+        log = ms.checked_log(t, data, torque, **self._checks())
+        times = log.times
+        omega, status = self._advance(times, log.values[:, 0], log.torques)
         if self.unobservable.any():
             j = int(np.flatnonzero(self.unobservable)[0])
             lam, axis = self.excitation[j], self.weak_axis[j]

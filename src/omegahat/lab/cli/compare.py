@@ -20,11 +20,23 @@ from pathlib import Path
 
 from omegahat.cli import bounded_int, positive_float
 from omegahat.io.output import check_output_folder, staged_folder
+from omegahat.lab import peer_scenarios as P
 from omegahat.lab import scenarios as S
 from omegahat.lab.evaluation import comparison as C
+from omegahat.lab.evaluation import peer_methods as PM
 from omegahat.lab.evaluation import robustness as RB
 
-HELP = "Compare omegahat with differencing, a spline and an EKF on the standard scenarios."
+HELP = "Compare omegahat with differencing, a spline, an EKF and published gyro-free filters on standard scenarios."
+
+#: every method (the comparison's, then the gyro-free peers' and the one-direction observer's)
+METHODS = (*C.METHODS, *PM.METHODS)
+#: every scenario: the attitude scenarios, then those whose sensor gives directions
+SCENARIOS = [*S.names(), *P.DIRECTION_SCENARIOS]
+
+
+def _scenario(name: str) -> S.Scenario | P.DirectionScenario:
+    return P.DIRECTION_SCENARIOS[name] if name in P.DIRECTION_SCENARIOS else S.get(name)
+
 
 #: samples of one simulated scenario at most (--duration times its rate): the truth, the fixes and every method's
 #: estimates are held for the tuning run and the scored run, about 5 kB per sample at the peak (measured: 265 MB for
@@ -38,9 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--scenario",
         action="append",
-        choices=S.names(),
+        choices=SCENARIOS,
         metavar="NAME",
-        help=f"scenario to run (repeatable; default: all). One of: {', '.join(S.names())}",
+        help=f"scenario to run (repeatable; default: all). One of: {', '.join(SCENARIOS)}",
     )
     parser.add_argument("--out", type=Path, default=Path("compare-out"), help="output folder (compare-out/)")
     parser.add_argument(
@@ -52,7 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--method",
         action="append",
-        choices=[m.name for m in C.METHODS],
+        choices=[m.name for m in METHODS],
         metavar="NAME",
         help="method to run (repeatable; default: all)",
     )
@@ -68,10 +80,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def check_args(args: argparse.Namespace) -> tuple[list[str], list[str]]:
     """``(scenarios to run, reasons for those not run)``, after refusing, before any work, what the module
     docstring says is refused."""
-    names = args.scenario or S.names()
+    names = args.scenario or SCENARIOS
     runnable, skipped = [], []
     for name in names:
-        reason = C.unavailable(S.get(name))
+        reason = C.unavailable(_scenario(name))
         if reason is None:
             runnable.append(name)
         elif args.scenario:
@@ -80,7 +92,7 @@ def check_args(args: argparse.Namespace) -> tuple[list[str], list[str]]:
             skipped.append(reason)
     if args.duration is not None:
         for name in runnable:
-            sc = S.get(name)
+            sc = _scenario(name)
             samples = args.duration * sc.rate_hz + 1
             if not sc.real and samples > MAX_SAMPLES:
                 raise ValueError(
@@ -94,7 +106,7 @@ def check_args(args: argparse.Namespace) -> tuple[list[str], list[str]]:
 
 def run(args: argparse.Namespace) -> int:
     names, skipped = check_args(args)
-    methods = [m for m in C.METHODS if args.method is None or m.name in args.method]
+    methods = [m for m in METHODS if args.method is None or m.name in args.method]
     out = Path(args.out)
     with staged_folder(out) as stage:
         _run(args, names, skipped, methods, stage)
@@ -106,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace, names: list[str], skipped: list[str], methods, stage: Path) -> None:
     rows = []
     for name in names:
-        sc = S.get(name)
+        sc = _scenario(name)
         sc_rows, t, curves = C.compare_scenario(sc, methods, args.duration)
         rows += sc_rows
         C.plot_errors(sc, t, curves).savefig(stage / f"{name}.png", dpi=110)

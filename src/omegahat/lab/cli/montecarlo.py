@@ -37,12 +37,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAMES",
         default=None,
         help="instead of the campaign, compare continuous observers on its draws (comma-separated: sarras, "
-        "sarras-printed) and write uniformity.md: convergence time and rate per bin of initial error, "
-        "counterexamples (omegahat.lab.evaluation.uniformity)",
+        "sarras-printed; the gyro-free peers, sampled at 1 kHz: min-energy, predictive, sunline-sekf) and write "
+        "uniformity.md: convergence time and rate per bin of initial error, counterexamples "
+        "(omegahat.lab.evaluation.uniformity)",
     )
     parser.add_argument("--gains", default=None, help="with --observers: the gain set (default: the first)")
     parser.add_argument(
         "--horizon", type=positive_float, default=None, help="with --observers: override the horizon (s)"
+    )
+    parser.add_argument(
+        "--tol",
+        type=positive_float,
+        default=1e-3,
+        help="with --observers: the tolerance eps on |w_hat - w| (rad/s; 1e-3)",
     )
 
 
@@ -52,7 +59,9 @@ def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int
 
     names = [n.strip() for n in args.observers.split(",") if n.strip()]
     show = None if args.no_progress else (lambda j, n: print(f"\r{j}/{n} runs", end="", flush=True))
-    rows = uniformity.run_uniformity(campaign, names, gains=args.gains, horizon=args.horizon, progress=show)
+    rows = uniformity.run_uniformity(
+        campaign, names, gains=args.gains, horizon=args.horizon, tol=args.tol, progress=show
+    )
     if show is not None:
         print()
     text = uniformity.markdown(rows)

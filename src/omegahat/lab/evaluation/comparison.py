@@ -14,6 +14,10 @@ central = one sample late), SciPy's ``RotationSpline`` (offline), and the gyro-l
 (J, τ known) and with the kinematic model (ω̇ white noise). Every method gets the same data: the attitude fixes,
 the known torque, the model inertia, the same initial rate estimate ω̂₀ and the bound |ω| ≤ ω_M.
 
+Direction scenarios (:data:`omegahat.lab.peer_scenarios.DIRECTION_SCENARIOS`) run the methods that take them
+(``Method.inputs``) with their references; the gyro-free peers and the one-direction observer's rows are
+:mod:`omegahat.lab.evaluation.peer_methods`'s; one direction adds the error across it (``steady_rms_across``).
+
 Tuning, the same procedure for every method: each method has one knob with a small grid (printed in the
 output); the grid value with the least steady-state RMS error on the tuning seed (1) is chosen, then the method
 is scored on a different seed (2). Metrics, defined in :mod:`omegahat.lab.evaluation.metrics` ((S1)–(S3)), per
@@ -51,6 +55,7 @@ from omegahat.baselines.rts import RTSSmoother
 from omegahat.baselines.savgol import SavitzkyGolayEstimator
 from omegahat.baselines.spline import SplineEstimator
 from omegahat.interface import Status
+from omegahat.lab import peer_scenarios as P
 from omegahat.lab import scenarios as S
 from omegahat.lab.evaluation.metrics import convergence_time, estimate_errors, first_below, steady_rms
 from omegahat.observer.estimator import SarrasEstimator
@@ -71,6 +76,7 @@ __all__ = [
     "Method",
     "compare_scenario",
     "cost_markdown",
+    "filter_noise",
     "markdown",
     "plot_errors",
     "unavailable",
@@ -96,14 +102,16 @@ class Method:
     # numerical failure inside the method) is then divergence and counts as an infinite error, not as "no
     # estimate" (differencing and the spline have samples without one, e.g. at the ends and around gaps).
     always_estimates: bool = False
+    inputs: tuple[str, ...] = ("attitude",)  # the measurement kinds it takes (kind(scenario))
 
 
 def _jbar(sc):
     return float(np.trace(np.asarray(sc.J_model))) / 3.0
 
 
-def _meas_sigma(sc):
-    return max(float(sc.measurement_noise), 1e-6)  # a filter needs a positive measurement variance
+def filter_noise(sc: S.Scenario | P.DirectionScenario) -> float:
+    """The measurement noise a filter is told: the scenario's, floored (a filter needs a positive variance)."""
+    return max(float(sc.measurement_noise), 1e-6)
 
 
 def _supervised(warm_start):
@@ -113,8 +121,9 @@ def _supervised(warm_start):
         return SupervisedKalmanEstimator(
             sc.J_model,
             rate_hz=sc.rate_hz,
-            measurement_noise=_meas_sigma(sc),
+            measurement_noise=filter_noise(sc),
             rate_noise=sigma_a,
+            references=P.references(sc),
             omega_hat0=None if warm_start else sc.omega_hat0,
             warm_start=warm_start,
         )
@@ -126,8 +135,9 @@ def _unknown_torque(sc, sigma_d):
     # The default estimator with the unknown-acceleration state (K5): its knob is that state's random-walk noise;
     # the torque noise is then a floor (1e-6 rad/s^1.5), since the new state takes what the model lacks.
     return SupervisedKalmanEstimator(
-        sc.J_model, rate_hz=sc.rate_hz, measurement_noise=_meas_sigma(sc), rate_noise=1e-6, disturbance_noise=sigma_d
-    )
+        sc.J_model, rate_hz=sc.rate_hz, measurement_noise=filter_noise(sc), rate_noise=1e-6, disturbance_noise=sigma_d,
+        references=P.references(sc),
+    )  # fmt: skip
 
 
 def _sarras(warm_start):
@@ -135,8 +145,10 @@ def _sarras(warm_start):
         # Three rows of R with equal k: the linearised error decays as J⁻¹ 2k, so k = b·J̄/2 gives bandwidth ≈ b,
         # here b = b_rel × sample rate (like the differencing cut-off, the grid follows the rate).
         b = b_rel * sc.rate_hz  # rad/s; three rows: k = b tr(J)/6, l = 10 b
-        gains = bandwidth_gains(sc.J_model, b / (2 * np.pi))
-        return SarrasEstimator(sc.J_model, gains=gains, omega_hat0=sc.omega_hat0, warm_start=warm_start)
+        gains = bandwidth_gains(sc.J_model, b / (2 * np.pi), P.references(sc))
+        return SarrasEstimator(
+            sc.J_model, gains=gains, references=P.references(sc), omega_hat0=sc.omega_hat0, warm_start=warm_start
+        )
 
     return make
 
@@ -148,7 +160,8 @@ def _mekf(model):
             sc.J_model,
             model=model,
             q=q,
-            measurement_noise=_meas_sigma(sc),
+            measurement_noise=filter_noise(sc),
+            references=P.references(sc),
             omega_hat0=sc.omega_hat0,
             sigma_omega0=sc.omega_max,
         )
@@ -167,25 +180,16 @@ _SIGMA_A = tuple(10.0**p for p in range(-6, 2))
 _BANDWIDTHS = (0.001, 0.003, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
 _SARRAS_KNOB = "bandwidth b (x rate, rad/s per Hz; k = b*tr(J)/6, l = 10 b)"
 
+_BOTH = ("attitude", "directions")  # the methods that take attitudes or two or more directions
+
 _SUPERVISED_KNOB = "the EKF's rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)"
 
+_WARM, _COLD = "; warm start from the first two samples", "; started from the scenario's w_hat0"
+_MEKF_KNOB = "rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)"
+
 METHODS = (
-    Method(
-        "omegahat",
-        True,
-        _SUPERVISED_KNOB + "; warm start from the first two samples",
-        _SIGMA_A,
-        _supervised(True),
-        True,
-    ),
-    Method(
-        "omegahat-cold",
-        True,
-        _SUPERVISED_KNOB + "; started from the scenario's w_hat0",
-        _SIGMA_A,
-        _supervised(False),
-        True,
-    ),
+    Method("omegahat", True, _SUPERVISED_KNOB + _WARM, _SIGMA_A, _supervised(True), True, _BOTH),
+    Method("omegahat-cold", True, _SUPERVISED_KNOB + _COLD, _SIGMA_A, _supervised(False), True, _BOTH),
     Method(
         "omegahat-unknown-torque",
         True,
@@ -193,11 +197,10 @@ METHODS = (
         tuple(10.0**p for p in range(-9, 0)),
         _unknown_torque,
         True,
+        _BOTH,
     ),
-    Method("sarras", True, _SARRAS_KNOB + "; warm start from the first two samples", _BANDWIDTHS, _sarras(True), True),
-    Method(
-        "sarras-cold", True, _SARRAS_KNOB + "; started from the scenario's w_hat0", _BANDWIDTHS, _sarras(False), True
-    ),
+    Method("sarras", True, _SARRAS_KNOB + _WARM, _BANDWIDTHS, _sarras(True), True, _BOTH),
+    Method("sarras-cold", True, _SARRAS_KNOB + _COLD, _BANDWIDTHS, _sarras(False), True, _BOTH),
     Method(
         "diff-backward",
         True,
@@ -220,10 +223,16 @@ METHODS = (
         _SAVGOL,
         lambda sc, wo: SavitzkyGolayEstimator(window=wo[0], order=wo[1]),
     ),
+    Method("mekf-dynamic", True, _MEKF_KNOB, _SIGMA_A, _mekf("dynamic"), True, _BOTH),
     Method(
-        "mekf-dynamic", True, "rate noise sigma_a rad/s^1.5 (q = (tr(J)/3 sigma_a)^2)", _SIGMA_A, _mekf("dynamic"), True
+        "mekf-kinematic",
+        True,
+        "rate noise sigma_a rad/s^1.5 (q = sigma_a^2)",
+        _SIGMA_A,
+        _mekf("kinematic"),
+        True,
+        _BOTH,
     ),
-    Method("mekf-kinematic", True, "rate noise sigma_a rad/s^1.5 (q = sigma_a^2)", _SIGMA_A, _mekf("kinematic"), True),
     Method(
         "mekf-rts",
         False,
@@ -286,6 +295,8 @@ def _load_trial(trial_name, seconds=None, decimate=1):
 
 
 def _load(sc, seed, duration):
+    if isinstance(sc, P.DirectionScenario):
+        return P.simulate_directions(sc, seed, duration)
     if not sc.real:
         return S.simulate(sc, seed, duration)
     return _load_trial(sc.broad_trial, decimate=sc.decimate)
@@ -293,9 +304,12 @@ def _load(sc, seed, duration):
 
 def _score_real(run, w):
     """The fair in-band score of :func:`omegahat.lab.evaluation.broad.score` (10 Hz zero-phase low-pass of the error,
-    motion samples away from gaps, best continuous shift within ±3 samples), and the zero-shift RMS."""
+    motion samples away from gaps, best continuous shift within ±3 samples), and the zero-shift RMS; infinite for
+    an estimate that diverged (:func:`_run_method` marks its rows inf: they are not samples to score around)."""
     from omegahat.lab.evaluation import broad
 
+    if np.isinf(w).any():
+        return math.inf, math.inf
     s = broad.score(run.extra, w)
     return s.rms, s.zero_shift_rms
 
@@ -311,10 +325,11 @@ def _fmt(x, digits=3):
 
 
 def compare_scenario(
-    sc: S.Scenario, methods: Sequence[Method], duration: float | None = None
+    sc: S.Scenario | P.DirectionScenario, methods: Sequence[Method], duration: float | None = None
 ) -> tuple[list[dict], np.ndarray, dict[str, np.ndarray]]:
-    """Tune (seed 1) and score (seed 2) every method on one scenario; returns rows and the scored errors."""
-    if sc.real:
+    """Tune (seed 1) and score (seed 2) every method that takes the scenario's measurements (``Method.inputs``) on
+    one scenario; returns rows and the scored errors."""
+    if isinstance(sc, S.Scenario) and sc.real:
         # Real data has no seeds: tune on the first REAL_TUNING_SECONDS of another trial, score this one.
         tune_run = _load_trial(REAL_TUNING_TRIAL[str(sc.broad_trial)], REAL_TUNING_SECONDS, sc.decimate)
         run = _load(sc, None, None)
@@ -324,7 +339,7 @@ def compare_scenario(
     rows, curves = [], {}
     # A shortened horizon (--duration) moves the steady-state window to its second half.
     t_steady = min(sc.steady_after, 0.5 * run.t[-1])
-    for m in methods:
+    for m in (m for m in methods if P.kind(sc) in m.inputs):
         best = None
         for value in m.grid:
             w, _, _ = _run_method(m, sc, value, tune_run)
@@ -346,6 +361,11 @@ def compare_scenario(
             "first_below_s": first_below(run.t, err, sc.converged_tol),
             "convergence_s": convergence_time(run.t, err, sc.converged_tol),
             "steady_rms": steady_rms(run.t, err, t_steady),
+            "steady_rms_across": (
+                steady_rms(run.t, P.error_across(run, sc, w, err), t_steady)
+                if isinstance(sc, P.DirectionScenario) and sc.measurement == "one-direction"
+                else math.nan
+            ),
             "inband_rms": inband,
             "zero_shift_rms": zero_shift,
             "cost_us": cost * 1e6,
@@ -359,7 +379,7 @@ def compare_scenario(
     return rows, run.t, curves
 
 
-def plot_errors(sc: S.Scenario, t: np.ndarray, curves: dict[str, np.ndarray]) -> Figure:
+def plot_errors(sc: S.Scenario | P.DirectionScenario, t: np.ndarray, curves: dict[str, np.ndarray]) -> Figure:
     """|ω̂ − ω| against time for every method of a scenario (log scale), with the convergence tolerance."""
     from matplotlib.figure import Figure
 
@@ -411,6 +431,10 @@ def markdown(rows: list[dict], methods: Sequence[Method]) -> str:
     ]
     for m in methods:
         lines.append(f"- {m.name}: {m.knob}; grid {', '.join(_fmt(v) for v in m.grid)}")
+    one = [r for r in rows if not math.isnan(r["steady_rms_across"])]
+    if one:
+        lines += ["", "One direction: steady RMS of the error across the measured direction, |(I - b b^T)(w_hat - w)|:"]
+        lines += ["", *(f"- {r['scenario']} / {r['method']}: {_fmt(r['steady_rms_across'])} rad/s" for r in one)]
     failed = [r for r in rows if r["failure"]]
     if failed:
         lines += ["", "Diverged on the scored run (error counted as infinite from then on):", ""]
@@ -426,11 +450,13 @@ def cost_markdown(rows: list[dict]) -> str:
 
 
 def write_results_csv(f: IO[str], rows: list[dict]) -> None:
-    """``results.csv``: the :data:`COLUMNS` of every row, numbers as ``repr(float)`` (the same bytes every run)."""
+    """``results.csv``: the :data:`COLUMNS` of every row and ``steady_rms_across`` (NaN but for one-direction
+    scenarios), numbers as ``repr(float)`` (the same bytes every run)."""
     w = csv.writer(f)
-    w.writerow(COLUMNS)
+    columns = (*COLUMNS, "steady_rms_across")
+    w.writerow(columns)
     for r in rows:
-        w.writerow([r[c] if isinstance(r[c], str) else repr(float(r[c])) for c in COLUMNS])
+        w.writerow([r[c] if isinstance(r[c], str) else repr(float(r[c])) for c in columns])
 
 
 def write_cost_csv(f: IO[str], rows: list[dict]) -> None:
@@ -441,7 +467,7 @@ def write_cost_csv(f: IO[str], rows: list[dict]) -> None:
         w.writerow([r["scenario"], r["method"], f"{r['cost_us']:.6g}"])
 
 
-def unavailable(sc: S.Scenario) -> str | None:
+def unavailable(sc: S.Scenario | P.DirectionScenario) -> str | None:
     """Why a scenario cannot be run here (a real-data scenario without its data or loader), or None."""
     if sc.real and not S.broad_data_dir().is_dir():
         return f"{sc.name}: data directory {S.broad_data_dir()} not found"

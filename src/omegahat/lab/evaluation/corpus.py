@@ -353,6 +353,7 @@ METHODS: list[Method] = [
     Method("RotationSpline", _baseline(_spline), False, _attitudes_only),
     Method(f"Savitzky-Golay {SAVGOL}", _baseline(_savgol), False, _attitudes_only),
     pipeline_method("omegahat estimate"),
+    pipeline_method("omegahat estimate --smooth", causal=False, smooth=True),
     replace(pipeline_method("--estimator sarras", estimator="sarras"), skip=_needs_model),
     Method("--bandwidth, best in hindsight", _best_bandwidth, True),
     pipeline_method("--preset mocap", given_model=False, preset="mocap"),

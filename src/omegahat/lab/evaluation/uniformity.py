@@ -37,10 +37,16 @@ rounding moves it): with gains inside the theorem's conditions it must not.
 
 **Observers available.** ``sarras``: the observer of :mod:`omegahat.observer.continuous` (the corrected output
 map) with a campaign gain set; ``sarras-printed``: the same with the output map as printed in the paper, which the
-erratum shows not to converge — a known-bad observer that the report must flag. Salcudean's,
-Akella–Thakur–Mazenc's and Berkane–Abdessameud–Tayebi's observers are **not** implemented: their equations could
-not be obtained from the public record available to this project (``docs/related_observers.md`` says what was
-searched); any observer with the :class:`ContinuousObserver` interface can be added to the comparison.
+erratum shows not to converge — a known-bad observer that the report must flag.
+
+**Sampled peers** (issue 26): the published gyro-free filters are discrete-time; they run on the same draws and the
+same true motion, sampled (:mod:`omegahat.lab.evaluation.peer_uniformity`: ``min-energy``, ``predictive``,
+``sunline-sekf``, each with its one knob tuned once per campaign by the comparison's rule), scored by (U1)–(U2) on
+the same output grid.
+
+Salcudean's, Akella–Thakur–Mazenc's and Berkane–Abdessameud–Tayebi's observers are **not** implemented: their
+equations could not be obtained from the public record available to this project (``docs/related_observers.md``
+says what was searched); any observer with the :class:`ContinuousObserver` interface can be added to the comparison.
 """
 
 from __future__ import annotations
@@ -57,6 +63,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.lab.campaigns.config import Campaign
 from omegahat.lab.campaigns.draws import draw_runs
+from omegahat.lab.evaluation import peer_uniformity as PU
 from omegahat.lab.evaluation.metrics import convergence_time
 from omegahat.observer import continuous as cont
 from omegahat.observer.gains import ObserverGains
@@ -273,11 +280,11 @@ def run_uniformity(
     progress: Callable[[int, int], None] | None = None,
 ) -> list[UniformityRow]:
     """Runs ``0 … runs−1`` of ``campaign`` (default its own runs, horizon and output step) for each observer in
-    ``observers`` (names of :data:`OBSERVERS`), every observer from the same draws; ``gains`` names the
-    campaign's gain set (default its first)."""
-    unknown = [o for o in observers if o not in OBSERVERS]
+    ``observers`` (names of :data:`OBSERVERS` and of :data:`SAMPLED`), every observer from the same draws;
+    ``gains`` names the campaign's gain set (default its first)."""
+    unknown = [o for o in observers if o not in OBSERVERS and o not in PU.SAMPLED]
     if unknown:
-        raise ValueError(f"unknown observer(s) {unknown}; available: {sorted(OBSERVERS)}")
+        raise ValueError(f"unknown observer(s) {unknown}; available: {sorted([*OBSERVERS, *PU.SAMPLED])}")
     gains = next(iter(campaign.gains)) if gains is None else gains
     if gains not in campaign.gains:
         raise ValueError(f"the campaign has no gain set {gains!r}; it has {sorted(campaign.gains)}")
@@ -286,26 +293,27 @@ def run_uniformity(
     dt_out = campaign.dt_out if dt_out is None else float(dt_out)
     t_out = np.linspace(0.0, horizon, round(horizon / dt_out) + 1)
     draws = draw_runs(campaign, np.arange(runs))  # drawn once: every observer gets the same numbers
-    built = [OBSERVERS[o](campaign, gains) for o in observers]
+    built = [OBSERVERS[o](campaign, gains) if o in OBSERVERS else PU.tuned(campaign, o, horizon) for o in observers]
     rows = []
     for j in range(runs):
-        torque = Torque.sinusoidal(
-            amplitudes=draws["amplitudes"][j], frequencies=draws["frequencies"][j], phases=draws["phases"][j]
-        )
+        torque = PU.draw_torque(draws, j)
         R0, w0, wh0 = draws["R0"][j], draws["omega0"][j], draws["omega_hat0"][j]
         q0 = Rotation.from_matrix(R0).as_quat()
-        for name, obs in zip(observers, built, strict=True):
-            x0 = obs.initial_state(R0, wh0, draws["r_hat0"][j])
-            run = simulate_coupled(campaign.J, obs, R0, w0, x0, t_out, torque, rtol=rtol, atol=rtol * 1e-2)
-            err = np.linalg.norm(run.omega_hat - run.omega, axis=1)
-            err = np.where(np.isfinite(err), err, np.inf)
+        for obs in built:
+            if isinstance(obs, PU.TunedPeer):
+                err, restarts = PU.errors(campaign, obs, R0, w0, wh0, t_out, torque)
+                diverged, v_inc = restarts > 0, None
+            else:
+                x0 = obs.initial_state(R0, wh0, draws["r_hat0"][j])
+                run = simulate_coupled(campaign.J, obs, R0, w0, x0, t_out, torque, rtol=rtol, atol=rtol * 1e-2)
+                err = np.linalg.norm(run.omega_hat - run.omega, axis=1)
+                err = np.where(np.isfinite(err), err, np.inf)
+                diverged, v_inc = run.diverged, None if np.all(np.isnan(run.V)) else v_increased(run.V)
             t_tol, rate = run_rate(t_out, err, tol)
-            V = run.V
-            v_inc = None if np.all(np.isnan(V)) else v_increased(V)
             rows.append(
                 UniformityRow(
-                    name, j, _tuple(w0), _tuple(wh0), _tuple(q0), float(err[0]), t_tol, rate, float(err[-1]),
-                    run.diverged, v_inc,
+                    obs.name, j, _tuple(w0), _tuple(wh0), _tuple(q0), float(err[0]), t_tol, rate, float(err[-1]),
+                    diverged, v_inc,
                 )
             )  # fmt: skip
         if progress is not None:

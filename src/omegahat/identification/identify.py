@@ -1,0 +1,328 @@
+r"""The model and the noises of a log, chosen by the log's own likelihood: what every default of omegahat runs.
+
+:func:`identify` takes the head of a log (times, attitudes or directions; J and τ when known) and returns an
+:class:`Identification`: for each candidate model of :mod:`omegahat.identification.likelihood` its tracking index
+``Λ`` and measurement noise ``σ`` of maximum likelihood, the model chosen, the expected RMS errors of the estimate
+and of backward differencing, and the estimator to run (:meth:`Identification.estimator`).
+
+1. **Noise bound.** ``σ_q`` of :mod:`omegahat.identification.noise` (the quietest tenth of the log).
+2. **Each model** (``rate`` and ``acceleration``; with J also ``dynamic`` and ``dynamic+disturbance``): ``Λ``
+   maximising ``ℓ(Λ, σ)`` of (L3) with ``σ = min(σ̂(Λ), σ_q)`` — the likelihood's own noise, but never above what
+   the quiet parts of the log show (see the noise module: a stationary model would otherwise take a bursty motion
+   for noise). The search: ``Λ`` on a grid of decades from ``10⁻⁴`` to ``10⁴``, then a golden-section refinement
+   around the best (in ``log Λ``).
+3. **Model order** by the Bayesian information criterion ``BIC = −2ℓ + k log d`` (``k`` = 2 parameters, ``Λ`` and
+   ``σ``, for every model; ``d`` the innovations' degrees of freedom): the least BIC wins, and the summary prints
+   every model's ``ℓ``, ``σ`` and noise. A ``Λ`` at the top of the grid is the model's fast limit: the data show no
+   noise the model can tell from motion (then the rate model's filter is a differentiator of the attitude).
+4. **Expected RMS errors** (full band, at the sample times), from the identified model: the estimate's is the
+   steady-state Kalman filter's ``√(tr P_ωω)`` for the model's per-axis linear dynamics at the median spacing (the
+   discrete algebraic Riccati equation, ``scipy.linalg.solve_discrete_are``); backward differencing's is its noise
+   ``√6 σ / h`` with the motion's share over half a sample, ``√(max(0, E|Δū|² − 18 σ²/h²)) / 2`` (``ū_k`` the
+   differenced rates, ``Δ`` between consecutive ones).
+5. **The estimator.** The chosen model's filter (the observer supervising its gyro-less EKF) runs when the log
+   supports it; otherwise backward differencing — the fast limit of the rate model, and the estimate a filter only
+   adds extrapolation to when the log shows no noise to remove. The model runs unless (a) its innovations at the
+   identified noise are more than :data:`MISFIT_MAX` times what that noise explains (``σ̂/σ``: the filter lost
+   track of the log, as at a few hertz with fast turns), (b) its ``Λ`` is the grid's top (no measurement noise the
+   log can tell from motion), or (c) its own expected error (4) is not below :data:`GAIN_REQUIRED` times
+   differencing's. Without J the acceleration model is fitted and reported but not run: on the development
+   recordings (BROAD at 286, 29 and 9.5 Hz) every time it won the likelihood it lost to differencing in the fair
+   score (1.01–2.4×; its fast limit is a three-point extrapolation, ``docs/theory/identification.md``). Direction
+   logs always run the model's filter (differencing takes attitudes). Without J the supervisor's innovation test is
+   off and its divergence test loose (:data:`DIVERGENCE_FACTOR`): a hand never gives white innovations.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import solve_discrete_are
+from scipy.spatial.transform import Rotation
+
+from omegahat.baselines.differencing import DifferencingEstimator
+from omegahat.identification.likelihood import (
+    MODELS,
+    ORDER,
+    Sums,
+    innovation_sums,
+    log_likelihood,
+    noise_intensity,
+)
+from omegahat.identification.noise import quiet_noise
+from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.validation import as_directions, as_inertia
+
+__all__ = ["Candidate", "Identification", "identify", "steady_rate_error"]
+
+KINEMATIC = ("rate", "acceleration")  #: the candidates when J is not given
+GRID = tuple(10.0**p for p in range(-4, 5))  #: Λ candidates (decades) before the refinement
+LAMBDA_MAX = GRID[-1]  #: the grid's top: the model's fast limit
+REFINE_STEPS = 8  #: golden-section steps in log Λ around the best grid point
+N_PARAMS = 2  #: Λ and σ, for every model
+MISFIT_MAX = 10.0  #: a model whose innovations exceed the identified noise's by more has lost track (step 5)
+GAIN_REQUIRED = 0.9  #: the model runs only if it predicts at most this fraction of differencing's error (step 5)
+SIGMA_FLOOR = 1e-9  #: rad: below any real sensor (float32 quaternions carry ~6e-8)
+DIVERGENCE_FACTOR = 50.0  #: without J: restart the EKF when it leaves the observer by 50 times the observer's noise
+_QUIET_RATE = 1e-6  # a second-order model's rate noise, relative: the acceleration state carries the motion
+_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One model at its maximum likelihood: ``tracking_index`` Λ, ``sigma`` (rad), ``log_likelihood`` ℓ,
+    ``bic``, ``noise`` the process noise's PSD ``q`` of (L2), ``at_fast_limit`` when Λ is the grid's top."""
+
+    model: str
+    tracking_index: float
+    sigma: float
+    log_likelihood: float
+    bic: float
+    noise: float
+    at_fast_limit: bool
+    misfit: float = 1.0  #: σ̂ of (L3) over ``sigma``: how much larger the innovations are than the noise explains
+
+    def describe(self) -> str:
+        unit = "rad/s^1.5" if ORDER[self.model] == 1 else "rad/s^2.5"
+        limit = ", its fast limit" if self.at_fast_limit else ""
+        return (
+            f"{self.model}: log-likelihood {self.log_likelihood:.1f}, BIC {self.bic:.1f}, attitude noise "
+            f"{self.sigma:.2g} rad, process noise {math.sqrt(self.noise):.3g} {unit} (tracking index "
+            f"{self.tracking_index:.3g}{limit})"
+        )
+
+
+@dataclass(frozen=True)
+class Identification:
+    """What :func:`identify` found (module docstring)."""
+
+    rate_hz: float
+    noise_bound: float
+    chosen: Candidate
+    candidates: tuple[Candidate, ...]
+    expected_rms: float
+    differencing_rms: float
+    J: np.ndarray = field(repr=False)
+    use_model: bool = True
+    reason: str = ""
+
+    def estimator(self, **options: object) -> SupervisedKalmanEstimator | DifferencingEstimator:
+        """The default estimator for this identification (module docstring, step 5): the observer supervising the
+        gyro-less EKF of the chosen model with its identified noises, or backward differencing. ``options``: the
+        estimator's others (``references``, ``measurement``, ``omega_hat0``, ``warm_start``, ``rotation_tol``,
+        ``quat_norm_tol``; the ones differencing does not take are left out for it)."""
+        if not self.use_model and options.get("measurement", "attitude") == "attitude":
+            keep = {k: v for k, v in options.items() if k in ("rotation_tol", "quat_norm_tol", "scalar_first")}
+            return DifferencingEstimator(scheme="backward", **keep)  # type: ignore[arg-type]
+        return self.model_estimator(**options)  # directions: differencing takes attitudes only
+
+    def model_estimator(self, **options: object) -> SupervisedKalmanEstimator:
+        """The observer supervising the gyro-less EKF of the chosen model, whatever step 5 decided. Without J the
+        supervisor's consistency tests are off (a motion that is not the model, a hand, never gives white
+        innovations: they would restart the EKF every few samples); with J they are on."""
+        c = self.chosen
+        dynamic = c.model in ("dynamic", "dynamic+disturbance")
+        if not dynamic:
+            options = {"nis_max": 1e6, "disagreement_factor": DIVERGENCE_FACTOR, **options}
+        J = self.J if dynamic else np.eye(3)
+        root = math.sqrt(c.noise)
+        second_order = ORDER[c.model] == 2
+        return SupervisedKalmanEstimator(
+            J,
+            rate_hz=self.rate_hz,
+            measurement_noise=max(c.sigma, SIGMA_FLOOR),
+            rate_noise=root * _QUIET_RATE if second_order else root,
+            disturbance_noise=root if second_order else None,
+            **options,  # type: ignore[arg-type]
+        )
+
+    def explain(self) -> str:
+        """The lines ``omegahat estimate`` prints: the model chosen and why, and the expected errors."""
+        others = "; ".join(c.describe() for c in self.candidates if c is not self.chosen)
+        return (
+            f"model identified from the log ({self.rate_hz:.4g} Hz samples, attitude noise at most "
+            f"{self.noise_bound:.2g} rad where the body is quietest): {self.chosen.describe()}"
+            + (f"\n  against {others}" if others else "")
+            + f"\nexpected RMS error of the model's filter {self.expected_rms:.2g} rad/s, of backward differencing "
+            f"{self.differencing_rms:.2g} rad/s: "
+            + ("the model's filter runs" if self.use_model else "backward differencing runs")
+            + f" ({self.reason})"
+        )
+
+
+def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float) -> float:
+    """``√(tr P_ωω)`` (rad/s) of the steady-state filter of ``model`` (its per-axis linear dynamics: a random-walk
+    rate, or a random-walk acceleration) sampled every ``h`` with attitude noise ``sigma``: the filtered error
+    covariance from the discrete algebraic Riccati equation."""
+    p = ORDER[model]
+    q = noise_intensity(model, tracking_index, sigma, h)
+    if p == 1:
+        F = np.array([[1.0, h], [0.0, 1.0]])
+        Q = q * np.array([[h**3 / 3, h**2 / 2], [h**2 / 2, h]])
+    else:
+        F = np.array([[1.0, h, h**2 / 2], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
+        Q = q * np.array([[h**5 / 20, h**4 / 8, h**3 / 6], [h**4 / 8, h**3 / 3, h**2 / 2], [h**3 / 6, h**2 / 2, h]])
+    H = np.zeros((1, p + 1))
+    H[0, 0] = 1.0
+    Rv = np.array([[sigma**2]])
+    try:
+        P_pred = solve_discrete_are(F.T, H.T, Q + 1e-30 * np.eye(p + 1), Rv)
+    except (np.linalg.LinAlgError, ValueError):
+        return float("nan")
+    S = H @ P_pred @ H.T + Rv
+    K = P_pred @ H.T / S
+    P = P_pred - K @ H @ P_pred
+    return float(np.sqrt(3.0 * max(P[1, 1], 0.0)))
+
+
+def _attitudes(data: np.ndarray, kind: str, references: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(valid (T,), R (T, 3, 3))``: the filter's attitude input (NaN rows where missing) and, for directions,
+    Wahba's attitudes (for the noise bound only)."""
+    T = data.shape[0]
+    valid = np.all(np.isfinite(data.reshape(T, -1)), axis=1)
+    R = np.full((T, 3, 3), np.nan)
+    if kind == "quaternion":
+        norm = np.linalg.norm(data[valid], axis=1)
+        keep = np.flatnonzero(valid)[norm > 0]
+        valid[:] = False
+        valid[keep] = True
+        R[keep] = Rotation.from_quat(data[keep]).as_matrix()
+    elif kind == "matrix":
+        R[valid] = data[valid]
+    else:
+        V = as_directions(references)  # type: ignore[arg-type]  # None: as_directions says (n, 3) is needed
+        b = data[valid] / np.linalg.norm(data[valid], axis=2, keepdims=True)
+        B = np.einsum("ni,tnj->tij", V, b)
+        U, _, Vt = np.linalg.svd(B)
+        d = np.sign(np.linalg.det(U) * np.linalg.det(Vt))
+        U[:, :, 2] *= d[:, None]
+        R[valid] = U @ Vt
+    return valid, R
+
+
+def _increments(R: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Body-frame increments between consecutive samples ``(T − 1, 3)`` (NaN where either is missing)."""
+    phi = np.full((R.shape[0] - 1, 3), np.nan)
+    both = valid[:-1] & valid[1:]
+    if both.any():
+        rel = np.einsum("tji,tjk->tik", R[:-1][both], R[1:][both])
+        phi[both] = Rotation.from_matrix(rel).as_rotvec()
+    return phi
+
+
+def _fit(evaluate, grid=GRID) -> tuple[float, float, float]:
+    """``(Λ, ℓ, σ)`` maximising ``evaluate(Λ) -> (ℓ, σ)`` on ``grid`` then by golden section in log Λ."""
+    values = [evaluate(lam) for lam in grid]
+    i = int(np.argmax([v[0] for v in values]))
+    if i == len(grid) - 1:  # the fast limit: nothing above to refine towards
+        return grid[i], values[i][0], values[i][1]
+    lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
+    best = (grid[i], values[i][0], values[i][1])
+    a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
+    fa, fb = evaluate(math.exp(a)), evaluate(math.exp(b))
+    for _ in range(REFINE_STEPS):
+        if fa[0] > fb[0]:
+            hi, b, fb = b, a, fa
+            a = hi - _GOLD * (hi - lo)
+            fa = evaluate(math.exp(a))
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + _GOLD * (hi - lo)
+            fb = evaluate(math.exp(b))
+    for lam, f in ((math.exp(a), fa), (math.exp(b), fb)):
+        if f[0] > best[1]:
+            best = (lam, f[0], f[1])
+    return best
+
+
+def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Candidate:
+    """One model at its maximum likelihood (module docstring, step 2)."""
+    cache: dict[float, tuple[float, float]] = {}
+    free: dict[float, float] = {}  # σ̂ of (L3) at each Λ
+    dof = [0.0]
+
+    def evaluate(lam: float) -> tuple[float, float]:
+        if lam not in cache:
+            sums: Sums = innovation_sums(
+                t, data, valid, model, lam, h=h, J=J, torque=torque, references=refs, linear_hold=linear_hold
+            )
+            _, s_ml = log_likelihood(sums)
+            free[lam] = s_ml
+            sigma = max(min(s_ml, bound), SIGMA_FLOOR) if np.isfinite(s_ml) else bound
+            cache[lam] = log_likelihood(sums, sigma) if np.isfinite(sigma) else (-np.inf, np.nan)
+            dof[0] = max(dof[0], sums.dof)
+        return cache[lam]
+
+    lam, ll, sigma = _fit(evaluate)
+    bic = -2.0 * ll + N_PARAMS * math.log(max(dof[0], 2.0))
+    misfit = free[lam] / sigma if np.isfinite(free.get(lam, np.nan)) and sigma > 0 else np.inf
+    return Candidate(
+        model, lam, sigma, ll, bic, noise_intensity(model, lam, sigma, h), lam >= LAMBDA_MAX, max(misfit, 1.0)
+    )
+
+
+def identify(
+    t: np.ndarray,
+    data: np.ndarray,
+    kind: str,
+    *,
+    J: np.ndarray | None = None,
+    torque: np.ndarray | None = None,
+    references: np.ndarray | None = None,
+    linear_hold: bool = False,
+    models: tuple[str, ...] | None = None,
+) -> Identification:
+    """The model and noises of the log ``t (T,)``, ``data`` — quaternions ``(T, 4)`` (scalar last), rotation
+    matrices ``(T, 3, 3)`` (body → inertial) or directions ``(T, n, 3)`` with ``references (n, 3)`` — with the
+    inertia ``J`` and ``torque (T, 3)`` when known (module docstring). ``models``: the candidates (default: the
+    kinematic ones, and the dynamic ones too when J is given)."""
+    t = np.asarray(t, dtype=float)
+    data = np.asarray(data, dtype=float)
+    valid, R = _attitudes(data, kind, references)
+    if np.count_nonzero(valid) < 4:
+        raise ValueError(f"at least 4 valid samples are needed to identify a model; got {np.count_nonzero(valid)}")
+    tv = t[valid]
+    h = float(np.median(np.diff(tv)))
+    if not h > 0:
+        raise ValueError("the sample times must increase")
+    phi = _increments(R[valid], np.ones(tv.size, dtype=bool))
+    bound = quiet_noise(tv, phi)
+    if not np.isfinite(bound):
+        bound = np.inf
+    bound = max(bound, SIGMA_FLOOR)
+    J_ = np.eye(3) if J is None else as_inertia(J)
+    if models is None:
+        models = MODELS if J is not None else KINEMATIC
+    unknown = [m for m in models if m not in MODELS]
+    if unknown:
+        raise ValueError(f"models must be among {', '.join(MODELS)}; got {unknown}")
+    filt_data = data if kind == "directions" else R
+    refs = None if kind != "directions" else as_directions(references)  # type: ignore[arg-type]
+    candidates = [_fitted(model, t, filt_data, valid, h, bound, J_, torque, refs, linear_hold) for model in models]
+    finite = [c for c in candidates if np.isfinite(c.bic)]
+    if not finite:
+        raise ValueError("no model could be fitted to this log (every likelihood evaluation failed)")
+    # without J, the acceleration model is fitted and reported but not run (module docstring, step 5)
+    eligible = [c for c in finite if J is not None or c.model != "acceleration"] or finite
+    chosen = min(eligible, key=lambda c: c.bic)
+    expected = steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
+    du = np.diff(phi, axis=0) / h
+    motion = float(np.nanmean(np.sum(du**2, axis=1))) - 18.0 * chosen.sigma**2 / h**2 if du.size else 0.0
+    differencing = math.sqrt(6.0 * chosen.sigma**2 / h**2 + max(motion, 0.0) / 4.0)
+    if chosen.misfit > MISFIT_MAX:
+        use, why = (
+            False,
+            (
+                f"the model does not describe this log: its innovations are {chosen.misfit:.3g} times what the noise "
+                "explains"
+            ),
+        )
+    elif chosen.at_fast_limit:
+        use, why = False, "the model is at its fast limit: no measurement noise the log can tell from motion"
+    elif not expected < GAIN_REQUIRED * differencing:
+        use, why = False, f"the model predicts no {1 - GAIN_REQUIRED:.0%} gain over backward differencing"
+    else:
+        use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
+    return Identification(1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why)

@@ -1,0 +1,171 @@
+r"""The innovations' log-likelihood of a motion model on a log: one pass of the gyro-less EKF per evaluation.
+
+For a model ``m`` (:data:`MODELS`) with process noise ``q`` and white measurement noise ``σ`` (rad per axis, or per
+direction component), the EKF of :mod:`omegahat.kernels.ekf` run over the log gives innovations ``ν_k`` with
+covariances ``S_k``; their Gaussian log-likelihood (the prediction-error criterion of system identification) is ::
+
+    ℓ(q, σ) = −½ Σ_k ( log det 2π S_k + ν_kᵀ S_k⁻¹ ν_k )                                             (L1)
+
+**σ is concentrated out.** The filter's gains depend on ``q`` and ``σ`` only through the tracking index ::
+
+    Λ = √q h^{p + 1/2} / σ,      q = Λ² σ² / h^{2p+1}                                                 (L2)
+
+(``p`` = 1 for a random-walk rate, 2 for a random-walk acceleration; ``h`` the median spacing): scaling ``σ`` and
+``√q`` together scales every covariance by ``σ²`` and leaves the state, the gains and the innovations unchanged. One
+pass at ``σ = 1`` with ``q = Λ²/h^{2p+1}`` gives ``D = Σ log det S̃_k``, ``N = Σ ν_kᵀ S̃_k⁻¹ ν_k`` and the degrees
+of freedom ``d``; then for any ``σ`` ::
+
+    ℓ(Λ, σ) = −½ ( D + d log σ² + N/σ² + d log 2π ),    maximised by  σ̂² = N/d                         (L3)
+
+so that the search runs over ``Λ`` alone. The first fixes (a diffuse prior's, :data:`BURN_IN`) are left out.
+
+Models (:data:`MODELS`), each an EKF the default estimator can run: ``rate`` — the rate a random walk (white
+angular acceleration, ``p = 1``; kinematic, J and τ not used); ``acceleration`` — the angular acceleration a
+random walk (white jerk, ``p = 2``); ``dynamic`` — Euler's equations with J and τ and a white torque noise
+(``p = 1``, the noise on ``J⁻¹τ``); ``dynamic+disturbance`` — the same with an unknown torque whose angular
+acceleration is a random walk (``p = 2``).
+"""
+
+from __future__ import annotations
+
+from typing import Literal, NamedTuple, TypeAlias, get_args
+
+import numpy as np
+
+from omegahat.baselines.mekf_kernel import run_log
+from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
+
+__all__ = [
+    "BURN_IN",
+    "MODELS",
+    "Model",
+    "Pass",
+    "Sums",
+    "filter_pass",
+    "innovation_sums",
+    "log_likelihood",
+    "noise_intensity",
+]
+
+Model: TypeAlias = Literal["rate", "acceleration", "dynamic", "dynamic+disturbance"]
+MODELS: tuple[str, ...] = get_args(Model)
+ORDER = {"rate": 1, "acceleration": 2, "dynamic": 1, "dynamic+disturbance": 2}  #: p of (L2)
+BURN_IN = 3  #: fixes left out of (L1): the diffuse prior's (the filter has no rate before the second)
+_QUIET = 1e-12  # the relative torque noise of the disturbance model's known dynamics (the disturbance carries it)
+
+
+class Sums(NamedTuple):
+    """``D``, ``N`` and ``d`` of (L3) for one model and tracking index, at ``σ = 1``."""
+
+    logdet: float
+    nis: float
+    dof: float
+
+
+def noise_intensity(model: str, tracking_index: float, sigma: float, h: float) -> float:
+    """``q`` of (L2): the process noise's power spectral density for ``model`` at ``tracking_index``."""
+    return (tracking_index * sigma) ** 2 / h ** (2 * ORDER[model] + 1)
+
+
+class Pass(NamedTuple):
+    """One pass of the EKF over a log: the rate ``omega (T, 3)`` after each sample, the rate block of its covariance
+    ``P (T, 3, 3)`` (empty unless asked), and the innovations' :class:`Sums`."""
+
+    omega: np.ndarray
+    P: np.ndarray
+    sums: Sums
+
+
+def filter_pass(
+    t: np.ndarray,
+    data: np.ndarray,
+    valid: np.ndarray,
+    model: str,
+    tracking_index: float,
+    *,
+    sigma: float = 1.0,
+    h: float,
+    J: np.ndarray | None = None,
+    torque: np.ndarray | None = None,
+    references: np.ndarray | None = None,
+    linear_hold: bool = False,
+    covariances: bool = False,
+) -> Pass:
+    """One pass of the EKF of ``model`` with measurement noise ``sigma`` and the process noise of (L2) at
+    ``tracking_index``, over the log ``t (T,)``, ``data`` (rotation matrices ``(T, 3, 3)``, or unit directions
+    ``(T, n, 3)`` with ``references (n, 3)``), ``valid (T,)`` the usable samples, ``torque (T, 3)`` or None (used by
+    the dynamic models only), from a diffuse prior whose first :data:`BURN_IN` fixes are left out of the sums."""
+    dynamic = model in ("dynamic", "dynamic+disturbance")
+    J = np.eye(3) if J is None or not dynamic else np.asarray(J, dtype=float)
+    q_rate = noise_intensity(model, tracking_index, sigma, h)
+    q = _QUIET * q_rate if model == "dynamic+disturbance" else q_rate
+    if dynamic:  # the EKF's torque noise PSD q acts on ω̇ through J⁻¹ (K1): the same Λ on ω̇ for any J
+        q = q * (float(np.trace(J)) / 3.0) ** 2
+    q_a = q_rate if ORDER[model] == 2 else 0.0
+    n_states = 9 if q_a > 0.0 else 6
+    # a diffuse prior: the attitude from the first fix, the rate (and acceleration) unknown at the scale of what a few
+    # samples reveal; its fixes are left out of (L1)
+    s2 = sigma**2
+    P0 = np.diag([s2] * 3 + [1e4 * s2 / h**2] * 3 + ([1e4 * s2 / h**4] * 3 if n_states == 9 else []))
+    directions = references is not None
+    T = t.size
+    taus = np.zeros((T, 3)) if torque is None or not dynamic else np.ascontiguousarray(torque, dtype=float)
+    state = np.array([np.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    sums = np.array([float(BURN_IN), 0.0, 0.0, 0.0])
+    P_rates = np.empty((T if covariances else 0, 3, 3))
+    omega, *_ = run_log(
+        np.ascontiguousarray(t, dtype=float),
+        np.ascontiguousarray(data, dtype=float),
+        np.ascontiguousarray(valid, dtype=np.bool_),
+        taus,
+        np.ascontiguousarray(references, dtype=float) if directions else np.zeros((0, 3)),
+        directions,
+        dynamic,
+        np.ascontiguousarray(J),
+        np.ascontiguousarray(np.linalg.inv(J)),
+        q,
+        s2,
+        np.inf,
+        NOMINAL_SUBSTEP_ANGLE,
+        linear_hold,
+        q_a,
+        state,
+        np.zeros((3, 3)),
+        P0.copy(),
+        np.zeros(3),
+        np.zeros(3),
+        P0,
+        sums,
+        P_rates,
+    )
+    return Pass(omega, P_rates, Sums(float(sums[1]), float(sums[2]), float(sums[3])))
+
+
+def innovation_sums(
+    t: np.ndarray,
+    data: np.ndarray,
+    valid: np.ndarray,
+    model: str,
+    tracking_index: float,
+    *,
+    h: float,
+    J: np.ndarray | None = None,
+    torque: np.ndarray | None = None,
+    references: np.ndarray | None = None,
+    linear_hold: bool = False,
+) -> Sums:
+    """``(D, N, d)`` of (L3): :func:`filter_pass` at ``σ = 1``."""
+    return filter_pass(
+        t, data, valid, model, tracking_index, h=h, J=J, torque=torque, references=references, linear_hold=linear_hold
+    ).sums
+
+
+def log_likelihood(sums: Sums, sigma: float | None = None) -> tuple[float, float]:
+    """``(ℓ, σ)`` of (L3): at ``sigma`` if given, else at its maximum ``σ̂ = √(N/d)``."""
+    if sums.dof <= 0 or not np.isfinite(sums.nis) or not np.isfinite(sums.logdet):
+        return -np.inf, np.nan
+    s2 = sums.nis / sums.dof if sigma is None else sigma**2
+    if not s2 > 0.0:
+        return -np.inf, 0.0
+    ll = -0.5 * (sums.logdet + sums.dof * np.log(s2) + sums.nis / s2 + sums.dof * np.log(2.0 * np.pi))
+    return float(ll), float(np.sqrt(s2))
