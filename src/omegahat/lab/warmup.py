@@ -7,7 +7,7 @@ runs the real code paths, each through :func:`omegahat.cli.main` on a small log 
 turning at a constant rate; attitude noise 1e-3 rad), so that the compiled specialisations (argument types, literal
 sizes, read-only flags) are those a user's run asks for:
 
-* ``estimate`` on quaternions without a model; with ``--inertia 3 2 1``; with ``--preset mocap``;
+* ``estimate`` on quaternions without a model; with ``--inertia 3 2 1``; with ``--smooth``; with ``--preset mocap``;
 * ``estimate`` on two body-frame directions ``b1x..b2z`` with ``--references``; on one direction ``b1x..b1z`` with
   one reference and ``--inertia``;
 * the paper's simulation (:func:`omegahat.simulation.simulate` on :func:`~omegahat.simulation.paper_problem`, a
@@ -96,6 +96,7 @@ def _mekf(logs: dict[str, Path], folder: Path) -> None:
 STEPS: tuple[tuple[str, Callable[[dict[str, Path], Path], None]], ...] = (
     ("estimate, no model", _estimate("quaternions")),
     ("estimate --inertia", _estimate("quaternions", "--inertia", "3", "2", "1")),
+    ("estimate --smooth", _estimate("quaternions", "--smooth")),
     ("estimate --preset mocap", _estimate("quaternions", "--preset", "mocap")),
     ("estimate, two directions", _estimate("directions", "--references=1,0,0;0,1,0")),
     ("estimate, one direction", _estimate("direction", "--references=1,0,0", "--inertia", "3", "2", "1")),
