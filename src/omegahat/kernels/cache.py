@@ -5,13 +5,22 @@ inlines a primitive from another file (the engine inlines :mod:`omegahat.kernels
 :mod:`omegahat.kernels.rotation`) would keep the old primitive's machine code after an edit of that other file, and
 two kernels could silently disagree. This module registers cache locators, ahead of Numba's own, for the functions
 defined in omegahat: their source stamp is one hash over every module of the package that compiles anything (those
-that import Numba), so an edit anywhere in the compiled code invalidates every omegahat kernel at once, and nothing
-stale is ever loaded. Functions of other packages are left to Numba's own locators.
+that import Numba) and NumPy's version (Numba types some functions by it), so an edit anywhere in the compiled code
+invalidates every omegahat kernel at once, and nothing stale is ever loaded. Functions of other packages are left to
+Numba's own locators.
 
-**Where.** As Numba: ``NUMBA_CACHE_DIR`` when set, else the package's ``__pycache__`` folders when writable, else
-the user's cache folder (``~/.cache/numba``). When none is writable (a read-only installation: a container's
-image, a system package) the kernels are **compiled in memory** for the process (each run compiles again) and a
-:class:`KernelCacheWarning` says so once.
+**Where.** As Numba: ``NUMBA_CACHE_DIR`` when set (that folder only), else the package's ``__pycache__`` folders
+when writable, else the user's cache folder (``~/.cache/numba``). When none is writable (a read-only installation:
+a container's image, a system package) the kernels are **compiled in memory** for the process (each run compiles
+again) and a :class:`KernelCacheWarning` says so once.
+
+**Shipped with the package.** ``pip install .`` compiles the kernels when it builds the wheel
+(:mod:`omegahat.lab.warmup`, run by ``build_support/omegahat_build.py``) and installs Numba's cache files in the
+package's ``__pycache__`` folders: a fresh installation's first run loads them. Where those folders cannot be
+written (a system-wide or read-only installation), their kernels are still **read** (:func:`shipped_folder`, the
+same trust rules): beside the user's cache folder, which holds what they lack, or alone, read-only, when nothing is
+writable (a kernel not among them is then compiled in memory, with one warning). With ``NUMBA_CACHE_DIR`` set they
+are not read. A file from another Numba (or NumPy, or machine) is a miss, as any stale file: compiled again.
 
 **Trust.** Numba's cache files are pickles, and unpickling runs code: a cache that another user can write is a
 way to run that user's code in every process that loads it. A folder or file is used only if it belongs to this
@@ -39,13 +48,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from numba.core import caching
+import numpy as np
+from numba.core import caching, config
 
 __all__ = [
     "IN_MEMORY",
     "PACKAGE_ROOT",
     "KernelCacheWarning",
     "compiled_sources",
+    "shipped_folder",
     "source_stamp",
     "trusted",
     "trusted_folder",
@@ -68,8 +79,9 @@ def compiled_sources(root: Path = PACKAGE_ROOT) -> list[Path]:
 
 @functools.cache
 def source_stamp(root: Path = PACKAGE_ROOT) -> str:
-    """SHA-256 over the names and contents of :func:`compiled_sources` (computed once per process)."""
-    digest = hashlib.sha256()
+    """SHA-256 over NumPy's version and the names and contents of :func:`compiled_sources` (computed once per
+    process)."""
+    digest = hashlib.sha256(f"numpy {np.__version__}".encode())
     for path in compiled_sources(root):
         digest.update(str(path.relative_to(root)).encode())
         digest.update(path.read_bytes())
@@ -123,6 +135,33 @@ def _in_package(py_file: str) -> bool:
         return Path(py_file).resolve().is_relative_to(PACKAGE_ROOT)
     except OSError:  # pragma: no cover - an unreadable path is not ours
         return False
+
+
+@functools.cache
+def shipped_folder(folder: str) -> bool:
+    """Whether the package's cache folder ``folder`` (a ``__pycache__`` beside the sources) holds kernels (``*.nbi``:
+    compiled when the wheel was built, or by an earlier run) that may be read: a folder no one else can write
+    (:func:`trusted_folder`; each file is checked again when read). Only when ``NUMBA_CACHE_DIR`` is unset."""
+    if getattr(config, "CACHE_DIR", "") or not os.path.isdir(folder) or not any(Path(folder).glob("*.nbi")):
+        return False
+    if not trusted_folder(folder):
+        _warn_once(
+            "untrusted-shipped",
+            f"omegahat: the kernel cache folder {folder} can be written by another user; it is not read (loading it "
+            "could run their code): the kernels are compiled again",
+        )
+        return False
+    return True
+
+
+#: cache folders whose files are read, never written: the in-memory "folder" and shipped folders read alone
+_READ_ONLY: set[str] = {IN_MEMORY}
+#: a writable cache folder -> the package's shipped folder for the same sources, read for what the first lacks
+_SHIPPED_BESIDE: dict[str, str] = {}
+
+
+def _beside(py_file: str) -> str:
+    return os.path.join(os.path.dirname(py_file), "__pycache__")
 
 
 class InMemoryLocator(caching._CacheLocator):
@@ -181,28 +220,70 @@ class UserProvidedPackageLocator(_PackageStampMixin, caching.UserProvidedCacheLo
 
 
 class InTreePackageLocator(_PackageStampMixin, caching.InTreeCacheLocator):
-    """Cache next to the source (``__pycache__``) when it is writable."""
+    """Cache next to the source (``__pycache__``) when it is writable (the kernels shipped there are loaded too)."""
 
 
 class UserWidePackageLocator(_PackageStampMixin, caching.UserWideCacheLocator):
-    """Cache in the user's cache directory otherwise (a read-only installation)."""
+    """Cache in the user's cache directory otherwise (a read-only installation), the package's shipped kernels read
+    beside it."""
+
+    @classmethod
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> caching._CacheLocator | None:
+        locator = super().from_function(py_func, py_file)
+        if isinstance(locator, cls) and shipped_folder(_beside(py_file)):
+            _SHIPPED_BESIDE[locator.get_cache_path()] = _beside(py_file)
+        return locator
+
+
+class ShippedPackageLocator(_PackageStampMixin, caching.InTreeCacheLocator):
+    """No writable folder, but kernels shipped beside the source: read them, write nothing (a kernel not there is
+    compiled in memory)."""
+
+    def ensure_cache_path(self) -> None:
+        """Nothing to make: the folder is read only."""
+
+    @classmethod
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> ShippedPackageLocator | None:
+        if not _in_package(py_file) or not shipped_folder(_beside(py_file)):
+            return None
+        _READ_ONLY.add(_beside(py_file))
+        return cls(py_func, py_file)
 
 
 class _GuardedCacheFile(caching.IndexDataCacheFile):
     """Numba's index and data files, read with care for omegahat's folders (other packages' are untouched): nothing
-    for kernels compiled in memory; a file another user can write is not loaded; a file that cannot be read back is
-    a miss (the kernel is compiled again and the file rewritten)."""
+    for kernels compiled in memory, nothing written to a folder read only; the shipped kernels read when the
+    writable folder lacks one; a file another user can write is not loaded; a file that cannot be read back is a
+    miss (the kernel is compiled again and the file rewritten)."""
+
+    def __init__(self, cache_path, filename_base, source_stamp):
+        super().__init__(cache_path, filename_base, source_stamp)
+        self._filename_base = filename_base
 
     def _ours(self) -> bool:
         return self._source_stamp == source_stamp()
 
     def save(self, key, data):
-        if self._cache_path != IN_MEMORY:
+        if self._cache_path not in _READ_ONLY:
             super().save(key, data)
+        elif self._cache_path != IN_MEMORY:
+            _warn_once(
+                "read-only",
+                f"omegahat: a kernel is not among those shipped in {self._cache_path} (compiled at install, or by "
+                "another Numba or NumPy) and no cache folder is writable (NUMBA_CACHE_DIR, the package's "
+                "__pycache__, the user's cache folder): it is compiled in memory, again in every process",
+            )
 
     def flush(self):
-        if self._cache_path != IN_MEMORY:
+        if self._cache_path not in _READ_ONLY:
             super().flush()
+
+    def load(self, key):
+        data = super().load(key)
+        shipped = _SHIPPED_BESIDE.get(self._cache_path)
+        if data is None and shipped is not None:
+            data = _GuardedCacheFile(shipped, self._filename_base, self._source_stamp).load(key)
+        return data
 
     def _load_index(self):
         if self._cache_path == IN_MEMORY:
@@ -236,9 +317,16 @@ class _GuardedCacheFile(caching.IndexDataCacheFile):
 
 def _register() -> None:
     """Our locators first, in Numba's order (the user's folder if set, next to the source if writable, the
-    user-wide one), then compiling in memory; and the guarded files for every cache."""
+    user-wide one), then the shipped kernels read only, then compiling in memory; and the guarded files for every
+    cache."""
     locators = caching.CacheImpl._locator_classes
-    ours = [UserProvidedPackageLocator, InTreePackageLocator, UserWidePackageLocator, InMemoryLocator]
+    ours = [
+        UserProvidedPackageLocator,
+        InTreePackageLocator,
+        UserWidePackageLocator,
+        ShippedPackageLocator,
+        InMemoryLocator,
+    ]
     locators[:] = ours + [cls for cls in locators if cls not in ours]
     caching.IndexDataCacheFile = _GuardedCacheFile  # type: ignore[misc]  # Cache.__init__ looks it up at call time
 
