@@ -117,7 +117,7 @@ def compiled_here() -> list[str]:
             continue
         for attr, value in list(vars(module).items()):
             if isinstance(value, Dispatcher) and value.__module__ == name:
-                hits = value.stats.cache_hits
+                hits: dict = value.stats.cache_hits  # keyed by signature tuples (Numba's stubs say str)
                 found += [f"{name}.{attr}{sig}" for sig in value.overloads if hits.get(sig, 0) == 0]
     return sorted(found)
 
