@@ -9,8 +9,8 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
 2. **Each model** (``rate`` and ``acceleration``; with J also ``dynamic`` and ``dynamic+disturbance``): ``Λ``
    maximising ``ℓ(Λ, σ)`` of (L3) with ``σ = min(σ̂(Λ), σ_q)`` — the likelihood's own noise, but never above what
    the quiet parts of the log show (see the noise module: a stationary model would otherwise take a bursty motion
-   for noise). The search: ``Λ`` on a grid of decades from ``10⁻⁴`` to ``10⁴``, then a golden-section refinement
-   around the best (in ``log Λ``).
+   for noise). The search: ``Λ`` on a grid of decades from ``10⁻⁸`` (a constant rate) to ``10⁴``, then a
+   golden-section refinement around the best (in ``log Λ``).
 3. **Model order** by the Bayesian information criterion ``BIC = −2ℓ + k log d`` (``k`` = 2 parameters, ``Λ`` and
    ``σ``, for every model; ``d`` the innovations' degrees of freedom): the least BIC wins, and the summary prints
    every model's ``ℓ``, ``σ`` and noise. A ``Λ`` at the top of the grid is the model's fast limit: the data show no

@@ -23,6 +23,7 @@ from collections.abc import Callable
 import numpy as np
 
 from omegahat.baselines.differencing import DifferencingEstimator
+from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
 from omegahat.identification.smoother import ModelSmoother
 from omegahat.interface import Estimator
@@ -223,6 +224,13 @@ def _estimator(
         common["omega_hat0"] = fit_start(ident.start_window())
         common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
+    if settings.smooth and not ident.use_model and stream.kind != "directions":
+        # the model was declined (it does not describe the log, or predicts no gain): nothing to smooth with;
+        # the zero-lag estimate the attitudes alone give is the rotation spline through them
+        report("estimator: SciPy's RotationSpline through the attitudes (zero lag; no model to smooth with: see above)")
+        tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
+        spline = SplineEstimator(**tols)
+        return spline, spline
     if settings.smooth:
         report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
         smoother = ModelSmoother(
@@ -254,6 +262,8 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
     body = f"J diag = {np.diag(J).tolist()}" if inertia_given else "no inertia given (the observer's J = I)"
 
     def line() -> str:
+        if isinstance(est, SplineEstimator):
+            return "estimator used: SciPy's RotationSpline through the attitudes (offline, zero lag)"
         if isinstance(est, DifferencingEstimator):
             return f"estimator used: backward differencing (no model: see the identification above), start: {start}"
         if isinstance(est, SupervisedKalmanEstimator):
