@@ -47,6 +47,11 @@ HINDSIGHT = "--bandwidth, best in hindsight"
 SECTION = "## Real-world corpus of issue 24 (benchmarks/real_world.py)"
 
 
+AFTER_SECTION = "## Real-world corpus of issue 24, the identified default (benchmarks/real_world.py --after)"
+AFTER_METHODS = ("backward diff.", "central diff.", "RotationSpline", "omegahat estimate", "omegahat estimate --smooth")
+AFTER_CSV = Path(__file__).with_name("real_world_after.csv")
+
+
 def _fmt(x: float | None, spec: str = ".4g") -> str:
     return "–" if x is None or not math.isfinite(x) else format(x, spec)
 
@@ -60,8 +65,8 @@ HEADER = ["recording", "samples", "method", "causal", "rms_rad_s", "shift_sample
           "ratio_to_backward", "ratio_to_best_offline", "predicted_rad_s", "cpu_us_per_sample", "note"]  # fmt: skip
 
 
-def _write_csv(rows: list[Row]) -> None:
-    with open(CSV, "w", newline="", encoding="utf-8") as f:
+def _write_csv(rows: list[Row], path: Path = CSV) -> None:
+    with open(path, "w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
         w.writerow(HEADER)
         for r in rows:
@@ -111,6 +116,41 @@ def summary_table(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
+def after_table(rows: list[Row]) -> str:
+    """The identified default against differencing: per recording the default's and ``--smooth``'s ratios to
+    backward differencing, ``--smooth``'s to the best of central differencing and RotationSpline; then per group
+    the geometric means and how many recordings exceed 1.02 (the default) and 1.0 (``--smooth`` to the best)."""
+    by = {(r.recording, r.method): r for r in rows}
+    recs = list(dict.fromkeys(r.recording for r in rows))
+    head = ["recording", "backward diff. (rad/s)", "default ÷ bwd", "--smooth ÷ bwd", "--smooth ÷ best offline",
+            "the default ran"]  # fmt: skip
+    lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
+    groups: dict[str, list[tuple[float | None, float | None, float | None]]] = {}
+    for name in recs:
+        bwd, d, sm = (by.get((name, m)) for m in ("backward diff.", "omegahat estimate", "omegahat estimate --smooth"))
+        vals = (d.ratio if d else None, sm.ratio if sm else None, sm.offline_ratio if sm else None)
+        ran = "differencing" if d and "backward differencing runs" in d.note else "model's filter"
+        cells = [_fmt(bwd.score.rms if bwd and bwd.score else None)] + [_fmt(v, ".3f") for v in vals] + [ran]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+        groups.setdefault(group, []).append(vals)
+    lines += ["", "| group | n | default ÷ bwd (geo. mean; worst; > 1.02) | --smooth ÷ bwd (geo. mean) | "
+              "--smooth ÷ best offline (geo. mean; worst; > 1.0) |", "| --- | ---: | --- | --- | --- |"]  # fmt: skip
+    everything: list[tuple[float | None, float | None, float | None]] = []
+    for g, vals in [*groups.items(), ("all", None)]:
+        vals = vals if vals is not None else everything
+        if g != "all":
+            everything += vals
+        d = [v[0] for v in vals if v[0] is not None]
+        o = [v[2] for v in vals if v[2] is not None]
+        lines.append(
+            f"| {g} | {len(vals)} | {_fmt(_geomean(d), '.3f')}; {_fmt(max(d, default=None), '.3f')}; "
+            f"{sum(x > 1.02 for x in d)} | {_fmt(_geomean([v[1] for v in vals]), '.3f')} | "
+            f"{_fmt(_geomean(o), '.3f')}; {_fmt(max(o, default=None), '.3f')}; {sum(x > 1.0 for x in o)} |"
+        )
+    return "\n".join(lines)
+
+
 def read_csv(path: Path = CSV) -> list[Row]:
     """The rows a previous run wrote (its scores as far as the CSV keeps them), to redo the table without rerunning."""
 
@@ -153,6 +193,14 @@ INTRO = (
 )
 
 
+AFTER_INTRO = (
+    "`omegahat estimate` with no option (the model and noises identified from the log's first 8192 samples, then "
+    "the model's supervised filter or backward differencing) and with `--smooth` (the identified model's two-filter "
+    "smoother, or RotationSpline where the model is declined), scored as above against backward differencing and, "
+    "for `--smooth`, the best of central differencing and RotationSpline. Every row: `benchmarks/real_world_after.csv`."
+)
+
+
 def write_results(rows: list[Row], names: list[str], n_recordings: int, measured: str | None = None) -> None:
     """Write the section of RESULTS.md (``measured``: its machine-and-date line, default now)."""
     corpus = f"{n_recordings} recordings: {', '.join(names)}; BROAD also at every 10th and 30th sample"
@@ -168,7 +216,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-decimate", action="store_true", help="native rates only")
     ap.add_argument("--no-write", action="store_true", help="print only (no CSV, no RESULTS.md)")
     ap.add_argument("--from-csv", action="store_true", help="redo the table and section from real_world.csv")
+    ap.add_argument(
+        "--after", action="store_true",
+        help="the identified default only (differencing, spline, the default and --smooth): its own section and CSV",
+    )  # fmt: skip
     args = ap.parse_args(argv)
+    if args.after:
+        args.methods = list(AFTER_METHODS)
     if args.from_csv:
         rows = read_csv()
         recs = {r.recording.split("@")[0] for r in rows}
@@ -194,9 +248,17 @@ def main(argv: list[str] | None = None) -> int:
             rows += got
             line = "  ".join(f"{g.method}: {_fmt(g.score.rms if g.score else None)}" for g in got)
             print(f"{r.name} ({r.fs:.4g} Hz, {r.t.size} samples): {line}", flush=True)
-    table = summary_table(rows)
+    table = after_table(rows) if args.after else summary_table(rows)
     print("\n" + table + f"\n\n{len(rows)} rows in {time.perf_counter() - t0:.0f} s")
     if args.no_write:
+        return 0
+    if args.after:
+        _write_csv(rows, AFTER_CSV)
+        corpus = f"{len(paths)} recordings; BROAD also at every 10th and 30th sample"
+        command = (
+            f"Command: `python benchmarks/real_world.py --after` on the corpus of `benchmarks/corpus.py` ({corpus})."
+        )
+        write_section(AFTER_SECTION, f"{machine_line()} {command} {AFTER_INTRO}\n\n" + table)
         return 0
     _write_csv(rows)
     write_results(rows, sorted({p.stem.split("-")[0] for p in paths}), len(paths))

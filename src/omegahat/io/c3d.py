@@ -15,6 +15,9 @@ frame number, so the timestamp policy (:mod:`omegahat.io.timestamps`) names fram
 from __future__ import annotations
 
 import os
+import pickle
+import subprocess
+import sys
 
 import numpy as np
 
@@ -40,16 +43,60 @@ def _value(group: dict, name: str, default=None):
     return entry["value"]
 
 
+def _load(path: str) -> dict:
+    """What :func:`open_c3d` uses of the file, read by ezc3d: in a child process (see :func:`_read`)."""
+    c = _ezc3d().c3d(path)
+    params = c["parameters"]
+    keep = {
+        group: {
+            name: {"value": entry["value"]}
+            for name, entry in params.get(group, {}).items()
+            if isinstance(entry, dict) and "value" in entry
+        }
+        for group in ("ROTATION", "POINT")
+        if group in params
+    }
+    return {
+        "parameters": keep,
+        "data": {"rotations": np.asarray(c["data"].get("rotations", np.zeros((4, 4, 0, 0))))},
+        "header": {"rotations": dict(c["header"].get("rotations", {}))},
+    }
+
+
+def _read(path: str) -> dict:
+    """ezc3d's reading of ``path`` (:func:`_load`) in a child process: on some damaged files (a truncated one) ezc3d
+    does not raise but aborts the process (an uncaught C++ ``std::out_of_range``, SIGABRT), which would end the
+    caller's without a word; the child's death becomes a message naming the file. The child is this interpreter
+    running this module's :func:`_load`; its answer comes back pickled on its standard output (our own code's
+    output, not the file's)."""
+    code = (
+        "import pickle, sys\n"
+        "from omegahat.io.c3d import _load\n"
+        "try:\n"
+        "    out = _load(sys.argv[1])\n"
+        "except Exception as exc:\n"
+        "    out = {'error': str(exc)}\n"
+        "sys.stdout.buffer.write(pickle.dumps(out))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code, path], capture_output=True, check=False)
+    if done.returncode != 0:
+        raise LogFormatError(
+            f"{path}: not a readable C3D file (the C3D reader stopped on it, exit status {done.returncode}: "
+            "a truncated or damaged file?)"
+        )
+    out = pickle.loads(done.stdout)  # our own child's answer
+    if "error" in out:  # ezc3d raises plain RuntimeError/IOError for unreadable files
+        raise LogFormatError(f"{path}: not a readable C3D file ({out['error']})")
+    return out
+
+
 def open_c3d(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One rigid body's rotations from a C3D file (module docstring); ``options.body`` names it (a label of the
     ``ROTATION`` group), optional when there is one."""
     path = os.fspath(path)
     body = options.body
-    ezc3d = _ezc3d()
-    try:
-        c = ezc3d.c3d(path)
-    except Exception as exc:  # ezc3d raises plain RuntimeError/IOError for unreadable files
-        raise LogFormatError(f"{path}: not a readable C3D file ({exc})") from None
+    _ezc3d()  # installed? (said here, before a child process is started)
+    c = _read(path)
     params = c["parameters"]
     rot = np.asarray(c["data"].get("rotations", np.zeros((4, 4, 0, 0))))
     group = params.get("ROTATION", {})

@@ -169,7 +169,8 @@ class ChunkParser:
                     lo = mid
                 except _ARROW_ERRORS:
                     hi = mid
-            value = text[lo].as_py()
+            # the field's bytes, as text whatever they hold (a stray byte that is not UTF-8 is shown, not raised)
+            value = text.cast(pa.binary())[lo].as_py().decode("utf-8", errors="replace")
             hint = " (digit grouping is not read)" if "_" in value or (not self.decimal_comma and "," in value) else ""
             raise LogFormatError(f"{self._where(int(lines[lo]), col)}: {value!r} is not a number{hint}") from None
 
