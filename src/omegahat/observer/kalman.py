@@ -23,13 +23,13 @@ that the EKF's basin contains the observer's noise ball are *measured* (the robu
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
-from omegahat.interface import MeasurementKind, TorqueHold
+from omegahat.interface import MeasurementKind, TorqueHold, one_of
 from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 from omegahat.observer import supervised
 from omegahat.observer.compiled import CompiledEstimator
@@ -40,7 +40,10 @@ from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
 from omegahat.observer.tuning import isotropic_noise_std
 from omegahat.validation import as_positive
 
-__all__ = ["SupervisedKalmanEstimator"]
+__all__ = ["SupervisedKalmanEstimator", "Yardstick"]
+
+#: what (S2) measures the disagreement against (``disagreement_yardstick``)
+Yardstick: TypeAlias = Literal["either", "observer"]
 
 
 class SupervisedKalmanEstimator(CompiledEstimator):
@@ -70,6 +73,9 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         model lacks), a random walk of PSD ``σ_d²``, prior standard deviation ``sigma_accel0`` (rad/s²), so that it
         predicts with it between samples instead of holding the modelled motion (``docs/theory/supervised.md``).
     nis_window, nis_max, disagreement_factor, disagreement_samples : the supervisor's constants (S1)–(S3).
+    disagreement_yardstick : ``"either"`` (default): (S2) measures the disagreement against the larger of the EKF's
+        own spread and the observer's noise; ``"observer"``: against the observer's noise alone, so that an EKF
+        whose covariance grew with its own divergence (after a long gap in a fast turn) is still caught.
     """
 
     def __init__(
@@ -98,6 +104,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         nis_max: float = 4.0,
         disagreement_factor: float = 5.0,
         disagreement_samples: int = 3,
+        disagreement_yardstick: Yardstick = "either",
     ) -> None:
         self.rate_hz = float(as_positive(rate_hz, "rate_hz")[0])
         self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
@@ -134,6 +141,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
             "meas_var": self.measurement_noise**2,
             "sigma_theta": sigma_theta,
             "sigma_obs": self.observer_noise,
+            "own_spread": float(one_of("disagreement_yardstick", disagreement_yardstick, Yardstick) == "either"),
             "sigma_start": 0.0
             if omega_hat0_noise is None or omega_hat0 is None
             else float(as_positive(omega_hat0_noise, "omega_hat0_noise")[0]),

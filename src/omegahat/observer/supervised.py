@@ -83,7 +83,7 @@ class EkfParamLayout(NamedTuple):
     """Offsets in the EKF's flat parameters: process-noise PSD q, measurement variance, σ_θ of a reset, σ_obs,
     α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad), the unknown acceleration's PSD q_a
     (rad²/s⁵; 0: not carried) and its prior σ (rad/s²), and σ of the rate it starts from at the first fix (rad/s,
-    the 3-vector's RMS; 0: σ_obs, the observer's)."""
+    the 3-vector's RMS; 0: σ_obs, the observer's), and the yardstick of (S2) (1: max(s, σ_obs); 0: σ_obs alone)."""
 
     q: int
     meas_var: int
@@ -99,12 +99,13 @@ class EkfParamLayout(NamedTuple):
     q_a: int
     sigma_accel: int
     sigma_start: int
+    own_spread: int
     size: int
 
 
 EKF_PARAMS = EkfParamLayout(
     q=0, meas_var=1, sigma_theta=2, sigma_obs=3, alpha=4, nis_max=5, kappa=6, disagree_max=7, dynamic=8, max_step=9,
-    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, size=14,
+    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, own_spread=14, size=15,
 )  # fmt: skip
 
 
@@ -232,7 +233,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     s = math.sqrt(P[3, 3] + P[4, 4] + P[5, 5])
     sigma_obs = pe[EKF_PARAMS.sigma_obs]
     kappa = pe[EKF_PARAMS.kappa]
-    disagree = xe[EKF_STATE.disagree] + 1.0 if d > kappa * max(s, sigma_obs) else 0.0  # (S2)
+    yardstick = max(s, sigma_obs) if pe[EKF_PARAMS.own_spread] != 0.0 else sigma_obs
+    disagree = xe[EKF_STATE.disagree] + 1.0 if d > kappa * yardstick else 0.0  # (S2)
     lost = (
         not nis_avg <= pe[EKF_PARAMS.nis_max]  # NaN counts as lost
         or disagree >= pe[EKF_PARAMS.disagree_max]
