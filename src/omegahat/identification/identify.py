@@ -135,17 +135,16 @@ class Identification:
                 **options,
             }
         J = self.J if dynamic else np.eye(3)
-        sigma, noise = max(c.sigma, SIGMA_FLOOR), c.noise
-        if not dynamic:
-            # The filter's gains depend on Λ alone (L2); the covariances' scale σ is the supervisor's yardstick (the
-            # observer's noise, the EKF's spread). At the noise of a quiet log (micro-radians) that yardstick is far
-            # below what a hand's motion makes the two estimates differ by, and the EKF was restarted every few
-            # samples (1717 times in 1930 samples, 6.2 times differencing's error, BROAD trial 06 at 28.6 Hz). So σ
-            # is at least the attitude noise that would give differencing's expected error (√6 σ / h), and q
-            # follows it at the same Λ: the estimate is the same filter's, its supervision in the motion's scale.
-            h = 1.0 / self.rate_hz
-            sigma = max(sigma, self.differencing_rms * h / math.sqrt(6.0))
-            noise = noise_intensity(c.model, c.tracking_index, sigma, h)
+        # The filter's gains depend on Λ alone (L2); the covariances' scale σ is the supervisor's yardstick (the
+        # observer's noise, the EKF's spread). At the noise of a quiet or noise-free log (micro-radians, or the floor)
+        # that yardstick is far below what the motion makes the two estimates differ by (the observer's lag), and
+        # the EKF was restarted every few samples or at every one (1717 times in 1930 samples on BROAD trial 06 at
+        # 28.6 Hz: 6.2 times differencing's error; 29,999 of 30,000 on a noise-free 1 kHz log with J: 2.0 times).
+        # So σ is at least the attitude noise that would give differencing's expected error (√6 σ / h), and q
+        # follows it at the same Λ: the estimate is the same filter's, its supervision in the motion's scale.
+        h = 1.0 / self.rate_hz
+        sigma = max(c.sigma, SIGMA_FLOOR, self.differencing_rms * h / math.sqrt(6.0))
+        noise = noise_intensity(c.model, c.tracking_index, sigma, h)
         root = math.sqrt(noise)
         second_order = ORDER[c.model] == 2
         return SupervisedKalmanEstimator(
