@@ -274,8 +274,6 @@ def _largest_first(jobs: list[Job]) -> list[Job]:
 def _in_pool(jobs: list[Job], args: argparse.Namespace, one: OneFile, n: int) -> Ran:
     ctx = multiprocessing.get_context(start_method())
     event = ctx.Event()
-    outcomes: list[Outcome] = []
-    interrupt = None
     t0 = time.perf_counter()
     sys.stdout.flush()  # a forked process would print again what is still buffered
     sys.stderr.flush()
@@ -283,17 +281,33 @@ def _in_pool(jobs: list[Job], args: argparse.Namespace, one: OneFile, n: int) ->
         # submitting starts the processes (all at once, with fork): before any thread (the bar's) exists here
         futures = [pool.submit(run_job, one, args, job) for job in _largest_first(jobs)]
         with _bar(args, len(jobs)) as bar:
-            try:
-                for f in futures_completed(futures):
-                    outcomes.append(f.result())
-                    bar.update()
-            except KeyboardInterrupt as exc:
-                interrupt = exc
-                event.set()
-                with _deaf():
-                    got = {o.index for o in outcomes}
-                    outcomes += [o for o in (f.result() for f in futures) if o.index not in got]
+            outcomes, interrupt = _collect(futures, futures_completed, lambda fs: [f.result() for f in fs], event, bar)
     return outcomes, interrupt, f"in {time.perf_counter() - t0:.1f} s on {n} processes"
+
+
+def _collect(
+    futures: list[Any],
+    completed: Callable[[list[Any]], Any],
+    results: Callable[[list[Any]], list[Outcome]],
+    event: Any,
+    bar: Any,
+) -> tuple[list[Outcome], KeyboardInterrupt | None]:
+    """The jobs' outcomes as they complete (``completed``: the pool's or Dask's iterator), the bar moved on each; an
+    interrupt sets ``event`` (the jobs stop at their next chunk) and waits for every outcome (``results``) without
+    being interrupted again: ``(outcomes, the interrupt or None)``."""
+    outcomes: list[Outcome] = []
+    interrupt = None
+    try:
+        for f in completed(futures):
+            outcomes.append(f.result())
+            bar.update()
+    except KeyboardInterrupt as exc:
+        interrupt = exc
+        event.set()
+        with _deaf():
+            got = {o.index for o in outcomes}
+            outcomes += [o for o in results(futures) if o.index not in got]
+    return outcomes, interrupt
 
 
 @contextmanager
@@ -352,17 +366,5 @@ def dask_jobs(
     event = distributed.Event(name, client=client)
     stop = _Stop(name)
     futures = [client.submit(run_job, one, args, job, stop, pure=False) for job in _largest_first(jobs)]
-    outcomes: list[Outcome] = []
-    interrupt = None
     with _bar(args, len(jobs)) as bar:
-        try:
-            for f in distributed.as_completed(futures):
-                outcomes.append(f.result())
-                bar.update()
-        except KeyboardInterrupt as exc:
-            interrupt = exc
-            event.set()
-            with _deaf():
-                got = {o.index for o in outcomes}
-                outcomes += [o for o in client.gather(futures) if o.index not in got]
-    return outcomes, interrupt
+        return _collect(futures, distributed.as_completed, client.gather, event, bar)
