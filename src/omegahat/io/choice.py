@@ -9,10 +9,13 @@ whatever the reader's chunk size, so that the same data get the same gains in ev
    and warns when the sample spacing is implausible for the time unit (:func:`time_unit_warning`);
 2. chooses the gains (:func:`omegahat.observer.autogain.select_gains`: automatic unless gains or a bandwidth are
    given); with J and τ given, warns when Euler's equations fit the other rotation convention markedly better;
-3. starts: ``fit`` (a least-squares rate over the first window), ``warm`` (from the first two samples) or ``zero``;
-4. builds the estimator: the default one (the observer supervising a gyro-less EKF, its process noise chosen from
-   the log) when the inertia is given, or asked for; else the fixed-gain observer; or the ``mocap`` preset's
-   (causal, or its zero-lag smoother: a batch estimator).
+3. starts: ``fit`` (a least-squares rate over the first window: the fixed-gain observer's (D), or the identified
+   filter's (W)), ``warm`` (from the first two samples) or ``zero``;
+4. builds the estimator: by default what :func:`omegahat.identification.identify` chooses on the head (the
+   identified model's supervised filter or backward differencing; for ``smooth`` the model's two-filter smoother,
+   or RotationSpline where the model is declined); the fixed-gain observer when gains, a bandwidth or
+   ``estimator="sarras"`` are given (or fewer than ``MIN_SAMPLES`` valid samples); or the ``mocap`` preset's (causal,
+   or its zero-lag smoother: a batch estimator).
 """
 
 from __future__ import annotations
@@ -162,31 +165,30 @@ def attitude_choice(
                 f"the attitude inverted (residual {other:.3g} against {given:.3g} N m): is the log {flip}? "
                 f"(pass {spell('rotation', flip)})"
             )
-    omega0 = None
-    if settings.start == "fit":
-        window = autogain.fit_window(omega_b, motion.rate_hz)
-        omega0 = autogain.initial_rate(tv, rot, window, J, motion.torque)
 
-    def fit_start(window: float) -> np.ndarray:  # (F) over ``window`` seconds of the head
+    def fit_start(window: float | None = None) -> np.ndarray | None:
+        """The ``fit`` start's rate, (F) over ``window`` seconds of the head (default: the fixed-gain observer's
+        window (D)); None for the other starts (no estimate at the first valid sample)."""
+        if settings.start != "fit":
+            return None
+        window = autogain.fit_window(omega_b, motion.rate_hz) if window is None else window
         return autogain.initial_rate(tv, rot, window, J, motion.torque)
 
     est, described = _estimator(
-        settings, motion, J, gains, refs, stream, omega0, report, spell, (t_h, data_h, tau_h), fit_start
+        settings, motion, J, gains, refs, stream, report, spell, (t_h, data_h, tau_h), fit_start
     )
     return Choice(est, gains, text, _used(described, J, settings.inertia is not None, settings.start), spacing=motion.h)
 
 
-def _estimator(
-    settings, motion, J, gains, refs, stream, omega0, report, spell, head, fit_start
-) -> tuple[Estimator, Estimator]:
+def _estimator(settings, motion, J, gains, refs, stream, report, spell, head, fit_start) -> tuple[Estimator, Estimator]:
     """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
-    default one (the observer supervising a gyro-less EKF, its process noise chosen from the log) when the model is
-    given, or asked for; else the fixed-gain observer with ``gains``; or the preset's."""
+    preset's; the fixed-gain observer with ``gains`` (asked for, or fewer than ``MIN_SAMPLES`` valid samples); else
+    what the identification of the head chose (the model's supervised filter or backward differencing, its smoother
+    or RotationSpline for ``smooth``). ``fit_start(window)``: the start's rate (None unless the start is ``fit``)."""
     common = {
         "references": refs,
         "measurement": "directions" if stream.kind == "directions" else "attitude",
         "warm_start": settings.start == "warm",
-        "omega_hat0": omega0,  # None (warm, zero): no estimate at the first valid sample
         "rotation_tol": settings.rotation_tol,
         "quat_norm_tol": settings.quat_norm_tol,
     }
@@ -200,7 +202,7 @@ def _estimator(
                 f"preset was tuned on (optical motion capture of a hand, up to {MOCAP_TUNED_NOISE:g} rad): on a "
                 "slow or smooth motion, omegahat without the preset (gains chosen from this log) may be more accurate"
             )
-        causal = mocap_estimator(motion.rate_hz, motion.sigma, **common)
+        causal = mocap_estimator(motion.rate_hz, motion.sigma, omega_hat0=fit_start(), **common)
         if not settings.smooth:
             return causal, causal
         tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
@@ -216,12 +218,13 @@ def _estimator(
         )
         choice = "sarras"
     if choice == "sarras":
-        sarras = SarrasEstimator(J, gains=gains, **common)
+        sarras = SarrasEstimator(J, gains=gains, omega_hat0=fit_start(), **common)
         return sarras, sarras
     ident = _identified(settings, stream, refs, head)
     report(ident.explain())
-    if settings.start == "fit":  # over the identified filter's own window (W), and its error the EKF's prior
-        common["omega_hat0"] = fit_start(ident.start_window())
+    # the fit start over the identified filter's own window (W), and its error the EKF's prior
+    common["omega_hat0"] = fit_start(ident.start_window())
+    if settings.start == "fit":
         common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
     if settings.smooth and not ident.use_model and stream.kind != "directions":
