@@ -69,7 +69,6 @@ from numpy.typing import ArrayLike
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines import sunline_kernel as kernel
-from omegahat.baselines.tso3_common import restart_warning
 from omegahat.observer.compiled import CompiledEstimator
 from omegahat.validation import as_positive, as_vector3
 
@@ -268,7 +267,6 @@ class SunlineSEKF(CompiledEstimator):
             restarted = not (np.all(np.isfinite(X)) and np.all(np.isfinite(x)) and np.all(np.isfinite(P)))
             if restarted:  # from this sample, as at the start
                 X, x, P, axis = None if b is None else self._initial_state(b), np.zeros(5), self.P0.copy(), 0
-                restart_warning(1, 1)
         state = (X, x, P, axis, float(t))
         if restarted:
             return state, _NAN3, ms.RESTARTED, 0.0

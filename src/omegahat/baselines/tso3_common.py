@@ -41,7 +41,6 @@ was computed from the sample before.
 from __future__ import annotations
 
 import abc
-import warnings
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -55,7 +54,7 @@ from omegahat.baselines.tso3_kernel import NEWTON_MAX, NEWTON_TOL
 from omegahat.observer.compiled import CompiledEstimator
 from omegahat.validation import as_directions, as_inertia, as_vector3
 
-__all__ = ["NEWTON_MAX", "NEWTON_TOL", "FilterState", "TSO3Filter", "exp_so3", "newton", "restart_warning"]
+__all__ = ["NEWTON_MAX", "NEWTON_TOL", "FilterState", "TSO3Filter", "exp_so3", "newton"]
 
 _NAN3 = np.full(3, np.nan)
 _NAN3.flags.writeable = False
@@ -82,17 +81,6 @@ def newton(
         if np.max(np.abs(step)) <= NEWTON_TOL * (1.0 + np.max(np.abs(w))):
             return w
     return None
-
-
-def restart_warning(restarts: int, total: int) -> None:
-    """Warn (``RuntimeWarning``) that a call restarted a filter at ``restarts`` of its ``total`` samples (C5)."""
-    if restarts:
-        warnings.warn(
-            f"restarted at {restarts} of {total} samples: the step to them could not be taken (status 'restarted', "
-            "no estimate there; the filter starts again from the sample)",
-            RuntimeWarning,
-            stacklevel=3,
-        )
 
 
 class FilterState(NamedTuple):
@@ -204,7 +192,6 @@ class TSO3Filter(CompiledEstimator):
             restarted = stepped is None or not all(np.all(np.isfinite(x)) for x in stepped)
             if restarted:  # (C5)
                 R, omega, gain = None, self.omega_hat0.copy(), self._initial_gain()
-                restart_warning(1, 1)
             else:
                 R, omega, gain = stepped  # type: ignore[misc]  # not None here
         valid = code == ms.OK
