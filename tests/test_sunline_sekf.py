@@ -3,7 +3,6 @@ Riccati solution, finite-difference Jacobians, the integral of the transition (S
 invariance under a frame switch, convergence on a spin it models exactly; and its compiled loop against the NumPy
 steps to 1e-10, with the interface's direction samples and with the source's coarse sun sensors."""
 
-import contextlib
 import warnings
 
 import numpy as np
@@ -27,21 +26,13 @@ from omegahat.baselines.sunline_sekf import (
 from omegahat.interface import Status
 from omegahat.lab.peer_scenarios import BASILISK_NORMALS
 from omegahat.measurements import MeasurementError
-from omegahat.observer.compiled import RestartedWarning, SkippedSamplesWarning
+from omegahat.observer.compiled import SkippedSamplesWarning
 
 RNG = np.random.default_rng(2026)
 
 
 def hat(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def warnings_of(path: str):
-    """What a restart says besides its status: ``run`` warns once for the log (the compiled estimators' one
-    RestartedWarning); ``update`` says it by the status and ``n_restarts``, as every compiled estimator."""
-    if path == "run":
-        return pytest.warns(RestartedWarning, match=r"restarted 1 times in")
-    return contextlib.nullcontext()
 
 
 def test_frame_is_a_right_handed_orthonormal_frame_on_the_direction():
@@ -231,7 +222,7 @@ def test_one_sample_is_named_as_such():
     assert f.t is None and f.X is None
 
 
-def test_an_update_that_is_not_finite_restarts_from_the_sample():
+def test_an_update_that_is_not_finite_restarts_from_the_sample(restart_warnings):
     """A state that cannot stay finite (here after a gap of 1e200 s: Φ P Φᵀ overflows) is never written as an
     estimate: that sample's estimate is NaN with the status RESTARTED and the filter starts again from it (the
     sample's direction, P₀); the compiled run and the NumPy steps agree."""
@@ -239,7 +230,7 @@ def test_an_update_that_is_not_finite_restarts_from_the_sample():
     results = []
     for path in ("run", "update"):
         f = SunlineSEKF(omega_hat0=np.zeros(3))
-        with warnings_of(path):
+        with restart_warnings(path):
             if path == "run":
                 omega, status = f.run(t, b)
             else:
