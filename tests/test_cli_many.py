@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from logmaker import constant_rate, write_csv
+from logmaker import Angle, attitude, constant_rate, write_csv
 from omegahat.cli import main
 from omegahat.cli.many import SUMMARY_CSV, SUMMARY_TXT, is_many
 from vendor_files import decimal_seconds, write_tum
@@ -70,7 +70,8 @@ def test_a_folder_with_a_broken_file_runs_the_others_and_names_it(tmp_path, caps
     assert re.search(
         r"takes/broken\.csv +- +- +- +- +failed: .*broken\.csv, line 3, column qx: 'zero' is not a number", printed
     )
-    assert re.search(r"takes/take0\.csv +csv +300 +omegahat, J given +- +ok", printed)
+    # the estimator the identification ran, and the expected error it stated for it
+    assert re.search(r"takes/take0\.csv +csv +300 +omegahat, J given +[0-9.e+-]+ rad/s +ok", printed)
     assert "4 files (3 ok, 1 failed) in " in printed and "on 2 processes" in printed
     rows = summary_rows(out)
     assert rows[str(d / "broken.csv")]["status"] == "failed"
@@ -95,6 +96,38 @@ def test_the_expected_error_and_estimator_are_the_one_file_runs(tmp_path, capsys
     row = summary_rows(tmp_path / "out")[str(src)]
     assert row["estimator"] == "sarras, J = I" and row["status"] == "ok"
     assert float(row["expected_rms_rad_s"]) == pytest.approx(expected, rel=1e-6)  # 2 digits printed, 6 kept
+
+
+def test_the_default_rows_name_what_the_identification_ran_and_its_expected_error(tmp_path, capsys):
+    """With no option each file runs what the identification of its head chose: a noisy log the model's filter, a
+    noise-free one backward differencing. The table names that estimator (it said "sarras" for both) and the
+    expected error the one-file run states for it."""
+    noisy = good_log(tmp_path / "in" / "noisy.csv", n=3000)
+    t = np.arange(3000) / 100.0  # a hand-like turning motion, no noise: nothing for a filter to remove
+    yaw, pitch, roll = Angle(0.0, [(0.8, 0.31, 0.0), (0.3, 0.73, 1.0)]), Angle(0.0, [(0.4, 0.47, 2.0)]), Angle(0.0)
+    clean = write_csv(tmp_path / "in" / "clean.csv", t, attitude(t, yaw, pitch, roll)[0])
+    said = {}
+    for src in (noisy, clean):
+        assert main(["estimate", str(src), "-o", str(tmp_path / "ref.csv"), "--no-progress"]) == 0
+        printed = capsys.readouterr().out
+        found = re.search(
+            r"expected RMS error of the model's filter ([0-9.e+-]+) rad/s, of backward differencing ([0-9.e+-]+) "
+            r"rad/s: (the model's filter|backward differencing) runs",
+            printed,
+        )
+        assert found is not None, printed
+        said[src] = (
+            found.group(3),
+            float(found.group(1) if found.group(3) == "the model's filter" else found.group(2)),
+        )
+    assert said[noisy][0] == "the model's filter" and said[clean][0] == "backward differencing"
+    code, _, _ = batch(capsys, tmp_path / "in", "-o", tmp_path / "out", "--no-progress", "--jobs", "1")
+    assert code == 0
+    rows = summary_rows(tmp_path / "out")
+    assert rows[str(noisy)]["estimator"] == "omegahat, J = I"
+    assert rows[str(clean)]["estimator"] == "backward differencing"
+    for src in (noisy, clean):
+        assert float(rows[str(src)]["expected_rms_rad_s"]) == pytest.approx(said[src][1], rel=1e-6)
 
 
 def test_globs_go_down_with_double_star_and_mirror_the_folders(tmp_path, capsys, monkeypatch):

@@ -68,6 +68,11 @@ SUMMARY_CSV = "omegahat-summary.csv"  #: the batch's table, one row per input, b
 SUMMARY_TXT = "omegahat-summary.txt"  #: the table, the files skipped, and every file's report
 _ABSENT = "stopped while running; no output written"
 _EXPECTED = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s")
+#: the identification's line (omegahat.identification.Identification.explain): both expected errors and which runs
+_IDENTIFIED = re.compile(
+    r"expected RMS error of the model's filter ([0-9.eE+-]+) rad/s, of backward differencing ([0-9.eE+-]+) rad/s: "
+    r"(the model's filter|backward differencing) runs"
+)
 
 
 class Summary(Protocol):
@@ -160,9 +165,27 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
         return f"--preset {args.preset}" + (" --smooth" if args.smooth else "")
     if stream.kind == "directions" and stream.n_directions == 1:
         return f"one-direction observer, {model}"
-    if any(line.startswith("estimator used: omegahat") for line in summary.lines):
-        return f"omegahat, {model}"
+    used = next((line for line in summary.lines if line.startswith(("estimator used: ", "gains used: "))), "")
+    smooth = " --smooth" if args.smooth else ""
+    if used.startswith("estimator used: omegahat"):
+        return f"omegahat{smooth}, {model}"
+    if used.startswith("estimator used: backward differencing"):
+        return "backward differencing"
+    if used.startswith("estimator used: SciPy's RotationSpline"):
+        return "RotationSpline (--smooth)"
     return f"sarras, {model}"
+
+
+def _expected(estimator: str, summary: Summary, report: list[str]) -> float | None:
+    """The expected RMS error the run stated for the estimator that ran: the fixed-gain observer's (its gains' line),
+    or the identification's for its model's filter or for backward differencing (causal runs only)."""
+    if estimator.startswith("sarras"):
+        found = _EXPECTED.search(summary.gains_text)
+        return float(found.group(1)) if found else None
+    found = next((m for line in report for m in [_IDENTIFIED.search(line)] if m), None)
+    if found is None or " --smooth" in estimator or estimator.startswith("RotationSpline"):
+        return None
+    return float(found.group(1) if found.group(3) == "the model's filter" else found.group(2))
 
 
 class Stopped(KeyboardInterrupt):
@@ -203,9 +226,7 @@ def run_job(one: OneFile, args: argparse.Namespace, job: Job, stop: _Stop | None
     else:
         out.status, out.format, out.rows = "ok", stream.format, summary.rows
         out.estimator = _estimator(args, stream, summary)
-        found = _EXPECTED.search(summary.gains_text)
-        if found and out.estimator.startswith("sarras"):  # the other estimators' errors are not the gains'
-            out.expected = float(found.group(1))
+        out.expected = _expected(out.estimator, summary, lines)
     out.seconds = time.perf_counter() - t0
     out.report = lines
     out.notes = [line for line in lines if line.startswith(("note: ", "warning: "))]
