@@ -2,8 +2,7 @@
 
 * no module imports another module's private name (``from omegahat.x import _y``, or ``x._y`` on an imported
   omegahat module);
-* no module is longer than ``MAX_LINES`` (the guideline is about 500 lines; the limit leaves room to finish a
-  change before splitting a module);
+* no module is longer than ``MAX_LINES`` (500: issue 22's bound; a module that grows past it is split by job);
 * every public pure-Python function and method is annotated: public is a name without a leading underscore, plus
   ``__init__`` and ``__call__``, in a module or a public class; every parameter but ``self``/``cls``, and the
   return (but for ``__init__``). Compiled functions (decorated with Numba's ``njit``/``jit``/``intrinsic``) are
@@ -28,14 +27,14 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "omegahat"
-MAX_LINES = 560
+MAX_LINES = 500
 COMPILED_DECORATORS = {"njit", "jit", "intrinsic"}
 
 #: The layers, lowest first: a module may import modules of its own layer or of lower ones, never of a higher one.
 #: Names are module paths below ``omegahat`` (a package stands for every module in it).
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("omegahat", "kernels"),  # the package's __init__: the version, and lazy names it imports only when asked
-    ("validation", "interface", "so3", "conversion"),
+    ("validation", "interface", "so3", "conversion", "rejections"),
     ("measurements",),
     ("observer",),
     ("simulation", "baselines"),

@@ -51,7 +51,7 @@ _PUBLIC = {
     "mocap_estimator": "omegahat.observer.presets",
     "smooth": "omegahat.observer.presets",
     "MocapSmoother": "omegahat.observer.presets",
-    "MeasurementError": "omegahat.measurements",
+    "MeasurementError": "omegahat.rejections",
     "read_log": "omegahat.io",
     "estimate_frame": "omegahat.io.frames",
 }

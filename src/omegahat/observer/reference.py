@@ -16,7 +16,8 @@ from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from omegahat.observer.gains import ObserverGains
-from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, MAX_SUBSTEPS, EstimatorState
+from omegahat.observer.prediction import MAX_SUBSTEP_ANGLE, MAX_SUBSTEPS
+from omegahat.observer.sampled import EstimatorState
 
 __all__ = ["reference_predict", "reference_step"]
 
