@@ -41,6 +41,7 @@ from omegahat.observer.presets import (
     MOCAP_SWITCH_HZ,
     MOCAP_TUNED_NOISE,
     MocapSmoother,
+    log_differencing_error,
     mocap_estimator,
     mocap_model,
 )
@@ -202,7 +203,8 @@ def _estimator(settings, motion, J, gains, refs, stream, report, spell, head, fi
                 f"preset was tuned on (optical motion capture of a hand, up to {MOCAP_TUNED_NOISE:g} rad): on a "
                 "slow or smooth motion, omegahat without the preset (gains chosen from this log) may be more accurate"
             )
-        causal = mocap_estimator(motion.rate_hz, motion.sigma, omega_hat0=fit_start(), **common)
+        scale = log_differencing_error(motion.t, motion.rot, motion.sigma)  # the supervisor's motion scale (P5)
+        causal = mocap_estimator(motion.rate_hz, motion.sigma, differencing_rms=scale, omega_hat0=fit_start(), **common)
         if not settings.smooth:
             return causal, causal
         tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}

@@ -44,10 +44,40 @@ class GainConditionWarning(UserWarning):
 class ObserverGains:
     """Gains of the observer for ``n`` directions: ``k_i`` and ``l_i(ω̂) = l_offset_i + l_slope_i |ω̂|``.
 
-    ``isotropic_rate`` (rad/s, default None) is for the *sampled* estimator only: its correction then uses the
-    matrix rate gain ``b M⁻¹`` instead of ``J⁻¹`` so that every error mode decays at ``b`` whatever the directions'
-    geometry (``docs/theory/tuning.md``); the ``k_i`` then only weigh the directions against each other. The
-    continuous observer of the paper has no such gain: the simulator and the campaigns ignore it.
+    Scalars given for ``l_slope`` are repeated for the ``n`` directions; :meth:`constant` builds constant gains
+    from two scalars, :meth:`l` evaluates ``l_i(ω̂)``.
+
+    Parameters
+    ----------
+    k : array_like
+        The ``n`` positive gains ``k_i``.
+    l_offset : array_like
+        The ``n`` positive offsets ``l_offset_i`` of ``l_i(ω̂)``.
+    l_slope : array_like, optional
+        The non-negative slopes ``l_slope_i`` (one number: the same for every direction; default 0, constant
+        ``l_i``).
+    isotropic_rate : float, optional
+        For the *sampled* estimator only (rad/s, default None): its correction then uses the matrix rate gain
+        ``b M⁻¹`` instead of ``J⁻¹`` so that every error mode decays at ``b`` whatever the directions' geometry
+        (``docs/theory/tuning.md``); the ``k_i`` then only weigh the directions against each other. The
+        continuous observer of the paper has no such gain: the simulator and the campaigns ignore it.
+
+    Raises
+    ------
+    ValueError
+        If a gain is not positive and finite, or the arrays do not have ``n`` entries.
+
+    Examples
+    --------
+    >>> from omegahat import ObserverGains
+    >>> g = ObserverGains(k=[14.5, 14.5], l_offset=[1309.0, 1309.0], l_slope=436.0)
+    >>> g.n, g.l_slope.tolist()
+    (2, [436.0, 436.0])
+    >>> g.l([0.0, 0.0, 1.0]).tolist()  # l_i at |ω̂| = 1 rad/s
+    [1745.0, 1745.0]
+    >>> c = ObserverGains.constant(2.0, 20.0, n=3)
+    >>> c.k.tolist(), c.l_offset.tolist(), c.isotropic_rate
+    ([2.0, 2.0, 2.0], [20.0, 20.0, 20.0], None)
     """
 
     k: np.ndarray
@@ -114,9 +144,41 @@ def theorem_gains(
 ) -> ObserverGains:
     """Equal gains ``k_i = k`` with ``μ = J_M (ω_M + 3/2) + margin`` and the theorem's ``l_i(ω̂)``.
 
-    ``references`` are the measured inertial directions (default: the first two rows of R, as in the paper).
     With the paper's numbers (J = diag(3, 2, 1), ω_M = 3, two rows, margin 1, l0 = 1) this gives the paper's
-    ``k = 14.5`` and ``l_i(ω̂) = 1 + 436.5 (|ω̂| + 3)``.
+    ``k = 14.5`` and ``l_i(ω̂) = 1 + 436 (|ω̂| + 3)``.
+
+    Parameters
+    ----------
+    J : array_like
+        The inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
+    omega_max : float
+        ω_M, the bound on ``|ω(t)|`` (rad/s) the guarantee is for.
+    references : array_like, optional
+        The measured inertial directions ``(n, 3)`` (default: the first two rows of R, as in the paper).
+    margin : float, optional
+        By how much μ exceeds ``J_M (ω_M + 3/2)`` (default 1).
+    l0 : float, optional
+        The paper's ``l_i0``: ``l_offset_i = l0 + ω_M c_i`` (default 1).
+
+    Returns
+    -------
+    ObserverGains
+        ``k_i = k``, ``l_offset_i = l0 + ω_M c_i``, ``l_slope_i = c_i`` with ``c_i = 1 + (k/J_m)(1 + 2k/J_m)``.
+
+    Raises
+    ------
+    ValueError
+        If the reference directions span a single axis (no k satisfies the μ condition).
+
+    Examples
+    --------
+    >>> from omegahat import check_gains, theorem_gains
+    >>> J = [3.0, 2.0, 1.0]
+    >>> g = theorem_gains(J, omega_max=3.0)
+    >>> print(f"k = {g.k[0]:.1f}, l = {g.l_offset[0]:.0f} + {g.l_slope[0]:.0f} |w|")
+    k = 14.5, l = 1309 + 436 |w|
+    >>> print(check_gains(g, J, omega_max=3.0))
+    gains satisfy the theorem: mu = 14.5 > J_M (omega_M + 3/2) = 13.5
     """
     J_m, J_M = inertia_bounds(J)
     omega_max = float(as_positive(omega_max, "omega_max")[0])
@@ -158,6 +220,46 @@ def check_gains(
 
     A failure does not mean the observer diverges, only that the theorem no longer guarantees global exponential
     convergence for ``|ω| ≤ omega_max``.
+
+    Parameters
+    ----------
+    gains : ObserverGains
+        The gains to check, for ``n`` directions.
+    J : array_like
+        The inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
+    omega_max : float
+        ω_M, the bound on ``|ω(t)|`` (rad/s).
+    references : array_like, optional
+        The inertial directions ``(n, 3)`` (default: the first ``n`` rows of R).
+    warn : bool, optional
+        Warn :class:`GainConditionWarning` when a condition fails (default True).
+
+    Returns
+    -------
+    GainCheck
+        μ and its required value, the required ``l_offset`` and ``l_slope``, and the failures (``ok`` when none;
+        its ``str`` says the verdict).
+
+    Raises
+    ------
+    ValueError
+        If the number of gains is not the number of reference directions.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from omegahat import ObserverGains, check_gains
+    >>> J = [3.0, 2.0, 1.0]
+    >>> gains = ObserverGains.constant(5.0, 10.0)  # far from the theorem's gains
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check = check_gains(gains, J, omega_max=3.0)
+    >>> check.ok, [w.category.__name__ for w in caught]
+    (False, ['GainConditionWarning'])
+    >>> print(check.failures[0])
+    mu = lambda_min(sum k_i (I - v_i v_i^T)) = 5 must exceed J_M (omega_M + 3/2) = 13.5 (short by 8.5)
+    >>> print(f"{check.mu_required:.1f} {check.l_slope_required[0]:.0f}")
+    13.5 56
     """
     J_m, J_M = inertia_bounds(J)
     omega_max = float(as_positive(omega_max, "omega_max")[0])

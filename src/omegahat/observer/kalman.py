@@ -40,42 +40,92 @@ from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
 from omegahat.observer.tuning import isotropic_noise_std
 from omegahat.validation import as_positive
 
-__all__ = ["SupervisedKalmanEstimator", "Yardstick"]
+__all__ = ["DIVERGENCE_FACTOR", "SupervisedKalmanEstimator", "Yardstick"]
 
 #: what (S2) measures the disagreement against (``disagreement_yardstick``)
 Yardstick: TypeAlias = Literal["either", "observer"]
 
+#: (S2)'s factor κ where the motion is not the filter's model (a hand, or no J): the EKF is restarted only when it
+#: leaves the observer by 50 times the observer's noise in the motion's scale, a divergence, never a model's misfit
+#: (the identified default without J, :mod:`omegahat.identification`, and the mocap preset, :mod:`~.presets`)
+DIVERGENCE_FACTOR = 50.0
+
 
 class SupervisedKalmanEstimator(CompiledEstimator):
-    """The Sarras observer supervising a gyro-less EKF (module docstring).
+    """The Sarras observer supervising a gyro-less EKF: omegahat's default estimator (module docstring).
+
+    ``update(t, sample, torque)`` takes one sample, ``run(t, data, torques)`` a log (atomic); both return an
+    :class:`~omegahat.interface.Estimate`. The output is the EKF's rate while it is trusted, else the observer's
+    (``last_source``: 1 where it was the EKF's); ``restarts`` counts the EKF's restarts (S4).
 
     Parameters
     ----------
-    J : inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
-    rate_hz : the nominal sample rate (Hz); the observer's bandwidth is ``observer_bandwidth × rate_hz`` rad/s.
-    measurement_noise : the attitude noise (rad, one standard deviation per axis), or that of each direction
-        component.
-    rate_noise : the EKF's process noise σ_a (rad/s^1.5): the torque noise PSD is ``q = (tr(J)/3 · σ_a)²``;
-        it models what the known torque leaves out.
-    references, measurement, scalar_first, rotation_tol, quat_norm_tol, min_angle_deg, max_substep_angle :
-        as :class:`omegahat.observer.estimator.SarrasEstimator`.
-    omega_hat0 : the initial rate estimate (default 0); ``warm_start`` (default: on unless ``omega_hat0`` or
-        ``r_hat0`` is given) takes it from the first two samples instead. ``r_hat0``: the observer's initial
-        filtered directions (default: the first measurement); the EKF always starts from a measured attitude.
-    omega_hat0_noise : the RMS error of ``omega_hat0`` (rad/s, of the 3-vector): the EKF's rate prior at its first
-        start (default: the observer's stationary noise, as at every restart). A rate fitted over a window of the
-        log is known far better than the observer's noise: without it the EKF would start as if from scratch.
-    torque_hold : ``"zero"`` (default) or ``"linear"``, for both parts (as the observer's).
-    observer_bandwidth : the observer's isotropic rate per hertz of sample rate (default 1: the observer's error
-        halves every sample).
-    disturbance_noise, sigma_accel0 : for a body whose torque (or inertia) is not fully known: None (default) or
-        σ_d (rad/s^2.5); the EKF then also estimates the unknown angular acceleration ``a`` (the torque ``J a`` the
-        model lacks), a random walk of PSD ``σ_d²``, prior standard deviation ``sigma_accel0`` (rad/s²), so that it
-        predicts with it between samples instead of holding the modelled motion (``docs/theory/supervised.md``).
-    nis_window, nis_max, disagreement_factor, disagreement_samples : the supervisor's constants (S1)–(S3).
-    disagreement_yardstick : ``"either"`` (default): (S2) measures the disagreement against the larger of the EKF's
-        own spread and the observer's noise; ``"observer"``: against the observer's noise alone, so that an EKF
-        whose covariance grew with its own divergence (after a long gap in a fast turn) is still caught.
+    J : array_like
+        The inertia (3 numbers = diagonal, 9 numbers or 3×3), SPD.
+    rate_hz : float
+        The nominal sample rate (Hz); the observer's bandwidth is ``observer_bandwidth × rate_hz`` rad/s.
+    measurement_noise : float
+        The attitude noise (rad, one standard deviation per axis), or that of each direction component.
+    rate_noise : float, optional
+        The EKF's process noise σ_a (rad/s^1.5): the torque noise PSD is ``q = (tr(J)/3 · σ_a)²``; it models what
+        the known torque leaves out.
+    references, measurement : optional
+        As :class:`omegahat.observer.estimator.SarrasEstimator`.
+    omega_hat0 : array_like, optional
+        The initial rate estimate (default 0); ``warm_start`` takes it from the first two samples instead.
+    omega_hat0_noise : float, optional
+        The RMS error of ``omega_hat0`` (rad/s, of the 3-vector): the EKF's rate prior at its first start
+        (default: the observer's stationary noise, as at every restart). A rate fitted over a window of the log
+        is known far better than the observer's noise: without it the EKF would start as if from scratch.
+    r_hat0 : array_like, optional
+        The observer's initial filtered directions (default: the first measurement); the EKF always starts from a
+        measured attitude.
+    warm_start : bool, optional
+        Default: on unless ``omega_hat0`` or ``r_hat0`` is given (as the observer's).
+    torque_hold : {"zero", "linear"}, optional
+        ``"zero"`` (default) or ``"linear"``, for both parts (as the observer's).
+    observer_bandwidth : float, optional
+        The observer's isotropic rate per hertz of sample rate (default 1: the observer's error halves every
+        sample).
+    disturbance_noise, sigma_accel0 : float, optional
+        For a body whose torque (or inertia) is not fully known: None (default) or σ_d (rad/s^2.5); the EKF then
+        also estimates the unknown angular acceleration ``a`` (the torque ``J a`` the model lacks), a random walk
+        of PSD ``σ_d²``, prior standard deviation ``sigma_accel0`` (rad/s², default 1), so that it predicts with
+        it between samples instead of holding the modelled motion (``docs/theory/supervised.md``).
+    scalar_first, rotation_tol, quat_norm_tol, min_angle_deg, max_substep_angle : optional
+        As :class:`omegahat.observer.estimator.SarrasEstimator`.
+    nis_window, nis_max, disagreement_factor, disagreement_samples : optional
+        The supervisor's constants (S1)–(S3): the NIS average's window ``1/α`` (samples, at least 1), ``ν_max``,
+        ``κ`` and ``c_max``.
+    disagreement_yardstick : {"either", "observer"}, optional
+        ``"either"`` (default): (S2) measures the disagreement against the larger of the EKF's own spread and the
+        observer's noise; ``"observer"``: against the observer's noise alone, so that an EKF whose covariance
+        grew with its own divergence (after a long gap in a fast turn) is still caught.
+
+    Raises
+    ------
+    ValueError
+        If an argument is out of range (as the observer's, or ``nis_window`` below 1).
+
+    Examples
+    --------
+    Noisy attitudes (1 mrad per axis) of a body turning at a constant rate (J = I), 100 Hz:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import SupervisedKalmanEstimator
+    >>> w = np.array([0.3, -0.2, 0.5])  # rad/s, body axes
+    >>> t = np.arange(0.0, 5.0, 0.01)
+    >>> noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))
+    >>> q = (Rotation.from_rotvec(np.outer(t, w)) * noise).as_quat()
+    >>> est = SupervisedKalmanEstimator(np.eye(3), rate_hz=100.0, measurement_noise=1e-3)
+    >>> omega = est.run(t, q).omega
+    >>> print(" ".join(f"{x:.3f}" for x in omega[-1]))
+    0.300 -0.200 0.500
+    >>> est.restarts, bool(est.last_source[-1])  # never restarted; the output is the EKF's
+    (0, True)
+    >>> print(f"mean NIS {est.mean_nis:.1f}")  # about 1: the noise model fits
+    mean NIS 1.0
     """
 
     def __init__(

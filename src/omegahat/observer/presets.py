@@ -30,10 +30,22 @@ filter's output at 1 mrad is smoothed (at 100 Hz: 0.21 rad/s RMS against raw dif
 the second differences measure the motion more than the noise (0.005–0.018 rad on BROAD at 10 Hz), so (P2)
 keeps its fixed ``σ_m``.
 
-**Supervision.** The supervisor's consistency tests (innovation NIS, disagreement with the observer) are switched
-off (thresholds 1e6): a hand is not the model, its innovations are never white, and the tests would restart the
-EKF every few samples (measured: 3–5× the error at 29 Hz). What remains of the supervisor: the EKF starts from
-the observer's estimate and is restarted from it if its state stops being finite.
+**Supervision.** The supervisor's innovation test is switched off (threshold 1e6): a hand is not the model, its
+innovations are never white, and the test would restart the EKF every few samples (measured: 3–5× the error at
+29 Hz). Its divergence test (S2) stays, measured in the motion's scale as the identified default's
+(:mod:`omegahat.identification`): given backward differencing's expected error ``e_d`` on the log (D1,
+:func:`log_differencing_error`), σ_m, σ_a and σ_d are multiplied by one factor ``s``, which leaves the filter's
+gains as they are (they depend on the ratios) and puts the observer's noise, the test's yardstick, in the motion's
+scale; the EKF is restarted (with its acceleration at zero) when it leaves the observer by
+:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR` times that noise for three samples::
+
+    s = max(1, e_d h / (√6 σ_m))                                                                        (P5)
+
+Without it, an EKF that diverged after an optical gap stayed diverged (up to 1e7 rad/s written as corrected on
+BROAD trials 28 and 29 at 286 Hz, 100–700 times differencing's error on trials 08 and 28 at 29 Hz); with it the
+same logs score 0.64–1.05 times differencing's error, and the logs it never fired on are unchanged
+(``docs/theory/mocap.md``). Without ``differencing_rms`` (:func:`mocap_estimator` sample by sample, where the log
+is not known ahead) only a state that stops being finite restarts the EKF.
 
 **Smoothing** (:func:`smooth`): the same estimator run forward, and again on the log reversed in time (where the
 body rate is ``−ω``); each pass is moved by the filter's own lag ``d`` (:func:`filter_lag`: the steady delay of
@@ -50,6 +62,7 @@ equal.
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass
 from typing import Literal, TypeAlias, get_args
@@ -72,7 +85,8 @@ from omegahat.interface import (
 )
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SkippedSamplesWarning
-from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.observer.kalman import DIVERGENCE_FACTOR, SupervisedKalmanEstimator
+from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_positive
 
 __all__ = [
@@ -86,6 +100,7 @@ __all__ = [
     "attitude_noise",
     "estimator_for",
     "filter_lag",
+    "log_differencing_error",
     "mocap_estimator",
     "mocap_model",
     "rate_variance_after_start",
@@ -154,27 +169,90 @@ def mocap_model(rate_hz: float, measurement_noise: float | None = None) -> Mocap
 
 
 def mocap_estimator(
-    rate_hz: float, measurement_noise: float | None = None, **options: object
+    rate_hz: float, measurement_noise: float | None = None, *, differencing_rms: float | None = None, **options: object
 ) -> SupervisedKalmanEstimator:
-    """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``measurement_noise`` (σ̂; module
-    docstring). ``options`` go to :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input
-    tolerances, ...)."""
-    return estimator_for(mocap_model(rate_hz, measurement_noise), **options)
+    """The preset's estimator for a log sampled at ``rate_hz`` with attitude noise ``measurement_noise``.
+
+    (P1) at and above 80 Hz, (P2) below (module docstring), run by
+    :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` with J = I, τ = 0 and the supervisor's consistency
+    tests off. It is causal; :func:`smooth` is the offline, zero-lag estimate.
+
+    Parameters
+    ----------
+    rate_hz : float
+        The log's sample rate (Hz).
+    measurement_noise : float, optional
+        The log's attitude noise σ̂ (rad per axis; None: motion-capture grade, 1e-4 rad or less).
+    differencing_rms : float, optional
+        Backward differencing's expected RMS error on the log (rad/s, (D1) of
+        :func:`~omegahat.observer.tuning.differencing_error`; :func:`log_differencing_error` measures it): given,
+        the supervisor restarts a diverged EKF (module docstring, **Supervision**); None: no divergence test, the
+        EKF is restarted only when its state stops being finite.
+    **options
+        Go to :class:`~omegahat.observer.kalman.SupervisedKalmanEstimator` (the start, input tolerances, ...).
+
+    Returns
+    -------
+    SupervisedKalmanEstimator
+        A new estimator (``run`` a log, or ``update`` sample by sample).
+
+    Examples
+    --------
+    A turn at a constant angular acceleration (an unknown torque), sampled at 100 Hz: ``ω(t) = t · axis``.
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import mocap_estimator
+    >>> axis = np.array([0.48, 0.6, 0.64])
+    >>> t = np.arange(0.0, 2.0, 0.01)
+    >>> q = Rotation.from_rotvec(np.outer(0.5 * t**2, axis)).as_quat()
+    >>> est = mocap_estimator(100.0)
+    >>> omega = est.run(t, q).omega
+    >>> print(" ".join(f"{x:.3f}" for x in omega[-1]), "| true:", " ".join(f"{x:.3f}" for x in t[-1] * axis))
+    0.955 1.194 1.274 | true: 0.955 1.194 1.274
+    """
+    return estimator_for(mocap_model(rate_hz, measurement_noise), differencing_rms, **options)
 
 
-def estimator_for(model: MocapModel, **options: object) -> SupervisedKalmanEstimator:
-    """The estimator that runs ``model``: J = I, τ = 0, the supervisor's consistency tests off (module docstring).
+def estimator_for(
+    model: MocapModel, differencing_rms: float | None = None, **options: object
+) -> SupervisedKalmanEstimator:
+    """The estimator that runs ``model``: J = I, τ = 0, the supervisor's innovation test off, its divergence test
+    in the motion's scale when ``differencing_rms`` is given, else off (module docstring, **Supervision**).
     ``benchmarks/mocap_tuning.py`` builds its candidates with it."""
+    scale, divergence = 1.0, dict[str, object](disagreement_factor=_NO_CONSISTENCY_TEST)
+    if differencing_rms is not None:
+        # (P5): σ_m, σ_a, σ_d scaled together leave the filter's gains as they are and put the supervisor's
+        # yardstick (the observer's noise, proportional to σ_m) in the motion's scale
+        scale = max(1.0, differencing_rms / (math.sqrt(6.0) * model.rate_hz * model.measurement_noise))
+        divergence = {"disagreement_factor": DIVERGENCE_FACTOR, "disagreement_yardstick": "observer"}
     return SupervisedKalmanEstimator(
         np.eye(3),
         rate_hz=model.rate_hz,
-        measurement_noise=model.measurement_noise,
-        rate_noise=model.rate_noise,
-        disturbance_noise=model.disturbance_noise,
+        measurement_noise=scale * model.measurement_noise,
+        rate_noise=scale * model.rate_noise,
+        disturbance_noise=None if model.disturbance_noise is None else scale * model.disturbance_noise,
         nis_max=_NO_CONSISTENCY_TEST,
-        disagreement_factor=_NO_CONSISTENCY_TEST,
-        **options,  # type: ignore[arg-type]
+        **(divergence | options),  # type: ignore[arg-type]
     )
+
+
+def log_differencing_error(
+    times: ArrayLike, attitudes: Measurements, measurement_noise: float, **checks: object
+) -> float:
+    """(D1) of :func:`~omegahat.observer.tuning.differencing_error` on a log (``times (T,)``, ``attitudes`` as
+    :func:`smooth` takes them, missing samples skipped; ``checks``: ``scalar_first``, ``rotation_tol``,
+    ``quat_norm_tol``) with attitude noise ``measurement_noise``: the motion scale the preset's supervisor is
+    measured in. Steps that are not one sample spacing (across a gap) are left out."""
+    log = ms.checked_log(times, attitudes, **checks)  # type: ignore[arg-type]
+    t, R = log.times[log.valid], log.values[log.valid]
+    if t.size < 3:
+        return 0.0
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    steps = (Rotation.from_matrix(R[:-1]).inv() * Rotation.from_matrix(R[1:])).as_rotvec()
+    steps[np.abs(dt / h - 1.0) > 0.05] = np.nan
+    return differencing_error(steps, h, measurement_noise)
 
 
 def smooth(
@@ -187,10 +265,57 @@ def smooth(
 ) -> np.ndarray:
     """Zero-lag ω̂ ``(T, 3)`` (rad/s, body axes) at every sample of a whole log, by (P3).
 
-    ``attitudes``: matrices, quaternions (``scalar_first`` in ``options``) or a ``Rotation``, body → inertial;
-    ``rate_hz``: the sample rate (default: from the median spacing); ``measurement_noise``: the log's attitude
-    noise σ̂ (rad per axis; default: measured, :func:`attitude_noise`). The log is checked once, as every estimator
-    checks it (:func:`omegahat.measurements.checked_log`)."""
+    The preset's estimator (:func:`mocap_estimator`) runs forward and backward in time; the two passes, shifted by
+    the filter's lag, are averaged with the weights (P4) (module docstring). The log is checked once, as every
+    estimator checks it (:func:`omegahat.measurements.checked_log`); missing samples are bridged.
+
+    Parameters
+    ----------
+    times : array_like
+        The sample times ``(T,)`` (s), increasing; at least 3 samples.
+    attitudes : array_like or scipy.spatial.transform.Rotation
+        Matrices, quaternions (``scalar_first`` in ``options``) or a ``Rotation``, body → inertial.
+    rate_hz : float, optional
+        The sample rate (default: from the median spacing).
+    preset : {"mocap"}, optional
+        The preset (the only one: ``"mocap"``).
+    measurement_noise : float, optional
+        The log's attitude noise σ̂ (rad per axis; default: measured, :func:`attitude_noise`).
+    **options
+        ``scalar_first``, ``rotation_tol``, ``quat_norm_tol`` for the input checks; the rest go to
+        :func:`mocap_estimator`.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(T, 3)``: ω̂ at every sample (rad/s, body axes; NaN where neither pass has an estimate).
+
+    Raises
+    ------
+    ValueError
+        If the log has fewer than 3 samples, or the preset is unknown.
+
+    Examples
+    --------
+    At 50 Hz the causal filter (P2) lags a turn at constant angular acceleration (``ω(t) = t · axis``); the
+    smoothed estimate does not:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import mocap_estimator, smooth
+    >>> axis = np.array([0.48, 0.6, 0.64])
+    >>> t = np.arange(0.0, 2.0, 0.02)
+    >>> q = Rotation.from_rotvec(np.outer(0.5 * t**2, axis)).as_quat()
+    >>> causal = mocap_estimator(50.0).run(t, q).omega
+    >>> smoothed = smooth(t, q)
+    >>> smoothed.shape
+    (100, 3)
+    >>> for name, omega in (("causal", causal), ("smoothed", smoothed), ("true", t[:, None] * axis)):
+    ...     print(f"{name:8} at t = {t[50]:.1f} s:", " ".join(f"{x:.3f}" for x in omega[50]))
+    causal   at t = 1.0 s: 0.477 0.596 0.636
+    smoothed at t = 1.0 s: 0.480 0.600 0.640
+    true     at t = 1.0 s: 0.480 0.600 0.640
+    """
     one_of("preset", preset, Preset)
     checks = {k: options.pop(k) for k in ("scalar_first", "rotation_tol", "quat_norm_tol") if k in options}
     log = ms.checked_log(times, attitudes, **checks)  # type: ignore[arg-type]
@@ -201,10 +326,13 @@ def smooth(
         rate_hz = 1.0 / float(np.median(np.diff(t)))
     if measurement_noise is None:
         measurement_noise = attitude_noise(t, R)
+    if "differencing_rms" not in options:
+        options["differencing_rms"] = log_differencing_error(t, R, measurement_noise)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SkippedSamplesWarning)  # missing samples: the caller counts them
-        forward = mocap_estimator(rate_hz, measurement_noise, **options).run(t, R).omega
-        backward = -mocap_estimator(rate_hz, measurement_noise, **options).run(t[-1] - t[::-1], R[::-1]).omega[::-1]
+        passes = [mocap_estimator(rate_hz, measurement_noise, **options) for _ in "fb"]  # type: ignore[arg-type]
+        forward = passes[0].run(t, R).omega
+        backward = -passes[1].run(t[-1] - t[::-1], R[::-1]).omega[::-1]
     d = filter_lag(rate_hz, measurement_noise)
     if d > 0:
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
@@ -289,21 +417,55 @@ class MocapPreset(StreamingEstimator):
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at every sample; from a fresh state without ``measurement_noise``, an estimator for the log's
         measured noise (``torque`` not used)."""
-        if self.measurement_noise is None and self._fresh:
-            self.estimator = mocap_estimator(self.rate_hz, attitude_noise(t, data), **self.options)
+        if self._fresh and (self.measurement_noise is None or "differencing_rms" not in self.options):
+            sigma = attitude_noise(t, data) if self.measurement_noise is None else self.measurement_noise
+            options = dict(self.options)
+            if "differencing_rms" not in options:
+                checks = {k: v for k, v in options.items() if k in ("scalar_first", "rotation_tol", "quat_norm_tol")}
+                options["differencing_rms"] = log_differencing_error(t, data, sigma, **checks)
+            self.estimator = mocap_estimator(self.rate_hz, sigma, **options)  # type: ignore[arg-type]
         self._fresh = False
         return self.estimator.run(t, data)
 
     def reset(self) -> None:
         """Back to a new estimator (nothing seen)."""
-        self.estimator = mocap_estimator(self.rate_hz, self.measurement_noise, **self.options)
+        self.estimator = mocap_estimator(self.rate_hz, self.measurement_noise, **self.options)  # type: ignore[arg-type]
         self._fresh = True
 
 
 class MocapSmoother(Estimator):
-    """:func:`smooth` behind the estimator contract: offline only (``run``), ``causal = False``; ``rate_hz`` and
-    ``measurement_noise`` (keyword-only) as there (None: from the log), and the input checks of
-    :mod:`omegahat.measurements`. A missing sample is bridged by both passes (status ``predicted``)."""
+    """:func:`smooth` behind the estimator contract: offline only (``run``), ``causal = False``.
+
+    ``run(t, data)`` returns an :class:`~omegahat.interface.Estimate`: the zero-lag ω̂ of :func:`smooth` and a
+    status per sample; a missing sample is bridged by both passes (status ``predicted``) and counted in
+    ``n_skipped``. The torque is not used: the preset is for unknown ones.
+
+    Parameters
+    ----------
+    rate_hz : float, optional
+        The sample rate (Hz; None: from the log, as :func:`smooth`).
+    measurement_noise : float, optional
+        The log's attitude noise σ̂ (rad per axis; None: measured on the log, as :func:`smooth`).
+    scalar_first : bool, optional
+        Quaternion order (default False: SciPy's ``(x, y, z, w)``).
+    rotation_tol, quat_norm_tol : float, optional
+        The input checks of :mod:`omegahat.measurements`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import MocapSmoother
+    >>> from omegahat.interface import Status
+    >>> axis = np.array([0.48, 0.6, 0.64])
+    >>> t = np.arange(0.0, 2.0, 0.01)
+    >>> q = Rotation.from_rotvec(np.outer(0.5 * t**2, axis)).as_quat()  # ω(t) = t · axis
+    >>> q[100] = np.nan  # a missing sample
+    >>> smoother = MocapSmoother()
+    >>> est = smoother.run(t, q)
+    >>> print(" ".join(f"{x:.3f}" for x in est.omega[100]), Status(est.status[100]).name, smoother.n_skipped)
+    0.480 0.600 0.640 PREDICTED 1
+    """
 
     causal = False
 

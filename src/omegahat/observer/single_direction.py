@@ -94,7 +94,26 @@ SUBSTEP_RATE = 0.5  #: rate · substep: RK4 is accurate to ~3e-4 per substep the
 
 
 class LostExcitationWarning(UserWarning):
-    """The measured direction stayed (nearly) fixed in the body: the rate about it cannot be estimated."""
+    """The measured direction stayed (nearly) fixed in the body: the rate about it cannot be estimated.
+
+    Examples
+    --------
+    A spin about the measured direction (b does not move in the body; window about 1 s):
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from omegahat import LostExcitationWarning, SingleDirectionEstimator
+    >>> t = np.arange(0.0, 5.0, 0.05)
+    >>> b = np.tile([0.0, 0.0, 1.0], (t.size, 1))
+    >>> est = SingleDirectionEstimator(np.eye(3), window_s=0.99)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = est.run(t, b)
+    >>> caught[0].category is LostExcitationWarning, int(est.unobservable.sum())  # from t = 1 s on
+    (True, 80)
+    >>> print(f"weak axis . b = {est.weak_axis[-1] @ b[-1]:.3f}")  # the unobservable axis: b itself
+    weak axis . b = 1.000
+    """
 
 
 def _inv(J: np.ndarray) -> np.ndarray:
@@ -330,21 +349,50 @@ def excitation(
 class SingleDirectionEstimator(StreamingEstimator):
     """ω from one measured direction ``b = Rᵀ v``: the Sarras-type observer (default) or the gradient one.
 
-    ``J`` the inertia (as ``omegahat.RigidBody``; the identity means "a constant rate"; the one positional
-    argument), and keyword-only: ``reference`` the inertial direction ``v`` (only its being one direction matters
-    to the observer; it is kept for the caller), ``method`` ``"sarras"`` or ``"gradient"``, gains ``k``, ``l`` or a
-    ``bandwidth_hz`` (Hz, :func:`default_gains`; default :data:`DEFAULT_BANDWIDTH_HZ`), ``omega_hat0`` (default 0;
-    given, it is the estimate at the first valid sample, else there is none there), ``r_hat0`` (default the first
-    sample), ``window_s`` and ``threshold`` of the excitation monitor, ``sign`` of the output map (−1: the paper's
-    misprint, for tests only).
-
     Samples ``(3,)`` (``run``: ``(T, 3)``; or ``(1, 3)`` and ``(T, 1, 3)``) go through the one input path
     (:mod:`omegahat.measurements`: a zero direction, a time not after the previous one, a non-finite torque are
     refused and change nothing; a NaN or inf makes the sample missing: predicted along the estimate, status
-    ``predicted``). :meth:`run` and :meth:`update`
-    set ``excitation`` (λ_min of the windowed Gramian per sample of the call), ``weak_axis`` and ``unobservable``
-    (bool per sample); ``run`` warns :class:`LostExcitationWarning` when some samples are unobservable. Successive
-    calls continue from the last state.
+    ``predicted``). :meth:`run` and :meth:`update` set ``excitation`` (λ_min of the windowed Gramian per sample of
+    the call), ``weak_axis`` and ``unobservable`` (bool per sample); ``run`` warns :class:`LostExcitationWarning`
+    when some samples are unobservable. Successive calls continue from the last state.
+
+    Parameters
+    ----------
+    J : array_like
+        The inertia (as ``omegahat.RigidBody``; the identity means "a constant rate"); the one positional argument.
+    reference : array_like, optional
+        The inertial direction ``v`` (only its being one direction matters to the observer; it is kept for the
+        caller). Default ``(0, 0, 1)``.
+    method : {"sarras", "gradient"}, optional
+        The observer (D2)–(D4) or the gradient one (D6).
+    k, l : float, optional
+        The gains (both or neither; default from ``bandwidth_hz``, :func:`default_gains`).
+    bandwidth_hz : float, optional
+        Sets ``k`` and ``l`` when they are not given (Hz; default :data:`DEFAULT_BANDWIDTH_HZ`, 0.5 rad/s).
+    omega_hat0 : array_like, optional
+        The initial estimate (default 0; given, it is the estimate at the first valid sample, else there is none
+        there).
+    r_hat0 : array_like, optional
+        The initial r̂ (or b̂); default the first sample.
+    window_s, threshold : float, optional
+        The excitation monitor's window T (s, default 10) and threshold on ``λ_min(G_k)`` (default 1e-3).
+    sign : float, optional
+        Sign of the output map (−1: the paper's misprint, for tests only).
+
+    Examples
+    --------
+    A constant rate (J = I) seen through one direction at 20 Hz; b sweeps a cone, so (PE) holds:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import SingleDirectionEstimator
+    >>> w, v = np.array([0.5, 0.5, 0.5]), np.array([0.0, 0.0, 1.0])
+    >>> t = np.arange(0.0, 40.0, 0.05)
+    >>> b = Rotation.from_rotvec(np.outer(t, w)).inv().apply(v)  # b = Rᵀ v
+    >>> est = SingleDirectionEstimator(np.eye(3), reference=v)
+    >>> omega = est.run(t, b).omega
+    >>> print(" ".join(f"{x:.3f}" for x in omega[-1]), bool(est.unobservable.any()))
+    0.500 0.500 0.500 False
     """
 
     def __init__(

@@ -17,6 +17,7 @@ stationary noise level (rad/s, from the gain design)::
     c ← c + 1 if d > max(κ s, κ σ_obs) else 0       (S2, persistent disagreement with the observer)
     lost = ν̄ > ν_max  or  c ≥ c_max  or  the EKF's state (R̂, ω̂, â, P) not finite                            (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
+    lost by (S2) or not finite ⇒  also â ← 0 (an unknown acceleration the EKF carries; lost by ν̄ it is kept)
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -124,15 +125,18 @@ def _covariance(xe, pe):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _reinitialise(xe, pe, w_obs, R_meas, sigma_w):
-    """(S4): the EKF restarted from the observer's rate (its error's RMS ``sigma_w``) and the measured attitude (an
-    unknown acceleration it carries keeps its estimate, with its prior variance again)."""
+def _reinitialise(xe, pe, w_obs, R_meas, sigma_w, keep_accel):
+    """(S4): the EKF restarted from the observer's rate (its error's RMS ``sigma_w``) and the measured attitude. An
+    unknown acceleration it carries keeps its estimate, with its prior variance again, when ``keep_accel`` (the
+    filter was lost by its innovations: the torque it has learnt is still the best guess), and returns to its prior
+    mean, zero, when not (the filter's rate left the observer's (S2): the acceleration that drove it away is as
+    wrong as the rate, and kept it would drive the restarted filter away again)."""
     R = xe[EKF_STATE.R : EKF_STATE.R + 9].reshape(3, 3)
     for a in range(3):  # element loops, not slice assignments: those compile a shape check and its message
         xe[EKF_STATE.omega + a] = w_obs[a]
         for b in range(3):
             R[a, b] = R_meas[a, b]
-    if not checks.all_finite(xe[EKF_STATE.accel : EKF_STATE.accel + 3]):  # a diverged estimate is not kept
+    if not keep_accel or not checks.all_finite(xe[EKF_STATE.accel : EKF_STATE.accel + 3]):
         xe[EKF_STATE.accel : EKF_STATE.accel + 3] = 0.0
     P = _covariance(xe, pe)
     P[:, :] = 0.0
@@ -212,11 +216,12 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     if not started or warm_started:  # the first fix, or the observer's warm start: the EKF starts from it
         if math.isfinite(w_obs[0]):  # not while the observer restarts (NaN until its warm start)
             first = xe[EKF_STATE.resets] == 0.0 and pe[EKF_PARAMS.sigma_start] > 0.0  # a given start's own σ
-            _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_start if first else EKF_PARAMS.sigma_obs])
+            sigma = pe[EKF_PARAMS.sigma_start if first else EKF_PARAMS.sigma_obs]
+            _reinitialise(xe_out, pe, w_obs, R_meas, sigma, True)
             xe_out[EKF_STATE.started] = 1.0
         return status, info, w_obs
     if not finite:  # (S3) for a propagation that could not be taken: restarted from the observer (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs])
+        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs], False)
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     if kind == checks.KIND_DIRECTIONS:
@@ -241,7 +246,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         or not ekf_finite(R, w, a, P)
     )  # (S3)
     if lost:  # (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs])
+        diverged = disagree >= pe[EKF_PARAMS.disagree_max] or not ekf_finite(R, w, a, P)
+        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs], not diverged)
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     xe_out[EKF_STATE.nis_avg] = nis_avg
