@@ -33,6 +33,7 @@ PACKAGE_PAGES = {
     "omegahat.lab.control": "control",
     "omegahat.lab.evaluation": "evaluation",
     "omegahat.io": "io",
+    "omegahat.identification": "identification",
     "omegahat.so3": "so3",
     "omegahat.measurements": "measurements",
 }

@@ -186,19 +186,54 @@ def lowpass(x: ArrayLike, times: ArrayLike, cutoff_hz: float) -> np.ndarray:
 class DifferencingEstimator(StreamingEstimator):
     """Log-map differencing of attitudes (D1 or D2), optionally followed by the causal low-pass (LP).
 
-    Parameters (keyword-only)
-    -------------------------
-    scheme : ``"backward"`` (causal) or ``"central"`` (one sample of delay: ``update`` returns ω̂ for the
-        previous sample time, see the module docstring).
-    cutoff_hz : cut-off of the first-order low-pass in Hz, or ``None`` for raw differences.
-    scalar_first, rotation_tol, quat_norm_tol : quaternion order and the tolerances of the input checks
-        (:mod:`omegahat.measurements`, the same for every estimator).
-    omega_hat0 : backward only: the rate at the first valid sample (rad/s, body axes; a rate known otherwise, such
-        as ``omegahat estimate``'s least-squares start), which has no difference yet; default: none (NaN there).
-
+    The equations, the delay of each scheme and the handling of non-finite samples are in the module docstring.
     Statuses: ``unavailable`` until two (backward) or three (central) valid samples, ``predicted`` at a skipped
     sample (the last estimate held), ``corrected`` elsewhere. Attributes after ``update``: ``estimate_time`` (the
-    time the returned ω̂ is for), ``n_skipped`` (non-finite samples skipped so far).
+    time the returned ω̂ is for), ``n_skipped`` (non-finite samples skipped so far). The parameters are keyword-only.
+
+    Parameters
+    ----------
+    scheme : {"backward", "central"}, optional
+        ``"backward"`` (default; (D1), causal) or ``"central"`` ((D2); one sample of delay: ``update`` returns ω̂
+        for the previous sample time, see the module docstring).
+    cutoff_hz : float or None, optional
+        Cut-off of the first-order low-pass (LP) in Hz, or ``None`` (default) for raw differences.
+    scalar_first, rotation_tol, quat_norm_tol : optional
+        Quaternion order and the tolerances of the input checks (:mod:`omegahat.measurements`, the same for every
+        estimator).
+    omega_hat0 : array_like, optional
+        Backward only: the rate at the first valid sample (rad/s, body axes; a rate known otherwise, such as
+        ``omegahat estimate``'s least-squares start), which has no difference yet; default: none (NaN there).
+
+    Raises
+    ------
+    ValueError
+        If ``scheme`` is unknown, ``cutoff_hz`` is not a positive finite frequency, or ``omega_hat0`` is given
+        with the central scheme.
+
+    Examples
+    --------
+    A body turning at a constant rate, sampled at 100 Hz (quaternions, scalar last):
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import DifferencingEstimator
+    >>> w = np.array([0.3, -0.2, 0.5])  # rad/s, body axes
+    >>> t = np.arange(0.0, 1.0, 0.01)
+    >>> q = Rotation.from_rotvec(np.outer(t, w)).as_quat()
+    >>> est = DifferencingEstimator().run(t, q)
+    >>> print(" ".join(f"{x:.3f}" for x in est.omega[-1]))
+    0.300 -0.200 0.500
+    >>> bool(np.isnan(est.omega[0]).all())  # the first sample has no difference yet
+    True
+
+    The central scheme, sample by sample: the third sample gives ω̂ for the second one's time.
+
+    >>> central = DifferencingEstimator(scheme="central")
+    >>> for k in range(3):
+    ...     out = central.update(t[k], q[k])
+    >>> print(f"t = {central.estimate_time:.2f} s:", " ".join(f"{x:.3f}" for x in out.omega))
+    t = 0.01 s: 0.300 -0.200 0.500
     """
 
     def __init__(

@@ -281,34 +281,57 @@ def _finite(R: np.ndarray | None, x: np.ndarray, P: np.ndarray) -> bool:
 class MEKF(CompiledEstimator):
     """The gyro-less MEKF of the module docstring behind the estimator contract.
 
-    Parameters
-    ----------
-    J : inertia (3 numbers, 9 numbers or 3×3); needed by the dynamic model, ignored by the kinematic one; the one
-        positional argument.
-    model : ``"dynamic"`` (J and τ known; q is the torque-noise PSD, N²·m²·s) or ``"kinematic"`` (ω̇ white
-        noise; q in rad²/s³).
-    q : process-noise PSD (the filter's one tuning knob).
-    measurement_noise : the attitude noise (rad, one standard deviation per axis), or that of each direction
-        component.
-    references : ``None`` for attitude measurements, else the known inertial directions ``(n, 3)``; samples
-        are then body-frame measurements ``(n, 3)``.
-    omega_hat0, sigma_omega0 : initial rate estimate (rad/s; default 0, and then no estimate at the first fix) and
-        its standard deviation.
-    R0, sigma_theta0 : initial attitude (``None``: the first valid measurement) and its standard deviation
-        (rad; default ``measurement_noise`` for attitude fixes, 0.1 rad for directions).
-    max_step, max_angle : bounds on a propagation substep, s (default: none) and rad (the body's turn).
-    torque_hold : ``"zero"`` (default: a sample's torque held until the next) or ``"linear"`` (interpolated to the
-        next sample's torque; causal, as the next torque arrives with the next sample).
-    disturbance_noise, sigma_accel0 : None (default) or σ_d (rad/s^2.5): the state then carries an unknown angular
-        acceleration ``a`` (the torque ``J a`` the model lacks: a disturbance, or an inertia error's effect), a
-        random walk of PSD ``σ_d²`` started at 0 with standard deviation ``sigma_accel0`` (rad/s²): (K5) of
-        :mod:`omegahat.kernels.ekf`. ``accel`` holds its estimate.
-    scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`
-        (the same for every estimator; ``R0`` is checked with the same tolerances).
-
     :meth:`update` runs the NumPy functions above (the oracle), :meth:`run` their compiled twin
     (:mod:`omegahat.baselines.mekf_kernel`); conversion, refusal, counting and statuses are the compiled
     estimators' shared base (:class:`omegahat.observer.compiled.CompiledEstimator`).
+
+    Parameters
+    ----------
+    J : array_like, optional
+        Inertia (3 numbers, 9 numbers or 3×3); needed by the dynamic model, ignored by the kinematic one; the one
+        positional argument (the others are keyword-only).
+    model : {"dynamic", "kinematic"}, optional
+        ``"dynamic"`` (J and τ known; q is the torque-noise PSD, N²·m²·s) or ``"kinematic"`` (ω̇ white noise; q in
+        rad²/s³).
+    q : float, optional
+        Process-noise PSD (the filter's one tuning knob).
+    measurement_noise : float, optional
+        The attitude noise (rad, one standard deviation per axis), or that of each direction component.
+    references : array_like, optional
+        ``None`` for attitude measurements, else the known inertial directions ``(n, 3)``; samples are then
+        body-frame measurements ``(n, 3)``.
+    omega_hat0, sigma_omega0 : optional
+        Initial rate estimate (rad/s; default 0, and then no estimate at the first fix) and its standard deviation.
+    R0, sigma_theta0 : optional
+        Initial attitude (``None``: the first valid measurement) and its standard deviation (rad; default
+        ``measurement_noise`` for attitude fixes, 0.1 rad for directions).
+    max_step, max_angle : float, optional
+        Bounds on a propagation substep, s (default: none) and rad (the body's turn).
+    torque_hold : {"zero", "linear"}, optional
+        ``"zero"`` (default: a sample's torque held until the next) or ``"linear"`` (interpolated to the next
+        sample's torque; causal, as the next torque arrives with the next sample).
+    disturbance_noise, sigma_accel0 : optional
+        None (default) or σ_d (rad/s^2.5): the state then carries an unknown angular acceleration ``a`` (the torque
+        ``J a`` the model lacks: a disturbance, or an inertia error's effect), a random walk of PSD ``σ_d²`` started
+        at 0 with standard deviation ``sigma_accel0`` (rad/s²): (K5) of :mod:`omegahat.kernels.ekf`. ``accel``
+        holds its estimate.
+    scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : optional
+        The input checks of :mod:`omegahat.measurements` (the same for every estimator; ``R0`` is checked with the
+        same tolerances).
+
+    Examples
+    --------
+    Noisy attitudes (1 mrad per axis) of a body turning at a constant rate, 100 Hz, no inertia known:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import MEKF
+    >>> w, t = np.array([0.3, -0.2, 0.5]), np.arange(0.0, 2.0, 0.01)  # rad/s (body axes), s
+    >>> noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))
+    >>> q = (Rotation.from_rotvec(np.outer(t, w)) * noise).as_quat()
+    >>> est = MEKF(model="kinematic", measurement_noise=1e-3).run(t, q)
+    >>> print(" ".join(f"{x:.2f}" for x in est.omega[-1]))
+    0.30 -0.20 0.50
     """
 
     def __init__(

@@ -19,7 +19,7 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    steady-state Kalman filter's ``√(tr P_ωω)`` for the model's per-axis linear dynamics at the median spacing (the
    discrete algebraic Riccati equation, ``scipy.linalg.solve_discrete_are``); backward differencing's is its noise
    ``√6 σ / h`` with the motion's share over half a sample, ``√(max(0, E|Δū|² − 18 σ²/h²)) / 2`` (``ū_k`` the
-   differenced rates, ``Δ`` between consecutive ones).
+   differenced rates, ``Δ`` between consecutive ones; (D1), :func:`omegahat.observer.tuning.differencing_error`).
 5. **The estimator.** The chosen model's filter (the observer supervising its gyro-less EKF) runs when the log
    supports it; otherwise backward differencing — the fast limit of the rate model, and the estimate a filter only
    adds extrapolation to when the log shows no noise to remove. The model runs unless (a) its innovations at the
@@ -30,7 +30,8 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    recordings (BROAD at 286, 29 and 9.5 Hz) every time it won the likelihood it lost to differencing in the fair
    score (1.01–2.4×; its fast limit is a three-point extrapolation, ``docs/theory/identification.md``). Direction
    logs always run the model's filter (differencing takes attitudes). Without J the supervisor's innovation test is
-   off and its divergence test loose (:data:`DIVERGENCE_FACTOR`): a hand never gives white innovations.
+   off and its divergence test loose (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, and the rotation's
+   Nyquist bound): a hand never gives white innovations.
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ from omegahat.identification.likelihood import (
     noise_intensity,
 )
 from omegahat.identification.noise import quiet_noise
-from omegahat.observer.kalman import SupervisedKalmanEstimator
+from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
+from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
 
 __all__ = ["MIN_SAMPLES", "Candidate", "Identification", "identify", "steady_rate_error"]
@@ -66,15 +68,52 @@ MIN_SAMPLES = 20  #: valid samples below which no model is identified (two param
 MISFIT_MAX = 10.0  #: a model whose innovations exceed the identified noise's by more has lost track (step 5)
 GAIN_REQUIRED = 0.9  #: the model runs only if it predicts at most this fraction of differencing's error (step 5)
 SIGMA_FLOOR = 1e-9  #: rad: below any real sensor (float32 quaternions carry ~6e-8)
-DIVERGENCE_FACTOR = 50.0  #: without J: restart the EKF when it leaves the observer by 50 times the observer's noise
 _QUIET_RATE = 1e-6  # a second-order model's rate noise, relative: the acceleration state carries the motion
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 @dataclass(frozen=True)
 class Candidate:
-    """One model at its maximum likelihood: ``tracking_index`` Λ, ``sigma`` (rad), ``log_likelihood`` ℓ,
-    ``bic``, ``noise`` the process noise's PSD ``q`` of (L2), ``at_fast_limit`` when Λ is the grid's top."""
+    """One model at its maximum likelihood (module docstring, step 2): an entry of :class:`Identification`.
+
+    Parameters
+    ----------
+    model : str
+        The model's name, one of :data:`~omegahat.identification.likelihood.MODELS`.
+    tracking_index : float
+        Λ of (L2) at the maximum.
+    sigma : float
+        The measurement noise σ (rad): ``min(σ̂(Λ), σ_q)``, at least :data:`SIGMA_FLOOR`.
+    log_likelihood : float
+        ℓ of (L3) at ``(Λ, σ)``.
+    bic : float
+        ``−2ℓ + k log d``: the model with the least BIC is chosen.
+    noise : float
+        The process noise's PSD ``q`` of (L2).
+    at_fast_limit : bool
+        Whether Λ is the grid's top (:data:`LAMBDA_MAX`): no noise the model can tell from motion.
+    misfit : float, optional
+        σ̂ of (L3) over ``sigma``: how much larger the innovations are than the noise explains (default 1).
+
+    Examples
+    --------
+    The candidates fitted to a noisy constant-rate log (1 mrad, 100 Hz), and the one that wins:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat.identification import identify
+    >>> t = np.arange(0.0, 3.0, 0.01)  # 100 Hz
+    >>> noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))  # 1 mrad
+    >>> q = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_quat()  # rad/s, body axes
+    >>> ident = identify(t, q, "quaternion")
+    >>> for c in ident.candidates:
+    ...     print(c.model, f"sigma {1e3 * c.sigma:.1f} mrad", c.at_fast_limit)
+    rate sigma 0.9 mrad False
+    acceleration sigma 0.9 mrad False
+    >>> best = min(ident.candidates, key=lambda c: c.bic)
+    >>> best.model, best is ident.chosen
+    ('rate', True)
+    """
 
     model: str
     tracking_index: float
@@ -97,7 +136,51 @@ class Candidate:
 
 @dataclass(frozen=True)
 class Identification:
-    """What :func:`identify` found (module docstring)."""
+    """What :func:`identify` found (module docstring): the model chosen, the expected errors, the estimator to run.
+
+    Parameters
+    ----------
+    rate_hz : float
+        The sample rate, ``1/h`` with ``h`` the median spacing of the valid samples (Hz).
+    noise_bound : float
+        ``σ_q`` of :mod:`omegahat.identification.noise` (rad; step 1), at least :data:`SIGMA_FLOOR`.
+    chosen : Candidate
+        The model of least BIC (step 3; without J among the models other than ``acceleration``).
+    candidates : tuple of Candidate
+        Every model fitted, in the order tried.
+    expected_rms : float
+        The chosen model's expected RMS rate error (rad/s; step 4).
+    differencing_rms : float
+        Backward differencing's expected RMS rate error (rad/s; step 4).
+    J : numpy.ndarray
+        The inertia ``(3, 3)`` (the identity when none was given).
+    use_model : bool, optional
+        Whether the model's filter runs (step 5), else backward differencing.
+    reason : str, optional
+        Why (step 5), in words.
+
+    Examples
+    --------
+    A noisy constant-rate log (1 mrad, 100 Hz): the rate model is chosen and its filter predicts far less error
+    than differencing, so it runs.
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat.identification import identify
+    >>> t = np.arange(0.0, 3.0, 0.01)  # 100 Hz
+    >>> noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))  # 1 mrad
+    >>> q = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_quat()  # rad/s, body axes
+    >>> ident = identify(t, q, "quaternion")
+    >>> print(f"{ident.rate_hz:.0f} Hz, noise at most {1e3 * ident.noise_bound:.1f} mrad")
+    100 Hz, noise at most 0.9 mrad
+    >>> print(f"expected {ident.expected_rms:.1e} rad/s, differencing {ident.differencing_rms:.2f} rad/s")
+    expected 3.6e-04 rad/s, differencing 0.23 rad/s
+    >>> ident.chosen.model, ident.use_model
+    ('rate', True)
+    >>> omega = ident.estimator().run(t, q).omega
+    >>> print(" ".join(f"{x:.2f}" for x in omega[-1]))
+    0.30 -0.20 0.50
+    """
 
     rate_hz: float
     noise_bound: float
@@ -132,6 +215,7 @@ class Identification:
                 "nis_max": 1e6,
                 "disagreement_factor": DIVERGENCE_FACTOR,
                 "disagreement_yardstick": "observer",
+                "max_rate": NYQUIST_RATE * self.rate_hz,
                 **options,
             }
         J = self.J if dynamic else np.eye(3)
@@ -306,10 +390,58 @@ def identify(
     linear_hold: bool = False,
     models: tuple[str, ...] | None = None,
 ) -> Identification:
-    """The model and noises of the log ``t (T,)``, ``data`` — quaternions ``(T, 4)`` (scalar last), rotation
-    matrices ``(T, 3, 3)`` (body → inertial) or directions ``(T, n, 3)`` with ``references (n, 3)`` — with the
-    inertia ``J`` and ``torque (T, 3)`` when known (module docstring). ``models``: the candidates (default: the
-    kinematic ones, and the dynamic ones too when J is given)."""
+    """The model and noises of a log, chosen by the log's own likelihood (module docstring, steps 1–5).
+
+    Parameters
+    ----------
+    t : array_like
+        The sample times ``(T,)`` (s).
+    data : array_like
+        Quaternions ``(T, 4)`` (scalar last), rotation matrices ``(T, 3, 3)`` (body → inertial) or directions
+        ``(T, n, 3)``; rows that are not finite are missing samples.
+    kind : {"quaternion", "matrix", "directions"}
+        Which of these ``data`` holds.
+    J : array_like, optional
+        The inertia, when known (then the dynamic models are candidates too).
+    torque : array_like, optional
+        The known torque ``(T, 3)`` (N·m, body axes), used by the dynamic models.
+    references : array_like, optional
+        The inertial directions ``(n, 3)``: required for directions.
+    linear_hold : bool, optional
+        The torque interpolated between samples in the filter's passes (``torque_hold="linear"``), else held.
+    models : tuple of str, optional
+        The candidates (default: the kinematic ones, and the dynamic ones too when J is given).
+
+    Returns
+    -------
+    Identification
+        Every candidate at its maximum likelihood, the one chosen, the expected errors and the estimator to run.
+
+    Raises
+    ------
+    ValueError
+        With fewer than :data:`MIN_SAMPLES` valid samples, times that do not increase, an unknown model, or when
+        no model could be fitted.
+
+    Examples
+    --------
+    A short noisy log (3 s at 100 Hz, 1 mrad) of a body turning at a constant rate, no inertia known:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat.identification import identify
+    >>> t = np.arange(0.0, 3.0, 0.01)  # 100 Hz
+    >>> noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))  # 1 mrad
+    >>> q = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_quat()  # rad/s, body axes
+    >>> ident = identify(t, q, "quaternion")
+    >>> ident.chosen.model, [c.model for c in ident.candidates]
+    ('rate', ['rate', 'acceleration'])
+    >>> est = ident.estimator()  # the rate model's filter, as ident.use_model says
+    >>> type(est).__name__, ident.use_model
+    ('SupervisedKalmanEstimator', True)
+    >>> print(" ".join(f"{x:.2f}" for x in est.run(t, q).omega[-1]))
+    0.30 -0.20 0.50
+    """
     t = np.asarray(t, dtype=float)
     data = np.asarray(data, dtype=float)
     valid, R = _attitudes(data, kind, references)
@@ -342,9 +474,7 @@ def identify(
     eligible = [c for c in finite if J is not None or c.model != "acceleration"] or finite
     chosen = min(eligible, key=lambda c: c.bic)
     expected = steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
-    du = np.diff(phi, axis=0) / h
-    motion = float(np.nanmean(np.sum(du**2, axis=1))) - 18.0 * chosen.sigma**2 / h**2 if du.size else 0.0
-    differencing = math.sqrt(6.0 * chosen.sigma**2 / h**2 + max(motion, 0.0) / 4.0)
+    differencing = differencing_error(phi, h, chosen.sigma)
     if chosen.misfit > MISFIT_MAX:
         use, why = (
             False,

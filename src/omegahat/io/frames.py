@@ -300,23 +300,85 @@ def estimate_frame(
 ) -> pd.DataFrame | pl.DataFrame:
     """Angular velocity (rad/s, body axes) for every row of a pandas or Polars DataFrame (module docstring).
 
-    Gains, as ``omegahat estimate`` chooses them: automatic by default (from the frame's sample rate, noise and
-    motion: :func:`omegahat.observer.autogain.choose_gains`); or ``bandwidth_hz`` (Hz, below half the sample
-    rate, as ``--bandwidth``); or ``gains`` (an :class:`~omegahat.observer.gains.ObserverGains`, e.g. from
-    :func:`omegahat.observer.tuning.sensor_gains`). ``inertia``: 3 or 9 numbers or 3×3 (default identity, i.e. a
-    locally constant rate); ``references``: the inertial directions (required for ``b1x, ...`` columns; for
-    attitude input the default is the three rows of R). ``time_unit`` (``s``, ``ms``, ``us``, ``ns``) of float
-    times; ``rotation``: ``body-to-inertial`` (default) or ``inertial-to-body``; ``start``: ``fit`` (default: a
-    least-squares rate over the first window), ``warm`` (from the first two samples) or ``zero``;
-    ``skip_bad_samples``: treat samples that are not rotations as missing instead of raising; ``rotation_tol``,
-    ``quat_norm_tol``: the input checks' tolerances (None: :mod:`omegahat.measurements`' defaults); ``columns`` (a
-    column map, as ``--columns``: ``{"t": "Time", "qw": "W", ...}`` or positions) and ``header_rows`` (a
-    ``MultiIndex``'s levels, joined per column): :mod:`omegahat.io.colmap`. ``duplicate_times``: rows at one time
-    whose attitudes differ are refused (``"error"``, the default) or the ``"first"`` or ``"last"`` of them is kept,
-    the others getting its estimate (:mod:`omegahat.io.timestamps`, rule 3), with a warning that counts them.
-    ``verbose``: print what was read and chosen. Samples skipped (missing) are reported with a
-    :class:`~omegahat.observer.estimator.SkippedSamplesWarning`. Errors name these arguments (and carry them:
-    ``exc.options``).
+    The path of ``omegahat estimate``. Gains, as the command chooses them: automatic by default (from the frame's
+    sample rate, noise and motion: :func:`omegahat.observer.autogain.choose_gains`); or ``bandwidth_hz``; or
+    ``gains``. All parameters but ``df`` are keyword-only; errors name them (and carry them: ``exc.options``).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame, polars.DataFrame or polars.LazyFrame
+        One sample per row, the columns of the module docstring (a LazyFrame is collected first).
+    gains : ObserverGains, optional
+        An :class:`~omegahat.observer.gains.ObserverGains`, e.g. from :func:`omegahat.observer.tuning.sensor_gains`.
+    bandwidth_hz : float, optional
+        Hz, below half the sample rate, as ``--bandwidth``.
+    inertia : array_like, optional
+        3 or 9 numbers or 3×3 (default identity, i.e. a locally constant rate).
+    references : array_like, optional
+        The inertial directions (required for ``b1x, ...`` columns; for attitude input the default is the three rows
+        of R).
+    time : str, optional
+        The time column (default ``t``; pandas without one: the index).
+    quaternion : sequence of str, optional
+        The quaternion's four columns, in ``x, y, z, w`` order (default: the columns' own names, module docstring).
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        The unit of float times.
+    rotation : {"body-to-inertial", "inertial-to-body"}, optional
+        What the attitude maps (default ``body-to-inertial``).
+    columns : str or dict, optional
+        A column map, as ``--columns``: ``{"t": "Time", "qw": "W", ...}`` or positions (:mod:`omegahat.io.colmap`).
+    header_rows : int, optional
+        A ``MultiIndex``'s levels, joined per column (:mod:`omegahat.io.colmap`).
+    duplicate_times : {"error", "first", "last"}, optional
+        Rows at one time whose attitudes differ are refused (``"error"``, the default) or the ``"first"`` or
+        ``"last"`` of them is kept, the others getting its estimate (:mod:`omegahat.io.timestamps`, rule 3), with a
+        warning that counts them.
+    start : {"fit", "warm", "zero"}, optional
+        ``fit`` (default: a least-squares rate over the first window), ``warm`` (from the first two samples) or
+        ``zero``.
+    skip_bad_samples : bool, optional
+        Treat samples that are not rotations as missing instead of raising.
+    rotation_tol, quat_norm_tol : float, optional
+        The input checks' tolerances (None: :mod:`omegahat.measurements`' defaults).
+    verbose : bool, optional
+        Print what was read and chosen.
+
+    Returns
+    -------
+    pandas.DataFrame or polars.DataFrame
+        Indexed like the input: columns ``wx, wy, wz`` (rad/s, body axes) and ``status``; for Polars also the time
+        column, when there is one (module docstring).
+
+    Raises
+    ------
+    TypeError
+        If ``df`` is not a pandas or Polars DataFrame (or LazyFrame).
+    LogFormatError
+        If the frame cannot be read as a log, naming the row and column.
+
+    Warns
+    -----
+    SkippedSamplesWarning
+        When samples were skipped (missing): :class:`~omegahat.observer.estimator.SkippedSamplesWarning`.
+
+    Examples
+    --------
+    Noisy quaternions (1 mrad per axis) of a body turning at a constant rate, 100 Hz, in a Polars frame:
+
+    >>> import numpy as np
+    >>> import polars as pl
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import estimate_frame
+    >>> t = np.arange(0.0, 2.0, 0.01)
+    >>> noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))
+    >>> q = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_quat()  # rad/s, body axes
+    >>> df = pl.DataFrame({"t": t, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    >>> out = estimate_frame(df)
+    >>> out.columns
+    ['t', 'wx', 'wy', 'wz', 'status']
+    >>> last = out.row(-1, named=True)
+    >>> print(" ".join(f"{last[c]:.2f}" for c in ("wx", "wy", "wz")), last["status"])
+    0.30 -0.20 0.50 corrected
     """
     from omegahat.io.pipeline import estimate_stream
     from omegahat.io.settings import EstimateSettings

@@ -23,6 +23,7 @@ that the EKF's basin contains the observer's noise ball are *measured* (the robu
 
 from __future__ import annotations
 
+import math
 from typing import Any, Literal, TypeAlias
 
 import numpy as np
@@ -40,7 +41,7 @@ from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
 from omegahat.observer.tuning import isotropic_noise_std
 from omegahat.validation import as_positive
 
-__all__ = ["DIVERGENCE_FACTOR", "SupervisedKalmanEstimator", "Yardstick"]
+__all__ = ["DIVERGENCE_FACTOR", "NYQUIST_RATE", "SupervisedKalmanEstimator", "Yardstick"]
 
 #: what (S2) measures the disagreement against (``disagreement_yardstick``)
 Yardstick: TypeAlias = Literal["either", "observer"]
@@ -49,6 +50,10 @@ Yardstick: TypeAlias = Literal["either", "observer"]
 #: leaves the observer by 50 times the observer's noise in the motion's scale, a divergence, never a model's misfit
 #: (the identified default without J, :mod:`omegahat.identification`, and the mocap preset, :mod:`~.presets`)
 DIVERGENCE_FACTOR = 50.0
+
+#: the rotation's Nyquist bound per hertz of sampling (rad/s per Hz): no attitude log tells a turn of more than π
+#: between samples from the shorter one the other way, so a kinematic filter's rate above it is not an estimate
+NYQUIST_RATE = math.pi
 
 
 class SupervisedKalmanEstimator(CompiledEstimator):
@@ -101,6 +106,10 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         ``"either"`` (default): (S2) measures the disagreement against the larger of the EKF's own spread and the
         observer's noise; ``"observer"``: against the observer's noise alone, so that an EKF whose covariance
         grew with its own divergence (after a long gap in a fast turn) is still caught.
+    max_rate : float, optional
+        ``ω_max`` of (S3) (rad/s; default: no bound): an EKF rate above it is lost at once. Without a dynamic
+        model a rate above ``π × rate_hz`` turns the body more than half a turn between samples, which the
+        attitudes cannot tell from the shorter turn the other way (:data:`NYQUIST_RATE` per hertz).
 
     Raises
     ------
@@ -155,6 +164,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         disagreement_factor: float = 5.0,
         disagreement_samples: int = 3,
         disagreement_yardstick: Yardstick = "either",
+        max_rate: float = math.inf,
     ) -> None:
         self.rate_hz = float(as_positive(rate_hz, "rate_hz")[0])
         self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
@@ -192,6 +202,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
             "sigma_theta": sigma_theta,
             "sigma_obs": self.observer_noise,
             "own_spread": float(one_of("disagreement_yardstick", disagreement_yardstick, Yardstick) == "either"),
+            "max_rate": math.inf if max_rate == math.inf else float(as_positive(max_rate, "max_rate")[0]),
             "sigma_start": 0.0
             if omega_hat0_noise is None or omega_hat0 is None
             else float(as_positive(omega_hat0_noise, "omega_hat0_noise")[0]),

@@ -37,7 +37,8 @@ innovations are never white, and the test would restart the EKF every few sample
 :func:`log_differencing_error`), σ_m, σ_a and σ_d are multiplied by one factor ``s``, which leaves the filter's
 gains as they are (they depend on the ratios) and puts the observer's noise, the test's yardstick, in the motion's
 scale; the EKF is restarted (with its acceleration at zero) when it leaves the observer by
-:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR` times that noise for three samples::
+:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR` times that noise for three samples, or at once when its rate
+is above the rotation's Nyquist bound ``π / h`` (:data:`~omegahat.observer.kalman.NYQUIST_RATE`)::
 
     s = max(1, e_d h / (√6 σ_m))                                                                        (P5)
 
@@ -85,7 +86,7 @@ from omegahat.interface import (
 )
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SkippedSamplesWarning
-from omegahat.observer.kalman import DIVERGENCE_FACTOR, SupervisedKalmanEstimator
+from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_positive
 
@@ -225,7 +226,11 @@ def estimator_for(
         # (P5): σ_m, σ_a, σ_d scaled together leave the filter's gains as they are and put the supervisor's
         # yardstick (the observer's noise, proportional to σ_m) in the motion's scale
         scale = max(1.0, differencing_rms / (math.sqrt(6.0) * model.rate_hz * model.measurement_noise))
-        divergence = {"disagreement_factor": DIVERGENCE_FACTOR, "disagreement_yardstick": "observer"}
+        divergence = {
+            "disagreement_factor": DIVERGENCE_FACTOR,
+            "disagreement_yardstick": "observer",
+            "max_rate": NYQUIST_RATE * model.rate_hz,
+        }
     return SupervisedKalmanEstimator(
         np.eye(3),
         rate_hz=model.rate_hz,

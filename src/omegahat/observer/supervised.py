@@ -15,9 +15,9 @@ stationary noise level (rad/s, from the gain design)::
 
     ν̄ ← (1 − α) ν̄ + α ν / m                       (S1, the innovation consistency, m = the fix's dimension)
     c ← c + 1 if d > max(κ s, κ σ_obs) else 0       (S2, persistent disagreement with the observer)
-    lost = ν̄ > ν_max  or  c ≥ c_max  or  the EKF's state (R̂, ω̂, â, P) not finite                            (S3)
+    lost = ν̄ > ν_max  or  c ≥ c_max  or  |ω̂_EKF| > ω_max  or  the EKF's state (R̂, ω̂, â, P) not finite     (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
-    lost by (S2) or not finite ⇒  also â ← 0 (an unknown acceleration the EKF carries; lost by ν̄ it is kept)
+    lost by (S2), ω_max or not finite ⇒  also â ← 0 (an unknown acceleration the EKF carries; by ν̄ it is kept)
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -84,7 +84,8 @@ class EkfParamLayout(NamedTuple):
     """Offsets in the EKF's flat parameters: process-noise PSD q, measurement variance, σ_θ of a reset, σ_obs,
     α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad), the unknown acceleration's PSD q_a
     (rad²/s⁵; 0: not carried) and its prior σ (rad/s²), and σ of the rate it starts from at the first fix (rad/s,
-    the 3-vector's RMS; 0: σ_obs, the observer's), and the yardstick of (S2) (1: max(s, σ_obs); 0: σ_obs alone)."""
+    the 3-vector's RMS; 0: σ_obs, the observer's), the yardstick of (S2) (1: max(s, σ_obs); 0: σ_obs alone), and
+    the largest rate the EKF may give (rad/s; above it, lost (S3))."""
 
     q: int
     meas_var: int
@@ -101,12 +102,13 @@ class EkfParamLayout(NamedTuple):
     sigma_accel: int
     sigma_start: int
     own_spread: int
+    max_rate: int
     size: int
 
 
 EKF_PARAMS = EkfParamLayout(
     q=0, meas_var=1, sigma_theta=2, sigma_obs=3, alpha=4, nis_max=5, kappa=6, disagree_max=7, dynamic=8, max_step=9,
-    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, own_spread=14, size=15,
+    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, own_spread=14, max_rate=15, size=16,
 )  # fmt: skip
 
 
@@ -240,13 +242,10 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     kappa = pe[EKF_PARAMS.kappa]
     yardstick = max(s, sigma_obs) if pe[EKF_PARAMS.own_spread] != 0.0 else sigma_obs
     disagree = xe[EKF_STATE.disagree] + 1.0 if d > kappa * yardstick else 0.0  # (S2)
-    lost = (
-        not nis_avg <= pe[EKF_PARAMS.nis_max]  # NaN counts as lost
-        or disagree >= pe[EKF_PARAMS.disagree_max]
-        or not ekf_finite(R, w, a, P)
-    )  # (S3)
+    speed = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    diverged = disagree >= pe[EKF_PARAMS.disagree_max] or not ekf_finite(R, w, a, P) or speed > pe[EKF_PARAMS.max_rate]
+    lost = diverged or not nis_avg <= pe[EKF_PARAMS.nis_max]  # (S3); a NaN average counts as lost
     if lost:  # (S4)
-        diverged = disagree >= pe[EKF_PARAMS.disagree_max] or not ekf_finite(R, w, a, P)
         _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs], not diverged)
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
