@@ -103,6 +103,10 @@ def predictive_step(
 class PredictiveFilter(TSO3Filter):
     """The geometric predictive filter of the module docstring behind the estimator contract.
 
+    :meth:`update` runs :func:`predictive_step` (NumPy), :meth:`run` its compiled twin
+    (:mod:`omegahat.baselines.tso3_kernel`); a step that cannot be taken restarts the filter ((C5) of
+    :mod:`omegahat.baselines.tso3_common`).
+
     Parameters
     ----------
     J : inertia (3 numbers, 9 numbers or 3×3), kg·m²; the one positional argument.
@@ -113,10 +117,6 @@ class PredictiveFilter(TSO3Filter):
         attitude (``None``: the first valid sample's least-squares attitude; the source starts from the identity).
     as_published : True: the source's second half-step (``J⁻¹δ``, module docstring).
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`.
-
-    :meth:`update` runs :func:`predictive_step` (NumPy), :meth:`run` its compiled twin
-    (:mod:`omegahat.baselines.tso3_kernel`); a step that cannot be taken restarts the filter ((C5) of
-    :mod:`omegahat.baselines.tso3_common`).
     """
 
     def __init__(

@@ -143,6 +143,10 @@ def min_energy_step(
 class MinimumEnergyFilter(TSO3Filter):
     """The second-order minimum-energy filter of the module docstring behind the estimator contract.
 
+    ``gain`` holds K. :meth:`update` runs :func:`min_energy_step` (NumPy), :meth:`run` its compiled twin
+    (:mod:`omegahat.baselines.tso3_kernel`); a step that cannot be taken restarts the filter ((C5) of
+    :mod:`omegahat.baselines.tso3_common`).
+
     Parameters
     ----------
     J : inertia (3 numbers, 9 numbers or 3×3), kg·m²; the one positional argument.
@@ -155,10 +159,6 @@ class MinimumEnergyFilter(TSO3Filter):
         attitude (``None``: the first valid sample's least-squares attitude; the source starts from the identity).
     as_published : True: the gradient (M1) without the weights, as in the source script.
     scalar_first, rotation_tol, quat_norm_tol, min_angle_deg : the input checks of :mod:`omegahat.measurements`.
-
-    ``gain`` holds K. :meth:`update` runs :func:`min_energy_step` (NumPy), :meth:`run` its compiled twin
-    (:mod:`omegahat.baselines.tso3_kernel`); a step that cannot be taken restarts the filter ((C5) of
-    :mod:`omegahat.baselines.tso3_common`).
     """
 
     def __init__(
