@@ -75,7 +75,35 @@ TorqueHold: TypeAlias = Literal["zero", "linear"]
 
 
 class Status(enum.IntEnum):
-    """What an estimate at a sample is (module docstring)."""
+    """What an estimate at a sample is.
+
+    One status per sample (module docstring); an ``IntEnum``, so ``Estimate.status`` from ``run`` holds its values
+    as ``int8`` and ``Status(value)`` gives the member back. :data:`STATUS_WORDS` are the names in output files.
+
+    * ``UNAVAILABLE`` (0): no estimate, omega is NaN (before the first valid sample; at it, unless an initial rate
+      was given, since one attitude gives no rate; an offline method without enough samples around this one);
+    * ``CORRECTED`` (1): the estimate after a measured sample;
+    * ``PREDICTED`` (2): no usable sample at that time (missing: NaN or inf, or nearly collinear directions); the
+      estimate was predicted through it;
+    * ``RESTARTED`` (3): the state could not be propagated to this sample (it would not stay finite); the
+      estimator restarted from it.
+
+    Examples
+    --------
+    A constant-rate rotation with its third attitude missing (NaN):
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import DifferencingEstimator, Status
+    >>> t = np.arange(5) * 0.1
+    >>> q = Rotation.from_rotvec(t[:, None] * [0.1, -0.2, 0.3]).as_quat()
+    >>> q[2] = np.nan
+    >>> estimate = DifferencingEstimator().run(t, q)
+    >>> print([Status(s).name for s in estimate.status])
+    ['UNAVAILABLE', 'CORRECTED', 'PREDICTED', 'CORRECTED', 'CORRECTED']
+    >>> print(int(Status.PREDICTED), Status.PREDICTED.name.lower())
+    2 predicted
+    """
 
     UNAVAILABLE = 0
     CORRECTED = 1
@@ -88,8 +116,37 @@ STATUS_WORDS: tuple[str, ...] = tuple(s.name.lower() for s in Status)
 
 
 class Estimate(NamedTuple):
-    """What an estimator returns: ``omega`` (rad/s, body axes; ``(T, 3)`` from ``run``, ``(3,)`` from ``update``;
-    NaN where there is no estimate) and ``status`` (``(T,)`` int8 values of :class:`Status`, or one ``Status``)."""
+    """What an estimator returns: the angular velocity and a :class:`Status` per sample.
+
+    ``run`` returns it for every sample of a log, ``update`` for one sample. A named tuple:
+    ``omega, status = estimator.run(t, data)`` unpacks it.
+
+    Parameters
+    ----------
+    omega : numpy.ndarray
+        The body-frame angular velocity (rad/s, body axes): ``(T, 3)`` from ``run``, ``(3,)`` from ``update``;
+        NaN where there is no estimate.
+    status : numpy.ndarray or Status
+        ``(T,)`` int8 values of :class:`Status` from ``run``, or one ``Status`` from ``update``.
+
+    Examples
+    --------
+    Attitudes of a body turning at a constant rate, differenced:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import DifferencingEstimator, Estimate, Status
+    >>> t = np.arange(5) * 0.1
+    >>> q = Rotation.from_rotvec(t[:, None] * [0.1, -0.2, 0.3]).as_quat()
+    >>> estimate = DifferencingEstimator().run(t, q)
+    >>> print(isinstance(estimate, Estimate), estimate.omega.shape, estimate.status.shape)
+    True (5, 3) (5,)
+    >>> omega, status = estimate
+    >>> print(np.isnan(omega[0]).all(), Status(status[0]).name)
+    True UNAVAILABLE
+    >>> print(np.allclose(omega[1:], [0.1, -0.2, 0.3]), Status(status[1]).name)
+    True CORRECTED
+    """
 
     omega: np.ndarray
     status: Any  # np.ndarray (T,) from run, a Status from update
@@ -115,8 +172,32 @@ def batch_status(usable: np.ndarray, omega: np.ndarray) -> np.ndarray:
 
 
 class Estimator(abc.ABC):
-    """The contract of every estimator: ``run`` a whole log. A batch estimator implements this alone (module
-    docstring); :class:`StreamingEstimator` adds ``update`` and ``reset``."""
+    """The contract of every estimator: ``run`` a whole log.
+
+    A batch estimator (the spline, Savitzky–Golay, the smoothers) implements this alone: it needs the whole record
+    and starts afresh at every ``run`` (module docstring); :class:`StreamingEstimator` adds ``update`` and
+    ``reset``. ``run(t, data, torque=None)`` takes the sample times ``t (T,)`` (s, strictly increasing), the
+    measurements and, for estimators with a model, the known torque ``(T, 3)`` (N·m, body axes), and returns an
+    :class:`Estimate`. Class attributes: ``causal`` (True when the estimate at a sample uses only that sample and
+    earlier ones), ``streaming`` (True for :class:`StreamingEstimator`), ``n_skipped`` (samples skipped, missing
+    or nearly collinear directions, since the last reset, or in the last batch run).
+
+    Examples
+    --------
+    A batch estimator on attitudes of a body turning at a constant rate:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import Estimator, SplineEstimator
+    >>> t = np.arange(50) * 0.01
+    >>> q = Rotation.from_rotvec(t[:, None] * [0.1, -0.2, 0.3]).as_quat()
+    >>> spline = SplineEstimator()
+    >>> print(isinstance(spline, Estimator), spline.streaming, spline.causal)
+    True False False
+    >>> omega, status = spline.run(t, q)
+    >>> print(np.allclose(omega, [0.1, -0.2, 0.3]), spline.n_skipped)
+    True 0
+    """
 
     #: True when the estimate at a sample uses only that sample and earlier ones.
     causal: bool = True
@@ -131,7 +212,32 @@ class Estimator(abc.ABC):
 
 
 class StreamingEstimator(Estimator):
-    """An estimator fed one sample at a time; ``run`` is the same computation over a log (module docstring)."""
+    """An estimator fed one sample at a time; ``run`` is the same computation over a log.
+
+    ``update(t, sample, torque=None)`` takes one sample (online) and returns its :class:`Estimate` (``omega (3,)``
+    and one ``Status``); ``run`` feeds a whole log through the same computation (feeding a log to ``update``
+    sample by sample gives what one ``run`` gives). Both continue from the current state until ``reset``, which
+    forgets every sample. A refused sample raises and changes nothing; ``run`` is atomic (module docstring).
+
+    Examples
+    --------
+    Differencing attitudes of a body turning at a constant rate, online and then as a log:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat import DifferencingEstimator, StreamingEstimator
+    >>> t = np.arange(5) * 0.1
+    >>> q = Rotation.from_rotvec(t[:, None] * [0.1, -0.2, 0.3]).as_quat()
+    >>> est = DifferencingEstimator()
+    >>> print(isinstance(est, StreamingEstimator), est.streaming, est.causal)
+    True True True
+    >>> online = np.array([est.update(tj, qj).omega for tj, qj in zip(t, q)])
+    >>> print(" ".join(f"{w:.3f}" for w in online[-1]))
+    0.100 -0.200 0.300
+    >>> est.reset()
+    >>> print(np.array_equal(est.run(t, q).omega, online, equal_nan=True))
+    True
+    """
 
     streaming: ClassVar[bool] = True
 

@@ -57,7 +57,38 @@ __all__ = ["RigidBody", "Trajectory", "cf4_step", "integrate"]
 
 
 class RigidBody:
-    """A rigid body with inertia ``J`` (symmetric positive definite; 3 numbers = diagonal, 9 = full)."""
+    """A rigid body with inertia ``J``: Euler's equations and the invariants of torque-free motion.
+
+    ``J ω̇ = (J ω) × ω + τ`` (module docstring; ω and τ in body axes). Methods, each on stacked ``(*B, 3)``
+    rates: :meth:`omega_dot` (ω̇ = J⁻¹((Jω) × ω + τ)), :meth:`kinetic_energy` (½ ωᵀ J ω), :meth:`momentum_norm`
+    (|J ω|) and :meth:`inertial_momentum` (L = R J ω). :func:`integrate` moves it in time. Attributes ``J`` and
+    ``J_inv`` hold the inertia and its inverse as ``(3, 3)`` arrays.
+
+    Parameters
+    ----------
+    J : array_like
+        Inertia, symmetric positive definite (kg·m²): 3 numbers = diagonal, 9 = full.
+
+    Raises
+    ------
+    ValueError
+        If ``J`` is not a finite symmetric positive definite inertia.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from omegahat import RigidBody
+    >>> from omegahat.simulation.rigid_body import integrate
+    >>> body = RigidBody([3.0, 2.0, 1.0])
+    >>> omega = np.array([2.0, -1.0, 0.6])
+    >>> print(body.omega_dot(omega).round(3).tolist(), f"{body.kinetic_energy(omega):.3f}")
+    [-0.2, -1.2, -2.0] 7.180
+    >>> motion = integrate(body, np.eye(3), omega, np.linspace(0.0, 10.0, 11), max_step=1e-2)
+    >>> energy = body.kinetic_energy(motion.omega)  # conserved without torque
+    >>> L = body.inertial_momentum(motion.R, motion.omega)  # a constant vector without torque
+    >>> print(np.allclose(energy, energy[0], rtol=1e-7), np.allclose(L, L[0], atol=1e-6))
+    True True
+    """
 
     def __init__(self, J: ArrayLike) -> None:
         self.J = as_inertia(J)

@@ -32,7 +32,52 @@ _KINDS = ("none", "constant", "sinusoidal", "time", "state")
 
 @dataclass(frozen=True)
 class Torque:
-    """A known body torque (module docstring); build it with the class methods."""
+    """A known body torque (body axes, N·m) that says what it depends on; build it with the class methods.
+
+    :meth:`none`, :meth:`constant` and :meth:`sinusoidal` give a torque as data, which the compiled engine
+    evaluates itself (``is_data``; ``bound`` is then an upper bound of ``|τ(t)|``); :meth:`of_time` and
+    :meth:`of_state` wrap Python functions, which only :func:`omegahat.simulation.rigid_body.integrate` accepts.
+    Calling one, ``torque(t, R=None, omega=None)``, returns a checked ``(3,)`` array (``(T, 3)`` for an array of
+    times when the torque is data). Frozen; the fields are checked and converted on construction.
+
+    Parameters
+    ----------
+    kind : str, optional
+        One of ``"none"`` (default), ``"constant"``, ``"sinusoidal"``, ``"time"``, ``"state"``.
+    constant_term : array_like, optional
+        The constant ``c`` of ``τ(t) = c + Σ_j a_j ∘ sin(ν_j t + φ_j)``, 3 numbers (default zero).
+    amplitudes : array_like, optional
+        The amplitudes ``a_j``, ``(M, 3)`` (default none).
+    frequencies : array_like, optional
+        The frequencies ``ν_j`` (rad/s), ``(M,)``.
+    phases : array_like, optional
+        The phases ``φ_j`` (rad), broadcast to ``(M, 3)``.
+    func : callable, optional
+        ``f(t)`` for kind ``"time"``, ``f(t, R, omega)`` for kind ``"state"`` (R body→inertial ``(3, 3)``, omega
+        body rate ``(3,)``); it must return 3 finite numbers.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is unknown, or the amplitudes, frequencies or phases are not finite or do not match.
+    TypeError
+        If a kind ``"time"`` or ``"state"`` torque has no callable.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from omegahat import Torque
+    >>> tau = Torque.sinusoidal(constant=[0.0, 0.0, 0.1], amplitudes=[[0.2, 0.0, 0.0]], frequencies=[np.pi])
+    >>> print(tau, tau.is_data, f"{tau.bound:.3f}")
+    Torque.sinusoidal(constant=[0.0, 0.0, 0.1], 1 terms) True 0.224
+    >>> print(tau(np.array([0.0, 0.5])).round(3).tolist())
+    [[0.0, 0.0, 0.1], [0.2, 0.0, 0.1]]
+    >>> decaying = Torque.of_time(lambda t: [0.0, 0.0, np.exp(-t)])
+    >>> print(decaying.kind, decaying.is_data, decaying(0.0).tolist())
+    time False [0.0, 0.0, 1.0]
+    >>> print(Torque.constant([0.0, 0.0, 1.0]), Torque.none())
+    Torque.constant([0.0, 0.0, 1.0]) Torque.none()
+    """
 
     kind: str = "none"
     constant_term: np.ndarray = field(default_factory=lambda: np.zeros(3))
