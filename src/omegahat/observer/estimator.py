@@ -73,7 +73,8 @@ from omegahat.interface import MeasurementKind, TorqueHold, one_of
 from omegahat.observer import sampled
 from omegahat.observer.compiled import CompiledEstimator, RestartedWarning, SkippedSamplesWarning
 from omegahat.observer.gains import ObserverGains
-from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE, STATE, EstimatorState
+from omegahat.observer.prediction import MAX_SUBSTEP_ANGLE
+from omegahat.observer.sampled import STATE, EstimatorState
 from omegahat.validation import as_inertia, as_positive, as_vector3
 
 __all__ = ["EstimatorState", "RestartedWarning", "SarrasEstimator", "SkippedSamplesWarning"]

@@ -36,7 +36,7 @@ from omegahat.observer import supervised
 from omegahat.observer.compiled import CompiledEstimator
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
-from omegahat.observer.sampled import MAX_SUBSTEP_ANGLE
+from omegahat.observer.prediction import MAX_SUBSTEP_ANGLE
 from omegahat.observer.supervised import EKF_PARAMS, EKF_STATE
 from omegahat.observer.tuning import isotropic_noise_std
 from omegahat.validation import as_positive

@@ -32,15 +32,11 @@ from omegahat.kernels.rotation import rotvec_from_matrix, wahba
 from omegahat.kernels.vec3 import inverse, matmul, matvec, solve
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.prediction import (
-    MAX_SUBSTEP_ANGLE,
-    MAX_SUBSTEPS,
     predict_directions,
     predict_rate,
 )
 
 __all__ = [
-    "MAX_SUBSTEPS",
-    "MAX_SUBSTEP_ANGLE",
     "PARAMS",
     "RUNNING",
     "STATE",
