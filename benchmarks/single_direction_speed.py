@@ -6,7 +6,7 @@ Run: ``python benchmarks/single_direction_speed.py [--samples N] [--rounds R]``.
   of this process pinned to one core, best of 3): the paper's body J = diag(3, 2, 1) tumbling from
   ω₀ = (2, −1, 0.6) rad/s seen at 1 kHz through the direction v = (0.6, 0, 0.8) (truth from
   :func:`omegahat.simulation.rigid_body.integrate`), and a 10 Hz sun sensor (0.1° noise, 2 % of samples missing);
-* the cost of one call of ``run`` with one sample (the per-sample path; median over many calls);
+* the cost of one call of ``update`` (the per-sample path; median over many calls);
 * the throughput of the NumPy oracle (``run_single_direction`` and ``excitation``) on a shorter log and the largest
   difference of ω̂ and λ_min between the two;
 * the compile cost: a fresh child process with an empty ``NUMBA_CACHE_DIR`` imports the estimator and runs it on
@@ -29,7 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
-from omegahat.observer.single_direction import SingleDirectionEstimator, default_gains, excitation, run_single_direction
+from omegahat.observer.single_direction import (
+    DEFAULT_BANDWIDTH_HZ,
+    SingleDirectionEstimator,
+    default_gains,
+    excitation,
+    run_single_direction,
+)
 from omegahat.simulation.rigid_body import RigidBody, integrate
 from results_md import machine_line, write_section
 
@@ -42,7 +48,7 @@ import numpy as np
 from omegahat.observer.single_direction import SingleDirectionEstimator
 c1 = time.process_time()
 b = np.tile([0.0, 0.6, 0.8], (5, 1))
-SingleDirectionEstimator(np.diag([3.0, 2.0, 1.0]), [0.0, 0.6, 0.8]).run(np.arange(5) * 0.1, b)
+SingleDirectionEstimator(np.diag([3.0, 2.0, 1.0]), reference=[0.0, 0.6, 0.8]).run(np.arange(5) * 0.1, b)
 print(time.process_time() - c1)
 """
 
@@ -60,7 +66,7 @@ def directions(times, omega0, sigma_deg=0.0, missing=0.0, seed=0):
 def best_throughput(times, b, method, reps=3):
     best = np.inf
     for _ in range(reps):
-        est = SingleDirectionEstimator(J, V, method=method)
+        est = SingleDirectionEstimator(J, reference=V, method=method)
         c0 = time.process_time()
         est.run(times, b)
         best = min(best, time.process_time() - c0)
@@ -135,7 +141,7 @@ def main(argv=None):
     slow = np.arange(args.samples // 10) * 0.1
     b_slow, _ = directions(slow, [0.3, 0.2, -0.4], sigma_deg=0.1, missing=0.02, seed=1)
     for method in ("sarras", "gradient"):
-        SingleDirectionEstimator(J, V, method=method).run(fast[:10], b_fast[:10])  # compile or load the cache
+        SingleDirectionEstimator(J, reference=V, method=method).run(fast[:10], b_fast[:10])  # compile or load the cache
         rate = best_throughput(fast, b_fast, method)
         lines.append(f"| `run`, {method}, {fast.size:,} samples at 1 kHz | {rate / 1e6:.2f} million samples/s |")
         rate = best_throughput(slow, b_slow, method)
@@ -143,28 +149,28 @@ def main(argv=None):
             f"| `run`, {method}, {slow.size:,} samples at 10 Hz (0.1° noise, 2 % missing) | {rate / 1e6:.2f} "
             "million samples/s |"
         )
-    est = SingleDirectionEstimator(J, V)
+    est = SingleDirectionEstimator(J, reference=V)
     est.run(slow[:1], b_slow[:1])
     calls = min(50_000, slow.size - 1)
     per_call = np.empty(calls)
     clock = time.perf_counter_ns
     for j in range(1, calls + 1):
-        tj, bj = slow[j : j + 1], b_slow[j : j + 1]
+        tj, bj = float(slow[j]), b_slow[j]
         c0 = clock()
-        est.run(tj, bj)
+        est.update(tj, bj)
         per_call[j - 1] = clock() - c0
     lines.append(
-        f"| `run` with one sample (the per-sample path), 10 Hz log | median {np.median(per_call) / 1e3:.1f} us "
+        f"| `update`, one sample (the per-sample path), 10 Hz log | median {np.median(per_call) / 1e3:.1f} us "
         f"(90th percentile {np.percentile(per_call, 90) / 1e3:.1f} us) over {calls:,} calls |"
     )
     n = args.oracle_samples
-    k, l = default_gains(J, "sarras", 0.5)
+    k, l = default_gains(J, "sarras", DEFAULT_BANDWIDTH_HZ)
     c0 = time.process_time()
     W0, _ = run_single_direction(slow[:n], b_slow[:n], J, k=k, l=l)
     lam0, _, _ = excitation(slow[:n], b_slow[:n])
     dt = time.process_time() - c0
-    est = SingleDirectionEstimator(J, V)
-    W = est.run(slow[:n], b_slow[:n])
+    est = SingleDirectionEstimator(J, reference=V)
+    W = est.run(slow[:n], b_slow[:n]).omega
     lines.append(
         f"| plain NumPy oracle (`run_single_direction` + `excitation`) | {n / dt:,.0f} samples/s; largest "
         f"difference from the compiled step over {n:,} samples: ω̂ {np.nanmax(np.abs(W - W0)):.1e} rad/s, λ_min "
