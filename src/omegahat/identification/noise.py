@@ -24,7 +24,6 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy.stats import beta, chi2
 
 __all__ = ["CHI2_3_MEDIAN", "QUANTILE", "WINDOW_S", "quiet_noise", "window_quantile"]
 
@@ -37,6 +36,8 @@ _MIN_WINDOW = 31
 @functools.cache
 def window_quantile(w: int, quantile: float = QUANTILE) -> float:
     """``c_W`` of (N1): the ``quantile`` of the median of ``w`` (odd) independent ``χ²₃`` values."""
+    from scipy.stats import beta, chi2  # here: scipy.stats takes 0.3 s to import, and the command imports this module
+
     m = (w + 1) // 2
     return float(chi2.ppf(beta.ppf(quantile, m, w - m + 1), 3))
 
