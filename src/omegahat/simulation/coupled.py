@@ -191,7 +191,7 @@ def simulate_batch(
     >>> import numpy as np
     >>> from omegahat import paper_problem, simulate, simulate_batch
     >>> problems = [paper_problem(), paper_problem([0.1, 0.0, 0.0]), paper_problem([0.0, 0.2, 0.0])]
-    >>> batch = simulate_batch(problems, t_out=[0.0, 1.0, 2.0], parallel=False)
+    >>> batch = simulate_batch(problems, t_out=[0.0, 1.0, 2.0])
     >>> print(batch.Y.shape, batch.ok.tolist())
     (3, 3, 18) [True, True, True]
     >>> print(np.array_equal(batch.Y[1, :, 9:12], simulate(problems[1], t_out=[0.0, 1.0, 2.0]).z))
