@@ -256,7 +256,7 @@ def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path, sig, j
     cmd = [
         sys.executable,
         "-c",
-        "import sys; from omegahat.cli import main; sys.exit(main())",
+        "import sys; from omegahat.cli import entry; entry()",  # the console script's own path
         "estimate",
         str(d),
         "-o",

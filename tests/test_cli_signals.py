@@ -106,8 +106,8 @@ def test_sigterm_to_the_command_in_its_own_process(log, tmp_path):
         "from omegahat.observer import estimator\n"
         "run = estimator.SarrasEstimator.run\n"
         "estimator.SarrasEstimator.run = lambda self, *a: (time.sleep(0.2), run(self, *a))[1]\n"
-        "from omegahat.cli import main\n"
-        "sys.exit(main())\n"
+        "from omegahat.cli import entry\n"
+        "entry()\n"  # the console script's own path
     )
     argv = [sys.executable, "-u", "-c", slow, "estimate", str(log), "-o", str(dst), "--no-progress"]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import math
+import os
 import signal
 import sys
 import threading
@@ -176,5 +177,18 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(s, handler)
 
 
+def entry() -> None:
+    """The ``omegahat`` console script: :func:`main`, then the process's exit with its status. After an interrupt
+    (130, 143) the process ends at once once stdout and stderr are flushed (``os._exit``): the outputs are whole or
+    absent by then, and the interpreter's teardown would only meet work the signal stopped (PyArrow's thread pool
+    aborted there now and then: "terminate called without an active exception", exit -6 instead of 143)."""
+    code = main()
+    if code in {128 + int(s) for s in INTERRUPTS}:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry()
