@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from logmaker import Angle, attitude, constant_rate, noisy, write_csv
 from omegahat import so3
@@ -18,6 +19,7 @@ from omegahat.observer.presets import (
     MocapSmoother,
     attitude_noise,
     filter_lag,
+    log_differencing_error,
     mocap_estimator,
     mocap_model,
     rate_variance_after_start,
@@ -224,3 +226,15 @@ def test_cli_preset_refuses_one_direction_and_smooth_refuses_directions(tmp_path
         assert main(["estimate", str(log), f"--references={spec}", *extra, "-o", str(out)]) == 2
         assert match in capsys.readouterr().err
         assert not out.exists()
+
+
+def test_the_preset_divergence_test_leaves_the_filter_as_it_is():
+    # (P5): sigma_m, sigma_a, sigma_d scaled by one factor leave the EKF's gains unchanged, so where the divergence
+    # test never fires the estimate is the same with and without it (to rounding); at 20 Hz the factor is > 1
+    t = np.arange(0.0, 2.0, 0.05)
+    q = Rotation.from_rotvec(np.outer(5.0 * t**2, [0.48, 0.6, 0.64])).as_quat()  # w(t) = 10 t rad/s
+    scale = log_differencing_error(t, q, 1e-3)
+    assert scale * 0.05 / np.sqrt(6.0) > 1e-3  # the scaled branch of (P5) is the one exercised
+    plain = mocap_estimator(20.0, 1e-3).run(t, q).omega
+    guarded = mocap_estimator(20.0, 1e-3, differencing_rms=scale).run(t, q).omega
+    np.testing.assert_allclose(guarded, plain, rtol=1e-9, atol=1e-12)

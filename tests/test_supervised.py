@@ -153,3 +153,23 @@ def test_unknown_torque_option_keeps_the_noise_free_paper_scenario_to_1e6():
     est = _make(sc, warm=False, disturbance_noise=1e-4)
     err = estimate_errors(est.run(run.t, run.R_meas, run.torque), run.omega)
     assert err[run.t >= 5.0].max() < 1e-6
+
+
+def _constant_rate_log(rate_hz: float, w, seconds: float = 3.0, noise: float = 1e-3):
+    t = np.arange(0.0, seconds, 1.0 / rate_hz)
+    jitter = Rotation.from_rotvec(noise * np.random.default_rng(3).standard_normal((t.size, 3)))
+    return t, (Rotation.from_rotvec(np.outer(t, w)) * jitter).as_quat()
+
+
+def test_a_rate_above_max_rate_is_lost_at_once():
+    # (S3): an EKF rate above max_rate restarts the EKF from the observer at that fix; unbounded by default
+    t, q = _constant_rate_log(100.0, [0.3, -0.2, 0.5])  # |w| = 0.62 rad/s
+    common = {"rate_hz": 100.0, "measurement_noise": 1e-3, "rate_noise": 1e-3}
+    free = SupervisedKalmanEstimator(np.eye(3), **common)
+    free.run(t, q)
+    assert free.restarts == 0 and free.last_source[-1] == 1.0
+    bounded = SupervisedKalmanEstimator(np.eye(3), max_rate=0.5, **common)  # below the true rate: always "lost"
+    bounded.run(t, q)
+    assert bounded.restarts > 0.9 * t.size and bounded.last_source[-1] == 0.0
+    with pytest.raises(ValueError, match="max_rate"):
+        SupervisedKalmanEstimator(np.eye(3), max_rate=-1.0, **common)
