@@ -111,6 +111,30 @@ def test_a_living_writers_temporary_file_is_left_alone(tmp_path):
     assert dst.read_text() == "t,wx,wy,wz,status\n" and parts(tmp_path) == []
 
 
+@pytest.mark.parametrize("step", ["open", "pa.array", "WriteOptions", "ThreadPoolExecutor", "_lock"])
+def test_an_interrupt_while_the_writer_opens_leaves_nothing(tmp_path, monkeypatch, step):
+    # Ctrl-C / SIGTERM (the command raises KeyboardInterrupt) landing after the temporary file exists but before the
+    # writer is returned to its ``with``: found by CI, a .part file was left behind.
+    import omegahat.io.output as output
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt("SIGTERM")
+
+    if step == "open":
+        monkeypatch.setattr(output.PartFile, "open", interrupted)
+    elif step == "pa.array":
+        monkeypatch.setattr(output.pa, "array", interrupted)
+    elif step == "WriteOptions":
+        monkeypatch.setattr(output.pacsv, "WriteOptions", interrupted)
+    elif step == "ThreadPoolExecutor":
+        monkeypatch.setattr(output, "ThreadPoolExecutor", interrupted)
+    else:
+        monkeypatch.setattr(output, "_lock", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        OmegaWriter(tmp_path / "o.csv")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
 def test_a_symbolic_link_as_output_is_written_through(log, tmp_path, capsys):
     real_dir = tmp_path / "runs"
     real_dir.mkdir()

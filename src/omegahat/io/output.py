@@ -230,6 +230,15 @@ def remove_stale_parts(output: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
+def _remove_quietly(path: Path) -> None:
+    """Remove a temporary file or folder, if it is there."""
+    with contextlib.suppress(OSError):
+        if path.is_dir():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
+
+
 class PartFile:
     """A locked temporary file (``folder=False``) or folder (``folder=True``) beside ``target``, named
     ``.NAME.TOKEN.part`` (module docstring): :attr:`path`; the lock is held until :meth:`release` (a folder) or
@@ -248,8 +257,16 @@ class PartFile:
                         fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o600)
                 except FileExistsError:  # pragma: no cover - 64 random bits
                     continue
+                except BaseException:  # interrupted (Ctrl-C) once the name was taken: the name is ours (random)
+                    _remove_quietly(path)
+                    raise
                 break
-            _lock(fd)
+            try:
+                _lock(fd)
+            except BaseException:
+                os.close(fd)
+                _remove_quietly(path)
+                raise
         self.path, self.fd, self.folder = path, fd, folder
 
     def open(self) -> BinaryIO:
@@ -267,11 +284,7 @@ class PartFile:
 
     def discard(self) -> None:
         """Remove the temporary file or folder and release it."""
-        with contextlib.suppress(OSError):
-            if self.folder:
-                shutil.rmtree(self.path, ignore_errors=True)
-            else:
-                self.path.unlink(missing_ok=True)
+        _remove_quietly(self.path)
         self.release()
 
 
@@ -334,18 +347,22 @@ class OmegaWriter(AtomicOutput):
         except OSError as exc:
             raise write_error(exc, self.path) from exc
         self._tmp = self._part.path
-        self._f = self._part.open()
+        self._f: BinaryIO | None = None
         self.rows = 0
         self._pool: ThreadPoolExecutor | None = None
         self._pending: Future[Any] | None = None  # the chunk being written
-        try:
+        try:  # until the writer is returned nobody else can abort it: an interrupt here (Ctrl-C) removes it too
+            self._f = self._part.open()
             self._f.write((HEADER + "\n").encode())
+            self._words = pa.array(STATUS_WORDS)
+            self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
         except OSError as exc:
             self.abort()
             raise write_error(exc, self.path) from exc
-        self._words = pa.array(STATUS_WORDS)
-        self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
-        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
+        except BaseException:
+            self.abort()
+            raise
 
     def write(self, chunk: LogChunk, omega: np.ndarray, status: np.ndarray) -> None:
         """Append rows: the times of ``chunk`` (:class:`~omegahat.io.registry.LogChunk`, plus ``t0``),
@@ -382,11 +399,13 @@ class OmegaWriter(AtomicOutput):
     def commit(self) -> None:
         """Write what is pending, flush to the disk, and move the temporary file onto the target (readable as the
         umask allows); on any failure nothing is left behind and the error names the output."""
+        f = self._f
+        assert f is not None  # set by __init__ or it raised
         try:
             self._wait()
             self._shutdown()
-            self._f.flush()
-            os.fsync(self._f.fileno())  # the content is on the disk before the name says it is complete
+            f.flush()
+            os.fsync(f.fileno())  # the content is on the disk before the name says it is complete
             publish_mode(self._tmp)
             os.replace(self._tmp, self.target)  # while still locked: no cleaner can take it for stale
         except OSError as exc:
@@ -396,7 +415,7 @@ class OmegaWriter(AtomicOutput):
             self.abort()
             raise
         with contextlib.suppress(OSError):  # the content is on the disk and in place: closing cannot lose it
-            self._f.close()
+            f.close()
 
     def _shutdown(self) -> None:
         if self._pool is not None:
@@ -410,8 +429,9 @@ class OmegaWriter(AtomicOutput):
         except Exception:
             pass
         self._shutdown()
-        with contextlib.suppress(OSError):  # a close that flushes onto a full disk fails too: nothing to keep
-            self._f.close()
+        if self._f is not None:
+            with contextlib.suppress(OSError):  # a close that flushes onto a full disk fails too: nothing to keep
+                self._f.close()
         self._part.discard()
 
 
