@@ -5,7 +5,6 @@ collisions, an existing OUTDIR, Ctrl-C, a Dask cluster, and the one-file command
 from __future__ import annotations
 
 import csv
-import os
 import re
 import signal
 import subprocess
@@ -249,10 +248,6 @@ def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path, sig, j
     for k in range(40):
         good_log(d / f"t{k:02d}.csv", k, n=3000)
     out = tmp_path / "out"
-    env = dict(
-        os.environ,
-        PYTHONPATH=os.pathsep.join([str(Path(__file__).parents[1] / "src"), os.environ.get("PYTHONPATH", "")]),
-    )
     cmd = [
         sys.executable,
         "-c",
@@ -265,7 +260,8 @@ def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path, sig, j
         "--jobs",
         jobs,
     ]
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # the installed package, as every other test imports it (the source tree's copy would compile its kernels again)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 300
     while not (out.exists() and any(p.name.startswith("t") for p in out.iterdir())):
         assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()

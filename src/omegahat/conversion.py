@@ -20,6 +20,7 @@ from omegahat.validation import as_directions, as_positive
 __all__ = [
     "as_references",
     "log_array",
+    "read_only",
     "real_array",
     "sample_array",
     "sample_time",
@@ -29,15 +30,24 @@ __all__ = [
     "torques_array",
 ]
 
-_ZERO3 = np.zeros(3)
-_ZERO3.flags.writeable = False
+
+def read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a`` (no copy). Every array a compiled kernel only reads is handed to it read-only:
+    Numba compiles one specialisation per read-only flag, so a writeable torque from one caller and the shared
+    read-only zero from another would compile the whole step twice (tens of seconds on a cold cache)."""
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
+_ZERO3 = read_only(np.zeros(3))
 
 
 def as_references(references: ArrayLike | None, n_default: int = 3) -> np.ndarray:
     """Inertial reference directions ``(n, 3)``, normalised; default the first ``n_default`` axes (rows of R)."""
     if references is None:
-        return np.eye(3)[:n_default].copy()
-    return np.ascontiguousarray(as_directions(references, name="references"))
+        return read_only(np.eye(3)[:n_default].copy())
+    return read_only(np.ascontiguousarray(as_directions(references, name="references")))
 
 
 def real_array(values: object, what: str) -> np.ndarray:
@@ -137,14 +147,14 @@ def torque_vector(torque: ArrayLike | None) -> np.ndarray:
     tau = real_array(torque, "torque")
     if tau.shape != (3,):
         raise ValueError(f"torque must be a 3-vector; got shape {tau.shape}")
-    return tau
+    return read_only(tau)
 
 
 def torques_array(torques: ArrayLike | None, T: int) -> np.ndarray:
     """The torques of a log ``(T, 3)`` (None: zeros), shape checked (values by :func:`check_torque`)."""
     if torques is None:
-        return np.zeros((T, 3))
+        return read_only(np.zeros((T, 3)))
     taus = real_array(torques, "torques")
     if taus.shape != (T, 3):
         raise ValueError(f"torques must have shape ({T}, 3); got shape {taus.shape}")
-    return taus
+    return read_only(taus)

@@ -59,6 +59,7 @@ from scipy.spatial.transform import Rotation
 from omegahat.conversion import (
     as_references,
     log_array,
+    read_only,
     real_array,
     sample_array,
     sample_time,
@@ -224,7 +225,7 @@ def conversion(
     ``V = I``: the directions are the rows of R, R itself) or ``n`` directions (V is then only a shape). One
     direction (``n = 1``: the one-direction estimators, whose caller says so by giving one reference) has no pair
     to be collinear: (M3) does not apply (``min_sin = 0``), and its samples may also be ``(3,)`` (a log ``(T, 3)``)."""
-    V = np.eye(3) if n is None else np.zeros((n, 3))
+    V = read_only(np.eye(3) if n is None else np.zeros((n, 3)))
     min_sin = 0.0 if n == 1 else float(np.sin(np.radians(min_angle_deg)))
     return V, bool(scalar_first), float(rotation_tol), float(quat_norm_tol), min_sin
 

@@ -57,11 +57,12 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat.baselines import mekf_kernel as kernel
+from omegahat.conversion import as_references, read_only
 from omegahat.interface import Measurement, TorqueHold, one_of
 from omegahat.kernels.ekf import COVARIANCE_SUBSTEP_ANGLE, MAX_SUBSTEPS, NOMINAL_SUBSTEP_ANGLE
 from omegahat.observer.compiled import CompiledEstimator
 from omegahat.simulation.rigid_body import RigidBody, Torque, cf4_step
-from omegahat.validation import as_directions, as_inertia, as_positive, as_vector3
+from omegahat.validation import as_inertia, as_positive, as_vector3
 
 __all__ = [
     "MEKF",
@@ -362,7 +363,7 @@ class MEKF(CompiledEstimator):
         self.body = RigidBody(as_inertia(np.eye(3) if J is None else J))
         self.q = float(as_positive(q, "q")[0])
         self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
-        self.references = None if references is None else as_directions(references, "references")
+        self.references = None if references is None else as_references(references)
         self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.sigma_omega0 = float(as_positive(sigma_omega0, "sigma_omega0")[0])
         self.q_a = (
@@ -468,11 +469,11 @@ class MEKF(CompiledEstimator):
             np.ascontiguousarray(values),
             codes == ms.OK,
             taus,
-            np.ascontiguousarray(self.references) if directions else np.zeros((0, 3)),
+            self.references if directions else read_only(np.zeros((0, 3))),
             directions,
             self.model == "dynamic",
-            np.ascontiguousarray(self.body.J),
-            np.ascontiguousarray(self.body.J_inv),
+            read_only(np.ascontiguousarray(self.body.J)),  # read-only as the supervised filter's: one compilation
+            read_only(np.ascontiguousarray(self.body.J_inv)),
             self.q,
             self.measurement_noise**2,
             self.max_step,
