@@ -354,7 +354,17 @@ def _attitude_array(attitudes) -> tuple[np.ndarray, int, tuple[int, ...]]:
 def _convert(m, kind, V, scalar_first=False, rotation_tol=0.0, quat_norm_tol=0.0, min_sin=0.0):
     empty = np.empty(0)
     return check_batch(
-        empty, np.nan, np.empty((0, 3)), False, m, kind, V, scalar_first, rotation_tol, quat_norm_tol, min_sin
+        empty,
+        np.nan,
+        read_only(np.empty((0, 3))),
+        False,
+        m,
+        kind,
+        V,
+        scalar_first,
+        rotation_tol,
+        quat_norm_tol,
+        min_sin,
     )
 
 
@@ -430,7 +440,7 @@ def body_directions(measured: ArrayLike, n: int | None = None, *, min_angle_deg:
         want = "(..., n, 3) with n >= 2" if n is None else f"(..., {n}, 3)"
         raise ValueError(f"direction measurements must have shape {want}; got shape {a.shape}")
     batch = a.shape[:-2]
-    V = np.zeros((a.shape[-2], 3))  # only its shape is used
+    V = read_only(np.zeros((a.shape[-2], 3)))  # only its shape is used
     m = np.ascontiguousarray(a.reshape((-1, *a.shape[-2:])))
     r, status, first_bad, info = _convert(m, KIND_DIRECTIONS, V, min_sin=float(np.sin(np.radians(min_angle_deg))))
     _raise_first(first_bad, status, info, batch)

@@ -33,6 +33,7 @@ from typing import Literal, NamedTuple, TypeAlias, get_args
 import numpy as np
 
 from omegahat.baselines.mekf_kernel import run_log
+from omegahat.conversion import read_only, torques_array
 from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 
 __all__ = [
@@ -109,7 +110,7 @@ def filter_pass(
     P0 = np.diag([s2] * 3 + [1e4 * s2 / h**2] * 3 + ([1e4 * s2 / h**4] * 3 if n_states == 9 else []))
     directions = references is not None
     T = t.size
-    taus = np.zeros((T, 3)) if torque is None or not dynamic else np.ascontiguousarray(torque, dtype=float)
+    taus = torques_array(None if torque is None or not dynamic else torque, T)
     state = np.array([np.nan, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
     sums = np.array([float(BURN_IN), 0.0, 0.0, 0.0])
     P_rates = np.empty((T if covariances else 0, 3, 3))
@@ -118,11 +119,11 @@ def filter_pass(
         np.ascontiguousarray(data, dtype=float),
         np.ascontiguousarray(valid, dtype=np.bool_),
         taus,
-        np.ascontiguousarray(references, dtype=float) if directions else np.zeros((0, 3)),
+        read_only(np.ascontiguousarray(references, dtype=float) if directions else np.zeros((0, 3))),
         directions,
         dynamic,
-        np.ascontiguousarray(J),
-        np.ascontiguousarray(np.linalg.inv(J)),
+        read_only(np.ascontiguousarray(J)),  # read-only, as the estimators hand them: one compilation
+        read_only(np.ascontiguousarray(np.linalg.inv(J))),
         q,
         s2,
         np.inf,

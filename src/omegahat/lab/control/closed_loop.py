@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import so3
+from omegahat.conversion import read_only
 from omegahat.interface import Estimator, Status, StreamingEstimator
 from omegahat.lab.control.controller import AttitudePD, Reference, error_angle
 from omegahat.lab.evaluation.metrics import convergence_time, steady_rms
@@ -199,7 +200,7 @@ class WrongSignFeed(EstimatorFeed):
             return super().rate(t, R_meas, omega_true)
         x = est.state_vector
         m, kind = sample_array(np.full((3, 3), np.nan), None)  # a missing sample: the prediction alone
-        predicted, _, _ = step(x, est.params, float(t), m, kind, x[_TORQUE])
+        predicted, _, _ = step(x, est.params, float(t), m, kind, read_only(x[_TORQUE]))
         corrected = super().rate(t, R_meas, omega_true)
         wrong = 2.0 * predicted[_OMEGA] - corrected
         x = est.state_vector
