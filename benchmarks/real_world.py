@@ -135,17 +135,24 @@ def after_table(rows: list[Row]) -> str:
     by = {(r.recording, r.method): r for r in rows}
     recs = list(dict.fromkeys(r.recording for r in rows))
     head = ["recording", "backward diff. (rad/s)", "default ÷ bwd", "--smooth ÷ bwd", "--smooth ÷ best offline",
-            "the default ran"]  # fmt: skip
+            "the default ran", "default: predicted ÷ measured"]  # fmt: skip
     lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     groups: dict[str, list[tuple[float | None, float | None, float | None]]] = {}
+    assessments: dict[str, list[float | None]] = {}
+
+    def group_of(name: str) -> str:
+        return name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+
     for name in recs:
         bwd, d, sm = (by.get((name, m)) for m in ("backward diff.", "omegahat estimate", "omegahat estimate --smooth"))
         vals = (d.ratio if d else None, sm.ratio if sm else None, sm.offline_ratio if sm else None)
         ran = "differencing" if d and "backward differencing runs" in d.note else "model's filter"
+        pm = d.predicted / d.score.rms if d and d.predicted and d.score else None  # the self-assessment
         cells = [_fmt(bwd.score.rms if bwd and bwd.score else None)] + [_fmt(v, ".3f") for v in vals] + [ran]
+        cells.append(_fmt(pm, ".2f"))
+        assessments.setdefault(group_of(name), []).append(pm)
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
-        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
-        groups.setdefault(group, []).append(vals)
+        groups.setdefault(group_of(name), []).append(vals)
     lines += ["", "| group | n | default ÷ bwd (geo. mean; worst; > 1.02) | --smooth ÷ bwd (geo. mean) | "
               "--smooth ÷ best offline (geo. mean; worst; > 1.0) |", "| --- | ---: | --- | --- | --- |"]  # fmt: skip
     everything: list[tuple[float | None, float | None, float | None]] = []
@@ -159,6 +166,15 @@ def after_table(rows: list[Row]) -> str:
             f"| {g} | {len(vals)} | {_fmt(_geomean(d), '.3f')}; {_fmt(max(d, default=None), '.3f')}; "
             f"{sum(x > 1.02 for x in d)} | {_fmt(_geomean([v[1] for v in vals]), '.3f')} | "
             f"{_fmt(_geomean(o), '.3f')}; {_fmt(max(o, default=None), '.3f')}; {sum(x > 1.0 for x in o)} |"
+        )
+    lines += ["", "| group | n | default: predicted ÷ measured (geo. mean; lowest; highest; outside 0.5-2) |",
+              "| --- | ---: | --- |"]  # fmt: skip
+    every = [x for g in assessments.values() for x in g]
+    for g, pms in [*assessments.items(), ("all", every)]:
+        v = [x for x in pms if x is not None]
+        lines.append(
+            f"| {g} | {len(v)} | {_fmt(_geomean(v), '.2f')}; {_fmt(min(v, default=None), '.2f')}; "
+            f"{_fmt(max(v, default=None), '.2f')}; {sum(not 0.5 <= x <= 2.0 for x in v)} |"
         )
     return "\n".join(lines)
 

@@ -58,6 +58,7 @@ __all__ = [
     "Summary",
     "cores",
     "dask_jobs",
+    "expected_error",
     "run_job",
     "run_jobs",
     "start_method",
@@ -176,7 +177,7 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
     return f"sarras, {model}"
 
 
-def _expected(estimator: str, summary: Summary, report: list[str]) -> float | None:
+def expected_error(estimator: str, summary: Summary, report: list[str]) -> float | None:
     """The expected RMS error the run stated for the estimator that ran: the fixed-gain observer's (its gains' line),
     or the identification's for its model's filter or for backward differencing (causal runs only)."""
     if estimator.startswith("sarras"):
@@ -226,7 +227,7 @@ def run_job(one: OneFile, args: argparse.Namespace, job: Job, stop: _Stop | None
     else:
         out.status, out.format, out.rows = "ok", stream.format, summary.rows
         out.estimator = _estimator(args, stream, summary)
-        out.expected = _expected(out.estimator, summary, lines)
+        out.expected = expected_error(out.estimator, summary, lines)
     out.seconds = time.perf_counter() - t0
     out.report = lines
     out.notes = [line for line in lines if line.startswith(("note: ", "warning: "))]

@@ -39,7 +39,6 @@ import contextlib
 import json
 import math
 import os
-import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -49,6 +48,7 @@ from typing import Any, Literal
 import numpy as np
 
 from omegahat import so3
+from omegahat.cli.many_run import expected_error
 from omegahat.io import LogStream, ReadOptions
 from omegahat.io.pipeline import EstimateSettings, estimate_stream
 from omegahat.io.registry import checked_stream
@@ -228,19 +228,12 @@ class _Collector:
         self.omega[chunk.labels] = omega
 
 
-_EXPECTED = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s")
-
-
-def _predicted(summary, lines: list[str]) -> float | None:
-    """The run's own expected RMS error: ``summary.expected_rms`` when the pipeline reports one, else the number
-    the fixed-gain observer's gain choice prints (only when that observer is the estimator used)."""
-    value = getattr(summary, "expected_rms", None)
-    if value is not None:
-        return float(value)
-    if not any(line.startswith("gains used:") for line in summary.lines):
-        return None
-    found = [float(m.group(1)) for line in lines for m in [_EXPECTED.search(line)] if m]
-    return found[-1] if found else None
+def _predicted(summary, lines: list[str], smooth: bool) -> float | None:
+    """The run's own expected RMS error, as the many-files table reads it (:func:`omegahat.cli.many_run.
+    expected_error`): the fixed-gain observer's, or the identification's for what ran (causal runs only)."""
+    fixed_gain = any(line.startswith("gains used:") for line in summary.lines)
+    label = "sarras" if fixed_gain else "omegahat --smooth" if smooth else "omegahat"
+    return expected_error(label, summary, lines)
 
 
 def pipeline_method(name: str, causal: bool = True, given_model: bool = True, **settings: Any) -> Method:
@@ -256,7 +249,8 @@ def pipeline_method(name: str, causal: bool = True, given_model: bool = True, **
             rec.stream(), EstimateSettings(**(extra | settings)), lambda s: contextlib.nullcontext(collector),
             report=lines.append, announce=lambda text: None,
         )  # fmt: skip
-        return Outcome(collector.omega, _predicted(summary, lines), " | ".join(lines + summary.lines))
+        smooth = bool(settings.get("smooth"))
+        return Outcome(collector.omega, _predicted(summary, lines, smooth), " | ".join(lines + summary.lines))
 
     def skip(rec: Recording) -> str | None:
         if settings.get("preset") is not None:
