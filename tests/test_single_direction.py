@@ -273,3 +273,24 @@ def test_errors():
     np.testing.assert_allclose(
         est.update(3.0, b[0]).omega, SingleDirectionEstimator(J).run([*t, 3.0], [*b, b[0]]).omega[-1]
     )
+
+
+@pytest.mark.parametrize("omega_hat0", [None, [0.1, 0.0, -0.2]])
+def test_update_equals_run_through_missing_samples(omega_hat0):
+    # update's scalar bookkeeping and run's array bookkeeping must agree: the first sample(s) unavailable (two valid
+    # samples are needed without an initial rate), missing samples predicted and counted
+    t = np.arange(40) * 0.05
+    b = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).inv().apply(V)
+    b[[0, 7, 8, 20]] = np.nan  # the very first one too: the availability count starts at the first valid sample
+    batch = SingleDirectionEstimator(J, reference=V, omega_hat0=omega_hat0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = batch.run(t, b)
+    est = SingleDirectionEstimator(J, reference=V, omega_hat0=omega_hat0)
+    steps = [est.update(tk, bk) for tk, bk in zip(t, b, strict=True)]
+    np.testing.assert_array_equal(np.array([s.status for s in steps], dtype=np.int8), whole.status)
+    np.testing.assert_allclose(np.array([s.omega for s in steps]), whole.omega, rtol=0, atol=1e-12)
+    assert est.n_skipped == batch.n_skipped == 4
+    first_estimate = 1 if omega_hat0 is not None else 2  # the index of the first sample with an estimate
+    assert whole.status[first_estimate] != Status.UNAVAILABLE and whole.status[first_estimate - 1] == Status.UNAVAILABLE
+    assert all(isinstance(s.status, Status) for s in steps)

@@ -346,6 +346,10 @@ def excitation(
     return lam, axis, state
 
 
+_CORRECTED, _PREDICTED, _UNAVAILABLE = int(Status.CORRECTED), int(Status.PREDICTED), int(Status.UNAVAILABLE)
+_STATUS_OF_INT = {int(s): s for s in Status}  # an enum's attribute and call cost a microsecond each in update
+
+
 class SingleDirectionEstimator(StreamingEstimator):
     """ω from one measured direction ``b = Rᵀ v``: the Sarras-type observer (default) or the gradient one.
 
@@ -449,7 +453,7 @@ class SingleDirectionEstimator(StreamingEstimator):
         """The estimate at ``t`` from the direction ``sample (3,)`` (``torque`` known from ``t`` on)."""
         s = ms.checked_sample(t, sample, torque, **self._checks())
         omega, status = self._advance(np.array([s.t]), s.value, s.torque[None])
-        return Estimate(omega[0], Status(status[0]))
+        return Estimate(omega[0], _STATUS_OF_INT[int(status[0])])
 
     def run(self, t: ArrayLike, data: ArrayLike, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at every sample of ``t (T,)``, ``data (T, 3)`` (NaN rows: missing, predicted through);
@@ -474,15 +478,25 @@ class SingleDirectionEstimator(StreamingEstimator):
     def _advance(self, t: np.ndarray, b: np.ndarray, torques: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The checked samples (unit directions, NaN where missing) through the compiled observer and monitor
         (:func:`omegahat.observer.single_direction_step.advance`: NaN before the first valid sample)."""
-        ok = np.all(np.isfinite(b), axis=1)
         W, lam, axis, self.unobservable, self._state = step.advance(self._params, self._state, t, b, torques)
         if t.size:
             self._t_last = float(t[-1])
         self.excitation, self.weak_axis = lam, axis
-        status = np.where(ok, Status.CORRECTED, Status.PREDICTED).astype(np.int8)
         need = 1 if self.omega_hat0 is not None else 2  # one direction at one instant gives no rate
+        if t.size == 1:  # update's sample: the same bookkeeping in scalars (NumPy's calls cost more than the step)
+            ok1 = math.isfinite(b[0, 0]) and math.isfinite(b[0, 1]) and math.isfinite(b[0, 2])
+            seen1 = self._n_valid + ok1
+            code = _CORRECTED if ok1 else _PREDICTED
+            if seen1 < need:
+                code = _UNAVAILABLE
+                W[0] = np.nan
+            self._n_valid = min(seen1, 2)
+            self.n_skipped += not ok1
+            return W, np.array([code], dtype=np.int8)
+        ok = np.all(np.isfinite(b), axis=1)
+        status = np.where(ok, _CORRECTED, _PREDICTED).astype(np.int8)
         seen = self._n_valid + np.cumsum(ok)
-        status[seen < need] = Status.UNAVAILABLE
+        status[seen < need] = _UNAVAILABLE
         W[seen < need] = np.nan
         self._n_valid = min(self._n_valid + int(ok.sum()), 2)
         self.n_skipped += int((~ok).sum())
