@@ -406,9 +406,6 @@ class MEKF(CompiledEstimator):
         self._tau = np.zeros(3)
         self.last_step: FilterStep | None = None
 
-    def _previous_time(self) -> float:
-        return np.nan if self.t is None else self.t
-
     def step(self, t: float, measurement: Measurement, torque: ArrayLike | None = None) -> FilterStep:
         """:meth:`update`, returning the step's prior, transition and posterior (:class:`FilterStep`): the record a
         fixed-interval smoother (:mod:`omegahat.baselines.rts`) runs backwards over."""
@@ -419,9 +416,9 @@ class MEKF(CompiledEstimator):
         """Propagate to ``t`` (with the previous sample's torque held, or the line to this one's), fuse the sample:
         the NumPy path, the oracle of :meth:`run`. A skipped sample is propagated through only."""
         value = np.full((3 if self.references is None else self.references.shape[0], 3), np.nan)
-        code, info = ms.check_sample(t, self._previous_time(), tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        code, info = self._check_one(t, m, kind, tau, value)
         if code >= ms.ERROR:
-            return None, _NO_RATE, int(code), float(info)
+            return None, _NO_RATE, code, info
         R, P = self.R, self.P
         omega = self.omega if self.q_a is None else np.concatenate([self.omega, self.accel])
         Phi = None
@@ -454,12 +451,9 @@ class MEKF(CompiledEstimator):
         self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
     ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
         """The log checked (compiled), then the compiled filter (:mod:`omegahat.baselines.mekf_kernel`)."""
-        T = times.size
-        values, codes, first_bad, info = ms.check_batch(
-            times, self._previous_time(), taus, True, m, kind, *self._conversion
-        )
-        if first_bad >= 0:
-            return None, np.empty((T, 3)), codes, int(first_bad), float(info)
+        values, codes, refusal = self._check_log(times, m, kind, taus)
+        if refusal is not None:
+            return refusal
         directions = self.references is not None
         state = np.array(
             [np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega, *self.accel]

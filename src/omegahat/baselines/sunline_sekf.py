@@ -248,10 +248,9 @@ class SunlineSEKF(CompiledEstimator):
     def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
         """One update (:func:`sekf_step`): the NumPy path, the oracle of :meth:`run`."""
         value = np.full((1, 3), np.nan)
-        prev_t = np.nan if self.t is None else self.t
-        code, info = ms.check_sample(t, prev_t, tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        code, info = self._check_one(t, m, kind, tau, value)
         if code >= ms.ERROR:
-            return None, _NAN3, int(code), float(info)
+            return None, _NAN3, code, info
         b = value[0] if code == ms.OK else None
         X, x, P, axis, restarted = self.X, self.x, self.P, self.axis, False
         if X is None:
@@ -276,11 +275,10 @@ class SunlineSEKF(CompiledEstimator):
         self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
     ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
         """The log checked (compiled), then the compiled filter (:mod:`omegahat.baselines.sunline_kernel`)."""
-        T = times.size
         prev_t = np.nan if self.t is None else self.t
-        values, codes, first_bad, info = ms.check_batch(times, prev_t, taus, True, m, kind, *self._conversion)
-        if first_bad >= 0:
-            return None, np.empty((T, 3)), codes, int(first_bad), float(info)
+        values, codes, refusal = self._check_log(times, m, kind, taus)
+        if refusal is not None:
+            return refusal
         state = np.array([prev_t, self.t is not None, self.X is not None, self.axis])
         X = np.zeros(5) if self.X is None else self.X.copy()
         x, P = self.x.copy(), np.array(self.P, order="C")

@@ -181,9 +181,9 @@ class TSO3Filter(CompiledEstimator):
         """Step from the previous sample's time with the previous sample (C3), keep this one for the next step: the
         NumPy path, the oracle of :meth:`run`; a step that cannot be taken restarts the filter (C5)."""
         value = np.full(self.directions.shape, np.nan)
-        code, info = ms.check_sample(t, self._previous_time(), tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        code, info = self._check_one(t, m, kind, tau, value)
         if code >= ms.ERROR:
-            return None, _NAN3, int(code), float(info)
+            return None, _NAN3, code, info
         R, omega, gain = self.R, self.omega, self.gain
         restarted = False
         if self.t is not None and R is not None:
@@ -206,12 +206,9 @@ class TSO3Filter(CompiledEstimator):
         self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
     ) -> tuple[Any, np.ndarray, np.ndarray, int, float]:
         """The log checked (compiled), then the compiled filter (:mod:`omegahat.baselines.tso3_kernel`)."""
-        T = times.size
-        values, codes, first_bad, info = ms.check_batch(
-            times, self._previous_time(), taus, True, m, kind, *self._conversion
-        )
-        if first_bad >= 0:
-            return None, np.empty((T, 3)), codes, int(first_bad), float(info)
+        values, codes, refusal = self._check_log(times, m, kind, taus)
+        if refusal is not None:
+            return refusal
         n = self.directions.shape[0]
         state = np.array(
             [self._previous_time(), self.t is not None, self.R is not None, self._prev is not None, *self.omega,

@@ -79,6 +79,10 @@ class CompiledEstimator(StreamingEstimator):
     _n_directions: int | None = None  # None: attitude samples; n: n body-frame directions per sample
     _need: int = 1  # valid samples after which an estimate exists (1: the initial rate was given, else 2)
 
+    #: the converter's settings (:func:`omegahat.measurements.conversion`) of an estimator that checks its samples
+    #: itself before its filter (the peers: :meth:`_check_one`, :meth:`_check_log`); set by its constructor
+    _conversion: tuple[np.ndarray, bool, float, float, float]
+
     def _configure_input(self, *, n_directions: int | None, rate_given: bool) -> None:
         """What a sample is (attitude, or ``n_directions`` directions) and whether the initial rate was given."""
         self._n_directions = n_directions
@@ -103,6 +107,23 @@ class CompiledEstimator(StreamingEstimator):
     @abc.abstractmethod
     def _commit(self, state: Any) -> None:
         """Make ``state`` (from :meth:`_step` or :meth:`_run`) the estimator's."""
+
+    # -- the one input path, for a subclass that checks its samples itself -------------------------------------
+
+    def _check_one(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray, value: np.ndarray) -> tuple[int, float]:
+        """(M1)–(M3) and (T) of one sample after the last one taken: ``(code, info)``, its converted value (a
+        rotation's rows or the unit directions) written into ``value``."""
+        code, info = ms.check_sample(t, self._t_last, tau, m, kind, *self._conversion, value, np.empty((3, 3)))
+        return int(code), float(info)
+
+    def _check_log(
+        self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, tuple[Any, np.ndarray, np.ndarray, int, float] | None]:
+        """(M1)–(M3) and (T) over a log after the last sample taken: ``(values, codes, refusal)``, ``refusal`` what
+        :meth:`_run` returns when a sample is refused (None when none is)."""
+        values, codes, first_bad, info = ms.check_batch(times, self._t_last, taus, True, m, kind, *self._conversion)
+        refusal = None if first_bad < 0 else (None, np.empty((times.size, 3)), codes, int(first_bad), float(info))
+        return values, codes, refusal
 
     # -- the contract ------------------------------------------------------------------------------------------
 

@@ -484,15 +484,12 @@ class SingleDirectionEstimator(StreamingEstimator):
         self.excitation, self.weak_axis = lam, axis
         need = 1 if self.omega_hat0 is not None else 2  # one direction at one instant gives no rate
         if t.size == 1:  # update's sample: the same bookkeeping in scalars (NumPy's calls cost more than the step)
-            ok1 = math.isfinite(b[0, 0]) and math.isfinite(b[0, 1]) and math.isfinite(b[0, 2])
-            seen1 = self._n_valid + ok1
-            code = _CORRECTED if ok1 else _PREDICTED
-            if seen1 < need:
-                code = _UNAVAILABLE
-                W[0] = np.nan
+            ok1 = math.isfinite(b[0, 0] + b[0, 1] + b[0, 2])  # a NaN or inf entry, or none (no overflow: |b| = 1)
+            seen1, self.n_skipped = self._n_valid + ok1, self.n_skipped + (not ok1)
             self._n_valid = min(seen1, 2)
-            self.n_skipped += not ok1
-            return W, np.array([code], dtype=np.int8)
+            if seen1 < need:
+                W[0] = np.nan
+            return W, np.array([_UNAVAILABLE if seen1 < need else _CORRECTED if ok1 else _PREDICTED], dtype=np.int8)
         ok = np.all(np.isfinite(b), axis=1)
         status = np.where(ok, _CORRECTED, _PREDICTED).astype(np.int8)
         seen = self._n_valid + np.cumsum(ok)
