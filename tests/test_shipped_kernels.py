@@ -164,14 +164,23 @@ def test_shipped_kernel_others_can_write_is_not_loaded(site, tmp_path):
 
 def test_the_warm_up_runs_every_path_and_a_new_process_compiles_nothing(tmp_path):
     """The warm-up's steps all run; afterwards a fresh process running them again loads every kernel (what a wheel's
-    first run does): no compilation."""
+    first run does): no compilation. The streaming estimators' ``update`` (a controller's per-sample call) runs the
+    very compiled step their ``run`` loops over, so it compiles nothing either."""
     lines: list[str] = []
     assert warmup.run(tmp_path, say=lines.append) == []
     assert len(lines) == len(warmup.STEPS) and all("FAILED" not in line for line in lines)
     code = (
         "import sys, pathlib\n"
+        "import numpy as np\n"
+        "from omegahat import SarrasEstimator, SupervisedKalmanEstimator, theorem_gains\n"
         "from omegahat.lab import warmup\n"
         "failed = warmup.run(pathlib.Path(sys.argv[1]), say=lambda line: None)\n"
+        "J = np.diag([3.0, 2.0, 1.0])\n"
+        "for est in (SarrasEstimator(J, gains=theorem_gains(J, 3.0)),\n"
+        "            SupervisedKalmanEstimator(J, rate_hz=100.0, measurement_noise=1e-3)):\n"
+        "    for k in range(3):\n"
+        "        est.update(0.01 * k, np.eye(3))\n"
+        "        est.update(0.01 * k + 0.005, [0.0, 0.0, 0.0, 1.0])\n"
         "print(failed, warmup.compiled_here())\n"
     )
     (tmp_path / "again").mkdir()

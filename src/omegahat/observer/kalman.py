@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
 from omegahat.interface import MeasurementKind, TorqueHold, one_of
-from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
+from omegahat.kernels.ekf import EKF_SCRATCH, NOMINAL_SUBSTEP_ANGLE
 from omegahat.observer import supervised
 from omegahat.observer.compiled import CompiledEstimator
 from omegahat.observer.estimator import SarrasEstimator
@@ -228,6 +228,13 @@ class SupervisedKalmanEstimator(CompiledEstimator):
     def _reset_state(self) -> None:
         self.observer.reset()
         self._xe = supervised.initial_ekf_state()
+        # the step's outputs and scratch, kept: update calls the very compiled step that run loops over (the wheel
+        # ships it, so a first update compiles nothing), with the same argument types
+        self._xs_next = np.empty_like(self.observer.state_vector)
+        self._xe_next = np.empty_like(self._xe)
+        self._work = np.empty((self.observer.gains.n + 6, 3))
+        self._ekf_work = np.empty(EKF_SCRATCH + 9)
+        self._observer_params = self.observer.params
         #: per sample of the last ``update`` or ``run``: 1 where the output is the EKF's, 0 where the observer's
         self.last_source: np.ndarray | None = None
 
@@ -269,10 +276,12 @@ class SupervisedKalmanEstimator(CompiledEstimator):
     # -- the compiled step (the base converts, refuses, counts) -------------------------------------------------
 
     def _step(self, t: float, m: np.ndarray, kind: int, tau: np.ndarray) -> tuple[Any, np.ndarray, int, float]:
-        xs, xe, w, status, info = supervised.step(
-            self.observer.state_vector, self.observer.params, self._xe, self._ekf_params, t, m, kind, tau
-        )
-        return (xs, xe, np.array([xe[EKF_STATE.source]])), w, int(status), float(info)
+        xs, xe = self._xs_next, self._xe_next  # pure all the same: written here, the state only once committed
+        status, info, w = supervised.step_into(
+            self.observer.state_vector, self._observer_params, self._xe, self._ekf_params, t, m, kind, tau, xs, xe,
+            self._work, self._ekf_work,
+        )  # fmt: skip
+        return (xs, xe, np.array([xe[EKF_STATE.source]])), w.copy(), int(status), float(info)
 
     def _run(
         self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
@@ -283,5 +292,8 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         return (xs, xe, source), W, status, int(first_bad), float(info)
 
     def _commit(self, state: Any) -> None:
-        xs, self._xe, self.last_source = state
-        self.observer.state_vector = xs
+        xs, xe, self.last_source = state
+        if xe is self._xe_next:  # an update's: the old EKF state becomes the next output
+            self._xe_next = self._xe
+        self._xe = xe
+        self.observer.state_vector = xs  # a copy: the kept output stays the step's
