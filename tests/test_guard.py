@@ -187,3 +187,30 @@ def test_cli_overflow_never_labels_nan_corrected(tmp_path, capsys, options):
     assert not np.any(~finite & np.isin(words, ["corrected", "predicted"]))
     assert np.count_nonzero(words == "restarted") > 10
     assert "restarted" in capsys.readouterr().out
+
+
+def test_an_interval_too_far_to_integrate_fails_at_once_in_both_filters():
+    # h(|ω̂| + h|J⁻¹τ|) at or above MAX_SUBSTEPS · 0.2 rad (2000 rad in one interval; NaN too): the step is not
+    # integrated in ten thousand substeps (a 1e10 N m torque column made a 400-row log take 40 s); ω̂ becomes NaN,
+    # R and P are left as they were, and the filters' guard restarts. Just below the bound it is integrated.
+    from omegahat.baselines.mekf import propagate_with_transition
+    from omegahat.kernels.ekf import COVARIANCE_SUBSTEP_ANGLE, MAX_SUBSTEPS, ekf_propagate
+    from omegahat.simulation.rigid_body import RigidBody
+
+    bound = MAX_SUBSTEPS * COVARIANCE_SUBSTEP_ANGLE
+    J = np.eye(3)
+    h = 0.01
+    for tau_x, fails in [(1e10, True), (0.99 * bound / h**2, False), (np.nan, True)]:
+        tau = np.array([tau_x, 0.0, 0.0])
+        R, w, a, P = np.eye(3), np.zeros(3), np.zeros(3), np.eye(6)
+        n = ekf_propagate(R, w, a, P, h, tau, tau, J, J, 1e-4, 0.0, True, np.inf, 0.2)
+        assert (n == 0) == fails and np.all(np.isnan(w)) == fails
+        np.testing.assert_array_equal(R if fails else np.eye(3), np.eye(3))  # untouched when it fails
+        _, w2, P2, _ = propagate_with_transition(
+            np.eye(3), np.zeros(3), np.eye(6), h, tau, RigidBody(J), 1e-4, "dynamic"
+        )
+        assert np.all(np.isnan(w2)) == fails
+        if fails:
+            np.testing.assert_array_equal(P2, np.eye(6))
+        else:
+            np.testing.assert_allclose(w2, w, rtol=1e-9)  # the NumPy oracle and the kernel agree

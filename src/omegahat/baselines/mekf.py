@@ -73,7 +73,6 @@ __all__ = [
     "discretize",
     "initial_attitude",
     "process_jacobian",
-    "propagate",
     "propagate_with_transition",
     "substeps",
     "update",
@@ -144,41 +143,25 @@ def discretize(
     return Phi9, Qd9 + q_a * np.kron(coeff, I3)
 
 
+def _turn(h: float, omega_hat: np.ndarray, J_inv: np.ndarray, tau0: ArrayLike, tau1: ArrayLike) -> float:
+    """``h(|ω̂| + h max|J⁻¹τ|)``: how far the body may turn over the interval (the kernel's rule)."""
+    accel = max(np.linalg.norm(J_inv @ np.asarray(tau0)), np.linalg.norm(J_inv @ np.asarray(tau1)))
+    return float(h * (np.linalg.norm(omega_hat) + h * accel))
+
+
 def substeps(
     h: float, omega_hat: np.ndarray, J_inv: np.ndarray, tau0: ArrayLike, tau1: ArrayLike, max_step: float,
     max_angle: float,
 ) -> int:  # fmt: skip
     """``max(1, ⌈h/max_step⌉, ⌈h(|ω̂| + h max|J⁻¹τ|)/max_angle⌉)``, at most ``MAX_SUBSTEPS``: the rule of
     :func:`omegahat.kernels.ekf.ekf_substeps`."""
-    accel = max(np.linalg.norm(J_inv @ np.asarray(tau0)), np.linalg.norm(J_inv @ np.asarray(tau1)))
-    angle = h * (np.linalg.norm(omega_hat) + h * accel)
+    angle = _turn(h, omega_hat, J_inv, tau0, tau1)
     n = 1
     if np.isfinite(max_step):
         n = max(n, int(np.ceil(h / max_step - 1e-12)))
     if np.isfinite(max_angle):
         n = max(n, int(np.ceil(angle / max_angle)) if angle < MAX_SUBSTEPS * max_angle else MAX_SUBSTEPS)
     return min(n, MAX_SUBSTEPS)
-
-
-def propagate(
-    R: np.ndarray,
-    omega: np.ndarray,
-    P: np.ndarray,
-    h: float,
-    tau: ArrayLike,
-    body: RigidBody,
-    q: float,
-    model: str,
-    max_step: float = np.inf,
-    max_angle: float = NOMINAL_SUBSTEP_ANGLE,
-    tau_end: ArrayLike | None = None,
-    q_a: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(E4) over ``h`` seconds, the torque ``tau`` at the start and ``tau_end`` (default ``tau``: held) at the end;
-    returns ``(R, omega, P)``. The covariance in substeps of at most ``COVARIANCE_SUBSTEP_ANGLE``, each spanning a
-    whole number of the nominal state's (:func:`omegahat.kernels.ekf.ekf_propagate`). With ``q_a`` (K5),
-    ``omega`` is ``[ω̂, â]`` (6) and P is 9×9; the torque ``J â`` is added to the known one."""
-    return propagate_with_transition(R, omega, P, h, tau, body, q, model, max_step, max_angle, tau_end, q_a)[:3]
 
 
 def propagate_with_transition(
@@ -195,13 +178,20 @@ def propagate_with_transition(
     tau_end: ArrayLike | None = None,
     q_a: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`propagate`, also returning the interval's error-state transition ``Φ`` (the product of the
-    covariance substeps' transitions, ``P ← Φ P Φᵀ + Q``): what a fixed-interval smoother needs."""
+    """(E4) over ``h`` seconds, the torque ``tau`` at the start and ``tau_end`` (default ``tau``: held) at the end;
+    returns ``(R, omega, P, Φ)``, ``Φ`` the interval's error-state transition (the product of the covariance
+    substeps' transitions, ``P ← Φ P Φᵀ + Q``: what a fixed-interval smoother needs). The covariance in substeps of
+    at most ``COVARIANCE_SUBSTEP_ANGLE``, each spanning a whole number of the nominal state's
+    (:func:`omegahat.kernels.ekf.ekf_propagate`; an interval too far to integrate fails, ω̂ NaN, as there). With
+    ``q_a`` (K5), ``omega`` is ``[ω̂, â]`` (6) and P is 9×9; the torque ``J â`` is added to the known one."""
     omega = np.asarray(omega, dtype=float)
     accel = omega[3:] if q_a is not None else np.zeros(3)
     omega = omega[:3]
     tau0 = np.asarray(tau, dtype=float) + body.J @ accel
     tau1 = tau0 if tau_end is None else np.asarray(tau_end, dtype=float) + body.J @ accel
+    known = (tau, tau if tau_end is None else tau_end)  # the kernel reckons the turn with the known torque
+    if not _turn(h, omega, body.J_inv, *known) < MAX_SUBSTEPS * COVARIANCE_SUBSTEP_ANGLE:  # too far: the step fails
+        return R, np.concatenate([np.full(3, np.nan), accel[: 3 if q_a is not None else 0]]), P, np.eye(P.shape[0])
     n_cov = substeps(h, omega, body.J_inv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)
     per_cov = -(-substeps(h, omega, body.J_inv, tau0, tau1, max_step, max_angle) // n_cov)
     n = n_cov * per_cov

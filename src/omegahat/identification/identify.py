@@ -125,6 +125,8 @@ class Candidate:
     misfit: float = 1.0  #: σ̂ of (L3) over ``sigma``: how much larger the innovations are than the noise explains
 
     def describe(self) -> str:
+        if not math.isfinite(self.log_likelihood):  # every step of its filter failed (a torque it cannot follow)
+            return f"{self.model}: its filter cannot follow the log (its steps fail: no likelihood, BIC inf)"
         unit = "rad/s^1.5" if ORDER[self.model] == 1 else "rad/s^2.5"
         limit = ", its fast limit" if self.at_fast_limit else ""
         return (

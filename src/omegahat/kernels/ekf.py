@@ -31,7 +31,11 @@ gain, it does not carry the estimate) and the process covariance
     Φ_θa = dt²/2 I + dt³/6 U₂ + dt⁴/24 U₃,  Φ_ωa = dt I + dt²/2 A + dt³/6 A²,  Φ_aa = I
     Q_d += q_a [[dt⁵/20, dt⁴/8, dt³/6], [dt⁴/8, dt³/3, dt²/2], [dt³/6, dt²/2, dt]] ⊗ I  (leading orders)
 
-``P ← Φ P Φᵀ + Q_d`` written in 3×3 blocks (Φ is block upper-triangular). The nominal state: CF4
+``P ← Φ P Φᵀ + Q_d`` written in 3×3 blocks (Φ is block upper-triangular). **An interval too far to integrate**
+— the body would turn ``h(|ω̂| + h|J⁻¹τ|) ≥`` :data:`MAX_SUBSTEPS` · :data:`COVARIANCE_SUBSTEP_ANGLE` = 2000 rad in
+it, or that turn is not finite — is not integrated: the step fails (ω̂ set to NaN, so the caller's guard restarts
+the filter, as for any step whose result is not finite), instead of taking ten thousand substeps per interval of
+a diverged filter (a 1e10 N m torque column made a 400-row log take 40 s). The nominal state: CF4
 (:func:`omegahat.kernels.dynamics.cf4_increment`) with the torque at the substep's start, middle and end (dynamic),
 or ``R̂ ← R̂ Exp(ω̂ dt)`` (kinematic).
 
@@ -133,13 +137,19 @@ def ekf_finite(R, w, a, P):
     return True
 
 
-@numba.njit(cache=True, error_model="numpy")
-def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
-    """The number of substeps of an interval ``h`` (module docstring)."""
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
+def _turn(h, w, Jinv, tau0, tau1):
+    """``h(|ω̂| + h max|J⁻¹τ|)``: how far the body may turn over the interval (module docstring)."""
     f0 = matvec(mat3(Jinv), tau0[0], tau0[1], tau0[2])
     f1 = matvec(mat3(Jinv), tau1[0], tau1[1], tau1[2])
     accel = max(math.sqrt(f0[0] ** 2 + f0[1] ** 2 + f0[2] ** 2), math.sqrt(f1[0] ** 2 + f1[1] ** 2 + f1[2] ** 2))
-    angle = h * (math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) + h * accel)
+    return h * (math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) + h * accel)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle):
+    """The number of substeps of an interval ``h`` (module docstring)."""
+    angle = _turn(h, w, Jinv, tau0, tau1)
     n = 1.0
     if max_step < np.inf:
         n = max(n, math.ceil(h / max_step - 1e-12))
@@ -156,6 +166,9 @@ def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step,
     unknown angular acceleration (used when ``P`` is 9×9: (K5)); the covariance takes substeps of at most
     :data:`COVARIANCE_SUBSTEP_ANGLE` (and ``max_step``), each spanning a whole number of the nominal state's."""
     aug = P.shape[0] == 9
+    if not _turn(h, w, Jinv, tau0, tau1) < MAX_SUBSTEPS * COVARIANCE_SUBSTEP_ANGLE:  # NaN too: too far to integrate
+        w[0] = w[1] = w[2] = np.nan
+        return 0
     n_cov = ekf_substeps(h, w, Jinv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)
     per_cov = -(-ekf_substeps(h, w, Jinv, tau0, tau1, max_step, max_angle) // n_cov)  # ceiling division
     n = n_cov * per_cov
