@@ -281,7 +281,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
             self.observer.state_vector, self._observer_params, self._xe, self._ekf_params, t, m, kind, tau, xs, xe,
             self._work, self._ekf_work,
         )  # fmt: skip
-        return (xs, xe, np.array([xe[EKF_STATE.source]])), w.copy(), int(status), float(info)
+        return (xs, xe, np.array([xe[EKF_STATE.source]])), w, int(status), float(info)  # update copies w
 
     def _run(
         self, times: np.ndarray, m: np.ndarray, kind: int, taus: np.ndarray
