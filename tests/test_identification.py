@@ -16,7 +16,7 @@ from omegahat.baselines.differencing import DifferencingEstimator, log_differenc
 from omegahat.identification import identify
 from omegahat.identification.identify import steady_rate_error
 from omegahat.identification.likelihood import Sums, log_likelihood, noise_intensity
-from omegahat.identification.noise import quiet_noise
+from omegahat.identification.noise import quiet_noise, window_quantile
 from omegahat.identification.smoother import ModelSmoother, combine
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 
@@ -59,6 +59,17 @@ def test_noise_intensity_is_the_tracking_index_relation():
     # (L2): q = Λ² σ² / h^(2p+1)
     assert noise_intensity("rate", 2.0, 1e-3, 0.01) == pytest.approx(4.0 * 1e-6 / 1e-6)
     assert noise_intensity("acceleration", 2.0, 1e-3, 0.01) == pytest.approx(4.0 * 1e-6 / 1e-10)
+
+
+@pytest.mark.parametrize("w", [31, 71, 101])
+def test_the_window_quantile_is_that_of_the_median_of_chi2_values(w):
+    """c_W of (N1) by SciPy's distributions (the order statistic's law) and by sampling medians of χ²₃ draws."""
+    from scipy.stats import beta, chi2
+
+    m = (w + 1) // 2
+    assert window_quantile(w) == pytest.approx(float(chi2.ppf(beta.ppf(0.1, m, w - m + 1), 3)), rel=1e-12)
+    medians = np.median(np.random.default_rng(w).chisquare(3, size=(40_000, w)), axis=1)
+    assert window_quantile(w) == pytest.approx(float(np.quantile(medians, 0.1)), rel=0.01)
 
 
 def test_the_quiet_noise_is_the_noise_where_the_body_rests():

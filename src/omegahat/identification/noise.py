@@ -12,8 +12,9 @@ motion is not (a hand at rest and in a quick turn; a vehicle cruising and manoeu
 quietest tenth of the log: the white noise where some of the log is quiet, an upper bound where none is. ``c_W`` is
 what that percentile is for white noise alone: the median of ``W`` independent ``χ²₃`` values is their ``m``-th
 order statistic, whose distribution function is ``F`` pushed through the regularised incomplete beta function
-``I(m, m)``; its 10th percentile is ``F⁻¹(B⁻¹_{m,m}(0.1))`` (``scipy.stats.beta``, ``chi2``). So a log of white
-noise alone gets its σ back, not the low tail of its windows. :mod:`omegahat.identification.identify` bounds the
+``I(m, m)``; its 10th percentile is ``F⁻¹(B⁻¹_{m,m}(0.1))`` (``scipy.special.betaincinv``; the χ²₃ quantile is
+``F⁻¹(p) = 2 P⁻¹(3/2, p)``, ``gammaincinv``). So a log of white noise alone gets its σ back, not the low tail of its
+windows. :mod:`omegahat.identification.identify` bounds the
 likelihood's noise by it: a stationary Gaussian model fitted by likelihood to a motion with bursts otherwise
 explains the bursts' unpredictability as sensor noise (measured on BROAD at 28.6 Hz: 3.6 mrad from the likelihood
 against 0.1 mrad at rest), and then smooths the motion away.
@@ -36,10 +37,12 @@ _MIN_WINDOW = 31
 @functools.cache
 def window_quantile(w: int, quantile: float = QUANTILE) -> float:
     """``c_W`` of (N1): the ``quantile`` of the median of ``w`` (odd) independent ``χ²₃`` values."""
-    from scipy.stats import beta, chi2  # here: scipy.stats takes 0.3 s to import, and the command imports this module
+    # scipy.special's inverses, not scipy.stats' distributions (whose import takes 0.6 s of a command's run):
+    # B⁻¹_{m,w−m+1} is betaincinv, and the χ²₃ quantile is 2·P⁻¹(3/2, ·) (the regularised lower gamma's inverse)
+    from scipy.special import betaincinv, gammaincinv
 
     m = (w + 1) // 2
-    return float(chi2.ppf(beta.ppf(quantile, m, w - m + 1), 3))
+    return float(2.0 * gammaincinv(1.5, betaincinv(m, w - m + 1, quantile)))
 
 
 def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:

@@ -20,6 +20,7 @@ whatever the reader's chunk size, so that the same data get the same gains in ev
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 
@@ -137,15 +138,20 @@ def attitude_choice(
     warning = time_unit_warning(motion.h, float(stream.t0 + t_h[0]), unit, spell)
     if warning:
         report(warning)
-    bandwidth_option = spell("bandwidth_hz", None)
-    gains, text, omega_b = autogain.select_gains(
-        motion, duration, settings.start, refs, gains=settings.gains, bandwidth_hz=settings.bandwidth_hz,
-        flag=bandwidth_option,
-    )  # fmt: skip
     fixed_gains = settings.estimator == "sarras" or settings.gains is not None or settings.bandwidth_hz is not None
+
+    @functools.cache
+    def observer_gains() -> tuple[ObserverGains, str, float]:
+        """The fixed-gain observer's gains, their line and bandwidth (rad/s): chosen only on the paths that run
+        that observer or its fit window (the fixed gains, the preset, a head too short to identify a model)."""
+        return autogain.select_gains(
+            motion, duration, settings.start, refs, gains=settings.gains, bandwidth_hz=settings.bandwidth_hz,
+            flag=spell("bandwidth_hz", None),
+        )  # fmt: skip
+
     if settings.preset is None:
         if fixed_gains:  # the identified path says its own choice
-            report(text)
+            report(observer_gains()[1])
     elif stream.has_torque:
         raise ValueError(
             f"{spell('preset', settings.preset)} is for bodies whose torque is unknown, but the log has torque "
@@ -172,18 +178,23 @@ def attitude_choice(
         window (D)); None for the other starts (no estimate at the first valid sample)."""
         if settings.start != "fit":
             return None
-        window = autogain.fit_window(omega_b, motion.rate_hz) if window is None else window
+        window = autogain.fit_window(observer_gains()[2], motion.rate_hz) if window is None else window
         return autogain.initial_rate(tv, rot, window, J, motion.torque)
 
     est, described = _estimator(
-        settings, motion, J, gains, refs, stream, report, spell, (t_h, data_h, tau_h), fit_start
+        settings, motion, J, observer_gains, refs, stream, report, spell, (t_h, data_h, tau_h), fit_start
     )
+    chosen = observer_gains.cache_info().currsize > 0  # the identified path never asked for them
+    gains, text = observer_gains()[:2] if chosen else (None, "")
     return Choice(est, gains, text, _used(described, J, settings.inertia is not None, settings.start), spacing=motion.h)
 
 
-def _estimator(settings, motion, J, gains, refs, stream, report, spell, head, fit_start) -> tuple[Estimator, Estimator]:
+def _estimator(
+    settings, motion, J, observer_gains, refs, stream, report, spell, head, fit_start
+) -> tuple[Estimator, Estimator]:
     """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
-    preset's; the fixed-gain observer with ``gains`` (asked for, or fewer than ``MIN_SAMPLES`` valid samples); else
+    preset's; the fixed-gain observer with ``observer_gains()[0]`` (asked for, or fewer than ``MIN_SAMPLES`` valid
+    samples); else
     what the identification of the head chose (the model's supervised filter or backward differencing, its smoother
     or RotationSpline for ``smooth``). ``fit_start(window)``: the start's rate (None unless the start is ``fit``)."""
     common = {
@@ -220,7 +231,7 @@ def _estimator(settings, motion, J, gains, refs, stream, report, spell, head, fi
         )
         choice = "sarras"
     if choice == "sarras":
-        sarras = SarrasEstimator(J, gains=gains, omega_hat0=fit_start(), **common)
+        sarras = SarrasEstimator(J, gains=observer_gains()[0], omega_hat0=fit_start(), **common)
         return sarras, sarras
     ident = _identified(settings, stream, refs, head)
     report(ident.explain())
