@@ -343,7 +343,8 @@ def step(x, p, t, m, kind, tau):
     return out, status, info
 
 
-@numba.njit(cache=True, error_model="numpy")
+# without the GIL: the command reads the next chunk and writes the last in other threads meanwhile (test_gil.py)
+@numba.njit(cache=True, error_model="numpy", nogil=True)
 def run(x, p, times, m, kind, taus):
     """:func:`step_into` over a log: ``(final state, ω̂ (T, 3), status (T,), first_bad, info)``; at the first
     rejected sample it stops and returns the state it started from (``first_bad`` its index, else −1)."""

@@ -325,7 +325,8 @@ def _interval(p, J, Jinv, y, h, valid, u, tau):
     return y[0], y[1], y[2], y[3], y[4], y[5], y[6] / m, y[7] / m, y[8] / m
 
 
-@numba.njit(cache=True, error_model="numpy")
+# without the GIL: the command reads the next chunk and writes the last in other threads meanwhile (test_gil.py)
+@numba.njit(cache=True, error_model="numpy", nogil=True)
 def _advance(p, x, t, b, tau, omega, lam, axis, flags):
     """:func:`advance` in place on the state ``x`` and the outputs ``ω̂ (T, 3)``, ``λ_min (T,)``, the weak axis
     ``(T, 3)`` and the flags ``(T,)``; returns ``(first rejected sample or −1, its status, info)``."""

@@ -266,7 +266,8 @@ def step(xs, p, xe, pe, t, m, kind, tau):
     return xs_out, xe_out, w.copy(), status, info
 
 
-@numba.njit(cache=True, error_model="numpy")
+# without the GIL: the command reads the next chunk and writes the last in other threads meanwhile (test_gil.py)
+@numba.njit(cache=True, error_model="numpy", nogil=True)
 def run(xs, p, xe, pe, times, m, kind, taus):
     """:func:`step_into` over a log: ``(observer state, EKF state, ω̂ (T, 3), source (T,), status (T,), first_bad,
     info)``; at the first rejected sample it stops and returns the states it started from."""
