@@ -22,7 +22,7 @@ from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.observer.single_direction import SingleDirectionEstimator
 
-N = 400_000  # samples: a loop of 0.2-2 s
+N = 200_000  # samples: a loop of 0.1-1 s
 
 
 def _copy(a):

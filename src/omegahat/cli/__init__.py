@@ -20,6 +20,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Collection
+from typing import Any
 
 # Subcommand name -> module in omegahat.cli.
 SUBCOMMANDS = {
@@ -52,6 +53,28 @@ def positive_float(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return value
+
+
+def add_quaternion_order(group: Any, where: str = "") -> None:
+    """``--scalar-first`` / ``--scalar-last`` (one of them, into ``scalar_first``: True, False or None when neither
+    is given) on ``group`` (a parser or an argument group); ``where`` says, in the first one's help, which inputs
+    need one."""
+    order = group.add_mutually_exclusive_group()
+    order.add_argument(
+        "--scalar-first",
+        dest="scalar_first",
+        action="store_const",
+        const=True,
+        default=None,
+        help="unnamed quaternions are w,x,y,z (SciPy's scalar_first=True)" + (f": {where}" if where else ""),
+    )
+    order.add_argument(
+        "--scalar-last",
+        dest="scalar_first",
+        action="store_const",
+        const=False,
+        help="unnamed quaternions are x,y,z,w (SciPy's default)",
+    )
 
 
 def _integer(text: str) -> int:

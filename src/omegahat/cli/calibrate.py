@@ -22,7 +22,7 @@ import numpy as np
 
 from omegahat import so3
 from omegahat.calibration import DEFAULT_MAX_OFFSET, MODES, Calibration, band_limited, calibrate
-from omegahat.cli import positive_float
+from omegahat.cli import add_quaternion_order, positive_float
 from omegahat.io import LogFormatError, ReadOptions, read_log
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
 
@@ -165,22 +165,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     att.add_argument("--time-unit", choices=list(TIME_UNITS), default="s")
     att.add_argument("--time-column", default="t", metavar="NAME")
     att.add_argument("--rotation", choices=ROTATIONS, default="body-to-inertial")
-    order = att.add_mutually_exclusive_group()
-    order.add_argument(
-        "--scalar-first",
-        dest="scalar_first",
-        action="store_const",
-        const=True,
-        default=None,
-        help="unnamed quaternions are w,x,y,z",
-    )
-    order.add_argument(
-        "--scalar-last",
-        dest="scalar_first",
-        action="store_const",
-        const=False,
-        help="unnamed quaternions are x,y,z,w (SciPy's default)",
-    )
+    add_quaternion_order(att)
     att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon or C3D file")
     gyr = parser.add_argument_group("the gyroscope log")
     gyr.add_argument("--gyro-columns", default="gx,gy,gz", metavar="X,Y,Z", help="its rate columns (default gx,gy,gz)")

@@ -46,7 +46,7 @@ import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
-from omegahat.cli import many
+from omegahat.cli import add_quaternion_order, many
 from omegahat.io import ReadOptions, check_output, open_log, open_output
 from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import RunSummary, estimate_stream
@@ -178,23 +178,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="samples at one time whose attitudes differ: error (default: a broken time source; the message names "
         "both lines), or keep the first or the last of them (the others dropped, counted and reported)",
     )
-    order = conv.add_mutually_exclusive_group()
-    order.add_argument(
-        "--scalar-first",
-        dest="scalar_first",
-        action="store_const",
-        const=True,
-        default=None,
-        help="unnamed quaternions are w,x,y,z (SciPy's scalar_first=True): NPZ array q (default: scalar last) or "
-        "columns q0..q3 / q1..q4 (one of --scalar-first/--scalar-last required there); named columns qw,qx,qy,qz "
-        "need neither",
-    )
-    order.add_argument(
-        "--scalar-last",
-        dest="scalar_first",
-        action="store_const",
-        const=False,
-        help="unnamed quaternions are x,y,z,w (SciPy's default)",
+    add_quaternion_order(
+        conv,
+        "NPZ array q (default: scalar last) or columns q0..q3 / q1..q4 (one of --scalar-first/--scalar-last required "
+        "there); named columns qw,qx,qy,qz need neither",
     )
     model = parser.add_argument_group("model and gains")
     model.add_argument(
