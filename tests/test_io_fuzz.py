@@ -70,9 +70,17 @@ def reference(raw: bytes, encoding: str, delim: str):
             att = [math.nan] * 4
         t.append(vals[0])
         q.append([att[1], att[2], att[3], att[0]])
-    if not t:
+    if not t or _not_rotations(q):
         return None
     return _timestamp_policy(t, q)
+
+
+def _not_rotations(q) -> bool:
+    """The documented rule (3) of omegahat.io.precision, written out independently: the file is refused when more
+    than half of its first 1000 valid quaternions are plainly no rotation, ``|‖q‖ − 1| > 0.1``."""
+    valid = [v for v in q if all(math.isfinite(x) for x in v)][:1000]
+    plain = sum(abs(math.sqrt(sum(x * x for x in v)) - 1.0) > 0.1 for v in valid)
+    return 2 * plain > len(valid)
 
 
 def _timestamp_policy(t, q):

@@ -24,6 +24,7 @@ EKF", written here on rotation matrices (``R`` body → inertial, ω in body axe
     update          S = H P Hᵀ + R_meas; K = P Hᵀ S⁻¹; δx̂ = K z;
                     P ← (I − K H) P (I − K H)ᵀ + K R_meas Kᵀ (Joseph form)                           (E7)
     reset           R̂ ← R̂ Exp(δθ̂);  ω̂ ← ω̂ + δω̂                                                    (E8)
+                    then R̂ ← R̂ (3I − R̂ᵀR̂)/2: one Newton–Schulz step, R̂ kept a rotation to rounding
 
 (E6) follows from ``Rᵀ v = Exp(−δθ) R̂ᵀ v ≈ b̂ + b̂ × δθ``. The filter converges only locally: started far from
 the truth with a small covariance it can lock on a wrong solution or diverge. The known torque passed with a
@@ -241,7 +242,9 @@ def update(
     dx = K @ z
     IKH = np.eye(n) - K @ H
     P = IKH @ P @ IKH.T + meas_var * (K @ K.T)
-    return R @ _exp(dx[:3]), omega + dx[3:], 0.5 * (P + P.T)
+    R = R @ _exp(dx[:3])
+    R = R @ (1.5 * np.eye(3) - 0.5 * R.T @ R)  # one Newton–Schulz step: R̂ kept a rotation to rounding (E8)
+    return R, omega + dx[3:], 0.5 * (P + P.T)
 
 
 def initial_attitude(b: ArrayLike, references: ArrayLike) -> np.ndarray:

@@ -16,8 +16,8 @@ import math
 import numba
 
 __all__ = [
-    "cross", "det", "dot", "inverse", "lincomb", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "skew",
-    "solve", "transposed",
+    "cross", "det", "dot", "inverse", "lincomb", "mat3", "matmul", "matvec", "matvec_transposed", "norm", "polished",
+    "skew", "solve", "transposed",
 ]  # fmt: skip
 
 
@@ -82,6 +82,14 @@ def matmul(A, B):
         A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
         A[6] * B[2] + A[7] * B[5] + A[8] * B[8],
     )  # fmt: skip
+
+
+@numba.njit(cache=True, forceinline=True, error_model="numpy")
+def polished(R):
+    """``R (3I − RᵀR)/2`` for a 9-tuple ``R`` near a rotation: one Newton–Schulz step towards its polar factor (the
+    nearest rotation), which turns a deviation ε of ``RᵀR`` from I into about ``3ε²/4``."""
+    G = matmul(transposed(R), R)
+    return matmul(R, lincomb(1.5, (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), -0.5, G))
 
 
 @numba.njit(cache=True, forceinline=True, error_model="numpy")
