@@ -452,7 +452,7 @@ class MEKF(CompiledEstimator):
         state = np.array(
             [np.nan if self.t is None else self.t, self.t is not None, self.R is not None, *self.omega, *self.accel]
         )
-        out, R, P, _, _ = kernel.run_log(
+        out, R, P, _, n_restarts = kernel.run_log(
             times,
             np.ascontiguousarray(values),
             codes == ms.OK,
@@ -477,7 +477,8 @@ class MEKF(CompiledEstimator):
             np.zeros(4),  # the innovations' likelihood, not kept here (omegahat.identification reads it)
             np.zeros((0, 3, 3)),  # nor the rate covariances
         )
-        codes[~np.all(np.isfinite(out), axis=1)] = ms.RESTARTED  # the kernel writes NaN only where it restarted
+        if n_restarts:  # the kernel writes NaN only where it restarted
+            codes[~np.all(np.isfinite(out), axis=1)] = ms.RESTARTED
         omega = state[3:6] if self.q_a is None else state[3:9]
         return (R if state[2] else None, omega.copy(), P, float(times[-1]), taus[-1].copy(), None), out, codes, -1, 0.0
 

@@ -53,6 +53,10 @@ STATUS_OF_CODE: dict[int, Status] = {
     ms.RESTARTED: Status.RESTARTED,
 }
 _SKIPPED = (ms.MISSING, ms.COLLINEAR)  # the codes n_skipped counts
+# STATUS_OF_CODE as a table indexed by code (a run's codes are all below ERROR): one indexing per run
+_STATUS_TABLE = np.zeros(ms.ERROR, dtype=np.int8)
+for _code, _status in STATUS_OF_CODE.items():
+    _STATUS_TABLE[_code] = _status
 
 _NAN3 = np.full(3, np.nan)
 _NAN3.flags.writeable = False
@@ -190,9 +194,7 @@ class CompiledEstimator(StreamingEstimator):
             if gaps.size:
                 self.largest_interval = max(self.largest_interval, float(gaps.max()))
         valid = codes == ms.OK
-        status = np.empty(T, dtype=np.int8)
-        for code, word in STATUS_OF_CODE.items():
-            status[codes == code] = word
+        status = _STATUS_TABLE[codes]
         if self._n_valid < self._need:  # no estimate until the `need`-th valid sample of the stream
             seen = self._n_valid + np.cumsum(valid)
             status[seen < self._need] = Status.UNAVAILABLE
@@ -210,7 +212,7 @@ class CompiledEstimator(StreamingEstimator):
                 RestartedWarning,
                 stacklevel=2,
             )
-        skipped = np.isin(codes, _SKIPPED)
+        skipped = (codes == _SKIPPED[0]) | (codes == _SKIPPED[1])
         if skipped.any():
             n_skip = int(np.count_nonzero(skipped))
             n_col = int(np.count_nonzero(codes == ms.COLLINEAR))
