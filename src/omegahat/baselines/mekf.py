@@ -190,8 +190,7 @@ def propagate_with_transition(
     omega = omega[:3]
     tau0 = np.asarray(tau, dtype=float) + body.J @ accel
     tau1 = tau0 if tau_end is None else np.asarray(tau_end, dtype=float) + body.J @ accel
-    known = (tau, tau if tau_end is None else tau_end)  # the kernel reckons the turn with the known torque
-    if not _turn(h, omega, body.J_inv, *known) < MAX_SUBSTEPS * COVARIANCE_SUBSTEP_ANGLE:  # too far: the step fails
+    if not _turn(h, omega, body.J_inv, tau0, tau1) < MAX_SUBSTEPS * COVARIANCE_SUBSTEP_ANGLE:  # too far: it fails
         nan = np.full(3, np.nan)
         return R, (nan if q_a is None else np.concatenate([nan, accel])), P, np.eye(P.shape[0])
     n_cov = substeps(h, omega, body.J_inv, tau0, tau1, max_step, COVARIANCE_SUBSTEP_ANGLE)

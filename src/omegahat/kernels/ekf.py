@@ -9,7 +9,8 @@ The filter of :mod:`omegahat.baselines.mekf` (``docs/baselines.md``): nominal st
 **Propagation** over an interval ``h`` in ``n`` equal substeps, ``n = max(1, ⌈h/max_step⌉,
 ⌈h(|ω̂| + h|J⁻¹τ|)/max_angle⌉)`` for the nominal state; the covariance in substeps of at most
 :data:`COVARIANCE_SUBSTEP_ANGLE`, each spanning a whole number of the nominal state's. The torque is
-``τ(s) = τ₀ + (τ₁ − τ₀) s/h`` (``τ₁ = τ₀``: held). Per substep
+``τ(s) = τ₀ + (τ₁ − τ₀) s/h`` (``τ₁ = τ₀``: held; with the unknown acceleration of (K5), ``J â`` added to it, in
+the substep count too). Per substep
 ``dt``, with ``W`` and ``A`` frozen at its start, the transition ``Φ = exp(F dt) = [[Φ_θθ, Φ_θω], [0, Φ_ωω]]`` is::
 
     Φ_θθ = Exp(−ω̂ dt)                     (exact, Rodrigues)                                        (K2)
@@ -182,7 +183,11 @@ def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step,
     unknown angular acceleration (used when ``P`` is 9×9: (K5)); the covariance takes substeps of at most
     :data:`COVARIANCE_SUBSTEP_ANGLE` (and ``max_step``), each spanning a whole number of the nominal state's."""
     aug = P.shape[0] == 9
-    angle = _turn(h, w, Jinv, tau0, tau1)
+    Jm, Ji = mat3(J), mat3(Jinv)
+    d0, d1, d2 = matvec(Jm, a[0], a[1], a[2]) if aug else (0.0, 0.0, 0.0)  # J â: the disturbance torque
+    t0 = (tau0[0] + d0, tau0[1] + d1, tau0[2] + d2)  # the torque the nominal state integrates
+    t1 = (tau1[0] + d0, tau1[1] + d1, tau1[2] + d2)
+    angle = _turn(h, w, Jinv, t0, t1)
     if not angle < MAX_SUBSTEPS * COVARIANCE_SUBSTEP_ANGLE:  # NaN too: too far to integrate
         w[0] = w[1] = w[2] = np.nan
         return 0
@@ -190,12 +195,8 @@ def ekf_propagate(R, w, a, P, h, tau0, tau1, J, Jinv, q, q_a, dynamic, max_step,
     per_cov = -(-_substeps(h, angle, max_step, max_angle) // n_cov)  # ceiling division
     n = n_cov * per_cov
     dt_cov = h / n_cov
-    Jm, Ji = mat3(J), mat3(Jinv)
     Qw = matmul(Ji, transposed(Ji)) if dynamic else _I3
     Qw = lincomb(q, Qw, 0.0, Qw)
-    d0, d1, d2 = matvec(Jm, a[0], a[1], a[2]) if aug else (0.0, 0.0, 0.0)  # J â: the disturbance torque
-    t0 = (tau0[0] + d0, tau0[1] + d1, tau0[2] + d2)
-    t1 = (tau1[0] + d0, tau1[1] + d1, tau1[2] + d2)
     for jc in range(n_cov):
         _propagate_covariance(P, w, dt_cov, Jm, Ji, Qw, q_a, dynamic, aug)
         for j in range(jc * per_cov, (jc + 1) * per_cov):
