@@ -6,8 +6,8 @@ independently (:func:`draw_case`):
 * the true initial rate uniform in the ball ``|ω₀| ≤ ω_M`` and every estimator started cold (no warm start) from
   ``ω̂₀`` uniform in the ball of radius ``omega_hat0_max`` (default 0: from rest), so the initial rate error is
   anything up to ``ω_M + omega_hat0_max``;
-* the attitude uniform on SO(3); the sensor a star tracker (the attitude, ``attitude_sigma`` per axis) or, for
-  the other half of the runs, two direction sensors 90° apart (``direction_sigma`` per component), where the
+* the attitude uniform on SO(3); the sensor a star tracker (the attitude, ``measurement_noise`` per axis) or, for
+  the other half of the runs, two direction sensors 90° apart (``direction_noise`` per component), where the
   observer's initial filtered directions ``r̂_i0`` carry an attitude error drawn uniformly up to 180°;
 * the sample rate uniform in ``[rate_min, rate_max]`` Hz.
 
@@ -67,8 +67,8 @@ class RobustnessConfig:
     rate_min: float = 1.0
     rate_max: float = 10.0
     duration: float = 120.0
-    attitude_sigma: float = math.radians(0.02)
-    direction_sigma: float = math.radians(0.2)
+    measurement_noise: float = math.radians(0.02)  # the star tracker's attitude noise, rad per axis
+    direction_noise: float = math.radians(0.2)  # the direction sensors' noise, per component
     tolerance: float = 0.02
     rate_noise: float = 1e-4  # σ_a of both EKFs (omegahat's and the MEKF), rad/s^1.5
     omega_hat0_max: float = 0.0  # the estimators' initial rate: uniform in this ball (0: every run from rest)
@@ -85,7 +85,7 @@ class RobustnessConfig:
 #: (|ω̂₀ − ω₀| h < π needs h < 31 ms at 100 rad/s: the data cannot tell a rate from its aliases otherwise).
 CAMPAIGN_LIKE = RobustnessConfig(
     runs=100, omega_max=1.8, omega_hat0_max=100.0, rate_min=1000.0, rate_max=1000.0, duration=10.0,
-    attitude_sigma=1e-4, direction_sigma=1e-4, inertia=(3.0, 2.0, 1.0), name="the paper's campaign, 1 kHz",
+    measurement_noise=1e-4, direction_noise=1e-4, inertia=(3.0, 2.0, 1.0), name="the paper's campaign, 1 kHz",
 )  # fmt: skip
 
 
@@ -117,15 +117,15 @@ def draw_case(config: RobustnessConfig, index: int) -> Case:
     t = np.arange(round(config.duration * rate) + 1) / rate
     traj = integrate(RigidBody(config.J), R0, omega0, t, max_step=min(0.01, 0.5 / rate))
     if directions:
-        meas = sensors.noisy_directions(traj.R, TWO_DIRECTIONS, config.direction_sigma, rng)
+        meas = sensors.noisy_directions(traj.R, TWO_DIRECTIONS, config.direction_noise, rng)
         axis = rng.standard_normal(3)
         error = Rotation.from_rotvec(math.pi * rng.random() ** (1.0 / 3.0) * axis / np.linalg.norm(axis))
         r_true0 = sensors.directions(traj.R[0], TWO_DIRECTIONS)
         r_hat0 = error.apply(r_true0)  # the observer's initial directions, up to 180° away
-        sigma = config.direction_sigma
+        sigma = config.direction_noise
     else:
-        meas = sensors.noisy_attitudes(traj.R, config.attitude_sigma, rng)
-        r_hat0, sigma = None, config.attitude_sigma
+        meas = sensors.noisy_attitudes(traj.R, config.measurement_noise, rng)
+        r_hat0, sigma = None, config.measurement_noise
     axis = rng.standard_normal(3)
     omega_hat0 = config.omega_hat0_max * rng.random() ** (1.0 / 3.0) * axis / np.linalg.norm(axis)
     return Case(seed, rate, directions, t, traj.omega, meas, r_hat0, sigma, omega_hat0)
@@ -213,8 +213,8 @@ def markdown(config: RobustnessConfig, results: dict[str, dict]) -> str:
         f"|w0| uniform in the ball of radius {config.omega_max:g} rad/s, every estimator started cold from w_hat0 "
         f"uniform in the ball of radius {config.omega_hat0_max:g} rad/s, "
         f"sample rate uniform in [{config.rate_min:g}, {config.rate_max:g}] Hz, {config.duration:g} s; even runs a "
-        f"star tracker ({math.degrees(config.attitude_sigma):g} deg/axis), odd runs two direction sensors 90 deg "
-        f"apart ({math.degrees(config.direction_sigma):g} deg) with the observer's initial directions up to 180 deg "
+        f"star tracker ({math.degrees(config.measurement_noise):g} deg/axis), odd runs two direction sensors 90 deg "
+        f"apart ({math.degrees(config.direction_noise):g} deg) with the observer's initial directions up to 180 deg "
         f"off. Converged: |w_hat - w| stays below {config.tolerance:g} rad/s from a time within the first 75 % of "
         "the run. The MEKF's prior covers the range (sigma_w0 = w_M + the initial estimate's bound).",
         "",
