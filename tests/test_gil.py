@@ -2,9 +2,9 @@
 
 ``omegahat estimate`` reads the next chunk (a thread: PyArrow parses, then Python and the input checks convert) and
 writes the last one (a thread) while the estimator runs over the current one; a compiled loop that held the GIL for
-the whole chunk would stall both (on a 2 M-row log, 8.7 s with the loop holding the GIL, 6.5-7.1 s without:
-``benchmarks/big_log.py``). Each test captures the arguments a public estimator's ``run`` gives its loop, calls the
-loop again in a thread, and checks that this thread's Python code runs while the loop does.
+the whole chunk would stall both (``benchmarks/big_log.py`` times the whole). Each test captures the arguments a
+public estimator's ``run`` gives its loop, calls the loop again in a thread, and checks that this thread's Python
+code runs while the loop does.
 """
 
 from __future__ import annotations

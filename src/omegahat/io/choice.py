@@ -184,8 +184,7 @@ def attitude_choice(
     est, described = _estimator(
         settings, motion, J, observer_gains, refs, stream, report, spell, (t_h, data_h, tau_h), fit_start
     )
-    chosen = observer_gains.cache_info().currsize > 0  # the identified path never asked for them
-    gains, text = observer_gains()[:2] if chosen else (None, "")
+    gains, text = observer_gains()[:2] if isinstance(described, SarrasEstimator) else (None, "")  # what it ran with
     return Choice(est, gains, text, _used(described, J, settings.inertia is not None, settings.start), spacing=motion.h)
 
 
@@ -194,9 +193,9 @@ def _estimator(
 ) -> tuple[Estimator, Estimator]:
     """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
     preset's; the fixed-gain observer with ``observer_gains()[0]`` (asked for, or fewer than ``MIN_SAMPLES`` valid
-    samples); else
-    what the identification of the head chose (the model's supervised filter or backward differencing, its smoother
-    or RotationSpline for ``smooth``). ``fit_start(window)``: the start's rate (None unless the start is ``fit``)."""
+    samples); else what the identification of the head chose (the model's supervised filter or backward
+    differencing, its smoother or RotationSpline for ``smooth``). ``fit_start(window)``: the start's rate (None
+    unless the start is ``fit``)."""
     common = {
         "references": refs,
         "measurement": "directions" if stream.kind == "directions" else "attitude",

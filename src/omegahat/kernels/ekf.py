@@ -36,7 +36,7 @@ gain, it does not carry the estimate) and the process covariance
 — the body would turn ``h(|ω̂| + h|J⁻¹τ|) ≥`` :data:`MAX_SUBSTEPS` · :data:`COVARIANCE_SUBSTEP_ANGLE` = 2000 rad in
 it, or that turn is not finite — is not integrated: the step fails (ω̂ set to NaN, so the caller's guard restarts
 the filter, as for any step whose result is not finite), instead of taking ten thousand substeps per interval of
-a diverged filter (a 1e10 N m torque column made a 400-row log take 40 s). The nominal state: CF4
+a diverged filter. The nominal state: CF4
 (:func:`omegahat.kernels.dynamics.cf4_increment`) with the torque at the substep's start, middle and end (dynamic),
 or ``R̂ ← R̂ Exp(ω̂ dt)`` (kinematic).
 
@@ -338,10 +338,9 @@ def _apply(Ks, dx, r0, r1, r2):
 @numba.njit(cache=True, forceinline=True, error_model="numpy")
 def _reset(R, w, a, dx, aug):
     """(E8): ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂`` (and ``â ← â + δâ``); then ``R̂ ← R̂ (3I − R̂ᵀR̂)/2`` (one
-    Newton–Schulz step of the polar factor: a deviation ε of ``R̂ᵀR̂`` from I becomes O(ε²)). Without it the
-    products of rotations drift from orthogonality by rounding, ~3e-19 per step: past 1e-12, after ~3.5 M steps,
-    every attitude fix took the SVD of :func:`~omegahat.kernels.rotation.quat_from_matrix`'s nearest-rotation path
-    (each step 2.3 times slower from then on)."""
+    Newton–Schulz step of the polar factor: a deviation ε of ``R̂ᵀR̂`` from I becomes O(ε²)). Without it a product
+    of millions of rotations drifts from orthogonality by rounding, and once past 1e-12 every attitude fix takes the
+    SVD of :func:`~omegahat.kernels.rotation.quat_from_matrix`'s nearest-rotation path."""
     _put(R, 0, 0, polished(matmul(mat3(R), exp_matrix(dx[0], dx[1], dx[2]))))
     for c in range(3):
         w[c] += dx[3 + c]
