@@ -249,8 +249,9 @@ INTRO = (
 AFTER_INTRO = (
     "`omegahat estimate` with no option (the model and noises identified from the log's first 8192 samples, then "
     "the model's supervised filter or backward differencing) and with `--smooth` (the identified model's two-filter "
-    "smoother, or RotationSpline where the model is declined), scored as above against backward differencing and, "
-    "for `--smooth`, the best of central differencing and RotationSpline. Every row: `benchmarks/real_world_after.csv`."
+    "smoother, or the log's own Wiener smoother where the model is declined), scored as above against backward "
+    "differencing and, for `--smooth`, the best of central differencing and RotationSpline. Every row: "
+    "`benchmarks/real_world_after.csv`."
 )
 
 

@@ -27,6 +27,7 @@ from omegahat.baselines.savgol import SavitzkyGolayEstimator
 from omegahat.baselines.spline import SplineEstimator
 from omegahat.baselines.sunline_sekf import SunlineSEKF
 from omegahat.baselines.tso3_min_energy import MinimumEnergyFilter
+from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import STATUS_WORDS, Estimate, Estimator, Status, StreamingEstimator
 from omegahat.measurements import MeasurementError
 from omegahat.observer.estimator import SarrasEstimator
@@ -77,6 +78,7 @@ ESTIMATORS = {
     # started on the rate: one direction makes the rate observable only as the body turns, slower than this log
     "single-direction": (lambda: SingleDirectionEstimator(J, reference=V1, omega_hat0=W), "one-direction"),
     "spline": (lambda: SplineEstimator(), "matrix"),
+    "spectral-smoother": (lambda: SpectralSmoother(), "quaternion"),
     "savitzky-golay": (lambda: SavitzkyGolayEstimator(window=5, order=2), "quaternion"),
     "mocap-smoother": (lambda: MocapSmoother(rate_hz=RATE, measurement_noise=1e-4), "quaternion"),
     "rts-smoother": (lambda: RTSSmoother(filter_factory=lambda: MEKF(J, q=1e-4, measurement_noise=1e-4)), "matrix"),
@@ -105,12 +107,12 @@ def assert_same(a: Estimate, b: Estimate, atol: float = 1e-12) -> None:
 
 
 def test_the_suite_covers_every_estimator():
-    assert len(STREAMING) == 14 and len(NAMES) - len(STREAMING) == 4
+    assert len(STREAMING) == 14 and len(NAMES) - len(STREAMING) == 5
     names = {c.__name__ for c in CLASSES}
     assert names == {
         "SarrasEstimator", "SupervisedKalmanEstimator", "MocapPreset", "MEKF", "DifferencingEstimator",
-        "SingleDirectionEstimator", "SplineEstimator", "SavitzkyGolayEstimator", "MocapSmoother", "RTSSmoother",
-        "MinimumEnergyFilter", "PredictiveFilter", "SunlineSEKF",
+        "SingleDirectionEstimator", "SplineEstimator", "SpectralSmoother", "SavitzkyGolayEstimator", "MocapSmoother",
+        "RTSSmoother", "MinimumEnergyFilter", "PredictiveFilter", "SunlineSEKF",
     }  # fmt: skip
 
 

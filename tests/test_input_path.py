@@ -22,6 +22,7 @@ from omegahat.baselines.predictive_geom import PredictiveFilter
 from omegahat.baselines.spline import SplineEstimator
 from omegahat.baselines.sunline_sekf import SunlineSEKF
 from omegahat.baselines.tso3_min_energy import MinimumEnergyFilter
+from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import Status
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
@@ -64,14 +65,21 @@ ATTITUDE_ESTIMATORS = {
     "mekf": mekf,
     "differencing": DifferencingEstimator,
     "spline": SplineEstimator,
+    "spectral-smoother": SpectralSmoother,
     "min-energy": min_energy,
     "predictive": predictive,
 }
-STREAMING = ("sarras", "mekf", "differencing", "min-energy", "predictive")  # the spline is offline: no update
+STREAMING = (
+    "sarras",
+    "mekf",
+    "differencing",
+    "min-energy",
+    "predictive",
+)  # the spline and the smoother are offline: no update
 DIRECTION_ESTIMATORS = {"sarras": sarras, "mekf": mekf, "min-energy": min_energy, "predictive": predictive}
 CLASSES = {
     "sarras": SarrasEstimator, "mekf": MEKF, "differencing": DifferencingEstimator, "spline": SplineEstimator,
-    "min-energy": MinimumEnergyFilter, "predictive": PredictiveFilter,
+    "spectral-smoother": SpectralSmoother, "min-energy": MinimumEnergyFilter, "predictive": PredictiveFilter,
 }  # fmt: skip
 ONE_DIRECTION_ESTIMATORS = {  # one measured direction: the n = 1 path of omegahat.measurements
     "single-direction": lambda: SingleDirectionEstimator(J, reference=REFS[0]),

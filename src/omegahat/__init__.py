@@ -46,6 +46,7 @@ _PUBLIC = {
     "MEKF": "omegahat.baselines.mekf",
     "DifferencingEstimator": "omegahat.baselines.differencing",
     "SplineEstimator": "omegahat.baselines.spline",
+    "SpectralSmoother": "omegahat.identification.spectral",
     "SavitzkyGolayEstimator": "omegahat.baselines.savgol",
     "RTSSmoother": "omegahat.baselines.rts",
     "mocap_estimator": "omegahat.observer.presets",

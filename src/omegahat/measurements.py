@@ -50,6 +50,7 @@ rejection status into its message.
 
 from __future__ import annotations
 
+import abc
 from typing import NamedTuple
 
 import numpy as np
@@ -68,7 +69,7 @@ from omegahat.conversion import (
     torque_vector,
     torques_array,
 )
-from omegahat.interface import Measurement, Measurements
+from omegahat.interface import Estimate, Estimator, Measurement, Measurements, batch_status
 from omegahat.kernels.checks import (
     COLLINEAR,
     ERROR,
@@ -121,6 +122,7 @@ __all__ = [
     "TIME_ORDER",
     "TORQUE_NOT_FINITE",
     "ZERO_DIRECTION",
+    "AttitudeBatchEstimator",
     "CheckedLog",
     "CheckedSample",
     "Directions",
@@ -445,3 +447,29 @@ def body_directions(measured: ArrayLike, n: int | None = None, *, min_angle_deg:
     r, status, first_bad, info = _convert(m, KIND_DIRECTIONS, V, min_sin=float(np.sin(np.radians(min_angle_deg))))
     _raise_first(first_bad, status, info, batch)
     return Directions(r.reshape(a.shape), status.reshape(batch))
+
+
+class AttitudeBatchEstimator(Estimator):
+    """A batch estimator of attitudes alone (the spline, Savitzky–Golay, the log's own Wiener smoother): ``run``
+    checks the log through :func:`checked_log`, hands it to :meth:`rates`, counts the skipped samples and gives the
+    statuses of :func:`omegahat.interface.batch_status`. Keyword-only: the quaternion order and the tolerances."""
+
+    causal = False
+
+    def __init__(
+        self, *, scalar_first: bool = False, rotation_tol: float = ROTATION_TOL, quat_norm_tol: float = QUAT_NORM_TOL
+    ) -> None:
+        self.scalar_first = bool(scalar_first)
+        self.rotation_tol, self.quat_norm_tol = tolerances(rotation_tol, quat_norm_tol)
+
+    @abc.abstractmethod
+    def rates(self, log: CheckedLog, data: Measurements) -> np.ndarray:
+        """ω̂ ``(T, 3)`` at the log's times from the checked log (``data``: the attitudes as given)."""
+
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """ω̂ at every sample time, ``(T, 3)``, and the statuses (``torque`` is not used)."""
+        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
+        log = checked_log(t, data, scalar_first=self.scalar_first, **tols)
+        omega = self.rates(log, data)
+        self.n_skipped = int(np.count_nonzero(~log.valid))
+        return Estimate(omega, batch_status(log.valid, omega))

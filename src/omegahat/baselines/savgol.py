@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.interface import Estimate, Estimator, Measurements, batch_status
+from omegahat.interface import Measurements
 
 __all__ = ["SavitzkyGolayEstimator", "right_jacobian", "savgol_rate"]
 
@@ -97,7 +97,7 @@ def _savgol(log: ms.CheckedLog, window: int, order: int) -> np.ndarray:
     return out
 
 
-class SavitzkyGolayEstimator(Estimator):
+class SavitzkyGolayEstimator(ms.AttitudeBatchEstimator):
     """Savitzky–Golay filtering on SO(3), (G1)–(G3), behind the estimator contract: offline only (``run``).
 
     ``causal = False``. Where a window has too few valid samples, or its centre is missing, there is no estimate
@@ -135,8 +135,6 @@ class SavitzkyGolayEstimator(Estimator):
     0.30 -0.20 0.50
     """
 
-    causal = False
-
     def __init__(
         self,
         *,
@@ -148,13 +146,8 @@ class SavitzkyGolayEstimator(Estimator):
     ) -> None:
         _check_knobs(window, order)
         self.window, self.order = int(window), int(order)
-        self.scalar_first = bool(scalar_first)
-        self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
+        super().__init__(scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol)
 
-    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
-        """ω̂ at every sample time, ``(T, 3)``, and the statuses (``torque`` is not used)."""
-        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
-        log = ms.checked_log(t, data, scalar_first=self.scalar_first, **tols)
-        omega = _savgol(log, self.window, self.order)
-        self.n_skipped = int(np.count_nonzero(~log.valid))
-        return Estimate(omega, batch_status(log.valid, omega))
+    def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
+        """(G1)–(G3) at the log's times."""
+        return _savgol(log, self.window, self.order)

@@ -18,7 +18,7 @@ from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from omegahat import measurements as ms
-from omegahat.interface import Estimate, Estimator, Measurements, batch_status
+from omegahat.interface import Measurements
 
 __all__ = ["SplineEstimator", "spline_rate"]
 
@@ -53,7 +53,7 @@ def _spline(log: ms.CheckedLog, attitudes: Measurements) -> np.ndarray:
     return spline(log.times, 1)
 
 
-class SplineEstimator(Estimator):
+class SplineEstimator(ms.AttitudeBatchEstimator):
     """SciPy's ``RotationSpline`` behind the estimator contract: offline only (``run``), ``causal = False``.
 
     A skipped (non-finite) sample is bridged by the spline (status ``predicted``). The spline interpolates the
@@ -80,22 +80,6 @@ class SplineEstimator(Estimator):
     0.300 -0.200 0.500 PREDICTED
     """
 
-    causal = False
-
-    def __init__(
-        self,
-        *,
-        scalar_first: bool = False,
-        rotation_tol: float = ms.ROTATION_TOL,
-        quat_norm_tol: float = ms.QUAT_NORM_TOL,
-    ) -> None:
-        self.scalar_first = bool(scalar_first)
-        self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
-
-    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
-        """ω̂ at every sample time, ``(T, 3)``, and the statuses (``torque`` is not used)."""
-        tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
-        log = ms.checked_log(t, data, scalar_first=self.scalar_first, **tols)
-        omega = _spline(log, data)
-        self.n_skipped = int(np.count_nonzero(~log.valid))
-        return Estimate(omega, batch_status(log.valid, omega))
+    def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
+        """The spline's derivative at the log's times (module docstring)."""
+        return _spline(log, data)

@@ -172,8 +172,8 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
         return f"omegahat{smooth}, {model}"
     if used.startswith("estimator used: backward differencing"):
         return "backward differencing"
-    if used.startswith("estimator used: SciPy's RotationSpline"):
-        return "RotationSpline (--smooth)"
+    if used.startswith("estimator used: the log's own Wiener smoother"):
+        return "Wiener smoother (--smooth)"
     return f"sarras, {model}"
 
 
@@ -184,7 +184,7 @@ def expected_error(estimator: str, summary: Summary, report: list[str]) -> float
         found = _EXPECTED.search(summary.gains_text)
         return float(found.group(1)) if found else None
     found = next((m for line in report for m in [_IDENTIFIED.search(line)] if m), None)
-    if found is None or " --smooth" in estimator or estimator.startswith("RotationSpline"):
+    if found is None or " --smooth" in estimator or estimator.startswith("Wiener smoother"):
         return None
     return float(found.group(1) if found.group(3) == "the model's filter" else found.group(2))
 

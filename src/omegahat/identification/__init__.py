@@ -5,7 +5,9 @@
 * :mod:`~omegahat.identification.noise` — the attitude noise of the quietest part of the log (a bound the motion
   cannot inflate);
 * :mod:`~omegahat.identification.identify` — the candidates fitted, the model chosen by its information
-  criterion, the expected errors, the estimator to run.
+  criterion, the expected errors, the estimator to run;
+* :mod:`~omegahat.identification.smoother` — the identified model's zero-lag estimate (``--smooth``);
+* :mod:`~omegahat.identification.spectral` — the log's own Wiener smoother, where no model is chosen.
 
 ``docs/theory/identification.md`` gives the equations and what was measured.
 """

@@ -52,7 +52,7 @@ from omegahat.identification.likelihood import (
     log_likelihood,
     noise_intensity,
 )
-from omegahat.identification.noise import quiet_noise
+from omegahat.identification.noise import body_increments, quiet_noise
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
@@ -320,16 +320,6 @@ def _attitudes(data: np.ndarray, kind: str, references: np.ndarray | None) -> tu
     return valid, R
 
 
-def _increments(R: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Body-frame increments between consecutive samples ``(T − 1, 3)`` (NaN where either is missing)."""
-    phi = np.full((R.shape[0] - 1, 3), np.nan)
-    both = valid[:-1] & valid[1:]
-    if both.any():
-        rel = np.einsum("tji,tjk->tik", R[:-1][both], R[1:][both])
-        phi[both] = Rotation.from_matrix(rel).as_rotvec()
-    return phi
-
-
 def _fit(evaluate, grid=GRID) -> tuple[float, float, float]:
     """``(Λ, ℓ, σ)`` maximising ``evaluate(Λ) -> (ℓ, σ)`` on ``grid`` then by golden section in log Λ."""
     values = [evaluate(lam) for lam in grid]
@@ -455,7 +445,7 @@ def identify(
     h = float(np.median(np.diff(tv)))
     if not h > 0:
         raise ValueError("the sample times must increase")
-    phi = _increments(R[valid], np.ones(tv.size, dtype=bool))
+    phi = body_increments(R[valid], np.ones(tv.size, dtype=bool))
     bound = quiet_noise(tv, phi)
     if not np.isfinite(bound):
         bound = np.inf

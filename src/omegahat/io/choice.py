@@ -13,7 +13,7 @@ whatever the reader's chunk size, so that the same data get the same gains in ev
    filter's (W)), ``warm`` (from the first two samples) or ``zero``;
 4. builds the estimator: by default what :func:`omegahat.identification.identify` chooses on the head (the
    identified model's supervised filter or backward differencing; for ``smooth`` the model's two-filter smoother,
-   or RotationSpline where the model is declined); the fixed-gain observer when gains, a bandwidth or
+   or the log's own Wiener smoother where the model is declined); the fixed-gain observer when gains, a bandwidth or
    ``estimator="sarras"`` are given (or fewer than ``MIN_SAMPLES`` valid samples); or the ``mocap`` preset's (causal,
    or its zero-lag smoother: a batch estimator).
 """
@@ -27,9 +27,9 @@ from collections.abc import Callable
 import numpy as np
 
 from omegahat.baselines.differencing import DifferencingEstimator
-from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
 from omegahat.identification.smoother import ModelSmoother
+from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
@@ -194,8 +194,8 @@ def _estimator(
     """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
     preset's; the fixed-gain observer with ``observer_gains()[0]`` (asked for, or fewer than ``MIN_SAMPLES`` valid
     samples); else what the identification of the head chose (the model's supervised filter or backward
-    differencing, its smoother or RotationSpline for ``smooth``). ``fit_start(window)``: the start's rate (None
-    unless the start is ``fit``)."""
+    differencing; for ``smooth`` its smoother or the log's own Wiener smoother). ``fit_start(window)``: the start's
+    rate (None unless the start is ``fit``)."""
     common = {
         "references": refs,
         "measurement": "directions" if stream.kind == "directions" else "attitude",
@@ -240,12 +240,15 @@ def _estimator(
         common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
     if settings.smooth and not ident.use_model and stream.kind != "directions":
-        # the model was declined (it does not describe the log, or predicts no gain): nothing to smooth with;
-        # the zero-lag estimate the attitudes alone give is the rotation spline through them
-        report("estimator: SciPy's RotationSpline through the attitudes (zero lag; no model to smooth with: see above)")
+        # the model was declined (it does not describe the log, or predicts no gain): no model to smooth with; the
+        # log's own spectrum and noise give the zero-lag Wiener estimate (omegahat.identification.spectral)
+        report(
+            "estimator: the log's own Wiener smoother (its increments' spectrum and its quiet-part noise; zero lag; "
+            "no model to smooth with: see above)"
+        )
         tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
-        spline = SplineEstimator(**tols)
-        return spline, spline
+        spectral = SpectralSmoother(**tols)
+        return spectral, spectral
     if settings.smooth:
         report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
         smoother = ModelSmoother(
@@ -277,8 +280,11 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
     body = f"J diag = {np.diag(J).tolist()}" if inertia_given else "no inertia given (the observer's J = I)"
 
     def line() -> str:
-        if isinstance(est, SplineEstimator):
-            return "estimator used: SciPy's RotationSpline through the attitudes (offline, zero lag)"
+        if isinstance(est, SpectralSmoother):
+            return (
+                "estimator used: the log's own Wiener smoother (offline, zero lag; attitude noise "
+                f"{est.measurement_noise:.2g} rad)"
+            )
         if isinstance(est, DifferencingEstimator):
             return f"estimator used: backward differencing (no model: see the identification above), start: {start}"
         if isinstance(est, SupervisedKalmanEstimator):

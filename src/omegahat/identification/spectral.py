@@ -1,0 +1,207 @@
+r"""The log's own Wiener smoother: the zero-lag rate where no model describes the log (``--smooth``'s fallback).
+
+When :func:`omegahat.identification.identify` declines every model, the log still tells two things: the attitude
+noise ``σ`` of its quietest part (:func:`omegahat.identification.noise.quiet_noise`) and the spectrum of its
+increments. That is enough for the best linear zero-lag estimate a stationary log allows, the Wiener filter, with
+the spectrum measured instead of modelled.
+
+**The data.** ``b_k = φ_k / h`` with ``φ_k = log(R_{k−1}ᵀ R_k)`` the body-frame increment and ``h`` the step: the
+mean rate over ``[t_{k−1}, t_k]`` plus the noise's difference. Per axis and at normalised frequency ``x = ωh``
+(``|x| ≤ π``), for a rate spectrum ``S`` and white attitude noise of ``σ`` rad::
+
+    b(x) = sinc(x/2) e^{−ix/2} ω(x) + (1 − e^{−ix}) n(x) / h,     N_b(x) = 4 σ² sin²(x/2) / h²              (S1)
+
+— the interval mean is a half-sample delay and a ``sinc(x/2) = sin(x/2)/(x/2)`` low-pass of the rate; the noise
+of the difference grows towards the Nyquist frequency.
+
+**The filter.** The estimate of the rate at the samples, ``ω̂(x) = F(x) b(x)``, that minimises the mean square error
+for the spectra of (S1) is (Wiener; the rate's spectrum ``S = (P_b − N_b)/sinc²(x/2)`` by (S1))::
+
+    F(x) = e^{ix/2} / sinc(x/2) · g(x),    g(x) = max(0, 1 − N_b(x) / P_b(x))                             (S2)
+
+the half-sample advance and the inverse of the interval mean (exact on a noise-free band-limited motion), and the
+spectral-subtraction gain ``g``: 1 where the motion dominates the noise, 0 where the noise does. ``P_b`` is
+Welch's estimate of the increments' spectrum (:data:`SEGMENT` samples per segment, half overlapping, per axis,
+pooled over the log's contiguous stretches), ``σ`` the quiet-part noise, so a vibration the noise estimate would
+take for noise (it is measured where the body is quiet) stays signal where it shows above ``N_b``.
+
+**Only where the motion shows.** Welch's estimate is a noisy one: over ``K`` half-overlapping Hann segments a
+frequency with noise alone has ``P_b ~ N_b χ²_ν / ν`` with ``ν = 2K / (1 + 2 · 0.167²)`` equivalent degrees of
+freedom (Welch 1967), and ``g`` of (S2) would pass some of that noise wherever ``P_b`` happens to exceed ``N_b``.
+So the gain is kept only where the motion is significant at the 95 % level::
+
+    g(x) = 0   where   P_b(x) ≤ N_b(x) · χ²_ν⁻¹(0.95) / ν                                                (S3)
+
+**Applied.** Per contiguous stretch of regularly spaced valid samples, by FFT, the stretch extended at both ends
+by its mirror image (a rate near an end continues smoothly rather than wrapping around to the other end). A
+skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
+``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
+
+What (S2) does not know: motion above the Nyquist frequency folds into ``P_b`` and counts as motion there
+(nothing in the samples separates it), and a motion whose spectrum changes along the log is filtered with its
+average spectrum. Measured on the development recordings: ``docs/theory/identification.md``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import fft, signal
+from scipy.spatial.transform import Rotation, RotationSpline
+from scipy.special import gammaincinv
+
+from omegahat import measurements as ms
+from omegahat.identification.noise import body_increments, quiet_noise
+from omegahat.interface import Measurements
+
+__all__ = [
+    "HANN_HALF_OVERLAP",
+    "MIN_STRETCH",
+    "SEGMENT",
+    "SIGNIFICANCE",
+    "SpectralSmoother",
+    "spectral_rate",
+    "wiener_gain",
+]
+
+SEGMENT = 256  #: samples per Welch segment: ≥ 7 half-overlapping segments on a log of 1,000 samples
+SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
+HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
+MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
+_REGULAR = 0.05  #: a step more than 5 % off the median ends a stretch (as the noise estimate's rule)
+
+
+def stretches(t: np.ndarray, valid: np.ndarray) -> list[tuple[int, int]]:
+    """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples with regular steps."""
+    h = float(np.median(np.diff(t[valid]))) if np.count_nonzero(valid) > 1 else 1.0
+    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < _REGULAR)
+    out, a = [], None
+    for k in range(t.size):
+        if a is None and valid[k]:
+            a = k
+        if a is not None and (k == t.size - 1 or not link[k]):
+            out.append((a, k + 1))
+            a = None
+    return out
+
+
+def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: float, h: float, segments: int) -> np.ndarray:
+    """``g`` of (S2)–(S3) at the normalised frequencies ``freq`` (cycles per sample, 0 … 0.5) for the spectrum
+    ``P_b (F, 3)`` (one-sided, rad²/s² per cycle per sample) of the increments' rates, averaged over ``segments``
+    Welch segments, the noise ``sigma`` rad, the step ``h`` s."""
+    N_b = 2.0 * 4.0 * sigma**2 * np.sin(np.pi * freq) ** 2 / h**2  # (S1), one-sided: twice the two-sided density
+    dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2)
+    significant = P_b > N_b[:, None] * 2.0 * gammaincinv(dof / 2.0, SIGNIFICANCE) / dof  # (S3): the χ²_ν quantile
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.where(significant, 1.0 - N_b[:, None] / P_b, 0.0)
+    return np.clip(np.nan_to_num(g, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
+
+
+def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, float]:
+    """ω̂ ``(T, 3)`` (body frame, rad/s) of (S2) at the times ``t (T,)`` from the attitudes ``R (T, 3, 3)`` (used
+    where ``valid``), and the attitude noise σ it assumed (rad)."""
+    T = t.size
+    omega = np.full((T, 3), np.nan)
+    if np.count_nonzero(valid) < 2:
+        raise ValueError(f"the smoother needs at least 2 valid attitude samples; got {int(np.count_nonzero(valid))}")
+    runs = stretches(t, valid)
+    long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
+    phi = body_increments(R, valid)  # (T − 1, 3), NaN across a skipped sample
+    tv = t[valid]
+    sigma = quiet_noise(tv, body_increments(R[valid], np.ones(tv.size, dtype=bool)))
+    h = float(np.median(np.diff(tv)))
+    sigma = 0.0 if not math.isfinite(sigma) else sigma
+    rates = [phi[a : b - 1] / np.diff(t[a:b])[:, None] for a, b in long_runs]  # b_k per stretch
+    segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
+    usable = [r for r in rates if r.shape[0] >= segment]
+    if usable and segment >= 8:
+        spectra = [signal.welch(r, nperseg=segment, axis=0, detrend="constant") for r in usable]
+        freq = spectra[0][0]
+        weights = np.array([r.shape[0] for r in usable], dtype=float)
+        P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
+        segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
+        F = wiener_gain(freq, P_b, sigma, h, segments) / np.sinc(freq)[:, None]  # np.sinc(f) = sin(πf)/(πf) = sinc(x/2)
+        # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
+        bandwidth = float(np.max(np.sum(wiener_gain(freq, P_b, sigma, h, segments), axis=0) * (freq[1] - freq[0])))
+        edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
+        for (a, b), r in zip(long_runs, rates, strict=True):
+            omega[a:b] = _filtered(r, freq, F, min(edge, r.shape[0]))
+        covered = np.zeros(T, dtype=bool)
+        for a, b in long_runs:
+            covered[a:b] = True
+    else:
+        covered = np.zeros(T, dtype=bool)
+    if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
+        spline = RotationSpline(tv, Rotation.from_matrix(R[valid]))
+        omega[~covered] = spline(t[~covered], 1)
+    return omega, sigma
+
+
+def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
+    """(S2) on one stretch: ``rates (m, 3)`` the ``b_k`` between its ``m + 1`` samples; returns ω̂ at the samples
+    ``(m + 1, 3)`` (the last ``m`` by the half-sample advance, the first by the half-sample delay). The stretch is
+    extended at each end by its point reflection (S4) about the rate there, from a line fitted to ``edge`` rates."""
+    m = rates.shape[0]
+    pad = min(m, SEGMENT)
+    first = _edge_rate(rates[:edge])
+    last = _edge_rate(rates[::-1][:edge])
+    before = 2.0 * first - rates[pad - 1 :: -1]
+    after = 2.0 * last - rates[::-1][:pad]
+    extended = np.concatenate([before, rates, after])
+    n = fft.next_fast_len(extended.shape[0], real=True)
+    spectrum = fft.rfft(extended, n=n, axis=0)
+    f = fft.rfftfreq(n)
+    gain = np.stack([np.interp(f, freq, F[:, j]) for j in range(3)], axis=1) * spectrum
+    half = np.exp(1j * np.pi * f)[:, None]  # e^{ix/2}: half a sample later
+    later = fft.irfft(gain * half, n=n, axis=0)[pad : pad + m]
+    earlier = fft.irfft(gain / half, n=n, axis=0)[pad : pad + 1]
+    return np.concatenate([earlier, later])
+
+
+def _edge_rate(rates: np.ndarray) -> np.ndarray:
+    """The rate at the sample before ``rates[0]`` (half a step before its midpoint): the least-squares line through
+    ``rates`` (one step apart), evaluated there."""
+    k = np.arange(rates.shape[0]) + 0.5  # the midpoints, in steps after the sample
+    if k.size < 3:
+        return rates[0]
+    A = np.column_stack([np.ones_like(k), k, k**2])
+    coef = np.linalg.lstsq(A, rates, rcond=None)[0]
+    return coef[0]
+
+
+class SpectralSmoother(ms.AttitudeBatchEstimator):
+    """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
+
+    After ``run``: ``measurement_noise`` (the σ it assumed, rad). A skipped sample is bridged by the rotation
+    spline (status ``predicted``).
+
+    Parameters
+    ----------
+    scalar_first, rotation_tol, quat_norm_tol : optional
+        As every batch estimator of attitudes (:class:`omegahat.measurements.AttitudeBatchEstimator`): the
+        quaternion order and the input checks' tolerances.
+
+    Examples
+    --------
+    A body turning at a constant rate, sampled at 100 Hz with 1 mrad of attitude noise:
+
+    >>> import numpy as np
+    >>> from scipy.spatial.transform import Rotation
+    >>> from omegahat.identification.spectral import SpectralSmoother
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(0.0, 20.0, 0.01)
+    >>> noise = Rotation.from_rotvec(1e-3 * rng.standard_normal((t.size, 3)))  # 1 mrad
+    >>> R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise
+    >>> est = SpectralSmoother()
+    >>> omega = est.run(t, R.as_quat()).omega
+    >>> print(" ".join(f"{x:.1f}" for x in omega[1000]), f"{1e3 * est.measurement_noise:.1f} mrad")
+    0.3 -0.2 0.5 0.9 mrad
+    """
+
+    measurement_noise = math.nan  #: the σ the last ``run`` assumed (rad)
+
+    def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
+        """(S2) at the log's times; sets :attr:`measurement_noise`."""
+        omega, self.measurement_noise = spectral_rate(log.times, log.values, log.valid)
+        return omega
