@@ -1,9 +1,9 @@
 r"""The log's own Wiener smoother: the zero-lag rate where no model describes the log (``--smooth``'s fallback).
 
-When :func:`omegahat.identification.identify` declines every model, the log still tells two things: the attitude
-noise ``σ`` of its quietest part (:func:`omegahat.identification.noise.quiet_noise`) and the spectrum of its
-increments. That is enough for the best linear zero-lag estimate a stationary log allows, the Wiener filter, with
-the spectrum measured instead of modelled.
+When :func:`omegahat.identification.identify` declines every model, the log still tells two things: its attitude
+noise (its quietest part's, :func:`omegahat.identification.noise.quiet_noise`, or more where its spectrum shows
+more: (S5)) and the spectrum of its increments. That is enough for the best linear zero-lag estimate a stationary
+log allows, the Wiener filter, with the spectrum measured instead of modelled.
 
 **The data.** ``b_k = φ_k / h`` with ``φ_k = log(R_{k−1}ᵀ R_k)`` the body-frame increment and ``h`` the step: the
 mean rate over ``[t_{k−1}, t_k]`` plus the noise's difference. Per axis and at normalised frequency ``x = ωh``
@@ -22,8 +22,8 @@ for the spectra of (S1) is (Wiener; the rate's spectrum ``S = (P_b − N_b)/sinc
 the half-sample advance and the inverse of the interval mean (exact on a noise-free band-limited motion), and the
 spectral-subtraction gain ``g``: 1 where the motion dominates the noise, 0 where the noise does. ``P_b`` is
 Welch's estimate of the increments' spectrum (:data:`SEGMENT` samples per segment, half overlapping, per axis,
-pooled over the log's contiguous stretches), ``σ`` the quiet-part noise, so a vibration the noise estimate would
-take for noise (it is measured where the body is quiet) stays signal where it shows above ``N_b``.
+pooled over the log's contiguous stretches), ``σ`` the noise of (S5) below: at least the quiet part's, so a
+vibration a noise estimate over the whole log would take for noise stays signal where it shows above ``N_b``.
 
 **Only where the motion shows.** Welch's estimate is a noisy one: over ``K`` half-overlapping Hann segments a
 frequency with noise alone has ``P_b ~ N_b χ²_ν / ν`` with ``ν = 2K / (1 + 2 · 0.167²)`` equivalent degrees of
@@ -33,9 +33,24 @@ So the gain is kept only where the motion is significant at the 95 % level::
     g(x) = 0   where   P_b(x) ≤ N_b(x) · χ²_ν⁻¹(0.95) / ν                                                (S3)
 
 **Applied.** Per contiguous stretch of regularly spaced valid samples, by FFT, the stretch extended at both ends
-by its mirror image (a rate near an end continues smoothly rather than wrapping around to the other end). A
-skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
+by its point reflection about the rate there (the rate and its slope continue; a mirror image would bend the rate
+at the ends), that rate ``ω̂_0`` from a quadratic fitted by least squares to the first ``⌈1/(2B)⌉`` rates (``B`` the
+filter's equivalent bandwidth, cycles per step: the span it averages over anyway)::
+
+    b_{−j} = 2 ω̂_0 − b_{j−1},   j = 1 … SEGMENT   (and likewise after the last sample)                  (S4)
+
+A skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
 ``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
+
+**The noise the log shows while it moves.** The quiet part's noise can be far below what the moving log carries
+(optical motion capture: the development recordings' spectra sit 15 to 1,000 times above ``N_b`` of the quiet
+part's ``σ`` at the Nyquist frequency, and rise there as white attitude noise does). A motion's increments do not
+gain power with frequency in the upper half of the band; white attitude noise does, as ``sin²(x/2)``. So the slope
+of ``P_b`` against ``N_b / σ²`` over the upper half (``x ≥ π/2``) is a lower bound of the noise there (a motion
+whose power falls with frequency only lowers it), capped by the level the spectrum shows (the median of ``P_b`` over
+``N_b / σ²`` there), per body axis ``j``::
+
+    σ_j² = max( σ_q², min( slope_j, median_j ) )                                                     (S5)
 
 What (S2) does not know: motion above the Nyquist frequency folds into ``P_b`` and counts as motion there
 (nothing in the samples separates it), and a motion whose spectrum changes along the log is filtered with its
@@ -47,6 +62,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import fft, signal
 from scipy.spatial.transform import Rotation, RotationSpline
 from scipy.special import gammaincinv
@@ -61,6 +77,8 @@ __all__ = [
     "SEGMENT",
     "SIGNIFICANCE",
     "SpectralSmoother",
+    "noise_shape",
+    "rising_noise",
     "spectral_rate",
     "wiener_gain",
 ]
@@ -86,21 +104,40 @@ def stretches(t: np.ndarray, valid: np.ndarray) -> list[tuple[int, int]]:
     return out
 
 
-def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: float, h: float, segments: int) -> np.ndarray:
+def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
+    """``N_b / σ²`` of (S1) at the normalised frequencies ``freq`` (cycles per sample), one-sided (twice the
+    two-sided density), for the step ``h`` s."""
+    return 2.0 * 4.0 * np.sin(np.pi * freq) ** 2 / h**2
+
+
+def rising_noise(freq: np.ndarray, P_b: np.ndarray, h: float, sigma_quiet: float) -> np.ndarray:
+    """``σ`` per axis ``(3,)`` of (S5): the quiet-part noise, or the noise the upper half of the spectrum ``P_b (F,
+    3)`` shows by rising as white attitude noise does, whichever is larger."""
+    band = (freq >= 0.25) & (freq < 0.5)  # the Nyquist bin itself is Welch's half-weighted one: left out
+    floor = np.full(P_b.shape[1], sigma_quiet**2)
+    if np.count_nonzero(band) < 3:
+        return np.sqrt(floor)
+    shape = noise_shape(freq[band], h)
+    slope = np.polyfit(shape, P_b[band], 1)[0]  # per axis
+    level = np.median(P_b[band] / shape[:, None], axis=0)
+    return np.sqrt(np.maximum(floor, np.minimum(slope, level)))
+
+
+def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, segments: int) -> np.ndarray:
     """``g`` of (S2)–(S3) at the normalised frequencies ``freq`` (cycles per sample, 0 … 0.5) for the spectrum
     ``P_b (F, 3)`` (one-sided, rad²/s² per cycle per sample) of the increments' rates, averaged over ``segments``
-    Welch segments, the noise ``sigma`` rad, the step ``h`` s."""
-    N_b = 2.0 * 4.0 * sigma**2 * np.sin(np.pi * freq) ** 2 / h**2  # (S1), one-sided: twice the two-sided density
+    Welch segments, the noise ``sigma`` rad (one, or one per axis), the step ``h`` s."""
+    N_b = noise_shape(freq, h)[:, None] * np.asarray(sigma, dtype=float) ** 2  # (S1)
     dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2)
-    significant = P_b > N_b[:, None] * 2.0 * gammaincinv(dof / 2.0, SIGNIFICANCE) / dof  # (S3): the χ²_ν quantile
+    significant = P_b > N_b * 2.0 * gammaincinv(dof / 2.0, SIGNIFICANCE) / dof  # (S3): the χ²_ν quantile
     with np.errstate(divide="ignore", invalid="ignore"):
-        g = np.where(significant, 1.0 - N_b[:, None] / P_b, 0.0)
+        g = np.where(significant, 1.0 - N_b / P_b, 0.0)
     return np.clip(np.nan_to_num(g, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
 
 
-def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, float]:
+def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ω̂ ``(T, 3)`` (body frame, rad/s) of (S2) at the times ``t (T,)`` from the attitudes ``R (T, 3, 3)`` (used
-    where ``valid``), and the attitude noise σ it assumed (rad)."""
+    where ``valid``), and the attitude noise σ per body axis ``(3,)`` it assumed (rad, (S5))."""
     T = t.size
     omega = np.full((T, 3), np.nan)
     if np.count_nonzero(valid) < 2:
@@ -109,9 +146,10 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.n
     long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
     phi = body_increments(R, valid)  # (T − 1, 3), NaN across a skipped sample
     tv = t[valid]
-    sigma = quiet_noise(tv, body_increments(R[valid], np.ones(tv.size, dtype=bool)))
+    quiet = quiet_noise(tv, body_increments(R[valid], np.ones(tv.size, dtype=bool)))
+    quiet = 0.0 if not math.isfinite(quiet) else quiet
     h = float(np.median(np.diff(tv)))
-    sigma = 0.0 if not math.isfinite(sigma) else sigma
+    sigma = np.full(3, quiet)
     rates = [phi[a : b - 1] / np.diff(t[a:b])[:, None] for a, b in long_runs]  # b_k per stretch
     segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
     usable = [r for r in rates if r.shape[0] >= segment]
@@ -121,9 +159,11 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.n
         weights = np.array([r.shape[0] for r in usable], dtype=float)
         P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
         segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
-        F = wiener_gain(freq, P_b, sigma, h, segments) / np.sinc(freq)[:, None]  # np.sinc(f) = sin(πf)/(πf) = sinc(x/2)
+        sigma = rising_noise(freq, P_b, h, quiet)
+        g = wiener_gain(freq, P_b, sigma, h, segments)
+        F = g / np.sinc(freq)[:, None]  # np.sinc(f) = sin(πf)/(πf) = sinc(x/2)
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
-        bandwidth = float(np.max(np.sum(wiener_gain(freq, P_b, sigma, h, segments), axis=0) * (freq[1] - freq[0])))
+        bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
         for (a, b), r in zip(long_runs, rates, strict=True):
             omega[a:b] = _filtered(r, freq, F, min(edge, r.shape[0]))
@@ -141,7 +181,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.n
 def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
     """(S2) on one stretch: ``rates (m, 3)`` the ``b_k`` between its ``m + 1`` samples; returns ω̂ at the samples
     ``(m + 1, 3)`` (the last ``m`` by the half-sample advance, the first by the half-sample delay). The stretch is
-    extended at each end by its point reflection (S4) about the rate there, from a line fitted to ``edge`` rates."""
+    extended at each end by its point reflection (S4) about the rate there (a quadratic fitted to ``edge`` rates)."""
     m = rates.shape[0]
     pad = min(m, SEGMENT)
     first = _edge_rate(rates[:edge])
@@ -160,8 +200,8 @@ def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> 
 
 
 def _edge_rate(rates: np.ndarray) -> np.ndarray:
-    """The rate at the sample before ``rates[0]`` (half a step before its midpoint): the least-squares line through
-    ``rates`` (one step apart), evaluated there."""
+    """The rate at the sample before ``rates[0]`` (half a step before its midpoint): the least-squares quadratic
+    through ``rates`` (one step apart), evaluated there."""
     k = np.arange(rates.shape[0]) + 0.5  # the midpoints, in steps after the sample
     if k.size < 3:
         return rates[0]
@@ -173,8 +213,8 @@ def _edge_rate(rates: np.ndarray) -> np.ndarray:
 class SpectralSmoother(ms.AttitudeBatchEstimator):
     """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
 
-    After ``run``: ``measurement_noise`` (the σ it assumed, rad). A skipped sample is bridged by the rotation
-    spline (status ``predicted``).
+    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (S5)). A skipped sample is bridged by
+    the rotation spline (status ``predicted``).
 
     Parameters
     ----------
@@ -195,11 +235,11 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     >>> R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise
     >>> est = SpectralSmoother()
     >>> omega = est.run(t, R.as_quat()).omega
-    >>> print(" ".join(f"{x:.1f}" for x in omega[1000]), f"{1e3 * est.measurement_noise:.1f} mrad")
-    0.3 -0.2 0.5 0.9 mrad
+    >>> print(" ".join(f"{x:.1f}" for x in omega[1000]), f"{1e3 * est.measurement_noise.max():.1f} mrad")
+    0.3 -0.2 0.5 1.0 mrad
     """
 
-    measurement_noise = math.nan  #: the σ the last ``run`` assumed (rad)
+    measurement_noise = np.full(3, math.nan)  #: the σ per body axis the last ``run`` assumed (rad, (S5))
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
         """(S2) at the log's times; sets :attr:`measurement_noise`."""

@@ -283,7 +283,7 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
         if isinstance(est, SpectralSmoother):
             return (
                 "estimator used: the log's own Wiener smoother (offline, zero lag; attitude noise "
-                f"{est.measurement_noise:.2g} rad)"
+                f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis)"
             )
         if isinstance(est, DifferencingEstimator):
             return f"estimator used: backward differencing (no model: see the identification above), start: {start}"
