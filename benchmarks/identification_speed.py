@@ -1,10 +1,11 @@
-"""Cost of the identified default: ``identify`` on a log's head, and ``--smooth``'s two-filter smoother per sample.
+"""Cost of the identified default: ``identify`` on a log's head, and ``--smooth``'s two smoothers per sample.
 
 Run: ``python benchmarks/identification_speed.py [--repeat N]``. A 100 Hz quaternion log of a body whose rate is a
-random walk, 1 mrad of attitude noise; ``identify`` on its first 8192 samples (what ``omegahat estimate`` reads),
-then :class:`omegahat.identification.smoother.ModelSmoother` on 10,000 and 100,000 samples (the checks of the input
-included), after one warm call (the kernels compiled). CPU time of this process; issue 24 asks for at most 10 us per
-sample of the smoother. Writes its section of RESULTS.md.
+random walk, 1 mrad of attitude noise; ``identify`` on its first 8192 samples (what ``omegahat estimate`` reads), then
+:class:`omegahat.identification.smoother.ModelSmoother` and the log's own Wiener smoother
+(:class:`omegahat.identification.spectral.SpectralSmoother`, ``--smooth`` where the model is declined) on 10,000 and
+100,000 samples (the checks of the input included), after one warm call (the kernels compiled). CPU time of this
+process; issue 24 asks for at most 10 us per sample of the smoother. Writes its section of RESULTS.md.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.identification import identify
 from omegahat.identification.smoother import ModelSmoother
+from omegahat.identification.spectral import SpectralSmoother
 from results_md import machine_line, write_section
 
 SECTION = "## Identification and the model's smoother (benchmarks/identification_speed.py)"
@@ -58,10 +60,11 @@ def main(argv: list[str] | None = None) -> int:
     times = [cpu(lambda: identify(t[:head], q[:head], "quaternion")) for _ in range(args.repeat)]
     rows.append(f"| `identify` on {head} samples (model {ident.chosen.model}) | {min(times):.2f} s | "
                 f"{float(np.median(times)):.2f} s |")  # fmt: skip
-    for n in (10_000, 100_000):
-        per = [cpu(lambda n=n: smoother.run(t[:n], q[:n])) * 1e6 / n for _ in range(args.repeat)]
-        rows.append(f"| `ModelSmoother.run`, {n:,} samples | {min(per):.2f} us/sample | "
-                    f"{float(np.median(per)):.2f} us/sample |")  # fmt: skip
+    for name, est in (("ModelSmoother", smoother), ("SpectralSmoother", SpectralSmoother())):
+        for n in (10_000, 100_000):
+            per = [cpu(lambda n=n, est=est: est.run(t[:n], q[:n])) * 1e6 / n for _ in range(args.repeat)]
+            rows.append(f"| `{name}.run`, {n:,} samples | {min(per):.2f} us/sample | "
+                        f"{float(np.median(per)):.2f} us/sample |")  # fmt: skip
     table = "| what | CPU best | CPU median |\n| --- | --- | --- |\n" + "\n".join(rows)
     print(table)
     write_section(
