@@ -124,3 +124,23 @@ def test_the_noise_is_what_the_upper_half_of_the_spectrum_shows_rising():
     upper = (freq >= 0.25) & (freq < 0.5)
     level = np.sqrt(np.median(rising[upper] / shape[upper, None], axis=0))
     assert np.all(rising_noise(freq, rising, h, 1e-4) <= level * (1 + 1e-12))
+
+
+def test_an_irregularly_sampled_log_takes_the_spline_and_says_so():
+    """Every step more than 5 % off the median: no stretch to filter, so every sample takes SciPy's rotation spline
+    and ``n_unfiltered`` counts them (the command's closing line reports it)."""
+    rng = np.random.default_rng(5)
+    t = np.cumsum(H * (1.0 + rng.choice([-0.2, 0.2], 400)))
+    R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5]))
+    est = SpectralSmoother()
+    omega = est.run(t, R.as_quat()).omega
+    np.testing.assert_allclose(omega, RotationSpline(t, R)(t, 1), atol=1e-12)
+    assert est.n_unfiltered == t.size
+
+
+def test_a_body_at_rest_gets_a_zero_rate():
+    t = np.arange(0.0, 10.0, H)
+    q = np.tile(Rotation.from_rotvec([0.4, -1.0, 2.0]).as_quat(), (t.size, 1))
+    est = SpectralSmoother()
+    np.testing.assert_allclose(est.run(t, q).omega, 0.0, atol=1e-12)
+    assert est.n_unfiltered == 0

@@ -60,6 +60,7 @@ average spectrum. Measured on the development recordings: ``docs/theory/identifi
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -76,6 +77,7 @@ __all__ = [
     "MIN_STRETCH",
     "SEGMENT",
     "SIGNIFICANCE",
+    "SpectralRate",
     "SpectralSmoother",
     "noise_shape",
     "rising_noise",
@@ -135,9 +137,18 @@ def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, s
     return np.clip(np.nan_to_num(g, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
 
 
-def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """ω̂ ``(T, 3)`` (body frame, rad/s) of (S2) at the times ``t (T,)`` from the attitudes ``R (T, 3, 3)`` (used
-    where ``valid``), and the attitude noise σ per body axis ``(3,)`` it assumed (rad, (S5))."""
+class SpectralRate(NamedTuple):
+    """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
+    ``(3,)`` it assumed (rad, (S5)), and ``filtered (T,)``: True where (S2) gave the rate (False: the rotation
+    spline, for a skipped sample or a stretch too short or too irregular to filter)."""
+
+    omega: np.ndarray
+    noise: np.ndarray
+    filtered: np.ndarray
+
+
+def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
+    """ω̂ of (S2) at the times ``t (T,)`` from the attitudes ``R (T, 3, 3)`` (used where ``valid``)."""
     T = t.size
     omega = np.full((T, 3), np.nan)
     if np.count_nonzero(valid) < 2:
@@ -175,7 +186,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.n
     if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
         spline = RotationSpline(tv, Rotation.from_matrix(R[valid]))
         omega[~covered] = spline(t[~covered], 1)
-    return omega, sigma
+    return SpectralRate(omega, sigma, covered)
 
 
 def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
@@ -213,8 +224,9 @@ def _edge_rate(rates: np.ndarray) -> np.ndarray:
 class SpectralSmoother(ms.AttitudeBatchEstimator):
     """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
 
-    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (S5)). A skipped sample is bridged by
-    the rotation spline (status ``predicted``).
+    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (S5)) and ``n_unfiltered`` (the valid
+    samples in stretches too short or too irregular to filter, which take the rotation spline). A skipped sample is
+    bridged by the rotation spline (status ``predicted``).
 
     Parameters
     ----------
@@ -240,8 +252,11 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     """
 
     measurement_noise = np.full(3, math.nan)  #: the σ per body axis the last ``run`` assumed (rad, (S5))
+    n_unfiltered = 0  #: valid samples of the last ``run`` in stretches too short or irregular to filter (the spline)
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
-        """(S2) at the log's times; sets :attr:`measurement_noise`."""
-        omega, self.measurement_noise = spectral_rate(log.times, log.values, log.valid)
-        return omega
+        """(S2) at the log's times; sets :attr:`measurement_noise` and :attr:`n_unfiltered`."""
+        found = spectral_rate(log.times, log.values, log.valid)
+        self.measurement_noise = found.noise
+        self.n_unfiltered = int(np.count_nonzero(log.valid & ~found.filtered))
+        return found.omega

@@ -281,9 +281,15 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
 
     def line() -> str:
         if isinstance(est, SpectralSmoother):
+            spline = (
+                f"; {est.n_unfiltered} samples in stretches too short or too irregular to filter took the rotation "
+                "spline through the attitudes"
+                if est.n_unfiltered
+                else ""
+            )
             return (
                 "estimator used: the log's own Wiener smoother (offline, zero lag; attitude noise "
-                f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis)"
+                f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis{spline})"
             )
         if isinstance(est, DifferencingEstimator):
             return f"estimator used: backward differencing (no model: see the identification above), start: {start}"
