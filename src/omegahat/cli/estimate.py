@@ -217,8 +217,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--smooth",
         action="store_true",
         help="offline, zero-lag estimate of the whole log: the identified model's forward and backward passes "
-        "combined (with --preset: the preset's); any input kind, with or without --inertia; reads the whole log "
-        "into memory",
+        "combined, or where no model is chosen the log's own Wiener smoother (its spectrum and noise); with "
+        "--preset: the preset's; any input kind, with or without --inertia; reads the whole log into memory",
     )
     model.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     model.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")
