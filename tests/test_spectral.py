@@ -13,6 +13,7 @@ from omegahat.identification.spectral import (
     SIGNIFICANCE,
     SpectralSmoother,
     rising_noise,
+    stretches,
     wiener_gain,
 )
 from omegahat.interface import Status
@@ -144,3 +145,10 @@ def test_a_body_at_rest_gets_a_zero_rate():
     est = SpectralSmoother()
     np.testing.assert_allclose(est.run(t, q).omega, 0.0, atol=1e-12)
     assert est.n_unfiltered == 0
+
+
+def test_the_stretches_end_at_skipped_samples_and_irregular_steps():
+    t = np.array([0.0, 1.0, 2.0, 3.0, 4.0, 5.5, 6.5, 7.5, 8.5, 9.5])  # one step of 1.5
+    valid = np.array([True, True, False, True, True, True, True, False, False, True])
+    assert stretches(t, valid) == [(0, 2), (3, 5), (5, 7), (9, 10)]
+    assert stretches(t, np.zeros(10, dtype=bool)) == []

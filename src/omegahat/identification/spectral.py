@@ -93,17 +93,13 @@ _REGULAR = 0.05  #: a step more than 5 % off the median ends a stretch (as the n
 
 
 def stretches(t: np.ndarray, valid: np.ndarray) -> list[tuple[int, int]]:
-    """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples with regular steps."""
-    h = float(np.median(np.diff(t[valid]))) if np.count_nonzero(valid) > 1 else 1.0
-    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < _REGULAR)
-    out, a = [], None
-    for k in range(t.size):
-        if a is None and valid[k]:
-            a = k
-        if a is not None and (k == t.size - 1 or not link[k]):
-            out.append((a, k + 1))
-            a = None
-    return out
+    """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples with regular steps (within 5 % of the
+    log's median step)."""
+    h = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < _REGULAR)  # k and k + 1 in one run
+    starts = np.flatnonzero(valid & np.concatenate([[True], ~link]))
+    ends = np.flatnonzero(valid & np.concatenate([~link, [True]])) + 1
+    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
 def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
