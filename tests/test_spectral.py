@@ -12,8 +12,10 @@ from omegahat.identification.spectral import (
     HANN_HALF_OVERLAP,
     SIGNIFICANCE,
     SpectralSmoother,
+    folded,
     rising_noise,
     stretches,
+    wiener_filter,
     wiener_gain,
 )
 from omegahat.interface import Status
@@ -152,3 +154,39 @@ def test_the_stretches_end_at_skipped_samples_and_irregular_steps():
     valid = np.array([True, True, False, True, True, True, True, False, False, True])
     assert stretches(t, valid) == [(0, 2), (3, 5), (5, 7), (9, 10)]
     assert stretches(t, np.zeros(10, dtype=bool)) == []
+
+
+def test_the_fold_is_bounded_from_the_spectrum_near_the_nyquist_frequency():
+    """(S6) on written-out spectra: a rate spectrum ``S(ν) ∝ ν^−p`` sampled (``P_s = sinc²(f) S(f) + sinc²(1 − f)
+    S(1 − f)``) gives a fold estimate between the true fold and twice it over the upper part of the band (the local
+    decay read off the top of the band, where the fold flattens it: conservative), and never more than the
+    frequency shows."""
+    freq = np.linspace(0.0, 0.5, 129)
+    upper = (freq >= 0.3) & (freq < 0.5)
+    for p in (2.0, 4.0, 6.0):
+
+        def S(nu, p=p):
+            return 1e-2 * np.maximum(nu, 1e-3) ** -p
+
+        P_s = np.sinc(freq) ** 2 * S(freq) + np.sinc(1 - freq) ** 2 * S(1 - freq)
+        P_s[0] = 0.0
+        fold = folded(freq, np.tile(P_s[:, None], (1, 3)))[:, 0]
+        ratio = fold[upper] / S(1 - freq[upper])
+        assert np.all(ratio >= 1.0) and np.all(ratio <= 2.0)
+        with np.errstate(divide="ignore"):
+            assert np.all(fold <= P_s / np.sinc(1 - freq) ** 2)
+
+
+def test_the_filter_is_the_inverse_mean_without_a_fold_and_shrinks_with_one():
+    """(S2) alone where nothing shows near the Nyquist frequency; with motion there, (S6) only lowers the response
+    (towards zero, never below)."""
+    h, freq = 0.01, np.linspace(0.0, 0.5, 129)
+    N_b = 8 * np.sin(np.pi * freq) ** 2 / h**2 * 1e-6
+    quiet_top = np.tile((N_b + 1e3 * np.exp(-freq / 0.02))[:, None], (1, 3))  # motion far below the Nyquist frequency
+    g = wiener_gain(freq, quiet_top, 1e-3, h, 50)
+    np.testing.assert_allclose(wiener_filter(freq, quiet_top, g, N_b[:, None]), g / np.sinc(freq)[:, None])
+    busy_top = quiet_top + 50.0  # and motion up to the Nyquist frequency
+    g = wiener_gain(freq, busy_top, 1e-3, h, 50)
+    F = wiener_filter(freq, busy_top, g, N_b[:, None])
+    assert np.all(F >= 0.0) and np.all(F <= g / np.sinc(freq)[:, None] + 1e-12)
+    assert F[-2, 0] < 0.5 * g[-2, 0] / np.sinc(freq[-2])  # near the Nyquist frequency the fold halves it at least

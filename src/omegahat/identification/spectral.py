@@ -52,9 +52,23 @@ whose power falls with frequency only lowers it), capped by the level the spectr
 
     σ_j² = max( σ_q², min( slope_j, median_j ) )                                                     (S5)
 
-What (S2) does not know: motion above the Nyquist frequency folds into ``P_b`` and counts as motion there
-(nothing in the samples separates it), and a motion whose spectrum changes along the log is filtered with its
-average spectrum. Measured on the development recordings: ``docs/theory/identification.md``.
+**The fold.** Sampling folds the rate's spectrum above the Nyquist frequency onto the band: the component at
+``2π − x`` shows in ``b`` at ``x`` with the gain ``sinc_a(x) = sinc((2π − x)/2)`` and, against the rate at the
+samples, with the opposite sign, so (S2)'s inverse of the interval mean amplifies what it should shrink. Nothing in
+the samples separates the fold from the motion at ``x``, but a body's rate spectrum leaves the band as it reaches
+its edge: ``S_N = π²/8 · P_s(π)`` at the Nyquist frequency (base and fold alike there; ``P_s = P_b − N_b`` where
+significant, the median over ``0.45 ≤ f < 0.5`` cycles per step), falling beyond it with the decay ``p ≥ 0`` of
+``log(P_s/sinc²)`` against ``log f`` over ``0.35 ≤ f < 0.5``, and no more than the frequency shows::
+
+    S_a(x) = min( S_N ((2π − x)/π)^−p, P_s(x)/sinc_a²(x) ),    S(x) = (P_s − sinc_a² S_a)/sinc²
+    F(x) = e^{ix/2} max(0, sinc(x/2) S − sinc_a S_a) / P_b                                            (S6)
+
+— (S2) where nothing shows near the Nyquist frequency (``S_a = 0``), shrunk towards zero (never inverted) where the
+fold may dominate. On written-out power-law spectra the fold so read is 1.06–1.8 times the true one: conservative.
+
+What (S2)–(S6) do not know: a motion whose spectrum changes along the log is filtered with its average spectrum;
+a fold that does not continue the band's decay (a vibration above the Nyquist frequency) is not foreseen. Measured
+on the development recordings: ``docs/theory/identification.md``.
 """
 
 from __future__ import annotations
@@ -79,9 +93,11 @@ __all__ = [
     "SIGNIFICANCE",
     "SpectralRate",
     "SpectralSmoother",
+    "folded",
     "noise_shape",
     "rising_noise",
     "spectral_rate",
+    "wiener_filter",
     "wiener_gain",
 ]
 
@@ -133,6 +149,40 @@ def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, s
     return np.clip(np.nan_to_num(g, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
 
 
+def folded(freq: np.ndarray, motion: np.ndarray) -> np.ndarray:
+    """``S_a (F, 3)`` of (S6): the rate spectrum folded onto each frequency ``freq`` (cycles per step) from beyond the
+    Nyquist frequency, for the motion's share ``motion (F, 3)`` of the increments' spectrum (``P_b − N_b`` where
+    significant)."""
+    sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
+    top = (freq >= 0.45) & (freq < 0.5)  # below the Nyquist bin (Welch's half-weighted one)
+    upper = (freq >= 0.35) & (freq < 0.5)
+    if not top.any() or np.count_nonzero(upper) < 3:
+        return np.zeros_like(motion)
+    at_nyquist = np.median(motion[top], axis=0) * np.pi**2 / 8.0  # S(π), base and fold alike: P_s = (8/π²) S(π)
+    observed = motion / sinc**2  # base and fold together
+    decay = np.zeros(motion.shape[1])
+    for j in range(motion.shape[1]):
+        seen = upper & (observed[:, j] > 0)
+        if np.count_nonzero(seen) >= 3:
+            slope = np.polyfit(np.log(freq[seen]), np.log(observed[seen, j]), 1)[0]
+            decay[j] = max(0.0, -slope)  # a spectrum that leaves the band rising is held level
+    envelope = at_nyquist * (np.maximum(1.0 - freq, 0.5)[:, None] / 0.5) ** (-decay)
+    with np.errstate(divide="ignore"):
+        return np.minimum(envelope, motion / sinc_a**2)  # no more than the frequency shows
+
+
+def wiener_filter(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> np.ndarray:
+    """``|F|`` of (S2) with the fold of (S6), ``(F, 3)``, from the spectrum ``P_b``, its gain ``g`` (S3) and the
+    noise's ``N_b`` (the half-sample advance is applied with it)."""
+    sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
+    motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
+    fold = folded(freq, motion)
+    base = np.maximum(motion - sinc_a**2 * fold, 0.0) / sinc**2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        F = np.where(g > 0, np.maximum(sinc * base - sinc_a * fold, 0.0) / P_b, 0.0)
+    return np.nan_to_num(F, nan=0.0, posinf=0.0, neginf=0.0)
+
+
 class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
     ``(3,)`` it assumed (rad, (S5)), and ``filtered (T,)``: True where (S2) gave the rate (False: the rotation
@@ -168,7 +218,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
         sigma = rising_noise(freq, P_b, h, quiet)
         g = wiener_gain(freq, P_b, sigma, h, segments)
-        F = g / np.sinc(freq)[:, None]  # np.sinc(f) = sin(πf)/(πf) = sinc(x/2)
+        F = wiener_filter(freq, P_b, g, noise_shape(freq, h)[:, None] * sigma**2)
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
