@@ -101,7 +101,7 @@ __all__ = [
     "wiener_gain",
 ]
 
-SEGMENT = 256  #: samples per Welch segment: ≥ 7 half-overlapping segments on a log of 1,000 samples
+SEGMENT = 256  #: samples per Welch segment (resolution 1/256 of the rate; 14 half-overlapping ones in 2,000 samples)
 SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
 MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
@@ -172,8 +172,8 @@ def folded(freq: np.ndarray, motion: np.ndarray) -> np.ndarray:
 
 
 def wiener_filter(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> np.ndarray:
-    """``|F|`` of (S2) with the fold of (S6), ``(F, 3)``, from the spectrum ``P_b``, its gain ``g`` (S3) and the
-    noise's ``N_b`` (the half-sample advance is applied with it)."""
+    """The filter of (S2) with the fold of (S6) without its half-sample advance (which :func:`spectral_rate` applies):
+    real and non-negative, ``(F, 3)``, from the spectrum ``P_b``, its gain ``g`` (S3) and the noise's ``N_b``."""
     sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
     motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
     fold = folded(freq, motion)
@@ -205,7 +205,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     tv = t[valid]
     quiet = quiet_noise(tv, body_increments(R[valid], np.ones(tv.size, dtype=bool)))
     quiet = 0.0 if not math.isfinite(quiet) else quiet
-    h = float(np.median(np.diff(tv)))
+    h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
     sigma = np.full(3, quiet)
     rates = [phi[a : b - 1] / np.diff(t[a:b])[:, None] for a, b in long_runs]  # b_k per stretch
     segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
