@@ -3,7 +3,8 @@
 Run: ``python benchmarks/identification_speed.py [--repeat N]``. A 100 Hz quaternion log of a body whose rate is a
 random walk, 1 mrad of attitude noise; ``identify`` on its first 8192 samples (what ``omegahat estimate`` reads), then
 :class:`omegahat.identification.smoother.ModelSmoother` and the log's own Wiener smoother
-(:class:`omegahat.identification.spectral.SpectralSmoother`, ``--smooth`` where the model is declined) on 10,000 and
+(:class:`omegahat.identification.spectral.SpectralSmoother`, ``--smooth`` where the model is declined) and both
+with the choice between them (``ChosenSmoother``, ``--smooth`` where it is accepted) on 10,000 and
 100,000 samples (the checks of the input included), after one warm call (the kernels compiled). CPU time of this
 process; issue 24 asks for at most 10 us per sample of the smoother. Writes its section of RESULTS.md.
 """
@@ -18,7 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from omegahat.identification import identify
-from omegahat.identification.smoother import ModelSmoother
+from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
 from omegahat.identification.spectral import SpectralSmoother
 from results_md import machine_line, write_section
 
@@ -60,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
     times = [cpu(lambda: identify(t[:head], q[:head], "quaternion")) for _ in range(args.repeat)]
     rows.append(f"| `identify` on {head} samples (model {ident.chosen.model}) | {min(times):.2f} s | "
                 f"{float(np.median(times)):.2f} s |")  # fmt: skip
-    for name, est in (("ModelSmoother", smoother), ("SpectralSmoother", SpectralSmoother())):
+    both = ChosenSmoother(ident)
+    for name, est in (("ModelSmoother", smoother), ("SpectralSmoother", SpectralSmoother()), ("ChosenSmoother", both)):
         for n in (10_000, 100_000):
             per = [cpu(lambda n=n, est=est: est.run(t[:n], q[:n])) * 1e6 / n for _ in range(args.repeat)]
             rows.append(f"| `{name}.run`, {n:,} samples | {min(per):.2f} us/sample | "

@@ -254,3 +254,56 @@ def test_a_noise_free_log_with_the_inertia_is_not_restarted_at_every_sample():
     diff = log_difference(t, Rm, scheme="backward")
     assert est.restarts < 10
     assert rms(W[100:] - omega[100:]) < 0.2 * rms(diff[100:] - omega[100:])
+
+
+def test_the_smoothers_expect_their_error_and_the_lower_expectation_is_kept():
+    """A random-walk rate (the rate model's own motion) under 1 mrad of noise: the model's smoother (T1) and the
+    log's own Wiener smoother (S7) each expect their measured error within a factor 2 (against the true rate,
+    inside the log); ``ChosenSmoother`` returns exactly the one expecting less. A constant rate: the model's
+    smoother (its expectation 2e-5 rad/s against the spectrum's 4e-2) is kept."""
+    from omegahat.identification.smoother import ChosenSmoother
+    from omegahat.identification.spectral import SpectralSmoother
+
+    t, R, omega = wandering(100.0, 60.0, 1e-3, seed=3, q=0.05)
+    ident = identify(t[:8192], R[:8192], "matrix")
+    inner = slice(100, -100)
+    for smoother in (ModelSmoother(ident), SpectralSmoother()):
+        measured = rms(smoother.run(t, R).omega[inner] - omega[inner])
+        assert 0.5 < smoother.expected_rms / measured < 2.0
+    chosen = ChosenSmoother(ident)
+    out = chosen.run(t, R).omega
+    lower = min(chosen.expected, key=chosen.expected.get)
+    assert chosen.chosen is {"model": chosen.model, "spectrum": chosen.spectrum}[lower]
+    np.testing.assert_array_equal(out, chosen.chosen.run(t, R).omega)
+
+    t = np.arange(0.0, 20.0, 0.01)
+    w = np.array([0.3, -0.2, 0.5])
+    R = (
+        Rotation.from_rotvec(np.outer(t, w))
+        * Rotation.from_rotvec(np.random.default_rng(4).normal(0, 1e-3, (t.size, 3)))
+    ).as_matrix()
+    chosen = ChosenSmoother(identify(t, R, "matrix"))
+    out = chosen.run(t, R).omega
+    assert chosen.chosen is chosen.model and chosen.expected["model"] < 1e-3 < chosen.expected["spectrum"]
+    assert rms(out - w) < 1e-4
+
+
+def test_smooth_with_a_model_says_which_smoother_it_kept(tmp_path, capsys):
+    """``--smooth`` on a log whose model the identification accepts (a constant rate under 1 mrad of noise) runs
+    both smoothers, keeps the model's (it expects far less error) and says so with both expectations."""
+    from omegahat.cli import main
+
+    t = np.arange(0.0, 20.0, 0.01)
+    w = np.array([0.3, -0.2, 0.5])
+    q = (
+        Rotation.from_rotvec(np.outer(t, w))
+        * Rotation.from_rotvec(np.random.default_rng(6).normal(0, 1e-3, (t.size, 3)))
+    ).as_quat()
+    src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
+    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "the one expecting the lower error kept" in out
+    assert "estimator used: the identified model's smoother" in out and "the Wiener smoother" in out
+    written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    assert rms(written - w) < 1e-4

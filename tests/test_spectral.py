@@ -190,3 +190,12 @@ def test_the_filter_is_the_inverse_mean_without_a_fold_and_shrinks_with_one():
     F = wiener_filter(freq, busy_top, g, N_b[:, None])
     assert np.all(F >= 0.0) and np.all(F <= g / np.sinc(freq)[:, None] + 1e-12)
     assert F[-2, 0] < 0.5 * g[-2, 0] / np.sinc(freq[-2])  # near the Nyquist frequency the fold halves it at least
+
+
+def test_the_expected_error_is_the_error_within_a_factor_two():
+    """(S7) against the error measured against the closed-form rate, inside the log (the ends are not in (S7))."""
+    t, R, rate = turning()
+    est = SpectralSmoother()
+    omega = est.run(t, noisy(R, 1e-3).as_quat()).omega
+    measured = rms(omega[100:-100] - rate[100:-100])
+    assert 0.5 < est.expected_rms / measured < 2.0

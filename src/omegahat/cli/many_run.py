@@ -172,6 +172,8 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
         return f"omegahat{smooth}, {model}"
     if used.startswith("estimator used: backward differencing"):
         return "backward differencing"
+    if used.startswith("estimator used: the identified model's smoother"):
+        return f"omegahat{smooth}, {model}"
     if used.startswith("estimator used: the log's own Wiener smoother"):
         return "Wiener smoother (--smooth)"
     return f"sarras, {model}"

@@ -18,9 +18,17 @@ The two passes each use the sample at ``t_k`` (the measurement is counted twice 
 those of two filters that agree on it, which leaves a constant rate exact and halves nothing that matters for the
 rate; at each end of the log one pass has only just started and its covariance (large) gives it no weight. Where a
 pass restarted (its guard: NaN) the other alone is used; where both did, there is no estimate (``unavailable``).
+
+**Which smoother.** The smoother expects the error ``tr (P_f⁻¹ + P_b⁻¹)⁻¹`` at each sample (the model's own
+account); the log's own Wiener smoother (:mod:`omegahat.identification.spectral`) expects (S7) from the log's
+spectrum. For attitudes, ``--smooth`` runs both and keeps the one expecting the lower RMS error
+(:class:`ChosenSmoother`): where the model describes the log its expectation is the lower one (a constant rate,
+a torque given), where it does not the spectrum's is.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -28,26 +36,39 @@ from numpy.typing import ArrayLike
 from omegahat import measurements as ms
 from omegahat.identification.identify import Identification
 from omegahat.identification.likelihood import filter_pass
+from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import Estimate, Estimator, Measurements, Status
 from omegahat.validation import as_directions
 
-__all__ = ["ModelSmoother", "combine"]
+__all__ = ["ChosenSmoother", "ModelSmoother", "combine", "combined"]
 
 
 def combine(omega_f: np.ndarray, P_f: np.ndarray, omega_b: np.ndarray, P_b: np.ndarray) -> np.ndarray:
     """(T1) sample by sample: ``(T, 3)`` rates and ``(T, 3, 3)`` covariances of two passes (NaN rows where one
     has none: the other alone; NaN where both)."""
+    return combined(omega_f, P_f, omega_b, P_b)[0]
+
+
+def combined(
+    omega_f: np.ndarray, P_f: np.ndarray, omega_b: np.ndarray, P_b: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`combine`'s rates and the variance (T1) expects of them, ``tr (P_f⁻¹ + P_b⁻¹)⁻¹`` per sample ``(T,)``
+    ((rad/s)², the three axes together; one pass's own where the other has none, NaN where neither has)."""
     out = np.full(omega_f.shape, np.nan)
+    variance = np.full(omega_f.shape[0], np.nan)
     ok_f = np.all(np.isfinite(omega_f), axis=1) & np.all(np.isfinite(P_f), axis=(1, 2))
     ok_b = np.all(np.isfinite(omega_b), axis=1) & np.all(np.isfinite(P_b), axis=(1, 2))
     both = ok_f & ok_b
     if both.any():
         I_f, I_b = np.linalg.inv(P_f[both]), np.linalg.inv(P_b[both])
+        P_s = np.linalg.inv(I_f + I_b)
         info = np.einsum("tij,tj->ti", I_f, omega_f[both]) + np.einsum("tij,tj->ti", I_b, omega_b[both])
-        out[both] = np.linalg.solve(I_f + I_b, info[..., None])[..., 0]
-    out[ok_f & ~ok_b] = omega_f[ok_f & ~ok_b]
-    out[ok_b & ~ok_f] = omega_b[ok_b & ~ok_f]
-    return out
+        out[both] = np.einsum("tij,tj->ti", P_s, info)
+        variance[both] = np.trace(P_s, axis1=1, axis2=2)
+    for alone, omega, P in ((ok_f & ~ok_b, omega_f, P_f), (ok_b & ~ok_f, omega_b, P_b)):
+        out[alone] = omega[alone]
+        variance[alone] = np.trace(P[alone], axis1=1, axis2=2)
+    return out, variance
 
 
 class ModelSmoother(Estimator):
@@ -76,6 +97,7 @@ class ModelSmoother(Estimator):
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
         self.n_skipped = 0
+        self.expected_rms = math.nan  # after run: the RMS error (T1) expects over the log (rad/s)
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """The smoothed rate at every sample of the log (its samples checked as by every estimator)."""
@@ -97,7 +119,51 @@ class ModelSmoother(Estimator):
         torque_back = np.roll(log.torques[rev], 1, axis=0)  # held backward from each sample (module docstring)
         bwd = filter_pass(-log.times[rev], log.values[rev], log.valid[rev], c.model, c.tracking_index, sigma=sigma,
                           torque=torque_back, **kw)  # type: ignore[arg-type]  # fmt: skip
-        omega = combine(fwd.omega, fwd.P, -bwd.omega[rev], bwd.P[rev])
+        omega, variance = combined(fwd.omega, fwd.P, -bwd.omega[rev], bwd.P[rev])
+        self.expected_rms = float(np.sqrt(np.nanmean(variance))) if np.isfinite(variance).any() else math.nan
         status = np.where(log.valid, Status.CORRECTED, Status.PREDICTED).astype(np.int8)
         status[~np.all(np.isfinite(omega), axis=1)] = Status.UNAVAILABLE
         return Estimate(omega, status)
+
+
+class ChosenSmoother(Estimator):
+    """``--smooth`` where the identification chose a model, for attitudes: the model's smoother (T1) and the log's
+    own Wiener smoother (S2)–(S6) both run, and the one whose own expected RMS error is the lower is kept (the
+    model's from its two passes' covariances, the Wiener smoother's (S7) from the log's spectrum): the log's
+    evidence decides between the model and the spectrum. After ``run``: ``chosen`` (the smoother kept),
+    ``expected`` (``{"model": …, "spectrum": …}``, rad/s).
+
+    Parameters
+    ----------
+    identification : what :func:`omegahat.identification.identify` found on the log.
+    scalar_first, rotation_tol, quat_norm_tol : as every estimator (:mod:`omegahat.measurements`).
+    """
+
+    causal = False
+
+    def __init__(
+        self,
+        identification: Identification,
+        *,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+    ) -> None:
+        tols = {"rotation_tol": rotation_tol, "quat_norm_tol": quat_norm_tol}
+        self.model = ModelSmoother(identification, scalar_first=scalar_first, **tols)
+        self.spectrum = SpectralSmoother(scalar_first=scalar_first, **tols)
+        self.chosen: Estimator = self.model
+        self.expected = {"model": math.nan, "spectrum": math.nan}
+        self.n_skipped = 0
+
+    def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
+        """Both smoothers' estimates; the one expecting the lower error is returned."""
+        by_model = self.model.run(t, data, torque)
+        by_spectrum = self.spectrum.run(t, data, torque)
+        self.expected = {"model": self.model.expected_rms, "spectrum": self.spectrum.expected_rms}
+        self.n_skipped = self.model.n_skipped
+        if self.spectrum.expected_rms < self.model.expected_rms:  # False when either is NaN: the model
+            self.chosen = self.spectrum
+            return by_spectrum
+        self.chosen = self.model
+        return by_model

@@ -66,6 +66,13 @@ significant, the median over ``0.45 ≤ f < 0.5`` cycles per step), falling beyo
 — (S2) where nothing shows near the Nyquist frequency (``S_a = 0``), shrunk towards zero (never inverted) where the
 fold may dominate. On written-out power-law spectra the fold so read is 1.06–1.8 times the true one: conservative.
 
+**What it expects.** Per frequency the rate's power less what the filter recovers, integrated over the band::
+
+    E|ω̂ − ω|² = ∫₀^½ [ S + S_a − max(0, sinc S − sinc_a S_a)² / P_b ] df     (where significant)          (S7)
+
+— the filter's own account, from the same spectrum; :class:`omegahat.identification.smoother.ChosenSmoother`
+weighs it against the model's smoother's.
+
 What (S2)–(S6) do not know: a motion whose spectrum changes along the log is filtered with its average spectrum;
 a fold that does not continue the band's decay (a vibration above the Nyquist frequency) is not foreseen. Measured
 on the development recordings: ``docs/theory/identification.md``.
@@ -93,6 +100,7 @@ __all__ = [
     "SIGNIFICANCE",
     "SpectralRate",
     "SpectralSmoother",
+    "expected_error",
     "folded",
     "noise_shape",
     "rising_noise",
@@ -171,26 +179,47 @@ def folded(freq: np.ndarray, motion: np.ndarray) -> np.ndarray:
         return np.minimum(envelope, motion / sinc_a**2)  # no more than the frequency shows
 
 
-def wiener_filter(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> np.ndarray:
-    """The filter of (S2) with the fold of (S6) without its half-sample advance (which :func:`spectral_rate` applies):
-    real and non-negative, ``(F, 3)``, from the spectrum ``P_b``, its gain ``g`` (S3) and the noise's ``N_b``."""
+def _cross(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(S6): the rate's spectrum at each frequency (base and fold, ``S + S_a``) and its cross-spectrum with the
+    increments (``sinc S − sinc_a S_a``), both ``(F, 3)``, zero where the motion is not significant."""
     sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
     motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
     fold = folded(freq, motion)
     base = np.maximum(motion - sinc_a**2 * fold, 0.0) / sinc**2
+    return base + fold, sinc * base - sinc_a * fold
+
+
+def wiener_filter(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> np.ndarray:
+    """The filter of (S2) with the fold of (S6) without its half-sample advance (which :func:`spectral_rate` applies):
+    real and non-negative, ``(F, 3)``, from the spectrum ``P_b``, its gain ``g`` (S3) and the noise's ``N_b``."""
+    _, cross = _cross(freq, P_b, g, N_b)
     with np.errstate(divide="ignore", invalid="ignore"):
-        F = np.where(g > 0, np.maximum(sinc * base - sinc_a * fold, 0.0) / P_b, 0.0)
+        F = np.where(g > 0, np.maximum(cross, 0.0) / P_b, 0.0)
     return np.nan_to_num(F, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> float:
+    """(S7): the RMS error (rad/s, the three axes together) the filter of (S6) expects on the spectrum ``P_b``: per
+    frequency the rate's power less what the filter recovers, ``S + S_a − max(0, sinc S − sinc_a S_a)² / P_b``,
+    integrated over the band (Welch's one-sided density: the variance is its integral over 0 … 0.5 cycles per step).
+    """
+    rate, cross = _cross(freq, P_b, g, N_b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        left = np.where(g > 0, rate - np.maximum(cross, 0.0) ** 2 / P_b, 0.0)
+    left = np.nan_to_num(np.maximum(left, 0.0), nan=0.0, posinf=0.0)
+    return float(np.sqrt(np.sum(left) * (freq[1] - freq[0])))
 
 
 class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
-    ``(3,)`` it assumed (rad, (S5)), and ``filtered (T,)``: True where (S2) gave the rate (False: the rotation
-    spline, for a skipped sample or a stretch too short or too irregular to filter)."""
+    ``(3,)`` it assumed (rad, (S5)), ``filtered (T,)``: True where (S2) gave the rate (False: the rotation spline,
+    for a skipped sample or a stretch too short or too irregular to filter), and ``expected`` the RMS error (S7)
+    expects (rad/s; NaN where nothing was filtered)."""
 
     omega: np.ndarray
     noise: np.ndarray
     filtered: np.ndarray
+    expected: float
 
 
 def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
@@ -207,6 +236,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     quiet = 0.0 if not math.isfinite(quiet) else quiet
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
     sigma = np.full(3, quiet)
+    expected = math.nan
     rates = [phi[a : b - 1] / np.diff(t[a:b])[:, None] for a, b in long_runs]  # b_k per stretch
     segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
     usable = [r for r in rates if r.shape[0] >= segment]
@@ -218,7 +248,9 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
         sigma = rising_noise(freq, P_b, h, quiet)
         g = wiener_gain(freq, P_b, sigma, h, segments)
-        F = wiener_filter(freq, P_b, g, noise_shape(freq, h)[:, None] * sigma**2)
+        N_b = noise_shape(freq, h)[:, None] * sigma**2
+        F = wiener_filter(freq, P_b, g, N_b)
+        expected = expected_error(freq, P_b, g, N_b)
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
@@ -232,7 +264,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
         spline = RotationSpline(tv, Rotation.from_matrix(R[valid]))
         omega[~covered] = spline(t[~covered], 1)
-    return SpectralRate(omega, sigma, covered)
+    return SpectralRate(omega, sigma, covered, expected)
 
 
 def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
@@ -299,10 +331,12 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
 
     measurement_noise = np.full(3, math.nan)  #: the σ per body axis the last ``run`` assumed (rad, (S5))
     n_unfiltered = 0  #: valid samples of the last ``run`` in stretches too short or irregular to filter (the spline)
+    expected_rms = math.nan  #: the RMS error (S7) the last ``run`` expected (rad/s)
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
-        """(S2) at the log's times; sets :attr:`measurement_noise` and :attr:`n_unfiltered`."""
+        """(S2) at the log's times; sets :attr:`measurement_noise`, :attr:`n_unfiltered` and :attr:`expected_rms`."""
         found = spectral_rate(log.times, log.values, log.valid)
         self.measurement_noise = found.noise
         self.n_unfiltered = int(np.count_nonzero(log.valid & ~found.filtered))
+        self.expected_rms = found.expected
         return found.omega

@@ -28,7 +28,7 @@ import numpy as np
 
 from omegahat.baselines.differencing import DifferencingEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
-from omegahat.identification.smoother import ModelSmoother
+from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
@@ -249,6 +249,14 @@ def _estimator(
         tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
         spectral = SpectralSmoother(**tols)
         return spectral, spectral
+    if settings.smooth and stream.kind != "directions":
+        report(
+            "estimator: the identified model's two-filter smoother and the log's own Wiener smoother, the one "
+            "expecting the lower error kept (zero lag)"
+        )
+        tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
+        chosen = ChosenSmoother(ident, **tols)
+        return chosen, chosen
     if settings.smooth:
         report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
         smoother = ModelSmoother(
@@ -280,6 +288,13 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
     body = f"J diag = {np.diag(J).tolist()}" if inertia_given else "no inertia given (the observer's J = I)"
 
     def line() -> str:
+        if isinstance(est, ChosenSmoother):
+            kept = "the identified model's smoother" if est.chosen is est.model else "the log's own Wiener smoother"
+            return (
+                f"estimator used: {kept} (offline, zero lag; expected RMS error: the model's smoother "
+                f"{est.expected['model']:.2g} rad/s, the Wiener smoother {est.expected['spectrum']:.2g} rad/s), "
+                f"{body}"
+            )
         if isinstance(est, SpectralSmoother):
             spline = (
                 f"; {est.n_unfiltered} samples in stretches too short or too irregular to filter took the rotation "
