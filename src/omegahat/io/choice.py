@@ -12,8 +12,9 @@ whatever the reader's chunk size, so that the same data get the same gains in ev
 3. starts: ``fit`` (a least-squares rate over the first window: the fixed-gain observer's (D), or the identified
    filter's (W)), ``warm`` (from the first two samples) or ``zero``;
 4. builds the estimator: by default what :func:`omegahat.identification.identify` chooses on the head (the
-   identified model's supervised filter or backward differencing; for ``smooth`` the model's two-filter smoother,
-   or the log's own Wiener smoother where the model is declined); the fixed-gain observer when gains, a bandwidth or
+   identified model's supervised filter or backward differencing; for ``smooth`` of attitudes the model's two-filter
+   smoother or the log's own Wiener smoother, whichever expects less, and the Wiener smoother where the model is
+   declined; of directions the model's smoother); the fixed-gain observer when gains, a bandwidth or
    ``estimator="sarras"`` are given (or fewer than ``MIN_SAMPLES`` valid samples); or the ``mocap`` preset's (causal,
    or its zero-lag smoother: a batch estimator).
 """
@@ -191,11 +192,11 @@ def attitude_choice(
 def _estimator(
     settings, motion, J, observer_gains, refs, stream, report, spell, head, fit_start
 ) -> tuple[Estimator, Estimator]:
-    """The estimator, and the one the closing line describes (for the smoother: its model's causal estimator): the
+    """The estimator, and the one the closing line describes (for the model's smoother: its causal filter): the
     preset's; the fixed-gain observer with ``observer_gains()[0]`` (asked for, or fewer than ``MIN_SAMPLES`` valid
     samples); else what the identification of the head chose (the model's supervised filter or backward
-    differencing; for ``smooth`` its smoother or the log's own Wiener smoother). ``fit_start(window)``: the start's
-    rate (None unless the start is ``fit``)."""
+    differencing; for ``smooth`` its smoother, the log's own Wiener smoother, or the two with the choice between
+    them). ``fit_start(window)``: the start's rate (None unless the start is ``fit``)."""
     common = {
         "references": refs,
         "measurement": "directions" if stream.kind == "directions" else "attitude",
@@ -239,14 +240,14 @@ def _estimator(
     if settings.start == "fit":
         common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
+    tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
     if settings.smooth and not ident.use_model and stream.kind != "directions":
         # the model was declined (it does not describe the log, or predicts no gain): no model to smooth with; the
         # log's own spectrum and noise give the zero-lag Wiener estimate (omegahat.identification.spectral)
         report(
-            "estimator: the log's own Wiener smoother (its increments' spectrum and its quiet-part noise; zero lag; "
-            "no model to smooth with: see above)"
+            "estimator: the log's own Wiener smoother (its increments' spectrum and noise; zero lag; no model to "
+            "smooth with: see above)"
         )
-        tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
         spectral = SpectralSmoother(**tols)
         return spectral, spectral
     if settings.smooth and stream.kind != "directions":
@@ -254,18 +255,11 @@ def _estimator(
             "estimator: the identified model's two-filter smoother and the log's own Wiener smoother, the one "
             "expecting the lower error kept (zero lag)"
         )
-        tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
         chosen = ChosenSmoother(ident, **tols)
         return chosen, chosen
-    if settings.smooth:
+    if settings.smooth:  # directions: the model's smoother (the Wiener smoother takes attitudes)
         report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
-        smoother = ModelSmoother(
-            ident,
-            references=refs if stream.kind == "directions" else None,
-            rotation_tol=settings.rotation_tol,
-            quat_norm_tol=settings.quat_norm_tol,
-        )
-        return smoother, est
+        return ModelSmoother(ident, references=refs, **tols), est  # directions
     return est, est
 
 
