@@ -292,3 +292,12 @@ def test_is_rotation_and_orthogonality_error():
 def test_wrong_shapes_are_named(func, arg, match):
     with pytest.raises(ValueError, match=match):
         func(arg)
+
+
+def test_increments_are_scipys_relative_rotations_and_nan_across_a_missing_one():
+    R = Rotation.random(6, random_state=3).as_matrix()
+    R[3] = np.nan
+    phi = so3.increments(R)
+    ref = (Rotation.from_matrix(R[[0, 1, 4]]).inv() * Rotation.from_matrix(R[[1, 2, 5]])).as_rotvec()
+    np.testing.assert_allclose(phi[[0, 1, 4]], ref, atol=1e-12)
+    assert np.all(np.isnan(phi[[2, 3]]))

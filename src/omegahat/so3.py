@@ -31,6 +31,7 @@ __all__ = [
     "exp",
     "from_quat",
     "hat",
+    "increments",
     "is_rotation",
     "log",
     "orthogonality_error",
@@ -135,6 +136,13 @@ def log(R: ArrayLike) -> np.ndarray:
     out = np.empty(R.shape[:-1])
     _log_rows(_rows(R, (3, 3)), out.reshape(-1, 3))
     return out
+
+
+def increments(R: ArrayLike) -> np.ndarray:
+    """The body-frame increments ``φ_k = log(R_kᵀ R_{k+1})`` of consecutive rotations. ``(T, 3, 3) -> (T − 1, 3)``;
+    NaN where either rotation is NaN (a missing sample)."""
+    R = np.asarray(R, dtype=float)
+    return log(np.swapaxes(R[:-1], -1, -2) @ R[1:])
 
 
 def orthogonality_error(R: ArrayLike) -> np.ndarray:

@@ -87,7 +87,7 @@ def _differences(t, R, scheme):
     if iv.size >= 2:
         h = np.diff(tv)
         # d[j]: mean rate over (tv[j], tv[j+1])
-        d = so3.log(np.swapaxes(Rv[:-1], -1, -2) @ Rv[1:]) / h[:, None]
+        d = so3.increments(Rv) / h[:, None]
         if scheme == "backward":
             est[1:] = d  # (D1)
         elif iv.size >= 3:

@@ -43,6 +43,7 @@ import numpy as np
 from scipy.linalg import solve_discrete_are
 from scipy.spatial.transform import Rotation
 
+from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator
 from omegahat.identification.likelihood import (
     MODELS,
@@ -52,7 +53,7 @@ from omegahat.identification.likelihood import (
     log_likelihood,
     noise_intensity,
 )
-from omegahat.identification.noise import body_increments, quiet_noise
+from omegahat.identification.noise import quiet_noise
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
@@ -445,7 +446,7 @@ def identify(
     h = float(np.median(np.diff(tv)))
     if not h > 0:
         raise ValueError("the sample times must increase")
-    phi = body_increments(R[valid], np.ones(tv.size, dtype=bool))
+    phi = so3.increments(R[valid])
     bound = quiet_noise(tv, phi)
     if not np.isfinite(bound):
         bound = np.inf

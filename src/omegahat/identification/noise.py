@@ -25,25 +25,14 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-__all__ = ["CHI2_3_MEDIAN", "QUANTILE", "WINDOW_S", "body_increments", "quiet_noise", "window_quantile"]
+__all__ = ["CHI2_3_MEDIAN", "QUANTILE", "REGULAR_STEP", "WINDOW_S", "quiet_noise", "window_quantile"]
 
 CHI2_3_MEDIAN = 2.3660  #: the median of χ² with 3 degrees of freedom
 WINDOW_S = 0.25  #: s: the windows of (N1) (at least 31 samples)
 QUANTILE = 0.1  #: the share of the quietest windows of (N1)
 _MIN_WINDOW = 31
-
-
-def body_increments(R: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """The body-frame increments ``φ_k = log(R_kᵀ R_{k+1})`` between consecutive samples ``(T − 1, 3)`` of the
-    attitudes ``R (T, 3, 3)`` (NaN where either sample is not ``valid``)."""
-    phi = np.full((R.shape[0] - 1, 3), np.nan)
-    both = valid[:-1] & valid[1:]
-    if both.any():
-        rel = np.einsum("tji,tjk->tik", R[:-1][both], R[1:][both])
-        phi[both] = Rotation.from_matrix(rel).as_rotvec()
-    return phi
+REGULAR_STEP = 0.05  #: a step more than 5 % off the median is irregular (a gap, a dropped or doubled sample)
 
 
 @functools.cache
@@ -67,7 +56,7 @@ def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:
         return float("nan")
     h_all = np.diff(t)
     h = float(np.median(h_all))
-    regular = np.abs(h_all / h - 1.0) < 0.05
+    regular = np.abs(h_all / h - 1.0) < REGULAR_STEP
     ok = regular[:-2] & regular[1:-1] & regular[2:]
     d2 = np.sum((phi[2:] - 2.0 * phi[1:-1] + phi[:-2]) ** 2, axis=1)
     d2 = np.where(ok & np.isfinite(d2), d2, np.nan)

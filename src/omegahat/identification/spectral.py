@@ -90,7 +90,8 @@ from scipy.spatial.transform import Rotation, RotationSpline
 from scipy.special import gammaincinv
 
 from omegahat import measurements as ms
-from omegahat.identification.noise import body_increments, quiet_noise
+from omegahat import so3
+from omegahat.identification.noise import REGULAR_STEP, quiet_noise
 from omegahat.interface import Measurements
 
 __all__ = [
@@ -113,14 +114,13 @@ SEGMENT = 256  #: samples per Welch segment (resolution 1/256 of the rate; 14 ha
 SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
 MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
-_REGULAR = 0.05  #: a step more than 5 % off the median ends a stretch (as the noise estimate's rule)
 
 
 def stretches(t: np.ndarray, valid: np.ndarray) -> list[tuple[int, int]]:
     """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples with regular steps (within 5 % of the
     log's median step)."""
     h = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < _REGULAR)  # k and k + 1 in one run
+    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < REGULAR_STEP)  # k and k + 1 in one run
     starts = np.flatnonzero(valid & np.concatenate([[True], ~link]))
     ends = np.flatnonzero(valid & np.concatenate([~link, [True]])) + 1
     return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
@@ -230,9 +230,10 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         raise ValueError(f"the smoother needs at least 2 valid attitude samples; got {int(np.count_nonzero(valid))}")
     runs = stretches(t, valid)
     long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
-    phi = body_increments(R, valid)  # (T − 1, 3), NaN across a skipped sample
+    R = np.where(valid[:, None, None], R, np.nan)
+    phi = so3.increments(R)  # (T − 1, 3), NaN across a skipped sample
     tv = t[valid]
-    quiet = quiet_noise(tv, body_increments(R[valid], np.ones(tv.size, dtype=bool)))
+    quiet = quiet_noise(tv, so3.increments(R[valid]))
     quiet = 0.0 if not math.isfinite(quiet) else quiet
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
     sigma = np.full(3, quiet)
@@ -329,9 +330,17 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     0.3 -0.2 0.5 1.0 mrad
     """
 
-    measurement_noise = np.full(3, math.nan)  #: the σ per body axis the last ``run`` assumed (rad, (S5))
-    n_unfiltered = 0  #: valid samples of the last ``run`` in stretches too short or irregular to filter (the spline)
-    expected_rms = math.nan  #: the RMS error (S7) the last ``run`` expected (rad/s)
+    def __init__(
+        self,
+        *,
+        scalar_first: bool = False,
+        rotation_tol: float = ms.ROTATION_TOL,
+        quat_norm_tol: float = ms.QUAT_NORM_TOL,
+    ) -> None:
+        super().__init__(scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol)
+        self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (S5))
+        self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short or irregular to filter
+        self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
         """(S2) at the log's times; sets :attr:`measurement_noise`, :attr:`n_unfiltered` and :attr:`expected_rms`."""

@@ -255,7 +255,7 @@ def log_differencing_error(
         return 0.0
     dt = np.diff(t)
     h = float(np.median(dt))
-    steps = (Rotation.from_matrix(R[:-1]).inv() * Rotation.from_matrix(R[1:])).as_rotvec()
+    steps = so3.increments(R)
     steps[np.abs(dt / h - 1.0) > 0.05] = np.nan
     return differencing_error(steps, h, measurement_noise)
 
