@@ -28,10 +28,25 @@ import math
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
+from omegahat.identification import identify
+from omegahat.identification.smoother import ModelSmoother
 from omegahat.lab.evaluation.broad import Score
-from omegahat.lab.evaluation.corpus import METHODS, Row, corpus_dir, evaluate, load_recording, recordings
+from omegahat.lab.evaluation.corpus import (
+    METHODS,
+    Method,
+    Outcome,
+    Recording,
+    Row,
+    corpus_dir,
+    evaluate,
+    load_recording,
+    recordings,
+)
 from results_md import RESULTS, machine_line, write_section
 
 CSV = Path(__file__).with_name("real_world.csv")
@@ -262,6 +277,70 @@ def write_results(rows: list[Row], names: list[str], n_recordings: int, measured
     write_section(SECTION, f"{measured or machine_line()} {command} {INTRO}\n\n" + summary_table(rows))
 
 
+DIRECTIONS_SECTION = "## `--smooth` on direction logs of the real-world corpus (benchmarks/real_world.py --directions)"
+DIRECTIONS_CSV = Path(__file__).with_name("real_world_directions.csv")
+#: two inertial directions (gravity's reaction, and a horizontal one): each attitude R gives b_i = Rᵀ v_i
+DIRECTIONS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+BEFORE = "the model's smoother (before)"
+DIRECTIONS_INTRO = (
+    "Each real recording's attitudes (and every 10th and 30th sample of BROAD's) turned into the body-frame "
+    "directions of two inertial ones (`b_i = Rᵀ v_i`, v = (0, 0, 1) and (1, 0, 0); the attitude noise is the "
+    "recording's own), the plant's own direction logs as they are; `omegahat estimate --references … --smooth` "
+    "(the log's own Wiener smoother of each sample's least-squares attitude where the model is declined, the choice "
+    f'between it and the model\'s smoother where it is accepted) and "{BEFORE}": what `--smooth` ran on '
+    "directions before, the identified model's two-filter smoother whether or not the model was accepted; both "
+    "over the best of central differencing and RotationSpline through the least-squares attitudes, scored as "
+    "above. Every row: `benchmarks/real_world_directions.csv`."
+)
+
+
+def as_direction_log(rec: Recording) -> Recording | None:
+    """``rec`` as a log of two body-frame directions (:data:`DIRECTIONS`); a plant's direction log as it is, its
+    quaternion logs None (the plant gives both kinds)."""
+    if rec.kind == "directions":
+        return rec
+    if rec.name.startswith("plant"):
+        return None
+    b = np.einsum("tji,nj->tni", rec.R, DIRECTIONS)  # NaN where the attitude is missing
+    return replace(rec, kind="directions", data=b, references=DIRECTIONS.copy())
+
+
+def _model_smoother(rec: Recording) -> Outcome:
+    """``--smooth`` on directions before: the identified model's smoother, accepted or not."""
+    n = min(rec.t.size, 8192)
+    torque = None if rec.torque is None else rec.torque[:n]
+    ident = identify(rec.t[:n], rec.data[:n], rec.kind, J=rec.inertia, torque=torque, references=rec.references)
+    est = ModelSmoother(ident, references=rec.references)
+    return Outcome(est.run(rec.t, rec.data, rec.torque).omega, note=f"model accepted: {ident.use_model}")
+
+
+def directions_table(rows: list[Row]) -> str:
+    """Per group: ``--smooth`` and the model's smoother (before) over the best offline peer (geometric mean; worst;
+    how many above 1)."""
+    groups: dict[str, dict[str, list[float]]] = {}
+    for r in rows:
+        if r.offline_ratio is None or r.method not in ("omegahat estimate --smooth", BEFORE):
+            continue
+        name = r.recording
+        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+        for g in (group, "all"):
+            groups.setdefault(g, {}).setdefault(r.method, []).append(r.offline_ratio)
+    head = (
+        "| group | n | --smooth ÷ best offline (geo. mean; worst; > 1) "
+        "| before ÷ best offline (geo. mean; worst; > 1) |"
+    )
+    lines = [head, "| --- | ---: | --- | --- |"]
+    order = [g for g in groups if g != "all"] + ["all"]
+    for g in order:
+        cells = []
+        for m in ("omegahat estimate --smooth", BEFORE):
+            v = groups[g].get(m, [])
+            cells.append(f"{_fmt(_geomean(v), '.3f')}; {_fmt(max(v, default=None), '.4g')}; {sum(x > 1.0 for x in v)}")
+        n = len(groups[g].get("omegahat estimate --smooth", []))
+        lines.append(f"| {g} | {n} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("corpus", nargs="?", type=Path, help="corpus directory (default $OMEGAHAT_CORPUS_DIR or ../corpus)")
@@ -275,11 +354,17 @@ def main(argv: list[str] | None = None) -> int:
         help="the identified default only (differencing, spline, the default and --smooth): its own section and CSV",
     )  # fmt: skip
     ap.add_argument("--preset", action="store_true", help="the mocap preset only: its own section and CSV")
+    ap.add_argument(
+        "--directions", action="store_true",
+        help="--smooth on the recordings turned into two-direction logs: its own section and CSV",
+    )  # fmt: skip
     args = ap.parse_args(argv)
     if args.after:
         args.methods = list(AFTER_METHODS)
     if args.preset:
         args.methods = list(PRESET_METHODS)
+    if args.directions:
+        args.methods = ["backward diff.", "central diff.", "RotationSpline", "omegahat estimate --smooth"]
     if args.from_csv:
         rows = read_csv()
         recs = {r.recording.split("@")[0] for r in rows}
@@ -293,21 +378,38 @@ def main(argv: list[str] | None = None) -> int:
         print(f"skipped: no corpus recordings in {args.corpus or corpus_dir()} (build it with benchmarks/corpus.py)")
         return 0
     methods = [m for m in METHODS if args.methods is None or m.name in args.methods]
+    if args.directions:
+        methods.append(Method(BEFORE, _model_smoother, False))
     warnings.simplefilter("ignore")  # skipped samples etc.: every method alike, counted in the notes
     rows: list[Row] = []
     t0 = time.perf_counter()
     for path in paths:
         rec = load_recording(path)
         steps = [1] + ([] if args.no_decimate else list(rec.meta.get("decimate", [])))
+        if args.directions:
+            found = as_direction_log(rec)
+            if found is None:
+                continue
+            rec = found
         for step in steps:
             r = rec.decimated(step)
             got = evaluate(r, methods)
             rows += got
             line = "  ".join(f"{g.method}: {_fmt(g.score.rms if g.score else None)}" for g in got)
             print(f"{r.name} ({r.fs:.4g} Hz, {r.t.size} samples): {line}", flush=True)
-    table = after_table(rows) if args.after else preset_table(rows) if args.preset else summary_table(rows)
+    if args.directions:
+        table = directions_table(rows)
+    elif args.after:
+        table = after_table(rows)
+    else:
+        table = preset_table(rows) if args.preset else summary_table(rows)
     print("\n" + table + f"\n\n{len(rows)} rows in {time.perf_counter() - t0:.0f} s")
     if args.no_write:
+        return 0
+    if args.directions:
+        _write_csv(rows, DIRECTIONS_CSV)
+        command = f"Command: `python benchmarks/real_world.py --directions` ({len(paths)} recordings of the corpus)."
+        write_section(DIRECTIONS_SECTION, f"{machine_line()} {command} {DIRECTIONS_INTRO}\n\n" + table)
         return 0
     if args.preset:
         _write_csv(rows, PRESET_CSV)

@@ -307,3 +307,88 @@ def test_smooth_with_a_model_says_which_smoother_it_kept(tmp_path, capsys):
     assert "estimator used: the identified model's smoother" in out and "the Wiener smoother" in out
     written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     assert rms(written - w) < 1e-4
+
+
+def test_a_pass_that_ran_away_is_not_averaged_in():
+    """(T1) where one pass's covariance is singular or indefinite (a pass that ran away: rounding leaves its huge
+    covariance rank-deficient) takes the other pass alone; it once raised numpy's LinAlgError on a direction log."""
+    Pb = np.diag([0.2, 0.3, 0.1])
+    wf, wb = np.array([-421.0, 4884.0, 5568.0]), np.array([0.1, -0.2, 0.3])
+    u = np.array([1.0, 11.0, 13.5])
+    for Pf in (1e14 * np.outer(u, u), np.diag([1.0, -1.0, 1.0])):  # rank one; indefinite
+        np.testing.assert_array_equal(combine(wf[None], Pf[None], wb[None], Pb[None])[0], wb)
+
+
+def _directions_log(tmp_path, t, R):
+    """A direction log of two inertial directions (gravity's reaction and a magnetic field), the CLI's npz."""
+    V = np.array([[0.0, 0.0, 9.83], [-0.9, 15.5, -41.3]])
+    src = tmp_path / "dirs.npz"
+    np.savez(src, t=t, b=np.einsum("tji,nj->tni", R, V))
+    return src, V, "--references=0,0,9.83;-0.9,15.5,-41.3"
+
+
+def test_smooth_on_directions_without_a_model_is_the_wiener_smoother_of_their_attitudes(tmp_path, capsys):
+    """Directions whose model is declined (noise-free: differencing runs): ``--smooth`` writes the log's own Wiener
+    smoother of each sample's least-squares attitude, the same as the smoother run on the attitudes SciPy's
+    ``align_vectors`` solves from the directions, and says so. It once ran the declined model's smoother there,
+    which ran away on real motion-capture logs turned into directions (1e6 times the spline's error)."""
+    from omegahat.cli import main
+    from omegahat.identification.spectral import SpectralSmoother
+
+    t, R, omega = wandering(30.0, 20.0, 0.0, seed=4, q=2.0)
+    src, V, refs = _directions_log(tmp_path, t, R)
+    dst = tmp_path / "o.csv"
+    assert main(["estimate", str(src), "-o", str(dst), refs, "--smooth", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "backward differencing runs" in out and "the log's own Wiener smoother" in out
+    assert "least-squares attitude from its directions" in out
+    written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    b = np.load(src)["b"]
+    unit_v = V / np.linalg.norm(V, axis=1, keepdims=True)
+    aligned = np.stack([
+        Rotation.align_vectors(unit_v, bk / np.linalg.norm(bk, axis=1, keepdims=True))[0].as_matrix() for bk in b
+    ])  # fmt: skip
+    np.testing.assert_allclose(written, SpectralSmoother().run(t, aligned).omega, atol=1e-9)
+    from scipy.spatial.transform import RotationSpline
+
+    spline = RotationSpline(t, Rotation.from_matrix(R))(t, 1)
+    assert rms(written - omega) < 1.15 * rms(spline - omega)
+
+
+def test_smooth_on_directions_with_a_model_keeps_the_model_smoother(tmp_path):
+    """Directions of a constant rate under noise: the model is accepted, both smoothers run on the directions (the
+    Wiener smoother on their least-squares attitudes), and the model's, expecting far less error, is kept."""
+    from omegahat.identification.smoother import ChosenSmoother
+
+    t = np.arange(0.0, 20.0, 0.01)
+    w = np.array([0.3, -0.2, 0.5])
+    R = Rotation.from_rotvec(np.outer(t, w)).as_matrix()
+    V = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    b = np.einsum("tji,nj->tni", R, V) + np.random.default_rng(2).normal(0, 1e-3, (t.size, 2, 3))
+    ident = identify(t, b, "directions", references=V)
+    assert ident.use_model
+    chosen = ChosenSmoother(ident, references=V)
+    out = chosen.run(t, b).omega
+    assert chosen.chosen is chosen.model and chosen.expected["model"] < chosen.expected["spectrum"]
+    assert rms(out[5:-5] - w) < 1e-3
+
+
+def test_smooth_on_a_log_too_short_to_identify_is_scipys_spline_and_says_so(tmp_path, capsys):
+    """12 samples (too few to identify a model or a spectrum): ``--smooth`` is honoured by the rotation spline
+    through the attitudes (SciPy's RotationSpline) and the command says so; it once ran the causal fixed-gain
+    observer without saying that the smoothing asked for was dropped."""
+    from scipy.spatial.transform import RotationSpline
+
+    from omegahat.cli import main
+
+    t = np.arange(12) * 0.01
+    q = Rotation.from_rotvec(np.outer(t**2, [0.3, -0.2, 0.5])).as_quat()
+    src, dst = tmp_path / "short.csv", tmp_path / "o.csv"
+    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "too few to identify a model or the log's spectrum" in out and "the rotation spline" in out
+    written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    read_back = np.loadtxt(src, delimiter=",", skiprows=1)
+    spline = RotationSpline(read_back[:, 0], Rotation.from_quat(read_back[:, 1:]))(read_back[:, 0], 1)
+    np.testing.assert_allclose(written, spline, atol=1e-12)

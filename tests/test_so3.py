@@ -301,3 +301,23 @@ def test_increments_are_scipys_relative_rotations_and_nan_across_a_missing_one()
     ref = (Rotation.from_matrix(R[[0, 1, 4]]).inv() * Rotation.from_matrix(R[[1, 2, 5]])).as_rotvec()
     np.testing.assert_allclose(phi[[0, 1, 4]], ref, atol=1e-12)
     assert np.all(np.isnan(phi[[2, 3]]))
+
+
+def test_wahba_is_scipys_align_vectors_and_nan_where_a_sample_is_missing():
+    """(W) on three noisy, unnormalised directions: SciPy's ``Rotation.align_vectors`` (an independent solution of
+    Wahba's problem, Markley's) gives the same attitude; a sample with a non-finite entry gives NaN."""
+    rng = np.random.default_rng(5)
+    R = Rotation.random(5, random_state=6).as_matrix()
+    V = np.array([[0.0, 0.0, 9.8], [0.3, 0.9, -0.4], [1.0, 0.0, 0.0]])
+    b = np.einsum("tji,nj->tni", R, V) + 0.01 * rng.standard_normal((5, 3, 3))
+    b *= rng.uniform(0.5, 2.0, (5, 3, 1))  # lengths do not matter: (W) normalises
+    b[2, 1, 0] = np.nan
+    got = so3.wahba(b, V)
+    for k in (0, 1, 3, 4):
+        unit_v = V / np.linalg.norm(V, axis=1, keepdims=True)
+        unit_b = b[k] / np.linalg.norm(b[k], axis=1, keepdims=True)
+        ref = Rotation.align_vectors(unit_v, unit_b)[0].as_matrix()  # the rotation taking b onto v
+        np.testing.assert_allclose(got[k], ref, atol=1e-12)
+    assert np.all(np.isnan(got[2]))
+    with pytest.raises(ValueError, match="wahba needs directions"):
+        so3.wahba(b[:, :2], V)

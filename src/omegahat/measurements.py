@@ -57,6 +57,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from omegahat import so3
 from omegahat.conversion import (
     as_references,
     log_array,
@@ -101,6 +102,7 @@ from omegahat.rejections import (
     rejection_error,
     suggested_tolerance,
 )
+from omegahat.validation import as_directions
 
 __all__ = [
     "COLLINEAR",
@@ -450,26 +452,39 @@ def body_directions(measured: ArrayLike, n: int | None = None, *, min_angle_deg:
 
 
 class AttitudeBatchEstimator(Estimator):
-    """A batch estimator of attitudes alone (the spline, Savitzky–Golay, the log's own Wiener smoother): ``run``
-    checks the log through :func:`checked_log`, hands it to :meth:`rates`, counts the skipped samples and gives the
-    statuses of :func:`omegahat.interface.batch_status`. Keyword-only: the quaternion order and the tolerances."""
+    """A batch estimator of attitudes (the spline, Savitzky–Golay, the log's own Wiener smoother): ``run`` checks the
+    log through :func:`checked_log`, hands it to :meth:`rates`, counts the skipped samples and gives the statuses of
+    :func:`omegahat.interface.batch_status`. Keyword-only: the quaternion order and the tolerances, and
+    ``references`` ``(n, 3)`` (n ≥ 2) for body-frame directions of known inertial ones: each sample's directions are
+    checked as every estimator checks them, then turned into its least-squares attitude (Wahba's problem,
+    :func:`omegahat.so3.wahba`), which the estimator takes as measured."""
 
     causal = False
 
     def __init__(
-        self, *, scalar_first: bool = False, rotation_tol: float = ROTATION_TOL, quat_norm_tol: float = QUAT_NORM_TOL
+        self,
+        *,
+        references: ArrayLike | None = None,
+        scalar_first: bool = False,
+        rotation_tol: float = ROTATION_TOL,
+        quat_norm_tol: float = QUAT_NORM_TOL,
     ) -> None:
+        self.references = None if references is None else as_directions(references)
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = tolerances(rotation_tol, quat_norm_tol)
 
     @abc.abstractmethod
     def rates(self, log: CheckedLog, data: Measurements) -> np.ndarray:
-        """ω̂ ``(T, 3)`` at the log's times from the checked log (``data``: the attitudes as given)."""
+        """ω̂ ``(T, 3)`` at the log's times from the checked log of attitudes (``data``: the attitudes as given)."""
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """ω̂ at every sample time, ``(T, 3)``, and the statuses (``torque`` is not used)."""
         tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}
-        log = checked_log(t, data, scalar_first=self.scalar_first, **tols)
+        log = checked_log(t, data, references=self.references, scalar_first=self.scalar_first, **tols)
+        if self.references is not None:  # directions: each sample's least-squares attitude
+            attitudes = np.where(log.valid[:, None, None], so3.wahba(log.values, self.references), np.nan)
+            log = log._replace(values=attitudes)
+            data = attitudes
         omega = self.rates(log, data)
         self.n_skipped = int(np.count_nonzero(~log.valid))
         return Estimate(omega, batch_status(log.valid, omega))

@@ -38,6 +38,7 @@ __all__ = [
     "project",
     "to_quat",
     "vee",
+    "wahba",
 ]
 
 
@@ -166,6 +167,26 @@ def project(M: ArrayLike) -> np.ndarray:
     M = _check_matrices(M, "project")
     out = np.empty(M.shape)
     _project_rows(_rows(M, (3, 3)), out.reshape(-1, 3, 3))
+    return out
+
+
+def wahba(directions: ArrayLike, references: ArrayLike) -> np.ndarray:
+    """The least-squares attitude of each sample of body-frame ``directions`` of the inertial ``references`` (Wahba's
+    problem, equal weights; both sets of directions are normalised here)::
+
+        R_k = argmin_R Σ_i |v_i − R b_ki|² = project(Σ_i v_i b_kiᵀ)                                      (W)
+
+    ``(T, n, 3)`` and ``(n, 3)`` ``-> (T, 3, 3)``; NaN where a sample's directions are not finite. Unique where at
+    least two of the sample's directions are not collinear (the callers check it)."""
+    b = np.asarray(directions, dtype=float)
+    V = np.asarray(references, dtype=float)
+    if b.ndim != 3 or b.shape[2] != 3 or V.shape != (b.shape[1], 3):
+        raise ValueError(f"wahba needs directions (T, n, 3) and references (n, 3); got {b.shape} and {V.shape}")
+    out = np.full((b.shape[0], 3, 3), np.nan)
+    ok = np.all(np.isfinite(b.reshape(b.shape[0], -1)), axis=1)
+    unit = b[ok] / np.linalg.norm(b[ok], axis=2, keepdims=True)
+    V = V / np.linalg.norm(V, axis=1, keepdims=True)
+    out[ok] = project(np.einsum("ni,tnj->tij", V, unit))
     return out
 
 

@@ -110,8 +110,9 @@ class SavitzkyGolayEstimator(ms.AttitudeBatchEstimator):
     order : int, optional
         The polynomial order (1 ≤ order < window; default 2; ``order = window − 1`` interpolates: the classical
         central-difference stencils).
-    scalar_first, rotation_tol, quat_norm_tol : optional
-        Quaternion order and the tolerances of the input checks (:mod:`omegahat.measurements`, the same for every
+    references, scalar_first, rotation_tol, quat_norm_tol : optional
+        The inertial directions of direction input (each sample's least-squares attitude is differentiated), the
+        quaternion order and the tolerances of the input checks (:mod:`omegahat.measurements`, the same for every
         estimator).
 
     Raises
@@ -140,13 +141,16 @@ class SavitzkyGolayEstimator(ms.AttitudeBatchEstimator):
         *,
         window: int = 11,
         order: int = 2,
+        references: ArrayLike | None = None,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
     ) -> None:
         _check_knobs(window, order)
         self.window, self.order = int(window), int(order)
-        super().__init__(scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol)
+        super().__init__(
+            references=references, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
+        )
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
         """(G1)–(G3) at the log's times."""

@@ -61,8 +61,10 @@ class SplineEstimator(ms.AttitudeBatchEstimator):
 
     Parameters
     ----------
-    scalar_first, rotation_tol, quat_norm_tol : optional
-        Keyword-only: the input checks of :mod:`omegahat.measurements` (quaternion order, tolerances).
+    references, scalar_first, rotation_tol, quat_norm_tol : optional
+        Keyword-only: the inertial directions of direction input (the spline runs through each sample's
+        least-squares attitude), and the input checks of :mod:`omegahat.measurements` (quaternion order,
+        tolerances).
 
     Examples
     --------

@@ -218,8 +218,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="offline, zero-lag estimate of the whole log: the identified model's forward and backward passes "
         "combined or the log's own Wiener smoother (its spectrum and noise), whichever expects the lower error (the "
-        "Wiener smoother where no model is chosen; the model's for directions); with --preset: the preset's; any "
-        "input kind, with or without --inertia; reads the whole log into memory",
+        "Wiener smoother where no model is chosen; for directions it filters their least-squares attitudes); with "
+        "--preset: the preset's; any input kind, with or without --inertia; reads the whole log into memory",
     )
     model.add_argument("--k", type=float, nargs="+", help="gain k_i: one number or one per direction")
     model.add_argument("--l", type=float, nargs="+", help="gain l_i: one number or one per direction")

@@ -312,12 +312,7 @@ def _attitudes(data: np.ndarray, kind: str, references: np.ndarray | None) -> tu
         R[valid] = data[valid]
     else:
         V = as_directions(references)  # type: ignore[arg-type]  # None: as_directions says (n, 3) is needed
-        b = data[valid] / np.linalg.norm(data[valid], axis=2, keepdims=True)
-        B = np.einsum("ni,tnj->tij", V, b)
-        U, _, Vt = np.linalg.svd(B)
-        d = np.sign(np.linalg.det(U) * np.linalg.det(Vt))
-        U[:, :, 2] *= d[:, None]
-        R[valid] = U @ Vt
+        R[valid] = so3.wahba(data[valid], V)
     return valid, R
 
 

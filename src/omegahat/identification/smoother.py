@@ -21,9 +21,9 @@ pass restarted (its guard: NaN) the other alone is used; where both did, there i
 
 **Which smoother.** The smoother expects the error ``tr (P_f⁻¹ + P_b⁻¹)⁻¹`` at each sample (the model's own
 account); the log's own Wiener smoother (:mod:`omegahat.identification.spectral`) expects (S7) from the log's
-spectrum. For attitudes, ``--smooth`` runs both and keeps the one expecting the lower RMS error
-(:class:`ChosenSmoother`): where the model describes the log its expectation is the lower one (a constant rate,
-a torque given), where it does not the spectrum's is.
+spectrum (for directions, of each sample's least-squares attitude). ``--smooth`` runs both and keeps the one
+expecting the lower RMS error (:class:`ChosenSmoother`): where the model describes the log its expectation is the
+lower one (a constant rate, a torque given), where it does not the spectrum's is.
 """
 
 from __future__ import annotations
@@ -49,6 +49,16 @@ def combine(omega_f: np.ndarray, P_f: np.ndarray, omega_b: np.ndarray, P_b: np.n
     return combined(omega_f, P_f, omega_b, P_b)[0]
 
 
+def _usable(omega: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """``(T,)``: True where a pass's rate is finite and its covariance positive definite (Sylvester's criterion:
+    the leading minors positive). A pass that ran away has a covariance so large that rounding leaves it
+    singular or indefinite; it is not averaged in (the other pass alone is used there)."""
+    finite = np.all(np.isfinite(omega), axis=1) & np.all(np.isfinite(P), axis=(1, 2))
+    Q = np.where(finite[:, None, None], P, np.eye(3))
+    minor2 = Q[:, 0, 0] * Q[:, 1, 1] - Q[:, 0, 1] * Q[:, 1, 0]
+    return finite & (Q[:, 0, 0] > 0.0) & (minor2 > 0.0) & (np.linalg.det(Q) > 0.0)
+
+
 def combined(
     omega_f: np.ndarray, P_f: np.ndarray, omega_b: np.ndarray, P_b: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -56,8 +66,7 @@ def combined(
     ((rad/s)², the three axes together; one pass's own where the other has none, NaN where neither has)."""
     out = np.full(omega_f.shape, np.nan)
     variance = np.full(omega_f.shape[0], np.nan)
-    ok_f = np.all(np.isfinite(omega_f), axis=1) & np.all(np.isfinite(P_f), axis=(1, 2))
-    ok_b = np.all(np.isfinite(omega_b), axis=1) & np.all(np.isfinite(P_b), axis=(1, 2))
+    ok_f, ok_b = _usable(omega_f, P_f), _usable(omega_b, P_b)
     both = ok_f & ok_b
     if both.any():
         I_f, I_b = np.linalg.inv(P_f[both]), np.linalg.inv(P_b[both])
@@ -127,15 +136,17 @@ class ModelSmoother(Estimator):
 
 
 class ChosenSmoother(Estimator):
-    """``--smooth`` where the identification chose a model, for attitudes: the model's smoother (T1) and the log's
-    own Wiener smoother (S2)–(S6) both run, and the one whose own expected RMS error is the lower is kept (the
-    model's from its two passes' covariances, the Wiener smoother's (S7) from the log's spectrum): the log's
-    evidence decides between the model and the spectrum. After ``run``: ``chosen`` (the smoother kept),
-    ``expected`` (``{"model": …, "spectrum": …}``, rad/s).
+    """``--smooth`` where the identification chose a model: the model's smoother (T1) and the log's own Wiener
+    smoother (S2)–(S6) both run, and the one whose own expected RMS error is the lower is kept (the model's from its
+    two passes' covariances, the Wiener smoother's (S7) from the log's spectrum): the log's evidence decides between
+    the model and the spectrum. For directions the Wiener smoother takes each sample's least-squares attitude
+    (:func:`omegahat.so3.wahba`). After ``run``: ``chosen`` (the smoother kept), ``expected`` (``{"model": …,
+    "spectrum": …}``, rad/s).
 
     Parameters
     ----------
     identification : what :func:`omegahat.identification.identify` found on the log.
+    references : the inertial directions ``(n, 3)`` of direction input (None: attitude input).
     scalar_first, rotation_tol, quat_norm_tol : as every estimator (:mod:`omegahat.measurements`).
     """
 
@@ -145,13 +156,14 @@ class ChosenSmoother(Estimator):
         self,
         identification: Identification,
         *,
+        references: ArrayLike | None = None,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
     ) -> None:
         tols = {"rotation_tol": rotation_tol, "quat_norm_tol": quat_norm_tol}
-        self.model = ModelSmoother(identification, scalar_first=scalar_first, **tols)
-        self.spectrum = SpectralSmoother(scalar_first=scalar_first, **tols)
+        self.model = ModelSmoother(identification, references=references, scalar_first=scalar_first, **tols)
+        self.spectrum = SpectralSmoother(references=references, scalar_first=scalar_first, **tols)
         self.chosen: Estimator = self.model
         self.expected = {"model": math.nan, "spectrum": math.nan}
         self.n_skipped = 0

@@ -309,9 +309,10 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
 
     Parameters
     ----------
-    scalar_first, rotation_tol, quat_norm_tol : optional
-        As every batch estimator of attitudes (:class:`omegahat.measurements.AttitudeBatchEstimator`): the
-        quaternion order and the input checks' tolerances.
+    references, scalar_first, rotation_tol, quat_norm_tol : optional
+        As every batch estimator of attitudes (:class:`omegahat.measurements.AttitudeBatchEstimator`): the inertial
+        directions of direction input (each sample's least-squares attitude is filtered), the quaternion order and
+        the input checks' tolerances.
 
     Examples
     --------
@@ -333,11 +334,14 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     def __init__(
         self,
         *,
+        references: ArrayLike | None = None,
         scalar_first: bool = False,
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
     ) -> None:
-        super().__init__(scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol)
+        super().__init__(
+            references=references, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
+        )
         self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (S5))
         self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short or irregular to filter
         self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)

@@ -28,8 +28,9 @@ from collections.abc import Callable
 import numpy as np
 
 from omegahat.baselines.differencing import DifferencingEstimator
+from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
-from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
+from omegahat.identification.smoother import ChosenSmoother
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
@@ -49,6 +50,7 @@ from omegahat.observer.presets import (
 )
 from omegahat.validation import as_directions, as_inertia
 
+WAHBA = "each sample's least-squares attitude from its directions (Wahba's problem)"
 IDENTIFY_SAMPLES = 8192  #: rows of the head the identification fits (the noise bound needs a few seconds of log)
 
 __all__ = ["attitude_choice", "inertia", "references", "time_unit_warning"]
@@ -204,6 +206,7 @@ def _estimator(
         "rotation_tol": settings.rotation_tol,
         "quat_norm_tol": settings.quat_norm_tol,
     }
+    tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
     if settings.preset is not None:
         how = "forward and backward passes averaged (zero lag)" if settings.smooth else "causal"
         described = mocap_model(motion.rate_hz, motion.sigma).describe()
@@ -218,12 +221,21 @@ def _estimator(
         causal = mocap_estimator(motion.rate_hz, motion.sigma, differencing_rms=scale, omega_hat0=fit_start(), **common)
         if not settings.smooth:
             return causal, causal
-        tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
         return MocapSmoother(rate_hz=motion.rate_hz, measurement_noise=motion.sigma, **tols), causal
     choice = settings.estimator
     if choice == "auto" and (settings.gains is not None or settings.bandwidth_hz is not None):
         choice = "sarras"  # gains or a bandwidth given: the fixed-gain observer they describe
     valid = int(np.count_nonzero(np.all(np.isfinite(head[1].reshape(head[1].shape[0], -1)), axis=1)))
+    directions = {"references": refs} if stream.kind == "directions" else {}
+    if choice == "auto" and valid < MIN_SAMPLES and settings.smooth:
+        report(
+            f"only {valid} valid samples: too few to identify a model or the log's spectrum (at least "
+            f"{MIN_SAMPLES}); estimator: the rotation spline through "
+            + (WAHBA if directions else "the attitudes")
+            + " (zero lag; it interpolates, so the attitude noise passes to the rate)"
+        )
+        spline = SplineEstimator(**directions, **tols)
+        return spline, spline
     if choice == "auto" and valid < MIN_SAMPLES:
         report(
             f"only {valid} valid samples: too few to identify a model (at least {MIN_SAMPLES}); the fixed-gain "
@@ -240,26 +252,23 @@ def _estimator(
     if settings.start == "fit":
         common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
-    tols = {"rotation_tol": settings.rotation_tol, "quat_norm_tol": settings.quat_norm_tol}
-    if settings.smooth and not ident.use_model and stream.kind != "directions":
+    if settings.smooth and not ident.use_model:
         # the model was declined (it does not describe the log, or predicts no gain): no model to smooth with; the
         # log's own spectrum and noise give the zero-lag Wiener estimate (omegahat.identification.spectral)
         report(
             "estimator: the log's own Wiener smoother (its increments' spectrum and noise; zero lag; no model to "
-            "smooth with: see above)"
+            "smooth with: see above)" + (f"; it filters {WAHBA}" if directions else "")
         )
-        spectral = SpectralSmoother(**tols)
+        spectral = SpectralSmoother(**directions, **tols)
         return spectral, spectral
-    if settings.smooth and stream.kind != "directions":
+    if settings.smooth:
         report(
             "estimator: the identified model's two-filter smoother and the log's own Wiener smoother, the one "
             "expecting the lower error kept (zero lag)"
+            + (f"; the Wiener smoother filters {WAHBA}" if directions else "")
         )
-        chosen = ChosenSmoother(ident, **tols)
+        chosen = ChosenSmoother(ident, **directions, **tols)
         return chosen, chosen
-    if settings.smooth:  # directions: the model's smoother (the Wiener smoother takes attitudes)
-        report("estimator: the identified model's two-filter smoother (forward and backward passes; zero lag)")
-        return ModelSmoother(ident, references=refs, **tols), est  # directions
     return est, est
 
 
@@ -300,6 +309,8 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
                 "estimator used: the log's own Wiener smoother (offline, zero lag; attitude noise "
                 f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis{spline})"
             )
+        if isinstance(est, SplineEstimator):
+            return "estimator used: the rotation spline (offline, zero lag; too few samples for anything else)"
         if isinstance(est, DifferencingEstimator):
             return f"estimator used: backward differencing (no model: see the identification above), start: {start}"
         if isinstance(est, SupervisedKalmanEstimator):

@@ -57,6 +57,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from omegahat import so3
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.observer.tuning import predicted_noise_std, sensor_gains
@@ -88,8 +89,9 @@ def log_rotations(
     t: ArrayLike, data: ArrayLike, kind: str, references: ArrayLike | None = None
 ) -> tuple[np.ndarray, Rotation]:
     """``(times, Rotation)`` of the valid samples: quaternions ``(T, 4)`` scalar last, matrices ``(T, 3, 3)``
-    (body → inertial), or directions ``(T, n, 3)`` solved for the attitude by Wahba's problem (SVD) against the
-    inertial ``references (n, 3)``. Samples with a non-finite entry are left out."""
+    (body → inertial), or directions ``(T, n, 3)`` solved for the attitude by Wahba's problem
+    (:func:`omegahat.so3.wahba`) against the inertial ``references (n, 3)``. Samples with a non-finite entry are
+    left out."""
     t = np.asarray(t, dtype=float)
     data = np.asarray(data, dtype=float)
     ok = np.all(np.isfinite(data.reshape(t.size, -1)), axis=1)
@@ -101,12 +103,7 @@ def log_rotations(
     if kind == "matrix":
         return t, Rotation.from_matrix(data)
     V = as_directions(references)  # type: ignore[arg-type]  # None: as_directions says (n, 3) is needed
-    b = data / np.linalg.norm(data, axis=2, keepdims=True)
-    B = np.einsum("ni,tnj->tij", V, b)  # Σ v_i b_iᵀ: R = argmin Σ |R b_i − v_i|²
-    U, _, Vt = np.linalg.svd(B)
-    d = np.sign(np.linalg.det(U) * np.linalg.det(Vt))
-    U[:, :, 2] *= d[:, None]
-    return t, Rotation.from_matrix(U @ Vt)
+    return t, Rotation.from_matrix(so3.wahba(data, V))
 
 
 @dataclass(frozen=True)

@@ -117,9 +117,7 @@ class Recording:
         if self.kind == "quaternion":
             R[ok] = so3.from_quat(self.data[ok])
         else:
-            b = self.data[ok] / np.linalg.norm(self.data[ok], axis=2, keepdims=True)
-            V = np.asarray(self.references, dtype=float)
-            R[ok] = so3.project(np.einsum("ni,tnj->tij", V, b))
+            R[ok] = so3.wahba(self.data[ok], np.asarray(self.references, dtype=float))
         return R
 
     def decimated(self, step: int) -> Recording:
