@@ -154,6 +154,7 @@ def after_table(rows: list[Row]) -> str:
     lines = ["| " + " | ".join(head) + " |", "|" + " --- |" * len(head)]
     groups: dict[str, list[tuple[float | None, float | None, float | None]]] = {}
     assessments: dict[str, list[float | None]] = {}
+    smoothed: dict[str, list[float | None]] = {}  # --smooth's own expected error over its measured score
 
     def group_of(name: str) -> str:
         return name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
@@ -166,6 +167,9 @@ def after_table(rows: list[Row]) -> str:
         cells = [_fmt(bwd.score.rms if bwd and bwd.score else None)] + [_fmt(v, ".3f") for v in vals] + [ran]
         cells.append(_fmt(pm, ".2f"))
         assessments.setdefault(group_of(name), []).append(pm)
+        smoothed.setdefault(group_of(name), []).append(
+            sm.predicted / sm.score.rms if sm and sm.predicted and sm.score else None
+        )
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
         groups.setdefault(group_of(name), []).append(vals)
     lines += ["", "| group | n | default ÷ bwd (geo. mean; worst; > 1.02) | --smooth ÷ bwd (geo. mean) | "
@@ -184,13 +188,17 @@ def after_table(rows: list[Row]) -> str:
         )
     lines += ["", "| group | n | default: predicted ÷ measured (geo. mean; lowest; highest; outside 0.5-2) |",
               "| --- | ---: | --- |"]  # fmt: skip
-    every = [x for g in assessments.values() for x in g]
-    for g, pms in [*assessments.items(), ("all", every)]:
-        v = [x for x in pms if x is not None]
-        lines.append(
-            f"| {g} | {len(v)} | {_fmt(_geomean(v), '.2f')}; {_fmt(min(v, default=None), '.2f')}; "
-            f"{_fmt(max(v, default=None), '.2f')}; {sum(not 0.5 <= x <= 2.0 for x in v)} |"
-        )
+    for title, found in (("default", assessments), ("--smooth", smoothed)):
+        if title != "default":
+            lines += ["", f"| group | n | {title}: predicted ÷ measured (geo. mean; lowest; highest; outside 0.5-2) |",
+                      "| --- | ---: | --- |"]  # fmt: skip
+        every = [x for g in found.values() for x in g]
+        for g, pms in [*found.items(), ("all", every)]:
+            v = [x for x in pms if x is not None]
+            lines.append(
+                f"| {g} | {len(v)} | {_fmt(_geomean(v), '.2f')}; {_fmt(min(v, default=None), '.2f')}; "
+                f"{_fmt(max(v, default=None), '.2f')}; {sum(not 0.5 <= x <= 2.0 for x in v)} |"
+            )
     return "\n".join(lines)
 
 
@@ -323,14 +331,14 @@ def directions_table(rows: list[Row]) -> str:
             continue
         name = r.recording
         group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
-        for g in (group, "all"):
+        for g in (group, "all real recordings") if group != "plant" else (group,):
             groups.setdefault(g, {}).setdefault(r.method, []).append(r.offline_ratio)
     head = (
         "| group | n | --smooth ÷ best offline (geo. mean; worst; > 1) "
         "| before ÷ best offline (geo. mean; worst; > 1) |"
     )
     lines = [head, "| --- | ---: | --- | --- |"]
-    order = [g for g in groups if g != "all"] + ["all"]
+    order = [g for g in groups if g != "all real recordings"] + ["all real recordings"]
     for g in order:
         cells = []
         for m in ("omegahat estimate --smooth", BEFORE):

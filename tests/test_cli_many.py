@@ -129,6 +129,29 @@ def test_the_default_rows_name_what_the_identification_ran_and_its_expected_erro
         assert float(rows[str(src)]["expected_rms_rad_s"]) == pytest.approx(said[src][1], rel=1e-6)
 
 
+def test_smooth_rows_carry_the_expected_error_of_the_smoother_kept(tmp_path, capsys):
+    """With ``--smooth`` the closing line states the smoother's own expected error (the Wiener smoother's where no
+    model is chosen; both, where both ran, the lower one kept); the table carries the kept one's."""
+    noisy = good_log(tmp_path / "in" / "noisy.csv", n=3000)
+    t = np.arange(3000) / 100.0
+    yaw, pitch, roll = Angle(0.0, [(0.8, 0.31, 0.0), (0.3, 0.73, 1.0)]), Angle(0.0, [(0.4, 0.47, 2.0)]), Angle(0.0)
+    clean = write_csv(tmp_path / "in" / "clean.csv", t, attitude(t, yaw, pitch, roll)[0])
+    said = {}
+    for src in (noisy, clean):
+        assert main(["estimate", str(src), "-o", str(tmp_path / "ref.csv"), "--smooth", "--no-progress"]) == 0
+        used = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("estimator used: "))
+        both = re.search(r"the model's smoother ([0-9.e+-]+) rad/s, the Wiener smoother ([0-9.e+-]+) rad/s", used)
+        alone = re.search(r"Wiener smoother \(offline, zero lag; expected RMS error ([0-9.e+-]+) rad/s", used)
+        said[src] = min(float(both.group(1)), float(both.group(2))) if both else float(alone.group(1))
+    assert said[clean] > 0 and said[noisy] > 0
+    code, _, _ = batch(capsys, tmp_path / "in", "-o", tmp_path / "out", "--no-progress", "--jobs", "1", "--smooth")
+    assert code == 0
+    rows = summary_rows(tmp_path / "out")
+    assert rows[str(clean)]["estimator"] == "Wiener smoother --smooth"
+    for src in (noisy, clean):
+        assert float(rows[str(src)]["expected_rms_rad_s"]) == pytest.approx(said[src], rel=0.05)  # 2 digits printed
+
+
 def test_globs_go_down_with_double_star_and_mirror_the_folders(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     good_log(Path("data/day1/a.csv"))

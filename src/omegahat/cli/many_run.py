@@ -74,6 +74,11 @@ _IDENTIFIED = re.compile(
     r"expected RMS error of the model's filter ([0-9.eE+-]+) rad/s, of backward differencing ([0-9.eE+-]+) rad/s: "
     r"(the model's filter|backward differencing) runs"
 )
+#: the smoothers' closing line (omegahat.io.choice): the two expectations where both ran, or the Wiener smoother's
+_SMOOTHED = re.compile(
+    r"expected RMS error: the model's smoother ([0-9.eE+-]+) rad/s, the Wiener smoother ([0-9.eE+-]+) rad/s"
+    r"|expected RMS error ([0-9.eE+-]+) rad/s \(its spectrum's account\)"
+)
 
 
 class Summary(Protocol):
@@ -175,18 +180,26 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
     if used.startswith("estimator used: the identified model's smoother"):
         return f"omegahat{smooth}, {model}"
     if used.startswith("estimator used: the log's own Wiener smoother"):
-        return "Wiener smoother (--smooth)"
+        return f"Wiener smoother{smooth}"
+    if used.startswith("estimator used: the rotation spline"):
+        return f"rotation spline{smooth}"
     return f"sarras, {model}"
 
 
 def expected_error(estimator: str, summary: Summary, report: list[str]) -> float | None:
     """The expected RMS error the run stated for the estimator that ran: the fixed-gain observer's (its gains' line),
-    or the identification's for its model's filter or for backward differencing (causal runs only)."""
+    the identification's for its model's filter or for backward differencing, or (``--smooth``) the smoother's it
+    kept (its closing line; None for the rotation spline, which states none)."""
     if estimator.startswith("sarras"):
         found = _EXPECTED.search(summary.gains_text)
         return float(found.group(1)) if found else None
+    if " --smooth" in estimator:  # the smoother kept: its own expectation (the lower of the two where both ran)
+        used = next((line for line in summary.lines if line.startswith("estimator used: ")), "")
+        found = _SMOOTHED.search(used)
+        values = [float(x) for x in found.groups() if x is not None] if found else []
+        return min(values) if values else None
     found = next((m for line in report for m in [_IDENTIFIED.search(line)] if m), None)
-    if found is None or " --smooth" in estimator or estimator.startswith("Wiener smoother"):
+    if found is None:
         return None
     return float(found.group(1) if found.group(3) == "the model's filter" else found.group(2))
 

@@ -305,8 +305,13 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
                 if est.n_unfiltered
                 else ""
             )
+            expected = (
+                f"expected RMS error {est.expected_rms:.2g} rad/s (its spectrum's account); "
+                if math.isfinite(est.expected_rms)
+                else ""
+            )
             return (
-                "estimator used: the log's own Wiener smoother (offline, zero lag; attitude noise "
+                f"estimator used: the log's own Wiener smoother (offline, zero lag; {expected}attitude noise "
                 f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis{spline})"
             )
         if isinstance(est, SplineEstimator):
