@@ -392,3 +392,25 @@ def test_smooth_on_a_log_too_short_to_identify_is_scipys_spline_and_says_so(tmp_
     read_back = np.loadtxt(src, delimiter=",", skiprows=1)
     spline = RotationSpline(read_back[:, 0], Rotation.from_quat(read_back[:, 1:]))(read_back[:, 0], 1)
     np.testing.assert_allclose(written, spline, atol=1e-12)
+
+
+def test_smooth_with_the_model_asked_for_is_the_models_smoother(tmp_path, capsys):
+    """``--estimator omegahat --smooth`` (the model's filter always) runs the identified model's smoother even where
+    the identification declines the model, and says so with its expected error; the rows equal
+    :class:`ModelSmoother` on the identification of the same rows."""
+    from omegahat.cli import main
+
+    t, R, _ = wandering(30.0, 20.0, 0.0, seed=4, q=2.0)
+    src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
+    q = Rotation.from_matrix(R).as_quat()
+    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    args = ["estimate", str(src), "-o", str(dst), "--smooth", "--estimator", "omegahat", "--no-progress"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert "backward differencing runs" in out and "--estimator omegahat asks for the model" in out
+    assert "estimator used: the identified model's smoother (offline, zero lag; expected RMS error" in out
+    read_back = np.loadtxt(src, delimiter=",", skiprows=1)
+    ident = identify(read_back[:, 0], read_back[:, 1:], "quaternion")
+    expected = ModelSmoother(ident).run(read_back[:, 0], read_back[:, 1:]).omega
+    written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    np.testing.assert_allclose(written, expected, atol=1e-9)

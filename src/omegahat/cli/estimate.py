@@ -205,7 +205,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="auto",
         help="auto (default): the model and noises identified from the log, then the observer supervising its "
         "gyro-less Kalman filter, or backward differencing where the model predicts no gain; omegahat: the model's "
-        "filter always; sarras: the fixed-gain observer (also what --bandwidth or --k/--l ask for)",
+        "filter (with --smooth its smoother) always; sarras: the fixed-gain observer (also what --bandwidth or "
+        "--k/--l ask for)",
     )
     model.add_argument(
         "--preset",

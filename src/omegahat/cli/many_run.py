@@ -77,7 +77,7 @@ _IDENTIFIED = re.compile(
 #: the smoothers' closing line (omegahat.io.choice): the two expectations where both ran, or the Wiener smoother's
 _SMOOTHED = re.compile(
     r"expected RMS error: the model's smoother ([0-9.eE+-]+) rad/s, the Wiener smoother ([0-9.eE+-]+) rad/s"
-    r"|expected RMS error ([0-9.eE+-]+) rad/s \(its spectrum's account\)"
+    r"|expected RMS error ([0-9.eE+-]+) rad/s \((?:its spectrum's|the model's) account\)"
 )
 
 

@@ -30,7 +30,7 @@ import numpy as np
 from omegahat.baselines.differencing import DifferencingEstimator
 from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
-from omegahat.identification.smoother import ChosenSmoother
+from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
@@ -252,6 +252,13 @@ def _estimator(
     if settings.start == "fit":
         common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
+    if settings.smooth and choice == "omegahat":  # the model asked for: its smoother, whatever the identification says
+        report(
+            "estimator: the identified model's two-filter smoother (forward and backward passes; zero lag; "
+            f"{spell('estimator', 'omegahat')} asks for the model)"
+        )
+        smoother = ModelSmoother(ident, **directions, **tols)
+        return smoother, smoother
     if settings.smooth and not ident.use_model:
         # the model was declined (it does not describe the log, or predicts no gain): no model to smooth with; the
         # log's own spectrum and noise give the zero-lag Wiener estimate (omegahat.identification.spectral)
@@ -297,6 +304,11 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
                 f"estimator used: {kept} (offline, zero lag; expected RMS error: the model's smoother "
                 f"{est.expected['model']:.2g} rad/s, the Wiener smoother {est.expected['spectrum']:.2g} rad/s), "
                 f"{body}"
+            )
+        if isinstance(est, ModelSmoother):
+            return (
+                "estimator used: the identified model's smoother (offline, zero lag; expected RMS error "
+                f"{est.expected_rms:.2g} rad/s (the model's account)), {body}"
             )
         if isinstance(est, SpectralSmoother):
             spline = (
