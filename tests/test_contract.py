@@ -79,6 +79,7 @@ ESTIMATORS = {
     "single-direction": (lambda: SingleDirectionEstimator(J, reference=V1, omega_hat0=W), "one-direction"),
     "spline": (lambda: SplineEstimator(), "matrix"),
     "spectral-smoother": (lambda: SpectralSmoother(), "quaternion"),
+    "spectral-smoother-directions": (lambda: SpectralSmoother(references=V2), "directions"),
     "savitzky-golay": (lambda: SavitzkyGolayEstimator(window=5, order=2), "quaternion"),
     "mocap-smoother": (lambda: MocapSmoother(rate_hz=RATE, measurement_noise=1e-4), "quaternion"),
     "rts-smoother": (lambda: RTSSmoother(filter_factory=lambda: MEKF(J, q=1e-4, measurement_noise=1e-4)), "matrix"),
@@ -107,7 +108,7 @@ def assert_same(a: Estimate, b: Estimate, atol: float = 1e-12) -> None:
 
 
 def test_the_suite_covers_every_estimator():
-    assert len(STREAMING) == 14 and len(NAMES) - len(STREAMING) == 5
+    assert len(STREAMING) == 14 and len(NAMES) - len(STREAMING) == 6
     names = {c.__name__ for c in CLASSES}
     assert names == {
         "SarrasEstimator", "SupervisedKalmanEstimator", "MocapPreset", "MEKF", "DifferencingEstimator",
@@ -275,7 +276,7 @@ def test_a_batch_estimator_refuses_a_bad_log_whole(name):
     est, kind = make(name)
     t, data = _log(kind)
     bad = data.copy()
-    bad[5] = 2.0 * bad[5]
+    bad[5] = 2.0 * bad[5] if kind != "directions" else np.zeros_like(bad[5])  # a direction's length is free
     with pytest.raises(MeasurementError, match=r"^sample 5 \(t = "):
         est.run(t, bad)
     with pytest.raises(TypeError, match=r"must be real numbers; got complex"):
