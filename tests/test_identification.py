@@ -414,3 +414,25 @@ def test_smooth_with_the_model_asked_for_is_the_models_smoother(tmp_path, capsys
     expected = ModelSmoother(ident).run(read_back[:, 0], read_back[:, 1:]).omega
     written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     np.testing.assert_allclose(written, expected, atol=1e-9)
+
+
+def test_smooth_says_how_it_read_jittered_stamps(tmp_path, capsys):
+    """A log sampled regularly at 30 Hz whose stamps are rounded to 10 ms (steps of 30 and 40 ms, as a coarse
+    export writes them): ``--smooth`` says it read regular samples with jittered stamps (S8) and writes rates
+    closer to the true ones than SciPy's spline through the rounded stamps."""
+    from scipy.spatial.transform import RotationSpline
+
+    from omegahat.cli import main
+
+    t, R, omega = wandering(30.0, 20.0, 0.0, seed=4, q=2.0)
+    stamps = np.round(t, 2)
+    q = Rotation.from_matrix(R).as_quat()
+    src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
+    np.savetxt(src, np.column_stack([stamps, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "the log's own Wiener smoother" in out and "read as regular samples with jittered stamps" in out
+    written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    spline = RotationSpline(stamps, Rotation.from_matrix(R))(stamps, 1)
+    inner = slice(30, -30)
+    assert rms(written[inner] - omega[inner]) < 0.5 * rms(spline[inner] - omega[inner])

@@ -141,6 +141,53 @@ def test_an_irregularly_sampled_log_takes_the_spline_and_says_so():
     assert est.n_unfiltered == t.size
 
 
+def turning_at(times: np.ndarray):
+    """:func:`turning`'s attitudes and rate at any ``times`` (closed form)."""
+    theta = sum(a * np.sin(2 * np.pi * f * times + p) for a, f, p in WAVES)
+    rate = sum(a * 2 * np.pi * f * np.cos(2 * np.pi * f * times + p) for a, f, p in WAVES)
+    return Rotation.from_rotvec(np.outer(theta, AXIS)), np.outer(rate, AXIS)
+
+
+def test_jittered_stamps_of_regular_samples_are_read_as_such():
+    """(S8): regular samples (1 mrad of noise) whose stamps jitter by up to 20 % of the step: the increments over
+    the mean step vary less than over each stamped step, so the stamps are read as jittered and the stretch filtered
+    with its mean step; the error against the rate at the true times is within 20 % of the error with exact stamps,
+    and below half of SciPy's spline through the stamps."""
+    t, R, rate = turning()
+    R = noisy(R, 1e-3)
+    stamps = t + np.random.default_rng(7).uniform(-0.2, 0.2, t.size) * H
+    est = SpectralSmoother()
+    omega = est.run(stamps, R.as_quat()).omega
+    assert est.timestamps == "stamps" and est.n_unfiltered == 0
+    inner = slice(100, -100)
+    exact = SpectralSmoother().run(t, R.as_quat()).omega
+    assert rms(omega[inner] - rate[inner]) < 1.2 * rms(exact[inner] - rate[inner])
+    spline = RotationSpline(stamps, R)(stamps, 1)
+    assert rms(omega[inner] - rate[inner]) < 0.5 * rms(spline[inner] - rate[inner])
+
+
+def test_samples_taken_where_their_stamps_say_are_read_as_such():
+    """(S8): samples taken at jittered times (the stamps true): the increments over each step vary less, so each
+    step is used as stamped. Jitter within 5 %: filtered, below half of the spline's error; up to 20 %: the steps
+    5 % or more off the median take SciPy's spline, exactly."""
+    t, _, _ = turning()
+    times = t + np.random.default_rng(8).uniform(-0.02, 0.02, t.size) * H
+    R, rate = turning_at(times)
+    R = noisy(R, 1e-3)
+    est = SpectralSmoother()
+    omega = est.run(times, R.as_quat()).omega
+    assert est.timestamps == "sampling" and est.n_unfiltered == 0
+    inner = slice(100, -100)
+    spline = RotationSpline(times, R)(times, 1)
+    assert rms(omega[inner] - rate[inner]) < 0.5 * rms(spline[inner] - rate[inner])
+    times = np.cumsum(H * (1.0 + np.random.default_rng(9).choice([-0.2, 0.2], 400)))
+    R, _ = turning_at(times)
+    est = SpectralSmoother()
+    omega = est.run(times, R.as_quat()).omega
+    assert est.timestamps == "sampling" and est.n_unfiltered == times.size
+    np.testing.assert_allclose(omega, RotationSpline(times, R)(times, 1), atol=1e-12)
+
+
 def test_a_body_at_rest_gets_a_zero_rate():
     t = np.arange(0.0, 10.0, H)
     q = np.tile(Rotation.from_rotvec([0.4, -1.0, 2.0]).as_quat(), (t.size, 1))

@@ -42,6 +42,18 @@ filter's equivalent bandwidth, cycles per step: the span it averages over anyway
 A skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
 ``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
 
+**Uneven steps.** A stretch's steps may differ because the samples were taken at uneven times, or because regular
+samples were stamped unevenly (a message's arrival time, rounded stamps): ``b_k = φ_k / h_k`` is right for the
+first and adds ``ε |ω|`` of noise for a jitter ``ε`` in the second, where ``φ_k / h̄`` (the stretch's mean step) is
+right. The increments tell which: where the samples are regular, ``φ_k / h̄`` is the smoother sequence, so over the
+stretches whose steps differ from their mean by more than 0.1 %::
+
+    Σ_k |φ_{k+1}/h̄ − φ_k/h̄|²  <  Σ_k |φ_{k+1}/h_{k+1} − φ_k/h_k|²   ⇒   regular samples, jittered stamps    (S8)
+
+and then each such stretch (linked across steps within 50 % of the median: a dropped sample breaks it) is filtered
+with its mean step. Otherwise each step is used as stamped, and a step 5 % or more off the median breaks the
+stretch (the rotation spline, exact at uneven times, takes what is too short to filter).
+
 **The noise the log shows while it moves.** The quiet part's noise can be far below what the moving log carries
 (optical motion capture: the development recordings' spectra sit 15 to 1,000 times above ``N_b`` of the quiet
 part's ``σ`` at the Nyquist frequency, and rise there as white attitude noise does). A motion's increments do not
@@ -114,13 +126,25 @@ SEGMENT = 256  #: samples per Welch segment (resolution 1/256 of the rate; 14 ha
 SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
 MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
+UNEVEN_STEP = 1e-3  #: a stretch whose steps differ from their mean by more than 0.1 % has jittered steps (S8)
+JITTER_LINK = 0.5  #: a step within 50 % of the median joins two samples in a stretch (a dropped sample does not)
 
 
-def stretches(t: np.ndarray, valid: np.ndarray) -> list[tuple[int, int]]:
-    """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples with regular steps (within 5 % of the
-    log's median step)."""
+def stamped_steps(increments: list[np.ndarray], steps: list[np.ndarray]) -> bool:
+    """(S8): True where the log's jittered steps are the stamps' and not the samples' (the samples regular): the
+    increments ``φ_k`` (per stretch ``(m, 3)``) divided by the stretch's mean step vary less from one step to the
+    next than divided by each stamped step (``steps``, per stretch ``(m,)``)."""
+    pairs = list(zip(increments, steps, strict=True))
+    by_stamp = sum(float(np.nansum(np.diff(phi / dt[:, None], axis=0) ** 2)) for phi, dt in pairs)
+    by_mean = sum(float(np.nansum(np.diff(phi / np.mean(dt), axis=0) ** 2)) for phi, dt in pairs)
+    return by_mean < by_stamp
+
+
+def stretches(t: np.ndarray, valid: np.ndarray, tolerance: float = JITTER_LINK) -> list[tuple[int, int]]:
+    """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples whose steps are within ``tolerance`` of the
+    log's median step (:data:`JITTER_LINK`: one sample follows the next; a dropped one, a step of two, does not)."""
     h = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < REGULAR_STEP)  # k and k + 1 in one run
+    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < tolerance)  # k and k + 1 in one run
     starts = np.flatnonzero(valid & np.concatenate([[True], ~link]))
     ends = np.flatnonzero(valid & np.concatenate([~link, [True]])) + 1
     return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
@@ -213,13 +237,15 @@ def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.nda
 class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
     ``(3,)`` it assumed (rad, (S5)), ``filtered (T,)``: True where (S2) gave the rate (False: the rotation spline,
-    for a skipped sample or a stretch too short or too irregular to filter), and ``expected`` the RMS error (S7)
-    expects (rad/s; NaN where nothing was filtered)."""
+    for a skipped sample or a stretch too short to filter), ``expected`` the RMS error (S7) expects (rad/s; NaN
+    where nothing was filtered), and ``jitter`` what (S8) read from steps 5 % or more off the median: ``"stamps"``
+    (the samples regular, their stamps jittered), ``"sampling"`` (the samples at their stamps), or ``""`` (none)."""
 
     omega: np.ndarray
     noise: np.ndarray
     filtered: np.ndarray
     expected: float
+    jitter: str = ""
 
 
 def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
@@ -238,7 +264,26 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
     sigma = np.full(3, quiet)
     expected = math.nan
-    rates = [phi[a : b - 1] / np.diff(t[a:b])[:, None] for a, b in long_runs]  # b_k per stretch
+    steps = [np.diff(t[a:b]) for a, b in long_runs]
+    jittered = [bool(np.any(np.abs(dt / np.mean(dt) - 1.0) > UNEVEN_STEP)) for dt in steps]
+    jitter = ""
+    if any(jittered):  # (S8): the stamps jitter (filter with the mean step) or the samples do
+        stamps = stamped_steps(
+            [phi[a : b - 1] for (a, b), j in zip(long_runs, jittered, strict=True) if j],
+            [d for d, j in zip(steps, jittered, strict=True) if j],
+        )
+        jitter = "stamps" if stamps else "sampling"
+        if stamps:  # the samples' own step: the stretches' mean (a median of rounded stamps is one of the roundings)
+            h = sum(float(np.sum(d)) for d in steps) / sum(d.size for d in steps)
+        if not stamps:  # each step as stamped; a step 5 % or more off the median breaks the stretch (the spline)
+            long_runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP) if b - a >= MIN_STRETCH]
+            steps = [np.diff(t[a:b]) for a, b in long_runs]
+            jittered = [False] * len(long_runs)
+    # b_k per stretch (S1), over each step; (S8): over the stretch's mean step where only the stamps jitter
+    rates = [
+        phi[a : b - 1] / (np.mean(d) if j else d[:, None])
+        for (a, b), d, j in zip(long_runs, steps, jittered, strict=True)
+    ]
     segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
     usable = [r for r in rates if r.shape[0] >= segment]
     if usable and segment >= 8:
@@ -265,7 +310,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
         spline = RotationSpline(tv, Rotation.from_matrix(R[valid]))
         omega[~covered] = spline(t[~covered], 1)
-    return SpectralRate(omega, sigma, covered, expected)
+    return SpectralRate(omega, sigma, covered, expected, jitter)
 
 
 def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
@@ -304,7 +349,8 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
 
     After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (S5)) and ``n_unfiltered`` (the valid
-    samples in stretches too short or too irregular to filter, which take the rotation spline). A skipped sample is
+    samples in stretches too short to filter, which take the rotation spline) and ``timestamps`` (what (S8) read
+    from steps 5 % or more off the median: ``"stamps"``, ``"sampling"`` or ``""``). A skipped sample is
     bridged by the rotation spline (status ``predicted``).
 
     Parameters
@@ -343,7 +389,8 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
             references=references, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
         )
         self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (S5))
-        self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short or irregular to filter
+        self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short to filter
+        self.timestamps = ""  # (S8) on the last ``run``'s jittered steps: "stamps", "sampling" or "" (none)
         self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
@@ -352,4 +399,5 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
         self.measurement_noise = found.noise
         self.n_unfiltered = int(np.count_nonzero(log.valid & ~found.filtered))
         self.expected_rms = found.expected
+        self.timestamps = found.jitter
         return found.omega

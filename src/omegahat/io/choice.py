@@ -51,6 +51,13 @@ from omegahat.observer.presets import (
 from omegahat.validation import as_directions, as_inertia
 
 WAHBA = "each sample's least-squares attitude from its directions (Wahba's problem)"
+#: the closing line on the Wiener smoother's reading (S8) of timestamps whose steps are uneven
+JITTER = {
+    "stamps": "; the timestamps' steps are uneven, but the increments follow the mean step: read as regular samples "
+    "with jittered stamps",
+    "sampling": "; the timestamps' steps are uneven and the increments follow them: read as samples taken at their "
+    "stamps",
+}
 IDENTIFY_SAMPLES = 8192  #: rows of the head the identification fits (the noise bound needs a few seconds of log)
 
 __all__ = ["attitude_choice", "inertia", "references", "time_unit_warning"]
@@ -300,10 +307,11 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
     def line() -> str:
         if isinstance(est, ChosenSmoother):
             kept = "the identified model's smoother" if est.chosen is est.model else "the log's own Wiener smoother"
+            jitter = JITTER.get(est.spectrum.timestamps, "") if est.chosen is est.spectrum else ""
             return (
                 f"estimator used: {kept} (offline, zero lag; expected RMS error: the model's smoother "
-                f"{est.expected['model']:.2g} rad/s, the Wiener smoother {est.expected['spectrum']:.2g} rad/s), "
-                f"{body}"
+                f"{est.expected['model']:.2g} rad/s, the Wiener smoother {est.expected['spectrum']:.2g} rad/s"
+                f"{jitter}), {body}"
             )
         if isinstance(est, ModelSmoother):
             return (
@@ -324,7 +332,8 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
             )
             return (
                 f"estimator used: the log's own Wiener smoother (offline, zero lag; {expected}attitude noise "
-                f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis{spline})"
+                f"{', '.join(f'{x:.2g}' for x in est.measurement_noise)} rad per body axis{spline}"
+                f"{JITTER.get(est.timestamps, '')})"
             )
         if isinstance(est, SplineEstimator):
             return "estimator used: the rotation spline (offline, zero lag; too few samples for anything else)"
