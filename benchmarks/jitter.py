@@ -13,19 +13,22 @@ Run: ``OMEGAHAT_CORPUS_DIR=DIR python benchmarks/jitter.py [--only PATTERN ...]`
 Every method sees the jittered log; the score (:func:`omegahat.lab.evaluation.broad.score`, as
 ``benchmarks/real_world.py``) compares each sample's estimate with the reference at the sample's true time. Columns:
 the Wiener smoother (``omegahat estimate --smooth`` where the model is declined) over the best of central
-differencing and RotationSpline through the jittered stamps, as it is now (its steps read by (S8)) and as it was
-(each step as stamped, a step 5 % or more off the median breaking the stretch: emulated by answering (S8) "the
-samples are at their stamps"), and what (S8) read. Writes its section of RESULTS.md.
+differencing and RotationSpline through the jittered stamps, and ``omegahat estimate`` with no option over backward
+differencing of the jittered stamps, each as it is now (the steps read by (S8); the default's identification and
+differencing on the samples' clock (D3)) and as it was (each step as stamped; for the smoother a step 5 % or more
+off the median breaking the stretch: emulated by answering (S8) "the samples are at their stamps"), and what (S8)
+read. Writes its section of RESULTS.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import fnmatch
 import math
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 
 import numpy as np
@@ -36,10 +39,11 @@ from omegahat.baselines.spline import spline_rate
 from omegahat.identification import spectral
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.lab.evaluation.broad import score
-from omegahat.lab.evaluation.corpus import Recording, corpus_dir, load_recording, recordings
+from omegahat.lab.evaluation.corpus import Recording, corpus_dir, load_recording, pipeline_method, recordings
 from results_md import machine_line, write_section
 
-SECTION = "## `--smooth` on jittered timestamps (benchmarks/jitter.py)"
+SECTION = "## `--smooth` and the default on jittered timestamps (benchmarks/jitter.py)"
+DEFAULT = pipeline_method("omegahat estimate")
 
 
 def stamps_moved(
@@ -68,9 +72,7 @@ def sampled_off_grid(rec: Recording, rng: np.random.Generator) -> tuple[np.ndarr
     spline = RotationSpline(native.t[ok], Rotation.from_matrix(native.R[ok]))
     R = spline(np.clip(times, native.t[ok][0], native.t[ok][-1])).as_matrix()
     R[rec.gaps] = np.nan
-    q = np.full((times.size, 4), np.nan)
-    q[~rec.gaps] = Rotation.from_matrix(R[~rec.gaps]).as_quat()
-    return times, R, replace(rec, t=times, data=q)
+    return times, R, replace(rec, t=times, data=_quaternions(R))
 
 
 JITTERS = {
@@ -86,15 +88,36 @@ def as_stamped(runs: list[np.ndarray], steps: list[np.ndarray]) -> bool:
     return False
 
 
-def smoothed(t: np.ndarray, R: np.ndarray, before: bool) -> tuple[np.ndarray, str]:
+@contextlib.contextmanager
+def without_s8(before: bool) -> Iterator[None]:
+    """Within: (S8) answers "the samples are at their stamps" (the smoother and the identification as before)."""
     read = spectral.stamped_steps
     if before:
         spectral.stamped_steps = as_stamped
     try:
-        est = SpectralSmoother()
-        return est.run(t, R).omega, est.timestamps
+        yield
     finally:
         spectral.stamped_steps = read
+
+
+def smoothed(t: np.ndarray, R: np.ndarray, before: bool) -> tuple[np.ndarray, str]:
+    with without_s8(before):
+        est = SpectralSmoother()
+        return est.run(t, R).omega, est.timestamps
+
+
+def default(rec: Recording, before: bool) -> np.ndarray:
+    """``omegahat estimate`` with no option on the (jittered) recording."""
+    with without_s8(before):
+        return DEFAULT.run(rec).omega
+
+
+def _quaternions(R: np.ndarray) -> np.ndarray:
+    """Quaternions (scalar last) of the attitudes ``R``, NaN where missing."""
+    q = np.full((R.shape[0], 4), np.nan)
+    ok = np.all(np.isfinite(R), axis=(1, 2))
+    q[ok] = Rotation.from_matrix(R[ok]).as_quat()
+    return q
 
 
 def _geomean(xs: list[float]) -> float:
@@ -112,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     warnings.simplefilter("ignore")
     rng = np.random.default_rng(0)
-    found: dict[tuple[str, str], list[tuple[float, float, str]]] = {}
+    found: dict[tuple[str, str], list[tuple[float, float, str, float, float]]] = {}
     t0 = time.perf_counter()
     for path in paths:
         rec0 = load_recording(path)
@@ -129,21 +152,28 @@ def main(argv: list[str] | None = None) -> int:
                 best = min(score(truth, w, **options).rms for w in peers)
                 now, read = smoothed(t, R, before=False)
                 was, _ = smoothed(t, R, before=True)
-                ratios = (score(truth, now, **options).rms / best, score(truth, was, **options).rms / best, read)
+                seen = replace(truth, t=t, data=_quaternions(R))  # what the command reads: the jittered stamps
+                bwd = score(truth, log_difference(t, R), **options).rms
+                ratios = (
+                    score(truth, now, **options).rms / best,
+                    score(truth, was, **options).rms / best,
+                    read,
+                    score(truth, default(seen, before=False), **options).rms / bwd,
+                    score(truth, default(seen, before=True), **options).rms / bwd,
+                )
                 found.setdefault((group, name), []).append(ratios)
-                print(f"{rec.name} {name}: now {ratios[0]:.3f}, before {ratios[1]:.3f}, read {read!r}", flush=True)
+                print(f"{rec.name} {name}: --smooth {ratios[0]:.3f} (before {ratios[1]:.3f}), read {read!r}, default "
+                      f"{ratios[3]:.3f} (before {ratios[4]:.3f})", flush=True)  # fmt: skip
     lines = [
-        "| group | timestamps | n | now ÷ best offline (geo. mean; worst) | before ÷ best offline (geo. mean; worst) "
-        "| (S8) read |",
-        "| --- | --- | ---: | --- | --- | --- |",
+        "| group | timestamps | n | --smooth ÷ best offline: now (geo. mean; worst) | before | (S8) read "
+        "| default ÷ backward diff.: now (geo. mean; worst) | before |",
+        "| --- | --- | ---: | --- | --- | --- | --- | --- |",
     ]
     for (group, name), rows in found.items():
-        now, was = [r[0] for r in rows], [r[1] for r in rows]
+        cols = [[float(r[i]) for r in rows] for i in (0, 1, 3, 4)]
         reads = ", ".join(f"{k or 'even'} {sum(r[2] == k for r in rows)}" for k in sorted({r[2] for r in rows}))
-        lines.append(
-            f"| {group} | {name} | {len(rows)} | {_geomean(now):.3f}; {max(now):.3f} | {_geomean(was):.3f}; "
-            f"{max(was):.3f} | {reads} |"
-        )
+        a, b, c, d = (f"{_geomean(v):.3f}; {max(v):.3f}" for v in cols)
+        lines.append(f"| {group} | {name} | {len(rows)} | {a} | {b} | {reads} | {c} | {d} |")
     table = "\n".join(lines)
     print("\n" + table + f"\n\n{sum(len(v) for v in found.values())} runs in {time.perf_counter() - t0:.0f} s")
     if not args.no_write:

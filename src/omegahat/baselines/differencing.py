@@ -16,6 +16,14 @@ step sizes and is exactly ``Log(R_{k−1}ᵀ R_{k+1}) / (2h)`` for uniform steps
 
 Being on rotation matrices, both are unaffected by the sign of a quaternion (q and −q give the same R).
 
+**Jittered stamps.** Where the samples are regular and only their stamps jitter (a message's arrival time, stamps
+rounded to the millisecond), dividing by the stamped step adds ``ε |ω|`` of noise for a jitter ``ε`` of the step.
+Given the samples' own step ``step`` (``omegahat estimate`` reads it from the log, (S8) of
+:mod:`omegahat.identification.spectral`), each stamped interval is read as the whole number of steps nearest to it,
+at least one (a dropped sample, an interval of about two steps, counts two)::
+
+    h_k = step · max(1, round((t_k − t_{k−1}) / step))                                             (D3)
+
 Noise: i.i.d. attitude noise σ (rad per axis) gives about ``√2 σ / h`` per axis for (D1) and ``σ / (√2 h)``
 for (D2), so differencing is usually followed by a low-pass. The optional one here is first order and causal,
 with cut-off ``f_c`` Hz, discretised exactly for any step (zero-order-hold discretisation of
@@ -50,9 +58,17 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator, batch_status, one_of
-from omegahat.validation import as_vector3
+from omegahat.validation import as_positive, as_vector3
 
-__all__ = ["SCHEMES", "DifferencingEstimator", "Scheme", "log_difference", "lowpass", "lowpass_reference"]
+__all__ = [
+    "SCHEMES",
+    "DifferencingEstimator",
+    "Scheme",
+    "log_difference",
+    "lowpass",
+    "lowpass_reference",
+    "sample_clock",
+]
 
 #: (D1), causal, or (D2), one sample late
 Scheme: TypeAlias = Literal["backward", "central"]
@@ -183,6 +199,16 @@ def lowpass(x: ArrayLike, times: ArrayLike, cutoff_hz: float) -> np.ndarray:
     return _lowpass_kernel(x, t, c)
 
 
+def sample_clock(times: ArrayLike, step: float) -> np.ndarray:
+    """(D3) for a whole log: the samples' times from the first stamp, each stamped interval read as the whole number
+    of ``step`` nearest to it (at least one). ``(T,) -> (T,)``."""
+    t = np.asarray(times, dtype=float)
+    if t.size < 2:
+        return t.copy()
+    spans = step * np.maximum(1.0, np.round(np.diff(t) / step))
+    return np.concatenate([t[:1], t[0] + np.cumsum(spans)])
+
+
 class DifferencingEstimator(StreamingEstimator):
     """Log-map differencing of attitudes (D1 or D2), optionally followed by the causal low-pass (LP).
 
@@ -204,6 +230,9 @@ class DifferencingEstimator(StreamingEstimator):
     omega_hat0 : array_like, optional
         Backward only: the rate at the first valid sample (rad/s, body axes; a rate known otherwise, such as
         ``omegahat estimate``'s least-squares start), which has no difference yet; default: none (NaN there).
+    step : float, optional
+        The samples' own step (s) where only their stamps jitter: each stamped interval is read as (D3); default
+        None (each interval as stamped).
 
     Raises
     ------
@@ -245,8 +274,10 @@ class DifferencingEstimator(StreamingEstimator):
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
         omega_hat0: ArrayLike | None = None,
+        step: float | None = None,
     ) -> None:
         self.scheme: Scheme = one_of("scheme", scheme, Scheme)
+        self.step = None if step is None else float(as_positive(step, "step", n=1)[0])
         if omega_hat0 is not None and self.scheme != "backward":
             raise ValueError("omega_hat0 is for the backward scheme (central has no estimate at the first sample)")
         self.omega_hat0 = None if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
@@ -270,6 +301,10 @@ class DifferencingEstimator(StreamingEstimator):
         self._t_last: float | None = None  # the last sample's time, skipped or not (the time check's previous time)
         self.estimate_time: float | None = None
         self.n_skipped = 0
+
+    def _span(self, interval: float) -> float:
+        """A stamped interval as the differences take it: itself, or (D3) where the samples' step is given."""
+        return interval if self.step is None else self.step * max(1.0, round(interval / self.step))
 
     def _checks(self) -> dict:
         return {
@@ -296,7 +331,7 @@ class DifferencingEstimator(StreamingEstimator):
         raw, when = None, np.nan  # the new estimate, if any, and its time (set together)
         if self.scheme == "backward":
             if self._t:
-                raw = so3.log(self._R[-1].T @ R) / (t - self._t[-1])  # (D1)
+                raw = so3.log(self._R[-1].T @ R) / self._span(t - self._t[-1])  # (D1)
                 when = t
             elif self.omega_hat0 is not None:  # the first valid sample: the given rate
                 raw, when = self.omega_hat0.copy(), t
@@ -304,7 +339,7 @@ class DifferencingEstimator(StreamingEstimator):
         else:
             if len(self._t) == 2:
                 (R0, R1), (t0, t1) = self._R, self._t
-                hb, hf = t1 - t0, t - t1
+                hb, hf = self._span(t1 - t0), self._span(t - t1)
                 db = so3.log(R0.T @ R1) / hb
                 df = so3.log(R1.T @ R) / hf
                 raw = so3.log(R0.T @ R) / (hb + hf) - (hf - hb) * (df - db) / (hb + hf)  # (D2)
@@ -338,7 +373,8 @@ class DifferencingEstimator(StreamingEstimator):
             return Estimate(omega, status)
         log = ms.checked_log(t, data, torque, **self._checks())
         times, R = log.times, log.values
-        est, valid = _differences(times, R, self.scheme)
+        clock = times if self.step is None else sample_clock(times, self.step)  # (D3)
+        est, valid = _differences(clock, R, self.scheme)
         if self.omega_hat0 is not None and valid.any():  # the first valid sample: the given rate (as update)
             est[np.flatnonzero(valid)[0]] = self.omega_hat0
         if self.cutoff_hz is not None:

@@ -44,7 +44,7 @@ from scipy.linalg import solve_discrete_are
 from scipy.spatial.transform import Rotation
 
 from omegahat import so3
-from omegahat.baselines.differencing import DifferencingEstimator
+from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
 from omegahat.identification.likelihood import (
     MODELS,
     ORDER,
@@ -54,6 +54,7 @@ from omegahat.identification.likelihood import (
     noise_intensity,
 )
 from omegahat.identification.noise import quiet_noise
+from omegahat.identification.spectral import read_steps, stretches
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
@@ -161,6 +162,10 @@ class Identification:
         Whether the model's filter runs (step 5), else backward differencing.
     reason : str, optional
         Why (step 5), in words.
+    stamp_step : float or None, optional
+        Where the steps are uneven but the samples regular and only their stamps jitter ((S8) of
+        :mod:`omegahat.identification.spectral`), the samples' own step (s), which differencing takes ((D3) of
+        :mod:`omegahat.baselines.differencing`); None otherwise.
 
     Examples
     --------
@@ -194,6 +199,7 @@ class Identification:
     J: np.ndarray = field(repr=False)
     use_model: bool = True
     reason: str = ""
+    stamp_step: float | None = None
 
     def estimator(self, **options: object) -> SupervisedKalmanEstimator | DifferencingEstimator:
         """The default estimator for this identification (module docstring, step 5): the observer supervising the
@@ -204,7 +210,7 @@ class Identification:
             keep = {
                 k: v for k, v in options.items() if k in ("rotation_tol", "quat_norm_tol", "scalar_first", "omega_hat0")
             }
-            return DifferencingEstimator(scheme="backward", **keep)  # type: ignore[arg-type]
+            return DifferencingEstimator(scheme="backward", step=self.stamp_step, **keep)  # type: ignore[arg-type]
         return self.model_estimator(**options)  # directions: differencing takes attitudes only
 
     def model_estimator(self, **options: object) -> SupervisedKalmanEstimator:
@@ -268,6 +274,13 @@ class Identification:
             f"{self.differencing_rms:.2g} rad/s: "
             + ("the model's filter runs" if self.use_model else "backward differencing runs")
             + f" ({self.reason})"
+            + (
+                "\ntimestamps: the steps are uneven but the increments follow their mean: read as regular samples "
+                f"with jittered stamps, every {1e3 * self.stamp_step:.4g} ms"
+                + ("; differencing takes each interval as whole steps" if not self.use_model else "")
+                if self.stamp_step is not None
+                else ""
+            )
         )
 
 
@@ -437,6 +450,13 @@ def identify(
         raise ValueError(
             f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
         )
+    # (S8): uneven steps of regular samples (jittered stamps) or of samples taken at their stamps; for the first,
+    # everything below sees the samples' clock (D3), the stamps' intervals as whole steps
+    runs = [(a, b) for a, b in stretches(t, valid) if b - a >= 3]
+    reading, step = read_steps(t, so3.increments(R), runs)
+    stamp_step = step if reading == "stamps" else None
+    if stamp_step is not None:
+        t = sample_clock(t, stamp_step)
     tv = t[valid]
     h = float(np.median(np.diff(tv)))
     if not h > 0:
@@ -477,4 +497,6 @@ def identify(
         use, why = False, f"the model predicts no {1 - GAIN_REQUIRED:.0%} gain over backward differencing"
     else:
         use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
-    return Identification(1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why)
+    return Identification(
+        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step=stamp_step
+    )

@@ -140,6 +140,21 @@ def stamped_steps(increments: list[np.ndarray], steps: list[np.ndarray]) -> bool
     return by_mean < by_stamp
 
 
+def read_steps(t: np.ndarray, increments: np.ndarray, runs: list[tuple[int, int]]) -> tuple[str, float]:
+    """(S8) over the stretches ``runs`` of the times ``t (T,)`` with the increments ``φ (T − 1, 3)`` between
+    consecutive samples: ``("", nan)`` where every stretch's steps are within 0.1 % of their mean, else
+    ``("stamps", h̄)`` (regular samples with jittered stamps; ``h̄`` the stretches' mean step) or
+    ``("sampling", nan)`` (the samples taken at their stamps)."""
+    steps = [np.diff(t[a:b]) for a, b in runs]
+    uneven = [d.size > 1 and bool(np.any(np.abs(d / np.mean(d) - 1.0) > UNEVEN_STEP)) for d in steps]
+    if not any(uneven):
+        return "", math.nan
+    chosen = [(run, d) for run, d, u in zip(runs, steps, uneven, strict=True) if u]
+    if stamped_steps([increments[a : b - 1] for (a, b), _ in chosen], [d for _, d in chosen]):
+        return "stamps", sum(float(np.sum(d)) for d in steps) / sum(d.size for d in steps)
+    return "sampling", math.nan
+
+
 def stretches(t: np.ndarray, valid: np.ndarray, tolerance: float = JITTER_LINK) -> list[tuple[int, int]]:
     """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples whose steps are within ``tolerance`` of the
     log's median step (:data:`JITTER_LINK`: one sample follows the next; a dropped one, a step of two, does not)."""
@@ -264,26 +279,13 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
     sigma = np.full(3, quiet)
     expected = math.nan
-    steps = [np.diff(t[a:b]) for a, b in long_runs]
-    jittered = [bool(np.any(np.abs(dt / np.mean(dt) - 1.0) > UNEVEN_STEP)) for dt in steps]
-    jitter = ""
-    if any(jittered):  # (S8): the stamps jitter (filter with the mean step) or the samples do
-        stamps = stamped_steps(
-            [phi[a : b - 1] for (a, b), j in zip(long_runs, jittered, strict=True) if j],
-            [d for d, j in zip(steps, jittered, strict=True) if j],
-        )
-        jitter = "stamps" if stamps else "sampling"
-        if stamps:  # the samples' own step: the stretches' mean (a median of rounded stamps is one of the roundings)
-            h = sum(float(np.sum(d)) for d in steps) / sum(d.size for d in steps)
-        if not stamps:  # each step as stamped; a step 5 % or more off the median breaks the stretch (the spline)
-            long_runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP) if b - a >= MIN_STRETCH]
-            steps = [np.diff(t[a:b]) for a, b in long_runs]
-            jittered = [False] * len(long_runs)
-    # b_k per stretch (S1), over each step; (S8): over the stretch's mean step where only the stamps jitter
-    rates = [
-        phi[a : b - 1] / (np.mean(d) if j else d[:, None])
-        for (a, b), d, j in zip(long_runs, steps, jittered, strict=True)
-    ]
+    jitter, mean_step = read_steps(t, phi, long_runs)
+    if jitter == "stamps":  # the samples' own step (a median of rounded stamps is one of the roundings)
+        h = mean_step
+    elif jitter == "sampling":  # each step as stamped; a step 5 % or more off the median breaks the stretch
+        long_runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP) if b - a >= MIN_STRETCH]
+    # b_k per stretch (S1), over each step; (S8): over the samples' step where only the stamps jitter
+    rates = [phi[a : b - 1] / (h if jitter == "stamps" else np.diff(t[a:b])[:, None]) for a, b in long_runs]
     segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
     usable = [r for r in rates if r.shape[0] >= segment]
     if usable and segment >= 8:
