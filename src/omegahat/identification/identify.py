@@ -450,13 +450,10 @@ def identify(
         raise ValueError(
             f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
         )
-    # (S8): uneven steps of regular samples (jittered stamps) or of samples taken at their stamps; for the first,
-    # everything below sees the samples' clock (D3), the stamps' intervals as whole steps
-    runs = [(a, b) for a, b in stretches(t, valid) if b - a >= 3]
-    reading, step = read_steps(t, so3.increments(R), runs)
+    # (S8): regular samples with jittered stamps are identified on the samples' clock (D3), every interval whole steps
+    reading, step = read_steps(t, so3.increments(R), [(a, b) for a, b in stretches(t, valid) if b - a >= 3])
     stamp_step = step if reading == "stamps" else None
-    if stamp_step is not None:
-        t = sample_clock(t, stamp_step)
+    t = t if stamp_step is None else sample_clock(t, stamp_step)
     tv = t[valid]
     h = float(np.median(np.diff(tv)))
     if not h > 0:
