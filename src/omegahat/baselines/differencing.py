@@ -68,6 +68,7 @@ __all__ = [
     "lowpass",
     "lowpass_reference",
     "sample_clock",
+    "whole_steps",
 ]
 
 #: (D1), causal, or (D2), one sample late
@@ -199,14 +200,18 @@ def lowpass(x: ArrayLike, times: ArrayLike, cutoff_hz: float) -> np.ndarray:
     return _lowpass_kernel(x, t, c)
 
 
+def whole_steps(intervals: ArrayLike, step: float) -> np.ndarray:
+    """(D3): stamped ``intervals`` (s) read as the whole number of ``step`` nearest to each, at least one."""
+    return step * np.maximum(1.0, np.round(np.asarray(intervals, dtype=float) / step))
+
+
 def sample_clock(times: ArrayLike, step: float) -> np.ndarray:
-    """(D3) for a whole log: the samples' times from the first stamp, each stamped interval read as the whole number
-    of ``step`` nearest to it (at least one). ``(T,) -> (T,)``."""
+    """(D3) for a whole log: the samples' times from the first stamp, each stamped interval as :func:`whole_steps`.
+    ``(T,) -> (T,)``."""
     t = np.asarray(times, dtype=float)
     if t.size < 2:
         return t.copy()
-    spans = step * np.maximum(1.0, np.round(np.diff(t) / step))
-    return np.concatenate([t[:1], t[0] + np.cumsum(spans)])
+    return np.concatenate([t[:1], t[0] + np.cumsum(whole_steps(np.diff(t), step))])
 
 
 class DifferencingEstimator(StreamingEstimator):
@@ -304,7 +309,7 @@ class DifferencingEstimator(StreamingEstimator):
 
     def _span(self, interval: float) -> float:
         """A stamped interval as the differences take it: itself, or (D3) where the samples' step is given."""
-        return interval if self.step is None else self.step * max(1.0, round(interval / self.step))
+        return interval if self.step is None else float(whole_steps(interval, self.step))
 
     def _checks(self) -> dict:
         return {
