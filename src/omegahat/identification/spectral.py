@@ -50,8 +50,8 @@ stretches whose steps differ from their mean by more than 0.1 %::
 
     Σ_k |φ_{k+1}/h̄ − φ_k/h̄|²  <  Σ_k |φ_{k+1}/h_{k+1} − φ_k/h_k|²   ⇒   regular samples, jittered stamps    (S8)
 
-and then each such stretch (linked across steps within 50 % of the median: a dropped sample breaks it) is filtered
-with its mean step. Otherwise each step is used as stamped, and a step 5 % or more off the median breaks the
+and then every stretch (linked across steps within 50 % of the median: a dropped sample breaks it) is filtered with
+the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'s ``h``. Otherwise each step is used as stamped, and a step 5 % or more off the median breaks the
 stretch (the rotation spline, exact at uneven times, takes what is too short to filter).
 
 **The noise the log shows while it moves.** The quiet part's noise can be far below what the moving log carries
@@ -253,8 +253,9 @@ class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
     ``(3,)`` it assumed (rad, (S5)), ``filtered (T,)``: True where (S2) gave the rate (False: the rotation spline,
     for a skipped sample or a stretch too short to filter), ``expected`` the RMS error (S7) expects (rad/s; NaN
-    where nothing was filtered), and ``jitter`` what (S8) read from steps 5 % or more off the median: ``"stamps"``
-    (the samples regular, their stamps jittered), ``"sampling"`` (the samples at their stamps), or ``""`` (none)."""
+    where nothing was filtered), and ``jitter`` what (S8) read where a stretch's steps differ from their mean by more
+    than 0.1 %: ``"stamps"`` (the samples regular, their stamps jittered), ``"sampling"`` (the samples at their
+    stamps), or ``""`` (the steps even)."""
 
     omega: np.ndarray
     noise: np.ndarray
@@ -351,8 +352,8 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
 
     After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (S5)) and ``n_unfiltered`` (the valid
-    samples in stretches too short to filter, which take the rotation spline) and ``timestamps`` (what (S8) read
-    from steps 5 % or more off the median: ``"stamps"``, ``"sampling"`` or ``""``). A skipped sample is
+    samples in stretches too short to filter, which take the rotation spline) and ``timestamps`` (what (S8) read of
+    uneven steps: ``"stamps"``, ``"sampling"`` or ``""`` for even ones). A skipped sample is
     bridged by the rotation spline (status ``predicted``).
 
     Parameters
@@ -392,7 +393,7 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
         )
         self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (S5))
         self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short to filter
-        self.timestamps = ""  # (S8) on the last ``run``'s jittered steps: "stamps", "sampling" or "" (none)
+        self.timestamps = ""  # (S8) on the last ``run``'s uneven steps: "stamps", "sampling" or "" (even)
         self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
