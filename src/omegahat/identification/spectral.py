@@ -51,8 +51,9 @@ stretches whose steps differ from their mean by more than 0.1 %::
     Σ_k |φ_{k+1}/h̄ − φ_k/h̄|²  <  Σ_k |φ_{k+1}/h_{k+1} − φ_k/h_k|²   ⇒   regular samples, jittered stamps    (S8)
 
 and then every stretch (linked across steps within 50 % of the median: a dropped sample breaks it) is filtered with
-the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'s ``h``. Otherwise each step is used as stamped, and a step 5 % or more off the median breaks the
-stretch (the rotation spline, exact at uneven times, takes what is too short to filter).
+the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'s ``h``. Otherwise each step is used
+as stamped, and a step 5 % or more off the median breaks the stretch (the rotation spline, exact at uneven times,
+takes what is too short to filter).
 
 **The noise the log shows while it moves.** The quiet part's noise can be far below what the moving log carries
 (optical motion capture: the development recordings' spectra sit 15 to 1,000 times above ``N_b`` of the quiet
