@@ -21,6 +21,11 @@ from omegahat.identification.smoother import ModelSmoother, combine
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 
 
+def write_quaternions(path, t, q) -> None:
+    """A CSV log ``t,qx,qy,qz,qw`` of the times and quaternions (scalar last), every digit kept."""
+    np.savetxt(path, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+
+
 def wandering(rate_hz: float, seconds: float, sigma: float, seed: int, q: float = 0.05):
     """A body whose rate is a random walk (PSD ``q``, (rad/s²)²/Hz), sampled at ``rate_hz`` with white attitude
     noise ``sigma`` (rad per axis): ``(t, R measured (T, 3, 3), ω true (T, 3))``. The motion is integrated on a
@@ -210,7 +215,7 @@ def test_smooth_without_a_model_is_the_logs_wiener_smoother_and_the_fit_start_is
     t, R, omega = wandering(30.0, 20.0, 0.0, seed=4, q=2.0)
     q = Rotation.from_matrix(R).as_quat()
     src = tmp_path / "log.csv"
-    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    write_quaternions(src, t, q)
     dst = tmp_path / "o.csv"
     assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
     out = capsys.readouterr().out
@@ -300,7 +305,7 @@ def test_smooth_with_a_model_says_which_smoother_it_kept(tmp_path, capsys):
         * Rotation.from_rotvec(np.random.default_rng(6).normal(0, 1e-3, (t.size, 3)))
     ).as_quat()
     src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
-    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    write_quaternions(src, t, q)
     assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "the one expecting the lower error kept" in out
@@ -384,7 +389,7 @@ def test_smooth_on_a_log_too_short_to_identify_is_scipys_spline_and_says_so(tmp_
     t = np.arange(12) * 0.01
     q = Rotation.from_rotvec(np.outer(t**2, [0.3, -0.2, 0.5])).as_quat()
     src, dst = tmp_path / "short.csv", tmp_path / "o.csv"
-    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    write_quaternions(src, t, q)
     assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "too few to identify a model or the log's spectrum" in out and "the rotation spline" in out
@@ -403,7 +408,7 @@ def test_smooth_with_the_model_asked_for_is_the_models_smoother(tmp_path, capsys
     t, R, _ = wandering(30.0, 20.0, 0.0, seed=4, q=2.0)
     src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
     q = Rotation.from_matrix(R).as_quat()
-    np.savetxt(src, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    write_quaternions(src, t, q)
     args = ["estimate", str(src), "-o", str(dst), "--smooth", "--estimator", "omegahat", "--no-progress"]
     assert main(args) == 0
     out = capsys.readouterr().out
@@ -428,7 +433,7 @@ def test_smooth_says_how_it_read_jittered_stamps(tmp_path, capsys):
     stamps = np.round(t, 2)
     q = Rotation.from_matrix(R).as_quat()
     src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
-    np.savetxt(src, np.column_stack([stamps, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    write_quaternions(src, stamps, q)
     assert main(["estimate", str(src), "-o", str(dst), "--smooth", "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "the log's own Wiener smoother" in out and "read as regular samples with jittered stamps" in out
@@ -448,7 +453,7 @@ def test_the_default_reads_jittered_stamps_and_differences_over_whole_steps(tmp_
     stamps = t + np.random.default_rng(3).uniform(-0.2, 0.2, t.size) / 30.0
     q = Rotation.from_matrix(R).as_quat()
     src, dst = tmp_path / "log.csv", tmp_path / "o.csv"
-    np.savetxt(src, np.column_stack([stamps, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="", fmt="%.17g")
+    write_quaternions(src, stamps, q)
     assert main(["estimate", str(src), "-o", str(dst), "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "backward differencing runs" in out and "read as regular samples with jittered stamps" in out
