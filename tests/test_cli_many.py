@@ -306,6 +306,36 @@ def test_ctrl_c_stops_cleanly_with_no_partial_file_and_exit_130(tmp_path, sig, j
     assert sum(s == "ok" for s in status.values()) == len(leftovers)
 
 
+def test_an_interrupt_lost_in_a_finalizer_still_stops_the_batch(tmp_path, capsys, monkeypatch):
+    """A signal whose KeyboardInterrupt is raised inside a finalizer (a ``__del__``, a generator the garbage collector
+    closes) is printed as "Exception ignored" by Python and goes no further: the batch must still stop (found as a
+    subprocess that finished all its files after SIGTERM and exited 0)."""
+    import omegahat.cli.many_run as many_run
+
+    d = tmp_path / "in"
+    for k in range(4):
+        good_log(d / f"t{k}.csv", k)
+    real_run_job = many_run.run_job
+
+    class SignalledWhileCollected:
+        def __del__(self) -> None:
+            signal.raise_signal(signal.SIGTERM)  # the handler's raise ends here, ignored
+
+    def run_job_then_signal(*args, **kwargs):
+        outcome = real_run_job(*args, **kwargs)
+        SignalledWhileCollected()
+        return outcome
+
+    lost: list[type] = []
+    monkeypatch.setattr(many_run, "run_job", run_job_then_signal)
+    monkeypatch.setattr(sys, "unraisablehook", lambda unraisable: lost.append(unraisable.exc_type))
+    code, printed, err = batch(capsys, d, "-o", tmp_path / "out", *OPTS, "--jobs", "1")
+    assert lost == [KeyboardInterrupt]  # the raise was indeed lost where it happened
+    assert code == 143 and "interrupted by SIGTERM" in err and re.search(r"in/t3\.csv +- +- +- +- +not run", printed)
+    status = {Path(k).name: v["status"] for k, v in summary_rows(tmp_path / "out").items()}
+    assert sorted(status.values()) == ["not run", "not run", "not run", "ok"]
+
+
 def test_dask_cluster_gives_the_local_outputs(tmp_path, capsys):
     distributed = pytest.importorskip("distributed", reason='Dask is an extra: pip install ".[dask]"')
     d = tmp_path / "in"

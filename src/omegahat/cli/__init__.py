@@ -151,8 +151,21 @@ def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentPa
     return parser
 
 
+_received: list[KeyboardInterrupt] = []  #: the interrupts received since :func:`main` began
+
+
 def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt(signal.Signals(signum).name)
+    stop = KeyboardInterrupt(signal.Signals(signum).name)
+    # kept as well as raised: raised inside a finalizer (a generator closed by the garbage collector, a __del__)
+    # Python prints "Exception ignored" and goes on, and the command would finish as if never signalled
+    _received.append(stop)
+    raise stop
+
+
+def pending_interrupt() -> KeyboardInterrupt | None:
+    """The last SIGINT or SIGTERM received since :func:`main` began (as its ``KeyboardInterrupt``), whether or not
+    its raise reached the command: a loop over files checks it between files."""
+    return _received[-1] if _received else None
 
 
 def interrupted_by(exc: BaseException) -> KeyboardInterrupt | None:
@@ -171,6 +184,7 @@ def interrupted_by(exc: BaseException) -> KeyboardInterrupt | None:
 def main(argv: list[str] | None = None) -> int:
     """Run ``omegahat COMMAND ...`` (module docstring); returns the exit status."""
     previous = {}
+    _received.clear()
     if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread only
         previous = {s: signal.signal(s, _interrupt) for s in INTERRUPTS}
     words = sys.argv[1:] if argv is None else argv

@@ -44,7 +44,7 @@ from typing import Any, Protocol
 
 from tqdm import tqdm
 
-from omegahat.cli import interrupted_by
+from omegahat.cli import interrupted_by, pending_interrupt
 from omegahat.io.registry import LogStream
 
 __all__ = [
@@ -286,6 +286,8 @@ def _here(jobs: list[Job], args: argparse.Namespace, one: OneFile) -> Ran:
                 current = job
                 outcomes.append(run_job(one, args, job))
                 bar.update()
+                if (swallowed := pending_interrupt()) is not None:  # its raise was lost in a finalizer
+                    raise swallowed
         except BaseException as exc:
             interrupt = interrupted_by(exc)
             if interrupt is None:
@@ -338,6 +340,8 @@ def _collect(
         for f in completed(futures):
             outcomes.append(f.result())
             bar.update()
+            if (swallowed := pending_interrupt()) is not None:  # its raise was lost in a finalizer
+                raise swallowed
     except KeyboardInterrupt as exc:
         interrupt = exc
         event.set()
