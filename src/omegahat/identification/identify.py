@@ -21,17 +21,16 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    ``√6 σ / h`` with the motion's share over half a sample, ``√(max(0, E|Δū|² − 18 σ²/h²)) / 2`` (``ū_k`` the
    differenced rates, ``Δ`` between consecutive ones; (D1), :func:`omegahat.observer.tuning.differencing_error`).
 5. **The estimator.** The chosen model's filter (the observer supervising its gyro-less EKF) runs when the log
-   supports it; otherwise backward differencing — the fast limit of the rate model, and the estimate a filter only
-   adds extrapolation to when the log shows no noise to remove. The model runs unless (a) its innovations at the
-   identified noise are more than :data:`MISFIT_MAX` times what that noise explains (``σ̂/σ``: the filter lost
-   track of the log, as at a few hertz with fast turns), (b) its ``Λ`` is the grid's top (no measurement noise the
+   supports it; otherwise backward differencing (the rate model's fast limit), through the log's own causal filter
+   ((C1)–(C3) of :mod:`omegahat.identification.causal`: no more error than differencing's in any band). The model
+   runs unless (a) its innovations at the identified noise are more than :data:`MISFIT_MAX` times what that noise
+   explains (``σ̂/σ``: the filter lost track of the log), (b) its ``Λ`` is the grid's top (no measurement noise the
    log can tell from motion), or (c) its own expected error (4) is not below :data:`GAIN_REQUIRED` times
-   differencing's. Without J the acceleration model is fitted and reported but not run: on the development
-   recordings (BROAD at 286, 29 and 9.5 Hz) every time it won the likelihood it lost to differencing in the fair
-   score (1.01–2.4×; its fast limit is a three-point extrapolation, ``docs/theory/identification.md``). Direction
+   differencing's. Without J the acceleration model is fitted and reported but not run (on the development
+   recordings it lost to differencing whenever it won the likelihood, ``docs/theory/identification.md``). Direction
    logs always run the model's filter (differencing takes attitudes). Without J the supervisor's innovation test is
-   off and its divergence test loose (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, and the rotation's
-   Nyquist bound): a hand never gives white innovations.
+   off and its divergence test loose (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, the rotation's Nyquist
+   bound): a hand never gives white innovations.
 """
 
 from __future__ import annotations
@@ -45,16 +44,10 @@ from scipy.spatial.transform import Rotation
 
 from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
-from omegahat.identification.likelihood import (
-    MODELS,
-    ORDER,
-    Sums,
-    innovation_sums,
-    log_likelihood,
-    noise_intensity,
-)
+from omegahat.identification.causal import CausalFilter, causal_filter
+from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
 from omegahat.identification.noise import quiet_noise
-from omegahat.identification.spectral import read_steps, stretches
+from omegahat.identification.spectral import increment_spectrum, read_steps, stretches
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
@@ -166,6 +159,8 @@ class Identification:
         Where the steps are uneven but the samples regular and only their stamps jitter ((S8) of
         :mod:`omegahat.identification.spectral`), the samples' own step (s), which differencing takes ((D3) of
         :mod:`omegahat.baselines.differencing`); None otherwise.
+    causal : CausalFilter or None, optional
+        Where differencing runs on attitudes, its causal filter from the log's spectrum (C3); None otherwise.
 
     Examples
     --------
@@ -200,6 +195,7 @@ class Identification:
     use_model: bool = True
     reason: str = ""
     stamp_step: float | None = None
+    causal: CausalFilter | None = None
 
     def estimator(self, **options: object) -> SupervisedKalmanEstimator | DifferencingEstimator:
         """The default estimator for this identification (module docstring, step 5): the observer supervising the
@@ -210,7 +206,8 @@ class Identification:
             keep = {
                 k: v for k, v in options.items() if k in ("rotation_tol", "quat_norm_tol", "scalar_first", "omega_hat0")
             }
-            return DifferencingEstimator(scheme="backward", step=self.stamp_step, **keep)  # type: ignore[arg-type]
+            taps = None if self.causal is None or self.causal.is_differencing else self.causal.taps
+            return DifferencingEstimator(scheme="backward", step=self.stamp_step, taps=taps, **keep)  # type: ignore[arg-type]
         return self.model_estimator(**options)  # directions: differencing takes attitudes only
 
     def model_estimator(self, **options: object) -> SupervisedKalmanEstimator:
@@ -274,6 +271,7 @@ class Identification:
             f"{self.differencing_rms:.2g} rad/s: "
             + ("the model's filter runs" if self.use_model else "backward differencing runs")
             + f" ({self.reason})"
+            + ("" if self.causal is None else self.causal.describe())
             + (
                 "\ntimestamps: the steps are uneven but the increments follow their mean: read as regular samples "
                 f"with jittered stamps, every {1e3 * self.stamp_step:.4g} ms"
@@ -494,6 +492,7 @@ def identify(
         use, why = False, f"the model predicts no {1 - GAIN_REQUIRED:.0%} gain over backward differencing"
     else:
         use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
+    causal = None if use or kind == "directions" else causal_filter(increment_spectrum(t, R, valid))
     return Identification(
-        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step=stamp_step
+        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal
     )

@@ -112,11 +112,14 @@ __all__ = [
     "MIN_STRETCH",
     "SEGMENT",
     "SIGNIFICANCE",
+    "IncrementSpectrum",
     "SpectralRate",
     "SpectralSmoother",
     "expected_error",
     "folded",
+    "increment_spectrum",
     "noise_shape",
+    "rate_spectra",
     "rising_noise",
     "spectral_rate",
     "wiener_filter",
@@ -219,13 +222,20 @@ def folded(freq: np.ndarray, motion: np.ndarray) -> np.ndarray:
         return np.minimum(envelope, motion / sinc_a**2)  # no more than the frequency shows
 
 
+def rate_spectra(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(S6): the rate's spectrum in the band, ``S``, and folded onto it from beyond the Nyquist frequency, ``S_a``,
+    both ``(F, 3)``, zero where the motion is not significant."""
+    sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
+    motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
+    fold = folded(freq, motion)
+    return np.maximum(motion - sinc_a**2 * fold, 0.0) / sinc**2, fold
+
+
 def _cross(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(S6): the rate's spectrum at each frequency (base and fold, ``S + S_a``) and its cross-spectrum with the
     increments (``sinc S − sinc_a S_a``), both ``(F, 3)``, zero where the motion is not significant."""
     sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
-    motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
-    fold = folded(freq, motion)
-    base = np.maximum(motion - sinc_a**2 * fold, 0.0) / sinc**2
+    base, fold = rate_spectra(freq, P_b, g, N_b)
     return base + fold, sinc * base - sinc_a * fold
 
 
@@ -265,22 +275,33 @@ class SpectralRate(NamedTuple):
     jitter: str = ""
 
 
-def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
-    """ω̂ of (S2) at the times ``t (T,)`` from the attitudes ``R (T, 3, 3)`` (used where ``valid``)."""
-    T = t.size
-    omega = np.full((T, 3), np.nan)
-    if np.count_nonzero(valid) < 2:
-        raise ValueError(f"the smoother needs at least 2 valid attitude samples; got {int(np.count_nonzero(valid))}")
+class IncrementSpectrum(NamedTuple):
+    """What :func:`increment_spectrum` reads of a log: the normalised frequencies ``freq (F,)`` (cycles per step),
+    the increments' spectrum ``P_b (F, 3)`` (S1), the gain ``g (F, 3)`` (S2)–(S3), the noise's spectrum
+    ``N_b (F, 3)`` and its ``sigma (3,)`` (S5), the step ``h`` (s), what (S8) read (``jitter``), the stretches
+    filtered (``runs``) and their ``rates`` (the ``b_k`` of each, ``(m, 3)``); ``freq`` is empty where no stretch
+    is long enough to give a spectrum."""
+
+    freq: np.ndarray
+    P_b: np.ndarray
+    g: np.ndarray
+    N_b: np.ndarray
+    sigma: np.ndarray
+    h: float
+    jitter: str
+    runs: list[tuple[int, int]]
+    rates: list[np.ndarray]
+
+
+def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
+    """(S1), (S3), (S5) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where ``valid``)."""
     runs = stretches(t, valid)
     long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
     R = np.where(valid[:, None, None], R, np.nan)
     phi = so3.increments(R)  # (T − 1, 3), NaN across a skipped sample
-    tv = t[valid]
-    quiet = quiet_noise(tv, so3.increments(R[valid]))
+    quiet = quiet_noise(t[valid], so3.increments(R[valid]))
     quiet = 0.0 if not math.isfinite(quiet) else quiet
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
-    sigma = np.full(3, quiet)
-    expected = math.nan
     jitter, mean_step = read_steps(t, phi, long_runs)
     if jitter == "stamps":  # the samples' own step (a median of rounded stamps is one of the roundings)
         h = mean_step
@@ -290,31 +311,43 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     rates = [phi[a : b - 1] / (h if jitter == "stamps" else np.diff(t[a:b])[:, None]) for a, b in long_runs]
     segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
     usable = [r for r in rates if r.shape[0] >= segment]
-    if usable and segment >= 8:
-        spectra = [signal.welch(r, nperseg=segment, axis=0, detrend="constant") for r in usable]
-        freq = spectra[0][0]
-        weights = np.array([r.shape[0] for r in usable], dtype=float)
-        P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
-        segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
-        sigma = rising_noise(freq, P_b, h, quiet)
-        g = wiener_gain(freq, P_b, sigma, h, segments)
-        N_b = noise_shape(freq, h)[:, None] * sigma**2
+    if not usable or segment < 8:
+        none = np.zeros((0, 3))
+        return IncrementSpectrum(np.zeros(0), none, none, none, np.full(3, quiet), h, jitter, long_runs, rates)
+    spectra = [signal.welch(r, nperseg=segment, axis=0, detrend="constant") for r in usable]
+    freq = spectra[0][0]
+    weights = np.array([r.shape[0] for r in usable], dtype=float)
+    P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
+    segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
+    sigma = rising_noise(freq, P_b, h, quiet)
+    g = wiener_gain(freq, P_b, sigma, h, segments)
+    N_b = noise_shape(freq, h)[:, None] * sigma**2
+    return IncrementSpectrum(freq, P_b, g, N_b, sigma, h, jitter, long_runs, rates)
+
+
+def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
+    """ω̂ of (S2) at the times ``t (T,)`` from the attitudes ``R (T, 3, 3)`` (used where ``valid``)."""
+    T = t.size
+    omega = np.full((T, 3), np.nan)
+    if np.count_nonzero(valid) < 2:
+        raise ValueError(f"the smoother needs at least 2 valid attitude samples; got {int(np.count_nonzero(valid))}")
+    spectrum = increment_spectrum(t, R, valid)
+    freq, P_b, g, N_b = spectrum.freq, spectrum.P_b, spectrum.g, spectrum.N_b
+    expected = math.nan
+    covered = np.zeros(T, dtype=bool)
+    if freq.size:
         F = wiener_filter(freq, P_b, g, N_b)
         expected = expected_error(freq, P_b, g, N_b)
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
-        for (a, b), r in zip(long_runs, rates, strict=True):
+        for (a, b), r in zip(spectrum.runs, spectrum.rates, strict=True):
             omega[a:b] = _filtered(r, freq, F, min(edge, r.shape[0]))
-        covered = np.zeros(T, dtype=bool)
-        for a, b in long_runs:
             covered[a:b] = True
-    else:
-        covered = np.zeros(T, dtype=bool)
     if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
-        spline = RotationSpline(tv, Rotation.from_matrix(R[valid]))
+        spline = RotationSpline(t[valid], Rotation.from_matrix(R[valid]))
         omega[~covered] = spline(t[~covered], 1)
-    return SpectralRate(omega, sigma, covered, expected, jitter)
+    return SpectralRate(omega, spectrum.sigma, covered, expected, spectrum.jitter)
 
 
 def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
