@@ -50,7 +50,7 @@ from omegahat.identification.spectral import IncrementSpectrum, rate_spectra
 __all__ = ["TAPS", "CausalFilter", "causal_filter"]
 
 TAPS = 16  #: L of (C1): 16 differences (a scratch run with 32 changed no recording's score by more than 0.5 %)
-_SLACK = 1e-6  #: (C3) is met where the bands' error is within this fraction of differencing's
+_SLACK = 1e-6  #: (C3) is met where every band's error is within this fraction of differencing's total above its
 
 
 class CausalFilter(NamedTuple):
@@ -87,6 +87,10 @@ def _design(
     weight[[0, -1]] *= 0.5  # the trapezoid rule on Welch's grid, 0 … ½
     cross = np.sinc(freq) * base + np.sinc(1.0 - freq) * fold
     target = base + fold
+    total = float(np.sum(weight * (P_b - 2.0 * cross + target)))  # differencing's, (C2) with H ≡ 1
+    if not total > 0.0:
+        return np.eye(length)[0], 0.0, 0.0
+    weight = weight / total  # in units of differencing's error: SLSQP's tolerances are absolute
 
     def error(c: np.ndarray) -> np.ndarray:  # (C2) at every frequency, weighted
         re, im = cos @ c, sin @ c
@@ -112,14 +116,13 @@ def _design(
             }
         ],
         method="SLSQP",
-        options={"maxiter": 200},
+        options={"maxiter": 200, "ftol": 1e-10},
     )
     c = np.asarray(result.x, dtype=float)
     bands = np.cumsum(error(c))
-    scale = max(float(differencing[-1]), np.finfo(float).tiny)
-    if not (np.all(np.isfinite(c)) and np.all(bands <= differencing + _SLACK * scale)):
+    if not (np.all(np.isfinite(c)) and np.all(bands <= differencing + _SLACK)):
         c, bands = identity, differencing
-    return c, float(bands[-1]), float(differencing[-1])
+    return c, float(bands[-1]) * total, float(differencing[-1]) * total
 
 
 def causal_filter(spectrum: IncrementSpectrum, length: int = TAPS) -> CausalFilter:
