@@ -80,6 +80,23 @@ def test_without_a_spectrum_the_filter_is_differencing():
     assert found.is_differencing and np.isnan(found.expected_rms)
 
 
+def test_samples_taken_at_uneven_times_keep_the_differences():
+    """(C1) weighs the differences as if one step apart: where (S8) reads samples taken at uneven times (not only
+    stamped so), the filter is differencing itself, and says nothing it cannot know."""
+    t, R, _ = noisy_turn(60.0, 3e-3)
+    uneven = t + np.random.default_rng(5).uniform(-0.1, 0.1, t.size) / RATE_HZ  # the samples themselves jitter
+
+    def turn(times: np.ndarray) -> Rotation:
+        return Rotation.from_rotvec(np.outer(angle_about_z(times), [0.0, 0.0, 1.0]))
+
+    noise = turn(t).inv() * Rotation.from_matrix(R)  # the same 3 mrad, on the turn at the uneven times
+    taken = (turn(uneven) * noise).as_matrix()
+    regular = causal_filter(increment_spectrum(t, R, np.ones(t.size, dtype=bool)))
+    spectrum = increment_spectrum(uneven, taken, np.ones(t.size, dtype=bool))
+    found = causal_filter(spectrum)
+    assert spectrum.jitter == "sampling" and found.is_differencing and not regular.is_differencing
+
+
 def convolved(differences: np.ndarray, taps: np.ndarray) -> np.ndarray:
     """(D4) over one stretch by NumPy's convolution; its first L − 1 rows as they are."""
     out = differences.copy()

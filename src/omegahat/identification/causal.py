@@ -127,10 +127,11 @@ def _design(
 
 def causal_filter(spectrum: IncrementSpectrum, length: int = TAPS) -> CausalFilter:
     """(C3) for the log whose spectrum is ``spectrum`` (:func:`omegahat.identification.spectral.increment_spectrum`):
-    differencing itself (``H ≡ 1``) where the log gives no spectrum."""
+    differencing itself (``H ≡ 1``) where the log gives no spectrum, or where its samples were taken at uneven times
+    ((S8) reads ``"sampling"``: (C1) weighs the differences as if one step apart)."""
     identity = np.zeros((length, 3))
     identity[0] = 1.0
-    if spectrum.freq.size < 3:
+    if spectrum.freq.size < 3 or spectrum.jitter == "sampling" or not np.all(np.isfinite(spectrum.P_b)):
         return CausalFilter(identity, math.nan, math.nan)
     base, fold = rate_spectra(spectrum.freq, spectrum.P_b, spectrum.g, spectrum.N_b)
     taps, mine, theirs = identity.copy(), 0.0, 0.0
