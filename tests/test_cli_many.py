@@ -118,13 +118,14 @@ def test_the_default_rows_name_what_the_identification_ran_and_its_expected_erro
         said[src] = (
             found.group(3),
             float(found.group(1) if found.group(3) == "the model's filter" else found.group(2)),
+            "through the log's causal filter" in printed,  # differencing through (C3), as its closing line says
         )
     assert said[noisy][0] == "the model's filter" and said[clean][0] == "backward differencing"
     code, _, _ = batch(capsys, tmp_path / "in", "-o", tmp_path / "out", "--no-progress", "--jobs", "1")
     assert code == 0
     rows = summary_rows(tmp_path / "out")
     assert rows[str(noisy)]["estimator"] == "omegahat, J = I"
-    assert rows[str(clean)]["estimator"] == "backward differencing"
+    assert rows[str(clean)]["estimator"] == "backward differencing" + (", causal filter" if said[clean][2] else "")
     for src in (noisy, clean):
         assert float(rows[str(src)]["expected_rms_rad_s"]) == pytest.approx(said[src][1], rel=1e-6)
 

@@ -176,7 +176,7 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
     if used.startswith("estimator used: omegahat"):
         return f"omegahat{smooth}, {model}"
     if used.startswith("estimator used: backward differencing"):
-        return "backward differencing"
+        return "backward differencing" + (", causal filter" if "causal filter" in used else "")
     if used.startswith("estimator used: the identified model's smoother"):
         return f"omegahat{smooth}, {model}"
     if used.startswith("estimator used: the log's own Wiener smoother"):
