@@ -144,3 +144,39 @@ def test_taps_are_checked():
         DifferencingEstimator(taps=[[1.0, np.nan, 0.0]])
     with pytest.raises(ValueError, match="taps filter the backward differences"):
         DifferencingEstimator(scheme="central", taps=[1.0])
+
+
+def test_direction_input_is_differenced_through_each_samples_least_squares_attitude():
+    """Two body-frame directions of a noise-free turn: differencing them (``references``) is differencing the
+    attitudes they come from (the least-squares attitude of exact directions is the attitude itself), in ``run`` and
+    sample by sample, a sample of non-finite directions skipped as every estimator skips it."""
+    t, R, _ = noisy_turn(5.0, 0.0)
+    R = (Rotation.from_matrix(R) * Rotation.from_rotvec([0.3, -0.2, 0.1])).as_matrix()  # every axis moves
+    V = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.6, 0.8]])
+    b = np.einsum("tji,nj->tni", R, V)  # b_i = Rᵀ v_i
+    b[40] = np.nan
+    q = Rotation.from_matrix(R).as_quat()
+    q[40] = np.nan
+    on_attitudes = DifferencingEstimator().run(t, q).omega
+    on_directions = DifferencingEstimator(references=V).run(t, b).omega
+    np.testing.assert_allclose(on_directions[1:], on_attitudes[1:], atol=1e-9)
+    streamed = DifferencingEstimator(references=V)
+    one_by_one = np.array([streamed.update(tk, bk).omega for tk, bk in zip(t, b, strict=True)])
+    np.testing.assert_allclose(one_by_one[1:], on_attitudes[1:], atol=1e-9)
+    with pytest.raises(ValueError, match="one direction"):
+        DifferencingEstimator(references=[[0.0, 0.0, 1.0]])
+
+
+def test_a_constant_rate_passes_as_it_is():
+    """The spectrum is of the increments less their mean, blind to the mean rate: (C3) holds ``H(0) = 1`` so that a
+    constant rate under noise is not scaled (it was, by 4e-6 of the rate, before that constraint)."""
+    t = np.arange(0.0, 60.0, 1.0 / RATE_HZ)
+    omega = np.array([0.3, -0.2, 0.5])
+    noise = Rotation.from_rotvec(2e-3 * np.random.default_rng(7).standard_normal((t.size, 3)))
+    R = (Rotation.from_rotvec(np.outer(t, omega)) * noise).as_matrix()
+    found = causal_filter(increment_spectrum(t, R, np.ones(t.size, dtype=bool)))
+    assert not found.is_differencing and abs(np.sum(found.taps, axis=0) - 1.0).max() < 1e-12
+    exact = np.repeat(omega[None], t.size, axis=0)
+    clean = (Rotation.from_rotvec(np.outer(t, omega))).as_quat()
+    filtered = DifferencingEstimator(taps=found.taps).run(t, clean).omega
+    np.testing.assert_allclose(filtered[1:], exact[1:], atol=1e-12)

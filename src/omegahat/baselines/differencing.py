@@ -66,7 +66,7 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator, batch_status, one_of
-from omegahat.validation import as_positive, as_vector3
+from omegahat.validation import as_directions, as_positive, as_vector3
 
 __all__ = [
     "SCHEMES",
@@ -288,6 +288,10 @@ class DifferencingEstimator(StreamingEstimator):
     taps : array_like, optional
         Backward only: the causal filter (D4) of the differences, ``(L,)`` or one column per body axis ``(L, 3)``,
         ``taps[0]`` for the newest; default None (the differences themselves).
+    references : array_like, optional
+        The inertial directions ``(n, 3)`` (n ≥ 2) of direction input: each sample's body-frame directions are
+        checked as every estimator checks them, then turned into its least-squares attitude (Wahba's problem,
+        :func:`omegahat.so3.wahba`), which is differenced; default None (attitudes).
 
     Raises
     ------
@@ -331,8 +335,10 @@ class DifferencingEstimator(StreamingEstimator):
         omega_hat0: ArrayLike | None = None,
         step: float | None = None,
         taps: ArrayLike | None = None,
+        references: ArrayLike | None = None,
     ) -> None:
         self.scheme: Scheme = one_of("scheme", scheme, Scheme)
+        self.references = None if references is None else as_directions(references)
         self.taps = None if taps is None else _checked_taps(taps)
         if self.taps is not None and self.scheme != "backward":
             raise ValueError("taps filter the backward differences (scheme='backward')")
@@ -370,6 +376,7 @@ class DifferencingEstimator(StreamingEstimator):
 
     def _checks(self) -> dict:
         return {
+            "references": self.references,
             "scalar_first": self.scalar_first,
             "rotation_tol": self.rotation_tol,
             "quat_norm_tol": self.quat_norm_tol,
@@ -387,6 +394,8 @@ class DifferencingEstimator(StreamingEstimator):
         sample_ = ms.checked_sample(t, sample, torque, t_prev=self._t_last, **self._checks())  # raises: kept
         t, R = sample_.t, sample_.value
         self._t_last = t
+        if self.references is not None and sample_.status == ms.OK:  # directions: the least-squares attitude
+            R = so3.wahba(R[None], self.references)[0]
         if sample_.status != ms.OK:
             self.n_skipped += 1
             self._skipped_since = True
@@ -454,6 +463,8 @@ class DifferencingEstimator(StreamingEstimator):
             return Estimate(omega, status)
         log = ms.checked_log(t, data, torque, **self._checks())
         times, R = log.times, log.values
+        if self.references is not None:  # directions: each valid sample's least-squares attitude
+            R = np.where(log.valid[:, None, None], so3.wahba(R, self.references), np.nan)
         clock = times if self.step is None else sample_clock(times, self.step)  # (D3)
         est, valid = _differences(clock, R, self.scheme)
         if self.taps is not None:

@@ -28,7 +28,7 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    log can tell from motion), or (c) its own expected error (4) is not below :data:`GAIN_REQUIRED` times
    differencing's. Without J the acceleration model is fitted and reported but not run (on the development
    recordings it lost to differencing whenever it won the likelihood, ``docs/theory/identification.md``). Direction
-   logs always run the model's filter (differencing takes attitudes). Without J the supervisor's innovation test is
+   logs are differenced through each sample's least-squares attitude. Without J the supervisor's innovation test is
    off and its divergence test loose (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, the rotation's Nyquist
    bound): a hand never gives white innovations.
 """
@@ -202,13 +202,14 @@ class Identification:
         gyro-less EKF of the chosen model with its identified noises, or backward differencing. ``options``: the
         estimator's others (``references``, ``measurement``, ``omega_hat0``, ``warm_start``, ``rotation_tol``,
         ``quat_norm_tol``; the ones differencing does not take are left out for it)."""
-        if not self.use_model and options.get("measurement", "attitude") == "attitude":
-            keep = {
-                k: v for k, v in options.items() if k in ("rotation_tol", "quat_norm_tol", "scalar_first", "omega_hat0")
-            }
+        if not self.use_model:  # directions: each sample's least-squares attitude is differenced
+            mine = ("rotation_tol", "quat_norm_tol", "scalar_first", "omega_hat0")
+            keep = {k: v for k, v in options.items() if k in mine}
+            if options.get("measurement") == "directions":  # (attitudes come with the observer's references)
+                keep["references"] = options["references"]
             taps = None if self.causal is None or self.causal.is_differencing else self.causal.taps
             return DifferencingEstimator(scheme="backward", step=self.stamp_step, taps=taps, **keep)  # type: ignore[arg-type]
-        return self.model_estimator(**options)  # directions: differencing takes attitudes only
+        return self.model_estimator(**options)
 
     def model_estimator(self, **options: object) -> SupervisedKalmanEstimator:
         """The observer supervising the gyro-less EKF of the chosen model, whatever step 5 decided. Without J the
@@ -492,7 +493,7 @@ def identify(
         use, why = False, f"the model predicts no {1 - GAIN_REQUIRED:.0%} gain over backward differencing"
     else:
         use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
-    causal = None if use or kind == "directions" else causal_filter(increment_spectrum(t, R, valid))
+    causal = None if use else causal_filter(increment_spectrum(t, R, valid))  # directions: their attitudes (W)
     return Identification(
         1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal
     )
