@@ -338,7 +338,8 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
         if isinstance(est, SplineEstimator):
             return "estimator used: the rotation spline (offline, zero lag; too few samples for anything else)"
         if isinstance(est, DifferencingEstimator):
-            through = "" if est.taps is None else f" through the log's causal filter ({est.taps.shape[0]} taps, (C3))"
+            through = "" if est.references is None else " of each sample's least-squares attitude"
+            through += "" if est.taps is None else f" through the log's causal filter ({est.taps.shape[0]} taps, (C3))"
             why = "no model: see the identification above"
             return f"estimator used: backward differencing{through} ({why}), start: {start}"
         if isinstance(est, SupervisedKalmanEstimator):
