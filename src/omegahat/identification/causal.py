@@ -106,26 +106,28 @@ def _design(
 
     identity = np.eye(length)[0]
     differencing = np.cumsum(error(identity))
+    # c = e_0 + M z: every z keeps Σ c_j = 1, H(0) = 1 (an equality constraint made SLSQP stall on real logs)
+    M = np.vstack([-np.ones(length - 1), np.eye(length - 1)])
     result = optimize.minimize(
-        lambda c: float(np.sum(error(c))),
-        identity,
-        jac=lambda c: np.sum(error_gradient(c), axis=0),
+        lambda z: float(np.sum(error(identity + M @ z))),
+        np.zeros(length - 1),
+        jac=lambda z: np.sum(error_gradient(identity + M @ z), axis=0) @ M,
         constraints=[
             {
                 "type": "ineq",
-                "fun": lambda c: differencing - np.cumsum(error(c)),
-                "jac": lambda c: -np.cumsum(error_gradient(c), axis=0),
-            },
-            {"type": "eq", "fun": lambda c: np.sum(c) - 1.0, "jac": lambda c: np.ones_like(c)},  # H(0) = 1
+                "fun": lambda z: differencing - np.cumsum(error(identity + M @ z)),
+                "jac": lambda z: -np.cumsum(error_gradient(identity + M @ z), axis=0) @ M,
+            }
         ],
         method="SLSQP",
         options={"maxiter": 200, "ftol": 1e-10},
     )
-    c = np.asarray(result.x, dtype=float)
-    c[0] += 1.0 - np.sum(c)  # H(0) = 1 to the last digit: a constant rate passes as it is
-    bands = np.cumsum(error(c))
-    if not (np.all(np.isfinite(c)) and np.all(bands <= differencing + _SLACK)):
-        c, bands = identity, differencing
+    step = M @ np.asarray(result.x, dtype=float)
+    for shrink in (1.0, 0.5, 0.25, 0.125, 0.0):  # a solution that stopped just outside (C3): drawn towards H ≡ 1
+        c = identity + shrink * step
+        bands = np.cumsum(error(c))
+        if np.all(np.isfinite(c)) and np.all(bands <= differencing + _SLACK):
+            break
     return c, float(bands[-1]) * total, float(differencing[-1]) * total
 
 
