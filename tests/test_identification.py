@@ -335,6 +335,15 @@ def test_a_pass_that_ran_away_is_not_averaged_in():
         np.testing.assert_array_equal(combine(wf[None], Pf[None], wb[None], Pb[None])[0], wb)
 
 
+def aligned_attitudes(b: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """Each sample's least-squares attitude ``(T, 3, 3)`` from its directions ``b (T, n, 3)`` of ``V (n, 3)``, by
+    SciPy's ``align_vectors`` (the reference the project's own Wahba solver is checked against)."""
+    unit_v = V / np.linalg.norm(V, axis=1, keepdims=True)
+    return np.stack([
+        Rotation.align_vectors(unit_v, bk / np.linalg.norm(bk, axis=1, keepdims=True))[0].as_matrix() for bk in b
+    ])  # fmt: skip
+
+
 def _directions_log(tmp_path, t, R):
     """A direction log of two inertial directions (gravity's reaction and a magnetic field), the CLI's npz."""
     V = np.array([[0.0, 0.0, 9.83], [-0.9, 15.5, -41.3]])
@@ -360,10 +369,7 @@ def test_smooth_on_directions_without_a_model_is_the_wiener_smoother_of_their_at
     assert "least-squares attitude from its directions" in out
     written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     b = np.load(src)["b"]
-    unit_v = V / np.linalg.norm(V, axis=1, keepdims=True)
-    aligned = np.stack([
-        Rotation.align_vectors(unit_v, bk / np.linalg.norm(bk, axis=1, keepdims=True))[0].as_matrix() for bk in b
-    ])  # fmt: skip
+    aligned = aligned_attitudes(b, V)
     np.testing.assert_allclose(written, SpectralSmoother().run(t, aligned).omega, atol=1e-9)
     from scipy.spatial.transform import RotationSpline
 
@@ -388,10 +394,7 @@ def test_the_default_on_directions_without_a_model_differences_their_attitudes(t
     )
     written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     b = np.load(src)["b"]
-    unit_v = V / np.linalg.norm(V, axis=1, keepdims=True)
-    aligned = np.stack([
-        Rotation.align_vectors(unit_v, bk / np.linalg.norm(bk, axis=1, keepdims=True))[0].as_matrix() for bk in b
-    ])  # fmt: skip
+    aligned = aligned_attitudes(b, V)
     taps = identify(t, b, "directions", references=V).causal.taps
     np.testing.assert_allclose(written[1:], fir(log_difference(t, aligned, scheme="backward")[1:], taps), atol=1e-9)
 
