@@ -23,22 +23,20 @@ and differencing's ``E_1`` is (C2) with ``H ≡ 1``.
 
 **The design.** The least total error that is no worse than differencing's in any low-pass band, and that passes a
 constant rate as it is (Welch's estimate is of the increments less their mean, so the spectrum alone does not see
-the mean rate: without ``H(0) = 1`` a noise-free constant turn came out 4e-6 of its rate off)::
+the mean rate)::
 
     minimise ∫₀^½ E_H df   subject to   ∫₀^F E_H df ≤ ∫₀^F E_1 df  for every F,   H(0) = Σ_j c_j = 1       (C3)
 
-The constraint is what makes the filter safe to run by default. The unconstrained optimum (the causal Wiener
+The band constraint is what makes the filter safe to run by default. The unconstrained optimum (the causal Wiener
 filter) lowers the error over the whole band by trading accuracy at low frequencies, where differencing's error is
-small, for less noise at high ones; a user who low-passes the rate, or a score that compares it in a band (the fair
-score of ``benchmarks/real_world.py`` keeps 0 … 10 Hz), then sees more error than differencing's. Measured on the
-development recordings (a scratch run, every recording): the unconstrained filter was 1.045 times differencing in
-that score on the UPenn logs (worst 1.26); with (C3) none is above 1.02. With a constraint at every frequency
-(``E_H ≤ E_1`` for each ``f``) the filter is differencing itself on every recording: no gain is left.
+small, for less noise at high ones: a user who low-passes the rate, or a score that compares it in a band, would
+then see more error than differencing's. A constraint at every frequency instead (``E_H ≤ E_1`` for each ``f``)
+leaves differencing itself. What each gives on the development recordings: ``docs/theory/identification.md``.
 
 Solved by SciPy's SLSQP from ``H ≡ 1`` (which satisfies (C3) with equality), one body axis at a time on Welch's
-frequency grid, over ``c = e_0 + M z`` (``M``'s columns sum to zero: ``Σ_j c_j = 1`` for every ``z``; as an equality
-constraint it made SLSQP stall on real logs). A solution that misses (C3) by more than 10⁻⁶ of differencing's error
-is drawn towards ``H ≡ 1`` (its step from there halved, up to three times), else is differencing itself.
+frequency grid, over ``c = e_0 + M z`` (``M``'s columns sum to zero: ``Σ_j c_j = 1`` for every ``z``, with no
+equality constraint for SLSQP to meet). A solution that misses (C3) by more than 10⁻⁶ of differencing's error is
+drawn towards ``H ≡ 1`` (its step from there halved, up to three times), else is differencing itself.
 """
 
 from __future__ import annotations
@@ -53,7 +51,7 @@ from omegahat.identification.spectral import IncrementSpectrum, rate_spectra
 
 __all__ = ["TAPS", "CausalFilter", "causal_filter"]
 
-TAPS = 16  #: L of (C1) (a scratch run with 32 moved each group's geometric mean on the corpus by at most 0.3 %)
+TAPS = 16  #: L of (C1): the differences the filter spans
 _SLACK = 1e-6  #: (C3) is met where no band's error exceeds differencing's by more than this fraction of its total
 
 
