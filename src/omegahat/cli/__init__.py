@@ -151,7 +151,7 @@ def build_parser(commands: Collection[str] | None = None) -> argparse.ArgumentPa
     return parser
 
 
-_received: list[KeyboardInterrupt] = []  #: the interrupts received since :func:`main` began
+_received: list[KeyboardInterrupt] = []  #: the interrupts received while :func:`main` runs
 
 
 def _interrupt(signum: int, frame: object) -> None:
@@ -163,7 +163,7 @@ def _interrupt(signum: int, frame: object) -> None:
 
 
 def pending_interrupt() -> KeyboardInterrupt | None:
-    """The last SIGINT or SIGTERM received since :func:`main` began (as its ``KeyboardInterrupt``), whether or not
+    """The last SIGINT or SIGTERM received while :func:`main` runs (as its ``KeyboardInterrupt``), whether or not
     its raise reached the command: a loop over files checks it between files."""
     return _received[-1] if _received else None
 
@@ -184,7 +184,6 @@ def interrupted_by(exc: BaseException) -> KeyboardInterrupt | None:
 def main(argv: list[str] | None = None) -> int:
     """Run ``omegahat COMMAND ...`` (module docstring); returns the exit status."""
     previous = {}
-    _received.clear()
     if threading.current_thread() is threading.main_thread():  # signal handlers live in the main thread only
         previous = {s: signal.signal(s, _interrupt) for s in INTERRUPTS}
     words = sys.argv[1:] if argv is None else argv
@@ -212,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+        _received.clear()  # what this command received is not the next one's (a caller may run several in-process)
 
 
 def entry() -> None:
