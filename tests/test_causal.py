@@ -8,7 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
-from omegahat.identification.causal import TAPS, causal_filter
+from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
 from omegahat.identification.spectral import increment_spectrum
 
 RATE_HZ = 30.0
@@ -45,7 +45,8 @@ def band_errors(error: np.ndarray) -> np.ndarray:
 def test_the_filter_beats_differencing_in_total_and_loses_in_no_band():
     """A turn of five sines under 3 mrad of noise at 30 Hz: the filtered differences have less error than the
     differences against the closed-form rate at the intervals' midpoints (their common target), in every band 0 … F
-    no more (within the periodogram's scatter), and the filter's own expectation of the ratio is near the measured."""
+    no more (within the periodogram's scatter), and the filter's own expectations, of its error (the figure the
+    command prints) and of the ratio, are near the measured."""
     t, R, truth = noisy_turn(200.0, 3e-3)
     found = causal_filter(increment_spectrum(t, R, np.ones(t.size, dtype=bool)))
     assert found.taps.shape == (TAPS, 3) and not found.is_differencing
@@ -59,6 +60,25 @@ def test_the_filter_beats_differencing_in_total_and_loses_in_no_band():
     assert np.all(bands_f[5:] <= 1.1 * bands_d[5:])  # the first few bins hold a handful of periodogram values
     expected = found.expected_rms / found.differencing_rms
     assert abs(expected / measured - 1.0) < 0.2
+    assert abs(found.expected_rms / np.sqrt(3.0 * np.mean(err_f**2)) - 1.0) < 0.05  # RMS over the three axes
+
+
+@pytest.mark.parametrize("band", [0.05, 0.1, 0.25, 0.5])
+def test_the_expected_error_in_a_band_is_the_error_low_passed_there(band):
+    """(C2) summed over 0 … F, for the filter and for differencing, against their measured errors on the same turn
+    (the closed-form rate at the midpoints) cut off at F by the FFT: the self-assessment in a user's band."""
+    t, R, truth = noisy_turn(200.0, 3e-3)
+    spectrum = increment_spectrum(t, R, np.ones(t.size, dtype=bool))
+    found = causal_filter(spectrum)
+    identity = np.zeros((TAPS, 3))
+    identity[0] = 1.0
+    filtered = DifferencingEstimator(taps=found.taps).run(t, Rotation.from_matrix(R).as_quat()).omega[1:]
+    for taps, estimate in ((found.taps, filtered), (identity, log_difference(t, R, scheme="backward")[1:])):
+        error = estimate[TAPS:] - truth[TAPS:]
+        spectrum_of_error = np.fft.rfft(error, axis=0)
+        spectrum_of_error[np.fft.rfftfreq(error.shape[0]) > band] = 0.0
+        measured = np.sqrt(3.0 * np.mean(np.fft.irfft(spectrum_of_error, n=error.shape[0], axis=0) ** 2))
+        assert abs(expected_rms_below(spectrum, taps, band) / measured - 1.0) < 0.1
 
 
 def test_a_noise_free_slow_turn_keeps_the_differences_close():

@@ -100,7 +100,7 @@ def test_the_expected_error_and_estimator_are_the_one_file_runs(tmp_path, capsys
 def test_the_default_rows_name_what_the_identification_ran_and_its_expected_error(tmp_path, capsys):
     """With no option each file runs what the identification of its head chose: a noisy log the model's filter, a
     noise-free one backward differencing. The table names that estimator (it said "sarras" for both) and the
-    expected error the one-file run states for it."""
+    expected error the one-file run states for it (for differencing, the log's spectrum's account of what runs)."""
     noisy = good_log(tmp_path / "in" / "noisy.csv", n=3000)
     t = np.arange(3000) / 100.0  # a hand-like turning motion, no noise: nothing for a filter to remove
     yaw, pitch, roll = Angle(0.0, [(0.8, 0.31, 0.0), (0.3, 0.73, 1.0)]), Angle(0.0, [(0.4, 0.47, 2.0)]), Angle(0.0)
@@ -115,11 +115,13 @@ def test_the_default_rows_name_what_the_identification_ran_and_its_expected_erro
             printed,
         )
         assert found is not None, printed
-        said[src] = (
-            found.group(3),
-            float(found.group(1) if found.group(3) == "the model's filter" else found.group(2)),
-            "through the log's causal filter" in printed,  # differencing through (C3), as its closing line says
-        )
+        spectrum = re.search(r"expected RMS error ([0-9.e+-]+) rad/s by the log's spectrum", printed)
+        if found.group(3) == "the model's filter":
+            stated = found.group(1)
+        else:  # differencing: the log's spectrum's account (C2) of what runs (30 s of samples give a spectrum)
+            assert spectrum is not None, printed
+            stated = spectrum.group(1)
+        said[src] = (found.group(3), float(stated), "through the log's causal filter" in printed)
     assert said[noisy][0] == "the model's filter" and said[clean][0] == "backward differencing"
     code, _, _ = batch(capsys, tmp_path / "in", "-o", tmp_path / "out", "--no-progress", "--jobs", "1")
     assert code == 0

@@ -279,3 +279,14 @@ def test_the_built_corpus_holds_no_acceptance_trial_and_every_recording_loads():
         rec = load_recording(path)
         assert rec.movement.any() and np.isfinite(rec.reference_rates).all(), path
         json.dumps(rec.meta)
+
+
+def test_the_self_assessment_benchmark_skips_cleanly_without_a_corpus(tmp_path, monkeypatch, capsys):
+    """``benchmarks/self_assessment.py`` on an empty corpus directory says so, exits 0 and leaves RESULTS.md as is."""
+    monkeypatch.setenv("OMEGAHAT_CORPUS_DIR", str(tmp_path))
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # the scripts import results_md as a sibling
+    results = ROOT / "benchmarks" / "RESULTS.md"
+    before = results.read_text()
+    assert _script("self_assessment").main() == 0
+    assert "nothing to measure" in capsys.readouterr().out
+    assert results.read_text() == before

@@ -75,6 +75,7 @@ _IDENTIFIED = re.compile(
     r"(the model's filter|backward differencing) runs"
 )
 #: the smoothers' closing line (omegahat.io.choice): the two expectations where both ran, or the Wiener smoother's
+_BY_SPECTRUM = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s by the log's spectrum")  # differencing, (C2)
 _SMOOTHED = re.compile(
     r"expected RMS error: the model's smoother ([0-9.eE+-]+) rad/s, the Wiener smoother ([0-9.eE+-]+) rad/s"
     r"|expected RMS error ([0-9.eE+-]+) rad/s \((?:its spectrum's|the model's) account\)"
@@ -188,7 +189,8 @@ def _estimator(args: argparse.Namespace, stream: LogStream, summary: Summary) ->
 
 def expected_error(estimator: str, summary: Summary, report: list[str]) -> float | None:
     """The expected RMS error the run stated for the estimator that ran: the fixed-gain observer's (its gains' line),
-    the identification's for its model's filter or for backward differencing, or (``--smooth``) the smoother's it
+    the identification's for its model's filter or for backward differencing (the log's spectrum's account (C2) where
+    the log has a spectrum, else differencing's (D1)), or (``--smooth``) the smoother's it
     kept (its closing line; None for the rotation spline, which states none)."""
     if estimator.startswith("sarras"):
         found = _EXPECTED.search(summary.gains_text)
@@ -201,7 +203,10 @@ def expected_error(estimator: str, summary: Summary, report: list[str]) -> float
     found = next((m for line in report for m in [_IDENTIFIED.search(line)] if m), None)
     if found is None:
         return None
-    return float(found.group(1) if found.group(3) == "the model's filter" else found.group(2))
+    if found.group(3) == "the model's filter":
+        return float(found.group(1))
+    spectrum = next((m for line in report for m in [_BY_SPECTRUM.search(line)] if m), None)
+    return float(spectrum.group(1) if spectrum else found.group(2))  # (C2)'s account where the log has a spectrum
 
 
 class Stopped(KeyboardInterrupt):

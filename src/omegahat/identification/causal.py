@@ -49,7 +49,7 @@ from scipy import optimize
 
 from omegahat.identification.spectral import IncrementSpectrum, rate_spectra
 
-__all__ = ["TAPS", "CausalFilter", "causal_filter"]
+__all__ = ["TAPS", "CausalFilter", "causal_filter", "expected_rms_below"]
 
 TAPS = 16  #: L of (C1): the differences the filter spans
 _SLACK = 1e-6  #: (C3) is met where no band's error exceeds differencing's by more than this fraction of its total
@@ -65,12 +65,16 @@ class CausalFilter(NamedTuple):
     differencing_rms: float
 
     def describe(self) -> str:
-        """The words ``omegahat estimate`` adds after "backward differencing runs (...)"."""
+        """The words ``omegahat estimate`` adds after "backward differencing runs (...)": what runs and the RMS error
+        (C2) expects of it, the estimate's own self-assessment (the model's figure before it is the model's)."""
+        if not math.isfinite(self.expected_rms):
+            return "; the log gives no spectrum for a causal filter (C3): the differences as they are"
+        expected = f"expected RMS error {self.expected_rms:.2g} rad/s by the log's spectrum"
         if self.is_differencing:
-            return "; the log's causal filter (C3) finds no band to gain in: the differences as they are"
+            return f"; the log's causal filter (C3) finds no band to gain in: the differences as they are, {expected}"
         return (
-            f", through the log's causal filter (C3): {self.expected_rms / self.differencing_rms:.2g} times "
-            "differencing's error by the log's spectrum, and no more in any band from 0 Hz up"
+            f", through the log's causal filter (C3): {expected}, {self.expected_rms / self.differencing_rms:.2g} "
+            "times differencing's by the same account, and no more in any band from 0 Hz up"
         )
 
     @property
@@ -79,24 +83,38 @@ class CausalFilter(NamedTuple):
         return bool(np.all(self.taps[0] == 1.0) and np.all(self.taps[1:] == 0.0))
 
 
+def _density(re: np.ndarray, im: np.ndarray, P_b: np.ndarray, cross: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(C2) at each frequency for ``H = re + i·im``, with ``cross = sinc S + sinc_a S_a`` and ``target = S + S_a``."""
+    return (re**2 + im**2) * P_b - 2.0 * re * cross + target
+
+
+def _cross_target(freq: np.ndarray, base: np.ndarray, fold: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``sinc S + sinc_a S_a`` and ``S + S_a`` of (C2), for the rate in the band ``base`` and folded ``fold``."""
+    return np.sinc(freq) * base + np.sinc(1.0 - freq) * fold, base + fold
+
+
+def _trapezoid(freq: np.ndarray) -> np.ndarray:
+    """The trapezoid rule's weights on Welch's grid, 0 … ½ cycles per step."""
+    weight = np.full(freq.size, freq[1] - freq[0])
+    weight[[0, -1]] *= 0.5
+    return weight
+
+
 def _design(
     freq: np.ndarray, P_b: np.ndarray, base: np.ndarray, fold: np.ndarray, length: int
 ) -> tuple[np.ndarray, float, float]:
     """(C3) for one body axis: the taps ``(L,)`` and the integrals of (C2) over the band for them and for ``H ≡ 1``."""
     j = np.arange(length)
     cos, sin = np.cos(2 * np.pi * np.outer(freq, j)), np.sin(2 * np.pi * np.outer(freq, j))
-    weight = np.full(freq.size, freq[1] - freq[0])
-    weight[[0, -1]] *= 0.5  # the trapezoid rule on Welch's grid, 0 … ½
-    cross = np.sinc(freq) * base + np.sinc(1.0 - freq) * fold
-    target = base + fold
+    weight = _trapezoid(freq)
+    cross, target = _cross_target(freq, base, fold)
     total = float(np.sum(weight * (P_b - 2.0 * cross + target)))  # differencing's, (C2) with H ≡ 1
     if not total > 0.0:
         return np.eye(length)[0], 0.0, 0.0
     weight = weight / total  # in units of differencing's error: SLSQP's tolerances are absolute
 
     def error(c: np.ndarray) -> np.ndarray:  # (C2) at every frequency, weighted
-        re, im = cos @ c, sin @ c
-        return weight * ((re**2 + im**2) * P_b - 2.0 * re * cross + target)
+        return weight * _density(cos @ c, sin @ c, P_b, cross, target)
 
     def error_gradient(c: np.ndarray) -> np.ndarray:  # (F, L)
         re, im = cos @ c, sin @ c
@@ -146,3 +164,21 @@ def causal_filter(spectrum: IncrementSpectrum, length: int = TAPS) -> CausalFilt
         taps[:, axis] = c
         mine, theirs = mine + e_h, theirs + e_1
     return CausalFilter(taps, math.sqrt(max(mine, 0.0)), math.sqrt(max(theirs, 0.0)))
+
+
+def expected_rms_below(spectrum: IncrementSpectrum, taps: np.ndarray, band: float) -> float:
+    """The RMS error (rad/s, the three axes together) that (C2) expects of the taps ``(L, 3)`` of (C1) in the band
+    0 … ``band`` (cycles per step; ½ gives the filter's ``expected_rms``): the error a user who low-passes the
+    rate, or a score that compares it in a band, would see by the log's spectrum. NaN without a spectrum."""
+    if spectrum.freq.size < 3 or not np.all(np.isfinite(spectrum.P_b)):
+        return math.nan
+    freq = spectrum.freq
+    base, fold = rate_spectra(freq, spectrum.P_b, spectrum.g, spectrum.N_b)
+    weight = _trapezoid(freq) * (freq <= band)
+    phase = 2 * np.pi * np.outer(freq, np.arange(taps.shape[0]))
+    total = 0.0
+    for axis in range(3):
+        cross, target = _cross_target(freq, base[:, axis], fold[:, axis])
+        E = _density(np.cos(phase) @ taps[:, axis], np.sin(phase) @ taps[:, axis], spectrum.P_b[:, axis], cross, target)
+        total += float(np.sum(weight * E))
+    return math.sqrt(max(total, 0.0))

@@ -1,0 +1,114 @@
+"""The default's self-assessment on the real recordings of issue 24, in the whole band and in the score's band.
+
+Run: ``OMEGAHAT_CORPUS_DIR=DIR python benchmarks/self_assessment.py`` after ``python benchmarks/real_world.py
+--after`` (it reads the measured scores of ``benchmarks/real_world_after.csv``; about 10 s). Skips cleanly without a
+corpus.
+
+Where the identification declines the model (every real recording but two UPenn logs), ``omegahat estimate`` runs
+backward differencing through the log's causal filter and prints the error that (C2) expects of it over the whole
+band, ``0 … ½`` cycles per step (:class:`omegahat.identification.causal.CausalFilter`). The fair score compares the
+error only below min(10 Hz, 0.4 × rate) (a zero-phase Butterworth low-pass), against a calibrated gyroscope.
+This benchmark sets both of (C2)'s figures, the whole band's and the score's band's
+(:func:`omegahat.identification.causal.expected_rms_below`), beside the measured score, for the default and for
+backward differencing (the identification of the log's head, as the command runs it). Where even the score's band's
+figure is far below the measured one for both, the score is not the estimate's error: it is the reference's own
+(its noise, its calibration residual), which no attitude-only estimate can see or reduce.
+Writes its section of RESULTS.md.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from omegahat.identification import identify
+from omegahat.identification.causal import expected_rms_below
+from omegahat.identification.spectral import increment_spectrum
+from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ
+from omegahat.lab.evaluation.corpus import load_recording, recordings
+from results_md import machine_line, write_section
+
+SECTION = "## The default's self-assessment in the score's band (benchmarks/self_assessment.py)"
+AFTER_CSV = Path(__file__).with_name("real_world_after.csv")
+HEAD = 8192  # the rows the identification reads (omegahat.io.choice.IDENTIFY_SAMPLES)
+DEFAULT, BACKWARD = "omegahat estimate", "backward diff."
+
+
+def group(name: str) -> str:
+    if name.startswith("upenn"):
+        return "upenn"
+    return "broad @28.6Hz" if "@28" in name else "broad @9.52Hz" if "@9" in name else "broad"
+
+
+def main() -> int:
+    paths = [p for p in recordings() if not p.name.startswith("plant")]
+    if not paths or not AFTER_CSV.exists():
+        print("no corpus (OMEGAHAT_CORPUS_DIR) or no real_world_after.csv: nothing to measure")
+        return 0
+    scored = {(r["recording"], r["method"]): r for r in csv.DictReader(AFTER_CSV.open())}
+    ratios: dict[str, list[tuple[float, float, float, float]]] = {}
+    skipped, t0 = [], time.perf_counter()
+    for path in paths:
+        native = load_recording(path)
+        for rec in [native] + ([native.decimated(10), native.decimated(30)] if native.name.startswith("broad") else []):
+            mine, theirs = scored.get((rec.name, DEFAULT)), scored.get((rec.name, BACKWARD))
+            ident = identify(rec.t[:HEAD], rec.data[:HEAD], rec.kind)
+            if mine is None or theirs is None or ident.causal is None:
+                skipped.append(rec.name)  # the model's filter ran: its own account, not (C2)
+                continue
+            R = rec.R[:HEAD]
+            valid = np.all(np.isfinite(R.reshape(len(R), -1)), axis=1)
+            spectrum = increment_spectrum(rec.t[:HEAD], R, valid)  # as identify reads it
+            taps = ident.causal.taps
+            identity = np.zeros_like(taps)
+            identity[0] = 1.0
+            rate = 1.0 / float(np.median(np.diff(rec.t)))
+            band = min(DEFAULT_CUTOFF_HZ, 0.4 * rate) / rate  # cycles per step
+            m_mine, m_theirs = float(mine["rms_rad_s"]), float(theirs["rms_rad_s"])
+            ratios.setdefault(group(rec.name), []).append(
+                (
+                    expected_rms_below(spectrum, taps, 0.5) / m_mine,
+                    expected_rms_below(spectrum, taps, band) / m_mine,
+                    expected_rms_below(spectrum, identity, 0.5) / m_theirs,
+                    expected_rms_below(spectrum, identity, band) / m_theirs,
+                )
+            )
+    elapsed = time.perf_counter() - t0
+
+    def cell(x: np.ndarray) -> str:
+        outside = int(np.sum((x < 0.5) | (x > 2.0)))
+        return f"{math.exp(np.mean(np.log(x))):.2f}; {x.min():.2f}–{x.max():.2f}; {outside}"
+
+    lines = [
+        machine_line(),
+        "",
+        "Command: `python benchmarks/self_assessment.py` (after `real_world.py --after`). Every real recording where "
+        "the default ran differencing through the log's causal filter; (C2)'s expected RMS error, over the whole band "
+        "(what `omegahat estimate` prints) and below the score's cutoff, divided by the measured score. Cells: "
+        "geometric mean; lowest–highest; how many outside 0.5–2.",
+        "",
+        "| group | n | default, whole band (printed) | default, score's band | differencing, whole band "
+        "| differencing, score's band |",
+        "| --- | ---: | --- | --- | --- | --- |",
+    ]
+    every = []
+    for name in sorted(ratios):
+        a = np.array(ratios[name])
+        every.append(a)
+        lines.append(f"| {name} | {len(a)} | " + " | ".join(cell(a[:, k]) for k in range(4)) + " |")
+    a = np.vstack(every)
+    lines.append(f"| all | {len(a)} | " + " | ".join(cell(a[:, k]) for k in range(4)) + " |")
+    lines += ["", f"Not counted (the model's filter ran; its own account): {', '.join(skipped) or 'none'}. "
+              f"{len(a)} recordings in {elapsed:.0f} s."]  # fmt: skip
+    print("\n".join(lines))
+    write_section(SECTION, "\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
