@@ -69,12 +69,16 @@ class CausalFilter(NamedTuple):
         (C2) expects of it, the estimate's own self-assessment (the model's figure before it is the model's)."""
         if not math.isfinite(self.expected_rms):
             return "; the log gives no spectrum for a causal filter (C3): the differences as they are"
-        expected = f"expected RMS error {self.expected_rms:.2g} rad/s by the log's spectrum"
+        expected = f"expected RMS error {self.expected_rms:.3g} rad/s by the log's spectrum"
         if self.is_differencing:
-            return f"; the log's causal filter (C3) finds no band to gain in: the differences as they are, {expected}"
+            return (
+                "; the log's causal filter (C3) finds no band to gain in: the differences as they are, "
+                f"{expected} (the figures before are the model's account)"
+            )
         return (
             f", through the log's causal filter (C3): {expected}, {self.expected_rms / self.differencing_rms:.2g} "
-            "times differencing's by the same account, and no more in any band from 0 Hz up"
+            f"times differencing's ({self.differencing_rms:.3g} rad/s) by the same account (the figures before are "
+            "the model's), and no more in any band from 0 Hz up"
         )
 
     @property
