@@ -74,8 +74,9 @@ _IDENTIFIED = re.compile(
     r"expected RMS error of the model's filter ([0-9.eE+-]+) rad/s, of backward differencing ([0-9.eE+-]+) rad/s: "
     r"(the model's filter|backward differencing) runs"
 )
+#: differencing's own expectation where it runs through the log's causal filter ((C2) of identification.causal)
+_BY_SPECTRUM = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s by the log's spectrum")
 #: the smoothers' closing line (omegahat.io.choice): the two expectations where both ran, or the Wiener smoother's
-_BY_SPECTRUM = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s by the log's spectrum")  # differencing, (C2)
 _SMOOTHED = re.compile(
     r"expected RMS error: the model's smoother ([0-9.eE+-]+) rad/s, the Wiener smoother ([0-9.eE+-]+) rad/s"
     r"|expected RMS error ([0-9.eE+-]+) rad/s \((?:its spectrum's|the model's) account\)"

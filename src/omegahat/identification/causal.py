@@ -37,6 +37,9 @@ Solved by SciPy's SLSQP from ``H ≡ 1`` (which satisfies (C3) with equality), o
 frequency grid, over ``c = e_0 + M z`` (``M``'s columns sum to zero: ``Σ_j c_j = 1`` for every ``z``, with no
 equality constraint for SLSQP to meet). A solution that misses (C3) by more than 10⁻⁶ of differencing's error is
 drawn towards ``H ≡ 1`` (its step from there halved, up to three times), else is differencing itself.
+
+**What it expects.** (C2) over the whole band, ``expected_rms``, is the error ``omegahat estimate`` prints for what
+runs; over ``0 … F`` (:func:`expected_rms_below`) it is what a user who low-passes the rate at ``F`` would see.
 """
 
 from __future__ import annotations
@@ -66,7 +69,7 @@ class CausalFilter(NamedTuple):
 
     def describe(self) -> str:
         """The words ``omegahat estimate`` adds after "backward differencing runs (...)": what runs and the RMS error
-        (C2) expects of it, the estimate's own self-assessment (the model's figure before it is the model's)."""
+        (C2) expects of it, the estimate's own self-assessment (the figures printed before these are the model's)."""
         if not math.isfinite(self.expected_rms):
             return "; the log gives no spectrum for a causal filter (C3): the differences as they are"
         expected = f"expected RMS error {self.expected_rms:.3g} rad/s by the log's spectrum"
@@ -112,7 +115,7 @@ def _design(
     cos, sin = np.cos(2 * np.pi * np.outer(freq, j)), np.sin(2 * np.pi * np.outer(freq, j))
     weight = _trapezoid(freq)
     cross, target = _cross_target(freq, base, fold)
-    total = float(np.sum(weight * (P_b - 2.0 * cross + target)))  # differencing's, (C2) with H ≡ 1
+    total = float(np.sum(weight * _density(np.ones(1), np.zeros(1), P_b, cross, target)))  # differencing's: H ≡ 1
     if not total > 0.0:
         return np.eye(length)[0], 0.0, 0.0
     weight = weight / total  # in units of differencing's error: SLSQP's tolerances are absolute
