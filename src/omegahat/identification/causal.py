@@ -68,19 +68,19 @@ class CausalFilter(NamedTuple):
     differencing_rms: float
 
     def describe(self) -> str:
-        """The words ``omegahat estimate`` adds after "backward differencing runs (...)": what runs and the RMS error
-        (C2) expects of it, the estimate's own self-assessment (the figures printed before these are the model's)."""
+        """The line ``omegahat estimate`` adds after "backward differencing runs (...)": what runs and the RMS error
+        (C2) expects of it, the estimate's own self-assessment (the figures printed above it are the model's)."""
         if not math.isfinite(self.expected_rms):
-            return "; the log gives no spectrum for a causal filter (C3): the differences as they are"
+            return "\n  the log gives no spectrum for a causal filter (C3): the differences as they are"
         expected = f"expected RMS error {self.expected_rms:.3g} rad/s by the log's spectrum"
         if self.is_differencing:
             return (
-                "; the log's causal filter (C3) finds no band to gain in: the differences as they are, "
-                f"{expected} (the figures before are the model's account)"
+                "\n  the log's causal filter (C3) finds no band to gain in: the differences as they are, "
+                f"{expected} (the figures above are the model's account)"
             )
         return (
-            f", through the log's causal filter (C3): {expected}, {self.expected_rms / self.differencing_rms:.2g} "
-            f"times differencing's ({self.differencing_rms:.3g} rad/s) by the same account (the figures before are "
+            f"\n  through the log's causal filter (C3): {expected}, {self.expected_rms / self.differencing_rms:.2g} "
+            f"times differencing's ({self.differencing_rms:.3g} rad/s) by the same account (the figures above are "
             "the model's), and no more in any band from 0 Hz up"
         )
 
