@@ -17,7 +17,7 @@ own (its noise, its calibration residual), which no attitude-only estimate can s
 
 It also shows why (C2) does not decide between the model and differencing: it cannot see what a model knows (on
 noise-free logs of the plant it expects far less of differencing than differencing measures, its target being the
-interval's midpoint). Writes its section of RESULTS.md.
+interval's midpoint). And it sets ``--smooth``'s printed figure beside both scores. Writes its section of RESULTS.md.
 """
 
 from __future__ import annotations
