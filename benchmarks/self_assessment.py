@@ -34,8 +34,8 @@ from scipy.interpolate import CubicSpline
 
 from omegahat import so3
 from omegahat.identification import identify
-from omegahat.identification.causal import causal_filter, expected_rms_below
-from omegahat.identification.spectral import increment_spectrum, rate_spectra
+from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
+from omegahat.identification.spectral import increment_spectrum
 from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
 from omegahat.lab.evaluation.corpus import METHODS, Recording, load_recording, recordings
 from results_md import machine_line, write_section
@@ -81,10 +81,9 @@ def fold_split(rec: Recording) -> tuple[float, float, float, float, float]:
     head = R[:HEAD]
     valid = np.all(np.isfinite(head.reshape(len(head), -1)), axis=1)
     found = increment_spectrum(t[:HEAD], head, valid)
-    _, fold = rate_spectra(found.freq, found.P_b, found.g, found.N_b)
-    weight = np.full(found.freq.size, found.freq[1] - found.freq[0])
-    weight[[0, -1]] *= 0.5
-    expected_fold = math.sqrt(float(np.sum(weight[:, None] * fold * (1.0 - np.sinc(1.0 - found.freq))[:, None] ** 2)))
+    identity = np.zeros((TAPS, 3))
+    identity[0] = 1.0
+    expected_fold = expected_rms_below(found, identity, 0.5, fold_only=True)
     rest = ~native.movement.astype(bool) & (native.t > grid[0] + 1.0) & (native.t < grid[-1] - 1.0)
 
     def rms(x: np.ndarray) -> float:

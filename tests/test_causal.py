@@ -8,8 +8,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
-from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
-from omegahat.identification.spectral import increment_spectrum
+from omegahat.identification.causal import TAPS, CausalFilter, causal_filter, expected_rms_below
+from omegahat.identification.spectral import IncrementSpectrum, increment_spectrum
 
 RATE_HZ = 30.0
 FREQS_HZ = (0.3, 1.1, 2.3, 4.0, 6.5)  # the rate's lines, up to 0.22 of the sample rate
@@ -79,6 +79,36 @@ def test_the_expected_error_in_a_band_is_the_error_low_passed_there(band):
         spectrum_of_error[np.fft.rfftfreq(error.shape[0]) > band] = 0.0
         measured = np.sqrt(3.0 * np.mean(np.fft.irfft(spectrum_of_error, n=error.shape[0], axis=0) ** 2))
         assert abs(expected_rms_below(spectrum, taps, band) / measured - 1.0) < 0.1
+
+
+@pytest.mark.parametrize("p", [2.0, 4.0, 6.0])
+def test_the_part_from_above_the_nyquist_frequency_is_conservative_on_written_out_spectra(p):
+    """A rate spectrum ``S(ν) ∝ ν^−p`` sampled without noise (``P_b = sinc² S(f) + sinc_a² S(1 − f)``): differencing's
+    (C2) term from the folded rate, ``∫ S(1 − f) (1 − sinc(1 − f))² df`` in closed form on the same grid, against
+    ``fold_only``: no less (the fold (S6) reads off the band's top is conservative on a power law) and at most
+    twice it. Without ``fold_only`` the band's rate would count too (on ``p = 6``, 26 times the true fold's)."""
+    freq = np.linspace(0.0, 0.5, 129)
+    weight = np.full(freq.size, freq[1] - freq[0])
+    weight[[0, -1]] *= 0.5
+
+    def S(nu):
+        return 1e-2 * np.maximum(nu, 1e-3) ** -p
+
+    P_b = np.tile((np.sinc(freq) ** 2 * S(freq) + np.sinc(1.0 - freq) ** 2 * S(1.0 - freq))[:, None], (1, 3))
+    P_b[0] = 0.0
+    spectrum = IncrementSpectrum(freq, P_b, np.ones_like(P_b), np.zeros_like(P_b), np.zeros(3), 0.01, "", [], [])
+    identity = np.zeros((TAPS, 3))
+    identity[0] = 1.0
+    true_fold = np.sqrt(3.0 * np.sum(weight * S(1.0 - freq) * (1.0 - np.sinc(1.0 - freq)) ** 2))
+    assert 1.0 <= expected_rms_below(spectrum, identity, 0.5, fold_only=True) / true_fold <= 2.0
+
+
+def test_the_printed_line_says_how_much_of_the_expected_error_is_extrapolated():
+    """The part from above the Nyquist frequency is named where it is more than a tenth of the expected error."""
+    taps = np.zeros((TAPS, 3))
+    taps[0], taps[1] = 0.6, 0.4
+    assert "0.5 of it from the rate above the Nyquist frequency" in CausalFilter(taps, 1.0, 1.1, 0.5).describe()
+    assert "above the Nyquist" not in CausalFilter(taps, 1.0, 1.1, 0.05).describe()
 
 
 def test_a_noise_free_slow_turn_keeps_the_differences_close():

@@ -61,11 +61,13 @@ _SLACK = 1e-6  #: (C3) is met where no band's error exceeds differencing's by mo
 class CausalFilter(NamedTuple):
     """What :func:`causal_filter` designs: ``taps (L, 3)`` of (C1) per body axis (``taps[0]`` the newest
     difference's), and the total error (C2) it expects, ``expected_rms``, and differencing's, ``differencing_rms``,
-    by the same spectrum (rad/s, the three axes together)."""
+    by the same spectrum (rad/s, the three axes together); ``fold_rms``: the part of ``expected_rms`` from the rate
+    above the Nyquist frequency (the ``S_a`` term of (C2)), which (S6) extrapolates from the band's top."""
 
     taps: np.ndarray
     expected_rms: float
     differencing_rms: float
+    fold_rms: float = math.nan
 
     def describe(self) -> str:
         """The line ``omegahat estimate`` adds after "backward differencing runs (...)": what runs and the RMS error
@@ -73,6 +75,11 @@ class CausalFilter(NamedTuple):
         if not math.isfinite(self.expected_rms):
             return "\n  the log gives no spectrum for a causal filter (C3): the differences as they are"
         expected = f"expected RMS error {self.expected_rms:.3g} rad/s by the log's spectrum"
+        if self.fold_rms > 0.1 * self.expected_rms:  # the samples cannot show it: say how much is extrapolated
+            expected += (
+                f" ({self.fold_rms:.3g} of it from the rate above the Nyquist frequency, which the samples cannot "
+                "show: extrapolated from the band's top)"
+            )
         if self.is_differencing:
             return (
                 "\n  the log's causal filter (C3) finds no band to gain in: the differences as they are, "
@@ -170,13 +177,15 @@ def causal_filter(spectrum: IncrementSpectrum, length: int = TAPS) -> CausalFilt
         c, e_h, e_1 = _design(spectrum.freq, spectrum.P_b[:, axis], base[:, axis], fold[:, axis], length)
         taps[:, axis] = c
         mine, theirs = mine + e_h, theirs + e_1
-    return CausalFilter(taps, math.sqrt(max(mine, 0.0)), math.sqrt(max(theirs, 0.0)))
+    fold_rms = expected_rms_below(spectrum, taps, 0.5, fold_only=True)
+    return CausalFilter(taps, math.sqrt(max(mine, 0.0)), math.sqrt(max(theirs, 0.0)), fold_rms)
 
 
-def expected_rms_below(spectrum: IncrementSpectrum, taps: np.ndarray, band: float) -> float:
+def expected_rms_below(spectrum: IncrementSpectrum, taps: np.ndarray, band: float, fold_only: bool = False) -> float:
     """The RMS error (rad/s, the three axes together) that (C2) expects of the taps ``(L, 3)`` of (C1) in the band
     0 … ``band`` (cycles per step; ½ gives the filter's ``expected_rms``): the error a user who low-passes the
-    rate, or a score that compares it in a band, would see by the log's spectrum. NaN without a spectrum."""
+    rate, or a score that compares it in a band, would see by the log's spectrum. ``fold_only``: its ``S_a`` term
+    alone, ``S_a |sinc_a H − 1|²``, the part from the rate above the Nyquist frequency. NaN without a spectrum."""
     if spectrum.freq.size < 3 or not np.all(np.isfinite(spectrum.P_b)):
         return math.nan
     freq = spectrum.freq
@@ -184,8 +193,12 @@ def expected_rms_below(spectrum: IncrementSpectrum, taps: np.ndarray, band: floa
     weight = _trapezoid(freq) * (freq <= band)
     phase = 2 * np.pi * np.outer(freq, np.arange(taps.shape[0]))
     total = 0.0
+    if fold_only:  # (C2) of the folded rate alone: its share of P_b and no rate in the band
+        base, P_b = np.zeros_like(base), np.sinc(1.0 - freq)[:, None] ** 2 * fold
+    else:
+        P_b = spectrum.P_b
     for axis in range(3):
         cross, target = _cross_target(freq, base[:, axis], fold[:, axis])
-        E = _density(np.cos(phase) @ taps[:, axis], np.sin(phase) @ taps[:, axis], spectrum.P_b[:, axis], cross, target)
+        E = _density(np.cos(phase) @ taps[:, axis], np.sin(phase) @ taps[:, axis], P_b[:, axis], cross, target)
         total += float(np.sum(weight * E))
     return math.sqrt(max(total, 0.0))
