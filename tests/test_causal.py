@@ -10,6 +10,7 @@ from scipy.spatial.transform import Rotation
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
 from omegahat.identification.causal import TAPS, CausalFilter, causal_filter, expected_rms_below
 from omegahat.identification.spectral import IncrementSpectrum, increment_spectrum
+from omegahat.measurements import MeasurementError
 
 RATE_HZ = 30.0
 FREQS_HZ = (0.3, 1.1, 2.3, 4.0, 6.5)  # the rate's lines, up to 0.22 of the sample rate
@@ -187,6 +188,24 @@ def test_d4_restarts_at_a_skipped_sample_and_at_a_gap_and_streams_as_it_runs():
     chunked = DifferencingEstimator(taps=taps)
     first, second = chunked.run(t[:185], q[:185]).omega, chunked.run(t[185:], q[185:]).omega
     np.testing.assert_allclose(np.vstack([first, second])[1:], est[1:], atol=1e-12)
+
+
+def test_a_rejected_sample_leaves_the_filter_as_it_was():
+    """A sample the checks refuse (its time before the last one's; a matrix that is no rotation) raises, and the
+    filter's stretch goes on as if it had never come: the rows equal those of the log without it."""
+    t = np.arange(60) * 0.01
+    q = Rotation.from_rotvec(np.outer(np.sin(3 * t), [0.2, 0.1, 0.3])).as_quat()
+    taps = np.array([0.5, 0.3, 0.2])
+    clean = DifferencingEstimator(taps=taps).run(t, q).omega
+    streamed, rows = DifferencingEstimator(taps=taps), []
+    for k in range(t.size):
+        if k == 30:
+            with pytest.raises(MeasurementError):
+                streamed.update(t[k - 2], q[k])  # earlier than the last sample
+            with pytest.raises(MeasurementError):
+                streamed.update(t[k], 2.0 * Rotation.from_quat(q[k]).as_matrix())  # not a rotation
+        rows.append(streamed.update(t[k], q[k]).omega)
+    np.testing.assert_allclose(np.array(rows)[1:], clean[1:], atol=1e-12)
 
 
 def test_taps_are_checked():
