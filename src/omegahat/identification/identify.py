@@ -160,7 +160,7 @@ class Identification:
         :mod:`omegahat.identification.spectral`), the samples' own step (s), which differencing takes ((D3) of
         :mod:`omegahat.baselines.differencing`); None otherwise.
     causal : CausalFilter or None, optional
-        Where differencing runs on attitudes, its causal filter from the log's spectrum (C3); None otherwise.
+        Where differencing runs (directions: on their least-squares attitudes), its causal filter (C3); else None.
 
     Examples
     --------
