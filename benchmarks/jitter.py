@@ -39,7 +39,7 @@ from omegahat.baselines.spline import spline_rate
 from omegahat.identification import spectral
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.lab.evaluation.broad import score
-from omegahat.lab.evaluation.corpus import Recording, corpus_dir, load_recording, pipeline_method, recordings
+from omegahat.lab.evaluation.corpus import Recording, corpus_dir, group_of, load_recording, pipeline_method, recordings
 from results_md import machine_line, write_section
 
 SECTION = "## `--smooth` and the default on jittered timestamps (benchmarks/jitter.py)"
@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
         for rec in [rec0] + ([rec0.decimated(10)] if rec0.name.startswith("broad") else []):
             if args.only and not any(fnmatch.fnmatch(rec.name, p) for p in args.only):
                 continue
-            group = rec.name.split("-")[0] + ("" if "@" not in rec.name else " @" + rec.name.split("@")[1])
+            group = group_of(rec.name)
             options = rec.score_options()
             for name, jitter in JITTERS.items():
                 if name.startswith("sampling") and not rec.name.startswith("broad"):

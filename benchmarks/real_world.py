@@ -44,6 +44,7 @@ from omegahat.lab.evaluation.corpus import (
     Row,
     corpus_dir,
     evaluate,
+    group_of,
     load_recording,
     pipeline_method,
     recordings,
@@ -135,7 +136,7 @@ def summary_table(rows: list[Row]) -> str:
         pm = est.predicted / est.score.rms if est and est.predicted and est.score else None
         cells = [_fmt(rms(name, "backward diff."))] + [_fmt(x, ".3f") for x in ratios + extra] + [_fmt(pm, ".2f")]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
-        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+        group = group_of(name)
         groups.setdefault(group, []).append(ratios + extra)
     lines += ["", "| group (geometric mean) | n | " + " | ".join(head[2:-1]) + " |", "|" + " --- |" * (len(head) - 1)]
     for g, vals in groups.items():
@@ -156,9 +157,6 @@ def after_table(rows: list[Row]) -> str:
     groups: dict[str, list[tuple[float | None, float | None, float | None]]] = {}
     assessments: dict[str, list[float | None]] = {}
     smoothed: dict[str, list[float | None]] = {}  # --smooth's own expected error over its measured score
-
-    def group_of(name: str) -> str:
-        return name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
 
     for name in recs:
         bwd, d, sm = (by.get((name, m)) for m in ("backward diff.", "omegahat estimate", "omegahat estimate --smooth"))
@@ -209,7 +207,7 @@ def preset_table(rows: list[Row]) -> str:
     groups: dict[str, list[Row]] = {}
     for r in rows:
         name = r.recording
-        groups.setdefault(name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1]), []).append(r)
+        groups.setdefault(group_of(name), []).append(r)
     head = (
         "| group | n | --preset mocap ÷ bwd (geo. mean; worst) | --smooth ÷ bwd (geo. mean; worst) "
         "| --smooth ÷ best offline (geo. mean) |"
@@ -335,7 +333,7 @@ def directions_table(rows: list[Row]) -> str:
         if ratio is None or r.method not in columns:
             continue
         name = r.recording
-        group = name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
+        group = group_of(name)
         for g in (group, "all real recordings") if group != "plant" else (group,):
             groups.setdefault(g, {}).setdefault(r.method, []).append(ratio)
     head = (

@@ -37,19 +37,13 @@ from omegahat.identification import identify
 from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
 from omegahat.identification.spectral import increment_spectrum
 from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
-from omegahat.lab.evaluation.corpus import METHODS, Recording, load_recording, recordings
+from omegahat.lab.evaluation.corpus import METHODS, Recording, group_of, load_recording, recordings
 from results_md import machine_line, write_section
 
 SECTION = "## The default's self-assessment in the score's band (benchmarks/self_assessment.py)"
 AFTER_CSV = Path(__file__).with_name("real_world_after.csv")
 HEAD = 8192  # the rows the identification reads (omegahat.io.choice.IDENTIFY_SAMPLES)
 DEFAULT, BACKWARD, SMOOTH = "omegahat estimate", "backward diff.", "omegahat estimate --smooth"
-
-
-def group(name: str) -> str:
-    if name.startswith(("upenn", "plant")):
-        return name.split("-")[0]
-    return "broad @28.6Hz" if "@28" in name else "broad @9.52Hz" if "@9" in name else "broad"
 
 
 def fold_split(rec: Recording) -> tuple[float, ...]:
@@ -131,7 +125,7 @@ def main() -> int:
                 ran, fair = method[SMOOTH].run(rec), scored.get((rec.name, SMOOTH))
                 if ran.predicted and fair:
                     w_smooth = score(rec, ran.omega, **whole).rms
-                    smoothed.setdefault(group(rec.name), []).append(
+                    smoothed.setdefault(group_of(rec.name), []).append(
                         (ran.predicted / float(fair["rms_rad_s"]), ran.predicted / w_smooth)
                     )
             given = {"J": rec.inertia, "torque": None if rec.torque is None else rec.torque[:HEAD]}
@@ -152,10 +146,10 @@ def main() -> int:
             rate = 1.0 / float(np.median(np.diff(rec.t)))
             band = min(DEFAULT_CUTOFF_HZ, 0.4 * rate) / rate  # cycles per step
             if rec.native is not None and rec.name.startswith("broad"):
-                folds.append((group(rec.name), *fold_split(rec)))
+                folds.append((group_of(rec.name), *fold_split(rec)))
             w_mine, w_theirs = (score(rec, method[m].run(rec).omega, **whole).rms for m in (DEFAULT, BACKWARD))
             printed, differencing = expected_rms_below(spectrum, taps, 0.5), expected_rms_below(spectrum, identity, 0.5)
-            ratios.setdefault(group(rec.name), []).append(
+            ratios.setdefault(group_of(rec.name), []).append(
                 (
                     printed / m_mine,
                     expected_rms_below(spectrum, taps, band) / m_mine,

@@ -25,6 +25,7 @@ from omegahat.lab.evaluation.corpus import (
     Outcome,
     Recording,
     evaluate,
+    group_of,
     load_recording,
     pipeline_method,
     recordings,
@@ -290,3 +291,9 @@ def test_the_self_assessment_benchmark_skips_cleanly_without_a_corpus(tmp_path, 
     assert _script("self_assessment").main() == 0
     assert "nothing to measure" in capsys.readouterr().out
     assert results.read_text() == before
+
+
+def test_a_recording_s_group_is_its_source_and_its_decimated_rate():
+    assert group_of("broad-06_undisturbed_fast_rotation_A@28.6Hz") == "broad @28.6Hz"
+    assert group_of("broad-06_undisturbed_fast_rotation_A") == "broad"
+    assert group_of("upenn-03") == "upenn"

@@ -62,6 +62,7 @@ __all__ = [
     "Row",
     "corpus_dir",
     "evaluate",
+    "group_of",
     "load_recording",
     "pipeline_method",
     "recordings",
@@ -184,6 +185,12 @@ def load_recording(path: str | os.PathLike[str]) -> Recording:
         meta["name"], a["t"].astype(float), kind, data, a["ref_t"].astype(float), a["ref_w"].astype(float),
         a["motion"].astype(bool), meta, refs, a.get("tau"), a.get("inertia"),
     )  # fmt: skip
+
+
+def group_of(name: str) -> str:
+    """The group a recording's ``name`` belongs to in the tables: its source (``broad``, ``upenn``, ``plant``), and
+    the rate it was decimated to if it was (``"broad @28.6Hz"``)."""
+    return name.split("-")[0] + ("" if "@" not in name else " @" + name.split("@")[1])
 
 
 def recordings(directory: str | os.PathLike[str] | None = None) -> list[Path]:
