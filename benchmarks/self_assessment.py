@@ -36,13 +36,14 @@ from omegahat import so3
 from omegahat.identification import identify
 from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
 from omegahat.identification.spectral import increment_spectrum
+from omegahat.io.choice import IDENTIFY_SAMPLES
 from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
 from omegahat.lab.evaluation.corpus import METHODS, Recording, group_of, load_recording, recordings
 from results_md import machine_line, write_section
 
 SECTION = "## The default's self-assessment in the score's band (benchmarks/self_assessment.py)"
 AFTER_CSV = Path(__file__).with_name("real_world_after.csv")
-HEAD = 8192  # the rows the identification reads (omegahat.io.choice.IDENTIFY_SAMPLES)
+HEAD = IDENTIFY_SAMPLES  # the rows of the log the identification reads, as the command runs it
 DEFAULT, BACKWARD, SMOOTH = "omegahat estimate", "backward diff.", "omegahat estimate --smooth"
 
 
