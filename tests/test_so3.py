@@ -321,3 +321,34 @@ def test_wahba_is_scipys_align_vectors_and_nan_where_a_sample_is_missing():
     assert np.all(np.isnan(got[2]))
     with pytest.raises(ValueError, match="wahba needs directions"):
         so3.wahba(b[:, :2], V)
+
+
+def test_the_coning_term_is_the_increments_departure_from_the_mean_rate():
+    """(M1) on a coning motion ``R(t) = Rz(αt) Rx(β) Rz(γt)`` (body rate in closed form) at 10 Hz: the differenced
+    attitude departs from the interval's mean rate (SciPy's ``quad_vec``) by 5e-4 rad/s, and by less than 1e-6
+    once the coning term is taken off."""
+    from scipy.integrate import quad_vec
+
+    alpha, beta, gamma, h = 1.3, 0.7, -0.9, 0.1
+
+    def attitude(t):
+        t = np.atleast_1d(t)
+        z = np.array([0.0, 0.0, 1.0])
+        return (
+            Rotation.from_rotvec(np.outer(alpha * t, z))
+            * Rotation.from_rotvec([beta, 0, 0])
+            * Rotation.from_rotvec(np.outer(gamma * t, z))
+        )
+
+    def rate(t):
+        t = np.atleast_1d(t)
+        z = np.array([0.0, 0.0, 1.0])
+        turn = (Rotation.from_rotvec(np.outer(gamma * t, z)).inv() * Rotation.from_rotvec([beta, 0, 0]).inv()).apply(z)
+        return alpha * turn + gamma * z
+
+    t = np.arange(0.0, 3.0, h)
+    b = so3.increments(attitude(t).as_matrix()) / h
+    mean = np.array([quad_vec(lambda s: rate(s)[0], a, a + h)[0] / h for a in t[:-1]])
+    w = rate(t)
+    assert np.max(np.abs(b - mean)) > 4e-4
+    assert np.max(np.abs(b - mean - so3.coning(w[:-1], w[1:], h))) < 1e-6

@@ -246,3 +246,26 @@ def test_the_expected_error_is_the_error_within_a_factor_two():
     omega = est.run(t, noisy(R, 1e-3).as_quat()).omega
     measured = rms(omega[100:-100] - rate[100:-100])
     assert 0.5 < est.expected_rms / measured < 2.0
+
+
+@pytest.mark.parametrize("rate", [10.0, 30.0])
+def test_a_coning_motion_is_recovered_without_the_log_maps_bias(rate):
+    """A noise-free coning motion ``R(t) = Rz(αt) Rx(β) Rz(γt)`` (body rate in closed form): differenced attitudes
+    carry the coning term (M1), constant along the body's z here (5.3e-4 rad/s at 10 Hz, 5.8e-5 at 30 Hz). With
+    (S1c) the smoother's mean error along z is below a tenth of the term (measured under 1e-6; without (S1c) it is
+    the term) and its RMS error below the term's size (measured 4.3e-4 and 2.7e-5)."""
+    alpha, beta, gamma = 1.3, 0.7, -0.9
+    z = np.array([0.0, 0.0, 1.0])
+    t = np.arange(0.0, 60.0, 1.0 / rate)
+    R = (
+        Rotation.from_rotvec(np.outer(alpha * t, z))
+        * Rotation.from_rotvec([beta, 0, 0])
+        * Rotation.from_rotvec(np.outer(gamma * t, z))
+    )
+    turn = (Rotation.from_rotvec(np.outer(gamma * t, z)).inv() * Rotation.from_rotvec([beta, 0, 0]).inv()).apply(z)
+    truth = alpha * turn + gamma * z
+    coning = np.linalg.norm(np.cross(truth[0], truth[1])) / (12.0 * rate)  # (M1)'s size, the same at every step
+    omega = SpectralSmoother().run(t, R.as_quat()).omega
+    inner = slice(t.size // 5, -t.size // 5)
+    assert abs(np.mean(omega[inner, 2] - truth[inner, 2])) < 0.1 * coning
+    assert rms(omega[inner] - truth[inner]) < coning

@@ -28,6 +28,7 @@ from omegahat.kernels import rotation as rot
 
 __all__ = [
     "as_matrix",
+    "coning",
     "exp",
     "from_quat",
     "hat",
@@ -144,6 +145,19 @@ def increments(R: ArrayLike) -> np.ndarray:
     NaN where either rotation is NaN (a missing sample)."""
     R = np.asarray(R, dtype=float)
     return log(np.swapaxes(R[:-1], -1, -2) @ R[1:])
+
+
+def coning(omega_start: ArrayLike, omega_end: ArrayLike, h: ArrayLike) -> np.ndarray:
+    r"""The second-order term of an increment's log: for a body rate ``ω(t)`` over a step ``h`` (``Ṙ = R ω×``), ::
+
+        log(R_kᵀ R_{k+1}) / h = (1/h) ∫ ω dt + (h/12) ω_k × ω_{k+1} + O(h³)                              (M1)
+
+    (Magnus: the increment's log is ``∫ω − ½ ∫∫_{s<u} ω(u) × ω(s)``; for ``ω = ω_k + s ω̇`` the double integral is
+    ``(h³/6) ω̇ × ω_k``, and ``h ω_k × ω̇ = ω_k × ω_{k+1}`` to first order). A rate whose axis turns (coning) makes
+    differenced attitudes depart from the interval's mean rate by this much; a rate of fixed axis does not.
+    ``(*B, 3), (*B, 3), (*B,) or scalar -> (*B, 3)``: rad/s."""
+    a, b = np.asarray(omega_start, dtype=float), np.asarray(omega_end, dtype=float)
+    return np.asarray(h, dtype=float)[..., None] / 12.0 * np.cross(a, b)
 
 
 def orthogonality_error(R: ArrayLike) -> np.ndarray:
