@@ -88,3 +88,24 @@ def rms(err) -> float:
     """RMS of ``|err|`` over rows that have an estimate."""
     e = np.linalg.norm(err, axis=1)
     return float(np.sqrt(np.mean(e[np.isfinite(e)] ** 2)))
+
+
+def convolved(differences: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """(D4) over one stretch by NumPy's convolution; its first L − 1 rows as they are."""
+    out = differences.copy()
+    L = taps.shape[0]
+    if differences.shape[0] >= L:
+        for j in range(3):
+            out[L - 1 :, j] = np.convolve(differences[:, j], taps[:, j], mode="valid")
+    return out
+
+
+def two_passes(differences: np.ndarray, h: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """(D5) over one stretch by NumPy's convolution: (D4) again over the differences less ``(h/12) ω̃_{k−1} × ω̃_k``
+    of (D4)'s first pass (none at the stretch's first difference); its first L − 1 rows the differences."""
+    first = convolved(differences, taps)
+    corrected = differences.copy()
+    corrected[1:] -= (h[1:, None] / 12.0) * np.cross(first[:-1], first[1:])
+    out = convolved(corrected, taps)
+    out[: taps.shape[0] - 1] = differences[: taps.shape[0] - 1]
+    return out

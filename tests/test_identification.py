@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from logmaker import two_passes
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
 from omegahat.identification import identify
 from omegahat.identification.identify import steady_rate_error
@@ -49,16 +50,6 @@ def rms(e):
     e = np.asarray(e)
     ok = np.all(np.isfinite(e), axis=1)
     return float(np.sqrt(np.mean(np.sum(e[ok] ** 2, axis=1))))
-
-
-def fir(differences: np.ndarray, taps: np.ndarray) -> np.ndarray:
-    """(D4) on a log without gaps, by NumPy's convolution: ``Σ_j c_j b_{k−j}`` per axis, the first L − 1 rows as
-    they are."""
-    L = taps.shape[0]
-    out = differences.copy()
-    for j in range(3):
-        out[L - 1 :, j] = np.convolve(differences[:, j], taps[:, j], mode="valid")
-    return out
 
 
 def test_the_concentrated_noise_maximises_the_likelihood():
@@ -241,7 +232,10 @@ def test_smooth_without_a_model_is_the_logs_wiener_smoother_and_the_fit_start_is
     causal = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     assert np.all(np.isfinite(causal[0])) and "estimator used: backward differencing" in capsys.readouterr().out
     taps = identify(read_back[:, 0], read_back[:, 1:], "quaternion").causal.taps  # (C3) of this log
-    np.testing.assert_allclose(causal[1:], fir(log_difference(t, R, scheme="backward")[1:], taps), atol=1e-9)
+    steps = np.diff(t, prepend=np.nan)[1:]
+    np.testing.assert_allclose(
+        causal[1:], two_passes(log_difference(t, R, scheme="backward")[1:], steps, taps), atol=1e-9
+    )
 
 
 def test_a_noise_free_log_with_the_inertia_is_not_restarted_at_every_sample():
@@ -396,7 +390,10 @@ def test_the_default_on_directions_without_a_model_differences_their_attitudes(t
     b = np.load(src)["b"]
     aligned = aligned_attitudes(b, V)
     taps = identify(t, b, "directions", references=V).causal.taps
-    np.testing.assert_allclose(written[1:], fir(log_difference(t, aligned, scheme="backward")[1:], taps), atol=1e-9)
+    steps = np.diff(t)
+    np.testing.assert_allclose(
+        written[1:], two_passes(log_difference(t, aligned, scheme="backward")[1:], steps, taps), atol=1e-9
+    )
 
 
 def test_smooth_on_directions_with_a_model_keeps_the_model_smoother(tmp_path):
@@ -500,5 +497,6 @@ def test_the_default_reads_jittered_stamps_and_differences_over_whole_steps(tmp_
     taps = identify(stamps, q, "quaternion").causal.taps  # (C3) of this log, through which differencing runs
     truth = log_difference(t, R, scheme="backward")
     # the samples' step is the stamps' mean over 600 samples: off 1/30 s by at most 0.4 steps / 599 (6.7e-4)
-    np.testing.assert_allclose(written[1:], fir(truth[1:], taps), rtol=7e-4, atol=1e-9)
+    steps = np.full(t.size - 1, np.mean(np.diff(stamps)))  # (D3): whole steps of the samples' step
+    np.testing.assert_allclose(written[1:], two_passes(truth[1:], steps, taps), rtol=7e-4, atol=1e-9)
     assert np.max(np.abs(log_difference(stamps, R, scheme="backward")[1:] - truth[1:])) > 0.1

@@ -24,12 +24,9 @@ at least one (a dropped sample, an interval of about two steps, counts two)::
 
     h_k = step · max(1, round((t_k − t_{k−1}) / step))                                             (D3)
 
-A causal filter of the backward differences (``omegahat estimate`` designs one from the log's spectrum, (C1)–(C3)
-of :mod:`omegahat.identification.causal`): given taps ``c_0 … c_{L−1}`` per body axis, over the last ``L``
-differences of one stretch (a skipped sample, or an interval more than :data:`STRETCH_BREAK` times the one before,
-starts a new stretch: its first ``L − 1`` outputs are the differences themselves, as is the one across the break)::
-
-    ω̂_k = Σ_j c_j · Log(R_{k−j−1}ᵀ R_{k−j}) / h_{k−j}                                            (D4)
+A causal filter of the backward differences, (D4)–(D5) of :mod:`omegahat.baselines.stretch_filter` (``omegahat
+estimate`` designs one from the log's spectrum, (C1)–(C3) of :mod:`omegahat.identification.causal`), runs where
+``taps`` are given.
 
 Noise: i.i.d. attitude noise σ (rad per axis) gives about ``√2 σ / h`` per axis for (D1) and ``σ / (√2 h)``
 for (D2), so differencing is usually followed by a low-pass. The optional one here is first order and causal,
@@ -60,17 +57,16 @@ from typing import Literal, TypeAlias, get_args
 import numba
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import signal
 from scipy.spatial.transform import Rotation
 
 from omegahat import measurements as ms
 from omegahat import so3
+from omegahat.baselines.stretch_filter import Stretch, checked_taps, filtered_differences, next_in_stretch
 from omegahat.interface import Estimate, Measurement, Measurements, Status, StreamingEstimator, batch_status, one_of
 from omegahat.validation import as_directions, as_positive, as_vector3
 
 __all__ = [
     "SCHEMES",
-    "STRETCH_BREAK",
     "DifferencingEstimator",
     "Scheme",
     "log_difference",
@@ -83,18 +79,6 @@ __all__ = [
 #: (D1), causal, or (D2), one sample late
 Scheme: TypeAlias = Literal["backward", "central"]
 SCHEMES: tuple[str, ...] = get_args(Scheme)
-
-
-STRETCH_BREAK = 1.5  #: (D4): an interval this many times the one before breaks the filter's stretch (a dropped sample)
-
-
-def _checked_taps(taps: ArrayLike) -> np.ndarray:
-    """``taps`` as ``(L, 3)`` finite floats (one column per body axis)."""
-    c = np.asarray(taps, dtype=float)
-    c = np.repeat(c[:, None], 3, axis=1) if c.ndim == 1 else c
-    if c.ndim != 2 or c.shape[1] != 3 or c.shape[0] < 1 or not np.all(np.isfinite(c)):
-        raise ValueError(f"taps must be finite, shape (L,) or (L, 3); got shape {np.shape(taps)}")
-    return c
 
 
 def _check_cutoff_hz(cutoff_hz):
@@ -135,32 +119,6 @@ def _differences(t, R, scheme):
     out = np.full((t.size, 3), np.nan)
     out[iv] = est
     return out, valid
-
-
-def _filtered_differences(est, valid, clock, taps):
-    """(D4) over the backward differences ``est (T, 3)`` (rows at the valid samples after the first), in place; the
-    stretches as :meth:`DifferencingEstimator.update` keeps them. Returns the last stretch's differences (at most
-    ``L``, oldest first) and the last interval, the streaming state."""
-    iv = np.flatnonzero(valid)
-    if iv.size < 2:
-        return [], None
-    rows, spans = iv[1:], np.diff(clock[iv])
-    longer = np.concatenate([[False], spans[1:] > STRETCH_BREAK * spans[:-1]])
-    breaks = np.flatnonzero((np.diff(iv) > 1) | longer)  # the differences that break a stretch
-    L = taps.shape[0]
-    start = 0
-    for stop in [*breaks.tolist(), rows.size]:  # a break's own difference stays as it is, the stretch follows it
-        run = rows[start:stop]
-        if run.size >= L:
-            b = est[run]
-            est[run[L - 1 :]] = np.stack([signal.lfilter(taps[:, j], [1.0], b[:, j])[L - 1 :] for j in range(3)], 1)
-            last = b
-        else:
-            last = est[run]
-        start = stop + 1
-    if breaks.size and breaks[-1] == rows.size - 1:  # the last difference broke a stretch: nothing kept
-        return [], float(spans[-1])
-    return [row.copy() for row in last[-L:]], float(spans[-1])
 
 
 def _hold_skipped(est, valid, scheme):
@@ -339,7 +297,7 @@ class DifferencingEstimator(StreamingEstimator):
     ) -> None:
         self.scheme: Scheme = one_of("scheme", scheme, Scheme)
         self.references = None if references is None else as_directions(references)
-        self.taps = None if taps is None else _checked_taps(taps)
+        self.taps = None if taps is None else checked_taps(taps)
         if self.taps is not None and self.scheme != "backward":
             raise ValueError("taps filter the backward differences (scheme='backward')")
         self.step = None if step is None else float(as_positive(step, "step", n=1)[0])
@@ -366,8 +324,7 @@ class DifferencingEstimator(StreamingEstimator):
         self._t_last: float | None = None  # the last sample's time, skipped or not (the time check's previous time)
         self.estimate_time: float | None = None
         self.n_skipped = 0
-        self._recent: list[np.ndarray] = []  # (D4): the differences of the current stretch, at most L, oldest first
-        self._last_span: float | None = None  # the last interval differenced
+        self._stretch = Stretch([], [], None, None)  # (D4)–(D5): the current stretch
         self._skipped_since = False  # a sample was skipped since the last valid one
 
     def _span(self, interval: float) -> float:
@@ -432,18 +389,11 @@ class DifferencingEstimator(StreamingEstimator):
         return self._output(Status.CORRECTED)
 
     def _filter(self, difference: np.ndarray, span: float) -> np.ndarray:
-        """(D4) with the newest ``difference`` over the interval ``span``: the filtered rate, or the difference where
-        its stretch has fewer than L of them (or it breaks the stretch)."""
+        """(D4)–(D5) with the newest ``difference`` over the interval ``span``: the filtered rate, or the difference
+        where its stretch has fewer than L of them (or it breaks the stretch)."""
         assert self.taps is not None
-        broken = self._skipped_since or (self._last_span is not None and span > STRETCH_BREAK * self._last_span)
-        self._last_span = span
-        if broken:
-            self._recent = []
-            return difference
-        self._recent = [*self._recent, difference][-self.taps.shape[0] :]
-        if len(self._recent) < self.taps.shape[0]:
-            return difference
-        return np.einsum("lj,lj->j", self.taps, np.array(self._recent[::-1]))
+        rate, self._stretch = next_in_stretch(self._stretch, self.taps, difference, span, self._skipped_since)
+        return rate
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """ω̂ for every sample time, ``(T, 3)``, row k for ``t[k]`` (for ``"central"`` too: rows are not delayed,
@@ -468,7 +418,7 @@ class DifferencingEstimator(StreamingEstimator):
         clock = times if self.step is None else sample_clock(times, self.step)  # (D3)
         est, valid = _differences(clock, R, self.scheme)
         if self.taps is not None:
-            self._recent, self._last_span = _filtered_differences(est, valid, clock, self.taps)  # (D4)
+            self._stretch = filtered_differences(est, valid, clock, self.taps)  # (D4)–(D5)
         if self.omega_hat0 is not None and valid.any():  # the first valid sample: the given rate (as update)
             est[np.flatnonzero(valid)[0]] = self.omega_hat0
         if self.cutoff_hz is not None:
