@@ -500,3 +500,27 @@ def test_the_default_reads_jittered_stamps_and_differences_over_whole_steps(tmp_
     steps = np.full(t.size - 1, np.mean(np.diff(stamps)))  # (D3): whole steps of the samples' step
     np.testing.assert_allclose(written[1:], two_passes(truth[1:], steps, taps), rtol=7e-4, atol=1e-9)
     assert np.max(np.abs(log_difference(stamps, R, scheme="backward")[1:] - truth[1:])) > 0.1
+
+
+@pytest.mark.parametrize("rate", [30.0, 100.0, 286.0])
+def test_the_higher_differences_leave_white_noise_to_the_third(rate):
+    """(N2) on white noise of 1 mrad alone: the orders agree, so (N1)'s value is kept (within 10 % of the noise)."""
+    t = np.arange(0.0, 60.0, 1.0 / rate)
+    R = Rotation.from_rotvec(1e-3 * np.random.default_rng(5).standard_normal((t.size, 3)))
+    phi = (R[:-1].inv() * R[1:]).as_rotvec()
+    assert quiet_noise(t, phi, higher=True) == quiet_noise(t, phi) == pytest.approx(1e-3, rel=0.1)
+
+
+def test_the_higher_differences_see_the_noise_under_a_smooth_motion():
+    """A smooth noise-free turn at 30 Hz has third differences ten times a noise of 0.1 µrad (computed here with
+    (N1)'s normalisation over the whole log); under that noise (N1) is the motion's jerk and (N2) gives the noise
+    back within 20 %."""
+    t = np.arange(0.0, 60.0, 1.0 / 30.0)
+    smooth = Rotation.from_rotvec(np.column_stack([np.sin(t), 0.5 * np.cos(1.3 * t), 0.2 * t]))
+    clean = (smooth[:-1].inv() * smooth[1:]).as_rotvec()
+    third = np.sum(np.diff(clean, n=2, axis=0) ** 2, axis=1)
+    assert np.sqrt(np.median(third) / (20.0 * 2.3660)) > 1e-6
+    R = smooth * Rotation.from_rotvec(1e-7 * np.random.default_rng(6).standard_normal((t.size, 3)))
+    phi = (R[:-1].inv() * R[1:]).as_rotvec()
+    assert quiet_noise(t, phi) > 1e-6
+    assert quiet_noise(t, phi, higher=True) == pytest.approx(1e-7, rel=0.2)

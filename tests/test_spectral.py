@@ -43,14 +43,15 @@ def noisy(R: Rotation, sigma: float, seed: int = 1) -> Rotation:
 
 
 def test_a_noise_free_band_limited_motion_is_recovered():
-    """(S2) inverts the interval mean exactly on a band-limited motion: 1e-3 rad/s of a 2.7 rad/s turn inside the
-    log (the spectrum's leakage), 0.1 rad/s at its ends (where the reflection (S4) stands in for the unseen
-    motion)."""
+    """(S2) inverts the interval mean exactly on a band-limited motion: 1e-5 rad/s of a 2.7 rad/s turn inside the
+    log, 1e-2 at its ends (where the reflection (S4) stands in for the unseen motion); measured 1.4e-6 and 3.5e-3.
+    Before the extension was brought to zero along a raised cosine (and F·sinc interpolated in place of F), the
+    FFT's zero padding made a jump that rang through the filter's edge near the Nyquist frequency: 3.9e-4 and 0.052."""
     t, R, rate = turning()
     omega = SpectralSmoother().run(t, R.as_quat()).omega
     inner = slice(100, -100)
-    assert rms(omega[inner] - rate[inner]) < 1e-3
-    assert np.max(np.linalg.norm(omega - rate, axis=1)) < 0.1
+    assert rms(omega[inner] - rate[inner]) < 1e-5
+    assert np.max(np.linalg.norm(omega - rate, axis=1)) < 1e-2
 
 
 def test_under_noise_it_beats_central_differencing_and_the_spline():
@@ -253,7 +254,8 @@ def test_a_coning_motion_is_recovered_without_the_log_maps_bias(rate):
     """A noise-free coning motion ``R(t) = Rz(αt) Rx(β) Rz(γt)`` (body rate in closed form): differenced attitudes
     carry the coning term (M1), constant along the body's z here (5.3e-4 rad/s at 10 Hz, 5.8e-5 at 30 Hz). With
     (S1c) the smoother's mean error along z is below a tenth of the term (measured under 1e-6; without (S1c) it is
-    the term) and its RMS error below the term's size (measured 4.3e-4 and 2.7e-5)."""
+    the term) and its RMS error below 0.4 times the term's size (measured 1.4e-4 and 1.1e-5; 4.3e-4 and 2.7e-5 with
+    the noise of (N1), which on this noise-free log is the motion's jerk, in place of (N2))."""
     alpha, beta, gamma = 1.3, 0.7, -0.9
     z = np.array([0.0, 0.0, 1.0])
     t = np.arange(0.0, 60.0, 1.0 / rate)
@@ -268,4 +270,4 @@ def test_a_coning_motion_is_recovered_without_the_log_maps_bias(rate):
     omega = SpectralSmoother().run(t, R.as_quat()).omega
     inner = slice(t.size // 5, -t.size // 5)
     assert abs(np.mean(omega[inner, 2] - truth[inner, 2])) < 0.1 * coning
-    assert rms(omega[inner] - truth[inner]) < coning
+    assert rms(omega[inner] - truth[inner]) < 0.4 * coning

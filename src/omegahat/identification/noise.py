@@ -14,7 +14,26 @@ what that percentile is for white noise alone: the median of ``W`` independent `
 order statistic, whose distribution function is ``F`` pushed through the regularised incomplete beta function
 ``I(m, m)``; its 10th percentile is ``F⁻¹(B⁻¹_{m,m}(0.1))`` (``scipy.special.betaincinv``; the χ²₃ quantile is
 ``F⁻¹(p) = 2 P⁻¹(3/2, p)``, ``gammaincinv``). So a log of white noise alone gets its σ back, not the low tail of its
-windows. :mod:`omegahat.identification.identify` bounds the
+windows.
+
+**Higher differences.** Where no part of the log is quiet enough for its noise to show (a simulated log, a clean
+one), (N1) is the motion's jerk, not the noise. The ``k``-th difference of the attitude has variance
+``C(2k, k) σ²`` per axis for white noise (20, 70, 252 for ``k`` = 3, 4, 5), and ``(2 sin(πf))^{2k}`` times the
+motion's spectrum at ``f`` cycles per step, which shrinks with ``k`` wherever the motion is slow against the
+sampling. Each order gives an upper bound of the noise by (N1); on white noise alone the three agree (within 10 %,
+and the higher orders a few per cent low: their differences are more correlated than (N1)'s ``c_W`` assumes), while
+on a smooth noise-free motion at 30 Hz they fall by 35 and 36 times from one order to the next. So ::
+
+    σ_q = min_k σ_q^{(k)}  where that is below half of σ_q^{(3)},  else σ_q^{(3)}                        (N2)
+
+— a factor 2 (four in variance) that white noise never shows between the orders, and that leaves (N1) as it is on a
+log whose noise does show. The log's own Wiener smoother (:mod:`omegahat.identification.spectral`) takes (N2): its
+gain uses the noise's level at every frequency. The identification keeps (N1): a model of constant rate or
+acceleration predicts one step ahead with an error of order ``h³`` times the jerk, which is what (N1) measures on a
+noise-free log, so it is the least noise the likelihood can be asked to explain (with (N2) the likelihood ran off to
+its fast limit on a noise-free log of Euler's equations).
+
+:mod:`omegahat.identification.identify` bounds the
 likelihood's noise by it: a stationary Gaussian model fitted by likelihood to a motion with bursts otherwise
 explains the bursts' unpredictability as sensor noise (measured on BROAD at 28.6 Hz: 3.6 mrad from the likelihood
 against 0.1 mrad at rest), and then smooths the motion away.
@@ -26,12 +45,23 @@ import functools
 
 import numpy as np
 
-__all__ = ["CHI2_3_MEDIAN", "QUANTILE", "REGULAR_STEP", "WINDOW_S", "quiet_noise", "window_quantile"]
+__all__ = [
+    "CHI2_3_MEDIAN",
+    "DIFFERENCE_VARIANCE",
+    "MOTION_APART",
+    "QUANTILE",
+    "REGULAR_STEP",
+    "WINDOW_S",
+    "quiet_noise",
+    "window_quantile",
+]
 
 CHI2_3_MEDIAN = 2.3660  #: the median of χ² with 3 degrees of freedom
 WINDOW_S = 0.25  #: s: the windows of (N1) (at least 31 samples)
 QUANTILE = 0.1  #: the share of the quietest windows of (N1)
 _MIN_WINDOW = 31
+DIFFERENCE_VARIANCE = {3: 20.0, 4: 70.0, 5: 252.0}  #: (N2): per difference order k, C(2k, k): its variance / σ²
+MOTION_APART = 0.5  #: (N2): a higher order's bound this far below the third's says the third's is motion
 REGULAR_STEP = 0.05  #: a step more than 5 % off the median is irregular (a gap, a dropped or doubled sample)
 
 
@@ -46,10 +76,10 @@ def window_quantile(w: int, quantile: float = QUANTILE) -> float:
     return float(2.0 * gammaincinv(1.5, betaincinv(m, w - m + 1, quantile)))
 
 
-def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:
+def quiet_noise(t: np.ndarray, increments: np.ndarray, higher: bool = False) -> float:
     """``σ_q`` of (N1) (rad) from the times ``t (N,)`` and the body-frame increments ``φ (N − 1, 3)`` between
-    consecutive valid samples (NaN where a sample is missing); third differences across a gap or an irregular
-    spacing (5 % off the median) are left out; NaN when there are fewer than 8 usable ones."""
+    consecutive valid samples (NaN where a sample is missing); differences across a gap or an irregular spacing (5 %
+    off the median) are left out; NaN when there are fewer than 8 usable ones. ``higher``: (N2) instead."""
     t = np.asarray(t, dtype=float)
     phi = np.asarray(increments, dtype=float)
     if phi.shape[0] < 3:
@@ -60,6 +90,21 @@ def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:
     ok = regular[:-2] & regular[1:-1] & regular[2:]
     d2 = np.sum((phi[2:] - 2.0 * phi[1:-1] + phi[:-2]) ** 2, axis=1)
     d2 = np.where(ok & np.isfinite(d2), d2, np.nan)
+    third = _quietest(d2, h, DIFFERENCE_VARIANCE[3])
+    if not higher or not np.isfinite(third):
+        return third
+    bounds = [third]
+    for order in (4, 5):  # (N2)
+        dk = np.sum(np.diff(phi, n=order - 1, axis=0) ** 2, axis=1)
+        spaced = np.all(np.lib.stride_tricks.sliding_window_view(regular, order), axis=1)[: dk.size]
+        bounds.append(_quietest(np.where(spaced & np.isfinite(dk), dk, np.nan), h, DIFFERENCE_VARIANCE[order]))
+    lowest = float(np.nanmin(bounds))
+    return lowest if lowest < MOTION_APART * third else third
+
+
+def _quietest(d2: np.ndarray, h: float, white: float) -> float:
+    """(N1) over the squared differences ``d2`` of one order, whose variance per axis is ``white · σ²`` for white
+    noise alone: the noise of the log's quietest tenth of windows (NaN where fewer than 8 are usable)."""
     if np.count_nonzero(np.isfinite(d2)) < 8:
         return float("nan")
     w = max(_MIN_WINDOW, round(WINDOW_S / h)) | 1  # odd: a median is one sample
@@ -67,6 +112,6 @@ def quiet_noise(t: np.ndarray, increments: np.ndarray) -> float:
     windows = d2[: n * w].reshape(n, w)
     full = np.all(np.isfinite(windows), axis=1) if n else np.zeros(0, dtype=bool)
     if np.count_nonzero(full) < 5:  # too short (or gappy) for windows: the log's median
-        return float(np.sqrt(float(np.nanmedian(d2)) / (20.0 * CHI2_3_MEDIAN)))
+        return float(np.sqrt(float(np.nanmedian(d2)) / (white * CHI2_3_MEDIAN)))
     medians = np.median(windows[full], axis=1)
-    return float(np.sqrt(float(np.quantile(medians, QUANTILE)) / (20.0 * window_quantile(w))))
+    return float(np.sqrt(float(np.quantile(medians, QUANTILE)) / (white * window_quantile(w))))
