@@ -13,7 +13,6 @@ from omegahat.identification.spectral import (
     SIGNIFICANCE,
     SpectralSmoother,
     folded,
-    rising_noise,
     stretches,
     wiener_filter,
     wiener_gain,
@@ -111,23 +110,6 @@ def test_a_skipped_sample_is_bridged_by_the_rotation_spline():
 def test_a_log_too_short_to_filter_is_the_rotation_spline():
     t, R, _ = turning(0.1)  # 10 samples
     np.testing.assert_allclose(SpectralSmoother().run(t, R).omega, RotationSpline(t, R)(t, 1), atol=1e-12)
-
-
-def test_the_noise_is_what_the_upper_half_of_the_spectrum_shows_rising():
-    """(S5) on spectra written out: white attitude noise of 3 mrad over a motion whose power falls with frequency
-    is found (the quiet part's 1 mrad is not enough); a motion alone leaves the quiet part's noise; a vibration
-    whose power rises in the upper half cannot claim more noise than the spectrum shows there."""
-    h = 0.01
-    freq = np.linspace(0.0, 0.5, 129)
-    shape = 8 * np.sin(np.pi * freq) ** 2 / h**2  # N_b / σ², one-sided
-    motion = 50.0 / (1.0 + (freq / 0.02) ** 4)  # (rad/s)² per cycle per step, falling
-    P = np.tile((motion + shape * 3e-3**2)[:, None], (1, 3))
-    np.testing.assert_allclose(rising_noise(freq, P, h, 1e-3), 3e-3, rtol=0.02)
-    np.testing.assert_allclose(rising_noise(freq, np.tile(motion[:, None], (1, 3)), h, 1e-3), 1e-3)
-    rising = np.tile((shape * 1e-6 * (1 + 40 * freq**2))[:, None], (1, 3))  # a vibration rising faster than noise
-    upper = (freq >= 0.25) & (freq < 0.5)
-    level = np.sqrt(np.median(rising[upper] / shape[upper, None], axis=0))
-    assert np.all(rising_noise(freq, rising, h, 1e-4) <= level * (1 + 1e-12))
 
 
 def test_an_irregularly_sampled_log_takes_the_spline_and_says_so():

@@ -1,8 +1,8 @@
 r"""The log's own Wiener smoother: the zero-lag rate where no model describes the log (``--smooth``'s fallback).
 
 When :func:`omegahat.identification.identify` declines every model, the log still tells two things: its attitude
-noise (its quietest part's, (N2) of :func:`omegahat.identification.noise.quiet_noise`, or more where its spectrum shows
-more: (S5)) and the spectrum of its increments. That is enough for the best linear zero-lag estimate a stationary
+noise (its quietest part's, (N2) of :func:`omegahat.identification.noise.quiet_noise`) and the spectrum of its
+increments. That is enough for the best linear zero-lag estimate a stationary
 log allows, the Wiener filter, with the spectrum measured instead of modelled.
 
 **The data.** ``b_k = φ_k / h`` with ``φ_k = log(R_{k−1}ᵀ R_k)`` the body-frame increment and ``h`` the step: the
@@ -31,8 +31,8 @@ for the spectra of (S1) is (Wiener; the rate's spectrum ``S = (P_b − N_b)/sinc
 the half-sample advance and the inverse of the interval mean (exact on a noise-free band-limited motion), and the
 spectral-subtraction gain ``g``: 1 where the motion dominates the noise, 0 where the noise does. ``P_b`` is
 Welch's estimate of the increments' spectrum (:data:`SEGMENT` samples per segment, half overlapping, per axis,
-pooled over the log's contiguous stretches), ``σ`` the noise of (S5) below: at least the quiet part's, so a
-vibration a noise estimate over the whole log would take for noise stays signal where it shows above ``N_b``.
+pooled over the log's contiguous stretches), ``σ`` the quiet part's noise (N2): a vibration that a noise estimate
+over the whole log would take for noise stays signal where it shows above ``N_b``.
 
 **Only where the motion shows.** Welch's estimate is a noisy one: over ``K`` half-overlapping Hann segments a
 frequency with noise alone has ``P_b ~ N_b χ²_ν / ν`` with ``ν = 2K / (1 + 2 · 0.167²)`` equivalent degrees of
@@ -70,15 +70,15 @@ the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'
 as stamped, and a step 5 % or more off the median breaks the stretch (the rotation spline, exact at uneven times,
 takes what is too short to filter).
 
-**The noise the log shows while it moves.** The quiet part's noise can be far below what the moving log carries
-(optical motion capture: the development recordings' spectra sit 15 to 1,000 times above ``N_b`` of the quiet
-part's ``σ`` at the Nyquist frequency, and rise there as white attitude noise does). A motion's increments do not
-gain power with frequency in the upper half of the band; white attitude noise does, as ``sin²(x/2)``. So the slope
-of ``P_b`` against ``N_b / σ²`` over the upper half (``x ≥ π/2``) is a lower bound of the noise there (a motion
-whose power falls with frequency only lowers it), capped by the level the spectrum shows (the median of ``P_b`` over
-``N_b / σ²`` there), per body axis ``j``::
-
-    σ_j² = max( σ_q², min( slope_j, median_j ) )                                                     (S5)
+**The noise the log shows while it moves** (a rule (S5) that is no longer used). Optical motion capture can be
+noisier in motion than at rest: the development recordings' spectra sit 15 to 1,000 times above ``N_b`` of the quiet
+part's ``σ`` at the Nyquist frequency and rise there as white attitude noise does. (S5) took the larger of the quiet
+part's noise and the slope of ``P_b`` against ``N_b / σ²`` over the upper half band. Before the fold (S6) it helped
+(UPenn 1.024 → 0.959 of the best offline peer); with (S6), which reads the same rise at the band's top as motion
+folded from beyond the Nyquist frequency and shrinks the filter there, it counted that rise twice. Without it
+(``python benchmarks/real_world.py --after``): ``--smooth`` on UPenn 0.854 → 0.810, BROAD at 9.5 Hz worst 1.087 →
+1.031, the rest equal or better; the default (whose causal filter takes the same spectrum) equal or better in every
+group.
 
 **The fold.** Sampling folds the rate's spectrum above the Nyquist frequency onto the band: the component at
 ``2π − x`` shows in ``b`` at ``x`` with the gain ``sinc_a(x) = sinc((2π − x)/2)`` and, against the rate at the
@@ -135,7 +135,6 @@ __all__ = [
     "increment_spectrum",
     "noise_shape",
     "rate_spectra",
-    "rising_noise",
     "spectral_rate",
     "wiener_filter",
     "wiener_gain",
@@ -188,19 +187,6 @@ def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
     """``N_b / σ²`` of (S1) at the normalised frequencies ``freq`` (cycles per sample), one-sided (twice the
     two-sided density), for the step ``h`` s."""
     return 2.0 * 4.0 * np.sin(np.pi * freq) ** 2 / h**2
-
-
-def rising_noise(freq: np.ndarray, P_b: np.ndarray, h: float, sigma_quiet: float) -> np.ndarray:
-    """``σ`` per axis ``(3,)`` of (S5): the quiet-part noise, or the noise the upper half of the spectrum ``P_b (F,
-    3)`` shows by rising as white attitude noise does, whichever is larger."""
-    band = (freq >= 0.25) & (freq < 0.5)  # the Nyquist bin itself is Welch's half-weighted one: left out
-    floor = np.full(P_b.shape[1], sigma_quiet**2)
-    if np.count_nonzero(band) < 3:
-        return np.sqrt(floor)
-    shape = noise_shape(freq[band], h)
-    slope = np.polyfit(shape, P_b[band], 1)[0]  # per axis
-    level = np.median(P_b[band] / shape[:, None], axis=0)
-    return np.sqrt(np.maximum(floor, np.minimum(slope, level)))
 
 
 def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, segments: int) -> np.ndarray:
@@ -277,11 +263,11 @@ def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.nda
 
 class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
-    ``(3,)`` it assumed (rad, (S5)), ``filtered (T,)``: True where (S2) gave the rate (False: the rotation spline,
-    for a skipped sample or a stretch too short to filter), ``expected`` the RMS error (S7) expects (rad/s; NaN
-    where nothing was filtered), and ``jitter`` what (S8) read where a stretch's steps differ from their mean by more
-    than 0.1 %: ``"stamps"`` (the samples regular, their stamps jittered), ``"sampling"`` (the samples at their
-    stamps), or ``""`` (the steps even)."""
+    ``(3,)`` it assumed (rad, the quiet part's, (N2)), ``filtered (T,)``: True where (S2) gave the rate (False: the
+    rotation spline, for a skipped sample or a stretch too short to filter), ``expected`` the RMS error (S7) expects
+    (rad/s; NaN where nothing was filtered), and ``jitter`` what (S8) read where a stretch's steps differ from their
+    mean by more than 0.1 %: ``"stamps"`` (the samples regular, their stamps jittered), ``"sampling"`` (the samples
+    at their stamps), or ``""`` (the steps even)."""
 
     omega: np.ndarray
     noise: np.ndarray
@@ -293,7 +279,7 @@ class SpectralRate(NamedTuple):
 class IncrementSpectrum(NamedTuple):
     """What :func:`increment_spectrum` reads of a log: the normalised frequencies ``freq (F,)`` (cycles per step),
     the increments' spectrum ``P_b (F, 3)`` (S1), the gain ``g (F, 3)`` (S2)–(S3), the noise's spectrum
-    ``N_b (F, 3)`` and its ``sigma (3,)`` (S5), the step ``h`` (s), what (S8) read (``jitter``), the stretches
+    ``N_b (F, 3)`` and its ``sigma (3,)`` (N2), the step ``h`` (s), what (S8) read (``jitter``), the stretches
     filtered (``runs``) and their ``rates`` (the ``b_k`` of each, ``(m, 3)``); ``freq`` is empty where no stretch
     is long enough to give a spectrum."""
 
@@ -309,7 +295,7 @@ class IncrementSpectrum(NamedTuple):
 
 
 def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
-    """(S1), (S3), (S5) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where ``valid``)."""
+    """(S1), (S3), (N2) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where ``valid``)."""
     runs = stretches(t, valid)
     long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
     R = np.where(valid[:, None, None], R, np.nan)
@@ -334,7 +320,7 @@ def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> Incre
     weights = np.array([r.shape[0] for r in usable], dtype=float)
     P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
     segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
-    sigma = rising_noise(freq, P_b, h, quiet)
+    sigma = np.full(3, quiet)  # (N2); (S5) retired (module docstring)
     g = wiener_gain(freq, P_b, sigma, h, segments)
     N_b = noise_shape(freq, h)[:, None] * sigma**2
     return IncrementSpectrum(freq, P_b, g, N_b, sigma, h, jitter, long_runs, rates)
@@ -419,7 +405,7 @@ def _edge_rate(rates: np.ndarray) -> np.ndarray:
 class SpectralSmoother(ms.AttitudeBatchEstimator):
     """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
 
-    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (S5)) and ``n_unfiltered`` (the valid
+    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (N2)) and ``n_unfiltered`` (the valid
     samples in stretches too short to filter, which take the rotation spline) and ``timestamps`` (what (S8) read of
     uneven steps: ``"stamps"``, ``"sampling"`` or ``""`` for even ones). A skipped sample is
     bridged by the rotation spline (status ``predicted``).
@@ -444,8 +430,8 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     >>> R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise
     >>> est = SpectralSmoother()
     >>> omega = est.run(t, R.as_quat()).omega
-    >>> print(" ".join(f"{x:.1f}" for x in omega[1000]), f"{1e3 * est.measurement_noise.max():.1f} mrad")
-    0.3 -0.2 0.5 1.0 mrad
+    >>> print(" ".join(f"{x:.1f}" for x in omega[1000]), f"{1e3 * est.measurement_noise.max():.0f} mrad")
+    0.3 -0.2 0.5 1 mrad
     """
 
     def __init__(
@@ -459,7 +445,7 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
         super().__init__(
             references=references, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
         )
-        self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (S5))
+        self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (N2))
         self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short to filter
         self.timestamps = ""  # (S8) on the last ``run``'s uneven steps: "stamps", "sampling" or "" (even)
         self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)
