@@ -87,18 +87,16 @@ def quiet_noise(t: np.ndarray, increments: np.ndarray, higher: bool = False) -> 
     h_all = np.diff(t)
     h = float(np.median(h_all))
     regular = np.abs(h_all / h - 1.0) < REGULAR_STEP
-    ok = regular[:-2] & regular[1:-1] & regular[2:]
-    d2 = np.sum((phi[2:] - 2.0 * phi[1:-1] + phi[:-2]) ** 2, axis=1)
-    d2 = np.where(ok & np.isfinite(d2), d2, np.nan)
-    third = _quietest(d2, h, DIFFERENCE_VARIANCE[3])
+
+    def bound(order: int) -> float:  # (N1) over the differences of this order (the third: d_k above)
+        d2 = np.sum(np.diff(phi, n=order - 1, axis=0) ** 2, axis=1)
+        spaced = np.all(np.lib.stride_tricks.sliding_window_view(regular, order), axis=1)  # every step regular
+        return _quietest(np.where(spaced & np.isfinite(d2), d2, np.nan), h, DIFFERENCE_VARIANCE[order])
+
+    third = bound(3)
     if not higher or not np.isfinite(third):
         return third
-    bounds = [third]
-    for order in (4, 5):  # (N2)
-        dk = np.sum(np.diff(phi, n=order - 1, axis=0) ** 2, axis=1)
-        spaced = np.all(np.lib.stride_tricks.sliding_window_view(regular, order), axis=1)[: dk.size]
-        bounds.append(_quietest(np.where(spaced & np.isfinite(dk), dk, np.nan), h, DIFFERENCE_VARIANCE[order]))
-    lowest = float(np.nanmin(bounds))
+    lowest = float(np.nanmin([third, bound(4), bound(5)]))  # (N2)
     return lowest if lowest < MOTION_APART * third else third
 
 
