@@ -16,9 +16,8 @@ difference; causal, since ``ω̃_k`` uses differences up to ``b_k`` only)::
 
     ω̂_k = Σ_j c_j · b'_{k−j},   b'_k = b_k − (h_k / 12) ω̃_{k−1} × ω̃_k                                 (D5)
 
-Measured on the development recordings (BROAD at 28.6 and 9.5 Hz, ``benchmarks/real_world.py``): the default's
-error went from 0.917 to 0.911 and from 0.998 to 0.994 times backward differencing's in geometric mean. Differencing
-alone (no taps) is not corrected: it is the peers' backward differencing.
+Differencing alone (no taps) is not corrected: it is the peers' backward differencing. What (D5) gives on the
+development recordings: ``docs/theory/identification.md``.
 """
 
 from __future__ import annotations

@@ -19,9 +19,8 @@ second time on the increments less that term, computed from the first run's rate
 
     b'_k = b_k − (h/12) ω̂_{k−1} × ω̂_k                                                               (S1c)
 
-(on a noise-free coning motion at 10 and 30 samples per second, with the noise of (N2), it takes the mean error
-along the cone's axis from 5.3e-4 and 5.8e-5 rad/s to below 1e-6, and the RMS error from 5.5e-4 to 1.4e-4 and from
-5.9e-5 to 1.1e-5; tested).
+(on a noise-free coning motion at 10 and 30 samples per second, whose term is 5.3e-4 and 5.8e-5 rad/s along the
+cone's axis, the mean error there is below a tenth of it; tested).
 
 **The filter.** The estimate of the rate at the samples, ``ω̂(x) = F(x) b(x)``, that minimises the mean square error
 for the spectra of (S1) is (Wiener; the rate's spectrum ``S = (P_b − N_b)/sinc²(x/2)`` by (S1))::
@@ -51,8 +50,8 @@ filter's equivalent bandwidth, cycles per step: the span it averages over anyway
 The stretch's least-squares line is taken out before the FFT and added back after it, and the extension's outer half
 falls to zero along a raised cosine, so that the FFT's zero padding continues it without a jump (whose ringing
 through the filter's edge near the Nyquist frequency once reached far into the stretch); the filter is interpolated
-from Welch's frequencies as ``F·sinc`` and divided by the exact ``sinc``. On a noise-free 2.7 rad/s turn at 100 Hz
-that took the error inside the log from 3.9e-4 to 1.4e-6 rad/s (tested).
+from Welch's frequencies as ``F·sinc`` and divided by the exact ``sinc`` (a noise-free 2.7 rad/s turn at 100 Hz is
+recovered to 1e-5 rad/s inside the log; tested).
 
 A skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
 ``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
@@ -70,15 +69,8 @@ the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'
 as stamped, and a step 5 % or more off the median breaks the stretch (the rotation spline, exact at uneven times,
 takes what is too short to filter).
 
-**The noise the log shows while it moves** (a rule (S5) that is no longer used). Optical motion capture can be
-noisier in motion than at rest: the development recordings' spectra sit 15 to 1,000 times above ``N_b`` of the quiet
-part's ``σ`` at the Nyquist frequency and rise there as white attitude noise does. (S5) took the larger of the quiet
-part's noise and the slope of ``P_b`` against ``N_b / σ²`` over the upper half band. Before the fold (S6) it helped
-(UPenn 1.024 → 0.959 of the best offline peer); with (S6), which reads the same rise at the band's top as motion
-folded from beyond the Nyquist frequency and shrinks the filter there, it counted that rise twice. Without it
-(``python benchmarks/real_world.py --after``): ``--smooth`` on UPenn 0.854 → 0.810, BROAD at 9.5 Hz worst 1.087 →
-1.031, the rest equal or better; the default (whose causal filter takes the same spectrum) equal or better in every
-group.
+(S5), a noise read from the rise of the upper half band, is retired: the fold (S6) reads that rise as folded
+motion, and the two counted it twice (``docs/theory/identification.md``).
 
 **The fold.** Sampling folds the rate's spectrum above the Nyquist frequency onto the band: the component at
 ``2π − x`` shows in ``b`` at ``x`` with the gain ``sinc_a(x) = sinc((2π − x)/2)`` and, against the rate at the
