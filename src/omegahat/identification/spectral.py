@@ -33,6 +33,17 @@ Welch's estimate of the increments' spectrum (:data:`SEGMENT` samples per segmen
 pooled over the log's contiguous stretches), ``σ`` the quiet part's noise (N2): a vibration that a noise estimate
 over the whole log would take for noise stays signal where it shows above ``N_b``.
 
+**No more noise than the band's top shows.** ``P_b ≥ N_b`` at every frequency, up to Welch's error, so the top tenth
+of the band (``f ≥ 0.45`` cycles per step, where ``N_b`` is largest) bounds ``σ²`` per body axis. Over its ``n`` bins
+(``⌈n/2⌉`` independent ones: neighbouring Hann bins correlate) the mean of ``P_b / (N_b/σ²)`` has ``ν' = ν ⌈n/2⌉``
+degrees of freedom, and its one-sided 95 % upper bound is::
+
+    σ ≤ σ_top = sqrt( ν' / χ²_ν'⁻¹(0.05) · mean_{f ≥ 0.45} P_b / (N_b/σ²) ),   σ = min(σ_q, σ_top)            (N3)
+
+Where the log is noisy the bound lies above ``σ_q`` and changes nothing; on a log cleaner than its motion's
+differences can show (a simulation, a high-resolution encoder) ``σ_q`` is the motion's own higher difference, and
+(N3) keeps the filter from cutting real motion as noise (tested).
+
 **Only where the motion shows.** Welch's estimate is a noisy one: over ``K`` half-overlapping Hann segments a
 frequency with noise alone has ``P_b ~ N_b χ²_ν / ν`` with ``ν = 2K / (1 + 2 · 0.167²)`` equivalent degrees of
 freedom (Welch 1967), and ``g`` of (S2) would pass some of that noise wherever ``P_b`` happens to exceed ``N_b``.
@@ -128,6 +139,7 @@ __all__ = [
     "noise_shape",
     "rate_spectra",
     "spectral_rate",
+    "top_noise",
     "wiener_filter",
     "wiener_gain",
 ]
@@ -137,6 +149,7 @@ SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is ab
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
 MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
 UNEVEN_STEP = 1e-3  #: a stretch whose steps differ from their mean by more than 0.1 % has jittered steps (S8)
+TOP_BAND = 0.05  #: (N3): the band's top tenth, 0.45 … 0.5 cycles per step, bounds the noise
 JITTER_LINK = 0.5  #: a step within 50 % of the median joins two samples in a stretch (a dropped sample does not)
 
 
@@ -179,6 +192,16 @@ def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
     """``N_b / σ²`` of (S1) at the normalised frequencies ``freq`` (cycles per sample), one-sided (twice the
     two-sided density), for the step ``h`` s."""
     return 2.0 * 4.0 * np.sin(np.pi * freq) ** 2 / h**2
+
+
+def top_noise(freq: np.ndarray, P_b: np.ndarray, h: float, segments: int) -> np.ndarray:
+    """``σ_top (3,)`` of (N3): per body axis the most attitude noise (rad) that the spectrum ``P_b (F, 3)`` of
+    increments at the normalised frequencies ``freq`` (cycles per sample), averaged over ``segments`` Welch segments
+    of the step ``h`` s, allows at 95 % confidence (the mean over the band's top tenth)."""
+    top = (freq >= 0.5 - TOP_BAND) & (freq < 0.5)  # Welch's one-sided estimate halves the Nyquist frequency's bin
+    dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2) * math.ceil(np.count_nonzero(top) / 2)
+    upper = dof / (2.0 * gammaincinv(dof / 2.0, 1.0 - SIGNIFICANCE))  # ν'/χ²_ν'⁻¹(0.05): 1.15 for ν' = 300
+    return np.sqrt(upper * np.mean(P_b[top] / noise_shape(freq[top], h)[:, None], axis=0))
 
 
 def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, segments: int) -> np.ndarray:
@@ -255,7 +278,7 @@ def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.nda
 
 class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
-    ``(3,)`` it assumed (rad, the quiet part's, (N2)), ``filtered (T,)``: True where (S2) gave the rate (False: the
+    ``(3,)`` it assumed (rad, (N2) capped by (N3)), ``filtered (T,)``: True where (S2) gave the rate (False: the
     rotation spline, for a skipped sample or a stretch too short to filter), ``expected`` the RMS error (S7) expects
     (rad/s; NaN where nothing was filtered), and ``jitter`` what (S8) read where a stretch's steps differ from their
     mean by more than 0.1 %: ``"stamps"`` (the samples regular, their stamps jittered), ``"sampling"`` (the samples
@@ -271,9 +294,9 @@ class SpectralRate(NamedTuple):
 class IncrementSpectrum(NamedTuple):
     """What :func:`increment_spectrum` reads of a log: the normalised frequencies ``freq (F,)`` (cycles per step),
     the increments' spectrum ``P_b (F, 3)`` (S1), the gain ``g (F, 3)`` (S2)–(S3), the noise's spectrum
-    ``N_b (F, 3)`` and its ``sigma (3,)`` (N2), the step ``h`` (s), what (S8) read (``jitter``), the stretches
-    filtered (``runs``) and their ``rates`` (the ``b_k`` of each, ``(m, 3)``); ``freq`` is empty where no stretch
-    is long enough to give a spectrum."""
+    ``N_b (F, 3)`` and its ``sigma (3,)`` ((N2) capped by (N3)), the step ``h`` (s), what (S8) read (``jitter``),
+    the stretches filtered (``runs``) and their ``rates`` (the ``b_k`` of each, ``(m, 3)``); ``freq`` is empty where
+    no stretch is long enough to give a spectrum."""
 
     freq: np.ndarray
     P_b: np.ndarray
@@ -287,7 +310,8 @@ class IncrementSpectrum(NamedTuple):
 
 
 def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
-    """(S1), (S3), (N2) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where ``valid``)."""
+    """(S1), (S3), (N2), (N3) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where
+    ``valid``)."""
     runs = stretches(t, valid)
     long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
     R = np.where(valid[:, None, None], R, np.nan)
@@ -312,7 +336,7 @@ def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> Incre
     weights = np.array([r.shape[0] for r in usable], dtype=float)
     P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
     segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
-    sigma = np.full(3, quiet)  # (N2); (S5) retired (module docstring)
+    sigma = np.minimum(quiet, top_noise(freq, P_b, h, segments))  # (N2) capped by (N3); (S5) retired (docstring)
     g = wiener_gain(freq, P_b, sigma, h, segments)
     N_b = noise_shape(freq, h)[:, None] * sigma**2
     return IncrementSpectrum(freq, P_b, g, N_b, sigma, h, jitter, long_runs, rates)
@@ -397,9 +421,10 @@ def _edge_rate(rates: np.ndarray) -> np.ndarray:
 class SpectralSmoother(ms.AttitudeBatchEstimator):
     """The log's own Wiener smoother (S2) behind the estimator contract: offline only (``run``), ``causal = False``.
 
-    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (N2)) and ``n_unfiltered`` (the valid
-    samples in stretches too short to filter, which take the rotation spline) and ``timestamps`` (what (S8) read of
-    uneven steps: ``"stamps"``, ``"sampling"`` or ``""`` for even ones). A skipped sample is
+    After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (N2) capped by (N3)) and
+    ``n_unfiltered`` (the valid samples in stretches too short to filter, which take the rotation spline) and
+    ``timestamps`` (what (S8) read of uneven steps: ``"stamps"``, ``"sampling"`` or ``""`` for even ones). A
+    skipped sample is
     bridged by the rotation spline (status ``predicted``).
 
     Parameters
@@ -437,7 +462,7 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
         super().__init__(
             references=references, scalar_first=scalar_first, rotation_tol=rotation_tol, quat_norm_tol=quat_norm_tol
         )
-        self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (N2))
+        self.measurement_noise = np.full(3, math.nan)  # the σ per body axis the last ``run`` assumed (rad, (N2)/(N3))
         self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short to filter
         self.timestamps = ""  # (S8) on the last ``run``'s uneven steps: "stamps", "sampling" or "" (even)
         self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)
