@@ -10,13 +10,13 @@ from scipy.spatial.transform import Rotation, RotationSpline
 from omegahat.baselines.differencing import log_difference
 from omegahat.identification.spectral import (
     HANN_HALF_OVERLAP,
-    SEGMENT,
     SIGNIFICANCE,
     SpectralSmoother,
     folded,
     increment_spectrum,
     stretches,
     top_noise,
+    welch_segment,
     wiener_filter,
     wiener_gain,
 )
@@ -46,7 +46,7 @@ def noisy(R: Rotation, sigma: float, seed: int = 1) -> Rotation:
 
 def test_a_noise_free_band_limited_motion_is_recovered():
     """(S2) inverts the interval mean exactly on a band-limited motion: 1e-5 rad/s of a 2.7 rad/s turn inside the
-    log, 1e-2 at its ends (where the reflection (S4) stands in for the unseen motion); measured 3.1e-7 and 3.0e-3
+    log, 1e-2 at its ends (where the reflection (S4) stands in for the unseen motion); measured 1.1e-7 and 3.0e-3
     (1.4e-6 and 3.5e-3 before the noise bound (N3), whose noise-free log's σ_q is the motion's fifth difference).
     Before the extension was brought to zero along a raised cosine (and F·sinc interpolated in place of F), the
     FFT's zero padding made a jump that rang through the filter's edge near the Nyquist frequency: 3.9e-4 and 0.052."""
@@ -240,7 +240,7 @@ def test_a_coning_motion_is_recovered_without_the_log_maps_bias(rate):
     """A noise-free coning motion ``R(t) = Rz(αt) Rx(β) Rz(γt)`` (body rate in closed form): differenced attitudes
     carry the coning term (M1), constant along the body's z here (5.3e-4 rad/s at 10 Hz, 5.8e-5 at 30 Hz). With
     (S1c) the smoother's mean error along z is below a tenth of the term (measured under 1e-6; without (S1c) it is
-    the term) and its RMS error below a hundredth of the term's size (measured 7.0e-7 and 7.2e-9). Without the
+    the term) and its RMS error below a hundredth of the term's size (measured 5.1e-7 and 7.5e-9). Without the
     bound (N3) the noise taken was the motion's own higher differences and the filter cut real motion: 1.4e-4 and
     1.1e-5 with (N2) alone, 4.3e-4 and 2.7e-5 with (N1)."""
     alpha, beta, gamma = 1.3, 0.7, -0.9
@@ -262,30 +262,47 @@ def test_a_coning_motion_is_recovered_without_the_log_maps_bias(rate):
 
 def test_the_bands_top_bounds_white_noise_at_95_percent():
     """(N3) is a one-sided 95 % upper bound on white attitude noise: over 200 logs of noise alone (2,000 samples, three
-    axes) it falls below the true σ in about 5 % of the cases (measured 3.6 % on 300; with the Nyquist frequency's
-    bin, which Welch's one-sided estimate halves, 9.9 %), and its mean square is σ² (the χ² mean, within 3 %)."""
+    axes) it falls below the true σ in about 5 % of the cases (measured 3.8 % on 300 with the 128-sample segments
+    (S1') takes here, 3.6 % with 256; with the Nyquist frequency's bin, which Welch's one-sided estimate halves,
+    9.9 %), and its mean square is σ² (the χ² mean, within 3 %)."""
     n, sigma = 2000, 1e-3
     t = np.arange(n) * H
-    segments = (n - 1 - SEGMENT) // (SEGMENT // 2) + 1
     bounds = []
     for seed in range(200):
         R = Rotation.from_rotvec(sigma * np.random.default_rng(seed).standard_normal((n, 3))).as_matrix()
         spectrum = increment_spectrum(t, R, np.ones(n, dtype=bool))
+        segments = spectrum.segments
         bounds.append(top_noise(spectrum.freq, spectrum.P_b, spectrum.h, segments))
     below = np.mean(np.asarray(bounds) < sigma)
     assert 0.01 < below < 0.08
-    dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2) * 6  # the top tenth's 12 bins, every other one
+    top = np.count_nonzero((spectrum.freq >= 0.45) & (spectrum.freq < 0.5))  # the top tenth's bins
+    dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2) * np.ceil(top / 2)  # every other one independent
     assert np.mean(np.asarray(bounds) ** 2) / (dof / stats.chi2.ppf(0.05, dof)) == pytest.approx(sigma**2, rel=0.03)
 
 
 def test_a_noisy_log_keeps_the_quiet_parts_noise_and_a_noise_free_one_its_motion():
     """Where the noise shows, (N3) lies above σ_q and changes nothing; on the noise-free turn σ_q is the motion's
-    fifth difference (3.3e-7 rad), which would cut the turn's fastest wave as noise, and (N3) allows 4e-9 at most.
-    The turn is then recovered to 3.1e-7 rad/s inside the log (1.4e-6 with σ_q)."""
+    fifth difference (3.3e-7 rad), which would cut the turn's fastest wave as noise, and (N3) allows 3.5e-8 at most.
+    The turn is then recovered to 1.1e-7 rad/s inside the log (1.4e-6 with σ_q)."""
     t, R, rate = turning()
     est = SpectralSmoother()
     est.run(t, noisy(R, 1e-3).as_quat())
     assert est.measurement_noise == pytest.approx(1e-3, rel=0.1)
     omega = est.run(t, R.as_quat()).omega
-    assert np.all(est.measurement_noise < 1e-8)
-    assert rms(omega[100:-100] - rate[100:-100]) < 1e-6  # measured 3.1e-7; 1.4e-6 with σ_q
+    assert np.all(est.measurement_noise < 1e-7)
+    assert rms(omega[100:-100] - rate[100:-100]) < 1e-6  # measured 1.1e-7; 1.4e-6 with σ_q
+
+
+@pytest.mark.parametrize(
+    ("lengths", "segment"),
+    [([10_000], 256), ([3_584], 256), ([3_583], 128), ([2_000], 128), ([1_000], 64), ([300], 64), ([40], 40)],
+)
+def test_the_welch_segment_is_halved_until_27_segments_fit(lengths, segment):
+    """(S1'): 256 samples where 27 half-overlapping segments fit ((n − 256)/128 + 1 ≥ 27 from n = 3,584), halved while
+    they do not, down to 64; a stretch shorter than that is one segment of its own length."""
+    assert welch_segment(lengths) == segment
+
+
+def test_the_welch_segments_count_only_the_stretches_that_hold_one():
+    assert welch_segment([3_000, 100, 100]) == 128  # 22 + 0 + 0 at 256; 45 at 128
+    assert welch_segment([1_700, 1_700]) == 128  # 12 + 12 at 256; 25 + 25 at 128

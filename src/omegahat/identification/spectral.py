@@ -29,9 +29,15 @@ for the spectra of (S1) is (Wiener; the rate's spectrum ``S = (P_b − N_b)/sinc
 
 the half-sample advance and the inverse of the interval mean (exact on a noise-free band-limited motion), and the
 spectral-subtraction gain ``g``: 1 where the motion dominates the noise, 0 where the noise does. ``P_b`` is
-Welch's estimate of the increments' spectrum (:data:`SEGMENT` samples per segment, half overlapping, per axis,
-pooled over the log's contiguous stretches), ``σ`` the quiet part's noise (N2): a vibration that a noise estimate
-over the whole log would take for noise stays signal where it shows above ``N_b``.
+Welch's estimate of the increments' spectrum (half-overlapping Hann segments, per axis, pooled over the log's
+contiguous stretches), ``σ`` the quiet part's noise (N2): a vibration that a noise estimate over the whole log would
+take for noise stays signal where it shows above ``N_b``. The segment trades resolution for precision: it is
+:data:`SEGMENT` samples where at least :data:`MIN_SEGMENTS` of them fit in the log's stretches, and is halved (down to
+a quarter of that) while they do not::
+
+    L = max { 256, 128, 64 }  such that  K(L) = Σ_stretches ⌊(m − L) / (L/2)⌋ + 1 ≥ 27,   else L = 64        (S1')
+
+``K ≥ 27`` is ``ν ≥ 50`` degrees of freedom (below): each frequency's power to ±20 % (one standard error).
 
 **No more noise than the band's top shows.** ``P_b ≥ N_b`` at every frequency, up to Welch's error, so the top tenth
 of the band (``f ≥ 0.45`` cycles per step, where ``N_b`` is largest) bounds ``σ²`` per body axis. Over its ``n`` bins
@@ -127,6 +133,7 @@ from omegahat.interface import Measurements
 
 __all__ = [
     "HANN_HALF_OVERLAP",
+    "MIN_SEGMENTS",
     "MIN_STRETCH",
     "SEGMENT",
     "SIGNIFICANCE",
@@ -140,11 +147,14 @@ __all__ = [
     "rate_spectra",
     "spectral_rate",
     "top_noise",
+    "welch_segment",
+    "welch_segments",
     "wiener_filter",
     "wiener_gain",
 ]
 
-SEGMENT = 256  #: samples per Welch segment (resolution 1/256 of the rate; 14 half-overlapping ones in 2,000 samples)
+SEGMENT = 256  #: samples per Welch segment at most (resolution 1/256 of the rate; 14 half-overlapping in 2,000 samples)
+MIN_SEGMENTS = 27  #: (S1'): ν = 2K/(1 + 2·0.167²) ≥ 50 Welch segments' dof, each bin's power within ±20 % (1 s.e.)
 SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
 MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
@@ -192,6 +202,20 @@ def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
     """``N_b / σ²`` of (S1) at the normalised frequencies ``freq`` (cycles per sample), one-sided (twice the
     two-sided density), for the step ``h`` s."""
     return 2.0 * 4.0 * np.sin(np.pi * freq) ** 2 / h**2
+
+
+def welch_segments(lengths: list[int], segment: int) -> int:
+    """How many half-overlapping Welch segments of ``segment`` samples fit in stretches of ``lengths`` samples."""
+    return sum((n - segment) // (segment // 2) + 1 for n in lengths if n >= segment)
+
+
+def welch_segment(lengths: list[int]) -> int:
+    """(S1'): the samples per Welch segment for stretches of ``lengths`` rates: :data:`SEGMENT` (or the longest
+    stretch, if shorter), halved while fewer than :data:`MIN_SEGMENTS` segments fit, down to a quarter of it."""
+    segment = min(SEGMENT, max(lengths, default=0))
+    while segment > SEGMENT // 4 and welch_segments(lengths, segment) < MIN_SEGMENTS:
+        segment //= 2
+    return segment
 
 
 def top_noise(freq: np.ndarray, P_b: np.ndarray, h: float, segments: int) -> np.ndarray:
@@ -295,8 +319,8 @@ class IncrementSpectrum(NamedTuple):
     """What :func:`increment_spectrum` reads of a log: the normalised frequencies ``freq (F,)`` (cycles per step),
     the increments' spectrum ``P_b (F, 3)`` (S1), the gain ``g (F, 3)`` (S2)–(S3), the noise's spectrum
     ``N_b (F, 3)`` and its ``sigma (3,)`` ((N2) capped by (N3)), the step ``h`` (s), what (S8) read (``jitter``),
-    the stretches filtered (``runs``) and their ``rates`` (the ``b_k`` of each, ``(m, 3)``); ``freq`` is empty where
-    no stretch is long enough to give a spectrum."""
+    the stretches filtered (``runs``) and their ``rates`` (the ``b_k`` of each, ``(m, 3)``), and how many Welch
+    ``segments`` the spectrum averages (S1'); ``freq`` is empty where no stretch is long enough to give a spectrum."""
 
     freq: np.ndarray
     P_b: np.ndarray
@@ -307,6 +331,7 @@ class IncrementSpectrum(NamedTuple):
     jitter: str
     runs: list[tuple[int, int]]
     rates: list[np.ndarray]
+    segments: int = 0
 
 
 def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
@@ -326,7 +351,7 @@ def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> Incre
         long_runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP) if b - a >= MIN_STRETCH]
     # b_k per stretch (S1), over each step; (S8): over the samples' step where only the stamps jitter
     rates = [phi[a : b - 1] / (h if jitter == "stamps" else np.diff(t[a:b])[:, None]) for a, b in long_runs]
-    segment = min(SEGMENT, max((r.shape[0] for r in rates), default=0))
+    segment = welch_segment([r.shape[0] for r in rates])
     usable = [r for r in rates if r.shape[0] >= segment]
     if not usable or segment < 8:
         none = np.zeros((0, 3))
@@ -335,11 +360,11 @@ def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> Incre
     freq = spectra[0][0]
     weights = np.array([r.shape[0] for r in usable], dtype=float)
     P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
-    segments = sum((r.shape[0] - segment) // (segment // 2) + 1 for r in usable)
+    segments = welch_segments([r.shape[0] for r in usable], segment)
     sigma = np.minimum(quiet, top_noise(freq, P_b, h, segments))  # (N2) capped by (N3); (S5) retired (docstring)
     g = wiener_gain(freq, P_b, sigma, h, segments)
     N_b = noise_shape(freq, h)[:, None] * sigma**2
-    return IncrementSpectrum(freq, P_b, g, N_b, sigma, h, jitter, long_runs, rates)
+    return IncrementSpectrum(freq, P_b, g, N_b, sigma, h, jitter, long_runs, rates, segments)
 
 
 def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
