@@ -306,3 +306,15 @@ def test_the_welch_segment_is_halved_until_27_segments_fit(lengths, segment):
 def test_the_welch_segments_count_only_the_stretches_that_hold_one():
     assert welch_segment([3_000, 100, 100]) == 128  # 22 + 0 + 0 at 256; 45 at 128
     assert welch_segment([1_700, 1_700]) == 128  # 12 + 12 at 256; 25 + 25 at 128
+
+
+@pytest.mark.parametrize("n", [17, 18, 21])
+def test_a_log_whose_segment_has_no_top_band_keeps_the_quiet_parts_noise(n):
+    """A log of 17 samples has one 16-sample segment, whose frequencies skip the band's top tenth (7/16 < 0.45 <
+    8/16, the Nyquist bin left out): (N3) has nothing to read there and bounds nothing. Its noise was NaN."""
+    t = np.arange(n) * H
+    R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5]))
+    est = SpectralSmoother()
+    omega = est.run(t, noisy(R, 1e-3).as_quat()).omega
+    assert np.all(np.isfinite(est.measurement_noise)) and np.all(est.measurement_noise > 0)
+    assert np.all(np.isfinite(omega))

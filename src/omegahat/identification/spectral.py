@@ -40,11 +40,12 @@ a quarter of that) while they do not::
 ``K ≥ 27`` is ``ν ≥ 50`` degrees of freedom (below): each frequency's power to ±20 % (one standard error).
 
 **No more noise than the band's top shows.** ``P_b ≥ N_b`` at every frequency, up to Welch's error, so the top tenth
-of the band (``f ≥ 0.45`` cycles per step, where ``N_b`` is largest) bounds ``σ²`` per body axis. Over its ``n`` bins
+of the band (``0.45 ≤ f < 0.5`` cycles per step, where ``N_b`` is largest; Welch's one-sided estimate halves the
+Nyquist frequency's own bin) bounds ``σ²`` per body axis. Over its ``n`` bins
 (``⌈n/2⌉`` independent ones: neighbouring Hann bins correlate) the mean of ``P_b / (N_b/σ²)`` has ``ν' = ν ⌈n/2⌉``
 degrees of freedom, and its one-sided 95 % upper bound is::
 
-    σ ≤ σ_top = sqrt( ν' / χ²_ν'⁻¹(0.05) · mean_{f ≥ 0.45} P_b / (N_b/σ²) ),   σ = min(σ_q, σ_top)            (N3)
+    σ ≤ σ_top = sqrt( ν' / χ²_ν'⁻¹(0.05) · mean_{0.45 ≤ f < 0.5} P_b / (N_b/σ²) ),   σ = min(σ_q, σ_top)      (N3)
 
 Where the log is noisy the bound lies above ``σ_q`` and changes nothing; on a log cleaner than its motion's
 differences can show (a simulation, a high-resolution encoder) ``σ_q`` is the motion's own higher difference, and
@@ -221,8 +222,11 @@ def welch_segment(lengths: list[int]) -> int:
 def top_noise(freq: np.ndarray, P_b: np.ndarray, h: float, segments: int) -> np.ndarray:
     """``σ_top (3,)`` of (N3): per body axis the most attitude noise (rad) that the spectrum ``P_b (F, 3)`` of
     increments at the normalised frequencies ``freq`` (cycles per sample), averaged over ``segments`` Welch segments
-    of the step ``h`` s, allows at 95 % confidence (the mean over the band's top tenth)."""
+    of the step ``h`` s, allows at 95 % confidence (the mean over the band's top tenth); no bound (``inf``) where
+    the segment is too short to have a frequency there."""
     top = (freq >= 0.5 - TOP_BAND) & (freq < 0.5)  # Welch's one-sided estimate halves the Nyquist frequency's bin
+    if not top.any():  # segments of fewer than 20 samples (a log of 17 to 20 samples)
+        return np.full(P_b.shape[1], np.inf)
     dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2) * math.ceil(np.count_nonzero(top) / 2)
     upper = dof / (2.0 * gammaincinv(dof / 2.0, 1.0 - SIGNIFICANCE))  # ν'/χ²_ν'⁻¹(0.05): 1.15 for ν' = 300
     return np.sqrt(upper * np.mean(P_b[top] / noise_shape(freq[top], h)[:, None], axis=0))
@@ -449,8 +453,7 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (N2) capped by (N3)) and
     ``n_unfiltered`` (the valid samples in stretches too short to filter, which take the rotation spline) and
     ``timestamps`` (what (S8) read of uneven steps: ``"stamps"``, ``"sampling"`` or ``""`` for even ones). A
-    skipped sample is
-    bridged by the rotation spline (status ``predicted``).
+    skipped sample is bridged by the rotation spline (status ``predicted``).
 
     Parameters
     ----------
