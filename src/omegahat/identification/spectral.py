@@ -31,13 +31,8 @@ the half-sample advance and the inverse of the interval mean (exact on a noise-f
 spectral-subtraction gain ``g``: 1 where the motion dominates the noise, 0 where the noise does. ``P_b`` is
 Welch's estimate of the increments' spectrum (half-overlapping Hann segments, per axis, pooled over the log's
 contiguous stretches), ``σ`` the quiet part's noise (N2): a vibration that a noise estimate over the whole log would
-take for noise stays signal where it shows above ``N_b``. The segment trades resolution for precision: it is
-:data:`SEGMENT` samples where at least :data:`MIN_SEGMENTS` of them fit in the log's stretches, and is halved (down to
-a quarter of that) while they do not::
-
-    L = max { 256, 128, 64 }  such that  K(L) = Σ_stretches ⌊(m − L) / (L/2)⌋ + 1 ≥ 27,   else L = 64        (S1')
-
-``K ≥ 27`` is ``ν ≥ 50`` degrees of freedom (below): each frequency's power to ±20 % (one standard error).
+take for noise stays signal where it shows above ``N_b``. The segment is :data:`SEGMENT` samples, halved (down to
+64) while fewer than :data:`MIN_SEGMENTS` fit in the stretches: ``ν ≥ 50`` (below), each bin's power to ±20 % (S1').
 
 **No more noise than the band's top shows.** ``P_b ≥ N_b`` at every frequency, up to Welch's error, so the top tenth
 of the band (``0.45 ≤ f < 0.5`` cycles per step, where ``N_b`` is largest; Welch's one-sided estimate halves the
@@ -47,9 +42,8 @@ degrees of freedom, and its one-sided 95 % upper bound is::
 
     σ ≤ σ_top = sqrt( ν' / χ²_ν'⁻¹(0.05) · mean_{0.45 ≤ f < 0.5} P_b / (N_b/σ²) ),   σ = min(σ_q, σ_top)      (N3)
 
-Where the log is noisy the bound lies above ``σ_q`` and changes nothing; on a log cleaner than its motion's
-differences can show (a simulation, a high-resolution encoder) ``σ_q`` is the motion's own higher difference, and
-(N3) keeps the filter from cutting real motion as noise (tested).
+Where the noise shows, the bound lies above ``σ_q``; on a log cleaner than its motion's differences show (a
+simulation), ``σ_q`` is the motion's own, and (N3) keeps the filter from cutting that motion as noise (tested).
 
 **Only where the motion shows.** Welch's estimate is a noisy one: over ``K`` half-overlapping Hann segments a
 frequency with noise alone has ``P_b ~ N_b χ²_ν / ν`` with ``ν = 2K / (1 + 2 · 0.167²)`` equivalent degrees of
