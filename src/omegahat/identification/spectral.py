@@ -2,8 +2,7 @@ r"""The log's own Wiener smoother: the zero-lag rate where no model describes th
 
 When :func:`omegahat.identification.identify` declines every model, the log still tells two things: its attitude
 noise (its quietest part's, (N2) of :func:`omegahat.identification.noise.quiet_noise`) and the spectrum of its
-increments. That is enough for the best linear zero-lag estimate a stationary
-log allows, the Wiener filter, with the spectrum measured instead of modelled.
+increments: enough for the best linear zero-lag estimate of a stationary log, the Wiener filter, measured.
 
 **The data.** ``b_k = φ_k / h`` with ``φ_k = log(R_{k−1}ᵀ R_k)`` the body-frame increment and ``h`` the step: the
 mean rate over ``[t_{k−1}, t_k]`` plus the noise's difference. Per axis and at normalised frequency ``x = ωh``
@@ -35,10 +34,9 @@ take for noise stays signal where it shows above ``N_b``. The segment is :data:`
 64) while fewer than :data:`MIN_SEGMENTS` fit in the stretches: ``ν ≥ 50`` (below), each bin's power to ±20 % (S1').
 
 **No more noise than the band's top shows.** ``P_b ≥ N_b`` at every frequency, up to Welch's error, so the top tenth
-of the band (``0.45 ≤ f < 0.5`` cycles per step, where ``N_b`` is largest; Welch's one-sided estimate halves the
-Nyquist frequency's own bin) bounds ``σ²`` per body axis. Over its ``n`` bins
-(``⌈n/2⌉`` independent ones: neighbouring Hann bins correlate) the mean of ``P_b / (N_b/σ²)`` has ``ν' = ν ⌈n/2⌉``
-degrees of freedom, and its one-sided 95 % upper bound is::
+of the band (``0.45 ≤ f < 0.5`` cycles per step, where ``N_b`` is largest; Welch halves the Nyquist bin) bounds ``σ²``
+per body axis. Over its ``n`` bins (``⌈n/2⌉`` independent: neighbouring Hann bins correlate) the mean of
+``P_b / (N_b/σ²)`` has ``ν' = ν ⌈n/2⌉`` degrees of freedom, and its one-sided 95 % upper bound is::
 
     σ ≤ σ_top = sqrt( ν' / χ²_ν'⁻¹(0.05) · mean_{0.45 ≤ f < 0.5} P_b / (N_b/σ²) ),   σ = min(σ_q, σ_top)      (N3)
 
@@ -59,11 +57,9 @@ filter's equivalent bandwidth, cycles per step: the span it averages over anyway
 
     b_{−j} = 2 ω̂_0 − b_{j−1},   j = 1 … SEGMENT   (and likewise after the last sample)                  (S4)
 
-The stretch's least-squares line is taken out before the FFT and added back after it, and the extension's outer half
-falls to zero along a raised cosine, so that the FFT's zero padding continues it without a jump (whose ringing
-through the filter's edge near the Nyquist frequency once reached far into the stretch); the filter is interpolated
-from Welch's frequencies as ``F·sinc`` and divided by the exact ``sinc`` (a noise-free 2.7 rad/s turn at 100 Hz is
-recovered to 1e-5 rad/s inside the log; tested).
+The stretch's least-squares line is taken out before the FFT and added back after it, the extension's outer half
+falls to zero along a raised cosine (no jump at the zero padding to ring through the filter's edge), and the filter
+is interpolated from Welch's frequencies as ``F·sinc``, then divided by the exact ``sinc`` (tested).
 
 A skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
 ``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
@@ -105,9 +101,8 @@ fold may dominate. On written-out power-law spectra the fold so read is 1.06–1
 — the filter's own account, from the same spectrum; :class:`omegahat.identification.smoother.ChosenSmoother`
 weighs it against the model's smoother's.
 
-What (S2)–(S6) do not know: a motion whose spectrum changes along the log is filtered with its average spectrum;
-a fold that does not continue the band's decay (a vibration above the Nyquist frequency) is not foreseen. Measured
-on the development recordings: ``docs/theory/identification.md``.
+What (S2)–(S6) do not know: a motion whose spectrum changes along the log (filtered with its average spectrum), a
+fold that does not continue the band's decay. Measured: ``docs/theory/identification.md``.
 """
 
 from __future__ import annotations
@@ -142,13 +137,14 @@ __all__ = [
     "rate_spectra",
     "spectral_rate",
     "top_noise",
+    "welch_dof",
     "welch_segment",
     "welch_segments",
     "wiener_filter",
     "wiener_gain",
 ]
 
-SEGMENT = 256  #: samples per Welch segment at most (resolution 1/256 of the rate; 14 half-overlapping in 2,000 samples)
+SEGMENT = 256  #: samples per Welch segment at most (S1') (resolution 1/256 of the rate)
 MIN_SEGMENTS = 27  #: (S1'): ν = 2K/(1 + 2·0.167²) ≥ 50 Welch segments' dof, each bin's power within ±20 % (1 s.e.)
 SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
@@ -204,6 +200,11 @@ def welch_segments(lengths: list[int], segment: int) -> int:
     return sum((n - segment) // (segment // 2) + 1 for n in lengths if n >= segment)
 
 
+def welch_dof(segments: int) -> float:
+    """``ν = 2K/(1 + 2·0.167²)``: the equivalent χ² degrees of freedom of a Welch estimate over ``K`` segments."""
+    return 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2)
+
+
 def welch_segment(lengths: list[int]) -> int:
     """(S1'): the samples per Welch segment for stretches of ``lengths`` rates: :data:`SEGMENT` (or the longest
     stretch, if shorter), halved while fewer than :data:`MIN_SEGMENTS` segments fit, down to a quarter of it."""
@@ -221,7 +222,7 @@ def top_noise(freq: np.ndarray, P_b: np.ndarray, h: float, segments: int) -> np.
     top = (freq >= 0.5 - TOP_BAND) & (freq < 0.5)  # Welch's one-sided estimate halves the Nyquist frequency's bin
     if not top.any():  # segments of fewer than 20 samples (a log of 17 to 20 samples)
         return np.full(P_b.shape[1], np.inf)
-    dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2) * math.ceil(np.count_nonzero(top) / 2)
+    dof = welch_dof(segments) * math.ceil(np.count_nonzero(top) / 2)
     upper = dof / (2.0 * gammaincinv(dof / 2.0, 1.0 - SIGNIFICANCE))  # ν'/χ²_ν'⁻¹(0.05): 1.15 for ν' = 300
     return np.sqrt(upper * np.mean(P_b[top] / noise_shape(freq[top], h)[:, None], axis=0))
 
@@ -231,7 +232,7 @@ def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, s
     ``P_b (F, 3)`` (one-sided, rad²/s² per cycle per sample) of the increments' rates, averaged over ``segments``
     Welch segments, the noise ``sigma`` rad (one, or one per axis), the step ``h`` s."""
     N_b = noise_shape(freq, h)[:, None] * np.asarray(sigma, dtype=float) ** 2  # (S1)
-    dof = 2.0 * segments / (1.0 + 2.0 * HANN_HALF_OVERLAP**2)
+    dof = welch_dof(segments)
     significant = P_b > N_b * 2.0 * gammaincinv(dof / 2.0, SIGNIFICANCE) / dof  # (S3): the χ²_ν quantile
     with np.errstate(divide="ignore", invalid="ignore"):
         g = np.where(significant, 1.0 - N_b / P_b, 0.0)
