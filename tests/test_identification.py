@@ -15,8 +15,7 @@ from scipy.spatial.transform import Rotation
 from logmaker import two_passes
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
 from omegahat.identification import identify
-from omegahat.identification.identify import steady_rate_error
-from omegahat.identification.likelihood import Sums, log_likelihood, noise_intensity
+from omegahat.identification.likelihood import Sums, log_likelihood, noise_intensity, steady_rate_error
 from omegahat.identification.noise import quiet_noise, window_quantile
 from omegahat.identification.smoother import ModelSmoother, combine
 from omegahat.observer.kalman import SupervisedKalmanEstimator

@@ -6,6 +6,8 @@
   cannot inflate);
 * :mod:`~omegahat.identification.identify` — the candidates fitted, the model chosen by its information
   criterion, the expected errors, the estimator to run;
+* :mod:`~omegahat.identification.start` — the identified filter's ``fit`` start, over the longest window the
+  motion allows;
 * :mod:`~omegahat.identification.smoother` — the identified model's zero-lag estimate (``--smooth``);
 * :mod:`~omegahat.identification.spectral` — the log's own Wiener smoother, where no model is chosen.
 

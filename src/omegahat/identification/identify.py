@@ -10,7 +10,8 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    maximising ``ℓ(Λ, σ)`` of (L3) with ``σ = min(σ̂(Λ), σ_q)`` — the likelihood's own noise, but never above what
    the quiet parts of the log show (see the noise module: a stationary model would otherwise take a bursty motion
    for noise). The search: ``Λ`` on a grid of decades from ``10⁻⁸`` (a constant rate) to ``10⁴``, then a
-   golden-section refinement around the best (in ``log Λ``).
+   golden-section refinement around the best (in ``log Λ``). With J and a torque, the dynamic models are fitted
+   with the torque held over each step and interpolated between samples, and the likelier is kept (H1).
 3. **Model order** by the Bayesian information criterion ``BIC = −2ℓ + k log d`` (``k`` = 2 parameters, ``Λ`` and
    ``σ``, for every model; ``d`` the innovations' degrees of freedom): the least BIC wins, and the summary prints
    every model's ``ℓ``, ``σ`` and noise. A ``Λ`` at the top of the grid is the model's fast limit: the data show no
@@ -36,14 +37,14 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.linalg import solve_discrete_are
 from scipy.spatial.transform import Rotation
 
 from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
+from omegahat.identification import likelihood
 from omegahat.identification.causal import CausalFilter, causal_filter
 from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
 from omegahat.identification.noise import quiet_noise
@@ -52,7 +53,7 @@ from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, Supervised
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
 
-__all__ = ["MIN_SAMPLES", "Candidate", "Identification", "identify", "steady_rate_error"]
+__all__ = ["MIN_SAMPLES", "Candidate", "Identification", "identify"]
 
 KINEMATIC = ("rate", "acceleration")  #: the candidates when J is not given
 GRID = tuple(10.0**p for p in range(-8, 5))  #: Λ candidates (decades) before the refinement (down to a constant rate)
@@ -65,6 +66,8 @@ GAIN_REQUIRED = 0.9  #: the model runs only if it predicts at most this fraction
 SIGMA_FLOOR = 1e-9  #: rad: below any real sensor (float32 quaternions carry ~6e-8)
 _QUIET_RATE = 1e-6  # a second-order model's rate noise, relative: the acceleration state carries the motion
 _GOLD = (math.sqrt(5.0) - 1.0) / 2.0
+HOLDS = {"zero": "held", "linear": "interpolated"}  #: the torque between samples (step 2), in words
+OTHER_HOLD = {"zero": "linear", "linear": "zero"}
 
 
 @dataclass(frozen=True)
@@ -89,6 +92,10 @@ class Candidate:
         Whether Λ is the grid's top (:data:`LAMBDA_MAX`): no noise the model can tell from motion.
     misfit : float, optional
         σ̂ of (L3) over ``sigma``: how much larger the innovations are than the noise explains (default 1).
+    torque_hold : {"zero", "linear"}, optional
+        The torque between samples, held over each step or interpolated: the likelier where both were fitted (H1).
+    other_hold : float, optional
+        ℓ with the other hold, where both were fitted (else NaN).
 
     Examples
     --------
@@ -118,16 +125,22 @@ class Candidate:
     noise: float
     at_fast_limit: bool
     misfit: float = 1.0  #: σ̂ of (L3) over ``sigma``: how much larger the innovations are than the noise explains
+    torque_hold: str = "zero"  #: the torque between samples, held or interpolated (H1)
+    other_hold: float = math.nan  #: ℓ with the other hold, where both were fitted
 
     def describe(self) -> str:
         if not math.isfinite(self.log_likelihood):  # every step of its filter failed (a torque it cannot follow)
             return f"{self.model}: its filter cannot follow the log (its steps fail: no likelihood, BIC inf)"
         unit = "rad/s^1.5" if ORDER[self.model] == 1 else "rad/s^2.5"
         limit = ", its fast limit" if self.at_fast_limit else ""
+        hold = "" if math.isnan(self.other_hold) else (
+            f", the torque {HOLDS[self.torque_hold]} between samples (log-likelihood {self.other_hold:.1f} "
+            f"{HOLDS[OTHER_HOLD[self.torque_hold]]})"
+        )  # fmt: skip
         return (
             f"{self.model}: log-likelihood {self.log_likelihood:.1f}, BIC {self.bic:.1f}, attitude noise "
             f"{self.sigma:.2g} rad, process noise {math.sqrt(self.noise):.3g} {unit} (tracking index "
-            f"{self.tracking_index:.3g}{limit})"
+            f"{self.tracking_index:.3g}{limit}){hold}"
         )
 
 
@@ -238,6 +251,7 @@ class Identification:
         noise = noise_intensity(c.model, c.tracking_index, sigma, h)
         root = math.sqrt(noise)
         second_order = ORDER[c.model] == 2
+        options = {"torque_hold": c.torque_hold, **options}
         return SupervisedKalmanEstimator(
             J,
             rate_hz=self.rate_hz,
@@ -281,31 +295,6 @@ class Identification:
                 else ""
             )
         )
-
-
-def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float) -> float:
-    """``√(tr P_ωω)`` (rad/s) of the steady-state filter of ``model`` (its per-axis linear dynamics: a random-walk
-    rate, or a random-walk acceleration) sampled every ``h`` with attitude noise ``sigma``: the filtered error
-    covariance from the discrete algebraic Riccati equation."""
-    p = ORDER[model]
-    q = noise_intensity(model, tracking_index, sigma, h)
-    if p == 1:
-        F = np.array([[1.0, h], [0.0, 1.0]])
-        Q = q * np.array([[h**3 / 3, h**2 / 2], [h**2 / 2, h]])
-    else:
-        F = np.array([[1.0, h, h**2 / 2], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
-        Q = q * np.array([[h**5 / 20, h**4 / 8, h**3 / 6], [h**4 / 8, h**3 / 3, h**2 / 2], [h**3 / 6, h**2 / 2, h]])
-    H = np.zeros((1, p + 1))
-    H[0, 0] = 1.0
-    Rv = np.array([[sigma**2]])
-    try:
-        P_pred = solve_discrete_are(F.T, H.T, Q + 1e-30 * np.eye(p + 1), Rv)
-    except (np.linalg.LinAlgError, ValueError):
-        return float("nan")
-    S = H @ P_pred @ H.T + Rv
-    K = P_pred @ H.T / S
-    P = P_pred - K @ H @ P_pred
-    return float(np.sqrt(3.0 * max(P[1, 1], 0.0)))
 
 
 def _attitudes(data: np.ndarray, kind: str, references: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -354,7 +343,14 @@ def _fit(evaluate, grid=GRID) -> tuple[float, float, float]:
 
 
 def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Candidate:
-    """One model at its maximum likelihood (module docstring, step 2)."""
+    """One model at its maximum likelihood (module docstring, step 2); ``linear_hold`` None: a dynamic model with
+    a torque is fitted with the torque held and interpolated, and the likelier is kept."""
+    if linear_hold is None:
+        if torque is None or model not in ("dynamic", "dynamic+disturbance"):
+            return _fitted(model, t, data, valid, h, bound, J, torque, refs, False)
+        held, line = (_fitted(model, t, data, valid, h, bound, J, torque, refs, lh) for lh in (False, True))
+        best, other = (line, held) if line.log_likelihood > held.log_likelihood else (held, line)
+        return replace(best, other_hold=other.log_likelihood)
     cache: dict[float, tuple[float, float]] = {}
     free: dict[float, float] = {}  # σ̂ of (L3) at each Λ
     dof = [0.0]
@@ -375,8 +371,9 @@ def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Ca
     bic = -2.0 * ll + N_PARAMS * math.log(max(dof[0], 2.0))
     misfit = free[lam] / sigma if np.isfinite(free.get(lam, np.nan)) and sigma > 0 else np.inf
     return Candidate(
-        model, lam, sigma, ll, bic, noise_intensity(model, lam, sigma, h), lam >= LAMBDA_MAX, max(misfit, 1.0)
-    )
+        model, lam, sigma, ll, bic, noise_intensity(model, lam, sigma, h), lam >= LAMBDA_MAX, max(misfit, 1.0),
+        "linear" if linear_hold else "zero",
+    )  # fmt: skip
 
 
 def identify(
@@ -387,7 +384,7 @@ def identify(
     J: np.ndarray | None = None,
     torque: np.ndarray | None = None,
     references: np.ndarray | None = None,
-    linear_hold: bool = False,
+    linear_hold: bool | None = None,
     models: tuple[str, ...] | None = None,
 ) -> Identification:
     """The model and noises of a log, chosen by the log's own likelihood (module docstring, steps 1–5).
@@ -408,7 +405,8 @@ def identify(
     references : array_like, optional
         The inertial directions ``(n, 3)``: required for directions.
     linear_hold : bool, optional
-        The torque interpolated between samples in the filter's passes (``torque_hold="linear"``), else held.
+        The torque interpolated between samples in the filter's passes (``torque_hold="linear"``), or held; by
+        default (None) the dynamic models are fitted both ways and the likelier is kept (step 2).
     models : tuple of str, optional
         The candidates (default: the kinematic ones, and the dynamic ones too when J is given).
 
@@ -477,7 +475,7 @@ def identify(
     # without J, the acceleration model is fitted and reported but not run (module docstring, step 5)
     eligible = [c for c in finite if J is not None or c.model != "acceleration"] or finite
     chosen = min(eligible, key=lambda c: c.bic)
-    expected = steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
+    expected = likelihood.steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
     differencing = differencing_error(phi, h, chosen.sigma)
     if chosen.misfit > MISFIT_MAX:
         use, why = (

@@ -23,7 +23,9 @@ Models (:data:`MODELS`), each an EKF the default estimator can run: ``rate`` —
 angular acceleration, ``p = 1``; kinematic, J and τ not used); ``acceleration`` — the angular acceleration a
 random walk (white jerk, ``p = 2``); ``dynamic`` — Euler's equations with J and τ and a white torque noise
 (``p = 1``, the noise on ``J⁻¹τ``); ``dynamic+disturbance`` — the same with an unknown torque whose angular
-acceleration is a random walk (``p = 2``).
+acceleration is a random walk (``p = 2``). The torque between samples is held over each step or interpolated
+(``linear_hold``); :func:`omegahat.identification.identify` lets the likelihood choose (H1).
+:func:`steady_rate_error` is the rate error a model's steady-state filter expects.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from __future__ import annotations
 from typing import Literal, NamedTuple, TypeAlias, get_args
 
 import numpy as np
+from scipy.linalg import solve_discrete_are
 
 from omegahat.baselines.mekf_kernel import run_log
 from omegahat.conversion import read_only, torques_array
@@ -46,6 +49,7 @@ __all__ = [
     "innovation_sums",
     "log_likelihood",
     "noise_intensity",
+    "steady_rate_error",
 ]
 
 Model: TypeAlias = Literal["rate", "acceleration", "dynamic", "dynamic+disturbance"]
@@ -170,3 +174,28 @@ def log_likelihood(sums: Sums, sigma: float | None = None) -> tuple[float, float
         return -np.inf, 0.0
     ll = -0.5 * (sums.logdet + sums.dof * np.log(s2) + sums.nis / s2 + sums.dof * np.log(2.0 * np.pi))
     return float(ll), float(np.sqrt(s2))
+
+
+def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float) -> float:
+    """``√(tr P_ωω)`` (rad/s) of the steady-state filter of ``model`` (its per-axis linear dynamics: a random-walk
+    rate, or a random-walk acceleration) sampled every ``h`` with attitude noise ``sigma``: the filtered error
+    covariance from the discrete algebraic Riccati equation."""
+    p = ORDER[model]
+    q = noise_intensity(model, tracking_index, sigma, h)
+    if p == 1:
+        F = np.array([[1.0, h], [0.0, 1.0]])
+        Q = q * np.array([[h**3 / 3, h**2 / 2], [h**2 / 2, h]])
+    else:
+        F = np.array([[1.0, h, h**2 / 2], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
+        Q = q * np.array([[h**5 / 20, h**4 / 8, h**3 / 6], [h**4 / 8, h**3 / 3, h**2 / 2], [h**3 / 6, h**2 / 2, h]])
+    H = np.zeros((1, p + 1))
+    H[0, 0] = 1.0
+    Rv = np.array([[sigma**2]])
+    try:
+        P_pred = solve_discrete_are(F.T, H.T, Q + 1e-30 * np.eye(p + 1), Rv)
+    except (np.linalg.LinAlgError, ValueError):
+        return float("nan")
+    S = H @ P_pred @ H.T + Rv
+    K = P_pred @ H.T / S
+    P = P_pred - K @ H @ P_pred
+    return float(np.sqrt(3.0 * max(P[1, 1], 0.0)))

@@ -32,6 +32,7 @@ from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
 from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
 from omegahat.identification.spectral import SpectralSmoother
+from omegahat.identification.start import balanced_start
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
@@ -191,21 +192,32 @@ def attitude_choice(
         window = autogain.fit_window(observer_gains()[2], motion.rate_hz) if window is None else window
         return autogain.initial_rate(tv, rot, window, J, motion.torque)
 
+    def identified_start(ident: Identification) -> tuple[np.ndarray, float] | None:
+        """The identified filter's ``fit`` start and its expected error: (W) capped by the motion ((W') of
+        :mod:`omegahat.identification.start`); None for the other starts."""
+        if settings.start != "fit":
+            return None
+        sigma, e = ident.chosen.sigma, ident.expected_rms  # σ at least the floor (Candidate)
+        rate, _, error = balanced_start(tv, rot, ident.start_window(), sigma, e, J, motion.torque)
+        return rate, error
+
     est, described = _estimator(
-        settings, motion, J, observer_gains, refs, stream, report, spell, (t_h, data_h, tau_h), fit_start
-    )
+        settings, motion, J, observer_gains, refs, stream, report, spell, (t_h, data_h, tau_h), fit_start,
+        identified_start,
+    )  # fmt: skip
     gains, text = observer_gains()[:2] if isinstance(described, SarrasEstimator) else (None, "")  # what it ran with
     return Choice(est, gains, text, _used(described, J, settings.inertia is not None, settings.start), spacing=motion.h)
 
 
 def _estimator(
-    settings, motion, J, observer_gains, refs, stream, report, spell, head, fit_start
+    settings, motion, J, observer_gains, refs, stream, report, spell, head, fit_start, identified_start
 ) -> tuple[Estimator, Estimator]:
     """The estimator, and the one the closing line describes (for the model's smoother: its causal filter): the
     preset's; the fixed-gain observer with ``observer_gains()[0]`` (asked for, or fewer than ``MIN_SAMPLES`` valid
     samples); else what the identification of the head chose (the model's supervised filter or backward
     differencing; for ``smooth`` its smoother, the log's own Wiener smoother, or the two with the choice between
-    them). ``fit_start(window)``: the start's rate (None unless the start is ``fit``)."""
+    them). ``fit_start(window)``: the start's rate, ``identified_start(ident)`` the identified filter's and its
+    expected error (None unless the start is ``fit``)."""
     common = {
         "references": refs,
         "measurement": "directions" if stream.kind == "directions" else "attitude",
@@ -254,10 +266,12 @@ def _estimator(
         return sarras, sarras
     ident = _identified(settings, stream, refs, head)
     report(ident.explain())
-    # the fit start over the identified filter's own window (W), and its error the EKF's prior
-    common["omega_hat0"] = fit_start(ident.start_window())
-    if settings.start == "fit":
-        common["omega_hat0_noise"] = math.sqrt(2.0) * ident.expected_rms
+    # the fit start over the identified filter's own window (W) as far as the motion allows (W'), and its error the
+    # EKF's prior
+    start = identified_start(ident)
+    common["omega_hat0"] = None if start is None else start[0]
+    if start is not None:
+        common["omega_hat0_noise"] = math.sqrt(2.0) * start[1]
     est = ident.estimator(**common) if choice == "auto" else ident.model_estimator(**common)
     if settings.smooth and choice == "omegahat":  # the model asked for: its smoother, whatever the identification says
         report(
