@@ -1,12 +1,13 @@
 """Cost of the identified default: ``identify`` on a log's head, and ``--smooth``'s two smoothers per sample.
 
 Run: ``python benchmarks/identification_speed.py [--repeat N]``. A 100 Hz quaternion log of a body whose rate is a
-random walk, 1 mrad of attitude noise; ``identify`` on its first 8192 samples (what ``omegahat estimate`` reads), then
-:class:`omegahat.identification.smoother.ModelSmoother` and the log's own Wiener smoother
-(:class:`omegahat.identification.spectral.SpectralSmoother`, ``--smooth`` where the model is declined) and both
-with the choice between them (``ChosenSmoother``, ``--smooth`` where it is accepted) on 10,000 and
-100,000 samples (the checks of the input included), after one warm call (the kernels compiled). CPU time of this
-process; issue 24 asks for at most 10 us per sample of the smoother. Writes its section of RESULTS.md.
+random walk, 1 mrad of attitude noise; ``identify`` on its first 8192 samples (what ``omegahat estimate`` reads),
+then :class:`omegahat.identification.smoother.ModelSmoother` and the log's own Wiener smoother
+(:class:`omegahat.identification.spectral.SpectralSmoother`, ``--smooth`` where the model is declined) and both with
+the choice between them (``ChosenSmoother``, ``--smooth`` where it is accepted) on 10,000 and 100,000 samples (the
+checks of the input included), after one warm call (the kernels compiled); ``identify`` also with J and a torque,
+with the torque's two holds (H1) and with one. CPU time of this process; issue 24 asks for at most 10 us per sample
+of the smoother. Writes its section of RESULTS.md.
 """
 
 from __future__ import annotations
@@ -69,6 +70,16 @@ def main(argv: list[str] | None = None) -> int:
     designed = " (causal filter designed)" if declined.causal else ""
     rows.append(f"| `identify` on {head} samples, model declined{designed} | {min(times):.2f} s | "
                 f"{float(np.median(times)):.2f} s |")  # fmt: skip
+    # with J and a torque (not this motion's: the cost is the evaluations' number, not the fit) the two dynamic models
+    # join; (H1) fits each with the torque held and interpolated, twice the passes of one hold
+    J, tau = np.diag([3.0, 2.0, 1.0]), 0.1 * np.sin(np.outer(t[:head], [0.7, 1.1, 1.3]))
+    for hold, label in ((None, "both holds (H1)"), (False, "the torque held only, as before (H1)")):
+        times = [
+            cpu(lambda hold=hold: identify(t[:head], q[:head], "quaternion", J=J, torque=tau, linear_hold=hold))
+            for _ in range(args.repeat)
+        ]
+        rows.append(f"| `identify` on {head} samples with J and a torque, {label} | {min(times):.2f} s | "
+                    f"{float(np.median(times)):.2f} s |")  # fmt: skip
     both = ChosenSmoother(ident)
     for name, est in (("ModelSmoother", smoother), ("SpectralSmoother", SpectralSmoother()), ("ChosenSmoother", both)):
         for n in (10_000, 100_000):
