@@ -23,7 +23,8 @@ window, so the disagreement is at least half of it (on a turn at 100 Hz under 1e
 off, against a band of 1.1e-4 and a disagreement of 3.1e-4, `tests/test_start.py`). On that star tracker's log
 (`test_10hz_star_tracker_with_inertia_and_torque` in `tests/test_cli_defaults.py`) the kept window is 5.75 s and
 the start 3.1e-5 rad/s off; the default's RMS error over the log went from 1.9e-4 to 2.2e-6 rad/s (6.4e-6 before
-the torque's hold was identified, (H1), which made the model's expected error, and so ``L_W``, 100 times smaller).
+the torque's hold was identified, (H1), which made the model's expected error 100 times smaller and ``L_W`` 22 times
+longer).
 """
 
 from __future__ import annotations
