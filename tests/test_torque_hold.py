@@ -85,11 +85,15 @@ def test_the_smoothers_backward_pass_takes_each_steps_own_torque(body):
     assert smoothed < filtered < 1e-4
 
 
-def test_without_a_torque_one_hold_is_fitted():
-    """No torque column: the hold means nothing and each dynamic model is fitted once (no second likelihood)."""
+@pytest.mark.parametrize("torque", [None, "constant"])
+def test_without_a_varying_torque_one_hold_is_fitted(torque):
+    """No torque column, or one that never changes (a coast logged as zeros): held and interpolated are the same
+    torque, and each dynamic model is fitted once (no second likelihood, nothing printed about the hold)."""
     t = np.arange(0.0, 3.0, 0.01)
     R = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_matrix()
     noisy = Rotation.from_matrix(R) * Rotation.from_rotvec(np.random.default_rng(2).normal(0, 1e-3, (t.size, 3)))
-    ident = identify(t, noisy.as_matrix(), "matrix", J=J)
+    tau = None if torque is None else np.tile([0.0, 0.0, 0.0], (t.size, 1))
+    ident = identify(t, noisy.as_matrix(), "matrix", J=J, torque=tau)
     dynamic = [c for c in ident.candidates if c.model.startswith("dynamic")]
     assert len(dynamic) == 2 and all(np.isnan(c.other_hold) and c.torque_hold == "zero" for c in dynamic)
+    assert "between samples" not in ident.explain()

@@ -344,9 +344,12 @@ def _fit(evaluate, grid=GRID) -> tuple[float, float, float]:
 
 def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Candidate:
     """One model at its maximum likelihood (module docstring, step 2); ``linear_hold`` None: a dynamic model with
-    a torque is fitted with the torque held and interpolated, and the likelier is kept."""
+    a torque that varies is fitted with the torque held and interpolated, and the likelier is kept."""
     if linear_hold is None:
-        if torque is None or model not in ("dynamic", "dynamic+disturbance"):
+        tau = None if torque is None else np.asarray(torque, dtype=float)[valid]
+        tau = None if tau is None else tau[np.all(np.isfinite(tau), axis=1)]
+        varies = tau is not None and tau.size > 0 and bool(np.any(np.ptp(tau, axis=0) > 0.0))
+        if not varies or model not in ("dynamic", "dynamic+disturbance"):  # the hold changes nothing: one fit
             return _fitted(model, t, data, valid, h, bound, J, torque, refs, False)
         held, line = (_fitted(model, t, data, valid, h, bound, J, torque, refs, lh) for lh in (False, True))
         best, other = (line, held) if line.log_likelihood > held.log_likelihood else (held, line)
