@@ -13,9 +13,8 @@ equations keep their form, ``J dω'/ds = (Jω') × ω' + τ`` for ``ω' = −ω`
 derivative change sign), so the same model with the same torque describes the reversed log. A torque held over
 each step, ``τ_k`` on ``[t_k, t_{k+1}]``, is in reversed time the torque of the step's far end: the backward pass,
 which holds each of its samples' torque over the step that follows it, takes at ``t_{k+1}`` the torque ``τ_k``
-(until the fix with (H1) it took ``τ_{k+2}``: on a body driven by a held torque the smoother was then 2,400 times
-its forward filter's error, `tests/test_torque_hold.py`). A torque interpolated between samples is the same line
-either way. The backward pass's rate is negated back.
+(`tests/test_torque_hold.py`). A torque interpolated between samples is the same line either way. The backward
+pass's rate is negated back.
 
 The two passes each use the sample at ``t_k`` (the measurement is counted twice in (T1)): the weights are then
 those of two filters that agree on it, which leaves a constant rate exact and halves nothing that matters for the
