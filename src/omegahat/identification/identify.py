@@ -42,6 +42,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
 from omegahat.identification import likelihood
@@ -297,24 +298,24 @@ class Identification:
         )
 
 
-def _attitudes(data: np.ndarray, kind: str, references: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """``(valid (T,), R (T, 3, 3))``: the filter's attitude input (NaN rows where missing) and, for directions,
-    Wahba's attitudes (for the noise bound only)."""
-    T = data.shape[0]
-    valid = np.all(np.isfinite(data.reshape(T, -1)), axis=1)
-    R = np.full((T, 3, 3), np.nan)
+def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(valid (T,), R (T, 3, 3), the filter's input)``: the attitudes (NaN where missing; of directions, Wahba's,
+    for the noise bound only) or the directions made unit, a collinear sample skipped, as the estimators read them
+    (a magnetometer's µT would otherwise weigh in the innovations)."""
+    if refs is not None:
+        checked = ms.body_directions(data)
+        data = np.where((checked.status == ms.OK)[:, None, None], checked.r, np.nan)
+    valid = np.all(np.isfinite(data.reshape(data.shape[0], -1)), axis=1)
+    R = np.full((data.shape[0], 3, 3), np.nan)
+    if refs is not None:
+        R[valid] = so3.wahba(data[valid], refs)
+        return valid, R, data
     if kind == "quaternion":
-        norm = np.linalg.norm(data[valid], axis=1)
-        keep = np.flatnonzero(valid)[norm > 0]
-        valid[:] = False
-        valid[keep] = True
-        R[keep] = Rotation.from_quat(data[keep]).as_matrix()
-    elif kind == "matrix":
-        R[valid] = data[valid]
+        valid &= np.linalg.norm(np.where(valid[:, None], data, 0.0), axis=1) > 0
+        R[valid] = Rotation.from_quat(data[valid]).as_matrix()
     else:
-        V = as_directions(references)  # type: ignore[arg-type]  # None: as_directions says (n, 3) is needed
-        R[valid] = so3.wahba(data[valid], V)
-    return valid, R
+        R[valid] = data[valid]
+    return valid, R, R
 
 
 def _fit(evaluate, grid=GRID) -> tuple[float, float, float]:
@@ -398,7 +399,7 @@ def identify(
         The sample times ``(T,)`` (s).
     data : array_like
         Quaternions ``(T, 4)`` (scalar last), rotation matrices ``(T, 3, 3)`` (body → inertial) or directions
-        ``(T, n, 3)``; rows that are not finite are missing samples.
+        ``(T, n, 3)`` (made unit, as the estimators read them); rows that are not finite are missing samples.
     kind : {"quaternion", "matrix", "directions"}
         Which of these ``data`` holds.
     J : array_like, optional
@@ -421,8 +422,8 @@ def identify(
     Raises
     ------
     ValueError
-        With fewer than :data:`MIN_SAMPLES` valid samples, times that do not increase, an unknown model, or when
-        no model could be fitted.
+        With fewer than :data:`MIN_SAMPLES` valid samples, times that do not increase, a zero direction, an
+        unknown model, or when no model could be fitted.
 
     Examples
     --------
@@ -445,7 +446,8 @@ def identify(
     """
     t = np.asarray(t, dtype=float)
     data = np.asarray(data, dtype=float)
-    valid, R = _attitudes(data, kind, references)
+    refs = None if kind != "directions" else as_directions(references)  # type: ignore[arg-type]
+    valid, R, filt_data = _attitudes(data, kind, refs)
     if np.count_nonzero(valid) < MIN_SAMPLES:
         raise ValueError(
             f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
@@ -469,8 +471,6 @@ def identify(
     unknown = [m for m in models if m not in MODELS]
     if unknown:
         raise ValueError(f"models must be among {', '.join(MODELS)}; got {unknown}")
-    filt_data = data if kind == "directions" else R
-    refs = None if kind != "directions" else as_directions(references)  # type: ignore[arg-type]
     candidates = [_fitted(model, t, filt_data, valid, h, bound, J_, torque, refs, linear_hold) for model in models]
     finite = [c for c in candidates if np.isfinite(c.bic)]
     if not finite:
