@@ -399,7 +399,8 @@ def test_directions_in_the_sensors_units_are_identified_as_unit_directions(tmp_p
     """An accelerometer (m/s²) and a magnetometer (µT) as logged, each component with its own white noise: the
     identification is that of the same directions made unit by NumPy (every estimator reads them unit), and the
     default runs the model at a small fraction of backward differencing's error. It once fed the sensors' units to
-    the likelihood: log-likelihood -3e10, the model declined, and the default 2.7 rad/s off (0.036 now)."""
+    the likelihood: log-likelihood -3e10, the model declined, and here the default 2.7 rad/s off (1.0e-3 now,
+    backward differencing 2.95)."""
     from omegahat.cli import main
 
     t = np.arange(0.0, 10.0, 0.01)
