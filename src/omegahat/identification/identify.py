@@ -18,7 +18,8 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    noise the model can tell from motion (then the rate model's filter is a differentiator of the attitude).
 4. **Expected RMS errors** (full band, at the sample times), from the identified model: the estimate's is the
    steady-state Kalman filter's ``√(tr P_ωω)`` for the model's per-axis linear dynamics at the median spacing (the
-   discrete algebraic Riccati equation, ``scipy.linalg.solve_discrete_are``); backward differencing's is its noise
+   discrete algebraic Riccati equation, ``scipy.linalg.solve_discrete_are``), for Euler's equations (which couple
+   the axes) the EKF's own over the head's second half; backward differencing's is its noise
    ``√6 σ / h`` with the motion's share over half a sample, ``√(max(0, E|Δū|² − 18 σ²/h²)) / 2`` (``ū_k`` the
    differenced rates, ``Δ`` between consecutive ones; (D1), :func:`omegahat.observer.tuning.differencing_error`).
 5. **The estimator.** The chosen model's filter (the observer supervising its gyro-less EKF) runs when the log
@@ -262,20 +263,6 @@ class Identification:
             **options,  # type: ignore[arg-type]
         )
 
-    def start_window(self) -> float:
-        """Seconds of log the ``fit`` start fits its rate over: the length ``L`` at which the least-squares slope's
-        noise (3 axes, ``n = L/h`` samples of noise σ) equals the filter's expected steady error ``e``::
-
-            3 · 12 σ² h / L³ = e²   ⇒   L = (36 σ² h / e²)^(1/3)                                          (W)
-
-        so that the filter starts about as close as it will stay (a shorter window starts it noisier, a longer one
-        averages more of the motion away); at least two samples."""
-        h = 1.0 / self.rate_hz
-        e, sigma = self.expected_rms, max(self.chosen.sigma, SIGMA_FLOOR)
-        if not (np.isfinite(e) and e > 0.0):
-            return 2.0 * h
-        return max(float(np.cbrt(36.0 * sigma**2 * h / e**2)), 2.0 * h)
-
     def explain(self) -> str:
         """The lines ``omegahat estimate`` prints: the model chosen and why, and the expected errors."""
         others = "; ".join(c.describe() for c in self.candidates if c is not self.chosen)
@@ -478,7 +465,12 @@ def identify(
     # without J, the acceleration model is fitted and reported but not run (module docstring, step 5)
     eligible = [c for c in finite if J is not None or c.model != "acceleration"] or finite
     chosen = min(eligible, key=lambda c: c.bic)
-    expected = likelihood.steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
+    expected = (  # (4): with Euler's equations, the filter's own covariance (their coupling of the axes)
+        likelihood.coupled_rate_error(t, filt_data, valid, chosen.model, chosen.tracking_index, chosen.sigma, h=h,
+                                      J=J_, torque=torque, references=refs, linear_hold=chosen.torque_hold == "linear")
+        if chosen.model in ("dynamic", "dynamic+disturbance")
+        else likelihood.steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
+    )  # fmt: skip
     differencing = differencing_error(phi, h, chosen.sigma)
     if chosen.misfit > MISFIT_MAX:
         use, why = (

@@ -199,3 +199,14 @@ def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float)
     K = P_pred @ H.T / S
     P = P_pred - K @ H @ P_pred
     return float(np.sqrt(3.0 * max(P[1, 1], 0.0)))
+
+
+def coupled_rate_error(t: np.ndarray, data: np.ndarray, valid: np.ndarray, model: str, tracking_index: float,
+                       sigma: float, **options: object) -> float:  # fmt: skip
+    """``√(mean tr P_ωω)`` (rad/s) of the EKF of ``model`` over the second half of the log, one :func:`filter_pass`
+    (``options`` as there) with its covariances. Euler's equations couple the axes (``J⁻¹([Jω]× − [ω]× J)`` in the
+    error's dynamics, and about the intermediate axis they amplify it), which :func:`steady_rate_error`'s per-axis
+    model leaves out; the filter's own covariance has them, at the log's own rates. The first half is left to the
+    diffuse prior's transient."""
+    P = filter_pass(t, data, valid, model, tracking_index, sigma=sigma, covariances=True, **options).P  # type: ignore[arg-type]
+    return float(np.sqrt(np.mean(np.trace(P[P.shape[0] // 2 :], axis1=1, axis2=2))))

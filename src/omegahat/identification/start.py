@@ -1,6 +1,6 @@
 r"""The ``fit`` start of the identified filter: the longest window the noise asks for that the motion allows.
 
-(W) of :meth:`omegahat.identification.Identification.start_window` gives the window ``L_W`` over which the
+(W) of :func:`noise_window` gives the window ``L_W`` over which the
 least-squares rate (F) of :func:`omegahat.observer.autogain.initial_rate` is as accurate as the filter will be: the
 better the model, the longer. But (F) fits a line to the attitude, moved to the window's start by half a window of
 Euler's equations: exact for a constant rate, first order otherwise. Over a window that long a slewing body's rate
@@ -32,9 +32,23 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.observer.autogain import initial_rate
 
-__all__ = ["AGREEMENT", "balanced_start"]
+__all__ = ["AGREEMENT", "balanced_start", "noise_window"]
 
 AGREEMENT = 3.0  #: κ of (W'): the windows' rates must agree within this many standard deviations of their noise
+
+
+def noise_window(expected: float, sigma: float, h: float) -> float:
+    """Seconds of log the ``fit`` start fits its rate over as far as the noise goes: the length ``L`` at which the
+    least-squares slope's noise (3 axes, ``n = L/h`` samples of attitude noise ``sigma``) equals the filter's
+    expected error ``expected`` (rad/s) at the step ``h``::
+
+        3 · 12 σ² h / L³ = e²   ⇒   L = (36 σ² h / e²)^(1/3)                                              (W)
+
+    so that the filter starts about as close as it will stay (a shorter window starts it noisier; a longer one
+    averages more of the motion away, which (W') bounds); at least two samples."""
+    if not (math.isfinite(expected) and expected > 0.0):
+        return 2.0 * h
+    return max(math.cbrt(36.0 * sigma**2 * h / expected**2), 2.0 * h)
 
 
 def balanced_start(

@@ -32,7 +32,7 @@ from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
 from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
 from omegahat.identification.spectral import SpectralSmoother
-from omegahat.identification.start import balanced_start
+from omegahat.identification.start import balanced_start, noise_window
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
@@ -198,7 +198,8 @@ def attitude_choice(
         if settings.start != "fit":
             return None
         sigma, e = ident.chosen.sigma, ident.expected_rms  # σ at least the floor (Candidate)
-        rate, _, error = balanced_start(tv, rot, ident.start_window(), sigma, e, J, motion.torque)
+        window = noise_window(e, sigma, 1.0 / ident.rate_hz)
+        rate, _, error = balanced_start(tv, rot, window, sigma, e, J, motion.torque)
         return rate, error
 
     est, described = _estimator(
