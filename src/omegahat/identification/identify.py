@@ -49,7 +49,7 @@ from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
 from omegahat.identification import likelihood
 from omegahat.identification.causal import CausalFilter, causal_filter
 from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
-from omegahat.identification.noise import quiet_noise
+from omegahat.identification.noise import quiet_noise, rigid_directions
 from omegahat.identification.spectral import increment_spectrum, read_steps, stretches
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
@@ -448,10 +448,9 @@ def identify(
     if not h > 0:
         raise ValueError("the sample times must increase")
     phi = so3.increments(R[valid])
-    bound = quiet_noise(tv, phi)
-    if not np.isfinite(bound):
-        bound = np.inf
-    bound = max(bound, SIGMA_FLOOR)
+    bound = max(float(np.nan_to_num(quiet_noise(tv, phi), nan=np.inf)), SIGMA_FLOOR)
+    if refs is not None and np.isfinite(bound) and rigid_directions(filt_data[valid], refs, bound):
+        filt_data, refs = R, None  # (R0): directions that are a rotation's are identified as their attitudes
     J_ = np.eye(3) if J is None else as_inertia(J)
     if models is None:
         models = MODELS if J is not None else KINEMATIC

@@ -53,6 +53,7 @@ __all__ = [
     "REGULAR_STEP",
     "WINDOW_S",
     "quiet_noise",
+    "rigid_directions",
     "window_quantile",
 ]
 
@@ -113,3 +114,21 @@ def _quietest(d2: np.ndarray, h: float, white: float) -> float:
         return float(np.sqrt(float(np.nanmedian(d2)) / (white * CHI2_3_MEDIAN)))
     medians = np.median(windows[full], axis=1)
     return float(np.sqrt(float(np.quantile(medians, QUANTILE)) / (white * window_quantile(w))))
+
+
+def rigid_directions(directions: np.ndarray, references: np.ndarray, noise: float) -> bool:
+    """Whether unit body-frame ``directions (T, n, 3)`` of unit ``references (n, 3)`` carry no noise of their own
+    beyond a rotation's: the angles between them are the references' to within a hundredth of the attitude noise
+    ``noise`` (rad), in RMS over the samples and pairs ::
+
+        √(mean_k |B_k B_kᵀ − V Vᵀ|²_F / n²) < noise / 100                                                  (R0)
+
+    (``B_k`` the sample's directions as rows). Directions computed from attitudes are; a sensor's are not (each of
+    its directions has its own noise, and the angle between them moves by about that much). The likelihood cannot
+    identify rigid ones: the noise lies in the attitude's three dimensions alone, which a fast enough model follows
+    exactly, and the innovations' other dimensions are noise-free (``docs/theory/identification.md``)."""
+    b = np.asarray(directions, dtype=float)
+    V = np.asarray(references, dtype=float)
+    gram = np.einsum("tni,tmi->tnm", b, b) - V @ V.T
+    n = V.shape[0]
+    return bool(b.shape[0] > 0 and np.sqrt(np.mean(np.sum(gram**2, axis=(1, 2)))) / n < noise / 100.0)
