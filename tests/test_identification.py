@@ -452,7 +452,8 @@ def test_directions_of_attitudes_are_identified_as_the_attitudes(tmp_path, capsy
     src, dst = tmp_path / "b.npz", tmp_path / "o.csv"
     np.savez(src, t=t, b=b)
     assert main(["estimate", str(src), "-o", str(dst), "--references=0,0,1;1,0,0", "--no-progress"]) == 0
-    capsys.readouterr()
+    assert "identified as their least-squares attitudes (R0)" in capsys.readouterr().out
+    assert by_directions.rigid and not identify(t, own_noise, "directions", references=V).rigid
     written = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     assert rms(written[200:] - w) < 2e-4  # measured 6.0e-5; backward differencing 0.24
 

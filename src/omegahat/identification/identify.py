@@ -176,6 +176,9 @@ class Identification:
         :mod:`omegahat.baselines.differencing`); None otherwise.
     causal : CausalFilter or None, optional
         Where differencing runs (directions: on their least-squares attitudes), its causal filter (C3); else None.
+    rigid : bool, optional
+        Directions that are a rotation's, identified as their least-squares attitudes ((R0) of
+        :func:`omegahat.identification.noise.rigid_directions`).
 
     Examples
     --------
@@ -211,6 +214,7 @@ class Identification:
     reason: str = ""
     stamp_step: float | None = None
     causal: CausalFilter | None = None
+    rigid: bool = False
 
     def estimator(self, **options: object) -> SupervisedKalmanEstimator | DifferencingEstimator:
         """The default estimator for this identification (module docstring, step 5): the observer supervising the
@@ -231,7 +235,7 @@ class Identification:
         supervisor's consistency tests are off (a motion that is not the model, a hand, never gives white
         innovations: they would restart the EKF every few samples); with J they are on."""
         c = self.chosen
-        dynamic = c.model in ("dynamic", "dynamic+disturbance")
+        dynamic = c.model in likelihood.DYNAMIC
         if not dynamic:
             options = {
                 "nis_max": 1e6,
@@ -282,7 +286,9 @@ class Identification:
                 if self.stamp_step is not None
                 else ""
             )
-        )
+            + ("\ndirections: their angles are the references' (a rotation's, as if computed from attitudes): "
+               "identified as their least-squares attitudes (R0)" if self.rigid else "")
+        )  # fmt: skip
 
 
 def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -337,7 +343,7 @@ def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Ca
         tau = None if torque is None else np.asarray(torque, dtype=float)[valid]
         tau = None if tau is None else tau[np.all(np.isfinite(tau), axis=1)]
         varies = tau is not None and tau.size > 0 and bool(np.any(np.ptp(tau, axis=0) > 0.0))
-        if not varies or model not in ("dynamic", "dynamic+disturbance"):  # the hold changes nothing: one fit
+        if not varies or model not in likelihood.DYNAMIC:  # the hold changes nothing: one fit
             return _fitted(model, t, data, valid, h, bound, J, torque, refs, False)
         held, line = (_fitted(model, t, data, valid, h, bound, J, torque, refs, lh) for lh in (False, True))
         best, other = (line, held) if line.log_likelihood > held.log_likelihood else (held, line)
@@ -449,8 +455,9 @@ def identify(
         raise ValueError("the sample times must increase")
     phi = so3.increments(R[valid])
     bound = max(float(np.nan_to_num(quiet_noise(tv, phi), nan=np.inf)), SIGMA_FLOOR)
-    if refs is not None and np.isfinite(bound) and rigid_directions(filt_data[valid], refs, bound):
-        filt_data, refs = R, None  # (R0): directions that are a rotation's are identified as their attitudes
+    rigid = bool(refs is not None and np.isfinite(bound) and rigid_directions(filt_data[valid], refs, bound))
+    if rigid:  # (R0): directions that are a rotation's are identified as their attitudes
+        filt_data, refs = R, None
     J_ = np.eye(3) if J is None else as_inertia(J)
     if models is None:
         models = MODELS if J is not None else KINEMATIC
@@ -467,7 +474,7 @@ def identify(
     expected = (  # (4): with Euler's equations, the filter's own covariance (their coupling of the axes)
         likelihood.coupled_rate_error(t, filt_data, valid, chosen.model, chosen.tracking_index, chosen.sigma, h=h,
                                       J=J_, torque=torque, references=refs, linear_hold=chosen.torque_hold == "linear")
-        if chosen.model in ("dynamic", "dynamic+disturbance")
+        if chosen.model in likelihood.DYNAMIC
         else likelihood.steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
     )  # fmt: skip
     differencing = differencing_error(phi, h, chosen.sigma)
@@ -487,5 +494,5 @@ def identify(
         use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
     causal = None if use else causal_filter(increment_spectrum(t, R, valid))  # directions: their attitudes (W)
     return Identification(
-        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal
+        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal, rigid
     )

@@ -25,11 +25,13 @@ random walk (white jerk, ``p = 2``); ``dynamic`` — Euler's equations with J an
 (``p = 1``, the noise on ``J⁻¹τ``); ``dynamic+disturbance`` — the same with an unknown torque whose angular
 acceleration is a random walk (``p = 2``). The torque between samples is held over each step or interpolated
 (``linear_hold``); :func:`omegahat.identification.identify` lets the likelihood choose (H1).
-:func:`steady_rate_error` is the rate error a model's steady-state filter expects.
+:func:`steady_rate_error` is the rate error a model's steady-state filter expects, :func:`coupled_rate_error` the
+one its EKF's own covariance gives (for Euler's equations, which couple the axes).
 """
 
 from __future__ import annotations
 
+import math
 from typing import Literal, NamedTuple, TypeAlias, get_args
 
 import numpy as np
@@ -41,10 +43,12 @@ from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 
 __all__ = [
     "BURN_IN",
+    "DYNAMIC",
     "MODELS",
     "Model",
     "Pass",
     "Sums",
+    "coupled_rate_error",
     "filter_pass",
     "innovation_sums",
     "log_likelihood",
@@ -54,6 +58,7 @@ __all__ = [
 
 Model: TypeAlias = Literal["rate", "acceleration", "dynamic", "dynamic+disturbance"]
 MODELS: tuple[str, ...] = get_args(Model)
+DYNAMIC = ("dynamic", "dynamic+disturbance")  #: the models of Euler's equations (J and τ used)
 ORDER = {"rate": 1, "acceleration": 2, "dynamic": 1, "dynamic+disturbance": 2}  #: p of (L2)
 BURN_IN = 3  #: fixes left out of (L1): the diffuse prior's (the filter has no rate before the second)
 _QUIET = 1e-12  # the relative torque noise of the disturbance model's known dynamics (the disturbance carries it)
@@ -100,7 +105,7 @@ def filter_pass(
     ``tracking_index``, over the log ``t (T,)``, ``data`` (rotation matrices ``(T, 3, 3)``, or unit directions
     ``(T, n, 3)`` with ``references (n, 3)``), ``valid (T,)`` the usable samples, ``torque (T, 3)`` or None (used by
     the dynamic models only), from a diffuse prior whose first :data:`BURN_IN` fixes are left out of the sums."""
-    dynamic = model in ("dynamic", "dynamic+disturbance")
+    dynamic = model in DYNAMIC
     J = np.eye(3) if J is None or not dynamic else np.asarray(J, dtype=float)
     q_rate = noise_intensity(model, tracking_index, sigma, h)
     q = _QUIET * q_rate if model == "dynamic+disturbance" else q_rate
@@ -207,6 +212,8 @@ def coupled_rate_error(t: np.ndarray, data: np.ndarray, valid: np.ndarray, model
     (``options`` as there) with its covariances. Euler's equations couple the axes (``J⁻¹([Jω]× − [ω]× J)`` in the
     error's dynamics, and about the intermediate axis they amplify it), which :func:`steady_rate_error`'s per-axis
     model leaves out; the filter's own covariance has them, at the log's own rates. The first half is left to the
-    diffuse prior's transient."""
+    diffuse prior's transient, and the samples where the filter restarted (NaN) are left out; NaN if none is left."""
     P = filter_pass(t, data, valid, model, tracking_index, sigma=sigma, covariances=True, **options).P  # type: ignore[arg-type]
-    return float(np.sqrt(np.mean(np.trace(P[P.shape[0] // 2 :], axis1=1, axis2=2))))
+    spread = np.trace(P[P.shape[0] // 2 :], axis1=1, axis2=2)
+    spread = spread[np.isfinite(spread)]
+    return float(np.sqrt(np.mean(spread))) if spread.size else math.nan
