@@ -18,6 +18,7 @@ import pytest
 from omegahat import so3
 from omegahat.cli import main
 from omegahat.interface import Status
+from omegahat.lab.cli import control as control_command
 from omegahat.lab.control import (
     AttitudePD,
     EstimatorFeed,
@@ -162,7 +163,9 @@ def test_basin_settles_everywhere_sampled_and_slows_down_towards_180_degrees():
     assert sweep[0] < sweep[1] < sweep[2] < scenario.horizon  # measured 50.6, 76.0, 128 s
 
 
-def test_control_command_writes_figures_and_summary(tmp_path, capsys):
+def test_control_command_writes_figures_and_summary(tmp_path, capsys, monkeypatch):
+    # two of the sweep's six angles: the sweep itself is tested above; this test is the command's files
+    monkeypatch.setattr(control_command, "SWEEP_DEG", (90.0, 179.9))
     assert main(["control", "--out", str(tmp_path), "--runs", "2"]) == 0
     out = capsys.readouterr().out
     assert "detumble  omegahat" in out and "basin gyro" in out

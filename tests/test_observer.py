@@ -25,15 +25,17 @@ def _random_problem(seed, gains, J=J_PAPER, n=2):
 def test_printed_output_map_diverges_and_corrected_map_converges(seed):
     """Regression test for the paper's sign error (observer.md, Erratum): with constant l_i = 1 the printed map
     ω̂ = ξ + J⁻¹ Σ k_i r̂_i × r_i does not converge; the corrected one does. Both runs integrate the observer's
-    own (ξ, r̂) equations with SciPy; they differ only in the sign of the output map."""
+    own (ξ, r̂) equations with SciPy; they differ only in the sign of the output map. The printed map's error
+    grows within the first second and stays large (its run is chaotic and slow to integrate, so it stops at 3 s)."""
     problem = _random_problem(seed, ObserverGains.constant(14.5, 1.0))
-    t = np.linspace(0.0, 10.0, 11)
-    corrected = simulate_reference(problem, t, method="LSODA", rtol=1e-9, atol=1e-12)
+    corrected = simulate_reference(problem, np.linspace(0.0, 10.0, 11), method="LSODA", rtol=1e-9, atol=1e-12)
+    t = np.linspace(0.0, 3.0, 13)
     printed = simulate_reference(
         problem, t, method="LSODA", rtol=1e-6, atol=1e-10, output_sign=sarras.OUTPUT_SIGN_PRINTED
     )
     assert corrected.error[-1] < 1e-6
-    assert printed.error[-1] > 1.0  # measured 6.9 to 166 on these seeds
+    # measured on these seeds: from 0.6-2.0 rad/s at the start to at least 6.1 (up to 41) over 1-3 s
+    assert printed.error[t >= 1.0].min() > max(1.0, 3.0 * printed.error[0])
 
 
 def test_paper_initialisation_gives_zero_initial_estimate():

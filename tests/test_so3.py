@@ -54,6 +54,21 @@ def test_hat_is_the_cross_product(v, x):
     np.testing.assert_allclose(so3.hat(v) @ x, np.cross(v, x), rtol=1e-14, atol=1e-13)
 
 
+@given(vectors, vectors)
+def test_cross_is_numpys_cross_product(v, x):
+    np.testing.assert_allclose(so3.cross(v, x), np.cross(v, x), rtol=1e-15, atol=0.0)
+
+
+def test_cross_broadcasts_as_numpys_and_refuses_other_widths():
+    rng = np.random.default_rng(RNG_SEED)
+    a, b = rng.standard_normal((4, 1, 3)), rng.standard_normal((5, 3))
+    np.testing.assert_array_equal(so3.cross(a, b), np.cross(a, b))
+    np.testing.assert_array_equal(so3.cross(a[0, 0], b), np.cross(a[0, 0], b))
+    assert so3.cross([1, 0, 0], [0, 1, 0]).tolist() == [0.0, 0.0, 1.0]  # integers come back as floats
+    with pytest.raises(ValueError, match="3-vectors"):
+        so3.cross(np.ones(2), np.ones(3))
+
+
 @given(vectors)
 def test_vee_inverts_hat_and_hat_is_skew(v):
     np.testing.assert_array_equal(so3.vee(so3.hat(v)), v)

@@ -75,12 +75,13 @@ def test_the_proofs_lyapunov_function_decreases_along_the_trajectory(theorem_run
 
 def test_the_printed_output_map_is_flagged_where_the_corrected_one_converges():
     paper_gains = ObserverGains.constant(14.5, 1.0)  # the paper's simulation gains
-    _, good = paper_run(paper_gains, horizon=4.0)
-    _, bad = paper_run(paper_gains, cont.OUTPUT_SIGN_PRINTED, horizon=4.0)
+    _, good = paper_run(paper_gains, horizon=2.5)
+    # the printed map's run is stiff and slow to integrate: one second shows it growing
+    _, bad = paper_run(paper_gains, cont.OUTPUT_SIGN_PRINTED, horizon=1.0)
     err_good = np.linalg.norm(good.omega_hat - good.omega, axis=1)
     err_bad = np.linalg.norm(bad.omega_hat - bad.omega, axis=1)
     assert err_good[-1] < 1e-3
-    assert err_bad[-1] > 1.0  # the erratum: the printed map does not converge (it grows)
+    assert err_bad[-1] > max(1.0, 2.0 * err_bad[0])  # the erratum: the printed map does not converge (it grows)
     assert math.isinf(u.run_rate(bad.t, err_bad, 1e-3)[0])
 
 

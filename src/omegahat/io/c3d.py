@@ -21,6 +21,8 @@ import sys
 
 import numpy as np
 
+from omegahat.io import c3d_child
+from omegahat.io.c3d_child import RUN
 from omegahat.io.columns import LogFormatError
 from omegahat.io.mocap import choose_body
 from omegahat.io.registry import LogStream, ReadOptions
@@ -43,49 +45,20 @@ def _value(group: dict, name: str, default=None):
     return entry["value"]
 
 
-def _load(path: str) -> dict:
-    """What :func:`open_c3d` uses of the file, read by ezc3d: in a child process (see :func:`_read`)."""
-    c = _ezc3d().c3d(path)
-    params = c["parameters"]
-    keep = {
-        group: {
-            name: {"value": entry["value"]}
-            for name, entry in params.get(group, {}).items()
-            if isinstance(entry, dict) and "value" in entry
-        }
-        for group in ("ROTATION", "POINT")
-        if group in params
-    }
-    return {
-        "parameters": keep,
-        "data": {"rotations": np.asarray(c["data"].get("rotations", np.zeros((4, 4, 0, 0))))},
-        "header": {"rotations": dict(c["header"].get("rotations", {}))},
-    }
-
-
 def _read(path: str) -> dict:
-    """ezc3d's reading of ``path`` (:func:`_load`) in a child process: on some damaged files (a truncated one) ezc3d
-    does not raise but aborts the process (an uncaught C++ ``std::out_of_range``, SIGABRT), which would end the
-    caller's without a word; the child's death becomes a message naming the file. The child is this interpreter
-    running this module's :func:`_load`; its answer comes back pickled on its standard output (our own code's
+    """ezc3d's reading of ``path`` in a child process: on some damaged files (a truncated one) ezc3d does not raise
+    but aborts the process (an uncaught C++ ``std::out_of_range``, SIGABRT), which would end the caller's without a
+    word; the child's death becomes a message naming the file. The child is this interpreter running
+    :func:`omegahat.io.c3d_child.load`; its answer comes back pickled on its standard output (our own code's
     output, not the file's)."""
-    code = (
-        "import pickle, sys\n"
-        "from omegahat.io.c3d import _load\n"
-        "try:\n"
-        "    out = _load(sys.argv[1])\n"
-        "except Exception as exc:\n"
-        "    out = {'error': str(exc)}\n"
-        "sys.stdout.buffer.write(pickle.dumps(out))\n"
-    )
-    done = subprocess.run([sys.executable, "-c", code, path], capture_output=True, check=False)
+    done = subprocess.run([sys.executable, "-c", RUN, c3d_child.__file__, path], capture_output=True, check=False)
     if done.returncode != 0:
         raise LogFormatError(
             f"{path}: not a readable C3D file (the C3D reader stopped on it, exit status {done.returncode}: "
             "a truncated or damaged file?)"
         )
     out = pickle.loads(done.stdout)  # our own child's answer
-    if "error" in out:  # ezc3d raises plain RuntimeError/IOError for unreadable files
+    if "error" in out:  # ezc3d raised (plain RuntimeError/IOError for unreadable files)
         raise LogFormatError(f"{path}: not a readable C3D file ({out['error']})")
     return out
 

@@ -132,7 +132,7 @@ def _rel_rotvec(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``log(R_aᵀ R_b)`` (rotation vectors, body frame of a) for unit quaternions ``q (N, 4)`` scalar last."""
     qa, qb = q[a], q[b]
     va, wa, vb, wb = qa[:, :3], qa[:, 3:], qb[:, :3], qb[:, 3:]
-    v = wa * vb - wb * va - np.cross(va, vb)  # vector part of conj(qa) ⊗ qb
+    v = wa * vb - wb * va - so3.cross(va, vb)  # vector part of conj(qa) ⊗ qb
     w = (wa * wb + np.sum(va * vb, axis=1, keepdims=True))[:, 0]
     sgn = np.where(w < 0, -1.0, 1.0)
     s = np.linalg.norm(v, axis=1)
@@ -144,7 +144,7 @@ def _rel_rotvec(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _euler_rhs(J, J_inv, w, tau):
     """``f(ω) = J⁻¹((Jω) × ω + τ)`` row-wise."""
-    out = np.cross(w @ J.T, w)
+    out = so3.cross(w @ J.T, w)
     if tau is not None:
         out = out + tau
     return out @ J_inv.T
@@ -379,7 +379,7 @@ def convention_check(motion: LogMotion) -> tuple[float, float]:
             a = _rel_rotvec(q, k, k + m) / (motion.t[k + m] - motion.t[k])[:, None]
             b = _rel_rotvec(q, k + m, k + 2 * m) / (motion.t[k + 2 * m] - motion.t[k + m])[:, None]
             w = 0.5 * (a + b)
-            r = (b - a) / span @ motion.J.T - np.cross(w @ motion.J.T, w) - tau
+            r = (b - a) / span @ motion.J.T - so3.cross(w @ motion.J.T, w) - tau
             res.append(float(np.sqrt(np.mean(np.sum(r**2, axis=1)))))
         last = (res[0], res[1])
         noise = float(np.sqrt(18.0) * motion.sigma * J_M / (m * motion.h) ** 2)

@@ -34,6 +34,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from omegahat import so3
+
 __all__ = [
     "OUTPUT_SIGN_CORRECTED",
     "OUTPUT_SIGN_PRINTED",
@@ -63,7 +65,7 @@ def output_map(
     sign: float = OUTPUT_SIGN_CORRECTED,
 ) -> np.ndarray:
     """ω̂ = ξ + sign · J⁻¹ Σ k_i r_i × r̂_i (β of the paper, corrected for ``sign = +1``)."""
-    return xi + sign * (J_inv @ np.sum(np.asarray(k)[:, None] * np.cross(r, r_hat), axis=0))
+    return xi + sign * (J_inv @ np.sum(np.asarray(k)[:, None] * so3.cross(r, r_hat), axis=0))
 
 
 def xi_for_omega_hat(
@@ -97,13 +99,13 @@ def observer_rhs(
     k = np.asarray(k, float)
     omega_hat = output_map(xi, r, r_hat, k, J_inv, sign)
     l = gain_l(omega_hat, l_offset, l_slope)
-    r_cross_rhat = np.cross(r, r_hat)  # (n, 3)
+    r_cross_rhat = so3.cross(r, r_hat)  # (n, 3)
     xi_dot = (
-        -J_inv @ np.sum(k[:, None] * np.cross(r_cross_rhat, omega_hat), axis=0)
-        + J_inv @ np.sum((l * k)[:, None] * np.cross(r, r_hat - r), axis=0)
-        + J_inv @ (np.cross(J @ omega_hat, omega_hat) + tau)
+        -J_inv @ np.sum(k[:, None] * so3.cross(r_cross_rhat, omega_hat), axis=0)
+        + J_inv @ np.sum((l * k)[:, None] * so3.cross(r, r_hat - r), axis=0)
+        + J_inv @ (so3.cross(J @ omega_hat, omega_hat) + tau)
     )
-    r_hat_dot = np.cross(r_hat, omega_hat) - l[:, None] * (r_hat - r)
+    r_hat_dot = so3.cross(r_hat, omega_hat) - l[:, None] * (r_hat - r)
     return xi_dot, r_hat_dot
 
 
@@ -124,11 +126,11 @@ def error_dynamics(
     r_hat = r + e
     l = gain_l(omega_hat, l_offset, l_slope)
     z_dot = J_inv @ (
-        np.sum(k[:, None] * np.cross(r_hat, np.cross(r, z)), axis=0)
-        + np.cross(J @ omega_hat, omega_hat)
-        - np.cross(J @ omega, omega)
+        np.sum(k[:, None] * so3.cross(r_hat, so3.cross(r, z)), axis=0)
+        + so3.cross(J @ omega_hat, omega_hat)
+        - so3.cross(J @ omega, omega)
     )
-    e_dot = np.cross(r, z) + np.cross(e, omega_hat) - l[:, None] * e
+    e_dot = so3.cross(r, z) + so3.cross(e, omega_hat) - l[:, None] * e
     return z_dot, e_dot
 
 

@@ -3,8 +3,8 @@ r"""The sampled estimator written plainly in NumPy and SciPy: the test oracle of
 The same realisation as :mod:`omegahat.observer.sampled` (steps (P), (I), (C), (R) and the warm start (W) of
 :mod:`omegahat.observer.estimator`), written from the equations with vectors and matrices, independent of the
 compiled kernels: rotations by SciPy's ``Rotation`` (exp, log, and Wahba's problem by ``align_vectors``), the
-observer's terms spelled out with ``np.cross``. Slow (a thousand samples a second); tests compare the compiled
-estimator with it sample by sample.
+observer's terms spelled out with cross products in NumPy (:func:`omegahat.so3.cross`). Slow (a thousand samples
+a second); tests compare the compiled estimator with it sample by sample.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
+from omegahat import so3
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.prediction import MAX_SUBSTEP_ANGLE, MAX_SUBSTEPS
 from omegahat.observer.sampled import EstimatorState
@@ -58,8 +59,8 @@ def reference_predict(
     linear in between; ``aim`` the aim Γ so far (default 0). Returns ``(ω̂, r_pred, e_pred, aim)``."""
     tau_end = tau if tau_end is None else tau_end
     torque = lambda s: tau + (tau_end - tau) * s  # s: the fraction of h  # noqa: E731
-    f = lambda w, s: J_inv @ (np.cross(J @ w, w) + torque(s))  # Euler's equations  # noqa: E731
-    dexpinv = lambda u, w: w + 0.5 * np.cross(u, w) + np.cross(u, np.cross(u, w)) / 12.0  # noqa: E731
+    f = lambda w, s: J_inv @ (so3.cross(J @ w, w) + torque(s))  # Euler's equations  # noqa: E731
+    dexpinv = lambda u, w: w + 0.5 * so3.cross(u, w) + so3.cross(u, so3.cross(u, w)) / 12.0  # noqa: E731
     n_sub = _substeps(h, omega_hat, J_inv, tau, tau_end, max_angle)
     hs = h / n_sub
     w = np.array(omega_hat, dtype=float)
@@ -120,7 +121,7 @@ def reference_step(
         # (W): A = argmin Σ k_i |m_i − A r_i|², ω_avg = log(Aᵀ)/h, then half a step of Euler's equations
         A = Rotation.align_vectors(r_meas, state.r, weights=gains.k)[0].as_matrix()
         w_avg = Rotation.from_matrix(A.T).as_rotvec() / h
-        w = w_avg + 0.5 * h * J_inv @ (np.cross(J @ w_avg, w_avg) + state.torque)
+        w = w_avg + 0.5 * h * J_inv @ (so3.cross(J @ w_avg, w_avg) + state.torque)
         decay = np.exp(-(gains.l_offset * h + gains.l_slope * np.linalg.norm(w_avg) * h))
         r_pred, e_pred = state.r @ A.T, decay[:, None] * (state.e @ A.T)
         return EstimatorState(float(t), True, float(t), w, tau, r_meas.copy(), e_pred - (r_meas - r_pred))
@@ -134,7 +135,7 @@ def reference_step(
     delta = r_meas - r_pred  # (I)
     r_hat = r_pred + e_pred
     k = gains.k
-    y = np.sum(k[:, None] * np.cross(delta, r_hat), axis=0)  # the plain jump of the output map, times J
+    y = np.sum(k[:, None] * so3.cross(delta, r_hat), axis=0)  # the plain jump of the output map, times J
     M = sum(k[i] * (r_meas[i] @ r_meas[i] * np.eye(3) - np.outer(r_meas[i], r_meas[i])) for i in range(k.size))
     G = J_inv if isotropic_rate is None else isotropic_rate * np.linalg.inv(M)
     w = w + np.linalg.solve(np.eye(3) + G @ M @ aim, G @ y)  # (C)

@@ -25,8 +25,7 @@ with the error dynamics (z = ω̂ − ω, e = r̂ − b) of the n-direction obse
 
     ż = J⁻¹ k r̂ × (b × z) + J⁻¹((J ω̂) × ω̂ − (J ω) × ω),      ė = b × z + e × ω̂ − l e            (D5)
 
-Once r̂ ≈ b the first term of ż is ``−J⁻¹ k (I − b bᵀ) z``: rank 2, blind along b; (PE) is what makes the average
-of it definite.
+Once r̂ ≈ b the first term of ż is ``−J⁻¹ k (I − b bᵀ) z``: rank 2, blind along b; (PE) makes its average definite.
 
 **The gradient observer** (``method="gradient"``), the baseline built here from first principles (a copy of (D1)
 plus output injection, chosen so that the cross terms of a quadratic Lyapunov function cancel)::
@@ -65,6 +64,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from omegahat import measurements as ms
+from omegahat import so3
 from omegahat.interface import Estimate, Status, StreamingEstimator, one_of
 from omegahat.observer import single_direction_step as step
 from omegahat.observer.continuous import OUTPUT_SIGN_CORRECTED
@@ -124,7 +124,7 @@ def sarras_output(
     xi: np.ndarray, b: np.ndarray, r_hat: np.ndarray, k: float, J_inv: np.ndarray, sign: float = 1.0
 ) -> np.ndarray:
     """(D2): ``ω̂ = ξ + sign · J⁻¹ k b × r̂``, batched over leading axes (``sign = −1``: the paper's misprint)."""
-    return xi + sign * k * np.cross(b, r_hat) @ J_inv.T
+    return xi + sign * k * so3.cross(b, r_hat) @ J_inv.T
 
 
 def sarras_rhs(
@@ -140,9 +140,9 @@ def sarras_rhs(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(D3), (D4): ``(ξ̇, r̂̇)`` of the Sarras-type observer, batched ``(*B, 3)``; ``sign`` selects the output map."""
     w = sarras_output(xi, b, r_hat, k, J_inv, sign)
-    bxr = np.cross(b, r_hat)
-    xi_dot = (-k * np.cross(bxr, w) + l * k * np.cross(b, r_hat - b) + np.cross(w @ J.T, w) + tau) @ J_inv.T
-    r_dot = np.cross(r_hat, w) - l * (r_hat - b)
+    bxr = so3.cross(b, r_hat)
+    xi_dot = (-k * so3.cross(bxr, w) + l * k * so3.cross(b, r_hat - b) + so3.cross(w @ J.T, w) + tau) @ J_inv.T
+    r_dot = so3.cross(r_hat, w) - l * (r_hat - b)
     return xi_dot, r_dot
 
 
@@ -157,8 +157,8 @@ def gradient_rhs(
     l: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(D6): ``(ω̂̇, b̂̇)`` of the gradient observer, batched ``(*B, 3)``."""
-    w_dot = (np.cross(omega_hat @ J.T, omega_hat) + tau + k * np.cross(b, b_hat)) @ J_inv.T
-    b_dot = np.cross(b_hat, omega_hat) - l * (b_hat - b)
+    w_dot = (so3.cross(omega_hat @ J.T, omega_hat) + tau + k * so3.cross(b, b_hat)) @ J_inv.T
+    b_dot = so3.cross(b_hat, omega_hat) - l * (b_hat - b)
     return w_dot, b_dot
 
 
@@ -186,7 +186,7 @@ def _unit(b: np.ndarray, j: int) -> np.ndarray:
 
 def _great_circle_rate(b0: np.ndarray, b1: np.ndarray, h: float) -> np.ndarray:
     """(D8): the constant rate ``w`` with ``ḃ = b × w`` that carries unit ``b0`` to unit ``b1`` in ``h``."""
-    c = np.cross(b0, b1)
+    c = so3.cross(b0, b1)
     s = np.linalg.norm(c, axis=-1, keepdims=True)
     theta = np.arctan2(s, np.sum(b0 * b1, axis=-1, keepdims=True))
     # For s → 0 the axis is undefined but θ/s → 1: w = −c/h to first order.
@@ -246,7 +246,7 @@ def run_single_direction(
         w0 = np.zeros((nb, 3)) if omega_hat0 is None else np.broadcast_to(np.asarray(omega_hat0, float), (nb, 3))
         r0 = b_cur.copy() if r_hat0 is None else np.broadcast_to(np.asarray(r_hat0, float), (nb, 3)).copy()
         if method == "sarras":  # ξ₀ so that the output map (D2) gives ω̂₀
-            x1 = w0 - sign * k * np.cross(b_cur, r0) @ J_inv.T
+            x1 = w0 - sign * k * so3.cross(b_cur, r0) @ J_inv.T
         else:
             x1 = w0.astype(float).copy()
         state = {"t": float(t[0]), "b": b_cur, "x1": x1, "x2": r0, "tau": tau[0].copy()}
@@ -265,7 +265,7 @@ def run_single_direction(
         else:
             d1, d2 = gradient_rhs(x1, x2, bb, tq, J, J_inv, k, l)
         w = np.where(use_meas, w_meas, what)  # (D8) toward the next sample, or along the estimate when missing
-        return d1, d2, np.cross(bb, w)
+        return d1, d2, so3.cross(bb, w)
 
     for j in range(T):
         if j == start:

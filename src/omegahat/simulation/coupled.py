@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
+from omegahat import so3
 from omegahat.observer import continuous as sarras
 from omegahat.simulation.engine import LANES, StepControl, integrate_states
 from omegahat.simulation.problem import (
@@ -235,8 +236,8 @@ def simulate_reference(
         xi = y[3 * n + 3 : 3 * n + 6]
         r_hat = y[3 * n + 6 :].reshape(n, 3)
         tau = tq(t)
-        r_dot = np.cross(r, w)
-        w_dot = Jinv @ (np.cross(J @ w, w) + tau)
+        r_dot = so3.cross(r, w)
+        w_dot = Jinv @ (so3.cross(J @ w, w) + tau)
         xi_dot, r_hat_dot = sarras.observer_rhs(
             xi, r_hat, r, tau, J, Jinv, g.k, g.l_offset, g.l_slope, sign=output_sign
         )
@@ -252,7 +253,7 @@ def simulate_reference(
     omega = Y[:, 3 * n : 3 * n + 3]
     xi = Y[:, 3 * n + 3 : 3 * n + 6]
     r_hat = Y[:, 3 * n + 6 :].reshape(-1, n, 3)
-    omega_hat = xi + output_sign * np.einsum("ij,tj->ti", Jinv, np.einsum("i,tia->ta", g.k, np.cross(r, r_hat)))
+    omega_hat = xi + output_sign * np.einsum("ij,tj->ti", Jinv, np.einsum("i,tia->ta", g.k, so3.cross(r, r_hat)))
     return CoupledTrajectory(
         t=sol.t,
         omega=omega,

@@ -101,7 +101,7 @@ class RigidBody:
         """ω̇ = J⁻¹((Jω) × ω + τ). ``omega (*B, 3)``, ``torque`` broadcastable to it (None = 0)."""
         omega = np.asarray(omega, dtype=float)
         Jw = omega @ self.J.T
-        rhs = np.cross(Jw, omega)
+        rhs = so3.cross(Jw, omega)
         if torque is not None:
             rhs = rhs + np.asarray(torque, dtype=float)
         return rhs @ self.J_inv.T

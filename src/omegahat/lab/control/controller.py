@@ -168,7 +168,7 @@ class AttitudePD:
         wd_body = Rt_Rd @ ref.omega_d  # the reference rate in the body axes
         u = -self.k_R * attitude_error(R, ref.R_d) - self.k_omega * (w - wd_body)
         if self.feedforward:
-            u = u + np.cross(w, self.J @ w) - self.J @ (np.cross(w, wd_body) - Rt_Rd @ ref.omega_dot_d)
+            u = u + so3.cross(w, self.J @ w) - self.J @ (so3.cross(w, wd_body) - Rt_Rd @ ref.omega_dot_d)
         return u
 
     def __call__(self, R: ArrayLike, omega_hat: ArrayLike, ref: Reference) -> np.ndarray:

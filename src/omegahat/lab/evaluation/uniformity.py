@@ -61,6 +61,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
+from omegahat import so3
 from omegahat.lab.campaigns.config import Campaign
 from omegahat.lab.campaigns.draws import draw_runs
 from omegahat.lab.evaluation import peer_uniformity as PU
@@ -207,7 +208,7 @@ def simulate_coupled(
         w = y[9:12]
         tau = np.asarray(torque(t, R, w), dtype=float)
         R_dot = R @ np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-        w_dot = J_inv @ (np.cross(J @ w, w) + tau)
+        w_dot = J_inv @ (so3.cross(J @ w, w) + tau)
         return np.concatenate([R_dot.ravel(), w_dot, observer.rhs(y[12:], R, tau)])
 
     def blown(t, y):  # stops the run once the estimate has left any plausible range
