@@ -29,16 +29,24 @@ def write_quaternions(path, t, q) -> None:
 def wandering(rate_hz: float, seconds: float, sigma: float, seed: int, q: float = 0.05):
     """A body whose rate is a random walk (PSD ``q``, (rad/s²)²/Hz), sampled at ``rate_hz`` with white attitude
     noise ``sigma`` (rad per axis): ``(t, R measured (T, 3, 3), ω true (T, 3))``. The motion is integrated on a
-    grid 20 times finer than the samples (piecewise-constant rate: exact rotations)."""
+    grid 20 times finer than the samples (piecewise-constant rate: exact rotations). The product of the steps is
+    taken in blocks of 20 and then by a prefix scan (composition is associative), all in SciPy's vectorised
+    ``Rotation``: a loop over 120 000 steps took ten seconds."""
     rng = np.random.default_rng(seed)
     sub = 20
     h = 1.0 / rate_hz / sub
-    n = int(seconds * rate_hz) * sub + 1
+    samples = int(seconds * rate_hz)
+    n = samples * sub + 1
     w = np.cumsum(rng.normal(0.0, np.sqrt(q * h), (n, 3)), axis=0) + np.array([0.3, -0.2, 0.4])
-    R = [Rotation.identity()]
-    for k in range(n - 1):
-        R.append(R[-1] * Rotation.from_rotvec(w[k] * h))
-    R = Rotation.concatenate(R[::sub])
+    steps = Rotation.from_rotvec(w[:-1] * h)  # step j turns the body from fine time j to j + 1
+    block = steps[0::sub]
+    for j in range(1, sub):  # each sample interval's 20 steps, in order
+        block = block * steps[j::sub]
+    R = Rotation.concatenate([Rotation.identity(), block])  # R[k] = block[0] ... block[k-1] once scanned
+    d = 1
+    while d < len(R):  # Hillis-Steele inclusive scan: R[k] <- R[k - d] R[k]
+        R = Rotation.concatenate([R[:d], R[:-d] * R[d:]])
+        d *= 2
     omega = w[::sub]
     t = np.arange(len(R)) / rate_hz
     noise = Rotation.from_rotvec(rng.normal(0.0, sigma, (len(R), 3)))
