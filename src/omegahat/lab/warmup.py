@@ -14,7 +14,12 @@ sizes, read-only flags) are those a user's run asks for:
   short horizon: the step count does not change what is compiled) — ``omegahat paper`` less its figures — and the
   same on the threaded lockstep engine (:func:`~omegahat.simulation.simulate_batch`, a public name whose first
   call otherwise compiles for about 40 s);
-* the MEKF baseline's ``run`` and its smoother, the library's estimators not on the command's default paths.
+* the MEKF baseline's ``run`` and its smoother, the library's estimators not on the command's default paths;
+* the gyro-free peers of ``omegahat compare`` (minimum-energy, predictive, Sun-line SEKF, differencing), whose first
+  calls otherwise compile for 3 to 31 s each (measured in a fresh clone's test suite).
+
+The simulation engine is compiled for each number of directions and of torque terms (literal sizes): the warm-up
+covers the paper's; another problem's first simulation compiles its own for about 45 s.
 
 Any run can do the same (``python -m omegahat.lab.warmup``): it fills the cache the package uses. Each step's
 seconds are printed; a failing step is reported and the others still run (exit status 1 then).
@@ -100,6 +105,21 @@ def _mekf(logs: dict[str, Path], folder: Path) -> None:
     RTSSmoother(filter_factory=lambda: MEKF(J=np.diag([3.0, 2.0, 1.0]))).run(t, q)
 
 
+def _peers(logs: dict[str, Path], folder: Path) -> None:
+    from omegahat.baselines.differencing import DifferencingEstimator
+    from omegahat.baselines.predictive_geom import PredictiveFilter
+    from omegahat.baselines.sunline_sekf import SunlineSEKF
+    from omegahat.baselines.tso3_min_energy import MinimumEnergyFilter
+
+    data = np.loadtxt(logs["quaternions"], delimiter=",", skiprows=1)
+    t, q = data[:, 0], data[:, 1:]  # scalar last, as written
+    J = np.diag([3.0, 2.0, 1.0])
+    for peer in (MinimumEnergyFilter(J), PredictiveFilter(J), DifferencingEstimator()):
+        peer.run(t, q)
+    direction = np.loadtxt(logs["direction"], delimiter=",", skiprows=1)
+    SunlineSEKF().run(direction[:, 0], direction[:, 1:])
+
+
 #: ``(name, step)``: what the warm-up runs, in order
 STEPS: tuple[tuple[str, Callable[[dict[str, Path], Path], None]], ...] = (
     ("estimate, no model", _estimate("quaternions")),
@@ -111,6 +131,7 @@ STEPS: tuple[tuple[str, Callable[[dict[str, Path], Path], None]], ...] = (
     ("paper's simulation", _paper),
     ("simulate_batch", _batch),
     ("MEKF and its smoother", _mekf),
+    ("the gyro-free peers", _peers),
 )
 
 
