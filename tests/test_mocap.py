@@ -246,3 +246,24 @@ def test_the_model_used_in_these_tests_is_the_truth():
     dw = np.gradient(omega, t, axis=0)[2:-2]
     rhs = np.cross(omega @ J_AXI.T, omega)[2:-2] @ np.linalg.inv(J_AXI).T
     np.testing.assert_allclose(dw, rhs, atol=1e-5)
+
+
+def test_the_c3d_childs_reading_imports_nothing_of_omegahat(tmp_path):
+    """The child process that reads a C3D file (``io/c3d_child.py``, loaded by its path) gives the rotations the
+    file holds, and its interpreter never imported the package (its import is most of a child's start-up)."""
+    import pickle
+    import subprocess
+    import sys
+
+    from omegahat.io import c3d_child
+
+    R = Rotation.random(20, random_state=3).as_matrix()
+    path = write_c3d(tmp_path / "trial.c3d", {"drone": R}, 50.0)
+    probe = "print(sorted(m for m in sys.modules if m.split('.')[0] == 'omegahat'), file=sys.stderr)\n"
+    done = subprocess.run(
+        [sys.executable, "-c", c3d_child.RUN + probe, c3d_child.__file__, str(path)], capture_output=True, check=True
+    )
+    assert done.stderr.decode().strip() == "[]"
+    out = pickle.loads(done.stdout)
+    np.testing.assert_allclose(np.moveaxis(out["data"]["rotations"][:3, :3, 0, :], -1, 0), R, atol=1e-6)
+    assert list(out["parameters"]["ROTATION"]["LABELS"]["value"]) == ["drone"]

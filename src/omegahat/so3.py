@@ -117,8 +117,8 @@ def hat(v: ArrayLike) -> np.ndarray:
 
 def cross(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """``a × b`` of 3-vectors or stacks of them, broadcast as ``np.cross`` does, in float: the same numbers as
-    ``np.cross`` in two fifths of its time on one vector (``np.cross`` moves axes on every call). The observer's
-    right-hand sides are called tens of thousands of times per integration, each with several cross products.
+    ``np.cross`` without its moving of axes on every call, which dominates on one vector. The observer's right-hand
+    sides are called tens of thousands of times per integration, each with several cross products.
     ``(*A, 3), (*B, 3) -> (*broadcast(A, B), 3)``."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if a.shape[-1:] != (3,) or b.shape[-1:] != (3,):

@@ -22,7 +22,6 @@ import sys
 import numpy as np
 
 from omegahat.io import c3d_child
-from omegahat.io.c3d_child import RUN
 from omegahat.io.columns import LogFormatError
 from omegahat.io.mocap import choose_body
 from omegahat.io.registry import LogStream, ReadOptions
@@ -51,7 +50,9 @@ def _read(path: str) -> dict:
     word; the child's death becomes a message naming the file. The child is this interpreter running
     :func:`omegahat.io.c3d_child.load`; its answer comes back pickled on its standard output (our own code's
     output, not the file's)."""
-    done = subprocess.run([sys.executable, "-c", RUN, c3d_child.__file__, path], capture_output=True, check=False)
+    done = subprocess.run(
+        [sys.executable, "-c", c3d_child.RUN, c3d_child.__file__, path], capture_output=True, check=False
+    )
     if done.returncode != 0:
         raise LogFormatError(
             f"{path}: not a readable C3D file (the C3D reader stopped on it, exit status {done.returncode}: "

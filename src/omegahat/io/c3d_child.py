@@ -1,8 +1,8 @@
 """The part of the C3D reader that runs in a child process (:func:`omegahat.io.c3d.open_c3d` says why): ezc3d's
 reading of one file, reduced to what the reader uses and written pickled to standard output.
 
-This file imports nothing of omegahat, so that the child starts in a tenth of a second rather than the second that
-``import omegahat.io`` takes; the parent loads it by its path (:data:`RUN`), not through the package.
+This file imports nothing of omegahat, so that the child starts without the package's imports (SciPy, Numba: most
+of a reader's start-up); the parent loads it by its path (:data:`RUN`), not through the package.
 """
 
 from __future__ import annotations

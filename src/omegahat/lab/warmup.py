@@ -13,13 +13,13 @@ sizes, read-only flags) are those a user's run asks for:
 * the paper's simulation (:func:`omegahat.simulation.simulate` on :func:`~omegahat.simulation.paper_problem`, a
   short horizon: the step count does not change what is compiled) — ``omegahat paper`` less its figures — and the
   same on the threaded lockstep engine (:func:`~omegahat.simulation.simulate_batch`, a public name whose first
-  call otherwise compiles for about 40 s);
+  call otherwise compiles at length);
 * the MEKF baseline's ``run`` and its smoother, the library's estimators not on the command's default paths;
-* the gyro-free peers of ``omegahat compare`` (minimum-energy, predictive, Sun-line SEKF, differencing), whose first
-  calls otherwise compile for 3 to 31 s each (measured in a fresh clone's test suite).
+* the gyro-free peers of ``omegahat compare`` (minimum-energy, predictive, Sun-line SEKF, differencing).
 
 The simulation engine is compiled for each number of directions and of torque terms (literal sizes): the warm-up
-covers the paper's; another problem's first simulation compiles its own for about 45 s.
+covers the paper's; another problem's first simulation compiles its own (each size would lengthen every install by
+as much).
 
 Any run can do the same (``python -m omegahat.lab.warmup``): it fills the cache the package uses. Each step's
 seconds are printed; a failing step is reported and the others still run (exit status 1 then).
