@@ -21,6 +21,9 @@ their licences and what was changed.
   The gyroscope is calibrated with a general scale matrix (raw counts, permuted axes); where it is stuck
   (:func:`stuck_gyro`) its samples are left out. A set whose matrix is ill-conditioned (condition number above
   :data:`MAX_CONDITION`: a channel that does not respond, as the first gyro axis of set 2) is not converted.
+* Held out, converted only with ``--only heldout`` and used for nothing but ``real_world.py --heldout``:
+  ``SRC_DIR/ring/data`` (the ``data`` folder of ``anonymous-sup-material/ring_supplementary_material``): RepoIMU's
+  triple pendulum and RING's five-segment chain (:func:`convert_heldout`; no licence stated there: local use).
 * The independent plant (needs ``omegahat[mujoco]``): :mod:`omegahat.lab.evaluation.plant_logs`, 24 logs of issue
   24's grid and the varying-motion case, each also written as ``NAME.csv`` (what ``omegahat estimate`` reads;
   ``meta["command"]`` has the options its model needs) and ``NAME-truth.csv`` (``t, wx, wy, wz``).
@@ -44,7 +47,8 @@ from omegahat.lab.evaluation import broad
 from omegahat.lab.evaluation.corpus import Recording, save_recording
 
 ACCEPTANCE = ("02", "07", "09", "16")  #: BROAD trials kept for acceptance: never converted
-PARTS = ("broad", "upenn", "plant")
+PARTS = ("broad", "upenn", "plant")  #: the development corpus (the default)
+HELDOUT = "heldout"  #: recordings nobody here tuned on: converted only when named (``--only heldout``)
 BROAD_SOURCE = (
     "BROAD: D. Laidig, M. Caruso, A. Cereatti, T. Seel, 'BROAD - A Benchmark for Robust Inertial Orientation "
     "Estimation', Data 6(7), 2021, doi:10.3390/data6070072 (github.com/dlaidig/broad)"
@@ -221,6 +225,99 @@ def convert_plant(out: Path) -> list[str]:
     return written
 
 
+REPOIMU_SOURCE = (
+    "RepoIMU: A. Szczęsna et al., 'Reference Data Set for Accuracy Evaluation of Orientation Estimation Algorithms "
+    "for Inertial Motion Capture Systems', ICCVG 2016, doi:10.1007/978-3-319-46418-3_45, as re-packaged in "
+    "github.com/anonymous-sup-material/ring_supplementary_material (data/repoIMU_dataset)"
+)
+RING_SOURCE = (
+    "the RING validation recordings (optical motion capture of a five-segment chain with an IMU rigidly on each "
+    "segment), github.com/anonymous-sup-material/ring_supplementary_material (data/dataset)"
+)
+QUAT_NORM_TOL = 1e-3  #: as ``omegahat estimate --quat-norm-tol``'s default: a RepoIMU quaternion further off is a gap
+HELDOUT_LICENCE = "not stated by the repository: used locally to measure, never redistributed"
+
+
+def _held_run_starts(g: np.ndarray) -> np.ndarray:
+    """Rows where a gyroscope sampled slower than its log's rows changes value (the log holds each sample)."""
+    return np.flatnonzero(np.r_[True, np.any(np.diff(g, axis=0) != 0, axis=1)])
+
+
+def _heldout_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: str, changes: str, notes, decimate):
+    """Calibrate the gyroscope ``(gyro_t, gyro)`` against the quaternions ``q_wxyz`` (scalar first, NaN rows missing)
+    at the times ``t``, and write the recording ``out/name.npz``; its name."""
+    ok = np.all(np.isfinite(q_wxyz), axis=1)
+    q = np.full((t.size, 4), np.nan)
+    q[ok] = np.roll(q_wxyz[ok], -1, axis=1)  # scalar last, as Recording keeps it
+    R = np.full((t.size, 3, 3), np.nan)
+    R[ok] = so3.from_quat(q[ok])
+    cal = calibrate(t, R, gyro_t, gyro)
+    ref_t, ref_w = cal.apply(gyro_t, gyro)
+    meta = {
+        "source": source, "licence": HELDOUT_LICENCE, "description": name, "changes": changes,
+        "calibration": _calibration_meta(cal), "decimate": decimate, "score": {}, "truth": False,
+        "command": f"omegahat estimate {name}.npz -o out.csv", "notes": notes,
+    }  # fmt: skip
+    rec = Recording(name, t, "quaternion", q, ref_t, ref_w, np.ones(t.size, bool), meta)
+    save_recording(out / f"{name}.npz", rec)
+    angle = np.degrees(np.linalg.norm(so3.log(cal.rotation)))
+    print(f"  {name}: {t.size} samples at {rec.fs:.4g} Hz; offset {cal.offset * 1e3:+.1f} ± "
+          f"{cal.offset_std * 1e3:.1f} ms, rotation {angle:.2f} deg", flush=True)  # fmt: skip
+    return name
+
+
+def _sampling_frequency(path: Path) -> float:
+    """The ``# sampling frequency: F`` of a RING file's first line."""
+    return float(path.read_text().split("\n", 1)[0].split(":")[1])
+
+
+def convert_heldout(src: Path, out: Path) -> list[str]:
+    """Recordings of other labs kept out of the development corpus, to measure the defaults on data they were not
+    chosen on: RepoIMU's triple pendulum (Vicon quaternions and the IMU's gyroscope in one file per segment, stamps in
+    milliseconds; the gyroscope is sampled at about half the rate of the rows, which hold each sample: its reference
+    is the rows where it changes) and RING's five-segment chain (optical quaternions at 30 Hz, the rigidly attached
+    IMUs' gyroscopes at 40 Hz, on separate clocks that the calibration aligns)."""
+    written = []
+    for path in sorted((src / "repoIMU_dataset").glob("Pendulum_*.csv")):
+        a = np.genfromtxt(path, delimiter=";", skip_header=2)
+        keep = np.r_[True, np.diff(a[:, 0]) > 0]  # a stamp repeated: the row is dropped (counted in the notes)
+        a = a[keep]
+        starts = _held_run_starts(a[:, 8:11])
+        held = int(np.sum(np.all(np.diff(a[:, 1:5], axis=0) == 0, axis=1)))
+        off_unit = ~(np.abs(np.linalg.norm(a[:, 1:5], axis=1) - 1.0) <= QUAT_NORM_TOL)  # NaN too: as skipped
+        a[off_unit, 1:5] = np.nan
+        name = "repoimu-" + path.stem.removeprefix("Pendulum_").replace("_Trial1_Segment_", "-s").lower()
+        notes = [
+            f"{int((~keep).sum())} rows with a repeated stamp dropped",
+            f"{held} Vicon rows repeat the previous",
+            f"{int(off_unit.sum())} Vicon quaternions NaN or off unit norm by more than {QUAT_NORM_TOL}: missing",
+            f"gyroscope: {starts.size} distinct samples of {a.shape[0]} rows",
+        ]
+        changes = (
+            "repeated stamps dropped; quaternions off unit norm made gaps (notes); the gyroscope's held rows left "
+            "out; calibrated (offset, rotation, bias)"
+        )
+        t = a[:, 0] - a[0, 0]
+        source = f"{REPOIMU_SOURCE}: {path.name}"
+        written.append(
+            _heldout_recording(out, name, t, a[:, 1:5], t[starts], a[starts, 8:11], source, changes, notes, [3, 9])
+        )
+    for trial in sorted((src / "dataset").glob("trial*")):
+        omc = np.genfromtxt(trial / "omc.csv", delimiter=",", skip_header=2, names=True)
+        imu = np.genfromtxt(trial / "imu_rigid.csv", delimiter=",", skip_header=2, names=True)
+        fs_omc, fs_imu = _sampling_frequency(trial / "omc.csv"), _sampling_frequency(trial / "imu_rigid.csv")
+        changes = "optical quaternions as they are; the rigid IMU's gyroscope calibrated (offset, rotation, bias)"
+        for seg in range(1, 6):
+            q = np.column_stack([omc[f"seg{seg}_quat_{c}"] for c in "wxyz"])
+            g = np.column_stack([imu[f"seg{seg}_gyr_{c}"] for c in "xyz"])
+            t, gyro_t = np.arange(q.shape[0]) / fs_omc, np.arange(g.shape[0]) / fs_imu
+            notes = [f"{int(np.sum(~np.all(np.isfinite(q), axis=1)))} samples without optical attitude"]
+            source = f"{RING_SOURCE}: {trial.name}, segment {seg}"
+            name = f"ring-{trial.name}-seg{seg}"
+            written.append(_heldout_recording(out, name, t, q, gyro_t, g, source, changes, notes, [3]))
+    return written
+
+
 NOTICE = """# The development corpus of issue 24 (built by benchmarks/corpus.py; not part of omegahat)
 
 Each `NAME.npz` is one recording: an omegahat NPZ log (`omegahat estimate NAME.npz -o out.csv`) plus its reference
@@ -229,6 +326,8 @@ rate; `meta` inside says where it comes from, its licence, what was changed and 
 - `broad-*`: {broad}. Licence: {broad_licence}. Changes: the gyroscope is calibrated against the optical attitude
   and stored in the body frame; the optical attitude is unchanged. Trials 02, 07, 09 and 16 are not included.
 - `upenn-*`: {upenn}. Licence: {upenn_licence}.
+- `repoimu-*`, `ring-*` (only with `--only heldout`: recordings kept out of development): {heldout}. Licence:
+  {heldout_licence}.
 - `plant-*`: generated with MuJoCo by omegahat.lab.evaluation.plant_logs (also as `NAME.csv` and `NAME-truth.csv`).
 """
 
@@ -237,7 +336,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("src", type=Path, help="directory holding broad/ and upenn/ (either may be absent)")
     ap.add_argument("out", type=Path, help="where to write the recordings")
-    ap.add_argument("--only", nargs="+", choices=PARTS, default=list(PARTS))
+    ap.add_argument("--only", nargs="+", choices=(*PARTS, HELDOUT), default=list(PARTS))
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -265,8 +364,22 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print("plant:")
             written += convert_plant(args.out)
+    if HELDOUT in args.only:
+        found = args.src / "ring" / "data"
+        if found.is_dir():
+            print("held out (RepoIMU, RING):")
+            written += convert_heldout(found, args.out)
+        else:
+            print(f"held out: skipped ({found} absent)")
     (args.out / "NOTICE.md").write_text(
-        NOTICE.format(broad=BROAD_SOURCE, broad_licence=BROAD_LICENCE, upenn=UPENN_SOURCE, upenn_licence=UPENN_LICENCE)
+        NOTICE.format(
+            broad=BROAD_SOURCE,
+            broad_licence=BROAD_LICENCE,
+            upenn=UPENN_SOURCE,
+            upenn_licence=UPENN_LICENCE,
+            heldout=f"{REPOIMU_SOURCE}; {RING_SOURCE}",
+            heldout_licence=HELDOUT_LICENCE,
+        )
     )
     print(f"\nwrote {len(written)} recordings to {args.out} in {time.perf_counter() - t0:.0f} s")
     return 0
