@@ -249,6 +249,92 @@ def test_conversion_script_on_synthetic_copies(tmp_path, capsys):
     assert (out / "NOTICE.md").exists()
 
 
+def _euler_motion(u: np.ndarray) -> Rotation:
+    return Rotation.from_euler("XYZ", np.column_stack([np.sin(0.7 * u), 0.5 * np.sin(1.1 * u + 1), np.cos(0.5 * u)]))
+
+
+def _body_rate(u: np.ndarray) -> np.ndarray:
+    """The body rate of :func:`_euler_motion` at ``u``, from SciPy's spline through it at 1 ms (independent of the
+    code under test)."""
+    from scipy.spatial.transform import RotationSpline
+
+    fine = np.arange(u.min() - 1, u.max() + 1, 1e-3)
+    w = RotationSpline(fine, _euler_motion(fine))(fine, 1)
+    return np.array([np.interp(u, fine, w[:, j]) for j in range(3)]).T
+
+
+def _fake_repoimu(path: Path, Rc: np.ndarray, bias: np.ndarray) -> None:
+    """A RepoIMU-like segment file: ``;``-separated, two header rows, millisecond stamps 10-12 ms apart with one
+    repeated, Vicon quaternions (scalar first) with one far off unit norm, a gyroscope in a frame turned by ``Rc``,
+    biased, held over pairs of rows."""
+    rng = np.random.default_rng(5)
+    t = np.round(np.cumsum(rng.choice([0.010, 0.011, 0.012], 3000)), 3)
+    t[1500] = t[1499]
+    q = _euler_motion(t).as_quat(scalar_first=True)
+    q[700] *= 0.9
+    g = _body_rate(t) @ Rc.T + bias
+    g[1::2] = g[:-1:2]  # held: each gyroscope sample fills two rows
+    rows = np.column_stack([t, q, np.zeros((t.size, 3)), g, np.zeros((t.size, 3))])
+    header = (
+        "Time;Vicon Orientation;;;;IMU Acceleration;;;IMU Gyroscope;;;IMU Magnetometer;;\ns;W;X;Y;Z;X;Y;Z;X;Y;Z;X;Y;Z"
+    )
+    np.savetxt(path, rows, delimiter=";", header=header, comments="", fmt="%.10g")
+
+
+def _fake_ring(trial: Path, Rc: np.ndarray) -> None:
+    """A RING-like trial: ``omc.csv`` at 30 Hz (five segments' quaternions, scalar first, a gap in the first) and
+    ``imu_rigid.csv`` at 40 Hz (the gyroscopes, turned by ``Rc``), each with its two comment lines."""
+    trial.mkdir(parents=True)
+    t_omc, t_imu = np.arange(0, 30, 1 / 30), np.arange(0, 30, 1 / 40)
+    q = _euler_motion(t_omc).as_quat(scalar_first=True)
+    g = _body_rate(t_imu) @ Rc.T
+    omc_cols, imu_cols, omc, imu = [], [], [], []
+    for seg in range(1, 6):
+        omc_cols += [f"seg{seg}_quat_{c}" for c in "wxyz"]
+        imu_cols += [f"seg{seg}_gyr_{c}" for c in "xyz"]
+        omc.append(q.copy())
+        imu.append(g)
+    omc[0][100:110] = np.nan
+    units = "# units are seconds/meters/radians/a.u."
+    for name, fs, cols, data in (("omc", 30, omc_cols, omc), ("imu_rigid", 40, imu_cols, imu)):
+        header = f"# sampling frequency: {fs}\n{units}\n" + ",".join(cols)
+        np.savetxt(trial / f"{name}.csv", np.hstack(data), delimiter=",", header=header, comments="", fmt="%.10g")
+
+
+def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, monkeypatch):
+    corpus = _script("corpus")
+    monkeypatch.setattr(corpus, "convert_plant", lambda out: [])  # the plant is the default's too: not this test's
+    src, out = tmp_path / "src", tmp_path / "out"
+    (src / "ring" / "data" / "repoIMU_dataset").mkdir(parents=True)
+    Rc = Rotation.from_rotvec(np.radians([0.5, -0.3, 0.2])).as_matrix()
+    bias = np.array([0.004, -0.002, 0.006])
+    _fake_repoimu(src / "ring" / "data" / "repoIMU_dataset" / "Pendulum_Test02a_Trial1_Segment_1.csv", Rc, bias)
+    _fake_ring(src / "ring" / "data" / "dataset" / "trial1", Rc)
+    assert corpus.main([str(src), str(tmp_path / "default")]) == 0  # the development parts only
+    assert recordings(tmp_path / "default") == []
+    assert corpus.main([str(src), str(out), "--only", "heldout"]) == 0
+    names = sorted(p.stem for p in recordings(out))
+    assert names == ["repoimu-test02a-s1"] + [f"ring-trial1-seg{k}" for k in range(1, 6)]
+    pendulum = load_recording(out / "repoimu-test02a-s1.npz")
+    notes = pendulum.meta["notes"]
+    assert "1 rows with a repeated stamp dropped" in notes
+    assert "1 Vicon quaternions NaN or off unit norm by more than 0.001: missing" in notes
+    assert pendulum.t.size == 2999 and int(pendulum.gaps.sum()) == 1
+    assert np.all(np.diff(pendulum.t) > 0)
+    assert pendulum.reference_times.size == 1500  # the held rows left out: one sample per pair
+    cal = pendulum.meta["calibration"]
+    np.testing.assert_allclose(cal["bias"], bias, atol=5e-4)
+    np.testing.assert_allclose(np.array(cal["rotation"]), Rc, atol=2e-4)
+    chain = load_recording(out / "ring-trial1-seg1.npz")
+    assert chain.fs == pytest.approx(30.0) and int(chain.gaps.sum()) == 10
+    assert chain.meta["decimate"] == [3] and "not stated" in chain.meta["licence"]
+    # the references are the body rate: against the closed form's spline, to the gyroscope's held-sample error
+    for rec in (pendulum, chain):
+        truth = _body_rate(rec.reference_times)
+        assert np.sqrt(np.mean(np.sum((rec.reference_rates - truth) ** 2, axis=1))) < 0.02
+    assert "held out (RepoIMU, RING):" in capsys.readouterr().out
+
+
 # ---------------------------------------------------------------------------------- the independent plant
 
 
