@@ -442,29 +442,25 @@ def main(argv: list[str] | None = None) -> int:
     print("\n" + table + f"\n\n{len(rows)} rows in {time.perf_counter() - t0:.0f} s")
     if args.no_write:
         return 0
-    if args.directions:
-        _write_csv(rows, DIRECTIONS_CSV)
-        command = f"Command: `python benchmarks/real_world.py --directions` ({len(paths)} recordings of the corpus)."
-        write_section(DIRECTIONS_SECTION, f"{machine_line()} {command} {DIRECTIONS_INTRO}\n\n" + table)
-        return 0
-    if args.preset:
-        _write_csv(rows, PRESET_CSV)
-        command = f"Command: `python benchmarks/real_world.py --preset` ({len(paths)} recordings of the corpus)."
-        write_section(PRESET_SECTION, f"{machine_line()} {command} {PRESET_INTRO}\n\n" + table)
-        return 0
-    if args.heldout:
-        _write_csv(rows, HELDOUT_CSV)
-        command = f"Command: `python benchmarks/real_world.py --heldout OUT` ({len(paths)} recordings)."
-        write_section(HELDOUT_SECTION, f"{machine_line()} {command} {HELDOUT_INTRO}\n\n" + table)
-        return 0
-    if args.after:
-        _write_csv(rows, AFTER_CSV)
-        corpus = f"{len(paths)} recordings; BROAD also at every 10th and 30th sample"
-        command = (
-            f"Command: `python benchmarks/real_world.py --after` on the corpus of `benchmarks/corpus.py` ({corpus})."
-        )
-        write_section(AFTER_SECTION, f"{machine_line()} {command} {AFTER_INTRO}\n\n" + table)
-        return 0
+    n = len(paths)
+    of_corpus = f"({n} recordings of the corpus)"
+    outputs = {  # option: (CSV, section, how it was run, intro)
+        "directions": (DIRECTIONS_CSV, DIRECTIONS_SECTION, f"--directions` {of_corpus}", DIRECTIONS_INTRO),
+        "preset": (PRESET_CSV, PRESET_SECTION, f"--preset` {of_corpus}", PRESET_INTRO),
+        "heldout": (HELDOUT_CSV, HELDOUT_SECTION, f"--heldout OUT` ({n} recordings)", HELDOUT_INTRO),
+        "after": (
+            AFTER_CSV, AFTER_SECTION,
+            f"--after` on the corpus of `benchmarks/corpus.py` ({n} recordings; BROAD also at every 10th and 30th "
+            "sample)",
+            AFTER_INTRO,
+        ),
+    }  # fmt: skip
+    for option, (path, section, run, intro) in outputs.items():  # the first option given (heldout implies after)
+        if getattr(args, option):
+            _write_csv(rows, path)
+            command = f"Command: `python benchmarks/real_world.py {run}."
+            write_section(section, f"{machine_line()} {command} {intro}\n\n" + table)
+            return 0
     _write_csv(rows)
     write_results(rows, sorted({p.stem.split("-")[0] for p in paths}), len(paths))
     return 0

@@ -81,6 +81,28 @@ def test_header_rows_and_no_header(tmp_path):
         read_log(tmp_path / "one.csv", header_rows=3)
 
 
+def test_prose_comment_lines_above_the_header_are_skipped_and_said(tmp_path):
+    """RING's exports start with ``# sampling frequency: 30`` and ``# units are ...`` above the header: lines of
+    prose after ``#`` (no delimiter in them) cannot name columns. A ``#`` line with delimiters stays the header."""
+    t = np.arange(5) * 0.1
+    q = turning(t).as_quat()
+    rows = [f"{t[k]},{num(q[k, 3])},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])}" for k in range(5)]
+    path = tmp_path / "commented.csv"
+    path.write_text("# sampling frequency: 10\n# units are seconds/radians\nt,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    log = read_log(path)
+    np.testing.assert_array_equal(log.t, t)
+    np.testing.assert_array_equal(log.data, q)
+    assert "2 comment line(s) starting with '#' above the header skipped" in log.notes
+    rows[2] = "0.2,nonsense,0,0,0"  # the line numbers still count the comment lines: this is line 6
+    path.write_text("# sampling frequency: 10\n# units\nt,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    with pytest.raises(LogFormatError, match=r"commented\.csv, line 6\b"):
+        read_log(path)
+    header_with_hash = tmp_path / "hash_header.csv"  # '#' before names with delimiters: a header, not prose
+    header_with_hash.write_text("#t,qw,qx,qy,qz\n" + "\n".join(rows[:2]) + "\n")
+    with pytest.raises(LogFormatError, match=r"hash_header\.csv, line 1 \(header\)"):
+        read_log(header_with_hash)
+
+
 def test_vicon_nexus_and_imu_export_with_a_two_row_header(tmp_path, capsys):
     """Issue 25's dataset: ';' separated, a group title over W;X;Y;Z, quaternions with 5 significant digits,
     linearly interpolated from 20 Hz motion capture to the IMU's 100 Hz (so up to ~1e-3 shorter than unit)."""

@@ -102,6 +102,13 @@ def _blank(raw: bytes, comment: bool) -> bool:
     return not text or (comment and text.startswith(b"#"))
 
 
+def _prose_comment(raw: bytes) -> bool:
+    """A line of prose after ``#`` above a header: no delimiter in it, so it cannot name columns (a ``#`` line that
+    has them, as EuRoC's ``#timestamp [ns],...``, is the header)."""
+    text = raw.strip()
+    return text.startswith(b"#") and not any(d in text for d in (b",", b";", b"\t"))
+
+
 def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open a CSV log (module docstring); its header is read now, its rows chunk by chunk."""
     return open_text(path, options, TextFormat())
@@ -117,11 +124,15 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     comment = fmt.comment or n_header == 0  # without a header, a '#' line can only be a comment
     header: list[bytes] = []
     first = None
+    skipped_comments = 0
     while len(header) < max(n_header, 1):
         raw = lines.next_line()
         if raw is None:
             break
         if not header and _blank(clean(raw, comment, False), comment):
+            continue
+        if not header and n_header and _prose_comment(raw):  # '# sampling frequency: 30' above the header
+            skipped_comments += 1
             continue
         if n_header == 0:  # no header: the first row shows the layout, and is data
             first = raw
@@ -182,6 +193,8 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         )
     if options.column_map:
         stream.notes.append(f"columns read: {stream.columns}")
+    if skipped_comments:
+        stream.notes.append(f"{skipped_comments} comment line(s) starting with '#' above the header skipped")
     parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
