@@ -103,6 +103,38 @@ def test_prose_comment_lines_above_the_header_are_skipped_and_said(tmp_path):
         read_log(header_with_hash)
 
 
+def test_rate_gives_the_times_of_a_csv_log_without_any(tmp_path, capsys):
+    """RING's exports carry no time column, only a rate in a comment: ``--rate HZ`` puts row ``k`` at ``k / HZ``,
+    across chunks; a row of nan is a missing frame at its own time; a line without data between rows (blank, or
+    bare delimiters) is refused (its frame's time would be a guess), as is --rate beside a time column or a unit."""
+    n, rate = 3000, 20.0
+    t = np.arange(n) / rate
+    q = turning(t).as_quat()
+    rows = [f"{num(q[k, 3])},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])}" for k in range(n)]
+    rows[1234] = "nan,nan,nan,nan"  # a missing frame (a row of bare delimiters would be a blank line)
+    path = tmp_path / "untimed.csv"
+    path.write_text("qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    log = read_log(path, rate=rate, chunk_bytes=1 << 12)  # many buffers: the row count carries over
+    np.testing.assert_allclose(log.t, t, rtol=0, atol=1e-12)
+    assert np.all(np.isnan(log.data[1234])) and np.array_equal(log.data[1235], q[1235])
+    assert "times: row k at k / 20 s (--rate; the log has no time column)" in log.notes
+    out = tmp_path / "omega.csv"
+    assert main(["estimate", str(path), "--rate", "20", "-o", str(out)]) == 0
+    written = np.genfromtxt(out, delimiter=",", names=True, dtype=None, encoding="utf-8")
+    np.testing.assert_allclose(written["t"], t, atol=1e-9)
+    gap = tmp_path / "blank_line.csv"
+    for blank in ("", ",,,"):
+        gap.write_text("qw,qx,qy,qz\n" + "\n".join(rows[:10]) + f"\n{blank}\n" + "\n".join(rows[10:20]) + "\n")
+        with pytest.raises(LogFormatError, match=r"blank_line\.csv, line 12: a line without data between rows"):
+            read_log(gap, rate=rate)
+    timed = tmp_path / "timed.csv"
+    timed.write_text("t,qw,qx,qy,qz\n" + "\n".join(f"{t[k]},{rows[k]}" for k in range(5)) + "\n")
+    with pytest.raises(LogFormatError, match=r"has a time column 't'; leave --rate out"):
+        read_log(timed, rate=rate)
+    with pytest.raises(LogFormatError, match=r"--time-unit is the unit of a time column"):
+        read_log(path, rate=rate, time_unit="ms")
+
+
 def test_vicon_nexus_and_imu_export_with_a_two_row_header(tmp_path, capsys):
     """Issue 25's dataset: ';' separated, a group title over W;X;Y;Z, quaternions with 5 significant digits,
     linearly interpolated from 20 Hz motion capture to the IMU's 100 Hz (so up to ~1e-3 shorter than unit)."""

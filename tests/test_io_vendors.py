@@ -157,8 +157,11 @@ def test_kitti_poses_with_times_from_a_file_a_rate_or_a_column(tmp_path, capsys)
         read_log(poses, times=str(tmp_path / "few.txt"))
     with pytest.raises(ValueError, match=r"rate must be a positive number of Hz; got -1"):
         read_log(poses, rate=-1)
-    with pytest.raises(ValueError, match=r"\.csv is an omegahat CSV log: --rate applies only to a KITTI pose list"):
+    # a CSV log takes --rate only without a time column (test_io_columns); --times stays the pose lists' own
+    with pytest.raises(LogFormatError, match=r"plain\.csv, line 1 \(header\): the log has a time column 't'"):
         read_log(plain, rate=10.0)
+    with pytest.raises(ValueError, match=r"\.csv is an omegahat CSV log: --times applies only to a KITTI pose list"):
+        read_log(plain, times=str(tmp_path / "few.txt"))
 
 
 # ------------------------------------------------------------------------------------------------ Qualisys

@@ -258,7 +258,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     rec.add_argument(
         "--body", metavar="NAME", help="rigid body / object / segment of a Motive, Vicon, Qualisys or C3D file"
     )
-    rec.add_argument("--rate", type=float, metavar="HZ", help="times of a pose list without any (KITTI): frame / HZ")
+    rec.add_argument(
+        "--rate",
+        type=float,
+        metavar="HZ",
+        help="times of a log without any (a KITTI pose list, or a CSV log without a time column): row / HZ",
+    )
     rec.add_argument("--times", metavar="FILE", help="times of a pose list without any (KITTI): one time in s per line")
     rec.add_argument(
         "--output-topic",

@@ -60,7 +60,11 @@ register_format(
     ".tsv", open_qtm_6d, name="qtm6d", title="a Qualisys QTM 6D TSV export", sniff=is_qtm_6d, options=("body",)
 )
 register_format(
-    (".csv", ".txt", ".tsv"), open_csv, name="csv", title="an omegahat CSV log", options=COLUMN_OPTIONS + MAP_OPTIONS
+    (".csv", ".txt", ".tsv"),
+    open_csv,
+    name="csv",
+    title="an omegahat CSV log",
+    options=(*COLUMN_OPTIONS, *MAP_OPTIONS, "rate"),
 )
 register_format(".npz", open_npz, name="npz", title="an omegahat NPZ log")
 register_format(".c3d", open_c3d, name="c3d", title="a C3D file", options=("body",))

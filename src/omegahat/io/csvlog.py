@@ -160,7 +160,19 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     else:
         original = rows[0] if n_header == 1 else join_header_rows(rows)
     names = apply_columns(original, mapped, where, options.time_column)
-    time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
+    time_column: str | None = "t" if mapped and "t" in dict(mapped) else options.time_column
+    rate = options.rate  # --rate: a log without times (row k at k / rate)
+    if rate is not None:
+        if options.time_unit != "s":
+            raise LogFormatError(
+                f"{where}: --time-unit is the unit of a time column; with --rate the times are row / rate s"
+            )
+        if time_column and normalise_name(time_column) in (normalise_name(n) for n in names):
+            raise LogFormatError(
+                f"{where}: the log has a time column {time_column!r}; leave --rate out (it gives the times of a log "
+                "without any)"
+            )
+        time_column = None
     sample = [
         split_line(_decode(r), delim, where)
         for r in lines.peek_rows(_DIGIT_ROWS)
@@ -171,11 +183,11 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     except LogFormatError as exc:
         raise LogFormatError(f"{exc}{_hint(original, rows, sample, mapped)}") from None
     labels = [_label(o, n) for o, n in zip(original, names, strict=True)]
-    times = _first_time(sample, names.index(lay.time))
+    times = _first_time(sample, names.index(lay.time)) if lay.time else ExactTimes("0")
     digit_cols = [names.index(c) for c in lay.attitude]
     stream.digits = significant_digits(r[j] for r in sample for j in digit_cols if j < len(r))
     stream.kind, stream.has_torque, stream.n_directions = lay.kind, lay.torque is not None, lay.n_directions
-    stream.time_name = labels[names.index(lay.time)]
+    stream.time_name = labels[names.index(lay.time)] if lay.time else f"row / {rate:g} Hz"
     stream.attitude_name = _attitude_name(lay, labels, names)
     stream.columns = _columns_read(lay, original, names)
     scale = fmt.time_scale if fmt.time_scale is not None else TIME_UNITS[options.time_unit]
@@ -193,9 +205,11 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         )
     if options.column_map:
         stream.notes.append(f"columns read: {stream.columns}")
+    if rate is not None:
+        stream.notes.append(f"times: row k at k / {rate:g} s (--rate; the log has no time column)")
     if skipped_comments:
         stream.notes.append(f"{skipped_comments} comment line(s) starting with '#' above the header skipped")
-    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment)
+    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment, rate)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
 
@@ -223,7 +237,8 @@ def _columns_read(lay: Layout, original: list[str], names: list[str]) -> str:
     att = list(lay.attitude)
     keys = ["qw", "qx", "qy", "qz"] if lay.kind == "quaternion" else att
     cols = [att[3], *att[:3]] if lay.kind == "quaternion" else att  # storage order x, y, z, w
-    pairs = [("t", lay.time), *zip(keys, cols, strict=True), *((c, c) for c in lay.torque or ())]
+    timed = [("t", lay.time)] if lay.time else []  # --rate: no time column
+    pairs = [*timed, *zip(keys, cols, strict=True), *((c, c) for c in lay.torque or ())]
     return columns_line([(k, _column_ref(original, names.index(c))) for k, c in pairs])
 
 

@@ -42,7 +42,8 @@ class ChunkParser:
     ``labels`` as messages name them, ``lay`` what is read, ``delim`` (:data:`~omegahat.io.textlines.WHITESPACE` for
     blank-separated text), ``header_line`` the header's last line (0: none), ``times`` the time column's
     conversion, ``time_scale`` seconds per time unit the reader applies itself (EuRoC's ns), ``comment``: ``#``
-    lines are blank."""
+    lines are blank; ``rate`` (Hz, for a log without a time column, ``lay.time`` empty): row ``k`` of the log (a line
+    with fields, blank lines not counted) is at ``k / rate`` s, counted across the buffers parsed in order."""
 
     def __init__(
         self,
@@ -55,6 +56,7 @@ class ChunkParser:
         times: ExactTimes,
         time_scale: float = 1.0,
         comment: bool = False,
+        rate: float | None = None,
     ):
         self.path, self.names, self.labels, self.lay = path, list(names), list(labels), lay
         self.delim, self.header_line, self.times, self.time_scale, self.comment = (
@@ -67,7 +69,9 @@ class ChunkParser:
         self.n_fields = len(names)
         index = {n: i for i, n in enumerate(names) if n}
         self.cols = [f"c{index[c]}" for c in lay.columns]
-        self.time_col = f"c{index[lay.time]}"
+        self.time_col = f"c{index[lay.time]}" if lay.time else None
+        # --rate: how many rows the earlier buffers held, and the last one's line (times from the rate)
+        self.rate, self.rows, self.last_line = rate, 0, 0
         self.decimal_comma = delim not in (",",)
         self.column_names = [f"c{i}" for i in range(self.n_fields)]
 
@@ -185,7 +189,7 @@ class ChunkParser:
                 table = self._arrow(buf, as_text=False)
                 if table.num_rows == lines.size:
                     values = {c: table[c] for c in self.cols}
-                    if self.times.exact:
+                    if self.times.exact and self.time_col is not None:
                         values[self.time_col] = self._numbers(
                             table[self.time_col].combine_chunks(), lines, self.time_col
                         )
@@ -226,13 +230,25 @@ class ChunkParser:
     def _chunk(self, arrays, null, lines) -> LogChunk:
         lay = self.lay
         tc = self.time_col
-        t = np.array(arrays[tc], dtype=float)
-        if self.time_scale != 1.0:
-            t *= self.time_scale
-        empty_t = np.flatnonzero(null[tc])
-        if empty_t.size:
-            k = int(empty_t[0])
-            raise LogFormatError(f"{self._where(int(lines[k]), tc)}: empty time (every row needs one)")
+        if tc is None:  # no time column: the rate's
+            assert self.rate is not None
+            previous = np.concatenate([[self.last_line or lines[0] - 1], lines[:-1]])  # the first row: any line
+            skipped = np.flatnonzero(lines - previous > 1)
+            if skipped.size:  # a blank or comment line between rows: its frame's time is not known
+                raise LogFormatError(
+                    f"{self._where(int(lines[skipped[0]]) - 1)}: a line without data between rows; with --rate each "
+                    "row is one frame, so every frame needs its row (a missing sample: nan in its fields)"
+                )
+            t = (self.rows + np.arange(lines.size)) / self.rate
+            self.rows, self.last_line = self.rows + lines.size, int(lines[-1])
+        else:
+            t = np.array(arrays[tc], dtype=float)
+            if self.time_scale != 1.0:
+                t *= self.time_scale
+            empty_t = np.flatnonzero(null[tc])
+            if empty_t.size:
+                k = int(empty_t[0])
+                raise LogFormatError(f"{self._where(int(lines[k]), tc)}: empty time (every row needs one)")
         att = np.column_stack([arrays[self._col(c)] for c in lay.attitude])
         att[~np.all(np.isfinite(att), axis=1)] = np.nan  # one empty or non-finite field: the whole sample missing
         torque = None
