@@ -114,6 +114,8 @@ def test_rate_gives_the_times_of_a_csv_log_without_any(tmp_path, capsys):
     rows[1234] = "nan,nan,nan,nan"  # a missing frame (a row of bare delimiters would be a blank line)
     path = tmp_path / "untimed.csv"
     path.write_text("qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    with pytest.raises(LogFormatError, match=r"no time column 't' .*; a log without times: --rate HZ"):
+        read_log(path)  # without --rate the error says how to read it
     log = read_log(path, rate=rate, chunk_bytes=1 << 12)  # many buffers: the row count carries over
     np.testing.assert_allclose(log.t, t, rtol=0, atol=1e-12)
     assert np.all(np.isnan(log.data[1234])) and np.array_equal(log.data[1235], q[1235])

@@ -161,13 +161,14 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         original = rows[0] if n_header == 1 else join_header_rows(rows)
     names = apply_columns(original, mapped, where, options.time_column)
     time_column: str | None = "t" if mapped and "t" in dict(mapped) else options.time_column
+    has_time = bool(time_column) and normalise_name(str(time_column)) in {normalise_name(n) for n in names}
     rate = options.rate  # --rate: a log without times (row k at k / rate)
     if rate is not None:
         if options.time_unit != "s":
             raise LogFormatError(
                 f"{where}: --time-unit is the unit of a time column; with --rate the times are row / rate s"
             )
-        if time_column and normalise_name(time_column) in (normalise_name(n) for n in names):
+        if has_time:
             raise LogFormatError(
                 f"{where}: the log has a time column {time_column!r}; leave --rate out (it gives the times of a log "
                 "without any)"
@@ -181,7 +182,9 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     try:
         lay = layout(names, where, time_column, options.scalar_first)
     except LogFormatError as exc:
-        raise LogFormatError(f"{exc}{_hint(original, rows, sample, mapped)}") from None
+        own = fmt.describe is None  # omegahat's own CSV (the formats recognised by name take no --rate)
+        untimed = "; a log without times: --rate HZ (row k at k / HZ)" if own and not has_time and rate is None else ""
+        raise LogFormatError(f"{exc}{untimed}{_hint(original, rows, sample, mapped)}") from None
     labels = [_label(o, n) for o, n in zip(original, names, strict=True)]
     times = _first_time(sample, names.index(lay.time)) if lay.time else ExactTimes("0")
     digit_cols = [names.index(c) for c in lay.attitude]
