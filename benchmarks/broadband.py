@@ -1,14 +1,14 @@
 """A body that never rests and moves up to (and past) the Nyquist frequency: where the noise estimate fails.
 
-Run: ``python benchmarks/broadband.py`` (about a minute). Writes its section of RESULTS.md.
+Run: ``python benchmarks/broadband.py``. Writes its section of RESULTS.md.
 
-The held-out recordings (``real_world.py --heldout``: RING's chain, never at rest, with motion up to the Nyquist
-frequency at 30 Hz) showed the default and ``--smooth`` losing to differencing. This is the same kind of log made
-here, so that a fix can be developed without those recordings: the rate is white noise shaped flat up to ``f_max``
-(a fourth-order roll-off beyond), 1.5 rad/s RMS about a constant rate (so the body never rests), integrated on a
-1.2 kHz grid by SciPy's rotations (midpoint rule), sampled at 30 Hz and given white attitude noise of 0.5 mrad per
-axis. Scored as the real recordings (:func:`omegahat.lab.evaluation.corpus.evaluate`, against the true rate), with
-the noise the spectrum assumed (:func:`omegahat.identification.spectral.increment_spectrum`) beside the true one.
+A log like the held-out ones of ``real_world.py --heldout`` (RING's chain: motion up to the Nyquist frequency at
+30 Hz), made here so that a correction can be developed without them. The rate is white noise shaped flat up to
+``f_max`` (a fourth-order roll-off beyond), 1.5 rad/s RMS about a constant rate (so the body never rests). It is
+integrated on a 1.2 kHz grid by SciPy's rotations (midpoint rule), sampled at 30 Hz and given white attitude noise
+of 0.5 mrad per axis. Scored as the real recordings (:func:`omegahat.lab.evaluation.corpus.evaluate`, against the
+true rate), with the noise the spectrum assumed (:func:`omegahat.identification.spectral.increment_spectrum`)
+beside the true one.
 """
 
 from __future__ import annotations

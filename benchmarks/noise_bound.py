@@ -1,7 +1,7 @@
 """The most attitude noise a corpus recording can have, by its reference gyroscope, beside the noise omegahat assumes.
 
-Run: ``python benchmarks/noise_bound.py CORPUS_DIR [NAME ...]`` (seconds per recording; all of the directory's
-recordings without names). Prints one row per recording; writes nothing.
+Run: ``python benchmarks/noise_bound.py CORPUS_DIR [NAME ...]`` (all of the directory's recordings without names).
+Prints one row per recording; writes nothing.
 
 Each step's measured increment ``R_{k−1}ᵀ R_k`` is set beside the reference rate (the calibrated gyroscope, a cubic
 spline through it) integrated over the step by the midpoint rule on 8 sub-steps. With white attitude noise ``n_k``

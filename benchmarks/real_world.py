@@ -1,8 +1,9 @@
 """Every method on every recording of the development corpus of issue 24, by one score: the "before" table.
 
 Run: ``python benchmarks/corpus.py SRC_DIR OUT_DIR`` once, then ``OMEGAHAT_CORPUS_DIR=OUT_DIR python
-benchmarks/real_world.py [--only PATTERN ...] [--methods NAME ...] [--no-decimate]`` (about an hour on 2 shared
-cores for the whole corpus). Skips cleanly without a corpus.
+benchmarks/real_world.py [--only PATTERN ...] [--methods NAME ...] [--no-decimate]``. Skips cleanly without a
+corpus. ``--after``, ``--preset``, ``--directions`` and ``--heldout`` (the recordings of ``corpus.py --only
+heldout``, kept out of development) run fewer methods and write their own sections.
 
 Score: :func:`omegahat.lab.evaluation.broad.score` through :func:`omegahat.lab.evaluation.corpus.evaluate`: the
 error against the recording's reference (a gyroscope calibrated once against the attitude by ``omegahat

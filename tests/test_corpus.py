@@ -169,26 +169,31 @@ def test_every_method_of_the_table_runs_on_a_short_log():
 # ---------------------------------------------------------------------------------- the conversion script
 
 
+def _euler_motion(u: np.ndarray) -> Rotation:
+    return Rotation.from_euler("XYZ", np.column_stack([np.sin(0.7 * u), 0.5 * np.sin(1.1 * u + 1), np.cos(0.5 * u)]))
+
+
+def _body_rate(u: np.ndarray) -> np.ndarray:
+    """The body rate of :func:`_euler_motion` at ``u``, from SciPy's spline through it at 1 ms (independent of the
+    code under test)."""
+    from scipy.spatial.transform import RotationSpline
+
+    fine = np.arange(u.min() - 1, u.max() + 1, 1e-3)
+    w = RotationSpline(fine, _euler_motion(fine))(fine, 1)
+    return np.array([np.interp(u, fine, w[:, j]) for j in range(3)]).T
+
+
 def _fake_broad(path: Path, seed: int, offset_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """A BROAD-like trial: 286 Hz, optical quaternion (scalar first) with a gap, a gyro in a frame turned by 0.5°,
     biased, on a clock ``offset_s`` ahead; ``movement`` from 2 s to the end − 2 s."""
     fs = 2000 / 7
     t = np.arange(0, 30, 1 / fs)
     rng = np.random.default_rng(seed)
-    R = Rotation.from_euler("XYZ", np.column_stack([np.sin(0.7 * t), 0.5 * np.sin(1.1 * t + 1), np.cos(0.5 * t)]))
-    # the body rate from SciPy's spline through a finely sampled copy (1 ms), the gyro interpolated from it
-    fine = np.arange(-1, 31, 1e-3)
-    Rf = Rotation.from_euler(
-        "XYZ", np.column_stack([np.sin(0.7 * fine), 0.5 * np.sin(1.1 * fine + 1), np.cos(0.5 * fine)])
-    )
-    from scipy.spatial.transform import RotationSpline
-
-    wf = RotationSpline(fine, Rf)(fine, 1)
     Rc = Rotation.from_rotvec(np.radians([0.5, -0.3, 0.2])).as_matrix()
     bias = np.array([0.004, -0.002, 0.006])
-    g = np.array([np.interp(t - offset_s, fine, wf[:, j]) for j in range(3)]).T @ Rc.T + bias
+    g = _body_rate(t - offset_s) @ Rc.T + bias
     g += rng.normal(0, 0.003, g.shape)
-    q = R.as_quat(scalar_first=True)
+    q = _euler_motion(t).as_quat(scalar_first=True)
     q[1000:1010] = np.nan
     movement = ((t > 2) & (t < 28)).astype(float)[:, None]
     scipy.io.savemat(path, {"opt_quat": q, "imu_gyr": g, "movement": movement, "sampling_rate": np.array([[fs]])})
@@ -247,20 +252,6 @@ def test_conversion_script_on_synthetic_copies(tmp_path, capsys):
     s = broad.score(up, METHODS[1].run(up).omega, **up.score_options())
     assert s.rms < 0.02 and s.gyro_rms > 0.5
     assert (out / "NOTICE.md").exists()
-
-
-def _euler_motion(u: np.ndarray) -> Rotation:
-    return Rotation.from_euler("XYZ", np.column_stack([np.sin(0.7 * u), 0.5 * np.sin(1.1 * u + 1), np.cos(0.5 * u)]))
-
-
-def _body_rate(u: np.ndarray) -> np.ndarray:
-    """The body rate of :func:`_euler_motion` at ``u``, from SciPy's spline through it at 1 ms (independent of the
-    code under test)."""
-    from scipy.spatial.transform import RotationSpline
-
-    fine = np.arange(u.min() - 1, u.max() + 1, 1e-3)
-    w = RotationSpline(fine, _euler_motion(fine))(fine, 1)
-    return np.array([np.interp(u, fine, w[:, j]) for j in range(3)]).T
 
 
 def _fake_repoimu(path: Path, Rc: np.ndarray, bias: np.ndarray) -> None:

@@ -207,8 +207,8 @@ def simulate_coupled(
         R = y[:9].reshape(3, 3)
         w = y[9:12]
         tau = np.asarray(torque(t, R, w), dtype=float)
-        # [ω]× written out, not so3.hat: hat stacks arrays for batches, an order of magnitude slower on one vector,
-        # and this right-hand side runs tens of thousands of times per run
+        # [ω]× written out, not so3.hat: hat stacks arrays for batches, slow on one vector, and this right-hand
+        # side runs tens of thousands of times per run
         R_dot = R @ np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
         w_dot = J_inv @ (so3.cross(J @ w, w) + tau)
         return np.concatenate([R_dot.ravel(), w_dot, observer.rhs(y[12:], R, tau)])
