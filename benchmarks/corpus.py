@@ -23,7 +23,8 @@ their licences and what was changed.
   :data:`MAX_CONDITION`: a channel that does not respond, as the first gyro axis of set 2) is not converted.
 * Held out, converted only with ``--only heldout`` and used for nothing but ``real_world.py --heldout``:
   ``SRC_DIR/ring/data`` (the ``data`` folder of ``anonymous-sup-material/ring_supplementary_material``): RepoIMU's
-  triple pendulum and RING's five-segment chain (:func:`convert_heldout`; no licence stated there: local use).
+  triple pendulum, RING's five-segment chain and OpenAXES's robot arm (:func:`convert_heldout`; no licence stated
+  there: local use).
 * The independent plant (needs ``omegahat[mujoco]``): :mod:`omegahat.lab.evaluation.plant_logs`, 24 logs of issue
   24's grid and the varying-motion case, each also written as ``NAME.csv`` (what ``omegahat estimate`` reads;
   ``meta["command"]`` has the options its model needs) and ``NAME-truth.csv`` (``t, wx, wy, wz``).
@@ -234,7 +235,13 @@ RING_SOURCE = (
     "the RING validation recordings (optical motion capture of a five-segment chain with an IMU rigidly on each "
     "segment), github.com/anonymous-sup-material/ring_supplementary_material (data/dataset)"
 )
+OPENAXES_SOURCE = (
+    "OpenAXES: F. Webering, C. Fahnemann, N. Stanislawski, 'OpenAXES Example Robot Dataset', LUIS 2023, "
+    "doi:10.25835/psqqs9w0, as re-packaged in github.com/anonymous-sup-material/ring_supplementary_material "
+    "(data/openaxes_dataset: the robot's encoder attitudes, and the IMUs' gyroscopes resampled onto the robot's clock)"
+)
 QUAT_NORM_TOL = 1e-3  #: as ``omegahat estimate --quat-norm-tol``'s default: a RepoIMU quaternion further off is a gap
+MAX_RESIDUAL = 0.5  #: a calibration leaving more of the reference's RMS rate unexplained is a failed one
 HELDOUT_LICENCE = "not stated by the repository: used locally to measure, never redistributed"
 
 
@@ -253,6 +260,12 @@ def _heldout_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: st
     R[ok] = so3.from_quat(q[ok])
     cal = calibrate(t, R, gyro_t, gyro)
     ref_t, ref_w = cal.apply(gyro_t, gyro)
+    residual, rate = float(np.sqrt(np.sum(cal.residual_rms**2))), float(np.sqrt(np.mean(np.sum(ref_w**2, axis=1))))
+    if residual > MAX_RESIDUAL * rate:
+        raise ValueError(
+            f"the calibration leaves {residual:.3g} rad/s of the gyroscope's {rate:.3g} rad/s RMS unexplained: the "
+            "two logs do not describe one motion on one clock"
+        )
     meta = {
         "source": source, "licence": HELDOUT_LICENCE, "description": name, "changes": changes,
         "calibration": _calibration_meta(cal), "decimate": decimate, "score": {}, "truth": False,
@@ -262,7 +275,8 @@ def _heldout_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: st
     save_recording(out / f"{name}.npz", rec)
     angle = np.degrees(np.linalg.norm(so3.log(cal.rotation)))
     print(f"  {name}: {t.size} samples at {rec.fs:.4g} Hz; offset {cal.offset * 1e3:+.1f} ± "
-          f"{cal.offset_std * 1e3:.1f} ms, rotation {angle:.2f} deg", flush=True)  # fmt: skip
+          f"{cal.offset_std * 1e3:.1f} ms, rotation {angle:.2f} deg, residual "
+          f"{residual:.3g} rad/s of {rate:.3g}", flush=True)  # fmt: skip
     return name
 
 
@@ -315,6 +329,43 @@ def convert_heldout(src: Path, out: Path) -> list[str]:
             source = f"{RING_SOURCE}: {trial.name}, segment {seg}"
             name = f"ring-{trial.name}-seg{seg}"
             written.append(_heldout_recording(out, name, t, q, gyro_t, g, source, changes, notes, [3]))
+    written += convert_openaxes(src / "openaxes_dataset", out)
+    return written
+
+
+def convert_openaxes(src: Path, out: Path) -> list[str]:
+    """OpenAXES's robot arm: the attitude of two of its links from the joint encoders (scalar-first quaternions,
+    stamps in microseconds, 125 Hz) and the gyroscope of the IMU on each, which the re-packaging resampled onto the
+    robot's stamps by linear interpolation, filling the rows outside the IMU's record with its first value: a
+    gyroscope row equal to its neighbour is such a fill (or a held value), and is left out of the reference."""
+    written = []
+    for trial in sorted((src / "groundtruth").glob("robot-*")):
+        scenario = trial.name.removeprefix("robot-")
+        for link in ("carpus", "radius"):
+            imu = src / "synced_imu" / scenario / f"{link}_adx.csv"
+            if not imu.is_file():
+                continue
+            a = np.genfromtxt(trial / f"{link}.csv", delimiter=",", skip_header=1)
+            g = np.genfromtxt(imu, delimiter=",", skip_header=1)[:, 4:7]
+            if g.shape[0] != a.shape[0]:
+                raise ValueError(f"{imu}: {g.shape[0]} rows beside {a.shape[0]} of {trial / f'{link}.csv'}")
+            same = np.all(np.diff(g, axis=0) == 0, axis=1)
+            live = ~(np.r_[False, same] | np.r_[same, False])  # differs from both neighbours
+            t = (a[:, 0] - a[0, 0]) * 1e-6
+            notes = [
+                f"gyroscope: {int((~live).sum())} of {g.shape[0]} rows equal to a neighbour (the resampling's fill "
+                "outside the IMU's record, or a held value) left out",
+                f"{int(np.sum(np.all(np.diff(a[:, 1:5], axis=0) == 0, axis=1)))} encoder attitudes repeat the previous",
+            ]
+            changes = "encoder quaternions as they are; the gyroscope's live rows calibrated (offset, rotation, bias)"
+            source = f"{OPENAXES_SOURCE}: {scenario}, {link}"
+            name = f"openaxes-{scenario}-{link}"
+            try:  # the calibration refuses a link that turns about one axis alone, and a failed fit is refused
+                written.append(
+                    _heldout_recording(out, name, t, a[:, 1:5], t[live], g[live], source, changes, notes, [3, 9])
+                )
+            except ValueError as e:
+                print(f"  {name}: not converted: {e}", flush=True)
     return written
 
 
@@ -326,8 +377,8 @@ rate; `meta` inside says where it comes from, its licence, what was changed and 
 - `broad-*`: {broad}. Licence: {broad_licence}. Changes: the gyroscope is calibrated against the optical attitude
   and stored in the body frame; the optical attitude is unchanged. Trials 02, 07, 09 and 16 are not included.
 - `upenn-*`: {upenn}. Licence: {upenn_licence}.
-- `repoimu-*`, `ring-*` (only with `--only heldout`: recordings kept out of development): {heldout}. Licence:
-  {heldout_licence}.
+- `repoimu-*`, `ring-*`, `openaxes-*` (only with `--only heldout`: recordings kept out of development): {heldout}.
+  Licence: {heldout_licence}.
 - `plant-*`: generated with MuJoCo by omegahat.lab.evaluation.plant_logs (also as `NAME.csv` and `NAME-truth.csv`).
 """
 
@@ -367,7 +418,7 @@ def main(argv: list[str] | None = None) -> int:
     if HELDOUT in args.only:
         found = args.src / "ring" / "data"
         if found.is_dir():
-            print("held out (RepoIMU, RING):")
+            print("held out (RepoIMU, RING, OpenAXES):")
             written += convert_heldout(found, args.out)
         else:
             print(f"held out: skipped ({found} absent)")
@@ -377,7 +428,7 @@ def main(argv: list[str] | None = None) -> int:
             broad_licence=BROAD_LICENCE,
             upenn=UPENN_SOURCE,
             upenn_licence=UPENN_LICENCE,
-            heldout=f"{REPOIMU_SOURCE}; {RING_SOURCE}",
+            heldout=f"{REPOIMU_SOURCE}; {RING_SOURCE}; {OPENAXES_SOURCE}",
             heldout_licence=HELDOUT_LICENCE,
         )
     )

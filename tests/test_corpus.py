@@ -292,6 +292,34 @@ def _fake_ring(trial: Path, Rc: np.ndarray) -> None:
         np.savetxt(trial / f"{name}.csv", np.hstack(data), delimiter=",", header=header, comments="", fmt="%.10g")
 
 
+def _fake_openaxes(src: Path, scenario: str, link: str, Rc: np.ndarray, motion, rate) -> None:
+    """An OpenAXES-like pair: ``groundtruth/robot-SCENARIO/LINK.csv`` (microsecond stamps 8 ms apart, scalar-first
+    quaternions of ``motion``) and ``synced_imu/SCENARIO/LINK_adx.csv`` (an index, three accelerometer and three
+    gyroscope columns on the same rows, the gyroscope ``rate`` turned by ``Rc`` and filled with its first value over the
+    first and last 100 rows, as the re-packaging's resampling does outside the IMU's record)."""
+    t = np.arange(2500) * 0.008
+    robot, imu = src / "groundtruth" / f"robot-{scenario}", src / "synced_imu" / scenario
+    robot.mkdir(parents=True, exist_ok=True)
+    imu.mkdir(parents=True, exist_ok=True)
+    stamps = 1273456000 + np.arange(t.size) * 8000
+    header = "TIME,QUATERNION_0,QUATERNION_1,QUATERNION_2,QUATERNION_3"
+    rows = np.column_stack([stamps, motion(t).as_quat(scalar_first=True)])
+    np.savetxt(robot / f"{link}.csv", rows, delimiter=",", header=header, comments="", fmt="%.12g")
+    g = rate(t) @ Rc.T
+    g[:100], g[-100:] = g[100], g[100]
+    imu_rows = np.column_stack([np.arange(t.size), np.zeros((t.size, 3)), g])
+    header = ",acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z"
+    np.savetxt(imu / f"{link}_adx.csv", imu_rows, delimiter=",", header=header, comments="", fmt="%.12g")
+
+
+def _one_axis(t: np.ndarray) -> Rotation:
+    return Rotation.from_rotvec(np.outer(np.sin(0.8 * t), [0.0, 0.0, 1.0]))
+
+
+def _one_axis_rate(t: np.ndarray) -> np.ndarray:
+    return np.outer(0.8 * np.cos(0.8 * t), [0.0, 0.0, 1.0])
+
+
 def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, monkeypatch):
     corpus = _script("corpus")
     monkeypatch.setattr(corpus, "convert_plant", lambda out: [])  # the plant is the default's too: not this test's
@@ -301,11 +329,17 @@ def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, mon
     bias = np.array([0.004, -0.002, 0.006])
     _fake_repoimu(src / "ring" / "data" / "repoIMU_dataset" / "Pendulum_Test02a_Trial1_Segment_1.csv", Rc, bias)
     _fake_ring(src / "ring" / "data" / "dataset" / "trial1", Rc)
+    axes = src / "ring" / "data" / "openaxes_dataset"
+    _fake_openaxes(axes, "circle-100", "carpus", Rc, _euler_motion, _body_rate)
+    _fake_openaxes(axes, "triangle-100", "carpus", Rc, _one_axis, _one_axis_rate)  # no frame rotation to find
+    # a gyroscope of another motion (a failed synchronisation): the calibration explains little of it
+    _fake_openaxes(axes, "circle-100", "radius", Rc, _euler_motion, lambda t: 2.3 * _body_rate(2.3 * t + 5.0))
     assert corpus.main([str(src), str(tmp_path / "default")]) == 0  # the development parts only
     assert recordings(tmp_path / "default") == []
     assert corpus.main([str(src), str(out), "--only", "heldout"]) == 0
     names = sorted(p.stem for p in recordings(out))
-    assert names == ["repoimu-test02a-s1"] + [f"ring-trial1-seg{k}" for k in range(1, 6)]
+    ring = [f"ring-trial1-seg{k}" for k in range(1, 6)]
+    assert names == ["openaxes-circle-100-carpus", "repoimu-test02a-s1", *ring]
     pendulum = load_recording(out / "repoimu-test02a-s1.npz")
     notes = pendulum.meta["notes"]
     assert "1 rows with a repeated stamp dropped" in notes
@@ -319,11 +353,19 @@ def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, mon
     chain = load_recording(out / "ring-trial1-seg1.npz")
     assert chain.fs == pytest.approx(30.0) and int(chain.gaps.sum()) == 10
     assert chain.meta["decimate"] == [3] and "not stated" in chain.meta["licence"]
+    arm = load_recording(out / "openaxes-circle-100-carpus.npz")
+    assert arm.fs == pytest.approx(125.0) and arm.t[0] == 0.0 and arm.meta["decimate"] == [3, 9]
+    assert arm.reference_times.size == 2500 - 201  # the fills (rows 0-100 equal row 100's value, 2400-2499) left out
+    assert "gyroscope: 201 of 2500 rows equal to a neighbour" in arm.meta["notes"][0]
+    np.testing.assert_allclose(np.array(arm.meta["calibration"]["rotation"]), Rc, atol=2e-4)
     # the references are the body rate: against the closed form's spline, to the gyroscope's held-sample error
-    for rec in (pendulum, chain):
+    for rec in (pendulum, chain, arm):
         truth = _body_rate(rec.reference_times)
         assert np.sqrt(np.mean(np.sum((rec.reference_rates - truth) ** 2, axis=1))) < 0.02
-    assert "held out (RepoIMU, RING):" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "held out (RepoIMU, RING, OpenAXES):" in printed
+    assert "openaxes-triangle-100-carpus: not converted: the motion cannot identify a frame rotation" in printed
+    assert "openaxes-circle-100-radius: not converted: the calibration leaves" in printed
 
 
 # ---------------------------------------------------------------------------------- the independent plant
