@@ -17,6 +17,7 @@ import pytest
 import scipy.io
 from scipy.spatial.transform import Rotation
 
+from omegahat.baselines.differencing import log_difference
 from omegahat.cli import main
 from omegahat.lab.evaluation import broad
 from omegahat.lab.evaluation.corpus import (
@@ -410,6 +411,42 @@ def test_the_self_assessment_benchmark_skips_cleanly_without_a_corpus(tmp_path, 
     assert _script("self_assessment").main() == 0
     assert "nothing to measure" in capsys.readouterr().out
     assert results.read_text() == before
+
+
+def test_the_midpoint_benchmark_skips_cleanly_without_a_corpus(tmp_path, monkeypatch, capsys):
+    """``benchmarks/midpoint_target.py`` on an empty corpus directory says so, exits 0 and leaves RESULTS.md as is,
+    for either corpus."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    results = ROOT / "benchmarks" / "RESULTS.md"
+    before = results.read_text()
+    bench = _script("midpoint_target")
+    for argv in ([str(tmp_path)], ["--heldout", str(tmp_path)]):
+        assert bench.main(argv) == 0
+        assert "skipped" in capsys.readouterr().out
+    assert results.read_text() == before
+
+
+def test_the_midpoint_benchmark_s_filter_gives_the_rate_half_a_step_back(monkeypatch):
+    """(M-1) of ``benchmarks/midpoint_target.py`` on a fixed-axis turn whose rate is a constant plus a 3 Hz sine,
+    sampled at 10 Hz with 10 µrad of noise: row k is the rate at ``t_k − h/2`` (the closed form), where backward
+    differencing has the interval mean (the sine's amplitude times sinc(0.3), 14 % low)."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    bench = _script("midpoint_target")
+    h, f0, amp = 0.1, 3.0, 1.0
+    t = np.arange(0.0, 120.0, h)
+    rate = lambda x: 0.4 + amp * np.sin(2 * np.pi * f0 * x)  # noqa: E731
+    angle = 0.4 * t - amp / (2 * np.pi * f0) * np.cos(2 * np.pi * f0 * t)  # its integral
+    axis = np.array([0.6, 0.0, 0.8])
+    rng = np.random.default_rng(3)
+    R = Rotation.from_rotvec(np.outer(angle, axis)) * Rotation.from_rotvec(1e-5 * rng.standard_normal((t.size, 3)))
+    R = R.as_matrix()
+    truth = np.outer(rate(t - h / 2), axis)
+    inner = slice(100, -100)
+    middle = bench.midpoint_rate(t, R, np.ones(t.size, bool))
+    backward = log_difference(t, R, scheme="backward")
+    err = lambda w: np.sqrt(np.mean(np.sum((w[inner] - truth[inner]) ** 2, axis=1)))  # noqa: E731
+    assert err(backward) == pytest.approx(amp * (1 - np.sinc(f0 * h)) / np.sqrt(2), rel=0.05)
+    assert err(middle) < 0.1 * err(backward)
 
 
 def test_a_recording_s_group_is_its_source_and_its_decimated_rate():
