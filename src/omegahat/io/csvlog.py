@@ -284,7 +284,10 @@ def _hint(original: list[str], rows: list[list[str]], sample: list[list[str]], m
         first = sample[0]
         texts = [f for f in first if f.strip()]
         if texts and sum(not _is_number(f) for f in texts) > len(texts) // 2:
-            return "; the header seems to span 2 rows (names under empty cells): try --header-rows 2"
+            # the two rows joined as --header-rows 2 joins them: the columns line for them too, so one retry reads it
+            line = "" if mapped else suggest_columns(join_header_rows([rows[0], first]))
+            both = "" if not line or "NAME" in line else f" {line}"  # not the template: a line that reads the file
+            return f"; the header seems to span 2 rows (names under empty cells): try --header-rows 2{both}"
     if mapped:
         return ""
     return f"; to read other columns: {suggest_columns(original)}"
