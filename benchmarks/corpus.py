@@ -252,7 +252,17 @@ def _held_run_starts(g: np.ndarray) -> np.ndarray:
 
 def _heldout_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: str, changes: str, notes, decimate):
     """Calibrate the gyroscope ``(gyro_t, gyro)`` against the quaternions ``q_wxyz`` (scalar first, NaN rows missing)
-    at the times ``t``, and write the recording ``out/name.npz``; its name."""
+    at the times ``t``, and write the recording ``out/name.npz``; its name, or None (said) where the calibration
+    refuses the pair or leaves more than :data:`MAX_RESIDUAL` of the gyroscope's RMS rate unexplained."""
+    try:
+        return _calibrated_recording(out, name, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate)
+    except ValueError as e:
+        print(f"  {name}: not converted: {e}", flush=True)
+        return None
+
+
+def _calibrated_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate) -> str:
+    """:func:`_heldout_recording`'s work; raises ValueError where the pair cannot be calibrated."""
     ok = np.all(np.isfinite(q_wxyz), axis=1)
     q = np.full((t.size, 4), np.nan)
     q[ok] = np.roll(q_wxyz[ok], -1, axis=1)  # scalar last, as Recording keeps it
@@ -289,8 +299,9 @@ def convert_heldout(src: Path, out: Path) -> list[str]:
     """Recordings of other labs kept out of the development corpus, to measure the defaults on data they were not
     chosen on: RepoIMU's triple pendulum (Vicon quaternions and the IMU's gyroscope in one file per segment, stamps in
     milliseconds; the gyroscope is sampled at about half the rate of the rows, which hold each sample: its reference
-    is the rows where it changes) and RING's five-segment chain (optical quaternions at 30 Hz, the rigidly attached
-    IMUs' gyroscopes at 40 Hz, on separate clocks that the calibration aligns)."""
+    is the rows where it changes), RING's five-segment chain (optical quaternions at 30 Hz, the rigidly attached
+    IMUs' gyroscopes at 40 Hz, on separate clocks that the calibration aligns) and OpenAXES's robot arm
+    (:func:`convert_openaxes`). A pair the calibration refuses is named and left out."""
     written = []
     for path in sorted((src / "repoIMU_dataset").glob("Pendulum_*.csv")):
         a = np.genfromtxt(path, delimiter=";", skip_header=2)
@@ -330,7 +341,7 @@ def convert_heldout(src: Path, out: Path) -> list[str]:
             name = f"ring-{trial.name}-seg{seg}"
             written.append(_heldout_recording(out, name, t, q, gyro_t, g, source, changes, notes, [3]))
     written += convert_openaxes(src / "openaxes_dataset", out)
-    return written
+    return [name for name in written if name is not None]
 
 
 def convert_openaxes(src: Path, out: Path) -> list[str]:
@@ -360,13 +371,10 @@ def convert_openaxes(src: Path, out: Path) -> list[str]:
             changes = "encoder quaternions as they are; the gyroscope's live rows calibrated (offset, rotation, bias)"
             source = f"{OPENAXES_SOURCE}: {scenario}, {link}"
             name = f"openaxes-{scenario}-{link}"
-            try:  # the calibration refuses a link that turns about one axis alone, and a failed fit is refused
-                written.append(
-                    _heldout_recording(out, name, t, a[:, 1:5], t[live], g[live], source, changes, notes, [3, 9])
-                )
-            except ValueError as e:
-                print(f"  {name}: not converted: {e}", flush=True)
-    return written
+            written.append(
+                _heldout_recording(out, name, t, a[:, 1:5], t[live], g[live], source, changes, notes, [3, 9])
+            )
+    return [name for name in written if name is not None]
 
 
 NOTICE = """# The development corpus of issue 24 (built by benchmarks/corpus.py; not part of omegahat)
