@@ -249,6 +249,36 @@ def test_errors_print_the_columns_line_that_would_read_the_file(tmp_path, capsys
     assert suggest_columns(["t", "a,b", "w", "x", "y", "z"]) == "--columns t=t,qw=w,qx=x,qy=y,qz=z"
 
 
+def test_numbered_quaternion_columns_get_both_lines_and_each_says_its_scalar(tmp_path, capsys):
+    """An export with ``TIME,QUATERNION_0..3`` (qmt's and OpenAXES's layout, scalar first): the error prints the
+    line for each order, naming the column it takes for the scalar; the scalar-first line reads the file to the rate
+    of the same attitudes in omegahat's own CSV."""
+    t = np.arange(300) / 100.0
+    q = turning(t).as_quat(scalar_first=True)
+    src = tmp_path / "robot.csv"
+    src.write_text("TIME,QUATERNION_0,QUATERNION_1,QUATERNION_2,QUATERNION_3\n")
+    with src.open("a") as f:
+        np.savetxt(f, np.column_stack([t, q]), delimiter=",", fmt="%.12g")
+    first = "t=TIME,qw=QUATERNION_0,qx=QUATERNION_1,qy=QUATERNION_2,qz=QUATERNION_3"
+    last = "t=TIME,qx=QUATERNION_0,qy=QUATERNION_1,qz=QUATERNION_2,qw=QUATERNION_3"
+    code, _, _, err = run(src, tmp_path, capsys)
+    assert code == 2
+    assert (
+        f"--columns {first} if QUATERNION_0 is the quaternion's scalar part, --columns {last} if QUATERNION_3 is"
+    ) in err
+    code, table, _, err = run(src, tmp_path, capsys, "--columns", first)
+    assert code == 0, err
+    plain = tmp_path / "plain.csv"
+    plain.write_text("t,qw,qx,qy,qz\n")
+    with plain.open("a") as f:
+        np.savetxt(f, np.column_stack([t, q]), delimiter=",", fmt="%.12g")
+    code, base, _, _ = run(plain, tmp_path, capsys)
+    assert code == 0
+    np.testing.assert_allclose(table, base, atol=1e-12)
+    code, swapped, _, _ = run(src, tmp_path, capsys, "--columns", last)  # the other order reads another motion
+    assert code == 0 and np.nanmax(np.abs(swapped[:, 1:] - base[:, 1:])) > 0.1
+
+
 def test_a_map_of_the_wrong_columns_is_named(tmp_path, capsys):
     t = np.arange(300) / 100.0
     q = turning(t).as_quat()

@@ -195,20 +195,36 @@ def _unit_free(name: str) -> str:
 
 def suggest_columns(names: Sequence[str]) -> str:
     """The ``--columns`` line that reads a file with these header names, guessed from them (a time-like column; four
-    columns ending in w, x, y, z with a common prefix, preferring orientation-like prefixes), or the template."""
+    columns ending in w, x, y, z with a common prefix, preferring orientation-like prefixes), or the template. Four
+    columns numbered 0–3 or 1–4 instead (``QUATERNION_0`` … ``QUATERNION_3``) do not say which is the scalar part:
+    then both lines, each with the column it takes for the scalar."""
     base = [_unit_free(normalise_name(n)) for n in names]
     pos = {j: (names[j] if names[j].strip() and not re.search(r"[,=]", names[j]) else j + 1) for j in range(len(names))}
     unique = {b for b in base if base.count(b) == 1}
     time = next((j for j, b in enumerate(base) if re.search(r"time|stamp|^t$|sec", b)), None)
-    groups: dict[str, dict[str, int]] = {}
-    for j, b in enumerate(base):
-        m = re.fullmatch(r"(.*?)[\s_.:/-]*([wxyz])", b)
-        if m and b in unique:
-            groups.setdefault(m.group(1), {}).setdefault(m.group(2), j)
-    full = [(p, g) for p, g in groups.items() if len(g) == 4]
-    if time is None or not full:
+    if time is None:
         return _TEMPLATE
     rank = lambda item: (not re.search(r"orient|quat|rot|att|^q", item[0]), min(item[1].values()))  # noqa: E731
-    _, g = min(full, key=rank)
-    pairs = [("t", pos[time]), *((f"q{a}", pos[g[a]]) for a in "wxyz")]
-    return columns_line(pairs)
+    named = _four(base, unique, r"[wxyz]", ({"w", "x", "y", "z"},))
+    if named:
+        g = min(named, key=rank)[1]
+        return columns_line([("t", pos[time]), *((f"q{a}", pos[g[a]]) for a in "wxyz")])
+    numbered = _four(base, unique, r"[0-4]", ({"0", "1", "2", "3"}, {"1", "2", "3", "4"}))
+    if not numbered:
+        return _TEMPLATE
+    g = min(numbered, key=rank)[1]
+    cols = [g[d] for d in sorted(g)]
+    first = columns_line([("t", pos[time]), *zip(("qw", "qx", "qy", "qz"), (pos[j] for j in cols), strict=True)])
+    last = columns_line([("t", pos[time]), *zip(("qx", "qy", "qz", "qw"), (pos[j] for j in cols), strict=True)])
+    return f"{first} if {names[cols[0]]} is the quaternion's scalar part, {last} if {names[cols[3]]} is"
+
+
+def _four(base: list[str], unique: set[str], suffix: str, sets: tuple[set[str], ...]) -> list[tuple[str, dict]]:
+    """The groups of four columns sharing a prefix whose suffixes (``suffix``, a character class) make one of
+    ``sets``: ``[(prefix, {suffix: column index})]``."""
+    groups: dict[str, dict[str, int]] = {}
+    for j, b in enumerate(base):
+        m = re.fullmatch(rf"(.*?)[\s_.:/-]*({suffix})", b)
+        if m and b in unique:
+            groups.setdefault(m.group(1), {}).setdefault(m.group(2), j)
+    return [(p, g) for p, g in groups.items() if set(g) in sets]
