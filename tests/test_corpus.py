@@ -449,6 +449,28 @@ def test_the_midpoint_benchmark_s_filter_gives_the_rate_half_a_step_back(monkeyp
     assert err(middle) < 0.1 * err(backward)
 
 
+def test_the_noise_bound_benchmark_reads_the_noise_and_whether_the_band_s_top_is_motion(monkeypatch):
+    """``benchmarks/noise_bound.py`` against closed forms: with 1 mrad of white noise on a slow turn and the exact rate
+    as the reference, (B1) is the noise (the residual is ``n_k − n_{k−1}``) and the reference holds none of the
+    band's top; on a noise-free turn whose rate has a 45 Hz wave at 100 Hz, the band's top is all motion, the
+    reference's as the increments'."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    bench = _script("noise_bound")
+    noisy = synthetic(noise=1e-3, duration=60.0, seed=4)
+    np.testing.assert_allclose(bench.noise_bound(noisy), 1e-3, rtol=0.05)
+    assert np.all(bench.top_share(noisy) < 1e-3)
+    t, fine = np.arange(0.0, 60.0, 0.01), np.arange(-0.01, 60.01, 1e-4)
+    axis = np.array([2.0, -1.0, 2.0]) / 3.0
+    wave = 2 * np.pi * 45.0
+    angle = lambda x: 0.8 * x - 2.0 / wave * np.cos(wave * x)  # noqa: E731  the rate 0.8 + 2 sin(2π 45 x)
+    rate = (0.8 + 2.0 * np.sin(wave * fine))[:, None] * axis
+    q = Rotation.from_rotvec(angle(t)[:, None] * axis).as_quat()
+    meta = {"source": "test", "score": {}, "decimate": []}
+    moving = Recording("wave", t, "quaternion", q, fine, rate, np.ones(t.size, bool), meta)
+    np.testing.assert_allclose(bench.top_share(moving), 1.0, rtol=0.02)
+    assert np.all(bench.noise_bound(moving) < 5e-5)  # no noise: the 8-sub-step midpoint rule's error on the wave
+
+
 def test_a_recording_s_group_is_its_source_and_its_decimated_rate():
     assert group_of("broad-06_undisturbed_fast_rotation_A@28.6Hz") == "broad @28.6Hz"
     assert group_of("broad-06_undisturbed_fast_rotation_A") == "broad"
