@@ -38,6 +38,7 @@ from omegahat.io.columns import (
 )
 
 __all__ = [
+    "COLUMNS_TEMPLATE",
     "ColumnMap",
     "apply_columns",
     "columns_line",
@@ -50,7 +51,8 @@ __all__ = [
 ColumnMap = tuple[tuple[str, "str | int"], ...]  #: parsed map: (key, column name or 1-based position), in order
 _DIRECTION_KEY = re.compile(r"b[1-9]\d*[xyz]")
 _GROUPS = {"time": ("t",), "quaternion": QUATERNION_COLUMNS, "matrix": MATRIX_COLUMNS, "torque": TORQUE_COLUMNS}
-_TEMPLATE = "--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by position: t=1,qw=2,qx=3,qy=4,qz=5)"
+#: what :func:`suggest_columns` prints where the names suggest no reading
+COLUMNS_TEMPLATE = "--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by position: t=1,qw=2,qx=3,qy=4,qz=5)"
 
 
 def _group(key: str) -> str:
@@ -203,7 +205,7 @@ def suggest_columns(names: Sequence[str]) -> str:
     unique = {b for b in base if base.count(b) == 1}
     time = next((j for j, b in enumerate(base) if re.search(r"time|stamp|^t$|sec", b)), None)
     if time is None:
-        return _TEMPLATE
+        return COLUMNS_TEMPLATE
     rank = lambda item: (not re.search(r"orient|quat|rot|att|^q", item[0]), min(item[1].values()))  # noqa: E731
     named = _four(base, unique, r"[wxyz]", ({"w", "x", "y", "z"},))
     if named:
@@ -211,7 +213,7 @@ def suggest_columns(names: Sequence[str]) -> str:
         return columns_line([("t", pos[time]), *((f"q{a}", pos[g[a]]) for a in "wxyz")])
     numbered = _four(base, unique, r"[0-4]", ({"0", "1", "2", "3"}, {"1", "2", "3", "4"}))
     if not numbered:
-        return _TEMPLATE
+        return COLUMNS_TEMPLATE
     g = min(numbered, key=rank)[1]
     cols = [g[d] for d in sorted(g)]
     first = columns_line([("t", pos[time]), *zip(("qw", "qx", "qy", "qz"), (pos[j] for j in cols), strict=True)])

@@ -29,7 +29,14 @@ import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-from omegahat.io.colmap import ColumnMap, apply_columns, columns_line, join_header_rows, suggest_columns
+from omegahat.io.colmap import (
+    COLUMNS_TEMPLATE,
+    ColumnMap,
+    apply_columns,
+    columns_line,
+    join_header_rows,
+    suggest_columns,
+)
 from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name
 from omegahat.io.csvparse import ChunkParser
 from omegahat.io.precision import significant_digits
@@ -285,8 +292,8 @@ def _hint(original: list[str], rows: list[list[str]], sample: list[list[str]], m
         texts = [f for f in first if f.strip()]
         if texts and sum(not _is_number(f) for f in texts) > len(texts) // 2:
             # the two rows joined as --header-rows 2 joins them: the columns line for them too, so one retry reads it
-            line = "" if mapped else suggest_columns(join_header_rows([rows[0], first]))
-            both = "" if not line or "NAME" in line else f" {line}"  # not the template: a line that reads the file
+            line = COLUMNS_TEMPLATE if mapped else suggest_columns(join_header_rows([rows[0], first]))
+            both = "" if line == COLUMNS_TEMPLATE else f" {line}"  # a line that reads the file, not the template
             return f"; the header seems to span 2 rows (names under empty cells): try --header-rows 2{both}"
     if mapped:
         return ""
