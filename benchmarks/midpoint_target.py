@@ -27,7 +27,6 @@ is a measurement of the target, not an estimator of omegahat: ``--smooth`` write
 
 from __future__ import annotations
 
-import csv
 import math
 import sys
 import time
@@ -42,6 +41,7 @@ from omegahat.baselines.differencing import log_difference
 from omegahat.identification.spectral import increment_spectrum, rate_spectra, spectral_rate
 from omegahat.lab.evaluation.broad import score
 from omegahat.lab.evaluation.corpus import corpus_dir, group_of, load_recording, recordings
+from real_world import read_csv
 from results_md import machine_line, write_section
 
 SECTION = "## The rate at the samples or at the intervals' midpoints (benchmarks/midpoint_target.py)"
@@ -73,14 +73,11 @@ def midpoint_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> np.ndarray
 
 
 def measured(path: Path) -> dict[str, dict[str, float]]:
-    """``{recording: {method: rms}}`` from a CSV of ``real_world.py``."""
+    """``{recording: {method: rms}}`` from a CSV of ``real_world.py`` (its reader), the methods that ran."""
     by: dict[str, dict[str, float]] = defaultdict(dict)
-    with path.open() as f:
-        for row in csv.DictReader(f):
-            try:
-                by[row["recording"]][row["method"]] = float(row["rms_rad_s"])
-            except ValueError:  # a method that did not run
-                pass
+    for row in read_csv(path):
+        if row.score is not None:
+            by[row.recording][row.method] = row.score.rms
     return by
 
 
@@ -110,15 +107,15 @@ def main(argv: list[str] | None = None) -> int:
             if "omegahat estimate --smooth" not in rows or "backward diff." not in rows:
                 continue
             options = rec.score_options()
-            backward = score(rec, log_difference(rec.t, rec.R, scheme="backward"), **options).rms
+            backward = rows["backward diff."]  # the same score of the same method as the two filters'
             middle = score(rec, midpoint_rate(rec.t, rec.R, ~rec.gaps), **options).rms
             samples = score(rec, spectral_rate(rec.t, rec.R, ~rec.gaps).omega, **options).rms
             best = min(rows[m] for m in ("central diff.", "RotationSpline") if m in rows)
             cells = ratios[group_of(rec.name)]
             cells["mid"].append(middle / backward)
             cells["samples"].append(samples / backward)
-            cells["smooth"].append(rows["omegahat estimate --smooth"] / rows["backward diff."])
-            cells["peer"].append(best / rows["backward diff."])
+            cells["smooth"].append(rows["omegahat estimate --smooth"] / backward)
+            cells["peer"].append(best / backward)
             print(f"{rec.name}: ÷ backward: midpoints {middle / backward:.3f}, samples {samples / backward:.3f}")
     lines = [
         "| group | n | Wiener, midpoints (M-1) | Wiener, samples (S6) | `--smooth` | best of central diff. and "

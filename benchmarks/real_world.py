@@ -282,7 +282,7 @@ HELDOUT_CSV = Path(__file__).with_name("real_world_heldout.csv")
 HELDOUT_INTRO = (
     "The methods of `--after`, scored alike, on recordings converted by `python benchmarks/corpus.py SRC OUT --only "
     "heldout` and used for nothing but this table: RepoIMU's triple pendulum (Vicon at about 91 Hz with millisecond "
-    "stamps, a gyroscope held over two rows; also at every 3rd and 9th sample) and RING's five-segment chain (optical "
+    "stamps, a gyroscope held over two rows; also at every 3rd and 9th sample), RING's five-segment chain (optical "
     "attitude at 30 Hz, gyroscopes at 40 Hz on their own clock; also at every 3rd sample) and OpenAXES's robot arm "
     "(two links' attitudes from the joint encoders at 125 Hz, their IMUs' gyroscopes resampled onto the robot's "
     "clock; also at every 3rd and 9th sample). Every row: `benchmarks/real_world_heldout.csv`."
