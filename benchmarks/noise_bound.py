@@ -39,14 +39,13 @@ SUBSTEPS = 8
 
 def noise_bound(rec) -> np.ndarray:
     """(B1) per body axis (rad) for a recording of :mod:`omegahat.lab.evaluation.corpus`."""
-    return np.sqrt(np.mean(_residuals(rec)[2] ** 2, axis=0) / 2.0)
+    return np.sqrt(np.mean(_residuals(rec)[3] ** 2, axis=0) / 2.0)
 
 
 def top_share(rec) -> np.ndarray:
     """Per body axis, the reference's power over the measured increments' at ``f ≥ 0.4`` cycles per step (module
     docstring); NaN where the longest run of consecutive steps is shorter than 64."""
-    k, reference, residual = _residuals(rec)
-    measured = reference + residual  # to first order: the measured increment is the reference's plus the residual
+    k, reference, measured, _ = _residuals(rec)
     breaks = np.flatnonzero(np.diff(k) != 1)
     starts, ends = np.r_[0, breaks + 1], np.r_[breaks + 1, k.size]
     a, b = max(zip(starts, ends, strict=True), key=lambda r: r[1] - r[0])
@@ -58,9 +57,9 @@ def top_share(rec) -> np.ndarray:
     return P_ref[top].sum(axis=0) / P_meas[top].sum(axis=0)
 
 
-def _residuals(rec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The steps ``k`` the reference covers, the reference's increments ``Log(Q_k)`` over them and the residuals
-    ``Log(Q_kᵀ R_{k−1}ᵀ R_k)`` (rad, ``(n, 3)`` each)."""
+def _residuals(rec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The steps ``k`` the reference covers, and over them the reference's increments ``Log(Q_k)``, the measured
+    ones ``Log(R_{k−1}ᵀ R_k)`` and the residuals ``Log(Q_kᵀ R_{k−1}ᵀ R_k)`` (rad, ``(n, 3)`` each)."""
     rate = CubicSpline(rec.reference_times, rec.reference_rates, axis=0)
     R, t = rec.R, rec.t
     k = np.flatnonzero(~rec.gaps[1:] & ~rec.gaps[:-1]) + 1
@@ -70,7 +69,7 @@ def _residuals(rec) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for j in range(SUBSTEPS):
         Q = Q @ so3.exp(rate(t[k - 1] + (j + 0.5) * h) * h[:, None])
     measured = np.einsum("nji,njk->nik", R[k - 1], R[k])
-    return k, so3.log(Q), so3.log(np.einsum("nji,njk->nik", Q, measured))
+    return k, so3.log(Q), so3.log(measured), so3.log(np.einsum("nji,njk->nik", Q, measured))
 
 
 def main(argv: list[str] | None = None) -> int:
