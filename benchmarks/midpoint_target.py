@@ -38,7 +38,8 @@ import numpy as np
 from scipy import fft
 
 from omegahat.baselines.differencing import log_difference
-from omegahat.identification.spectral import increment_spectrum, rate_spectra, spectral_rate
+from omegahat.identification.fold import rate_spectra
+from omegahat.identification.spectral import increment_spectrum, spectral_rate
 from omegahat.lab.evaluation.broad import score
 from omegahat.lab.evaluation.corpus import corpus_dir, group_of, load_recording, recordings
 from real_world import read_csv

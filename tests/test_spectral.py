@@ -8,11 +8,11 @@ from scipy import stats
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from omegahat.baselines.differencing import log_difference
+from omegahat.identification.fold import folded
 from omegahat.identification.spectral import (
     HANN_HALF_OVERLAP,
     SIGNIFICANCE,
     SpectralSmoother,
-    folded,
     increment_spectrum,
     stretches,
     top_noise,

@@ -9,7 +9,9 @@
 * :mod:`~omegahat.identification.start` — the identified filter's ``fit`` start, over the longest window the
   motion allows;
 * :mod:`~omegahat.identification.smoother` — the identified model's zero-lag estimate (``--smooth``);
-* :mod:`~omegahat.identification.spectral` — the log's own Wiener smoother, where no model is chosen.
+* :mod:`~omegahat.identification.spectral` — the log's own Wiener smoother, where no model is chosen;
+* :mod:`~omegahat.identification.fold` — the rate folded onto the band from beyond the Nyquist frequency (S6);
+* :mod:`~omegahat.identification.causal` — the log's causal filter of the differences, where differencing runs.
 
 ``docs/theory/identification.md`` gives the equations and what was measured.
 """

@@ -77,9 +77,6 @@ the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'
 as stamped, and a step 5 % or more off the median breaks the stretch (the rotation spline, exact at uneven times,
 takes what is too short to filter).
 
-(S5), a noise read from the rise of the upper half band, is retired: the fold (S6) reads that rise as folded
-motion, and the two counted it twice (``docs/theory/identification.md``).
-
 **The fold.** Sampling folds the rate's spectrum above the Nyquist frequency onto the band: the component at
 ``2π − x`` shows in ``b`` at ``x`` with the gain ``sinc_a(x) = sinc((2π − x)/2)`` and, against the rate at the
 samples, with the opposite sign, so (S2)'s inverse of the interval mean amplifies what it should shrink. Nothing in
@@ -118,6 +115,7 @@ from scipy.special import gammaincinv
 
 from omegahat import measurements as ms
 from omegahat import so3
+from omegahat.identification.fold import rate_spectra
 from omegahat.identification.noise import REGULAR_STEP, quiet_noise
 from omegahat.interface import Measurements
 
@@ -131,10 +129,8 @@ __all__ = [
     "SpectralRate",
     "SpectralSmoother",
     "expected_error",
-    "folded",
     "increment_spectrum",
     "noise_shape",
-    "rate_spectra",
     "spectral_rate",
     "top_noise",
     "welch_dof",
@@ -237,37 +233,6 @@ def wiener_gain(freq: np.ndarray, P_b: np.ndarray, sigma: ArrayLike, h: float, s
     with np.errstate(divide="ignore", invalid="ignore"):
         g = np.where(significant, 1.0 - N_b / P_b, 0.0)
     return np.clip(np.nan_to_num(g, nan=0.0, posinf=0.0, neginf=0.0), 0.0, 1.0)
-
-
-def folded(freq: np.ndarray, motion: np.ndarray) -> np.ndarray:
-    """``S_a (F, 3)`` of (S6): the rate spectrum folded onto each frequency ``freq`` (cycles per step) from beyond the
-    Nyquist frequency, for the motion's share ``motion (F, 3)`` of the increments' spectrum (``P_b − N_b`` where
-    significant)."""
-    sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
-    top = (freq >= 0.45) & (freq < 0.5)  # below the Nyquist bin (Welch's half-weighted one)
-    upper = (freq >= 0.35) & (freq < 0.5)
-    if not top.any() or np.count_nonzero(upper) < 3:
-        return np.zeros_like(motion)
-    at_nyquist = np.median(motion[top], axis=0) * np.pi**2 / 8.0  # S(π), base and fold alike: P_s = (8/π²) S(π)
-    observed = motion / sinc**2  # base and fold together
-    decay = np.zeros(motion.shape[1])
-    for j in range(motion.shape[1]):
-        seen = upper & (observed[:, j] > 0)
-        if np.count_nonzero(seen) >= 3:
-            slope = np.polyfit(np.log(freq[seen]), np.log(observed[seen, j]), 1)[0]
-            decay[j] = max(0.0, -slope)  # a spectrum that leaves the band rising is held level
-    envelope = at_nyquist * (np.maximum(1.0 - freq, 0.5)[:, None] / 0.5) ** (-decay)
-    with np.errstate(divide="ignore"):
-        return np.minimum(envelope, motion / sinc_a**2)  # no more than the frequency shows
-
-
-def rate_spectra(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(S6): the rate's spectrum in the band, ``S``, and folded onto it from beyond the Nyquist frequency, ``S_a``,
-    both ``(F, 3)``, zero where the motion is not significant."""
-    sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
-    motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
-    fold = folded(freq, motion)
-    return np.maximum(motion - sinc_a**2 * fold, 0.0) / sinc**2, fold
 
 
 def _cross(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
