@@ -83,7 +83,15 @@ from scipy.stats import norm
 from omegahat.identification.fold import UPPER, leaving_slope, rate_spectra
 from omegahat.identification.spectral import SIGNIFICANCE, IncrementSpectrum, noise_shape, welch_dof, wiener_gain
 
-__all__ = ["TAPS", "CausalFilter", "causal_filter", "expected_rms_below", "least_noise", "readings"]
+__all__ = [
+    "TAPS",
+    "CausalFilter",
+    "causal_filter",
+    "expected_rms_below",
+    "least_noise",
+    "model_to_differencing",
+    "readings",
+]
 
 TAPS = 16  #: L of (C1): the differences the filter spans
 BISECTIONS = 40  #: halvings of (C5)'s interval of noise variance: to 1e-12 of the identified one
@@ -284,3 +292,32 @@ def expected_rms_below(spectrum: IncrementSpectrum, taps: np.ndarray, band: floa
         E = _density(np.cos(phase) @ taps[:, axis], np.sin(phase) @ taps[:, axis], P_b[:, axis], cross, target)
         total += float(np.sum(weight * E))
     return math.sqrt(max(total, 0.0))
+
+
+def model_to_differencing(spectrum: IncrementSpectrum, response: np.ndarray) -> np.ndarray:
+    """Per reading of (C4) ``(4,)``, the RMS error that a filter whose rate responds to the differences as
+    ``response (F,)`` (complex, on ``spectrum.freq``: a model's steady-state filter, (K1) of
+    :func:`omegahat.identification.likelihood.rate_response`) expects against the rate **at the samples**, as a
+    multiple of differencing's against the rate at the intervals' midpoints (``E_1`` of (C2)), over the band::
+
+        E_K(f) = S |sinc e^{−iπf} H_b − 1|² + S_a |sinc_a e^{−iπf} H_b + 1|² + N_b |H_b|²
+               = |H_b|² P_b − 2 Re(e^{−iπf} H_b) · (sinc S − sinc_a S_a) + S + S_a                          (K2)
+
+    (at the samples the fold has the opposite sign, (S6)). Each estimate is taken at its own target, as the fair
+    score's best shift takes it. NaN without a spectrum or a response."""
+    freq = spectrum.freq
+    if freq.size < 3 or not np.all(np.isfinite(spectrum.P_b)) or not np.all(np.isfinite(response)):
+        return np.full(4, math.nan)
+    weight = _trapezoid(freq)[:, None]
+    sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
+    at_samples = (np.exp(-1j * np.pi * freq) * response)[:, None]  # e^{−iπf} H_b
+    ratios = []
+    for base, fold in readings(spectrum):
+        theirs = np.sum(
+            weight * _density(np.ones(1), np.zeros(1), spectrum.P_b, sinc * base + sinc_a * fold, base + fold)
+        )
+        mine = np.sum(
+            weight * _density(at_samples.real, at_samples.imag, spectrum.P_b, sinc * base - sinc_a * fold, base + fold)
+        )
+        ratios.append(math.sqrt(max(float(mine), 0.0) / float(theirs)) if theirs > 0.0 else math.inf)
+    return np.array(ratios)

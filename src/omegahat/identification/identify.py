@@ -27,12 +27,18 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    ((C1)–(C3) of :mod:`omegahat.identification.causal`: no more error than differencing's in any band). The model
    runs unless (a) its innovations at the identified noise are more than :data:`MISFIT_MAX` times what that noise
    explains (``σ̂/σ``: the filter lost track of the log), (b) its ``Λ`` is the grid's top (no measurement noise the
-   log can tell from motion), or (c) its own expected error (4) is not below :data:`GAIN_REQUIRED` times
-   differencing's. Without J the acceleration model is fitted and reported but not run (on the development
-   recordings it lost to differencing whenever it won the likelihood, ``docs/theory/identification.md``). Direction
-   logs are differenced through each sample's least-squares attitude. Without J the supervisor's innovation test is
-   off and its divergence test loose (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, the rotation's Nyquist
-   bound): a hand never gives white innovations.
+   log can tell from motion), (c) its own expected error (4) is not below :data:`GAIN_REQUIRED` times
+   differencing's, or (d), for a kinematic model of attitudes, the log's spectrum expects otherwise: read with
+   the model's own noise, under one of the readings (C4) of :mod:`omegahat.identification.causal` (noise and fold,
+   which the samples cannot separate from the motion), the model's steady-state filter (K1) has more error (K2)
+   than differencing. The model's own account (4) assumes its motion model, a random walk of the rate or of the
+   acceleration; the spectrum's takes the motion the log shows, and where they disagree the motion is not the
+   model's. Without J the acceleration model is fitted
+   and reported but not run (on the development recordings it lost to differencing whenever it won the likelihood,
+   ``docs/theory/identification.md``). Direction logs are differenced through each sample's least-squares
+   attitude. Without J the supervisor's innovation test is off and its divergence test loose
+   (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, the rotation's Nyquist bound): a hand never gives white
+   innovations.
 """
 
 from __future__ import annotations
@@ -47,7 +53,7 @@ from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
 from omegahat.identification import likelihood
-from omegahat.identification.causal import CausalFilter, causal_filter
+from omegahat.identification.causal import CausalFilter, causal_filter, model_to_differencing
 from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
 from omegahat.identification.noise import quiet_noise, rigid_directions
 from omegahat.identification.spectral import increment_spectrum, read_steps, stretches
@@ -58,16 +64,13 @@ from omegahat.validation import as_directions, as_inertia
 __all__ = ["MIN_SAMPLES", "Candidate", "Identification", "identify"]
 
 KINEMATIC = ("rate", "acceleration")  #: the candidates when J is not given
-GRID = tuple(10.0**p for p in range(-8, 5))  #: Λ candidates (decades) before the refinement (down to a constant rate)
-LAMBDA_MAX = GRID[-1]  #: the grid's top: the model's fast limit
-REFINE_STEPS = 8  #: golden-section steps in log Λ around the best grid point
+LAMBDA_MAX = likelihood.GRID[-1]  #: the grid's top: the model's fast limit
+SIGMA_FLOOR = 1e-9  #: rad: below any real sensor (float32 quaternions carry ~6e-8)
 N_PARAMS = 2  #: Λ and σ, for every model
 MIN_SAMPLES = 20  #: valid samples below which no model is identified (two parameters, a noise bound of windows)
 MISFIT_MAX = 10.0  #: a model whose innovations exceed the identified noise's by more has lost track (step 5)
 GAIN_REQUIRED = 0.9  #: the model runs only if it predicts at most this fraction of differencing's error (step 5)
-SIGMA_FLOOR = 1e-9  #: rad: below any real sensor (float32 quaternions carry ~6e-8)
 _QUIET_RATE = 1e-6  # a second-order model's rate noise, relative: the acceleration state carries the motion
-_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 HOLDS = {"zero": "held", "linear": "interpolated"}  #: the torque between samples (step 2), in words
 OTHER_HOLD = {"zero": "linear", "linear": "zero"}
 
@@ -311,31 +314,6 @@ def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np
     return valid, R, R
 
 
-def _fit(evaluate, grid=GRID) -> tuple[float, float, float]:
-    """``(Λ, ℓ, σ)`` maximising ``evaluate(Λ) -> (ℓ, σ)`` on ``grid`` then by golden section in log Λ."""
-    values = [evaluate(lam) for lam in grid]
-    i = int(np.argmax([v[0] for v in values]))
-    if i == len(grid) - 1:  # the fast limit: nothing above to refine towards
-        return grid[i], values[i][0], values[i][1]
-    lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
-    best = (grid[i], values[i][0], values[i][1])
-    a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
-    fa, fb = evaluate(math.exp(a)), evaluate(math.exp(b))
-    for _ in range(REFINE_STEPS):
-        if fa[0] > fb[0]:
-            hi, b, fb = b, a, fa
-            a = hi - _GOLD * (hi - lo)
-            fa = evaluate(math.exp(a))
-        else:
-            lo, a, fa = a, b, fb
-            b = lo + _GOLD * (hi - lo)
-            fb = evaluate(math.exp(b))
-    for lam, f in ((math.exp(a), fa), (math.exp(b), fb)):
-        if f[0] > best[1]:
-            best = (lam, f[0], f[1])
-    return best
-
-
 def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Candidate:
     """One model at its maximum likelihood (module docstring, step 2); ``linear_hold`` None: a dynamic model with
     a torque that varies is fitted with the torque held and interpolated, and the likelier is kept."""
@@ -364,7 +342,7 @@ def _fitted(model, t, data, valid, h, bound, J, torque, refs, linear_hold) -> Ca
             dof[0] = max(dof[0], sums.dof)
         return cache[lam]
 
-    lam, ll, sigma = _fit(evaluate)
+    lam, ll, sigma = likelihood.maximise(evaluate)
     bic = -2.0 * ll + N_PARAMS * math.log(max(dof[0], 2.0))
     misfit = free[lam] / sigma if np.isfinite(free.get(lam, np.nan)) and sigma > 0 else np.inf
     return Candidate(
@@ -492,7 +470,20 @@ def identify(
         use, why = False, f"the model predicts no {1 - GAIN_REQUIRED:.0%} gain over backward differencing"
     else:
         use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
-    causal = None if use else causal_filter(increment_spectrum(t, R, valid))  # directions: their attitudes (W)
+    spectrum = increment_spectrum(t, R, valid)  # directions: their attitudes (W)
+    if use and chosen.model not in likelihood.DYNAMIC and refs is None:  # (d): the spectrum's account, (K1)–(K2)
+        response = likelihood.rate_response(chosen.model, chosen.tracking_index, chosen.sigma, h, spectrum.freq)
+        worst = float(np.max(model_to_differencing(spectrum.with_noise(chosen.sigma), response)))
+        if not worst < 1.0:
+            use, why = (
+                False,
+                (
+                    f"with its own noise the log's spectrum expects the model's filter to have {worst:.2g} times "
+                    "backward differencing's error under one of its readings (C4), where the model's own account "
+                    f"predicts {expected / differencing:.2g} times"
+                ),
+            )
+    causal = None if use else causal_filter(spectrum)
     return Identification(
         1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal, rigid
     )

@@ -32,6 +32,7 @@ one its EKF's own covariance gives (for Euler's equations, which couple the axes
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Literal, NamedTuple, TypeAlias, get_args
 
 import numpy as np
@@ -44,7 +45,9 @@ from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
 __all__ = [
     "BURN_IN",
     "DYNAMIC",
+    "GRID",
     "MODELS",
+    "REFINE_STEPS",
     "Model",
     "Pass",
     "Sums",
@@ -52,7 +55,10 @@ __all__ = [
     "filter_pass",
     "innovation_sums",
     "log_likelihood",
+    "maximise",
     "noise_intensity",
+    "rate_response",
+    "steady_filter",
     "steady_rate_error",
 ]
 
@@ -60,6 +66,9 @@ Model: TypeAlias = Literal["rate", "acceleration", "dynamic", "dynamic+disturban
 MODELS: tuple[str, ...] = get_args(Model)
 DYNAMIC = ("dynamic", "dynamic+disturbance")  #: the models of Euler's equations (J and τ used)
 ORDER = {"rate": 1, "acceleration": 2, "dynamic": 1, "dynamic+disturbance": 2}  #: p of (L2)
+GRID = tuple(10.0**p for p in range(-8, 5))  #: Λ candidates (decades) before the refinement (down to a constant rate)
+REFINE_STEPS = 8  #: golden-section steps in log Λ around the best grid point
+_GOLD = (math.sqrt(5.0) - 1.0) / 2.0
 BURN_IN = 3  #: fixes left out of (L1): the diffuse prior's (the filter has no rate before the second)
 _QUIET = 1e-12  # the relative torque noise of the disturbance model's known dynamics (the disturbance carries it)
 
@@ -181,10 +190,13 @@ def log_likelihood(sums: Sums, sigma: float | None = None) -> tuple[float, float
     return float(ll), float(np.sqrt(s2))
 
 
-def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float) -> float:
-    """``√(tr P_ωω)`` (rad/s) of the steady-state filter of ``model`` (its per-axis linear dynamics: a random-walk
-    rate, or a random-walk acceleration) sampled every ``h`` with attitude noise ``sigma``: the filtered error
-    covariance from the discrete algebraic Riccati equation."""
+def steady_filter(
+    model: str, tracking_index: float, sigma: float, h: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The steady-state filter of ``model``'s per-axis linear dynamics (a random-walk rate, or a random-walk
+    acceleration; state ``[θ, ω(, α)]``) sampled every ``h`` with attitude noise ``sigma``: its transition ``F`` and
+    the gain ``K`` of the discrete algebraic Riccati equation, with the filtered covariance ``P``; None where the
+    equation has no solution."""
     p = ORDER[model]
     q = noise_intensity(model, tracking_index, sigma, h)
     if p == 1:
@@ -199,11 +211,40 @@ def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float)
     try:
         P_pred = solve_discrete_are(F.T, H.T, Q + 1e-30 * np.eye(p + 1), Rv)
     except (np.linalg.LinAlgError, ValueError):
-        return float("nan")
-    S = H @ P_pred @ H.T + Rv
-    K = P_pred @ H.T / S
-    P = P_pred - K @ H @ P_pred
-    return float(np.sqrt(3.0 * max(P[1, 1], 0.0)))
+        return None
+    K = P_pred @ H.T / (H @ P_pred @ H.T + Rv)
+    return F, K, P_pred - K @ H @ P_pred
+
+
+def steady_rate_error(model: str, tracking_index: float, sigma: float, h: float) -> float:
+    """``√(tr P_ωω)`` (rad/s) of :func:`steady_filter`: the filtered error covariance of the model's per-axis
+    steady-state filter."""
+    found = steady_filter(model, tracking_index, sigma, h)
+    return float("nan") if found is None else float(np.sqrt(3.0 * max(found[2][1, 1], 0.0)))
+
+
+def rate_response(model: str, tracking_index: float, sigma: float, h: float, freq: np.ndarray) -> np.ndarray:
+    """``H_b (F,)``, complex: the response of :func:`steady_filter`'s rate to the differenced rates ``b_k =
+    (θ_k − θ_{k−1})/h`` at the frequencies ``freq`` (cycles per step), ``ω̂ = H_b b`` ::
+
+        x̂_k = (I − K C) F x̂_{k−1} + K θ_k   ⇒   H_b(z) = e_ωᵀ (I − (I − K C) F z⁻¹)⁻¹ K · h / (1 − z⁻¹)      (K1)
+
+    (``C = e_θᵀ``, ``z = e^{2πif}``); at ``f = 0`` it is 1 (the model follows a constant rate without error). NaN
+    where :func:`steady_filter` has no solution."""
+    found = steady_filter(model, tracking_index, sigma, h)
+    freq = np.asarray(freq, dtype=float)
+    if found is None:
+        return np.full(freq.shape, np.nan + 0j)
+    F, K, _ = found
+    n = F.shape[0]
+    loop = (np.eye(n) - K @ np.eye(n)[:1]) @ F
+    response = np.ones(freq.shape, dtype=complex)
+    for i, f in enumerate(freq):
+        if f > 0:
+            z_inv = np.exp(-2j * np.pi * f)
+            state = np.linalg.solve(np.eye(n) - loop * z_inv, K[:, 0])
+            response[i] = state[1] * h / (1.0 - z_inv)
+    return response
 
 
 def coupled_rate_error(t: np.ndarray, data: np.ndarray, valid: np.ndarray, model: str, tracking_index: float,
@@ -217,3 +258,30 @@ def coupled_rate_error(t: np.ndarray, data: np.ndarray, valid: np.ndarray, model
     spread = np.trace(P[P.shape[0] // 2 :], axis1=1, axis2=2)
     spread = spread[np.isfinite(spread)]
     return float(np.sqrt(np.mean(spread))) if spread.size else math.nan
+
+
+def maximise(
+    evaluate: Callable[[float], tuple[float, float]], grid: tuple[float, ...] = GRID
+) -> tuple[float, float, float]:
+    """``(Λ, ℓ, σ)`` maximising ``evaluate(Λ) -> (ℓ, σ)`` on ``grid`` then by golden section in log Λ."""
+    values = [evaluate(lam) for lam in grid]
+    i = int(np.argmax([v[0] for v in values]))
+    if i == len(grid) - 1:  # the fast limit: nothing above to refine towards
+        return grid[i], values[i][0], values[i][1]
+    lo, hi = math.log(grid[max(i - 1, 0)]), math.log(grid[min(i + 1, len(grid) - 1)])
+    best = (grid[i], values[i][0], values[i][1])
+    a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
+    fa, fb = evaluate(math.exp(a)), evaluate(math.exp(b))
+    for _ in range(REFINE_STEPS):
+        if fa[0] > fb[0]:
+            hi, b, fb = b, a, fa
+            a = hi - _GOLD * (hi - lo)
+            fa = evaluate(math.exp(a))
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + _GOLD * (hi - lo)
+            fb = evaluate(math.exp(b))
+    for lam, f in ((math.exp(a), fa), (math.exp(b), fb)):
+        if f[0] > best[1]:
+            best = (lam, f[0], f[1])
+    return best

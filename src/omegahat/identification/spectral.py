@@ -297,6 +297,13 @@ class IncrementSpectrum(NamedTuple):
     rates: list[np.ndarray]
     segments: int = 0
 
+    def with_noise(self, sigma: ArrayLike) -> IncrementSpectrum:
+        """The same spectrum read with the attitude noise ``sigma`` (rad, one or one per axis): its (S1) noise
+        spectrum and its gain (S2)–(S3)."""
+        noise = np.broadcast_to(np.asarray(sigma, dtype=float), self.sigma.shape).copy()
+        g = wiener_gain(self.freq, self.P_b, noise, self.h, self.segments)
+        return self._replace(g=g, N_b=noise_shape(self.freq, self.h)[:, None] * noise**2, sigma=noise)
+
 
 def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
     """(S1), (S3), (N2), (N3) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where
