@@ -117,3 +117,15 @@ def test_d_declines_a_model_that_the_spectrum_expects_to_lose(lines_hz, amplitud
 
     assert rms(model, at_samples) > 1.5 * rms(differences, at_midpoints)
     assert rms(default, at_midpoints) <= 1.02 * rms(differences, at_midpoints)
+
+
+def test_d_leaves_the_model_to_its_own_account_where_the_log_gives_no_spectrum():
+    """25 samples at 100 Hz of a constant turn under 1 mrad, one missing in the middle: no stretch is long enough
+    for a spectrum ((K2) is NaN), so (d) says nothing and the model runs by (c), as before (d)."""
+    t = np.arange(0.0, 0.25, 0.01)
+    noise = Rotation.from_rotvec(1e-3 * np.random.default_rng(0).standard_normal((t.size, 3)))
+    q = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_quat()
+    q[12] = np.nan
+    ident = identify(t, q, "quaternion")
+    assert ident.use_model, ident.reason
+    assert "spectrum" not in ident.reason

@@ -81,7 +81,7 @@ from scipy.special import polygamma
 from scipy.stats import norm
 
 from omegahat.identification.fold import UPPER, leaving_slope, rate_spectra
-from omegahat.identification.spectral import SIGNIFICANCE, IncrementSpectrum, noise_shape, welch_dof, wiener_gain
+from omegahat.identification.spectral import SIGNIFICANCE, IncrementSpectrum, noise_shape, welch_dof
 
 __all__ = [
     "TAPS",
@@ -188,13 +188,8 @@ def least_noise(spectrum: IncrementSpectrum) -> np.ndarray:
 def readings(spectrum: IncrementSpectrum) -> list[tuple[np.ndarray, np.ndarray]]:
     """(C4): the rate's spectra ``(S, S_a)``, each ``(F, 3)``, of the four readings of the log's spectrum, the
     identified one first: with the identified noise or the least (C5), with the fold of (S6) or none."""
-    P_b, freq, h = spectrum.P_b, spectrum.freq, spectrum.h
-    least = least_noise(spectrum)
-    noises = (
-        (spectrum.g, spectrum.N_b),
-        (wiener_gain(freq, P_b, least, h, spectrum.segments), noise_shape(freq, h)[:, None] * least**2),
-    )
-    return [rate_spectra(freq, P_b, g, N_b, fold=fold) for g, N_b in noises for fold in (True, False)]
+    least = spectrum.with_noise(least_noise(spectrum))
+    return [rate_spectra(s.freq, s.P_b, s.g, s.N_b, fold=fold) for s in (spectrum, least) for fold in (True, False)]
 
 
 def _design(

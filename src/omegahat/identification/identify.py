@@ -474,7 +474,7 @@ def identify(
     if use and chosen.model not in likelihood.DYNAMIC and refs is None:  # (d): the spectrum's account, (K1)–(K2)
         response = likelihood.rate_response(chosen.model, chosen.tracking_index, chosen.sigma, h, spectrum.freq)
         worst = float(np.max(model_to_differencing(spectrum.with_noise(chosen.sigma), response)))
-        if not worst < 1.0:
+        if not worst < 1.0 and not math.isnan(worst):  # NaN: no spectrum to tell (a short log)
             use, why = (
                 False,
                 (
