@@ -143,8 +143,10 @@ def _density(re: np.ndarray, im: np.ndarray, P_b: np.ndarray, cross: np.ndarray,
 
 
 def _cross_target(freq: np.ndarray, base: np.ndarray, fold: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``sinc S + sinc_a S_a`` and ``S + S_a`` of (C2), for the rate in the band ``base`` and folded ``fold``."""
-    return np.sinc(freq) * base + np.sinc(1.0 - freq) * fold, base + fold
+    """``sinc S + sinc_a S_a`` and ``S + S_a`` of (C2), for the rate in the band ``base`` and folded ``fold``
+    (``(F,)``, or ``(F, 3)`` per body axis)."""
+    shape = (-1,) + (1,) * (np.ndim(base) - 1)
+    return np.sinc(freq).reshape(shape) * base + np.sinc(1.0 - freq).reshape(shape) * fold, base + fold
 
 
 def _trapezoid(freq: np.ndarray) -> np.ndarray:
@@ -308,9 +310,7 @@ def model_to_differencing(spectrum: IncrementSpectrum, response: np.ndarray) -> 
     at_samples = (np.exp(-1j * np.pi * freq) * response)[:, None]  # e^{−iπf} H_b
     ratios = []
     for base, fold in readings(spectrum):
-        theirs = np.sum(
-            weight * _density(np.ones(1), np.zeros(1), spectrum.P_b, sinc * base + sinc_a * fold, base + fold)
-        )
+        theirs = np.sum(weight * _density(np.ones(1), np.zeros(1), spectrum.P_b, *_cross_target(freq, base, fold)))
         mine = np.sum(
             weight * _density(at_samples.real, at_samples.imag, spectrum.P_b, sinc * base - sinc_a * fold, base + fold)
         )

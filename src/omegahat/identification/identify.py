@@ -470,8 +470,9 @@ def identify(
         use, why = False, f"the model predicts no {1 - GAIN_REQUIRED:.0%} gain over backward differencing"
     else:
         use, why = True, f"the model predicts {expected / differencing:.2g} times backward differencing's error"
-    spectrum = increment_spectrum(t, R, valid)  # directions: their attitudes (W)
-    if use and chosen.model not in likelihood.DYNAMIC and refs is None:  # (d): the spectrum's account, (K1)–(K2)
+    checked = use and chosen.model not in likelihood.DYNAMIC and refs is None  # (d): the spectrum's account
+    spectrum = increment_spectrum(t, R, valid) if checked or not use else None  # directions: their attitudes (W)
+    if checked and spectrum is not None:  # (K1)–(K2)
         response = likelihood.rate_response(chosen.model, chosen.tracking_index, chosen.sigma, h, spectrum.freq)
         worst = float(np.max(model_to_differencing(spectrum.with_noise(chosen.sigma), response)))
         if not worst < 1.0 and not math.isnan(worst):  # NaN: no spectrum to tell (a short log)
@@ -483,7 +484,7 @@ def identify(
                     f"predicts {expected / differencing:.2g} times"
                 ),
             )
-    causal = None if use else causal_filter(spectrum)
+    causal = None if use or spectrum is None else causal_filter(spectrum)
     return Identification(
         1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal, rigid
     )
