@@ -284,8 +284,9 @@ def _calibrated_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source,
     rec = Recording(name, t, "quaternion", q, ref_t, ref_w, np.ones(t.size, bool), meta)
     save_recording(out / f"{name}.npz", rec)
     angle = np.degrees(np.linalg.norm(so3.log(cal.rotation)))
+    one_axis = "" if cal.free_axis is None else " (one axis turned: the turn about it is not identified)"
     print(f"  {name}: {t.size} samples at {rec.fs:.4g} Hz; offset {cal.offset * 1e3:+.1f} ± "
-          f"{cal.offset_std * 1e3:.1f} ms, rotation {angle:.2f} deg, residual "
+          f"{cal.offset_std * 1e3:.1f} ms, rotation {angle:.2f} deg{one_axis}, residual "
           f"{residual:.3g} rad/s of {rate:.3g}", flush=True)  # fmt: skip
     return name
 

@@ -40,7 +40,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("simulation", "baselines"),
     ("identification",),
     ("io",),
-    ("cli", "calibration"),
+    ("cli", "calibration", "calibration_result"),
     ("lab",),
 )
 

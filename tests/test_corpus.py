@@ -332,7 +332,7 @@ def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, mon
     _fake_ring(src / "ring" / "data" / "dataset" / "trial1", Rc)
     axes = src / "ring" / "data" / "openaxes_dataset"
     _fake_openaxes(axes, "circle-100", "carpus", Rc, _euler_motion, _body_rate)
-    _fake_openaxes(axes, "triangle-100", "carpus", Rc, _one_axis, _one_axis_rate)  # no frame rotation to find
+    _fake_openaxes(axes, "triangle-100", "carpus", Rc, _one_axis, _one_axis_rate)  # turns about one axis only
     # a gyroscope of another motion (a failed synchronisation): the calibration explains little of it
     _fake_openaxes(axes, "circle-100", "radius", Rc, _euler_motion, lambda t: 2.3 * _body_rate(2.3 * t + 5.0))
     assert corpus.main([str(src), str(tmp_path / "default")]) == 0  # the development parts only
@@ -340,7 +340,7 @@ def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, mon
     assert corpus.main([str(src), str(out), "--only", "heldout"]) == 0
     names = sorted(p.stem for p in recordings(out))
     ring = [f"ring-trial1-seg{k}" for k in range(1, 6)]
-    assert names == ["openaxes-circle-100-carpus", "repoimu-test02a-s1", *ring]
+    assert names == ["openaxes-circle-100-carpus", "openaxes-triangle-100-carpus", "repoimu-test02a-s1", *ring]
     pendulum = load_recording(out / "repoimu-test02a-s1.npz")
     notes = pendulum.meta["notes"]
     assert "1 rows with a repeated stamp dropped" in notes
@@ -365,7 +365,11 @@ def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, mon
         assert np.sqrt(np.mean(np.sum((rec.reference_rates - truth) ** 2, axis=1))) < 0.02
     printed = capsys.readouterr().out
     assert "held out (RepoIMU, RING, OpenAXES):" in printed
-    assert "openaxes-triangle-100-carpus: not converted: the motion cannot identify a frame rotation" in printed
+    assert "(one axis turned: the turn about it is not identified)" in printed
+    hinge = load_recording(out / "openaxes-triangle-100-carpus.npz")  # the turn about z: its rate is calibrated
+    assert abs(abs(np.array(hinge.meta["calibration"]["free_axis"]) @ Rc[:, 2]) - 1.0) < 1e-6
+    truth = _one_axis_rate(hinge.reference_times)
+    assert np.sqrt(np.mean(np.sum((hinge.reference_rates - truth) ** 2, axis=1))) < 0.02
     assert "openaxes-circle-100-radius: not converted: the calibration leaves" in printed
 
 

@@ -32,6 +32,14 @@ The fit, in the order that keeps it robust:
 4. All parameters jointly by nonlinear least squares (``scipy.optimize.least_squares``) on the residuals
    ``r_k = F g(t_k + δ) − A F ω(t_k) − b``, with the rotation as ``R_c = Exp(φ) R̂_c`` (``φ`` in gyro axes) and
    the analytic Jacobian (``∂r_k/∂δ = F ġ(t_k + δ)``, ``∂r_k/∂φ = diag(s) [R̂_c F ω_k]×``, ``∂r_k/∂b = −I``).
+5. **A turn about one axis** (a hinge, a pendulum, a turntable; rotation only): where the centred rate varies along
+   its second principal axis by less than :data:`MIN_EXCITATION` of its first, ``a`` (body axes), ``F ω ≈ w(t) a``
+   and (C1) sees ``R_c`` only through ``u = R_c a``: a turn ``Exp(θ u)`` leaves every residual as it is. So ``φ`` is
+   kept perpendicular to ``u`` (``x = T y``, ``T``'s rotation block an orthonormal basis of that plane), and each
+   re-centring takes ``R̂_c`` to the least rotation with the same ``u``, about ``a × u`` by ``∠(a, u)``: the turn
+   about ``u`` is a convention, said in a note and in ``free_axis``. The covariance is (C4)'s in ``y``, mapped
+   by ``T`` (none along ``u``). Rates about ``a``, the offset and the bias are calibrated; rates about other axes
+   take the convention's turn.
 
 **Uncertainties.** The filtered residuals are correlated over about ``f/f_c`` samples, so the textbook
 ``σ² (JᵀJ)⁻¹`` would understate them. The covariance is the sandwich
@@ -45,17 +53,14 @@ Standard deviations of derived quantities (the rotation of a general ``A``, its 
 through a finite-difference Jacobian. Samples within ``4/f_c`` seconds of an attitude gap, a gyroscope gap or either
 log's end are left out (the spline and the filter bridge them).
 
-**Identifiability.** The centred band-limited rate must vary along two independent axes for ``R_c`` (three for
-scale factors or a matrix): the standard deviation along its weakest principal axis must be at least
-:data:`MIN_EXCITATION` of the strongest, else a ``ValueError`` says so.
+**Identifiability.** The centred band-limited rate must vary along two independent axes for the whole ``R_c``
+(along one, step 5), along three for scale factors or a matrix: the standard deviation along its weakest principal
+axis must be at least :data:`MIN_EXCITATION` of the strongest, else a ``ValueError`` says so.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import os
-from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -66,6 +71,7 @@ from scipy.signal import butter, correlate, sosfiltfilt
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.spline import spline_rate
+from omegahat.calibration_result import Calibration
 
 __all__ = [
     "DEFAULT_CUTOFF_HZ",
@@ -84,87 +90,6 @@ MIN_EXCITATION = 0.05  #: weakest / strongest principal standard deviation of th
 _BLOCK_PERIODS = 8.0  # (C4): the batch length in periods of the cut-off
 _MARGIN_PERIODS = 4.0  # samples this many cut-off periods from a gap or an end are left out
 _GAP_FACTOR = 2.5  # a step longer than this × the median is a gap
-CONVENTION = (
-    "gyro(t + offset) = matrix @ omega_body(t) + bias; omega_body(t) = inv(matrix) @ (gyro(t + offset) - bias); "
-    "offset: gyro clock - attitude clock, s; rotation: gyro <- body; rotation_std: rad about the gyro axes"
-)
-
-
-@dataclass(frozen=True)
-class Calibration:
-    """The fitted (C1): ``offset`` δ (s, gyro clock − attitude clock), ``matrix`` A (gyro ← body, gyro units per
-    rad/s), its ``rotation`` R_c (the nearest rotation for a general A) and ``scale`` (per gyro axis; a general A:
-    its rows' norms), ``bias`` b (gyro units), each with its standard deviation (``rotation_std``: the rotation
-    vector φ of ``Exp(φ) R_c``, rad, gyro axes; ``matrix_std`` for a general A only); ``residual_rms`` per axis (in
-    band, gyro units), ``n_samples`` fitted, ``cutoff_hz``, the two ``rates_hz`` (attitude, gyro), ``excitation``
-    (principal standard deviations of the band-limited rate, rad/s) and the ``covariance`` of the parameters
-    (``parameters`` names them)."""
-
-    mode: str
-    offset: float
-    offset_std: float
-    matrix: np.ndarray
-    rotation: np.ndarray
-    rotation_std: np.ndarray
-    bias: np.ndarray
-    bias_std: np.ndarray
-    scale: np.ndarray
-    scale_std: np.ndarray | None
-    matrix_std: np.ndarray | None
-    residual_rms: np.ndarray
-    n_samples: int
-    cutoff_hz: float
-    rates_hz: tuple[float, float]
-    excitation: np.ndarray
-    covariance: np.ndarray = field(repr=False)
-    parameters: tuple[str, ...] = field(repr=False, default=())
-    notes: tuple[str, ...] = ()
-
-    def apply(self, t_gyro: ArrayLike, gyro: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """(C3): the gyroscope's samples as body rates on the attitude's clock: ``(t − δ, A⁻¹(g − b))``."""
-        t = np.asarray(t_gyro, dtype=float)
-        g = np.asarray(gyro, dtype=float)
-        if g.ndim != 2 or g.shape[1] != 3 or g.shape[0] != t.size:
-            raise ValueError(f"gyro must have shape ({t.size}, 3) like its times; got {g.shape}")
-        return t - self.offset, np.linalg.solve(self.matrix, (g - self.bias).T).T
-
-    def axis_map(self) -> str:
-        """Which body axis each gyro axis reads (``gx = +by, ...``) when A is close to a signed permutation."""
-        words = []
-        for i, row in enumerate(self.matrix):
-            j = int(np.argmax(np.abs(row)))
-            if abs(row[j]) < 0.9 * np.linalg.norm(row):
-                return "no single body axis per gyro axis"
-            words.append(f"g{'xyz'[i]} = {'+' if row[j] > 0 else '-'}b{'xyz'[j]}")
-        return ", ".join(words)
-
-    def to_dict(self) -> dict:
-        """JSON-ready: every field (arrays as lists; seconds, radians, gyro units) and the convention (C1)."""
-        d: dict = {"convention": CONVENTION}
-        for f in fields(self):
-            v = getattr(self, f.name)
-            d[f.name] = v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v
-        return d
-
-    def save(self, path: str | os.PathLike[str]) -> None:
-        """Write :meth:`to_dict` as JSON."""
-        with open(path, "w", encoding="utf-8") as f:
-            json.dump(self.to_dict(), f, indent=1)
-            f.write("\n")
-
-    @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> Calibration:
-        """Read what :meth:`save` wrote."""
-        with open(path, encoding="utf-8") as f:
-            d = json.load(f)
-        try:
-            values = {f.name: d[f.name] for f in fields(cls)}
-        except KeyError as exc:
-            raise ValueError(f"{path}: not a calibration written by omegahat calibrate (no {exc})") from None
-        for k, v in values.items():
-            if isinstance(v, list):
-                values[k] = tuple(v) if k in ("rates_hz", "parameters", "notes") else np.array(v, dtype=float)
-        return cls(**values)
 
 
 # ------------------------------------------------------------------------------------------------------ the fit
@@ -247,6 +172,13 @@ class _Problem:
     def residual(self, x, R0) -> np.ndarray:
         delta, A, b, _, _ = self.split(x, R0)
         return (self.G(delta)[self.use] - self.W[self.use] @ A.T - b).ravel()
+
+    def reduced(self, y, R0, T) -> np.ndarray:
+        """The residual of the parameters ``x = T y``."""
+        return self.residual(T @ y, R0)
+
+    def reduced_jacobian(self, y, R0, T) -> np.ndarray:
+        return self.jacobian(T @ y, R0) @ T
 
     def jacobian(self, x, R0) -> np.ndarray:
         delta, _, _, Rc, s = self.split(x, R0)
@@ -351,23 +283,41 @@ def _check_inputs(t_attitude, attitudes, t_gyro, gyro, mode, cutoff_hz):
 
 
 def _excitation(W: np.ndarray, mode: str) -> np.ndarray:
+    """The principal standard deviations of the band-limited rate ``W`` (rad/s); raises where the motion cannot
+    identify what ``mode`` fits (a rotation about one axis is fitted as such, step 5 of the module docstring)."""
     if W.shape[0] < 3:  # nothing left to judge: the count of usable samples is checked (and named) next
         return np.zeros(3)
     ex = np.linalg.svd(W - W.mean(axis=0), compute_uv=False) / math.sqrt(W.shape[0])
-    need = 2 if mode == "none" else 3
     if ex[0] < 1e-6:
         raise ValueError(
             f"the body hardly rotates (its band-limited rate varies by {ex[0]:.2g} rad/s): nothing to calibrate against"
         )
-    if ex[need - 1] < MIN_EXCITATION * ex[0]:
-        what = "a frame rotation" if mode == "none" else "scale factors" if mode == "axes" else "a scale matrix"
-        axes = "two non-parallel axes" if need == 2 else "three independent axes"
+    if mode != "none" and ex[2] < MIN_EXCITATION * ex[0]:
+        what = "scale factors" if mode == "axes" else "a scale matrix"
         raise ValueError(
             f"the motion cannot identify {what}: the rate varies along its principal axes by "
-            f"{np.array2string(ex, precision=3)} rad/s, and {what} needs rotation about {axes} (the weakest at least "
-            f"{MIN_EXCITATION:g} of the strongest); record rotations about {axes}"
+            f"{np.array2string(ex, precision=3)} rad/s, and {what} needs rotation about three independent axes (the "
+            f"weakest at least {MIN_EXCITATION:g} of the strongest); record rotations about three independent axes"
         )
     return ex
+
+
+def _least_rotation(a: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The rotation of least angle that takes the unit vector ``a`` onto the unit vector ``u``."""
+    axis, cos = np.cross(a, u), float(a @ u)
+    sin = float(np.linalg.norm(axis))
+    if sin < 1e-12:  # parallel: none, or half a turn about any axis perpendicular to a
+        return np.eye(3) if cos > 0 else so3.exp(math.pi * np.linalg.svd(a[None])[2][1])
+    return so3.exp(axis / sin * math.atan2(sin, cos))
+
+
+def _without_turn_about(u: np.ndarray) -> np.ndarray:
+    """``T (7, 6)``: the parameters ``x = (δ, φ, b)`` of a rotation fit as ``T y``, ``φ`` perpendicular to ``u``
+    (step 5: a turn about ``u``, the body's axis in gyro axes, moves no residual)."""
+    T = np.zeros((7, 6))
+    T[0, 0], T[4:, 3:] = 1.0, np.eye(3)
+    T[1:4, 1:3] = np.linalg.svd(u[None])[2][1:].T  # an orthonormal basis of the plane perpendicular to u
+    return T
 
 
 def _prepare(t_attitude, attitudes, t_gyro, gyro, mode, cutoff_hz):
@@ -439,6 +389,11 @@ def calibrate(
     A, b, _ = p.linear_fit(delta)
     Gc, Wc = p.G(delta)[p.use], p.W[p.use]
     R0 = so3.project((Gc - Gc.mean(axis=0)).T @ (Wc - Wc.mean(axis=0)))
+    one_axis = scale == "none" and excitation[1] < MIN_EXCITATION * excitation[0]  # step 5
+    axis = np.linalg.svd(Wc - Wc.mean(axis=0), full_matrices=False)[2][0]  # the body axis the rate varies along most
+    axis *= np.sign(axis[np.argmax(np.abs(axis))])  # its sign: the largest component positive
+    if one_axis:
+        R0 = _least_rotation(axis, R0 @ axis)
     if scale == "matrix":
         x = np.concatenate([[delta], A.ravel(), b])
     else:
@@ -451,17 +406,24 @@ def calibrate(
         x = np.concatenate([[delta], np.zeros(3), b] + ([s] if scale == "axes" else []))
     lo, hi = np.full(x.size, -np.inf), np.full(x.size, np.inf)
     lo[0], hi[0] = x[0] - 2 * h, x[0] + 2 * h
+    T = np.eye(x.size)  # x = T y: every parameter free, or (step 5) no turn about the body's axis in the gyro's
     for _ in range(4):  # solve, then re-centre the rotation (φ = 0): the Jacobian is exact there
-        x = least_squares(p.residual, x, jac=p.jacobian, bounds=(lo, hi), args=(R0,), x_scale="jac").x
+        if one_axis:
+            T = _without_turn_about(R0 @ axis)
+        bounds = (lo[: T.shape[1]], hi[: T.shape[1]])  # y₀ = δ, the one bounded parameter
+        x = T @ least_squares(p.reduced, T.T @ x, p.reduced_jacobian, bounds, args=(R0, T), x_scale="jac").x
         if scale == "matrix":
             break
         turn = float(np.linalg.norm(x[1:4]))
         R0, x[1:4] = so3.exp(x[1:4]) @ R0, 0.0
+        if one_axis:  # the turn about the axis is the data's to leave: the least rotation's, by convention
+            R0 = _least_rotation(axis, R0 @ axis)
         if turn < 1e-9:
             break
+    if one_axis:
+        T = _without_turn_about(R0 @ axis)
     r = p.residual(x, R0)
-    J = p.jacobian(x, R0)
-    C = _sandwich(J, r, block)
+    C = T @ _sandwich(p.jacobian(x, R0) @ T, r, block) @ T.T
     std = np.sqrt(np.diag(C))
     delta, A, b, Rc, s = p.split(x, R0)
     res_rms = np.sqrt(np.mean(r.reshape(-1, 3) ** 2, axis=0))
@@ -478,9 +440,19 @@ def calibrate(
             int(p.use.sum()), fc, (p.fa, p.fg), excitation, C, names, tuple(notes),
         )  # fmt: skip
     names = ("offset", "phix", "phiy", "phiz", "bx", "by", "bz") + (("sx", "sy", "sz") if scale == "axes" else ())
+    free = Rc @ axis if one_axis else None
+    if free is not None:
+        notes.append(
+            f"the body turned about one axis only (body {np.array2string(axis, precision=3, suppress_small=True)}, "
+            f"gyro {np.array2string(free, precision=3, suppress_small=True)}; the rate varies by "
+            f"{np.array2string(excitation, precision=3)} "
+            "rad/s along its principal axes): the rotation about it is not identified, and 'rotation' is the least "
+            "one that takes the body's axis onto the gyroscope's (free_axis). Rates about that axis, the offset and "
+            "the bias are calibrated; rates about other axes are not: record turns about a second axis for them"
+        )
     return Calibration(
         scale, delta, std[0], A, Rc, std[1:4], b, std[4:7], s, std[7:10] if scale == "axes" else None, None,
-        res_rms, int(p.use.sum()), fc, (p.fa, p.fg), excitation, C, names, tuple(notes),
+        res_rms, int(p.use.sum()), fc, (p.fa, p.fg), excitation, C, names, tuple(notes), free,
     )  # fmt: skip
 
 

@@ -110,8 +110,11 @@ def table(cal: Calibration, unit: str = "rad/s") -> str:
         f"± [{', '.join(f'{e:.2g}' for e in np.degrees(cal.rotation_std))}] deg about the gyro axes"
         + ("" if cal.mode != "matrix" else " (nearest rotation to the matrix)"),
         "               rows " + "; ".join(np.array2string(r, precision=5) for r in cal.rotation),
-        f"bias           {vec(cal.bias, cal.bias_std, '.5g')} {unit}",
     ]
+    if cal.free_axis is not None:
+        axis = np.array2string(cal.free_axis, precision=4, suppress_small=True)
+        lines.append(f"               the turn about the gyro axis {axis} is not identified (one axis turned: note)")
+    lines.append(f"bias           {vec(cal.bias, cal.bias_std, '.5g')} {unit}")
     if cal.mode != "none":
         std = cal.scale_std if cal.scale_std is not None else np.full(3, np.nan)
         per = f"{unit} per rad/s" if unit != "rad/s" else "(1 = none)"
