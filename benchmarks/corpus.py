@@ -24,7 +24,9 @@ their licences and what was changed.
 * Held out, converted only with ``--only heldout`` and used for nothing but ``real_world.py --heldout``:
   ``SRC_DIR/ring/data`` (the ``data`` folder of ``anonymous-sup-material/ring_supplementary_material``): RepoIMU's
   triple pendulum, RING's five-segment chain and OpenAXES's robot arm (:func:`convert_heldout`; no licence stated
-  there: local use).
+  there: local use); ``SRC_DIR/tyrex/datasets`` (the ``datasets`` folder of
+  ``tyrex-team/benchmarks-attitude-smartphones``, CeCILL 2.1: local use): smartphones in Qualisys at 60 Hz with
+  their own gyroscopes (:func:`convert_tyrex`).
 * The independent plant (needs ``omegahat[mujoco]``): :mod:`omegahat.lab.evaluation.plant_logs`, 24 logs of issue
   24's grid and the varying-motion case, each also written as ``NAME.csv`` (what ``omegahat estimate`` reads;
   ``meta["command"]`` has the options its model needs) and ``NAME-truth.csv`` (``t, wx, wy, wz``).
@@ -240,6 +242,12 @@ OPENAXES_SOURCE = (
     "doi:10.25835/psqqs9w0, as re-packaged in github.com/anonymous-sup-material/ring_supplementary_material "
     "(data/openaxes_dataset: the robot's encoder attitudes, and the IMUs' gyroscopes resampled onto the robot's clock)"
 )
+TYREX_SOURCE = (
+    "T. Michel, P. Genevès, H. Fourati, N. Layaïda, 'On attitude estimation with smartphones', IEEE PerCom 2017 "
+    "(github.com/tyrex-team/benchmarks-attitude-smartphones, datasets/): a Qualisys rigid body on a smartphone at "
+    "60 Hz and the phone's own gyroscope (Android Nexus 5, iOS iPhone 4S and 5)"
+)
+TYREX_LICENCE = "CeCILL 2.1 (the repository's LICENCE): used locally to measure, never redistributed"
 QUAT_NORM_TOL = 1e-3  #: as ``omegahat estimate --quat-norm-tol``'s default: a RepoIMU quaternion further off is a gap
 MAX_RESIDUAL = 0.5  #: a calibration leaving more of the reference's RMS rate unexplained is a failed one
 HELDOUT_LICENCE = "not stated by the repository: used locally to measure, never redistributed"
@@ -378,6 +386,55 @@ def convert_openaxes(src: Path, out: Path) -> list[str]:
     return [name for name in written if name is not None]
 
 
+def _boot_time(description: Path) -> float:
+    """The ``BootTime = T`` of an iOS recording's ``description.txt`` (s): its gyroscope's stamps count from boot."""
+    for line in description.read_text().splitlines():
+        if line.strip().startswith("BootTime"):
+            return float(line.split("=")[1].split()[0])
+    raise ValueError(f"{description}: no BootTime")
+
+
+def convert_tyrex(src: Path, out: Path) -> list[str]:
+    """The Tyrex smartphone benchmark (``src`` its ``datasets`` folder): per recording a Qualisys ``.mat`` (the first
+    rigid body's rotation matrices, 9 per frame in MATLAB's column order, body → room, NaN where untracked; frames at
+    ``FrameRate``, 60 Hz, from 0 s) and the phone's folder ``android/NAME`` or ``ios/NAME``: ``gyroscope.txt`` (``t
+    gx gy gz`` rad/s, then Android's drift estimates, unused: the calibration fits the bias), iOS stamps from boot
+    (``description.txt``'s ``BootTime`` taken off), and ``timeAlignment.txt``, the authors' offset (phone time + it
+    = Qualisys time, from the accelerations' norms to 10 ms), which the calibration refines."""
+    from scipy.spatial.transform import Rotation
+
+    written = []
+    for mat in sorted((src / "qualisys").glob("*.mat")):
+        name = f"tyrex-{mat.stem.lower().replace('_', '-')}"
+        phone = next((src / kind / mat.stem for kind in ("android", "ios") if (src / kind / mat.stem).is_dir()), None)
+        if phone is None:
+            print(f"  {name}: not converted: no phone folder for {mat.name}", flush=True)
+            continue
+        capture = scipy.io.loadmat(mat, squeeze_me=True, struct_as_record=False)
+        capture = capture[next(k for k in capture if not k.startswith("__"))]
+        body = np.atleast_1d(capture.RigidBodies)[0]
+        frames = np.asarray(body.Rotations, dtype=float).reshape(9, -1)
+        R = frames.T.reshape(-1, 3, 3).transpose(0, 2, 1)  # each column of 9 is a matrix in column order
+        t = np.arange(R.shape[0]) / float(capture.FrameRate)
+        tracked = np.all(np.isfinite(frames), axis=0)
+        q = np.full((t.size, 4), np.nan)
+        q[tracked] = Rotation.from_matrix(R[tracked]).as_quat(scalar_first=True)
+        g = np.loadtxt(phone / "gyroscope.txt", ndmin=2)
+        gyro_t = g[:, 0] - (_boot_time(phone / "description.txt") if phone.parent.name == "ios" else 0.0)
+        gyro_t = gyro_t + float(np.loadtxt(phone / "timeAlignment.txt"))
+        notes = [
+            f"{int((~tracked).sum())} of {t.size} Qualisys frames untracked (NaN): missing",
+            f"gyroscope: {g.shape[0]} samples from {phone.parent.name}/{phone.name}",
+        ]
+        changes = (
+            "Qualisys rotations as they are (untracked frames missing); the phone's gyroscope on the Qualisys clock "
+            "by the authors' time alignment, then calibrated (offset, rotation, bias)"
+        )
+        source = f"{TYREX_SOURCE}: {mat.name}"
+        written.append(_heldout_recording(out, name, t, q, gyro_t, g[:, 1:4], source, changes, notes, [6]))
+    return [name for name in written if name is not None]
+
+
 NOTICE = """# The development corpus of issue 24 (built by benchmarks/corpus.py; not part of omegahat)
 
 Each `NAME.npz` is one recording: an omegahat NPZ log (`omegahat estimate NAME.npz -o out.csv`) plus its reference
@@ -388,6 +445,7 @@ rate; `meta` inside says where it comes from, its licence, what was changed and 
 - `upenn-*`: {upenn}. Licence: {upenn_licence}.
 - `repoimu-*`, `ring-*`, `openaxes-*` (only with `--only heldout`: recordings kept out of development): {heldout}.
   Licence: {heldout_licence}.
+- `tyrex-*` (only with `--only heldout`): {tyrex}. Licence: {tyrex_licence}.
 - `plant-*`: generated with MuJoCo by omegahat.lab.evaluation.plant_logs (also as `NAME.csv` and `NAME-truth.csv`).
 """
 
@@ -431,6 +489,12 @@ def main(argv: list[str] | None = None) -> int:
             written += convert_heldout(found, args.out)
         else:
             print(f"held out: skipped ({found} absent)")
+        found = args.src / "tyrex" / "datasets"
+        if found.is_dir():
+            print("held out (Tyrex smartphones):")
+            written += convert_tyrex(found, args.out)
+        else:
+            print(f"held out (Tyrex): skipped ({found} absent)")
     (args.out / "NOTICE.md").write_text(
         NOTICE.format(
             broad=BROAD_SOURCE,
@@ -439,6 +503,8 @@ def main(argv: list[str] | None = None) -> int:
             upenn_licence=UPENN_LICENCE,
             heldout=f"{REPOIMU_SOURCE}; {RING_SOURCE}; {OPENAXES_SOURCE}",
             heldout_licence=HELDOUT_LICENCE,
+            tyrex=TYREX_SOURCE,
+            tyrex_licence=TYREX_LICENCE,
         )
     )
     print(f"\nwrote {len(written)} recordings to {args.out} in {time.perf_counter() - t0:.0f} s")

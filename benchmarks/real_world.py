@@ -285,7 +285,9 @@ HELDOUT_INTRO = (
     "stamps, a gyroscope held over two rows; also at every 3rd and 9th sample), RING's five-segment chain (optical "
     "attitude at 30 Hz, gyroscopes at 40 Hz on their own clock; also at every 3rd sample) and OpenAXES's robot arm "
     "(two links' attitudes from the joint encoders at 125 Hz, their IMUs' gyroscopes resampled onto the robot's "
-    "clock; also at every 3rd and 9th sample). Every row: `benchmarks/real_world_heldout.csv`."
+    "clock; also at every 3rd and 9th sample) and the Tyrex smartphones (a Qualisys rigid body on the phone at "
+    "60 Hz, the phone's own gyroscope at 94-200 Hz on its clock; pedestrians holding, swinging, pocketing and "
+    "running with it; also at every 6th sample). Every row: `benchmarks/real_world_heldout.csv`."
 )
 
 
