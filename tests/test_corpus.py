@@ -321,6 +321,62 @@ def _one_axis_rate(t: np.ndarray) -> np.ndarray:
     return np.outer(0.8 * np.cos(0.8 * t), [0.0, 0.0, 1.0])
 
 
+def _fake_tyrex(datasets: Path, Rc: np.ndarray) -> None:
+    """Tyrex-like recordings: Qualisys rotations (body → room, 9 per frame in MATLAB's column order) at 60 Hz for
+    40 s with 30 untracked frames, and the phone's gyroscope in a frame turned by ``Rc``, biased, on a clock 15 ms
+    off the one the authors' alignment gives: an Android phone at 200 Hz (stamps on its own clock, drift columns
+    after the rates) and an iPhone at 94 Hz (stamps from boot); a capture with no phone folder."""
+    t = np.arange(2400) / 60.0
+    R = _euler_motion(t).as_matrix()
+    frames = R.transpose(0, 2, 1).reshape(-1, 9).T  # each frame's matrix in column order
+    frames[:, 500:530] = np.nan
+    (datasets / "qualisys").mkdir(parents=True)
+    for stem in ("Ann_Nexus5_NoDist_AR", "Ann_iPhone5_NoDist_AR", "Ann_iPhone4S_NoDist_AR"):
+        capture = {"FrameRate": 60.0, "Frames": float(t.size), "RigidBodies": {"Rotations": frames[None]}}
+        scipy.io.savemat(datasets / "qualisys" / f"{stem}.mat", {stem: capture})
+    bias = np.array([0.004, -0.002, 0.006])
+    for kind, stem, rate, boot, alignment in (
+        ("android", "Ann_Nexus5_NoDist_AR", 200.0, 0.0, -2.4),
+        ("ios", "Ann_iPhone5_NoDist_AR", 94.0, 7044.7102, 0.98),
+    ):
+        phone = datasets / kind / stem
+        phone.mkdir(parents=True)
+        tg = np.arange(-1.0, 41.0, 1.0 / rate)  # on the Qualisys clock
+        g = _body_rate(tg) @ Rc.T + bias
+        stamps = tg - alignment + 0.015 + boot  # the phone's clock: the alignment is 15 ms off
+        columns = [stamps[:, None], g] + ([np.full((tg.size, 3), 0.01)] if kind == "android" else [])
+        np.savetxt(phone / "gyroscope.txt", np.hstack(columns), fmt="%.9f")
+        (phone / "timeAlignment.txt").write_text(f"  {alignment:.7e}\n")
+        if kind == "ios":
+            (phone / "description.txt").write_text(f"[Time]\nBootTime = {boot}  -3.0500000e+00\n")
+
+
+def test_tyrex_smartphones_are_converted_on_the_qualisys_clock(tmp_path, capsys, monkeypatch):
+    corpus = _script("corpus")
+    monkeypatch.setattr(corpus, "convert_plant", lambda out: [])
+    src, out = tmp_path / "src", tmp_path / "out"
+    Rc = Rotation.from_rotvec(np.radians([1.5, -0.3, 0.2])).as_matrix()
+    _fake_tyrex(src / "tyrex" / "datasets", Rc)
+    assert corpus.main([str(src), str(tmp_path / "default")]) == 0  # held out: not in the development corpus
+    assert recordings(tmp_path / "default") == []
+    assert corpus.main([str(src), str(out), "--only", "heldout"]) == 0
+    printed = capsys.readouterr().out
+    assert "tyrex-ann-iphone4s-nodist-ar: not converted: no phone folder" in printed
+    assert sorted(p.stem for p in recordings(out)) == ["tyrex-ann-iphone5-nodist-ar", "tyrex-ann-nexus5-nodist-ar"]
+    for name in ("tyrex-ann-iphone5-nodist-ar", "tyrex-ann-nexus5-nodist-ar"):
+        rec = load_recording(out / f"{name}.npz")
+        assert rec.fs == pytest.approx(60.0) and int(rec.gaps.sum()) == 30 and rec.meta["decimate"] == [6]
+        assert "30 of 2400 Qualisys frames untracked (NaN): missing" in rec.meta["notes"]
+        np.testing.assert_allclose(rec.R[~rec.gaps], _euler_motion(rec.t[~rec.gaps]).as_matrix(), atol=1e-9)
+        cal = rec.meta["calibration"]
+        assert cal["offset"] == pytest.approx(0.015, abs=1e-3)  # what the alignment left
+        np.testing.assert_allclose(np.array(cal["rotation"]), Rc, atol=2e-4)
+        np.testing.assert_allclose(cal["bias"], [0.004, -0.002, 0.006], atol=5e-4)
+        truth = _body_rate(rec.reference_times)
+        assert np.sqrt(np.mean(np.sum((rec.reference_rates - truth) ** 2, axis=1))) < 0.02
+    assert "CeCILL" in (out / "NOTICE.md").read_text()
+
+
 def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, monkeypatch):
     corpus = _script("corpus")
     monkeypatch.setattr(corpus, "convert_plant", lambda out: [])  # the plant is the default's too: not this test's
