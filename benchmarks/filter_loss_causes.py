@@ -1,0 +1,124 @@
+"""Why the causal filter (C3) can lose to differencing on a real log: two checks, per recording.
+
+Run: ``python benchmarks/filter_loss_causes.py CORPUS_DIR NAME[/STEP] ...`` (recordings of ``benchmarks/corpus.py``;
+``STEP`` decimates, as ``real_world.py`` does). Prints; writes nothing. Skips cleanly when a recording is absent.
+
+**Is the filter's expected gain optimistic because it is judged by the spectrum it was designed on?** (C3) of
+:mod:`omegahat.identification.causal` designs the filter on the log's spectrum and prints what (C2) expects of it by
+that same spectrum. Here each half of the log designs its own filter, and (C2) judges it by the other half's
+spectrum (:func:`omegahat.identification.causal.expected_rms_below` over the whole band, against differencing's by
+the same spectrum). Where the out-of-sample ratio matches the in-sample one, the design has not fitted the
+spectrum's scatter, and a gap between the expected and the measured gain has another cause.
+
+**Does the reference respond to the motion as the attitude does?** Backward differences ``b`` carry the rate at the
+intervals' midpoints with the interval mean's gain ``sinc(f)`` (f in cycles per step) plus the attitude's noise; the
+calibrated gyroscope ``g``, interpolated at the midpoints, carries the rate through its own response ``H_g`` plus
+its noise. From Welch's spectra of the longest gap-free stretch::
+
+    |H| = sinc(f) |P_gb| / P_bb  =  |H_g| · SNR_b / (1 + SNR_b),     γ² = |P_gb|² / (P_gg P_bb)                (R1)
+
+Noise in the increments lowers ``|H|`` and ``γ²`` alike (to ``SNR_b/(1 + SNR_b)`` with a noise-free gyroscope) and
+noise in the gyroscope lowers ``γ²`` only, so ``|H|`` well below ``γ²`` means the reference itself responds less
+than the attitude's motion: its own filtering, or a marker body that moves against the sensor. A causal filter that
+restores the interval mean's ``sinc`` loss is then scored against a rate that never had it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.signal import csd, welch
+
+from omegahat.baselines.differencing import log_difference
+from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
+from omegahat.identification.spectral import increment_spectrum
+from omegahat.lab.evaluation.corpus import load_recording
+
+BANDS_HZ = (0.5, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0)
+
+
+def longest_run(ok: np.ndarray) -> slice:
+    """The longest stretch of True in ``ok``."""
+    edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(int), 0]))
+    starts, ends = edges[::2], edges[1::2]
+    k = int(np.argmax(ends - starts)) if starts.size else 0
+    return slice(int(starts[k]), int(ends[k])) if starts.size else slice(0, 0)
+
+
+def response(path: Path, step: int) -> list[tuple[float, float, float, float]]:
+    """``(low, high, |H|, γ²)`` per band of (R1) for the recording at ``path`` decimated by ``step``."""
+    rec = load_recording(path).decimated(step)
+    h = 1.0 / rec.fs
+    b = log_difference(rec.t, rec.R, scheme="backward")
+    at = np.clip(rec.t - 0.5 * h, rec.reference_times[0], rec.reference_times[-1])
+    g = CubicSpline(rec.reference_times, rec.reference_rates, axis=0)(at)
+    run = longest_run(np.all(np.isfinite(b), axis=1))
+    b, g = b[run], g[run]
+    segment = min(256, b.shape[0] // 4)
+    f, P_bb = welch(b, fs=rec.fs, nperseg=segment, axis=0)
+    _, P_gg = welch(g, fs=rec.fs, nperseg=segment, axis=0)
+    _, P_gb = csd(g, b, fs=rec.fs, nperseg=segment, axis=0)
+    coherence = np.abs(P_gb) ** 2 / (P_gg * P_bb)
+    total = P_bb.sum(axis=1)
+    gain = np.sinc(f / rec.fs) * P_gb.sum(axis=1) / total
+    rows = []
+    for low, high in itertools.pairwise(BANDS_HZ):
+        m = (f >= low) & (f < high)
+        if not m.any() or high > 0.5 * rec.fs:
+            continue
+        weight = total[m] / total[m].sum()  # power-weighted over the band and the axes
+        share = P_bb[m] / total[m][:, None]
+        rows.append(
+            (low, high, float(abs(np.sum(weight * gain[m]))), float(np.sum(weight[:, None] * share * coherence[m])))
+        )
+    return rows
+
+
+def halves(path: Path, step: int) -> tuple[float, list[tuple[float, float]]]:
+    """The whole log's expected ratio to differencing, and per half (in-sample, judged by the other half)."""
+    rec = load_recording(path).decimated(step)
+    R, valid, t = rec.R, ~rec.gaps, rec.t
+    identity = np.zeros((TAPS, 3))
+    identity[0] = 1.0
+    whole = causal_filter(increment_spectrum(t, R, valid))
+    parts = [slice(0, t.size // 2), slice(t.size // 2, None)]
+    spectra = [increment_spectrum(t[p], R[p], valid[p]) for p in parts]
+    out = []
+    for mine, other in ((0, 1), (1, 0)):
+        design = causal_filter(spectra[mine])
+        judged = expected_rms_below(spectra[other], design.taps, 0.5) / expected_rms_below(
+            spectra[other], identity, 0.5
+        )
+        out.append((design.expected_rms / design.differencing_rms, judged))
+    return whole.expected_rms / whole.differencing_rms, out
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) < 2:
+        print(__doc__.split("\n\n")[1])
+        return 2
+    warnings.simplefilter("ignore")
+    corpus = Path(argv[0])
+    for spec in argv[1:]:
+        name, _, step = spec.partition("/")
+        path = corpus / f"{name}.npz"
+        if not path.is_file():
+            print(f"{name}: skipped ({path} absent)")
+            continue
+        whole, parts = halves(path, int(step or 1))
+        judged = "; ".join(
+            f"half {k + 1} in-sample {a:.3f}, by the other half {b:.3f}" for k, (a, b) in enumerate(parts)
+        )
+        print(f"{spec}\n  expected ÷ differencing: whole log {whole:.3f}; {judged}", flush=True)
+        cells = [f"{lo:g}-{hi:g} Hz {gain:.2f} γ² {coh:.2f}" for lo, hi, gain, coh in response(path, int(step or 1))]
+        print("  reference ÷ increments (R1): " + "; ".join(cells), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
