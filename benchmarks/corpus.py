@@ -26,7 +26,9 @@ their licences and what was changed.
   triple pendulum, RING's five-segment chain and OpenAXES's robot arm (:func:`convert_heldout`; no licence stated
   there: local use); ``SRC_DIR/tyrex/datasets`` (the ``datasets`` folder of
   ``tyrex-team/benchmarks-attitude-smartphones``, CeCILL 2.1: local use): smartphones in Qualisys at 60 Hz with
-  their own gyroscopes (:func:`convert_tyrex`).
+  their own gyroscopes (:func:`convert_tyrex`); ``SRC_DIR/hinge`` (the ``raw_*.mat`` of
+  ``ssong47/compute_relative_angle_between_two_IMUs``'s ``MatlabCode/Data``, MIT): a motor's encoder and the
+  gyroscope on its shaft (:func:`convert_hinge`).
 * The independent plant (needs ``omegahat[mujoco]``): :mod:`omegahat.lab.evaluation.plant_logs`, 24 logs of issue
   24's grid and the varying-motion case, each also written as ``NAME.csv`` (what ``omegahat estimate`` reads;
   ``meta["command"]`` has the options its model needs) and ``NAME-truth.csv`` (``t, wx, wy, wz``).
@@ -248,6 +250,13 @@ TYREX_SOURCE = (
     "60 Hz and the phone's own gyroscope (Android Nexus 5, iOS iPhone 4S and 5)"
 )
 TYREX_LICENCE = "CeCILL 2.1 (the repository's LICENCE): used locally to measure, never redistributed"
+HINGE_SOURCE = (
+    "S. Y. Song, 'compute_relative_angle_between_two_IMUs' (github.com/ssong47/compute_relative_angle_between_two_IMUs,"
+    " MatlabCode/Data/raw_*.mat): a stepper motor's shaft turned back and forth over 0-180 degrees, its encoder "
+    "angle and the gyroscope of an MPU6050 on the shaft, on one Teensy clock at about 100 Hz"
+)
+HINGE_LICENCE = "MIT (the repository's LICENSE): used locally to measure, never redistributed"
+ONE_CLOCK_OFFSET = 0.1  #: s: the most two sensors sampled on one clock may lag each other (filters, buses)
 QUAT_NORM_TOL = 1e-3  #: as ``omegahat estimate --quat-norm-tol``'s default: a RepoIMU quaternion further off is a gap
 MAX_RESIDUAL = 0.5  #: a calibration leaving more of the reference's RMS rate unexplained is a failed one
 HELDOUT_LICENCE = "not stated by the repository: used locally to measure, never redistributed"
@@ -258,25 +267,30 @@ def _held_run_starts(g: np.ndarray) -> np.ndarray:
     return np.flatnonzero(np.r_[True, np.any(np.diff(g, axis=0) != 0, axis=1)])
 
 
-def _heldout_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: str, changes: str, notes, decimate):
+def _heldout_recording(
+    out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: str, changes: str, notes, decimate, max_offset=None
+):
     """Calibrate the gyroscope ``(gyro_t, gyro)`` against the quaternions ``q_wxyz`` (scalar first, NaN rows missing)
     at the times ``t``, and write the recording ``out/name.npz``; its name, or None (said) where the calibration
     refuses the pair or leaves more than :data:`MAX_RESIDUAL` of the gyroscope's RMS rate unexplained."""
     try:
-        return _calibrated_recording(out, name, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate)
+        return _calibrated_recording(out, name, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate, max_offset)
     except ValueError as e:
         print(f"  {name}: not converted: {e}", flush=True)
         return None
 
 
-def _calibrated_recording(out: Path, name: str, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate) -> str:
-    """:func:`_heldout_recording`'s work; raises ValueError where the pair cannot be calibrated."""
+def _calibrated_recording(
+    out: Path, name: str, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate, max_offset=None
+) -> str:
+    """:func:`_heldout_recording`'s work; raises ValueError where the pair cannot be calibrated. ``max_offset`` (s):
+    how far the clocks may be apart (None: the calibration's default, for separate clocks)."""
     ok = np.all(np.isfinite(q_wxyz), axis=1)
     q = np.full((t.size, 4), np.nan)
     q[ok] = np.roll(q_wxyz[ok], -1, axis=1)  # scalar last, as Recording keeps it
     R = np.full((t.size, 3, 3), np.nan)
     R[ok] = so3.from_quat(q[ok])
-    cal = calibrate(t, R, gyro_t, gyro)
+    cal = calibrate(t, R, gyro_t, gyro, **({} if max_offset is None else {"max_offset": max_offset}))
     ref_t, ref_w = cal.apply(gyro_t, gyro)
     residual, rate = float(np.sqrt(np.sum(cal.residual_rms**2))), float(np.sqrt(np.mean(np.sum(ref_w**2, axis=1))))
     if residual > MAX_RESIDUAL * rate:
@@ -435,6 +449,36 @@ def convert_tyrex(src: Path, out: Path) -> list[str]:
     return [name for name in written if name is not None]
 
 
+def convert_hinge(src: Path, out: Path) -> list[str]:
+    """The encoder-and-gyroscope hinge (``src`` holding its ``raw_AXIS_SPEED.mat``): the shaft's angle ``θ``
+    (``all_encoder``, degrees) is the attitude, a turn about one axis, ``R = Exp(θ e_z)`` (which body axis is a
+    convention: the calibration finds where it points in the gyroscope's axes, step 5 of
+    :mod:`omegahat.calibration`); ``all_gyro_2_x, _y, _z`` (deg/s) the gyroscope on the shaft, ``all_time`` (s) the
+    one clock of both. Rows from ``data_line`` on (MATLAB's 1-based row where the authors' data phase starts); a row
+    whose stamp repeats the previous is dropped (counted in the notes). The clocks are one, so the offset is searched
+    within :data:`ONE_CLOCK_OFFSET`: the back-and-forth turn repeats itself, and a shift by half its period with the
+    axis reversed fits it as well as none (on separate clocks' default ±2 s, the calibration found +1.08 s)."""
+    written = []
+    for mat in sorted(src.glob("raw_*.mat")):
+        m = scipy.io.loadmat(mat, squeeze_me=True)
+        first = int(m["data_line"]) - 1
+        t = np.asarray(m["all_time"], dtype=float)[first:]
+        theta = np.radians(np.asarray(m["all_encoder"], dtype=float)[first:])
+        g = np.radians(np.column_stack([m[f"all_gyro_2_{c}"] for c in "xyz"]).astype(float)[first:])
+        keep = np.r_[True, np.diff(t) > 0]
+        t, theta, g = t[keep] - t[keep][0], theta[keep], g[keep]
+        q = np.column_stack([np.cos(theta / 2), np.zeros((t.size, 2)), np.sin(theta / 2)])  # w, x, y, z
+        name = "hinge-" + mat.stem.removeprefix("raw_").replace("_", "-")
+        notes = [f"{int((~keep).sum())} rows with a repeated stamp dropped", f"rows from {first + 1} (data_line)"]
+        changes = (
+            "the encoder's angle as a turn about the body's z axis; repeated stamps dropped; the shaft's gyroscope "
+            "calibrated (offset, the axis's direction, bias: one axis turned)"
+        )
+        source = f"{HINGE_SOURCE}: {mat.name}"
+        written.append(_heldout_recording(out, name, t, q, t, g, source, changes, notes, [10], ONE_CLOCK_OFFSET))
+    return [name for name in written if name is not None]
+
+
 NOTICE = """# The development corpus of issue 24 (built by benchmarks/corpus.py; not part of omegahat)
 
 Each `NAME.npz` is one recording: an omegahat NPZ log (`omegahat estimate NAME.npz -o out.csv`) plus its reference
@@ -446,6 +490,7 @@ rate; `meta` inside says where it comes from, its licence, what was changed and 
 - `repoimu-*`, `ring-*`, `openaxes-*` (only with `--only heldout`: recordings kept out of development): {heldout}.
   Licence: {heldout_licence}.
 - `tyrex-*` (only with `--only heldout`): {tyrex}. Licence: {tyrex_licence}.
+- `hinge-*` (only with `--only heldout`): {hinge}. Licence: {hinge_licence}.
 - `plant-*`: generated with MuJoCo by omegahat.lab.evaluation.plant_logs (also as `NAME.csv` and `NAME-truth.csv`).
 """
 
@@ -495,6 +540,12 @@ def main(argv: list[str] | None = None) -> int:
             written += convert_tyrex(found, args.out)
         else:
             print(f"held out (Tyrex): skipped ({found} absent)")
+        found = args.src / "hinge"
+        if found.is_dir():
+            print("held out (encoder hinge):")
+            written += convert_hinge(found, args.out)
+        else:
+            print(f"held out (hinge): skipped ({found} absent)")
     (args.out / "NOTICE.md").write_text(
         NOTICE.format(
             broad=BROAD_SOURCE,
@@ -505,6 +556,8 @@ def main(argv: list[str] | None = None) -> int:
             heldout_licence=HELDOUT_LICENCE,
             tyrex=TYREX_SOURCE,
             tyrex_licence=TYREX_LICENCE,
+            hinge=HINGE_SOURCE,
+            hinge_licence=HINGE_LICENCE,
         )
     )
     print(f"\nwrote {len(written)} recordings to {args.out} in {time.perf_counter() - t0:.0f} s")

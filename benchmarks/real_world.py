@@ -287,7 +287,8 @@ HELDOUT_INTRO = (
     "(two links' attitudes from the joint encoders at 125 Hz, their IMUs' gyroscopes resampled onto the robot's "
     "clock; also at every 3rd and 9th sample) and the Tyrex smartphones (a Qualisys rigid body on the phone at "
     "60 Hz, the phone's own gyroscope at 94-200 Hz on its clock; pedestrians holding, swinging, pocketing and "
-    "running with it; also at every 6th sample). Every row: `benchmarks/real_world_heldout.csv`."
+    "running with it; also at every 6th sample) and a motor's hinge (the shaft's encoder angle and the gyroscope on "
+    "the shaft, one clock, about 100 Hz; also at every 10th sample). Every row: `benchmarks/real_world_heldout.csv`."
 )
 
 

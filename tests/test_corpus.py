@@ -377,6 +377,47 @@ def test_tyrex_smartphones_are_converted_on_the_qualisys_clock(tmp_path, capsys,
     assert "CeCILL" in (out / "NOTICE.md").read_text()
 
 
+def _fake_hinge(src: Path, Rc: np.ndarray) -> None:
+    """Hinge-like trials: a shaft turning back and forth, ``θ = 90° (1 − cos(2π t / 2.4 s))``, its encoder angle
+    (degrees, to 0.01) and the gyroscope on it in a frame turned by ``Rc`` (deg/s, biased), on one clock at 100 Hz with
+    five repeated stamps; ``data_line`` 11 (MATLAB's rows: the first 10 left out)."""
+    src.mkdir(parents=True)
+    t = 200.0 + np.arange(6000) * 0.01
+    t[[700, 1400, 2100, 2800, 3500]] = t[[699, 1399, 2099, 2799, 3499]]  # stamps repeated
+    u = t - t[0]
+    theta = 90.0 * (1.0 - np.cos(2.0 * np.pi * u / 2.4))
+    rate = 90.0 * 2.0 * np.pi / 2.4 * np.sin(2.0 * np.pi * u / 2.4)  # deg/s about the shaft
+    g = np.outer(rate, Rc[:, 2]) + np.array([0.3, -0.2, 0.5])
+    rng = np.random.default_rng(5)
+    mat = {"all_time": t, "all_encoder": np.round(theta, 2), "data_line": 11}
+    for j, c in enumerate("xyz"):
+        mat[f"all_gyro_2_{c}"] = g[:, j] + rng.normal(0, 0.05, t.size)
+    scipy.io.savemat(src / "raw_yaw_medium.mat", mat)
+
+
+def test_the_hinge_is_converted_with_one_axis_on_one_clock(tmp_path, capsys, monkeypatch):
+    """The turn repeats itself: on separate clocks' ±2 s a shift by half its period with the axis reversed fits as
+    well as none. On one clock the offset is searched within 0.1 s, and found."""
+    corpus = _script("corpus")
+    monkeypatch.setattr(corpus, "convert_plant", lambda out: [])
+    src, out = tmp_path / "src", tmp_path / "out"
+    Rc = Rotation.from_rotvec(np.radians([80.0, -10.0, 5.0])).as_matrix()
+    _fake_hinge(src / "hinge", Rc)
+    assert corpus.main([str(src), str(out), "--only", "heldout"]) == 0
+    assert "(one axis turned: the turn about it is not identified)" in capsys.readouterr().out
+    rec = load_recording(out / "hinge-yaw-medium.npz")
+    assert rec.t.size == 6000 - 10 - 5 and rec.meta["decimate"] == [10]
+    assert "5 rows with a repeated stamp dropped" in rec.meta["notes"]
+    cal = rec.meta["calibration"]
+    assert abs(cal["offset"]) < 2e-3
+    assert abs(abs(np.array(cal["free_axis"]) @ Rc[:, 2]) - 1.0) < 1e-4
+    np.testing.assert_allclose(cal["bias"], np.radians([0.3, -0.2, 0.5]), atol=2e-3)
+    u = rec.reference_times
+    truth = np.radians(90.0 * 2.0 * np.pi / 2.4) * np.sin(2.0 * np.pi * (u + 0.1) / 2.4)  # t[10] is 0.1 s in
+    turn = rec.reference_rates[:, 2]  # the body rate about the shaft, the attitude's z axis: its sign and its size
+    assert np.sqrt(np.mean((turn - truth) ** 2)) < 0.01
+
+
 def test_held_out_recordings_are_converted_only_when_named(tmp_path, capsys, monkeypatch):
     corpus = _script("corpus")
     monkeypatch.setattr(corpus, "convert_plant", lambda out: [])  # the plant is the default's too: not this test's
