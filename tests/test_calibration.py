@@ -179,6 +179,25 @@ def test_a_turn_about_one_axis_gives_what_it_identifies_within_the_printed_uncer
     assert 0.1 < np.mean(z_axis**2) < 1.0 and np.all(np.abs(z_axis) < 3), z_axis  # cautious, not useless
 
 
+def test_a_turn_that_repeats_itself_is_named_and_a_narrower_search_finds_the_offset():
+    """A shaft turning back and forth, ``θ = 1.5 (1 − cos(2π t / 2.4 s))`` rad, on one clock: shifted by half a
+    period with its axis reversed the gyroscope fits as well as unshifted, and the norms the coarse search correlates
+    repeat every half period. The search over ±2 s names another offset in a note; over ±0.1 s it finds the true one
+    (zero) and has nothing to name."""
+    ta = np.arange(0.0, 60.0, 0.01)
+    theta = 1.5 * (1.0 - np.cos(2.0 * np.pi * ta / 2.4))
+    R = Rotation.from_rotvec(np.outer(theta, [0.0, 0.0, 1.0])).as_matrix()
+    Rc = Rotation.from_rotvec([0.3, -1.2, 0.4]).as_matrix()
+    rate = 1.5 * 2.0 * np.pi / 2.4 * np.sin(2.0 * np.pi * ta / 2.4)
+    g = np.outer(rate, Rc[:, 2]) + np.array([0.01, -0.02, 0.03])
+    g += np.random.default_rng(3).normal(0.0, 0.005, g.shape)
+    wide = calibrate(ta, R, ta, g)
+    assert any("the motion repeats itself" in n and "--max-offset" in n for n in wide.notes), wide.notes
+    narrow = calibrate(ta, R, ta, g, max_offset=0.1)
+    assert not any("repeats itself" in n for n in narrow.notes) and abs(narrow.offset) < 1e-3
+    assert abs(narrow.free_axis @ Rc[:, 2] - 1.0) < 1e-6
+
+
 def test_a_calibration_file_without_free_axis_reads_as_a_whole_rotation(tmp_path):
     data, _ = simulated(4)
     cal = calibrate(*data)

@@ -25,7 +25,10 @@ The fit, in the order that keeps it robust:
    regressor's noise biases a least-squares slope towards zero by its variance over the signal's).
 2. ``δ`` coarsely from the normalised cross-correlation of ``|F ω − mean|`` and ``|F g − mean|`` (frame-invariant:
    a rotation keeps the norm, a scale matrix nearly does), within ``±max_offset`` of a guess; then the ``δ`` on a
-   grid of 0.1 sample that minimises the residual of the linear least-squares fit of ``A``, ``b`` (C1).
+   grid of 0.1 sample that minimises the residual of the linear least-squares fit of ``A``, ``b`` (C1). A motion
+   that repeats itself matches at several lags; another local maximum, a period of the band or more away, with
+   :data:`AMBIGUOUS_OFFSET` of the best's correlation is named in a note (a back-and-forth turn about one axis fits
+   as well shifted by half its period with the axis reversed: only a narrower search can tell).
 3. Starting values: ``R_c`` from Wahba's problem on the centred vectors, the rotation nearest to
    ``Σ (F g_k − ḡ)(F ω_k − ω̄)ᵀ`` (:func:`omegahat.so3.project`); ``b = ḡ − A ω̄``; ``s`` per axis by least squares;
    a general ``A`` by linear least squares.
@@ -87,6 +90,7 @@ MODES = ("none", "axes", "matrix")  #: scale factors: none (A = R_c), per gyro a
 DEFAULT_CUTOFF_HZ = 10.0  #: the fit's band, lowered to 0.4 × the slower log's rate
 DEFAULT_MAX_OFFSET = 2.0  #: s: the clock offset is searched within ± this of the guess
 MIN_EXCITATION = 0.05  #: weakest / strongest principal standard deviation of the rate that identifies R_c
+AMBIGUOUS_OFFSET = 0.9  #: a second offset whose correlation is this share of the best's is named in a note
 _BLOCK_PERIODS = 8.0  # (C4): the batch length in periods of the cut-off
 _MARGIN_PERIODS = 4.0  # samples this many cut-off periods from a gap or an end are left out
 _GAP_FACTOR = 2.5  # a step longer than this × the median is a gap
@@ -199,8 +203,10 @@ class _Problem:
         return np.concatenate(cols, axis=2).reshape(3 * N, -1)
 
 
-def _coarse_offset(p: _Problem, guess: float, max_offset: float, min_overlap: int) -> float:
-    """Step 2: the lag maximising the normalised cross-correlation of the centred rates' norms (module docstring)."""
+def _coarse_offset(p: _Problem, guess: float, max_offset: float, min_overlap: int) -> tuple[float, float, float]:
+    """Step 2: the lag maximising the normalised cross-correlation of the centred rates' norms (module docstring),
+    and the runner-up: the best other local maximum at least a period of the band away, and its correlation over the
+    best's (NaN where there is none). A motion that repeats itself has several."""
     step = 1.0 / p.fa
     L = math.ceil(max_offset / step)
     grid = p.t[0] + step * np.arange(math.floor((p.t[-1] - p.t[0]) / step) + 1)
@@ -210,7 +216,7 @@ def _coarse_offset(p: _Problem, guess: float, max_offset: float, min_overlap: in
     ug = guess + p.t[0] + step * np.arange(-L, grid.size + L)
     my = (ug >= p.tg_range[0]) & (ug <= p.tg_range[1]) & ~p.gap_g.near(ug, p.margin)
     if not my.any():
-        return math.nan
+        return math.nan, math.nan, math.nan
     gy = p.gyro(np.clip(ug, *p.tg_range))
     y = np.linalg.norm(gy - gy[my].mean(axis=0), axis=1)
     xt = np.where(mx, x - x[mx].mean(), 0.0)
@@ -222,13 +228,17 @@ def _coarse_offset(p: _Problem, guess: float, max_offset: float, min_overlap: in
     n = correlate(fy, fx, mode="valid", method="fft")
     c = np.where((n >= min_overlap - 0.5) & (sxx > 0) & (syy > 0), num / np.sqrt(np.abs(sxx * syy) + 1e-300), -np.inf)
     if not np.isfinite(c).any():
-        return math.nan
+        return math.nan, math.nan, math.nan
     k = int(np.argmax(c))
     frac = 0.0
     if 0 < k < c.size - 1 and np.isfinite(c[k - 1]) and np.isfinite(c[k + 1]):
         den = c[k - 1] - 2 * c[k] + c[k + 1]
         frac = 0.5 * (c[k - 1] - c[k + 1]) / den if den < 0 else 0.0
-    return guess + (k - L + frac) * step
+    peaks = np.flatnonzero((c[1:-1] >= c[:-2]) & (c[1:-1] >= c[2:]) & np.isfinite(c[1:-1])) + 1
+    peaks = peaks[np.abs(peaks - k) >= p.fa / p.fc]
+    other = int(peaks[np.argmax(c[peaks])]) if peaks.size and c[k] > 0 else -1
+    runner_up = (guess + (other - L) * step, float(c[other] / c[k])) if other >= 0 else (math.nan, math.nan)
+    return guess + (k - L + frac) * step, *runner_up
 
 
 def _sandwich(J: np.ndarray, r: np.ndarray, block: int) -> np.ndarray:
@@ -370,7 +380,13 @@ def calibrate(
         )
     t = p.t
     _excitation(p.W[p.valid_a & ~p.gap_a.near(t, p.margin) & (t > t[0] + p.margin) & (t < t[-1] - p.margin)], scale)
-    delta = _coarse_offset(p, offset_guess, max_offset, n_min // 2)
+    delta, other, likeness = _coarse_offset(p, offset_guess, max_offset, n_min // 2)
+    if likeness >= AMBIGUOUS_OFFSET:  # a motion that repeats itself: say so, the fit below cannot tell
+        notes.append(
+            f"the motion repeats itself: a clock offset of {other:+.4g} s matches the rates' norms nearly as well "
+            f"({likeness:.2f} of the correlation at the {delta:+.4g} s chosen); where the clocks are known to be "
+            "closer, narrow the search (offset_guess and max_offset; --offset and --max-offset on the command line)"
+        )
     if not math.isfinite(delta):
         raise ValueError(
             f"the logs do not overlap in time at any clock offset within {offset_guess:g} ± {max_offset:g} s ({span}) "
