@@ -32,6 +32,9 @@ model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), di
         matrix (--scale matrix: raw counts, permuted or mirrored axes); omega in body axes, rad/s
 gyro:   a CSV with a header t,gx,gy,gz (any order, any case; other columns ignored) or an NPZ with arrays t and
         gx,gy,gz or g (M, 3); its own clock and rate
+motion: turns about two axes or more for the whole rotation; about one axis (a hinge, a pendulum) the offset, the
+        bias and the axis's direction are fitted, and the turn about it is left out (free_axis); a motion that repeats
+        itself may match at another offset (a note says so): narrow the search with --offset and --max-offset
 example: omegahat calibrate vicon.csv imu.csv --scale axes -o calibration.json --plot residuals.png
          omegahat calibrate mocap.npz raw_imu.csv --gyro-unit raw --scale matrix
 """
