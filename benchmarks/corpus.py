@@ -415,8 +415,6 @@ def convert_tyrex(src: Path, out: Path) -> list[str]:
     gx gy gz`` rad/s, then Android's drift estimates, unused: the calibration fits the bias), iOS stamps from boot
     (``description.txt``'s ``BootTime`` taken off), and ``timeAlignment.txt``, the authors' offset (phone time + it
     = Qualisys time, from the accelerations' norms to 10 ms), which the calibration refines."""
-    from scipy.spatial.transform import Rotation
-
     written = []
     for mat in sorted((src / "qualisys").glob("*.mat")):
         name = f"tyrex-{mat.stem.lower().replace('_', '-')}"
@@ -432,7 +430,7 @@ def convert_tyrex(src: Path, out: Path) -> list[str]:
         t = np.arange(R.shape[0]) / float(capture.FrameRate)
         tracked = np.all(np.isfinite(frames), axis=0)
         q = np.full((t.size, 4), np.nan)
-        q[tracked] = Rotation.from_matrix(R[tracked]).as_quat(scalar_first=True)
+        q[tracked] = so3.to_quat(so3.project(R[tracked]), scalar_first=True)  # Qualisys rounds its matrices
         g = np.loadtxt(phone / "gyroscope.txt", ndmin=2)
         gyro_t = g[:, 0] - (_boot_time(phone / "description.txt") if phone.parent.name == "ios" else 0.0)
         gyro_t = gyro_t + float(np.loadtxt(phone / "timeAlignment.txt"))
@@ -457,7 +455,7 @@ def convert_hinge(src: Path, out: Path) -> list[str]:
     one clock of both. Rows from ``data_line`` on (MATLAB's 1-based row where the authors' data phase starts); a row
     whose stamp repeats the previous is dropped (counted in the notes). The clocks are one, so the offset is searched
     within :data:`ONE_CLOCK_OFFSET`: the back-and-forth turn repeats itself, and a shift by half its period with the
-    axis reversed fits it as well as none (on separate clocks' default ±2 s, the calibration found +1.08 s)."""
+    axis reversed fits it as well as none, which the separate clocks' wider search cannot tell apart."""
     written = []
     for mat in sorted(src.glob("raw_*.mat")):
         m = scipy.io.loadmat(mat, squeeze_me=True)
@@ -478,6 +476,13 @@ def convert_hinge(src: Path, out: Path) -> list[str]:
         written.append(_heldout_recording(out, name, t, q, t, g, source, changes, notes, [10], ONE_CLOCK_OFFSET))
     return [name for name in written if name is not None]
 
+
+#: the held-out sources: where each lies below SRC_DIR, what it is, and its converter
+HELDOUT_SOURCES = (
+    ("ring/data", "RepoIMU, RING, OpenAXES", convert_heldout),
+    ("tyrex/datasets", "Tyrex smartphones", convert_tyrex),
+    ("hinge", "encoder hinge", convert_hinge),
+)
 
 NOTICE = """# The development corpus of issue 24 (built by benchmarks/corpus.py; not part of omegahat)
 
@@ -528,24 +533,13 @@ def main(argv: list[str] | None = None) -> int:
             print("plant:")
             written += convert_plant(args.out)
     if HELDOUT in args.only:
-        found = args.src / "ring" / "data"
-        if found.is_dir():
-            print("held out (RepoIMU, RING, OpenAXES):")
-            written += convert_heldout(found, args.out)
-        else:
-            print(f"held out: skipped ({found} absent)")
-        found = args.src / "tyrex" / "datasets"
-        if found.is_dir():
-            print("held out (Tyrex smartphones):")
-            written += convert_tyrex(found, args.out)
-        else:
-            print(f"held out (Tyrex): skipped ({found} absent)")
-        found = args.src / "hinge"
-        if found.is_dir():
-            print("held out (encoder hinge):")
-            written += convert_hinge(found, args.out)
-        else:
-            print(f"held out (hinge): skipped ({found} absent)")
+        for folder, what, convert in HELDOUT_SOURCES:
+            found = args.src / folder
+            if found.is_dir():
+                print(f"held out ({what}):")
+                written += convert(found, args.out)
+            else:
+                print(f"held out ({what}): skipped ({found} absent)")
     (args.out / "NOTICE.md").write_text(
         NOTICE.format(
             broad=BROAD_SOURCE,

@@ -31,8 +31,9 @@ class Calibration:
     band, gyro units), ``n_samples`` fitted, ``cutoff_hz``, the two ``rates_hz`` (attitude, gyro), ``excitation``
     (principal standard deviations of the band-limited rate, rad/s) and the ``covariance`` of the parameters
     (``parameters`` names them). ``free_axis`` (gyro axes, unit) where the body turned about one axis only: the
-    rotation about it is not identified (its standard deviation is left out of ``rotation_std``), and ``rotation``
-    is the least rotation that takes the body's axis onto it (:func:`omegahat.calibration.calibrate`)."""
+    rotation about it is not identified (the covariance has no part along it, so neither has ``rotation_std``: the
+    unknown turn is not in it), and ``rotation`` is the least rotation that takes the body's axis onto it
+    (:func:`omegahat.calibration.calibrate`)."""
 
     mode: str
     offset: float
