@@ -198,6 +198,14 @@ def test_a_turn_that_repeats_itself_is_named_and_a_narrower_search_finds_the_off
     assert abs(narrow.free_axis @ Rc[:, 2] - 1.0) < 1e-6
 
 
+def test_an_offset_at_the_edge_of_the_search_is_named():
+    data, truth = simulated(3)
+    assert abs(truth["delta"]) > 0.1  # the search below cannot reach it (-0.187 s)
+    narrow = calibrate(*data, max_offset=0.05)
+    assert any("at the edge of the search" in n and "--max-offset" in n for n in narrow.notes), narrow.notes
+    assert not any("edge of the search" in n for n in calibrate(*data).notes)
+
+
 def test_a_calibration_file_without_free_axis_reads_as_a_whole_rotation(tmp_path):
     data, _ = simulated(4)
     cal = calibrate(*data)

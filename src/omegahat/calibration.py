@@ -392,6 +392,11 @@ def calibrate(
             f"the logs do not overlap in time at any clock offset within {offset_guess:g} ± {max_offset:g} s ({span}) "
             "by enough samples: give a guess of the offset (gyro time - attitude time) or a wider search"
         )
+    if abs(delta - offset_guess) > max_offset - 1.0 / p.fa:  # the best lag is the search's last: it may lie beyond
+        notes.append(
+            f"the clock offset found, {delta:+.4g} s, is at the edge of the search ({offset_guess:g} ± {max_offset:g} "
+            "s): the clocks may be further apart; widen the search (max_offset; --max-offset on the command line)"
+        )
     h = 1.0 / p.fa
     p.use = p.usable(delta, 2.5 * h)
     if p.use.sum() < n_min:
