@@ -3,6 +3,8 @@ application (D4) in DifferencingEstimator, against closed forms and NumPy's conv
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -321,3 +323,46 @@ def test_the_least_noise_of_white_noise_is_the_noise():
     R = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_matrix()
     spectrum = increment_spectrum(t, R, np.ones(t.size, dtype=bool))
     assert np.array_equal(least_noise(spectrum), spectrum.sigma)
+
+
+@pytest.mark.parametrize(
+    ("options", "cuts"),
+    [
+        ({"taps": "filter"}, (0, 1, 2, 50, 100, 101, 181, 250, 252, 400)),
+        ({"taps": "filter", "cutoff_hz": 5.0}, (0, 99, 100, 102, 102, 260, 400)),
+        ({"taps": "filter", "step": 0.01}, (0, 3, 181, 182, 330, 400)),
+        ({"cutoff_hz": 5.0, "omega_hat0": [0.1, 0.2, 0.3]}, (0, 1, 2, 3, 200, 400)),
+        ({"taps": "filter", "references": "directions"}, (0, 70, 101, 400)),
+    ],
+)
+def test_a_log_run_in_pieces_gives_the_rows_of_update(options, cuts):
+    """``run`` after samples were fed continues from them without the ``update`` loop: the rows of a log run in
+    pieces (cut on a skipped sample, before and after one, inside the filter's first ``L`` differences, an empty
+    piece) equal those of ``update`` sample by sample, with the same statuses, and the state carries on alike."""
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.uniform(0.0095, 0.0105, 400))
+    t[250:] += 0.03  # a gap of four steps: a new stretch
+    turn = Rotation.from_rotvec(np.cumsum(0.02 * np.c_[np.sin(3 * t), np.cos(5 * t), t], axis=0))
+    noisy = turn * Rotation.from_rotvec(1e-3 * rng.standard_normal((t.size, 3)))
+    kw = dict(options)
+    if kw.get("taps") == "filter":
+        kw["taps"] = np.vstack([np.ones(3), np.zeros((5, 3))]) + 0.2 * rng.standard_normal((6, 3))
+    if kw.get("references") == "directions":
+        kw["references"] = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+        data = np.stack([noisy.inv().apply(v) for v in kw["references"]], axis=1)  # body-frame directions
+    else:
+        data = noisy.as_quat()
+    # skipped samples, some at the pieces' ends; 251's interval, two steps after the gap's four, breaks the stretch
+    # only because a sample was skipped
+    data[[0, 99, 100, 101, 180, 251]] = np.nan
+    streamed = DifferencingEstimator(**kw)
+    one_by_one = [streamed.update(tk, dk) for tk, dk in zip(t, data, strict=True)]
+    pieced = DifferencingEstimator(**kw)
+    pieces = [pieced.run(t[a:b], data[a:b]) for a, b in itertools.pairwise(cuts)]
+    np.testing.assert_allclose(
+        np.vstack([p.omega for p in pieces]), np.array([e.omega for e in one_by_one]), atol=1e-12
+    )
+    np.testing.assert_array_equal(np.concatenate([p.status for p in pieces]), [e.status for e in one_by_one])
+    assert pieced.n_skipped == streamed.n_skipped == 6
+    t_next, d_next = t[-1] + 0.01, data[-1]
+    np.testing.assert_allclose(pieced.update(t_next, d_next).omega, streamed.update(t_next, d_next).omega, atol=1e-12)

@@ -397,44 +397,58 @@ class DifferencingEstimator(StreamingEstimator):
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """ω̂ for every sample time, ``(T, 3)``, row k for ``t[k]`` (for ``"central"`` too: rows are not delayed,
-        and the last is ``unavailable``). From a fresh estimator: vectorised differences and the compiled
+        and the last is ``unavailable``). Vectorised differences, the filter (D4)–(D5) by stretches and the compiled
         low-pass, equal on the valid samples to feeding ``update`` (shifted by ``delay_samples``), leaving the
-        streaming state as if the log had been fed through ``update``; after samples were fed, the ``update``
-        loop itself (continuing from them), its rows moved back by ``delay_samples`` (the last ones then have no
+        streaming state as if the log had been fed through ``update``. After samples were fed, the backward scheme
+        continues from them the same way (the last valid attitude, a skipped sample after it, the filter's stretch
+        and the low-pass carried over), so that a log run in pieces gives the rows of one run; the central scheme
+        then runs the ``update`` loop itself, its rows moved back by ``delay_samples`` (the last ones then have no
         estimate yet: ``unavailable``). ``torque`` is checked like every estimator's but not used."""
-        if self._t_last is not None:
+        if self._t_last is not None and self.scheme == "central":
             fed = super().run(t, data, torque)
             d = self.delay_samples
-            if d == 0 or fed.status.size == 0:
+            if fed.status.size == 0:
                 return fed
             omega = np.full_like(fed.omega, np.nan)
             status = np.full_like(fed.status, Status.UNAVAILABLE)
             omega[:-d], status[:-d] = fed.omega[d:], fed.status[d:]  # update's answer at sample k is for k - d
             return Estimate(omega, status)
-        log = ms.checked_log(t, data, torque, **self._checks())
+        log = ms.checked_log(t, data, torque, t_prev=self._t_last, **self._checks())  # raises: nothing changed
         times, R = log.times, log.values
         if self.references is not None:  # directions: each valid sample's least-squares attitude
             R = np.where(log.valid[:, None, None], so3.wahba(R, self.references), np.nan)
+        # Carried over from the samples fed before (backward only): the last valid attitude, and after it one
+        # skipped sample where any was (it breaks the filter's stretch, as in update).
+        carried_t = [*self._t[-1:], *([self._t_last] if self._t and self._skipped_since else [])]
+        carried_R = [*self._R[-1:], *([np.full((3, 3), np.nan)] if len(carried_t) == 2 else [])]
+        p = len(carried_t)
+        times = np.concatenate([carried_t, times]) if p else times
+        R = np.concatenate([np.reshape(carried_R, (p, 3, 3)), R]) if p else R
         clock = times if self.step is None else sample_clock(times, self.step)  # (D3)
         est, valid = _differences(clock, R, self.scheme)
         if self.taps is not None:
-            self._stretch = filtered_differences(est, valid, clock, self.taps)  # (D4)–(D5)
-        if self.omega_hat0 is not None and valid.any():  # the first valid sample: the given rate (as update)
+            self._stretch = filtered_differences(est, valid, clock, self.taps, self._stretch if p else None)
+        if self.omega_hat0 is not None and valid.any() and not p:  # the first valid sample: the given rate
             est[np.flatnonzero(valid)[0]] = self.omega_hat0
+        if p:
+            est[0] = self._y  # the last output: the low-pass's state (at self._t[-1]), held through skipped rows
         if self.cutoff_hz is not None:
             est = lowpass(est, times, self.cutoff_hz)  # NaN rows are ignored by the filter
         est = _hold_skipped(est, valid, self.scheme)
+        status = batch_status(valid, est)
         # Streaming state consistent with the log.
         iv = np.flatnonzero(valid)
         keep = 1 if self.scheme == "backward" else 2
         self._R = [R[j] for j in iv[-keep:]]
         self._t = [float(times[j]) for j in iv[-keep:]]
-        self.n_skipped = int(times.size - iv.size)
-        self._skipped_since = bool(iv.size) and iv[-1] < times.size - 1
-        self._t_last = float(times[-1]) if times.size else None
-        if self.scheme == "backward" and iv.size >= (1 if self.omega_hat0 is not None else 2):
-            self._y, self._y_time = est[iv[-1]].copy(), float(times[iv[-1]])
-        elif self.scheme == "central" and iv.size >= 3:
-            self._y, self._y_time = est[iv[-2]].copy(), float(times[iv[-2]])
+        self.n_skipped += int(np.count_nonzero(~log.valid))
+        if iv.size:
+            self._skipped_since = bool(iv[-1] < times.size - 1)
+        elif times.size:  # nothing valid yet: every sample skipped
+            self._skipped_since = True
+        self._t_last = float(times[-1]) if times.size else self._t_last
+        last = iv[-keep] if iv.size >= keep else None  # the sample the last estimate is for
+        if last is not None and (self.scheme == "backward" or iv.size >= 3) and np.all(np.isfinite(est[last])):
+            self._y, self._y_time = est[last].copy(), float(times[last])
         self.estimate_time = self._y_time
-        return Estimate(est, batch_status(valid, est))
+        return Estimate(est[p:], status[p:])

@@ -55,45 +55,61 @@ class Stretch(NamedTuple):
     span: float | None
 
 
-def two_passes(b: np.ndarray, spans: np.ndarray, taps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def two_passes(
+    b: np.ndarray, spans: np.ndarray, taps: np.ndarray, before: Stretch | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(D4)–(D5) over one stretch's differences ``b (m, 3)`` and their intervals ``spans (m,)``: the first pass ω̃,
     the differences less their coning term ``b'``, and the second pass ω̂ (the differences themselves before ``L``
-    of them), each ``(m, 3)``."""
+    of them), each ``(m, 3)``. ``before``: the state of the stretch these differences continue (None or empty: they
+    start it), whose last differences fill the filters' windows as :func:`next_in_stretch` keeps them."""
     L = taps.shape[0]
+    p = 0 if before is None else len(before.raw)  # at most L, and all of the stretch so far where fewer
 
-    def filtered(x: np.ndarray) -> np.ndarray:
-        out = x.copy()
-        if x.shape[0] >= L:
-            out[L - 1 :] = np.stack([signal.lfilter(taps[:, j], [1.0], x[:, j])[L - 1 :] for j in range(3)], 1)
-        return out
+    def filtered(x: np.ndarray, earlier: list[np.ndarray]) -> np.ndarray:
+        xs = np.concatenate([np.reshape(earlier, (-1, 3)), x]) if p else x
+        out = xs.copy()
+        if xs.shape[0] >= L:
+            out[L - 1 :] = np.stack([signal.lfilter(taps[:, j], [1.0], xs[:, j])[L - 1 :] for j in range(3)], 1)
+        return out[p:]
 
-    first = filtered(b)
+    first = filtered(b, before.raw if p else [])  # type: ignore[union-attr]
     corrected = b.copy()
     corrected[1:] -= so3.coning(first[:-1], first[1:], spans[1:])  # (D5); none at a stretch's first difference
-    second = filtered(corrected)
-    second[: L - 1] = b[: L - 1]  # before L differences: the differences themselves, as (D4)
+    if p and before.previous is not None and b.shape[0]:  # type: ignore[union-attr]
+        corrected[0] -= so3.coning(before.previous, first[0], spans[0])  # type: ignore[union-attr]
+    second = filtered(corrected, before.corrected if p else [])  # type: ignore[union-attr]
+    plain = max(0, L - 1 - p)
+    second[:plain] = b[:plain]  # before L differences: the differences themselves, as (D4)
     return first, corrected, second
 
 
-def filtered_differences(est: np.ndarray, valid: np.ndarray, clock: np.ndarray, taps: np.ndarray) -> Stretch:
+def filtered_differences(
+    est: np.ndarray, valid: np.ndarray, clock: np.ndarray, taps: np.ndarray, before: Stretch | None = None
+) -> Stretch:
     """(D4)–(D5) over the backward differences ``est (T, 3)`` (rows at the ``valid`` samples after the first; the
-    intervals from ``clock (T,)``), in place; the stretches as :func:`next_in_stretch` keeps them. Returns the
-    streaming state of the last one."""
+    intervals from ``clock (T,)``), in place; the stretches as :func:`next_in_stretch` keeps them. ``before``: the
+    state the first difference continues (None: the log starts here), as :func:`next_in_stretch` would take it.
+    Returns the streaming state of the last one."""
+    empty = Stretch([], [], None, None) if before is None else before
     iv = np.flatnonzero(valid)
     if iv.size < 2:
-        return Stretch([], [], None, None)
+        return empty
     rows, spans = iv[1:], np.diff(clock[iv])
-    longer = np.concatenate([[False], spans[1:] > STRETCH_BREAK * spans[:-1]])
+    previous_span = np.inf if before is None or before.span is None else before.span
+    longer = spans > STRETCH_BREAK * np.concatenate([[previous_span], spans[:-1]])
     breaks = np.flatnonzero((np.diff(iv) > 1) | longer)  # the differences that break a stretch
     L = taps.shape[0]
-    start, state = 0, Stretch([], [], None, float(spans[-1]))
+    start, state = 0, empty._replace(span=float(spans[-1]))
     for stop in [*breaks.tolist(), rows.size]:  # a break's own difference stays as it is, the stretch follows it
         run = rows[start:stop]
         if run.size:
+            prior = before if start == 0 and before is not None and before.raw else None
             b = est[run]
-            first, corrected, second = two_passes(b, spans[start:stop], taps)
+            first, corrected, second = two_passes(b, spans[start:stop], taps, prior)
             est[run] = second
-            state = Stretch(list(b[-L:]), list(corrected[-L:]), first[-1].copy(), float(spans[-1]))
+            raw_tail = [*(prior.raw if prior else []), *b][-L:]
+            corrected_tail = [*(prior.corrected if prior else []), *corrected][-L:]
+            state = Stretch(raw_tail, corrected_tail, first[-1].copy(), float(spans[-1]))
         start = stop + 1
     if breaks.size and breaks[-1] == rows.size - 1:  # the last difference broke a stretch: nothing kept
         return Stretch([], [], None, float(spans[-1]))
