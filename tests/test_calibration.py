@@ -299,3 +299,58 @@ def test_read_gyro_npz(tmp_path):
     np.savez(tmp_path / "h.npz", t=t, g=np.ones((4, 3)))
     with pytest.raises(LogFormatError, match=r"the gyro must be \(5, 3\)"):
         read_gyro(tmp_path / "h.npz")
+
+
+@pytest.mark.parametrize(
+    "header",
+    ["time,wx,wy,wz,t", "T,Gyro_X,Gyro_Y,Gyro_Z", "t,angular_velocity_x,angular_velocity_y,angular_velocity_z"],
+)
+def test_gyro_columns_by_their_usual_names(tmp_path, header):
+    """A header with one group of the usual rate names is read without --gyro-columns, in its own column order."""
+    names = header.split(",")
+    rows = np.arange(12.0).reshape(4, 3)
+    table_ = {names.index("t") if "t" in names else names.index("T"): np.arange(4.0)}
+    rate = [n for n in names if n.lower() not in ("t", "time")]
+    for i, n in enumerate(rate):
+        table_[names.index(n)] = rows[:, i]
+    path = tmp_path / "imu.csv"
+    np.savetxt(path, np.column_stack([table_.get(j, -np.ones(4)) for j in range(len(names))]), delimiter=",",
+               header=header, comments="")  # fmt: skip
+    t, g = read_gyro(path)
+    np.testing.assert_array_equal(t, np.arange(4.0))
+    np.testing.assert_array_equal(g, rows)
+    np.savez(tmp_path / "imu.npz", t=np.arange(4.0), **{n: rows[:, i] for i, n in enumerate(rate)})
+    np.testing.assert_array_equal(read_gyro(tmp_path / "imu.npz")[1], rows)
+
+
+def test_gyro_columns_that_are_not_one_usual_group_are_named(tmp_path):
+    """Two usual groups: refused, both named. None, but three columns ending in x, y, z: the line to pass."""
+    both = tmp_path / "both.csv"
+    both.write_text("t,gx,gy,gz,wx,wy,wz\n0,1,2,3,4,5,6\n")
+    with pytest.raises(LogFormatError, match=r"several gyroscope columns \(gx,gy,gz and wx,wy,wz\)"):
+        read_gyro(both)
+    assert read_gyro(both, ("wx", "wy", "wz"))[1].tolist() == [[4.0, 5.0, 6.0]]
+    other = tmp_path / "other.csv"
+    other.write_text("t,acc_x,acc_y,angvel_x,angvel_y,angvel_z\n0,1,2,3,4,5\n")
+    with pytest.raises(
+        LogFormatError, match=r"no gyroscope columns .*perhaps --gyro-columns angvel_x,angvel_y,angvel_z"
+    ):
+        read_gyro(other)
+
+
+def test_a_gyro_in_the_other_unit_is_named(tmp_path, capsys):
+    """A gyroscope written in deg/s and read as rad/s (and the reverse) leaves most of its rate unexplained: a note
+    names the unit to pass; read in its unit, no such note."""
+    data, _ = simulated(4)
+    att, gyro = _write_logs(tmp_path, data)  # deg/s
+    assert main(["calibrate", str(att), str(gyro)]) == 0
+    out = capsys.readouterr().out
+    assert "as degrees per second taken for radians (--gyro-unit deg/s)" in out
+    assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s"]) == 0
+    assert "residual is" not in capsys.readouterr().out
+    _, _, tg, g = data
+    np.savetxt(gyro, np.column_stack([tg, g]), delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.10g")
+    out_json = tmp_path / "cal.json"
+    assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "-o", str(out_json)]) == 0
+    assert "as radians per second taken for degrees (--gyro-unit rad/s)" in capsys.readouterr().out
+    assert any("--gyro-unit rad/s" in n for n in Calibration.load(out_json).notes)

@@ -2,8 +2,9 @@ r"""``omegahat calibrate ATTITUDE GYRO``: a gyroscope calibrated against an atti
 
 A thin shell over :func:`omegahat.calibration.calibrate` (the method: its docstring and ``docs/calibrate.md``). The
 attitude log is read by :func:`omegahat.io.read_log` (every format ``omegahat estimate`` reads, with the same
-conventions options); the gyroscope log is a CSV whose header names ``t, gx, gy, gz`` (or the columns given) or an
-NPZ with arrays ``t`` and ``gx, gy, gz`` (or ``g (M, 3)``): :func:`read_gyro`. Prints the table (:func:`table`:
+conventions options); the gyroscope log is a CSV whose header names ``t`` and one group of :data:`GYRO_COLUMNS`
+(``gx, gy, gz``, ``wx, wy, wz``, ``gyro_x, gyro_y, gyro_z``, ...; or the columns given) or an NPZ with such arrays
+(or ``g (M, 3)``): :func:`read_gyro`. Prints the table (:func:`table`:
 each quantity ± one standard deviation), writes it as JSON with ``-o``
 (:meth:`omegahat.calibration.Calibration.save`), and draws the residuals with ``--plot FILE.png`` (Matplotlib,
 imported only then).
@@ -13,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import math
 import os
+import re
 import zipfile
 from pathlib import Path
 
@@ -30,8 +33,8 @@ HELP = "Calibrate a gyroscope against an attitude log of the same body: clock of
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
         matrix (--scale matrix: raw counts, permuted or mirrored axes); omega in body axes, rad/s
-gyro:   a CSV with a header t,gx,gy,gz (any order, any case; other columns ignored) or an NPZ with arrays t and
-        gx,gy,gz or g (M, 3); its own clock and rate
+gyro:   a CSV with a header t,gx,gy,gz (or wx,wy,wz, gyro_x,gyro_y,gyro_z, ...: one such group; any order, any
+        case; other columns ignored) or an NPZ with such arrays or g (M, 3); its own clock and rate
 motion: turns about two axes or more for the whole rotation; about one axis (a hinge, a pendulum) the offset, the
         bias and the axis's direction are fitted, and the turn about it is left out (free_axis); a motion that repeats
         itself may match at another offset (a note says so): narrow the search with --offset and --max-offset
@@ -41,20 +44,56 @@ example: omegahat calibrate vicon.csv imu.csv --scale axes -o calibration.json -
 GYRO_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "raw": 1.0}
 
 
+GYRO_COLUMNS = (
+    ("gx", "gy", "gz"),
+    ("wx", "wy", "wz"),
+    ("gyro_x", "gyro_y", "gyro_z"),
+    ("gyr_x", "gyr_y", "gyr_z"),
+    ("gyrox", "gyroy", "gyroz"),
+    ("omega_x", "omega_y", "omega_z"),
+    ("angular_velocity_x", "angular_velocity_y", "angular_velocity_z"),
+)  #: the gyroscope's rate columns recognised by name (one group of them in a header; others: --gyro-columns)
+
+
+def gyro_columns(names: list[str], where: str) -> tuple[str, str, str]:
+    """The one group of :data:`GYRO_COLUMNS` among ``names`` (lower case), or an error that names what was found and
+    suggests ``--gyro-columns`` where three columns ending in x, y, z share a prefix."""
+    found = [g for g in GYRO_COLUMNS if all(c in names for c in g)]
+    if len(found) == 1:
+        return found[0]
+    if found:
+        groups = " and ".join(",".join(g) for g in found)
+        raise LogFormatError(f"{where}: several gyroscope columns ({groups}); name one with --gyro-columns X,Y,Z")
+    prefixes = {m.group(1) for n in names if (m := re.fullmatch(r"(.+?)[_.\s-]?x", n))}
+    triples = [
+        tuple(f"{p}{sep}{a}" for a in "xyz")
+        for p in sorted(prefixes)
+        for sep in ("", "_", ".", " ", "-")
+        if all(f"{p}{sep}{a}" in names for a in "xyz")
+    ]
+    tip = f" (perhaps --gyro-columns {','.join(triples[0])})" if len(triples) == 1 else ""
+    raise LogFormatError(
+        f"{where}: no gyroscope columns (found: {', '.join(names)}); expected one of "
+        f"{'; '.join(','.join(g) for g in GYRO_COLUMNS)}: name them with --gyro-columns X,Y,Z{tip}"
+    )
+
+
 def read_gyro(
-    path: str | os.PathLike[str], columns: tuple[str, str, str] = ("gx", "gy", "gz"), time_column: str = "t"
+    path: str | os.PathLike[str], columns: tuple[str, str, str] | None = None, time_column: str = "t"
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(t (M,), g (M, 3))`` of a gyroscope log (module docstring); errors name the line (CSV) or array (NPZ)."""
+    """``(t (M,), g (M, 3))`` of a gyroscope log (module docstring); ``columns`` None: the one group of
+    :data:`GYRO_COLUMNS` the header has (:func:`gyro_columns`). Errors name the line (CSV) or array (NPZ)."""
     path = os.fspath(path)
-    want = [time_column.lower(), *(c.lower() for c in columns)]
     if path.lower().endswith(".npz"):
-        return _read_npz(path, want)
+        return _read_npz(path, time_column.lower(), columns)
     with open(path, encoding="utf-8-sig", newline="") as f:
         rows = csv.reader(f)
         header = next(rows, None)
         if header is None:
-            raise LogFormatError(f"{path}: empty file (expected a header naming {', '.join(want)})")
+            raise LogFormatError(f"{path}: empty file (expected a header naming {time_column} and the gyro's rate)")
         names = [h.strip().lower() for h in header]
+        rate = gyro_columns(names, path) if columns is None else tuple(c.lower() for c in columns)
+        want = [time_column.lower(), *rate]
         missing = [w for w in want if w not in names]
         if missing:
             raise LogFormatError(
@@ -80,21 +119,22 @@ def read_gyro(
     return a[:, 0], a[:, 1:]
 
 
-def _read_npz(path: str, want: list[str]) -> tuple[np.ndarray, np.ndarray]:
+def _read_npz(path: str, time_name: str, columns: tuple[str, str, str] | None) -> tuple[np.ndarray, np.ndarray]:
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k.lower(): np.asarray(z[k], dtype=float) for k in z.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise LogFormatError(f"{path}: not a readable .npz file of numbers ({exc})") from None
-    if want[0] not in arrays:
-        raise LogFormatError(f"{path}: no array {want[0]!r} (found: {', '.join(arrays)})")
-    t = arrays[want[0]].ravel()
-    if all(c in arrays for c in want[1:]):
-        g = np.column_stack([arrays[c].ravel() for c in want[1:]])
-    elif "g" in arrays:
+    if time_name not in arrays:
+        raise LogFormatError(f"{path}: no array {time_name!r} (found: {', '.join(arrays)})")
+    t = arrays[time_name].ravel()
+    if columns is None and "g" in arrays:
         g = arrays["g"]
     else:
-        raise LogFormatError(f"{path}: no arrays {', '.join(want[1:])} nor g (M, 3) (found: {', '.join(arrays)})")
+        rate = gyro_columns(list(arrays), path) if columns is None else tuple(c.lower() for c in columns)
+        if not all(c in arrays for c in rate):
+            raise LogFormatError(f"{path}: no arrays {', '.join(rate)} (found: {', '.join(arrays)})")
+        g = np.column_stack([arrays[c].ravel() for c in rate])
     if g.shape != (t.size, 3):
         raise LogFormatError(f"{path}: the gyro must be ({t.size}, 3), one row per time; got {g.shape}")
     return t, g
@@ -174,7 +214,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_quaternion_order(att)
     att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon or C3D file")
     gyr = parser.add_argument_group("the gyroscope log")
-    gyr.add_argument("--gyro-columns", default="gx,gy,gz", metavar="X,Y,Z", help="its rate columns (default gx,gy,gz)")
+    gyr.add_argument(
+        "--gyro-columns",
+        metavar="X,Y,Z",
+        help="its rate columns (default: the header's one group of gx,gy,gz; wx,wy,wz; gyro_x,gyro_y,gyro_z; ...)",
+    )
     gyr.add_argument("--gyro-time-column", default="t", metavar="NAME", help="its time column (default t)")
     gyr.add_argument("--gyro-time-unit", choices=list(TIME_UNITS), default="s", help="unit of its times (default s)")
 
@@ -185,8 +229,8 @@ def run(args: argparse.Namespace) -> int:
             raise FileNotFoundError(f"[Errno 2] No such file or directory: '{p}'")
     if args.gyro_unit == "raw" and args.scale == "none":
         raise ValueError("--gyro-unit raw needs scale factors: add --scale axes or --scale matrix")
-    columns = tuple(c.strip() for c in args.gyro_columns.split(","))
-    if len(columns) != 3:
+    columns = None if args.gyro_columns is None else tuple(c.strip() for c in args.gyro_columns.split(","))
+    if columns is not None and len(columns) != 3:
         raise ValueError(f"--gyro-columns names 3 columns x,y,z; got {args.gyro_columns!r}")
     options = ReadOptions(
         time_unit=args.time_unit,
@@ -200,22 +244,56 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(
             f"{args.attitude}: calibrate needs attitudes (quaternions or rotation matrices), not directions"
         )
-    t_g, g = read_gyro(args.gyro, (columns[0], columns[1], columns[2]), args.gyro_time_column)
+    t_g, g = read_gyro(
+        args.gyro, None if columns is None else (columns[0], columns[1], columns[2]), args.gyro_time_column
+    )
     t_g = t_g * TIME_UNITS[args.gyro_time_unit]
     g = g * GYRO_UNITS[args.gyro_unit]
     t_a = log.absolute_times
     cal = calibrate(t_a, log.data, t_g, g, scale=args.scale, cutoff_hz=args.cutoff, offset_guess=args.offset,
                     max_offset=args.max_offset)  # fmt: skip
     unit = "counts" if args.gyro_unit == "raw" else "rad/s"
+    series = band_limited(cal, t_a, log.data, t_g, g)
+    cal = dataclasses.replace(cal, notes=cal.notes + unexplained(series, args.gyro_unit, args.scale))
     print(f"calibrated {args.gyro} against {args.attitude}: gyro(t + offset) = A omega_body(t) + bias")
     print(table(cal, unit))
     if args.output is not None:
         cal.save(args.output)
         print(f"wrote {args.output}")
     if args.plot is not None:
-        plot(cal, band_limited(cal, t_a, log.data, t_g, g), args.plot, unit)
+        plot(cal, series, args.plot, unit)
         print(f"wrote {args.plot}")
     return 0
+
+
+UNEXPLAINED = 0.5  #: a note where the fit leaves more than this part of the gyro's in-band rate (RMS) unexplained
+
+
+def unexplained(series: tuple, gyro_unit: str, scale: str) -> tuple[str, ...]:
+    """A note where the fit leaves more than :data:`UNEXPLAINED` of the gyroscope's rate in band unexplained (the
+    RMS of the residual over that of the band-limited gyro, each less its mean, on the samples fitted): the units,
+    the clocks or the bodies differ. With no scale fitted, a gyro that reads 180/π (or π/180) times the attitude's
+    rate, within 10 %, is named as degrees per second read as radians (or the reverse). Only a note: the fit stands."""
+    _, G, model, used = series
+    if not np.any(used):
+        return ()
+    gyro, fit = G[used] - G[used].mean(axis=0), model[used] - model[used].mean(axis=0)
+    rms = lambda x: float(np.sqrt(np.mean(np.sum(x**2, axis=1))))  # noqa: E731
+    left = rms(gyro - fit) / max(rms(gyro), 1e-300)
+    if left <= UNEXPLAINED:
+        return ()
+    ratio = rms(gyro) / max(rms(fit), 1e-300)
+    swapped = {"rad/s": ("deg/s", "degrees per second taken for radians", 180.0 / math.pi),
+               "deg/s": ("rad/s", "radians per second taken for degrees", math.pi / 180.0)}  # fmt: skip
+    hint = ""
+    if scale == "none" and gyro_unit in swapped and abs(ratio / swapped[gyro_unit][2] - 1.0) < 0.1:
+        other, reading, _ = swapped[gyro_unit]
+        hint = f": it reads {ratio:.3g} times the attitude's rate, as {reading} (--gyro-unit {other})"
+    return (
+        f"the fit's residual is {left:.2g} times the gyroscope's rate in band (RMS){hint}; check its unit "
+        "(--gyro-unit), that the clocks' offset is within the search (--offset, --max-offset), and that both logs "
+        "are of one body",
+    )
 
 
 def plot(cal: Calibration, series: tuple, path: Path, unit: str) -> None:
