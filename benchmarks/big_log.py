@@ -3,8 +3,9 @@
 Generates (in a temporary directory) a 100 Hz quaternion log at constant rate with 1 mrad noise, written with
 17 significant digits as a logging tool would (2 M rows: about 130 MB), and runs the installed command on it as
 a child process, ``repeat`` times, measuring the wall time and the child's peak resident memory (``os.wait4``).
-The 2 M-row log also with ``--estimator sarras`` (the fixed-gain observer alone, the default when the target was
-set). Then the default on 20 M rows: the peak memory must not grow with the rows (the log is streamed in chunks).
+The 2 M-row log also written as Parquet (``-o omega.parquet``) and with ``--estimator sarras`` (the fixed-gain
+observer alone, the default when the target was set). Then the default on 20 M rows: the peak memory must not grow
+with the rows (the log is streamed in chunks).
 Targets (issue 12): 2 M rows in at most 4 s and 300 MB; 20 M rows in the memory of 2 M.
 
 Writes its section of ``benchmarks/RESULTS.md`` (machine, date, command, numbers).
@@ -83,23 +84,29 @@ def main() -> None:
     lines = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        runs_of = ((args.rows, args.repeat, ()), (args.rows, args.repeat, SARRAS), (args.big_rows, 1, ()))
-        for rows, repeat, options in runs_of:
+        runs_of = (
+            (args.rows, args.repeat, (), "omega.csv"),
+            (args.rows, args.repeat, (), "omega.parquet"),
+            (args.rows, args.repeat, SARRAS, "omega.csv"),
+            (args.big_rows, 1, (), "omega.csv"),
+        )
+        for rows, repeat, options, output in runs_of:
             src = tmp / f"log{rows}.csv"
             if not src.exists():
                 for old in tmp.glob("log*.csv"):
                     old.unlink()
                 write_log(src, rows)
             mb = src.stat().st_size / 1e6
-            cmd = [exe, "estimate", str(src), "-o", str(tmp / "omega.csv"), "--no-progress", *options]
+            cmd = [exe, "estimate", str(src), "-o", str(tmp / output), "--no-progress", *options]
             measure(cmd)  # the first run loads (or compiles) the kernels; not counted
             runs = [measure(cmd) for _ in range(repeat)]
             walls = sorted(r[0] for r in runs)
             peaks = sorted(r[1] for r in runs)
             est = [r[2] for r in runs][-1].splitlines()
+            out_mb = (tmp / output).stat().st_size / 1e6
             line = (
-                f"| {rows:,} | {' '.join(options) or '(none: the default)'} | {mb:.0f} MB | {walls[0]:.2f} s / "
-                f"{walls[len(walls) // 2]:.2f} s | {peaks[-1]:.0f} MB | {repeat} |"
+                f"| {rows:,} | {' '.join(options) or '(none: the default)'} | {mb:.0f} MB | {output}, "
+                f"{out_mb:.0f} MB | {walls[0]:.2f} s / {walls[len(walls) // 2]:.2f} s | {peaks[-1]:.0f} MB | {repeat} |"
             )
             print(line, flush=True)
             print("\n".join("    " + s for s in est if s.startswith(("gains", "wrote"))), flush=True)
@@ -109,8 +116,8 @@ def main() -> None:
         f"{machine_line()} Command: `python benchmarks/big_log.py "
         f"--rows {args.rows} --big-rows {args.big_rows} --repeat {args.repeat}` (each run: `omegahat estimate LOG -o "
         "OUT --no-progress` as a child process, after one untimed run that loads the compiled kernels).\n\n"
-        "| rows | options | CSV size | wall time, best / median | peak memory (max RSS) | runs |\n"
-        "| --- | --- | --- | --- | --- | --- |\n"
+        "| rows | options | CSV size | output, its size | wall time, best / median | peak memory (max RSS) | runs |\n"
+        "| --- | --- | --- | --- | --- | --- | --- |\n"
         + "\n".join(lines)
         + "\n\nTargets (issue 12): 2 M rows in at most 4 s and 300 MB; 20 M rows in constant memory. The default "
         "runs the model identified from the log (here the rate model's filter: the observer supervising its EKF); "

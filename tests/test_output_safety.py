@@ -200,8 +200,11 @@ def test_the_writers_registry_says_what_a_name_asks_for(tmp_path):
     assert output_kind("o.bag", "rosbag1") == "rosbag1" and output_kind("o", "rosbag2") == "rosbag2"
     with pytest.raises(ValueError, match=r"o.bag: a bag output needs a bag input \(its stamps and frames\)"):
         output_kind("o.bag", "csv")
-    with pytest.raises(ValueError, match=r"unknown output type '.txt'; use .csv, .bag \(ROS 1\) or a name without"):
+    with pytest.raises(ValueError, match=r"unknown output type '.txt'; use .csv, .parquet, .bag \(ROS 1\) or a name"):
         output_kind("o.txt", "rosbag1")
+    assert output_kind("o.PARQUET", "rosbag1") == output_kind("o.parquet", "csv") == "parquet"
+    with pytest.raises(ValueError, match=r"a bag output needs a bag input \(its stamps and frames\); write .csv or "):
+        output_kind("o.bag", "npz")
 
     class Lines:
         def __init__(self, path, stream):

@@ -14,9 +14,9 @@
 3. :func:`omegahat.io.pipeline.estimate_stream` runs a stream through the estimator with automatic gains and
    writes the result through :func:`open_output`: the output formats are registered here too, beside the input
    formats, with :func:`register_writer` (:mod:`omegahat.io.writers`): CSV with a status column
-   (:mod:`omegahat.io.output`, which also says how every output is whole or absent) and
-   ``geometry_msgs/TwistStamped`` bags (:mod:`omegahat.io.rosbag`). ``omegahat estimate`` and
-   :func:`estimate_frame` are thin shells over it.
+   (:mod:`omegahat.io.output`, which also says how every output is whole or absent), the same rows as Parquet
+   (:mod:`omegahat.io.parquet_output`) and ``geometry_msgs/TwistStamped`` bags (:mod:`omegahat.io.rosbag`).
+   ``omegahat estimate`` and :func:`estimate_frame` are thin shells over it.
 """
 
 from omegahat.io.c3d import open_c3d
@@ -28,6 +28,7 @@ from omegahat.io.logs import AttitudeLog, read_csv, read_log, read_npz, write_om
 from omegahat.io.mocap import is_motive, is_vicon, open_motive_csv, open_vicon_csv
 from omegahat.io.npzlog import open_npz
 from omegahat.io.output import OmegaWriter, check_output_path
+from omegahat.io.parquet_output import ParquetOmegaWriter
 from omegahat.io.qualisys import is_qtm_6d, open_qtm_6d
 from omegahat.io.registry import (
     COLUMN_OPTIONS,
@@ -78,9 +79,14 @@ def _csv_writer(path, stream: LogStream) -> OmegaWriter:
     return OmegaWriter(path, t0=stream.t0)  # times as the file states them
 
 
+def _parquet_writer(path, stream: LogStream) -> ParquetOmegaWriter:
+    return ParquetOmegaWriter(path, t0=stream.t0)
+
+
 # The order of the listing in messages: .csv, .bag (ROS 1) or a name without extension (ROS 2 bag directory). A bag
 # output copies the input messages' stamps and frames, and is never overwritten (a ROS 2 bag is a directory).
 register_writer(".csv", _csv_writer, name="csv", title=".csv", noun="CSV file")
+register_writer(".parquet", _parquet_writer, name="parquet", title=".parquet", noun="Parquet file")
 for _ending, _name, _title in (
     (".bag", "rosbag1", ".bag (ROS 1)"),
     ("", "rosbag2", "a name without extension (ROS 2 bag directory)"),

@@ -353,9 +353,8 @@ class OmegaWriter(AtomicOutput):
         self._pending: Future[Any] | None = None  # the chunk being written
         try:  # until the writer is returned nobody else can abort it: an interrupt here (Ctrl-C) removes it too
             self._f = self._part.open()
-            self._f.write((HEADER + "\n").encode())
             self._words = pa.array(STATUS_WORDS)
-            self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+            self._begin()
             self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="omegahat-writer")
         except OSError as exc:
             self.abort()
@@ -380,8 +379,21 @@ class OmegaWriter(AtomicOutput):
         )
         self._wait()
         assert self._pool is not None
-        self._pending = self._pool.submit(pacsv.write_csv, table, self._f, self._options)
+        self._pending = self._pool.submit(self._put, table)
         self.rows += len(chunk)
+
+    def _begin(self) -> None:
+        """Start the file (the header); a subclass writing another format starts it here."""
+        assert self._f is not None
+        self._f.write((HEADER + "\n").encode())
+        self._options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+
+    def _put(self, table: pa.Table) -> None:
+        """Write one chunk's table (in the writer's thread)."""
+        pacsv.write_csv(table, self._f, self._options)
+
+    def _end(self) -> None:
+        """Finish the file after its last chunk, before it is flushed and renamed (nothing to add to a CSV)."""
 
     def _wait(self) -> None:
         if self._pending is not None:
@@ -404,6 +416,7 @@ class OmegaWriter(AtomicOutput):
         try:
             self._wait()
             self._shutdown()
+            self._end()
             f.flush()
             os.fsync(f.fileno())  # the content is on the disk before the name says it is complete
             publish_mode(self._tmp)
