@@ -357,3 +357,27 @@ def test_dask_cluster_gives_the_local_outputs(tmp_path, capsys):
     for key in here:
         for col in ("output", "format", "rows", "estimator", "status", "message"):
             assert here[key][col] == there[key][col], (key, col)
+
+
+def test_parquet_outputs_for_a_folder(tmp_path, capsys):
+    """``--output-format parquet``: each output a .parquet file holding the one-file CSV run's rows, named in the
+    summary; the one-file command refuses the option (its -o name says the format)."""
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    d = tmp_path / "takes"
+    logs = [good_log(d / f"take{k}.csv", k) for k in range(2)]
+    out = tmp_path / "out"
+    code, _, _ = batch(capsys, d, "-o", out, *OPTS, "--jobs", "1", "--output-format", "parquet")
+    assert code == 0
+    rows = summary_rows(out)
+    for k, log in enumerate(logs):
+        one_file(capsys, log, tmp_path / f"one{k}.csv")
+        expected = pacsv.read_csv(tmp_path / f"one{k}.csv")
+        written = pq.read_table(out / f"take{k}.parquet")
+        for name in ("t", "wx", "wy", "wz", "status"):
+            assert written[name].to_pylist() == expected[name].to_pylist(), name
+        assert rows[str(log)]["output"].endswith(f"take{k}.parquet")
+    assert [p.name for p in out.glob("*.csv")] == [SUMMARY_CSV]  # the summary is the only CSV
+    code, _, err = batch(capsys, logs[0], "-o", tmp_path / "o.csv", *OPTS, "--output-format", "parquet")
+    assert code == 2 and "--output-format: for many inputs" in err

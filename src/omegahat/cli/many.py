@@ -21,6 +21,7 @@ before its first wildcard; a named file's own directory) with the log's extensio
 output are named by their paths below the directory they have in common (``a/x.csv``, ``b/x.csv``), and those
 still equal keep their whole name (``run.csv`` and ``run.txt`` in one folder: ``run.csv`` and ``run.txt.csv``);
 each rename is said before the run. An output that would be an input, or a summary, is refused before any work.
+With ``--output-format parquet`` the outputs are Parquet files (``.parquet`` in place of ``.csv``).
 
 **An OUTDIR that exists** is refused if it holds any of the outputs, unless ``--existing overwrite`` (each
 replaced, and the count said) or ``--existing skip`` (kept, and not run again: resuming an interrupted batch).
@@ -53,9 +54,19 @@ from omegahat.io.output import HEADER
 from omegahat.io.registry import registered_extensions
 from omegahat.io.rosbag import is_ros2_bag
 
-__all__ = ["EXISTING", "SUMMARY_CSV", "SUMMARY_TXT", "add_arguments", "is_many", "refuse_batch_options", "run_many"]
+__all__ = [
+    "EXISTING",
+    "OUTPUT_FORMATS",
+    "SUMMARY_CSV",
+    "SUMMARY_TXT",
+    "add_arguments",
+    "is_many",
+    "refuse_batch_options",
+    "run_many",
+]
 
 EXISTING = ("overwrite", "skip")  #: what --existing does with outputs already in OUTDIR (default: refuse)
+OUTPUT_FORMATS = ("csv", "parquet")  #: the outputs' format with many inputs (--output-format; default the first)
 _SHOWN = 5  # files named in a message before "and N more"
 
 
@@ -63,7 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The batch options (they apply when the inputs are many; the one-file command refuses them)."""
     group = parser.add_argument_group(
         "many files (several inputs, a directory or a quoted glob; -o is then a directory)",
-        "Every log is run with the options above, one output each, named as its input (extension .csv); a "
+        "Every log is run with the options above, one output each, named as its input (extension .csv, or "
+        ".parquet with --output-format parquet); a "
         "summary table is printed and written to OUTDIR/" + SUMMARY_CSV + " and " + SUMMARY_TXT + ". A file that "
         "fails is named there with its message and does not stop the others (exit code 1).",
     )
@@ -78,6 +90,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="ADDRESS",
         help="run on a Dask cluster (pip install 'omegahat[dask]'): tcp://SCHEDULER:8786, or 'local' for a "
         "LocalCluster here; the workers read the inputs and write OUTDIR at the same paths (a shared file system)",
+    )
+    group.add_argument(
+        "--output-format",
+        choices=OUTPUT_FORMATS,
+        help="the outputs' format: csv (default) or parquet (the same columns; omegahat.io.parquet_output)",
     )
     group.add_argument(
         "--existing",
@@ -98,9 +115,12 @@ def is_many(inputs: list[Path]) -> bool:
 
 def refuse_batch_options(args: argparse.Namespace) -> None:
     """The one-file command takes none of the batch options: refused rather than ignored."""
-    given = [f for f, v in (("--jobs", args.jobs), ("--dask", args.dask), ("--existing", args.existing)) if v]
+    batch = (("--jobs", args.jobs), ("--dask", args.dask), ("--existing", args.existing))
+    given = [f for f, v in batch if v]
     if given:
         raise ValueError(f"{', '.join(given)}: for many inputs (several files, a directory or a quoted glob)")
+    if args.output_format is not None:
+        raise ValueError("--output-format: for many inputs; one output's format is its name's extension (-o X.parquet)")
 
 
 @dataclass(frozen=True)
@@ -177,24 +197,24 @@ def find_logs(inputs: Iterable[Path]) -> tuple[list[Found], list[tuple[str, str]
     return found, skipped
 
 
-def _output_name(rel: Path, keep_extension: bool = False) -> Path:
-    """``rel`` with a log extension replaced by ``.csv`` (or, ``keep_extension``, ``.csv`` appended unless it is
-    one: ``run.txt`` → ``run.txt.csv``)."""
+def _output_name(rel: Path, keep_extension: bool = False, ending: str = ".csv") -> Path:
+    """``rel`` with a log extension replaced by ``ending`` (or, ``keep_extension``, ``ending`` appended unless the
+    extension is ``.csv``: ``run.txt`` → ``run.txt.csv``)."""
     ext = rel.suffix.lower()
     if ext == ".csv" or (not keep_extension and ext in registered_extensions()):
-        return rel.with_suffix(".csv")
-    return rel.with_name(rel.name + ".csv")
+        return rel.with_suffix(ending)
+    return rel.with_name(rel.name + ending)
 
 
 def _common_dir(paths: list[Path]) -> Path:
     return Path(os.path.commonpath([os.path.abspath(p.parent) for p in paths]))
 
 
-def plan_outputs(found: list[Found], outdir: Path) -> tuple[list[Job], list[str]]:
-    """One :class:`Job` per log with its output below ``outdir`` (module docstring: names and collisions), and a
-    note for each group of inputs renamed apart. Raises ValueError when names still collide, or an output would
-    be an input or a summary."""
-    names = [_output_name(f.rel) for f in found]
+def plan_outputs(found: list[Found], outdir: Path, ending: str = ".csv") -> tuple[list[Job], list[str]]:
+    """One :class:`Job` per log with its output below ``outdir`` (module docstring: names and collisions; the
+    extension ``ending``), and a note for each group of inputs renamed apart. Raises ValueError when names still
+    collide, or an output would be an input or a summary."""
+    names = [_output_name(f.rel, ending=ending) for f in found]
     notes = []
     for name, n in Counter(names).items():
         if n < 2:
@@ -202,11 +222,11 @@ def plan_outputs(found: list[Found], outdir: Path) -> tuple[list[Job], list[str]
         group = [i for i, other in enumerate(names) if other == name]
         common = _common_dir([found[i].path for i in group])
         for i in group:
-            names[i] = _output_name(Path(os.path.relpath(os.path.abspath(found[i].path), common)))
+            names[i] = _output_name(Path(os.path.relpath(os.path.abspath(found[i].path), common)), ending=ending)
         clash = Counter(names[i] for i in group)
         for i in group:
             if clash[names[i]] > 1:  # same folder, same name, another extension: keep the whole name
-                names[i] = _output_name(Path(os.path.relpath(os.path.abspath(found[i].path), common)), True)
+                names[i] = _output_name(Path(os.path.relpath(os.path.abspath(found[i].path), common)), True, ending)
         shown = ", ".join(f"{found[i].path} -> {names[i]}" for i in group)
         notes.append(f"{n} inputs would write {name}; written as: {shown}")
     twice = [str(name) for name, n in Counter(names).items() if n > 1]
@@ -260,7 +280,9 @@ def run_many(args: argparse.Namespace, one: OneFile) -> int:
     """The batch (module docstring): ``one(args_for_a_file, report=..., on_chunk=..., announce=...)`` estimates
     one file, as ``omegahat estimate`` does; returns the exit code."""
     if args.frame_id is not None or args.output_topic is not None:
-        raise ValueError("with many inputs the outputs are CSV files; --frame-id and --output-topic are for one bag")
+        raise ValueError(
+            "with many inputs the outputs are CSV or Parquet files; --frame-id and --output-topic are for one bag"
+        )
     if args.times is not None:
         raise ValueError("--times names the times of one pose list; with many inputs give --rate, or run them apart")
     if args.dask is not None and args.jobs is not None:
@@ -271,7 +293,7 @@ def run_many(args: argparse.Namespace, one: OneFile) -> int:
     if not found:
         why = "; ".join(f"{p}: {r}" for p, r in skipped[:_SHOWN])
         raise ValueError(f"no logs found in {', '.join(map(str, args.input))}" + (f" ({why})" if why else ""))
-    jobs, notes = plan_outputs(found, outdir)
+    jobs, notes = plan_outputs(found, outdir, "." + (args.output_format or OUTPUT_FORMATS[0]))
     todo, kept, note = _existing(jobs, args.existing)
     if note:
         notes.append(note)
