@@ -143,8 +143,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--output",
         type=Path,
         required=True,
-        help="output: X.csv (t,wx,wy,wz,status; rad/s, body axes); for a bag input also X.bag (ROS 1) or X "
-        "(ROS 2 directory) of geometry_msgs/TwistStamped; with many inputs a directory (OUTDIR)",
+        help="output: X.csv (t,wx,wy,wz,status; rad/s, body axes) or X.parquet (the same columns); for a bag input "
+        "also X.bag (ROS 1) or X (ROS 2 directory) of geometry_msgs/TwistStamped; with many inputs a directory "
+        "(OUTDIR)",
     )
     many.add_arguments(parser)
     conv = parser.add_argument_group("conventions of the input")
