@@ -345,12 +345,12 @@ def test_a_gyro_in_the_other_unit_is_named(tmp_path, capsys):
     att, gyro = _write_logs(tmp_path, data)  # deg/s
     assert main(["calibrate", str(att), str(gyro)]) == 0
     out = capsys.readouterr().out
-    assert "as degrees per second taken for radians (--gyro-unit deg/s)" in out
+    assert "times the attitude's rate, degrees per second given as radians; check its unit" in out
     assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s"]) == 0
     assert "residual is" not in capsys.readouterr().out
     _, _, tg, g = data
     np.savetxt(gyro, np.column_stack([tg, g]), delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.10g")
     out_json = tmp_path / "cal.json"
     assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "-o", str(out_json)]) == 0
-    assert "as radians per second taken for degrees (--gyro-unit rad/s)" in capsys.readouterr().out
-    assert any("--gyro-unit rad/s" in n for n in Calibration.load(out_json).notes)
+    assert "times the attitude's rate, radians given as degrees; check its unit" in capsys.readouterr().out
+    assert any("radians given as degrees" in n for n in Calibration.load(out_json).notes)

@@ -91,6 +91,7 @@ DEFAULT_CUTOFF_HZ = 10.0  #: the fit's band, lowered to 0.4 × the slower log's 
 DEFAULT_MAX_OFFSET = 2.0  #: s: the clock offset is searched within ± this of the guess
 MIN_EXCITATION = 0.05  #: weakest / strongest principal standard deviation of the rate that identifies R_c
 AMBIGUOUS_OFFSET = 0.9  #: a second offset whose correlation is this share of the best's is named in a note
+UNEXPLAINED = 0.5  #: a note where the residual's RMS is more than this share of the band-limited gyro's
 _BLOCK_PERIODS = 8.0  # (C4): the batch length in periods of the cut-off
 _MARGIN_PERIODS = 4.0  # samples this many cut-off periods from a gap or an end are left out
 _GAP_FACTOR = 2.5  # a step longer than this × the median is a gap
@@ -448,6 +449,7 @@ def calibrate(
     std = np.sqrt(np.diag(C))
     delta, A, b, Rc, s = p.split(x, R0)
     res_rms = np.sqrt(np.mean(r.reshape(-1, 3) ** 2, axis=0))
+    notes.extend(_unexplained(p.G(delta)[p.use], r.reshape(-1, 3), scale))
     if scale == "matrix":
         names = ("offset", *(f"A{i + 1}{j + 1}" for i in range(3) for j in range(3)), "bx", "by", "bz")
         Rc = _orth(A)
@@ -466,15 +468,30 @@ def calibrate(
         notes.append(
             f"the body turned about one axis only (body {np.array2string(axis, precision=3, suppress_small=True)}, "
             f"gyro {np.array2string(free, precision=3, suppress_small=True)}; the rate varies by "
-            f"{np.array2string(excitation, precision=3)} "
-            "rad/s along its principal axes): the rotation about it is not identified, and 'rotation' is the least "
-            "one that takes the body's axis onto the gyroscope's (free_axis). Rates about that axis, the offset and "
-            "the bias are calibrated; rates about other axes are not: record turns about a second axis for them"
+            f"{np.array2string(excitation, precision=3)} rad/s along its principal axes): the rotation about it is not "
+            "identified, and 'rotation' is the least one that takes the body's axis onto the gyroscope's (free_axis). "
+            "Rates about that axis, the offset and the bias are calibrated; rates about other axes are not: record "
+            "turns about a second axis for them"
         )
     return Calibration(
         scale, delta, std[0], A, Rc, std[1:4], b, std[4:7], s, std[7:10] if scale == "axes" else None, None,
         res_rms, int(p.use.sum()), fc, (p.fa, p.fg), excitation, C, names, tuple(notes), free,
     )  # fmt: skip
+
+
+def _unexplained(G: np.ndarray, residual: np.ndarray, scale: str) -> list[str]:
+    """A note where the residual's RMS (less its mean) is more than :data:`UNEXPLAINED` of the band-limited gyro's
+    ``G``; with no scale fitted, a gyro reading 180/π (or π/180) times the attitude's rate (±10 %) names the unit."""
+    rms = lambda x: float(np.sqrt(np.mean(np.sum((x - x.mean(axis=0)) ** 2, axis=1))))  # noqa: E731
+    left, ratio = rms(residual) / max(rms(G), 1e-300), rms(G) / max(rms(G - residual), 1e-300)
+    if left <= UNEXPLAINED:
+        return []
+    units = {180.0 / math.pi: "degrees per second given as radians", math.pi / 180.0: "radians given as degrees"}
+    hint = next((f": it reads {ratio:.3g} times the attitude's rate, {u}" for f, u in units.items()
+                 if scale == "none" and abs(ratio / f - 1) < 0.1), "")  # fmt: skip
+    return [f"the fit's residual is {left:.2g} times the gyroscope's rate in band (RMS){hint}; check its unit "
+            "(--gyro-unit), that the clocks' offset is within the search (--offset, --max-offset), and that both logs "
+            "are of one body"]  # fmt: skip
 
 
 def _orth(M: np.ndarray) -> np.ndarray:

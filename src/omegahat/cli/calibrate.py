@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import dataclasses
 import math
 import os
 import re
@@ -253,47 +252,15 @@ def run(args: argparse.Namespace) -> int:
     cal = calibrate(t_a, log.data, t_g, g, scale=args.scale, cutoff_hz=args.cutoff, offset_guess=args.offset,
                     max_offset=args.max_offset)  # fmt: skip
     unit = "counts" if args.gyro_unit == "raw" else "rad/s"
-    series = band_limited(cal, t_a, log.data, t_g, g)
-    cal = dataclasses.replace(cal, notes=cal.notes + unexplained(series, args.gyro_unit, args.scale))
     print(f"calibrated {args.gyro} against {args.attitude}: gyro(t + offset) = A omega_body(t) + bias")
     print(table(cal, unit))
     if args.output is not None:
         cal.save(args.output)
         print(f"wrote {args.output}")
     if args.plot is not None:
-        plot(cal, series, args.plot, unit)
+        plot(cal, band_limited(cal, t_a, log.data, t_g, g), args.plot, unit)
         print(f"wrote {args.plot}")
     return 0
-
-
-UNEXPLAINED = 0.5  #: a note where the fit leaves more than this part of the gyro's in-band rate (RMS) unexplained
-
-
-def unexplained(series: tuple, gyro_unit: str, scale: str) -> tuple[str, ...]:
-    """A note where the fit leaves more than :data:`UNEXPLAINED` of the gyroscope's rate in band unexplained (the
-    RMS of the residual over that of the band-limited gyro, each less its mean, on the samples fitted): the units,
-    the clocks or the bodies differ. With no scale fitted, a gyro that reads 180/π (or π/180) times the attitude's
-    rate, within 10 %, is named as degrees per second read as radians (or the reverse). Only a note: the fit stands."""
-    _, G, model, used = series
-    if not np.any(used):
-        return ()
-    gyro, fit = G[used] - G[used].mean(axis=0), model[used] - model[used].mean(axis=0)
-    rms = lambda x: float(np.sqrt(np.mean(np.sum(x**2, axis=1))))  # noqa: E731
-    left = rms(gyro - fit) / max(rms(gyro), 1e-300)
-    if left <= UNEXPLAINED:
-        return ()
-    ratio = rms(gyro) / max(rms(fit), 1e-300)
-    swapped = {"rad/s": ("deg/s", "degrees per second taken for radians", 180.0 / math.pi),
-               "deg/s": ("rad/s", "radians per second taken for degrees", math.pi / 180.0)}  # fmt: skip
-    hint = ""
-    if scale == "none" and gyro_unit in swapped and abs(ratio / swapped[gyro_unit][2] - 1.0) < 0.1:
-        other, reading, _ = swapped[gyro_unit]
-        hint = f": it reads {ratio:.3g} times the attitude's rate, as {reading} (--gyro-unit {other})"
-    return (
-        f"the fit's residual is {left:.2g} times the gyroscope's rate in band (RMS){hint}; check its unit "
-        "(--gyro-unit), that the clocks' offset is within the search (--offset, --max-offset), and that both logs "
-        "are of one body",
-    )
 
 
 def plot(cal: Calibration, series: tuple, path: Path, unit: str) -> None:
