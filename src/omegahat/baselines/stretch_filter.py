@@ -63,7 +63,8 @@ def two_passes(
     of them), each ``(m, 3)``. ``before``: the state of the stretch these differences continue (None or empty: they
     start it), whose last differences fill the filters' windows as :func:`next_in_stretch` keeps them."""
     L = taps.shape[0]
-    p = 0 if before is None else len(before.raw)  # at most L, and all of the stretch so far where fewer
+    before = before or Stretch([], [], None, None)
+    p = len(before.raw)  # at most L, and all of the stretch so far where fewer
 
     def filtered(x: np.ndarray, earlier: list[np.ndarray]) -> np.ndarray:
         xs = np.concatenate([np.reshape(earlier, (-1, 3)), x]) if p else x
@@ -72,12 +73,12 @@ def two_passes(
             out[L - 1 :] = np.stack([signal.lfilter(taps[:, j], [1.0], xs[:, j])[L - 1 :] for j in range(3)], 1)
         return out[p:]
 
-    first = filtered(b, before.raw if p else [])  # type: ignore[union-attr]
+    first = filtered(b, before.raw)
     corrected = b.copy()
     corrected[1:] -= so3.coning(first[:-1], first[1:], spans[1:])  # (D5); none at a stretch's first difference
-    if p and before.previous is not None and b.shape[0]:  # type: ignore[union-attr]
-        corrected[0] -= so3.coning(before.previous, first[0], spans[0])  # type: ignore[union-attr]
-    second = filtered(corrected, before.corrected if p else [])  # type: ignore[union-attr]
+    if before.previous is not None and b.shape[0]:
+        corrected[0] -= so3.coning(before.previous, first[0], spans[0])
+    second = filtered(corrected, before.corrected)
     plain = max(0, L - 1 - p)
     second[:plain] = b[:plain]  # before L differences: the differences themselves, as (D4)
     return first, corrected, second
