@@ -366,3 +366,20 @@ def test_a_log_run_in_pieces_gives_the_rows_of_update(options, cuts):
     assert pieced.n_skipped == streamed.n_skipped == 6
     t_next, d_next = t[-1] + 0.01, data[-1]
     np.testing.assert_allclose(pieced.update(t_next, d_next).omega, streamed.update(t_next, d_next).omega, atol=1e-12)
+
+
+def test_a_refused_piece_leaves_the_stream_as_it_was():
+    """``run`` after fed samples refuses a piece with a sample that is not a rotation, naming it, and changes nothing:
+    the next pieces give the rows of the log without the refused piece."""
+    t = np.arange(120) * 0.01
+    q = Rotation.from_rotvec(np.outer(np.sin(3 * t), [0.2, 0.1, 0.3])).as_quat()
+    taps = np.array([0.5, 0.3, 0.2])
+    whole = DifferencingEstimator(taps=taps, cutoff_hz=8.0).run(t, q).omega
+    pieced = DifferencingEstimator(taps=taps, cutoff_hz=8.0)
+    first = pieced.run(t[:50], q[:50]).omega
+    bad = q[50:80].copy()
+    bad[7] *= 2.0  # not a unit quaternion
+    with pytest.raises(MeasurementError, match="sample 7"):
+        pieced.run(t[50:80], bad)
+    rest = [pieced.run(t[a:b], q[a:b]).omega for a, b in ((50, 80), (80, 120))]
+    np.testing.assert_allclose(np.vstack([first, *rest])[1:], whole[1:], atol=1e-12)
