@@ -11,7 +11,8 @@
 * imports run one way: the import graph of the package's modules (every ``import`` statement, at module level or
   inside a function) has no circle, and no module imports one of a higher layer (:data:`LAYERS`: the library's
   layers from the compiled primitives up to the command line, then the laboratory, which the library never
-  imports); ``import omegahat`` loads neither the laboratory nor Matplotlib.
+  imports); ``import omegahat`` loads neither the laboratory nor Matplotlib, and the default ``omegahat estimate``
+  neither ``scipy.signal`` nor ``scipy.stats``.
 
 Each checker is a plain function of a module's source, so that the tests at the end can show that it catches what
 it is meant to catch.
@@ -24,7 +25,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "omegahat"
 MAX_LINES = 500
@@ -275,6 +278,23 @@ def test_import_omegahat_loads_neither_the_laboratory_nor_matplotlib():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_the_default_estimate_loads_neither_scipy_signal_nor_scipy_stats(tmp_path):
+    """Their import costs every command about half a second (SciPy parses their docstrings as it loads them): the
+    default path, from the parser through the identification to the written file, does without them."""
+    t = np.arange(0.0, 20.0, 0.01)
+    q = Rotation.from_rotvec(np.outer(np.sin(t), [0.3, -0.2, 0.9])).as_quat(scalar_first=True)
+    np.savetxt(tmp_path / "log.csv", np.column_stack([t, q]), delimiter=",", header="t,qw,qx,qy,qz", comments="")
+    code = (
+        "import sys; from omegahat.cli import main; "
+        f"status = main(['estimate', {str(tmp_path / 'log.csv')!r}, '-o', {str(tmp_path / 'out.csv')!r}, "
+        "'--no-progress']); "
+        "print(status, sorted(m for m in sys.modules if m.split('.')[:2] in (['scipy', 'signal'], ['scipy', 'stats'])))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out.splitlines()[-1] == "0 []"
+    assert (tmp_path / "out.csv").stat().st_size > 0
 
 
 def test_the_lazy_public_names_are_the_librarys():

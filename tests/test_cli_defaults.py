@@ -7,6 +7,8 @@ the least RMS error over a grid of ``--bandwidth`` runs of the same command on t
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -223,3 +225,24 @@ def test_quaternions_from_scipy_by_row_are_body_to_inertial():
     rot = constant_rate(np.array([1.0]), OMEGA)
     expected = Rotation.from_rotvec([0.2, -0.3, 0.5]).as_matrix() @ Rotation.from_rotvec(OMEGA).as_matrix()
     np.testing.assert_allclose(rot.as_matrix()[0], expected, atol=1e-15)
+
+
+def test_the_version_alone_loads_no_command_and_the_overview_lists_them_all():
+    """``omegahat --version`` answers without importing any subcommand (it took 2.3 s, loading them all); with
+    ``--help`` before it, or alone, the overview still names every command."""
+    code = (
+        "import sys; from omegahat.cli import main, SUBCOMMANDS\n"
+        "try:\n    main(sys.argv[1:])\nexcept SystemExit as stop:\n    print('exit', stop.code)\n"
+        "print(sorted(m for m in SUBCOMMANDS.values() if m in sys.modules))"
+    )
+    from omegahat import __version__
+    from omegahat.cli import SUBCOMMANDS
+
+    def run(*words):
+        return subprocess.run([sys.executable, "-c", code, *words], capture_output=True, text=True, check=True).stdout
+
+    assert run("--version").splitlines() == [f"omegahat {__version__}", "exit 0", "[]"]
+    assert run("--version", "-h").splitlines()[0] == f"omegahat {__version__}"  # argparse: the first one acts
+    for words in (["--help", "--version"], ["--help"]):
+        out = run(*words)
+        assert all(re.search(rf"^\s+{name}\b", out, re.M) for name in SUBCOMMANDS), (words, out)

@@ -4,7 +4,7 @@ sample bridged by SciPy's rotation spline. References: closed forms and SciPy.""
 
 import numpy as np
 import pytest
-from scipy import stats
+from scipy import signal, stats
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from omegahat.baselines.differencing import log_difference
@@ -16,7 +16,9 @@ from omegahat.identification.spectral import (
     increment_spectrum,
     stretches,
     top_noise,
+    welch_density,
     welch_segment,
+    welch_segments,
     wiener_filter,
     wiener_gain,
 )
@@ -306,6 +308,22 @@ def test_the_welch_segment_is_halved_until_27_segments_fit(lengths, segment):
 def test_the_welch_segments_count_only_the_stretches_that_hold_one():
     assert welch_segment([3_000, 100, 100]) == 128  # 22 + 0 + 0 at 256; 45 at 128
     assert welch_segment([1_700, 1_700]) == 128  # 12 + 12 at 256; 25 + 25 at 128
+
+
+@pytest.mark.parametrize(("n", "segment"), [(1_000, 256), (1_000, 255), (4_096, 512), (300, 64), (257, 256), (40, 40)])
+def test_the_welch_density_is_scipys(n, segment):
+    """The command's own Welch estimate (written to spare it the import of ``scipy.signal``) is SciPy's, for even
+    and odd segments, with the mean of each segment removed; and it averages the segments ``welch_segments``
+    counts (SciPy's too: a sum over one more or one fewer would scale the density)."""
+    rng = np.random.default_rng(n + segment)
+    x = rng.standard_normal((n, 3)) * [1.0, 0.1, 3.0] + np.linspace(0.0, 5.0, n)[:, None]
+    freq, density = welch_density(x, segment)
+    ref_freq, ref_density = signal.welch(x, nperseg=segment, axis=0, detrend="constant")
+    np.testing.assert_array_equal(freq, ref_freq)
+    np.testing.assert_allclose(density, ref_density, rtol=1e-12, atol=0.0)
+    pieces = (n - segment) // (segment - segment // 2) + 1
+    assert welch_segments([n, segment - 1], segment) == pieces
+    assert welch_density(x[: segment + (segment - segment // 2) * (pieces - 1)], segment)[1] == pytest.approx(density)
 
 
 @pytest.mark.parametrize("n", [17, 18, 21])

@@ -26,7 +26,6 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import signal
 
 from omegahat import so3
 
@@ -70,7 +69,7 @@ def two_passes(
         xs = np.concatenate([np.reshape(earlier, (-1, 3)), x]) if p else x
         out = xs.copy()
         if xs.shape[0] >= L:
-            out[L - 1 :] = np.stack([signal.lfilter(taps[:, j], [1.0], xs[:, j])[L - 1 :] for j in range(3)], 1)
+            out[L - 1 :] = np.stack([np.convolve(xs[:, j], taps[:, j], mode="valid") for j in range(3)], 1)
         return out[p:]
 
     first = filtered(b, before.raw)

@@ -189,8 +189,11 @@ def main(argv: list[str] | None = None) -> int:
     words = sys.argv[1:] if argv is None else argv
     first = next((w for w in words if not w.startswith("-")), None)
     command = first if first in SUBCOMMANDS else "COMMAND"
+    # the subcommands' modules a word asks for: the one named, none for the version alone, all for the overview
+    version_only = first is None and "--version" in words and not {"-h", "--help"} & set(words)
+    wanted = [first] if first in SUBCOMMANDS else [] if version_only else None
     try:
-        parser = build_parser([first] if first in SUBCOMMANDS else None)
+        parser = build_parser(wanted)
         args = parser.parse_args(argv)
         command = args.command
         try:

@@ -77,8 +77,7 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy import optimize
-from scipy.special import polygamma
-from scipy.stats import norm
+from scipy.special import ndtri, polygamma
 
 from omegahat.identification.fold import UPPER, leaving_slope, rate_spectra
 from omegahat.identification.spectral import SIGNIFICANCE, IncrementSpectrum, noise_shape, welch_dof
@@ -167,7 +166,7 @@ def least_noise(spectrum: IncrementSpectrum) -> np.ndarray:
     spread = float(np.sum((np.log(freq[upper]) - np.mean(np.log(freq[upper]))) ** 2)) if upper.any() else 0.0
     # the slope's standard error: each bin's log-power has variance ψ'(ν/2) (Welch's χ²_ν/ν), every other bin free
     error = math.sqrt(2.0 * float(polygamma(1, welch_dof(spectrum.segments) / 2.0)) / spread) if spread else math.inf
-    margin = float(norm.ppf(SIGNIFICANCE)) * error
+    margin = float(ndtri(SIGNIFICANCE)) * error
     least = np.array(spectrum.sigma, dtype=float)
     for axis, sigma in enumerate(spectrum.sigma):
 

@@ -109,7 +109,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy import fft, signal
+from scipy import fft
 from scipy.spatial.transform import Rotation, RotationSpline
 from scipy.special import gammaincinv
 
@@ -133,6 +133,7 @@ __all__ = [
     "noise_shape",
     "spectral_rate",
     "top_noise",
+    "welch_density",
     "welch_dof",
     "welch_segment",
     "welch_segments",
@@ -193,7 +194,26 @@ def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
 
 def welch_segments(lengths: list[int], segment: int) -> int:
     """How many half-overlapping Welch segments of ``segment`` samples fit in stretches of ``lengths`` samples."""
-    return sum((n - segment) // (segment // 2) + 1 for n in lengths if n >= segment)
+    return sum((n - segment) // (segment - segment // 2) + 1 for n in lengths if n >= segment)
+
+
+def welch_density(x: np.ndarray, segment: int) -> tuple[np.ndarray, np.ndarray]:
+    """Welch's one-sided spectral density of the columns of ``x (n, 3)`` (unit sampling rate): the mean over
+    half-overlapping periodic-Hann segments of ``segment`` samples, each less its mean, of ``2|X(f)|²/Σw²``
+    (the DC and Nyquist bins once); ``(freq, P)``. It is ``scipy.signal.welch(x, nperseg=segment, axis=0,
+    detrend="constant")`` (the tests compare them), written here because importing ``scipy.signal`` costs a
+    command half a second of start-up (it loads ``scipy.stats`` and parses their docstrings)."""
+    starts = np.arange(0, x.shape[0] - segment + 1, segment - segment // 2)  # as welch_segments counts them
+    window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(segment) / segment)
+    P = np.zeros((segment // 2 + 1, x.shape[1]))
+    for a in starts:  # one segment at a time: a log of millions of rates holds no copy of all its segments
+        part = x[a : a + segment]
+        P += np.abs(fft.rfft(window[:, None] * (part - part.mean(axis=0)), axis=0)) ** 2
+    P *= 2.0 / (starts.size * np.sum(window**2))
+    P[0] /= 2.0
+    if segment % 2 == 0:
+        P[-1] /= 2.0
+    return fft.rfftfreq(segment), P
 
 
 def welch_dof(segments: int) -> float:
@@ -327,7 +347,7 @@ def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> Incre
     if not usable or segment < 8:
         none = np.zeros((0, 3))
         return IncrementSpectrum(np.zeros(0), none, none, none, np.full(3, quiet), h, jitter, long_runs, rates)
-    spectra = [signal.welch(r, nperseg=segment, axis=0, detrend="constant") for r in usable]
+    spectra = [welch_density(r, segment) for r in usable]
     freq = spectra[0][0]
     weights = np.array([r.shape[0] for r in usable], dtype=float)
     P_b = np.einsum("s,sfj->fj", weights, np.stack([p for _, p in spectra])) / weights.sum()
