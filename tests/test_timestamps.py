@@ -261,3 +261,56 @@ def test_estimate_frame_keeps_the_last_and_gives_the_dropped_row_its_estimate():
     W_ref = estimate_frame(clean, inertia=J_AXI)[["wx", "wy", "wz"]].to_numpy()
     np.testing.assert_array_equal(np.delete(W, 100, axis=0), W_ref)
     np.testing.assert_array_equal(W[100], W[101])
+
+
+def _turning_csv(path, times_text):
+    """A CSV log of a body turning at 1 rad/s about z whose ``t`` column is ``times_text`` (one string per row)."""
+    n = len(times_text)
+    q = Rotation.from_rotvec(np.outer(np.arange(n) / 89.76, [0.0, 0.0, 1.0])).as_quat(scalar_first=True)
+    rows = [f"{s},{a:.9f},{b:.9f},{c:.9f},{d:.9f}" for s, (a, b, c, d) in zip(times_text, q, strict=True)]
+    path.write_text("t,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_stamps_rounded_to_significant_digits_are_named_as_the_cause_and_the_rate_reads_them(tmp_path, capsys):
+    """As in RepoIMU's CSVs: rows of an 89.76 Hz clock with 2 ms of jitter, stamps written with 5 significant
+    digits (``%.5g``), so 0.001 s apart below 100 s and 0.01 s apart above, where two rows come to share a stamp.
+    The command says the stamps were rounded onto each other (not a broken clock) and gives the rows' mean rate;
+    following its advice, every row is read, at that rate."""
+    from omegahat.cli import main
+    from recording_files import read_omega_csv
+
+    true_t = np.arange(12_000) / 89.76 + np.random.default_rng(5).uniform(-0.002, 0.002, 12_000)
+    log = _turning_csv(tmp_path / "rounded.csv", [f"{x:.5g}" for x in true_t])
+    stamps = np.array([float(f"{x:.5g}") for x in true_t])
+    first = int(np.flatnonzero(np.diff(stamps) == 0)[0])  # reference: the first two rows sharing a stamp
+    code = main(["estimate", str(log), "-o", str(tmp_path / "out.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert f"line {first + 2} and line {first + 3}: two samples at the same time {float(stamps[first])!r}" in err
+    most = max(len(text.split(".")[1]) for text in (f"{x:.5g}" for x in true_t) if "." in text)  # 6: 0.012373
+    assert f"lose decimals as they grow ({most} early on, 2 at {float(stamps[first])!r}: a step of 0.01 s)" in err
+    rate = float(err.split("--rate ")[1].split()[0])
+    assert rate == pytest.approx(89.76, rel=1e-3)
+    columns = "qw=qw,qx=qx,qy=qy,qz=qz"
+    code = main(["estimate", str(log), "-o", str(tmp_path / "out.csv"), "--columns", columns, "--rate", str(rate)])
+    assert code == 0, capsys.readouterr().err
+    table, status = read_omega_csv(tmp_path / "out.csv")
+    assert table.shape[0] == true_t.size and set(status) <= {"corrected", "predicted"}
+    np.testing.assert_allclose(table[:, 0], np.arange(true_t.size) / rate, rtol=1e-9)
+    # the body turns 1/89.76 rad per row: 1 rad/s at the true rate, rate/89.76 at the one given
+    assert np.abs(table[true_t.size // 2 :, 1:] - [0.0, 0.0, rate / 89.76]).max() < 2e-3
+
+
+def test_a_conflicting_stamp_in_fixed_decimals_is_not_called_rounding(tmp_path, capsys):
+    """Times written with the same two decimals throughout (a regular 100 Hz clock): a row written twice with
+    another attitude is the broken time source of the usual message, whatever the step."""
+    from omegahat.cli import main
+
+    times = [f"{k / 100:.2f}" for k in range(600)]
+    log = _turning_csv(tmp_path / "fixed.csv", [*times[:301], times[300], *times[301:-1]])
+    code = main(["estimate", str(log), "-o", str(tmp_path / "out.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "two samples at the same time 3.0 with" in err and "broken time source" in err
+    assert "lose decimals" not in err and "--rate" not in err

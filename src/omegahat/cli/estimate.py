@@ -263,7 +263,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--rate",
         type=float,
         metavar="HZ",
-        help="times of a log without any (a KITTI pose list, or a CSV log without a time column): row / HZ",
+        help="times of a log without any (a KITTI pose list, a CSV log without a time column, or one whose "
+        "--columns leave it out): row / HZ",
     )
     rec.add_argument("--times", metavar="FILE", help="times of a pose list without any (KITTI): one time in s per line")
     rec.add_argument(

@@ -175,10 +175,11 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
             raise LogFormatError(
                 f"{where}: --time-unit is the unit of a time column; with --rate the times are row / rate s"
             )
-        if has_time:
+        # a column map that leaves the time out reads the rows as regular samples (stamps rounded onto each other)
+        if has_time and not (options.column_map and "t" not in dict(options.column_map)):
             raise LogFormatError(
                 f"{where}: the log has a time column {time_column!r}; leave --rate out (it gives the times of a log "
-                "without any)"
+                "without any), or name the columns to read in --columns without t to replace the log's times"
             )
         time_column = None
     sample = [

@@ -227,6 +227,32 @@ class TimePolicy:
             return repr(float(x))
         return str(Decimal(self.time_base) + Decimal(repr(float(x))))
 
+    def _rounding(self, t: np.ndarray, raw: np.ndarray, j: int) -> str:
+        """For the message of a conflicting duplicate at row ``j`` of a chunk: where the file writes its times
+        with a fixed number of significant digits (a ``%g`` export), they lose decimals as they grow (RepoIMU:
+        0.001 s early on, 0.01 s from 100 s on, at rows 11 ms apart), and once their step is about the rows'
+        spacing, rows share stamps by rounding, not because the clock is broken. Then the rows' mean rate in the
+        chunk is given to read them as regular samples. Empty where the decimals do not explain it: the same
+        decimals throughout (a fixed-point column of a regular clock), or exact times relative to a base (5)."""
+        if self.time_base or j == 0 or raw[j] == raw[0] or raw[j] == 0:
+            return ""
+        decimals = [-int(Decimal(repr(float(x))).as_tuple().exponent) for x in raw[: j + 1]]
+        with np.errstate(divide="ignore"):  # a stamp 0 has no order (-inf): never raw[j]'s
+            order = np.floor(np.log10(np.abs(raw[max(0, j - 63) : j + 1])))  # the recent stamps of raw[j]'s order
+        near = max(d for d, o in zip(decimals[-order.size :], order, strict=True) if o == order[-1])
+        most = max(decimals)
+        resolution = 10.0**-near * float((t[j] - t[0]) / (raw[j] - raw[0]))  # in s
+        step = float(t[j] - t[0]) / j  # the rows' mean spacing
+        if near >= most or not resolution >= 0.5 * step:
+            return ""
+        return (
+            f"the file's times lose decimals as they grow ({most} early on, {near} at {self._num(raw[j])}: a step "
+            f"of {resolution:.3g} s) while its rows are {step:.3g} s apart on average, so rows share stamps by "
+            "rounding (the clock need not be broken). To read them as regular samples, name the attitude columns in "
+            f"--columns without the time and pass --rate {1.0 / step:.6g} (the rows' mean rate in this part of the "
+            "log)"
+        )
+
     def _duplicates(self, equal: np.ndarray, keep: np.ndarray, arrays: tuple) -> None:
         t, raw, data, torque, labels, _ = arrays
         n = t.size
@@ -256,12 +282,20 @@ class TimePolicy:
                     continue
                 place = f"{self.where(int(labels[current]))} and {self.unit} {int(labels[j])}"
                 if self.duplicates == "error":
+                    keep_one = (
+                        "pass --duplicate-times first or last (duplicate_times= in Python) to keep one sample of each "
+                        "such time (the others are dropped, counted and reported)"
+                    )
+                    rounded = self._rounding(t, raw, j)
                     raise LogFormatError(
-                        f"{place}: two samples at the same time {self._num(raw[j])} with {what[0]}. Duplicated "
-                        "timestamps must carry the same attitude (omegahat drops those); conflicting ones mean a "
-                        "broken time source: fix the time column (for a ROS bag, try the receive time: --stamp "
-                        "receive), or pass --duplicate-times first or last (duplicate_times= in Python) to keep one "
-                        "sample of each such time (the others are dropped, counted and reported)"
+                        f"{place}: two samples at the same time {self._num(raw[j])} with {what[0]}"
+                        + (
+                            f": {rounded}; or {keep_one}"
+                            if rounded
+                            else ". Duplicated timestamps must carry the same attitude (omegahat drops those); "
+                            "conflicting ones mean a broken time source: fix the time column (for a ROS bag, try the "
+                            f"receive time: --stamp receive), or {keep_one}"
+                        )
                     )
                 self.n_conflicts += 1
                 if self._conflict_time != t[j]:  # by value: a time's samples may straddle two chunks
