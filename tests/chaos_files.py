@@ -98,6 +98,11 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
     vicon = (folder / "trial.csv").read_bytes()
     seeds.append(Seed("vicon", {"trial.csv": vicon}, "trial.csv", "trial.csv", rows, 5, {"body": "drone"}))
 
+    from vendor_files import write_qtm_mat
+
+    write_qtm_mat(folder / "take.mat", {"drone": R}, 100.0)
+    seeds.append(Seed("qtm-mat", {"take.mat": (folder / "take.mat").read_bytes()}, "take.mat", "take.mat", rows))
+
     from test_mocap import write_c3d
 
     write_c3d(folder / "trial.c3d", {"drone": R}, 100.0)

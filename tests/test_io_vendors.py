@@ -19,6 +19,7 @@ from vendor_files import (
     write_motive,
     write_plain_csv,
     write_qtm_6d,
+    write_qtm_mat,
     write_tum,
 )
 
@@ -222,6 +223,74 @@ def test_qtm_errors(tmp_path):
         read_log(nobody, body="c")
     bare = write_qtm_6d(tmp_path / "bare_6d.tsv", t, {"b": R}, 100.0, labels=False)
     np.testing.assert_allclose(read_log(bare).data, R, atol=2e-6)  # no label row: 16 columns a body
+
+
+def test_qtm_mat_export_gives_the_rotations_and_the_6d_tsv_rates(tmp_path, capsys):
+    """The same capture exported as MAT and as 6D TSV: the MAT file's matrices are the attitudes themselves (doubles),
+    its untracked frame a missing sample, its times (frame - 1) / rate from its StartFrame, and its rates those of
+    a plain CSV of the same matrices written with every digit; the TSV names the same body."""
+    t, R, _ = motion(300, 100.0)
+    other = Rotation.random(len(t), random_state=4).as_matrix()
+    mat = write_qtm_mat(tmp_path / "take.mat", {"wand": other, "drone": R}, 100.0, missing={40}, start=11)
+    assert detect_format(mat).name == "qtm-mat"
+    with pytest.raises(LogFormatError, match=r"2 rigid bodies with rotations \(wand, drone\); choose one with --body"):
+        read_log(mat)
+    log = read_log(mat, body="drone")
+    assert log.missing.tolist() == [k == 40 for k in range(len(t))]
+    np.testing.assert_allclose(log.data[~log.missing], R[np.arange(len(t)) != 40], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(log.t, (10 + np.arange(len(t))) / 100.0, rtol=0, atol=1e-15)
+    assert "other bodies in the file: wand" in log.notes
+    table, printed = rates(mat, tmp_path, capsys, "--body", "drone")
+    assert (
+        "detected Qualisys QTM MAT export (Measurement1): body 'drone', RigidBodies.Rotations column by column "
+        "(body -> global; element order checked against Roll, Pitch, Yaw (agree to"
+    ) in printed
+    plain = tmp_path / "plain.csv"
+    header = "t," + ",".join(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+    rows = [f"{float(t[k] + 0.1)!r}," + ",".join(repr(float(v)) for v in R[k].reshape(-1)) for k in range(len(t))]
+    rows[40] = f"{float(t[40] + 0.1)!r}" + "," * 9
+    plain.write_text(header + "\n" + "\n".join(rows) + "\n")
+    same_rates(table, rates(plain, tmp_path, capsys)[0])
+    tsv = write_qtm_6d(tmp_path / "take_6d.tsv", t, {"wand": other, "drone": R}, 100.0, missing={40})
+    assert read_log(tsv, body="drone").missing.tolist() == log.missing.tolist()
+
+
+def test_qtm_mat_errors(tmp_path, monkeypatch):
+    from scipy.io import savemat
+
+    from omegahat.io import qtm_mat
+
+    t, R, _ = motion(30, 100.0)
+    rows = write_qtm_mat(tmp_path / "rows.mat", {"b": R}, 100.0, row_major=True)
+    with pytest.raises(LogFormatError, match=r"agree with its Roll, Pitch, Yaw only when read row by row"):
+        read_log(rows)
+    with pytest.raises(LogFormatError, match=r"no rigid body named 'c'; the file has b"):
+        read_log(write_qtm_mat(tmp_path / "one.mat", {"b": R}, 100.0), body="c")
+    savemat(tmp_path / "arrays.mat", {"ts": t, "rots": R})
+    with pytest.raises(LogFormatError, match=r"arrays\.mat: no QTM measurement structs with RigidBodies \(variables: "):
+        read_log(tmp_path / "arrays.mat")
+    hdf5 = tmp_path / "v73.mat"  # MATLAB 7.3: a MAT header of version 0x0200 over an HDF5 file
+    hdf5.write_bytes(b"MATLAB 7.3 MAT-file".ljust(116) + bytes(8) + b"\x00\x02IM" + b"\x89HDF\r\n\x1a\n" + bytes(64))
+    with pytest.raises(
+        LogFormatError, match=r"v73\.mat: a MATLAB 7\.3 MAT-file \(HDF5\), which omegahat does not read"
+    ):
+        read_log(hdf5)
+    (tmp_path / "text.mat").write_text("t,qw,qx,qy,qz\n0,1,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"text\.mat: not a MATLAB level 5 MAT-file"):
+        read_log(tmp_path / "text.mat")
+    # a few kilobytes that expand into more than the bound: refused before SciPy reads them
+    monkeypatch.setattr(qtm_mat, "MAX_MAT_BYTES", 1 << 20)
+    bomb = tmp_path / "bomb.mat"
+    savemat(bomb, {"Measurement1": {"FrameRate": 100.0, "Pad": np.zeros(1 << 18)}}, do_compression=True)
+    assert bomb.stat().st_size < 10_000
+    with pytest.raises(LogFormatError, match=r"bomb\.mat: its arrays take more than .* once decompressed"):
+        read_log(bomb)
+    monkeypatch.setattr(qtm_mat, "MAX_MAT_BYTES", 1 << 30)
+    damaged = bytearray(write_qtm_mat(tmp_path / "ok.mat", {"b": R}, 100.0).read_bytes())
+    damaged[300:340] = bytes(40)  # inside the compressed struct
+    (tmp_path / "damaged.mat").write_bytes(bytes(damaged))
+    with pytest.raises(LogFormatError, match=r"damaged\.mat: not a readable MAT-file"):
+        read_log(tmp_path / "damaged.mat")
 
 
 # ---------------------------------------------------------------------------------------------------- Motive

@@ -109,6 +109,47 @@ def write_qtm_6d(path, t: np.ndarray, bodies: dict, rate: float, *, row_major=Fa
     return Path(path)
 
 
+# Qualisys QTM, "Export to MAT file" (as QTM 2.10 writes it): one struct named after the measurement with File,
+# Timestamp, StartFrame, Frames, FrameRate, Trajectories and RigidBodies {Bodies, Name (1 x n cells), Positions,
+# Rotations, RPYs (n x 3 x F, degrees), Residual}; Rotations (n x 9 x F) hold each 6DOF matrix column by column, an
+# untracked frame NaN.
+def write_qtm_mat(
+    path, bodies: dict, rate: float, *, row_major=False, missing=(), start=1, name="Measurement1", compress=True
+) -> Path:
+    from scipy.io import savemat
+
+    names = list(bodies)
+    frames = len(next(iter(bodies.values())))
+    rotations = np.full((len(names), 9, frames), np.nan)
+    rpys = np.full((len(names), 3, frames), np.nan)
+    for b, R in enumerate(bodies.values()):
+        M = np.swapaxes(R, 1, 2) if row_major else R
+        rotations[b] = M.transpose(0, 2, 1).reshape(frames, 9).T  # element i + 3 j is R[i, j]: column by column
+        rpys[b] = Rotation.from_matrix(R).as_euler("XYZ", degrees=True).T
+        rotations[b][:, list(missing)] = np.nan
+        rpys[b][:, list(missing)] = np.nan
+    cells = np.empty((1, len(names)), dtype=object)
+    cells[0, :] = names
+    measurement = {
+        "File": f"C:\\Data\\{name}.qtm",
+        "Timestamp": "2024-05-02, 10:11:12\t1234.56789",
+        "StartFrame": float(start),
+        "Frames": float(frames),
+        "FrameRate": float(rate),
+        "Trajectories": {"Labeled": {"Count": 0.0}, "Unidentified": {"Count": 0.0}, "Discarded": {"Count": 0.0}},
+        "RigidBodies": {
+            "Bodies": float(len(names)),
+            "Name": cells,
+            "Positions": np.zeros((len(names), 3, frames)),
+            "Rotations": rotations,
+            "RPYs": rpys,
+            "Residual": np.full((len(names), 1, frames), 0.5),
+        },
+    }
+    savemat(path, {name: measurement}, do_compression=compress, oned_as="row")
+    return Path(path)
+
+
 # OptiTrack Motive, "Data Export: CSV": a metadata line, a blank line, rows of kinds, names and IDs (labelled
 # ',Type,', ',Name,', ',ID,' from format 1.23 on, unlabelled before), a row of components, then 'Frame,Time...'
 # and one row per frame; Rotation Type Quaternion (X,Y,Z,W) or an Euler order (X,Y,Z angles in degrees).

@@ -68,7 +68,7 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
         an attitude with an empty field, nan or inf is a missing sample; other columns are ignored.
         other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
-        Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV, C3D files
+        Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV and MAT, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
         bags (.bag) and ROS 2 bags (directory) (--topic, frames).
         Equal times: the same attitude is one sample (dropped), different attitudes are an error

@@ -36,7 +36,7 @@ from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import head_lines
 
-__all__ = ["is_qtm_6d", "open_qtm_6d"]
+__all__ = ["check_order", "is_qtm_6d", "open_qtm_6d"]
 
 _ROT = [f"Rot[{k}]" for k in range(9)]
 _CHECK_FRAMES = 20  # tracked frames on which the element order is checked against the angles
@@ -70,7 +70,7 @@ def _from_angles(roll, pitch, yaw) -> np.ndarray:
     return Rotation.from_euler("XYZ", np.column_stack([roll, pitch, yaw]), degrees=True).as_matrix()
 
 
-def _check_order(R: np.ndarray, angles: np.ndarray | None, path: str, name: str) -> str:
+def check_order(R: np.ndarray, angles: np.ndarray | None, path: str, name: str) -> str:
     """Compare the first tracked frames with their angles (module docstring); returns what was checked."""
     ok = np.flatnonzero(np.all(np.isfinite(R.reshape(len(R), -1)), axis=1))[:_CHECK_FRAMES]
     if angles is None or not ok.size:
@@ -159,7 +159,7 @@ def open_qtm_6d(path: str | os.PathLike[str], options: ReadOptions) -> LogStream
     if not times:
         raise LogFormatError(f"{path}: no frames after the header")
     R = np.array(mats)
-    checked = _check_order(R, np.array(angles) if angle_cols else None, path, name)
+    checked = check_order(R, np.array(angles) if angle_cols else None, path, name)
     how = "column 'Time'" if time_col is not None else f"Frame / {rate:g} Hz"
     stream = LogStream.from_arrays(
         path,
