@@ -16,8 +16,9 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.calibration import Calibration, calibrate
 from omegahat.cli import main
-from omegahat.cli.calibrate import read_gyro, table
+from omegahat.cli.calibrate import table
 from omegahat.io import LogFormatError
+from omegahat.io.gyrolog import read_gyro
 
 
 def euler_motion(seed: int, single_axis: bool = False):
@@ -280,7 +281,7 @@ def test_command_messages(tmp_path, capsys):
     assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "raw"]) == 2
     assert "--gyro-unit raw needs scale factors" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(gyro), "--gyro-columns", "wx,wy,wz"]) == 2
-    assert "no column wx, wy, wz" in capsys.readouterr().err
+    assert "no column 'wx' (found: t, gx, gy, gz); name the gyro's rate with --gyro-columns" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(tmp_path / "none.csv")]) == 2
     assert "No such file" in capsys.readouterr().err
     lines = gyro.read_text().splitlines()
@@ -293,7 +294,7 @@ def test_command_messages(tmp_path, capsys):
 def test_read_gyro_npz(tmp_path):
     t = np.arange(5.0)
     np.savez(tmp_path / "g.npz", t=t, g=np.ones((5, 3)))
-    tt, g = read_gyro(tmp_path / "g.npz")
+    tt, g, _ = read_gyro(tmp_path / "g.npz")
     np.testing.assert_array_equal(tt, t)
     assert g.shape == (5, 3)
     np.savez(tmp_path / "h.npz", t=t, g=np.ones((4, 3)))
@@ -316,7 +317,7 @@ def test_gyro_columns_by_their_usual_names(tmp_path, header):
     path = tmp_path / "imu.csv"
     np.savetxt(path, np.column_stack([table_.get(j, -np.ones(4)) for j in range(len(names))]), delimiter=",",
                header=header, comments="")  # fmt: skip
-    t, g = read_gyro(path)
+    t, g, _ = read_gyro(path)
     np.testing.assert_array_equal(t, np.arange(4.0))
     np.testing.assert_array_equal(g, rows)
     np.savez(tmp_path / "imu.npz", t=np.arange(4.0), **{n: rows[:, i] for i, n in enumerate(rate)})
@@ -354,3 +355,58 @@ def test_a_gyro_in_the_other_unit_is_named(tmp_path, capsys):
     assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "-o", str(out_json)]) == 0
     assert "times the attitude's rate, radians given as degrees; check its unit" in capsys.readouterr().out
     assert any("radians given as degrees" in n for n in Calibration.load(out_json).notes)
+
+
+def test_a_gyro_as_instruments_write_it_gives_the_calibration_of_the_plain_csv(tmp_path, capsys):
+    """The gyroscope of one simulated log written four ways: the plain CSV; RepoIMU's layout (``;``, a group title
+    over X, Y, Z in a two-row header, other columns around); no header, blank-separated (columns by position); and
+    no usable time (``--gyro-rate``, the rows regular). Each gives the plain CSV's rows, and through the command the
+    same calibration; the attitude in RepoIMU's layout too (``--header-rows 2 --columns``)."""
+    data, truth = simulated(6)
+    att, gyro = _write_logs(tmp_path, data)
+    ta, Ra, tg, g = data
+    deg = np.degrees(g)
+    repo = tmp_path / "repo.csv"
+    rows = [f"{t:.10g};1;0;0;0;{x:.10g};{y:.10g};{z:.10g};9.81" for t, (x, y, z) in zip(tg, deg, strict=True)]
+    repo.write_text("Time;Vicon Orientation;;;;IMU Gyroscope;;;IMU Acceleration\ns;W;X;Y;Z;X;Y;Z;X\n" + "\n".join(rows))
+    bare = tmp_path / "gyroscope.txt"
+    np.savetxt(bare, np.column_stack([np.arange(tg.size), tg, deg]), fmt="%.10g")  # a sample counter first
+    plain = read_gyro(gyro)
+    from_repo = read_gyro(repo, header_rows=2, time_column="Time s")
+    assert from_repo.names == ("time s", "imu gyroscope x", "imu gyroscope y", "imu gyroscope z")
+    from_bare = read_gyro(bare, ("3", "4", "5"), "2", header_rows=0)
+    for other in (from_repo, from_bare):
+        np.testing.assert_array_equal(other.t, plain.t)
+        np.testing.assert_array_equal(other.g, plain.g)
+    np.testing.assert_array_equal(read_gyro(bare, ("3", "4", "5"), None, header_rows=0).t, np.arange(tg.size))
+    with pytest.raises(
+        LogFormatError, match=r"numbers where the header should name the columns .*--gyro-header-rows 0"
+    ):
+        read_gyro(bare)
+
+    att_repo = tmp_path / "att_repo.csv"
+    q = Rotation.from_matrix(Ra).as_quat()
+    lines = [";".join(repr(float(v)) for v in (t, w, x, y, z)) for t, (x, y, z, w) in zip(ta, q, strict=True)]
+    att_repo.write_text("Time;Vicon Orientation;;;\ns;W;X;Y;Z\n" + "\n".join(lines) + "\n")
+    columns = "t=Time s,qw=Vicon Orientation W,qx=Vicon Orientation X,qy=Vicon Orientation Y,qz=Vicon Orientation Z"
+
+    def table_of(*words):
+        assert main(["calibrate", *words, "--gyro-unit", "deg/s"]) == 0
+        out = capsys.readouterr().out
+        return out[out.index("clock offset") :]
+
+    reference = table_of(str(att), str(gyro))
+    assert table_of(str(att_repo), str(repo), "--header-rows", "2", "--columns", columns, "--gyro-header-rows", "2",
+                    "--gyro-time-column", "time s") == reference  # fmt: skip
+    assert table_of(str(att), str(bare), "--gyro-header-rows", "0", "--gyro-time-column", "2",
+                    "--gyro-columns", "3,4,5") == reference  # fmt: skip
+    # the gyro's own rows at its nominal rate: its clock's start is then the offset's to find
+    saved = _saved(tmp_path, att, bare, "--gyro-rate", "200", "--gyro-columns", "3,4,5", "--gyro-header-rows", "0")
+    z = z_scores(Calibration.load(saved), {**truth, "delta": truth["delta"] - tg[0]})
+    assert max(abs(v) for v in z) < 5, z
+
+
+def _saved(tmp_path, att, gyro, *words):
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "-o", str(out), *words]) == 0
+    return out

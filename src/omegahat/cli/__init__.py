@@ -55,6 +55,34 @@ def positive_float(text: str) -> float:
     return value
 
 
+def add_column_options(group: Any) -> None:
+    """``--columns``, ``--header-rows`` and ``--duplicate-times`` on ``group``: how a text log whose names are not
+    omegahat's is read, and what samples at one time become (``omegahat estimate`` and ``calibrate``)."""
+    from omegahat.io.timestamps import DUPLICATE_CHOICES  # here: `omegahat --version` loads no reader
+
+    group.add_argument(
+        "--columns",
+        metavar="KEY=COL,...",
+        help="which column holds what, for files whose names are not omegahat's: t=NAME,qw=NAME,qx=NAME,qy=NAME,"
+        "qz=NAME (or r11..r33, b1x.., tau_x..) by header name or 1-based position (t=1,qw=2,...); see "
+        "docs/your-data.md",
+    )
+    group.add_argument(
+        "--header-rows",
+        type=int,
+        metavar="N",
+        help="rows the header spans (names joined per column, e.g. a group title over W,X,Y,Z); 0: no header, "
+        "columns by position",
+    )
+    group.add_argument(
+        "--duplicate-times",
+        choices=DUPLICATE_CHOICES,
+        default="error",
+        help="samples at one time whose attitudes differ: error (default: a broken time source; the message names "
+        "both lines), or keep the first or the last of them (the others dropped, counted and reported)",
+    )
+
+
 def add_quaternion_order(group: Any, where: str = "") -> None:
     """``--scalar-first`` / ``--scalar-last`` (one of them, into ``scalar_first``: True, False or None when neither
     is given) on ``group`` (a parser or an argument group); ``where`` says, in the first one's help, which inputs

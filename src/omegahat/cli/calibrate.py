@@ -2,9 +2,8 @@ r"""``omegahat calibrate ATTITUDE GYRO``: a gyroscope calibrated against an atti
 
 A thin shell over :func:`omegahat.calibration.calibrate` (the method: its docstring and ``docs/calibrate.md``). The
 attitude log is read by :func:`omegahat.io.read_log` (every format ``omegahat estimate`` reads, with the same
-conventions options); the gyroscope log is a CSV whose header names ``t`` and one group of :data:`GYRO_COLUMNS`
-(``gx, gy, gz``, ``wx, wy, wz``, ``gyro_x, gyro_y, gyro_z``, ...; or the columns given) or an NPZ with such arrays
-(or ``g (M, 3)``): :func:`read_gyro`. Prints the table (:func:`table`:
+conventions and column options); the gyroscope log is a text or NPZ log of a time and three rate columns
+(:func:`omegahat.io.gyrolog.read_gyro`). Prints what it read, then the table (:func:`table`:
 each quantity ± one standard deviation), writes it as JSON with ``-o``
 (:meth:`omegahat.calibration.Calibration.save`), and draws the residuals with ``--plot FILE.png`` (Matplotlib,
 imported only then).
@@ -13,27 +12,25 @@ imported only then).
 from __future__ import annotations
 
 import argparse
-import csv
 import math
-import os
-import re
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from omegahat import so3
 from omegahat.calibration import DEFAULT_MAX_OFFSET, MODES, Calibration, band_limited, calibrate
-from omegahat.cli import add_quaternion_order, positive_float
-from omegahat.io import LogFormatError, ReadOptions, read_log
+from omegahat.cli import add_column_options, add_quaternion_order, positive_float
+from omegahat.io import ReadOptions, read_log
+from omegahat.io.gyrolog import read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
 
 HELP = "Calibrate a gyroscope against an attitude log of the same body: clock offset, frame rotation, bias, scale."
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
         matrix (--scale matrix: raw counts, permuted or mirrored axes); omega in body axes, rad/s
-gyro:   a CSV with a header t,gx,gy,gz (or wx,wy,wz, gyro_x,gyro_y,gyro_z, ...: one such group; any order, any
-        case; other columns ignored) or an NPZ with such arrays or g (M, 3); its own clock and rate
+gyro:   a CSV with a header t,gx,gy,gz (or wx,wy,wz, gyro_x,gyro_y,gyro_z, ...: one such group, or one triple
+        of names ending in x, y, z that name a gyroscope; any order, any case; other columns ignored; ',' ';' tab
+        or blanks between them) or an NPZ with such arrays or g (M, 3); its own clock and rate
 motion: turns about two axes or more for the whole rotation; about one axis (a hinge, a pendulum) the offset, the
         bias and the axis's direction are fitted, and the turn about it is left out (free_axis); a motion that repeats
         itself may match at another offset (a note says so): narrow the search with --offset and --max-offset
@@ -41,102 +38,6 @@ example: omegahat calibrate vicon.csv imu.csv --scale axes -o calibration.json -
          omegahat calibrate mocap.npz raw_imu.csv --gyro-unit raw --scale matrix
 """
 GYRO_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "raw": 1.0}
-
-
-GYRO_COLUMNS = (
-    ("gx", "gy", "gz"),
-    ("wx", "wy", "wz"),
-    ("gyro_x", "gyro_y", "gyro_z"),
-    ("gyr_x", "gyr_y", "gyr_z"),
-    ("gyrox", "gyroy", "gyroz"),
-    ("omega_x", "omega_y", "omega_z"),
-    ("angular_velocity_x", "angular_velocity_y", "angular_velocity_z"),
-)  #: the gyroscope's rate columns recognised by name (one group of them in a header; others: --gyro-columns)
-
-
-def gyro_columns(names: list[str], where: str) -> tuple[str, str, str]:
-    """The one group of :data:`GYRO_COLUMNS` among ``names`` (lower case), or an error that names what was found and
-    suggests ``--gyro-columns`` where three columns ending in x, y, z share a prefix."""
-    found = [g for g in GYRO_COLUMNS if all(c in names for c in g)]
-    if len(found) == 1:
-        return found[0]
-    if found:
-        groups = " and ".join(",".join(g) for g in found)
-        raise LogFormatError(f"{where}: several gyroscope columns ({groups}); name one with --gyro-columns X,Y,Z")
-    prefixes = {m.group(1) for n in names if (m := re.fullmatch(r"(.+?)[_.\s-]?x", n))}
-    triples = [
-        tuple(f"{p}{sep}{a}" for a in "xyz")
-        for p in sorted(prefixes)
-        for sep in ("", "_", ".", " ", "-")
-        if all(f"{p}{sep}{a}" in names for a in "xyz")
-    ]
-    tip = f" (perhaps --gyro-columns {','.join(triples[0])})" if len(triples) == 1 else ""
-    raise LogFormatError(
-        f"{where}: no gyroscope columns (found: {', '.join(names)}); expected one of "
-        f"{'; '.join(','.join(g) for g in GYRO_COLUMNS)}: name them with --gyro-columns X,Y,Z{tip}"
-    )
-
-
-def read_gyro(
-    path: str | os.PathLike[str], columns: tuple[str, str, str] | None = None, time_column: str = "t"
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(t (M,), g (M, 3))`` of a gyroscope log (module docstring); ``columns`` None: the one group of
-    :data:`GYRO_COLUMNS` the header has (:func:`gyro_columns`). Errors name the line (CSV) or array (NPZ)."""
-    path = os.fspath(path)
-    if path.lower().endswith(".npz"):
-        return _read_npz(path, time_column.lower(), columns)
-    with open(path, encoding="utf-8-sig", newline="") as f:
-        rows = csv.reader(f)
-        header = next(rows, None)
-        if header is None:
-            raise LogFormatError(f"{path}: empty file (expected a header naming {time_column} and the gyro's rate)")
-        names = [h.strip().lower() for h in header]
-        rate = gyro_columns(names, path) if columns is None else tuple(c.lower() for c in columns)
-        want = [time_column.lower(), *rate]
-        missing = [w for w in want if w not in names]
-        if missing:
-            raise LogFormatError(
-                f"{path}: no column {', '.join(missing)} (found: {', '.join(names)}); name the gyro's columns with "
-                "--gyro-columns and its time with --gyro-time-column"
-            )
-        idx = [names.index(w) for w in want]
-        out = []
-        for line, row in enumerate(rows, start=2):
-            if not row or all(not c.strip() for c in row):
-                continue
-            values = []
-            for i in idx:
-                try:
-                    values.append(float(row[i]))
-                except (ValueError, IndexError):
-                    shown = repr(row[i]) if i < len(row) else "nothing"
-                    raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
-            out.append(values)
-    if not out:
-        raise LogFormatError(f"{path}: no rows after the header")
-    a = np.array(out)
-    return a[:, 0], a[:, 1:]
-
-
-def _read_npz(path: str, time_name: str, columns: tuple[str, str, str] | None) -> tuple[np.ndarray, np.ndarray]:
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k.lower(): np.asarray(z[k], dtype=float) for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise LogFormatError(f"{path}: not a readable .npz file of numbers ({exc})") from None
-    if time_name not in arrays:
-        raise LogFormatError(f"{path}: no array {time_name!r} (found: {', '.join(arrays)})")
-    t = arrays[time_name].ravel()
-    if columns is None and "g" in arrays:
-        g = arrays["g"]
-    else:
-        rate = gyro_columns(list(arrays), path) if columns is None else tuple(c.lower() for c in columns)
-        if not all(c in arrays for c in rate):
-            raise LogFormatError(f"{path}: no arrays {', '.join(rate)} (found: {', '.join(arrays)})")
-        g = np.column_stack([arrays[c].ravel() for c in rate])
-    if g.shape != (t.size, 3):
-        raise LogFormatError(f"{path}: the gyro must be ({t.size}, 3), one row per time; got {g.shape}")
-    return t, g
 
 
 def table(cal: Calibration, unit: str = "rad/s") -> str:
@@ -211,14 +112,41 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     att.add_argument("--time-column", default="t", metavar="NAME")
     att.add_argument("--rotation", choices=ROTATIONS, default="body-to-inertial")
     add_quaternion_order(att)
-    att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon or C3D file")
+    att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon, Qualisys or C3D file")
+    add_column_options(att)
+    att.add_argument(
+        "--rate",
+        type=positive_float,
+        metavar="HZ",
+        help="times of a log without a time column (or whose --columns leave it out): row / HZ",
+    )
     gyr = parser.add_argument_group("the gyroscope log")
     gyr.add_argument(
         "--gyro-columns",
         metavar="X,Y,Z",
-        help="its rate columns (default: the header's one group of gx,gy,gz; wx,wy,wz; gyro_x,gyro_y,gyro_z; ...)",
+        help="its rate columns, by name or 1-based position (default: the header's one group of gx,gy,gz; "
+        "wx,wy,wz; gyro_x,gyro_y,gyro_z; ...; or of names ending in x, y, z that name a gyroscope)",
     )
-    gyr.add_argument("--gyro-time-column", default="t", metavar="NAME", help="its time column (default t)")
+    gyr.add_argument(
+        "--gyro-time-column",
+        default="t",
+        metavar="NAME",
+        help="its time column, by name or 1-based position (default t)",
+    )
+    gyr.add_argument(
+        "--gyro-rate",
+        type=positive_float,
+        metavar="HZ",
+        help="times of a gyro log without a time column (or whose stamps cannot be used): row / HZ; its time "
+        "column is then not read",
+    )
+    gyr.add_argument(
+        "--gyro-header-rows",
+        type=int,
+        default=1,
+        metavar="N",
+        help="rows its header spans (default 1; names joined per column; 0: no header, columns by position)",
+    )
     gyr.add_argument("--gyro-time-unit", choices=list(TIME_UNITS), default="s", help="unit of its times (default s)")
 
 
@@ -237,17 +165,27 @@ def run(args: argparse.Namespace) -> int:
         rotation=args.rotation,
         scalar_first=args.scalar_first,
         body=args.body,
+        columns=args.columns,
+        header_rows=args.header_rows,
+        rate=args.rate,
+        duplicate_times=args.duplicate_times,
     )
     log = read_log(args.attitude, options=options)
     if log.kind == "directions":
         raise ValueError(
             f"{args.attitude}: calibrate needs attitudes (quaternions or rotation matrices), not directions"
         )
-    t_g, g = read_gyro(
-        args.gyro, None if columns is None else (columns[0], columns[1], columns[2]), args.gyro_time_column
+    gyro = read_gyro(
+        args.gyro,
+        None if columns is None else (columns[0], columns[1], columns[2]),
+        None if args.gyro_rate is not None else args.gyro_time_column,
+        args.gyro_header_rows,
     )
-    t_g = t_g * TIME_UNITS[args.gyro_time_unit]
-    g = g * GYRO_UNITS[args.gyro_unit]
+    print(f"attitude: {log.t.size} samples of {args.attitude}" + "".join(f"; {n}" for n in log.notes))
+    times = f"time {gyro.names[0]!r}" if args.gyro_rate is None else f"times row / {args.gyro_rate:g} Hz"
+    print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}")
+    t_g = gyro.t / args.gyro_rate if args.gyro_rate is not None else gyro.t * TIME_UNITS[args.gyro_time_unit]
+    g = gyro.g * GYRO_UNITS[args.gyro_unit]
     t_a = log.absolute_times
     cal = calibrate(t_a, log.data, t_g, g, scale=args.scale, cutoff_hz=args.cutoff, offset_guess=args.offset,
                     max_offset=args.max_offset)  # fmt: skip

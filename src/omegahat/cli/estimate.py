@@ -46,14 +46,13 @@ import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
-from omegahat.cli import add_quaternion_order, many
+from omegahat.cli import add_column_options, add_quaternion_order, many
 from omegahat.io import ReadOptions, check_output, open_log, open_output
 from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
-from omegahat.io.timestamps import DUPLICATE_CHOICES
 from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
@@ -158,27 +157,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="what the attitude maps: body-to-inertial (default; v_inertial = R v_body, SciPy, ROS) or "
         "inertial-to-body (many spacecraft logs); the output is in body axes either way",
     )
-    conv.add_argument(
-        "--columns",
-        metavar="KEY=COL,...",
-        help="which column holds what, for files whose names are not omegahat's: t=NAME,qw=NAME,qx=NAME,qy=NAME,"
-        "qz=NAME (or r11..r33, b1x.., tau_x..) by header name or 1-based position (t=1,qw=2,...); see "
-        "docs/your-data.md",
-    )
-    conv.add_argument(
-        "--header-rows",
-        type=int,
-        metavar="N",
-        help="rows the header spans (names joined per column, e.g. a group title over W,X,Y,Z); 0: no header, "
-        "columns by position",
-    )
-    conv.add_argument(
-        "--duplicate-times",
-        choices=DUPLICATE_CHOICES,
-        default="error",
-        help="samples at one time whose attitudes differ: error (default: a broken time source; the message names "
-        "both lines), or keep the first or the last of them (the others dropped, counted and reported)",
-    )
+    add_column_options(conv)
     add_quaternion_order(
         conv,
         "NPZ array q (default: scalar last) or columns q0..q3 / q1..q4 (one of --scalar-first/--scalar-last required "

@@ -41,7 +41,16 @@ from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name
 from omegahat.io.csvparse import ChunkParser
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import TIME_UNITS, LogChunk, LogStream, ReadOptions
-from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean, cut_lines, delimiter, source_blocks, split_line
+from omegahat.io.textlines import (
+    DELIMITERS,
+    WHITESPACE,
+    clean,
+    cut_lines,
+    delimiter,
+    is_number,
+    source_blocks,
+    split_line,
+)
 from omegahat.io.timestamps import ExactTimes
 
 __all__ = ["TextFormat", "open_csv", "open_text"]
@@ -291,7 +300,7 @@ def _hint(original: list[str], rows: list[list[str]], sample: list[list[str]], m
     if len(rows) == 1 and sample and any(not f.strip() for f in original):
         first = sample[0]
         texts = [f for f in first if f.strip()]
-        if texts and sum(not _is_number(f) for f in texts) > len(texts) // 2:
+        if texts and sum(not is_number(f) for f in texts) > len(texts) // 2:
             # the two rows joined as --header-rows 2 joins them: the columns line for them too, so one retry reads it
             line = COLUMNS_TEMPLATE if mapped else suggest_columns(join_header_rows([rows[0], first]))
             both = "" if line == COLUMNS_TEMPLATE else f" {line}"  # a line that reads the file, not the template
@@ -299,11 +308,3 @@ def _hint(original: list[str], rows: list[list[str]], sample: list[list[str]], m
     if mapped:
         return ""
     return f"; to read other columns: {suggest_columns(original)}"
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text.replace(",", "."))
-    except ValueError:
-        return False
-    return True

@@ -43,6 +43,7 @@ import numpy as np
 from omegahat.io.columns import LogFormatError
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.textlines import is_number
 
 __all__ = ["choose_body", "is_motive", "is_vicon", "open_motive_csv", "open_vicon_csv"]
 
@@ -72,14 +73,6 @@ def _rows(path: str) -> list[list[str]]:
     return rows
 
 
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def _head(path: str) -> list[list[str]]:
     head: list[list[str]] = []
     try:
@@ -104,9 +97,9 @@ def _vicon_title(rows: list[list[str]], i: int) -> bool:
     title = [x for x in rows[i] if x]
     return (
         len(title) == 1
-        and not _is_number(title[0])
+        and not is_number(title[0], decimal_comma=False)
         and bool(rows[i + 1][:1])
-        and _is_number(rows[i + 1][0])
+        and is_number(rows[i + 1][0], decimal_comma=False)
         and rows[i + 3][:2] == ["Frame", "Sub Frame"]
     )
 
@@ -265,7 +258,11 @@ def open_motive_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogSt
         f"OptiTrack Motive CSV (format {version}{layout_note}): rigid body {name!r}"
         + (f" (ID {body_id})" if body_id else "")
         + f", {what}, time from column {axes[time_col]!r}, {len(times)} frames"
-        + (f" at {float(meta['Export Frame Rate']):g} Hz" if _is_number(meta.get("Export Frame Rate", "")) else "")
+        + (
+            f" at {float(meta['Export Frame Rate']):g} Hz"
+            if is_number(meta.get("Export Frame Rate", ""), decimal_comma=False)
+            else ""
+        )
     )
     notes = (
         [f"other rigid bodies in the file: {', '.join(n for n in complete if n != name)}"] if len(complete) > 1 else []

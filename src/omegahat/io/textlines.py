@@ -32,6 +32,7 @@ __all__ = [
     "cut_lines",
     "delimiter",
     "head_lines",
+    "is_number",
     "source_blocks",
     "split_line",
 ]
@@ -178,3 +179,13 @@ def split_line(line: str, delim: str, where: str) -> list[str]:
         return next(csv.reader([line], delimiter=delim))
     except csv.Error as exc:  # a field beyond csv.field_size_limit()
         raise LogFormatError(f"{where}: {exc} (the limit for one quoted field)") from None
+
+
+def is_number(text: str, decimal_comma: bool = True) -> bool:
+    """Whether a field reads as a number (Python's ``float``; a decimal comma too where ``decimal_comma``): the
+    readers tell a header of names from a row of numbers with it."""
+    try:
+        float(text.replace(",", ".") if decimal_comma else text)
+    except ValueError:
+        return False
+    return True

@@ -1,0 +1,174 @@
+r"""Gyroscope logs for ``omegahat calibrate``: a time column and three rate columns, every error naming line and column.
+
+**Text** (``.csv``, ``.txt``, ``.tsv``, any other name): the columns are separated by ``,`` ``;`` or tab (the most
+frequent in the header), or by blanks where there is none of them (:func:`omegahat.io.textlines.delimiter`);
+``header_rows`` lines name them (``2``: a group title over ``X, Y, Z``, names joined per column as for attitude
+logs, :func:`omegahat.io.colmap.join_header_rows`; ``0``: no header, the columns named by their 1-based position).
+A decimal comma is read where the delimiter is not ``,``. Blank lines are skipped; any other field that is not a
+number is an error naming its line and column.
+
+**Columns**: ``time_column`` (default ``t``; None: no times are read, ``t`` is the row's index from 0, for the
+caller to scale by a rate) and the three rate columns ``columns`` by name (any case) or 1-based position; without
+``columns``, the header's one group of :data:`GYRO_COLUMNS`, else its one triple of names ending in x, y, z whose
+stem names a gyroscope (``IMU Gyroscope X``, ``gyr.x``...); the errors list what was found and suggest
+``--gyro-columns``.
+
+**NPZ**: arrays ``t`` and ``g (M, 3)``, or one array per rate column under the names above.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import zipfile
+from typing import NamedTuple
+
+import numpy as np
+
+from omegahat.io.colmap import join_header_rows
+from omegahat.io.columns import LogFormatError
+from omegahat.io.textlines import delimiter, is_number, split_line
+
+__all__ = ["GYRO_COLUMNS", "GyroLog", "gyro_columns", "read_gyro"]
+
+GYRO_COLUMNS = (
+    ("gx", "gy", "gz"),
+    ("wx", "wy", "wz"),
+    ("gyro_x", "gyro_y", "gyro_z"),
+    ("gyr_x", "gyr_y", "gyr_z"),
+    ("gyrox", "gyroy", "gyroz"),
+    ("omega_x", "omega_y", "omega_z"),
+    ("angular_velocity_x", "angular_velocity_y", "angular_velocity_z"),
+)  #: the gyroscope's rate columns recognised by name (one group of them in a header; others: --gyro-columns)
+
+
+class GyroLog(NamedTuple):
+    """What :func:`read_gyro` read: ``t (M,)`` as written, ``g (M, 3)``, and the columns' names as the file gives
+    them (time, x, y, z)."""
+
+    t: np.ndarray
+    g: np.ndarray
+    names: tuple[str, str, str, str]
+
+
+def _triples(names: list[str]) -> list[tuple[str, str, str]]:
+    """Every triple ``stem·x, stem·y, stem·z`` among ``names`` (the separator ``·`` empty, ``_ . - `` or a blank)."""
+    stems = {m.group(1) for n in names if (m := re.fullmatch(r"(.+?)[_.\s-]?x", n))}
+    return [
+        (f"{p}{sep}x", f"{p}{sep}y", f"{p}{sep}z")
+        for p in sorted(stems)
+        for sep in ("", "_", ".", " ", "-")
+        if all(f"{p}{sep}{a}" in names for a in "xyz")
+    ]
+
+
+def gyro_columns(names: list[str], where: str) -> tuple[str, str, str]:
+    """The rate columns among ``names`` (lower case; module docstring), or an error that names what was found and
+    suggests ``--gyro-columns`` where three columns end in x, y, z."""
+    found = [g for g in GYRO_COLUMNS if all(c in names for c in g)]
+    if len(found) == 1:
+        return found[0]
+    if found:
+        groups = " and ".join(",".join(g) for g in found)
+        raise LogFormatError(f"{where}: several gyroscope columns ({groups}); name one with --gyro-columns X,Y,Z")
+    triples = _triples(names)
+    gyros = [t for t in triples if "gyr" in t[0]]
+    if len(gyros) == 1:
+        return gyros[0]
+    tip = f" (perhaps --gyro-columns {shlex.quote(','.join(triples[0]))})" if len(triples) == 1 else ""
+    raise LogFormatError(
+        f"{where}: no gyroscope columns (found: {', '.join(names)}); expected one of "
+        f"{'; '.join(','.join(g) for g in GYRO_COLUMNS)}: name them with --gyro-columns X,Y,Z{tip}"
+    )
+
+
+def _index(name: str, names: list[str], path: str, what: str) -> int:
+    """The column ``name`` (any case) or 1-based position among ``names``."""
+    key = name.strip().lower()
+    if key in names:
+        return names.index(key)
+    if key.isdigit() and 1 <= int(key) <= len(names):
+        return int(key) - 1
+    raise LogFormatError(
+        f"{path}: no column {name!r} (found: {', '.join(names)}); name the gyro's {what} with "
+        + ("--gyro-time-column" if what == "time" else "--gyro-columns")
+        + " (a name or a 1-based position)"
+    )
+
+
+def read_gyro(
+    path: str | os.PathLike[str],
+    columns: tuple[str, str, str] | None = None,
+    time_column: str | None = "t",
+    header_rows: int = 1,
+) -> GyroLog:
+    """A gyroscope log (module docstring): ``t`` as written (its unit is the caller's) and ``g (M, 3)``."""
+    path = os.fspath(path)
+    if path.lower().endswith(".npz"):
+        return _read_npz(path, time_column, columns)
+    if header_rows < 0:
+        raise ValueError(f"--gyro-header-rows is 0 or more; got {header_rows}")
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            text = f.read()
+    except UnicodeDecodeError as exc:
+        raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
+    lines = [(k + 1, line.rstrip("\r")) for k, line in enumerate(text.split("\n")) if line.strip()]
+    if len(lines) <= header_rows:
+        raise LogFormatError(f"{path}: {len(lines)} non-blank line(s), expected {header_rows} of header and rows")
+    head, body = lines[:header_rows], lines[header_rows:]
+    first = head[0] if head else body[0]
+    delim = delimiter(first[1], f"{path}, line {first[0]}", allow_blanks=True)
+    if head:
+        rows = [split_line(h, delim, f"{path}, line {k}") for k, h in head]
+        names = [n.strip().lower() for n in (rows[0] if header_rows == 1 else join_header_rows(rows))]
+    else:
+        names = [str(j + 1) for j in range(len(split_line(first[1], delim, f"{path}, line {first[0]}")))]
+    if head and all(is_number(n) for n in names):
+        raise LogFormatError(
+            f"{path}, line {head[0][0]}: numbers where the header should name the columns ({', '.join(names[:4])}"
+            f"{', ...' if len(names) > 4 else ''}): a file without a header is read with --gyro-header-rows 0 and the "
+            "columns by position (--gyro-time-column 1 --gyro-columns 2,3,4, or --gyro-rate HZ without times)"
+        )
+    rate = gyro_columns(names, path) if columns is None else columns
+    idx = [_index(c, names, path, "rate") for c in rate]
+    if time_column is not None:
+        idx.insert(0, _index(time_column, names, path, "time"))
+    comma = delim != ","  # a decimal comma: only where the comma does not separate the columns
+    out = np.empty((len(body), 4))
+    out[:, 0] = np.arange(len(body))  # the row's index, where no time column is read
+    for r, (line, row) in enumerate(body):
+        fields = split_line(row, delim, f"{path}, line {line}")
+        for c, i in enumerate(idx, start=4 - len(idx)):
+            field = fields[i].strip() if i < len(fields) else ""
+            try:
+                out[r, c] = float(field.replace(",", ".") if comma else field)
+            except ValueError:
+                shown = repr(field) if i < len(fields) else "nothing"
+                raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
+    x, y, z = (names[i] for i in idx[-3:])
+    return GyroLog(out[:, 0], out[:, 1:], (names[idx[0]] if time_column is not None else "row", x, y, z))
+
+
+def _read_npz(path: str, time_column: str | None, columns: tuple[str, str, str] | None) -> GyroLog:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k.lower(): np.asarray(z[k], dtype=float) for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise LogFormatError(f"{path}: not a readable .npz file of numbers ({exc})") from None
+    time_name = "row" if time_column is None else time_column.lower()
+    if time_column is not None and time_name not in arrays:
+        raise LogFormatError(f"{path}: no array {time_name!r} (found: {', '.join(arrays)})")
+    if columns is None and "g" in arrays:
+        g, rate = arrays["g"], ("g[:, 0]", "g[:, 1]", "g[:, 2]")
+    else:
+        x, y, z = gyro_columns(list(arrays), path) if columns is None else columns
+        rate = (x.lower(), y.lower(), z.lower())
+        if not all(c in arrays for c in rate):
+            raise LogFormatError(f"{path}: no arrays {', '.join(rate)} (found: {', '.join(arrays)})")
+        g = np.column_stack([arrays[c].ravel() for c in rate])
+    t = np.arange(len(g), dtype=float) if time_column is None else arrays[time_name].ravel()
+    if g.shape != (t.size, 3):
+        raise LogFormatError(f"{path}: the gyro must be ({t.size}, 3), one row per time; got {g.shape}")
+    return GyroLog(t, g, (time_name, rate[0], rate[1], rate[2]))
