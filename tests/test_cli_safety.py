@@ -108,6 +108,58 @@ def test_gaps_are_reported(tmp_path, capsys):
     assert "gaps: 1 intervals longer than twice the median spacing; the longest 0.31 s before line 102" in out
 
 
+@pytest.mark.parametrize("columns", ["quaternion", "matrix"])
+def test_a_jump_of_the_attitude_source_is_reported(tmp_path, capsys, columns):
+    """As an iPhone's attitude that jumped 132° in one 9 ms step: a reset of the attitude source is no motion the
+    samples can follow; the summary names it, the largest first, with its line; 80° in one step is not reported. A
+    jump between two chunks is found too."""
+    from scipy.spatial.transform import Rotation
+
+    t = np.arange(400) / 100.0
+    R = constant_rate(t, OMEGA)
+    reset = Rotation.from_rotvec([0.0, np.radians(132.0), 0.0])
+    fast = Rotation.from_rotvec([np.radians(80.0), 0.0, 0.0])
+    R = Rotation.concatenate([R[:150], reset * R[150:300], fast * reset * R[300:]])
+    if columns == "matrix":
+        M = R.as_matrix().reshape(-1, 9)
+        rows = [f"{float(t[k])!r}," + ",".join(repr(float(v)) for v in M[k]) for k in range(t.size)]
+        header = "t," + ",".join(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+        (tmp_path / "jump.csv").write_text(header + "\n" + "\n".join(rows) + "\n")
+        src = tmp_path / "jump.csv"
+    else:
+        src = write_csv(tmp_path / "jump.csv", t, R)
+    code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 0
+    assert "jumps: 1 step between consecutive samples turns the attitude more than 90°; the largest 132° before line " \
+        "152: faster than the samples can follow, or a reset or glitch of the attitude source" in out  # fmt: skip
+    smooth = write_csv(tmp_path / "smooth.csv", t, constant_rate(t, OMEGA))
+    assert "jumps:" not in run(capsys, "estimate", smooth, "-o", tmp_path / "s.csv")[1]
+    from omegahat.io import LogChunk, LogStream, pipeline
+    from omegahat.io.registry import checked_stream
+
+    q = R.as_quat()
+
+    def chunks():  # handed on cut between the two samples of the jump (149, 150)
+        for a, b in ((0, 151), (151, 400)):  # the time policy holds the last row back: 0..149, then 150..
+            yield LogChunk(t[a:b], q[a:b], None, np.arange(a, b) + 2)
+
+    stream = LogStream("jump", "quaternion", 0, False, "line", chunks)
+    checked_stream(stream, ReadOptions())
+    summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: _Discard(), report=print)
+    assert (summary.jumps, round(np.degrees(summary.largest_jump[0])), summary.largest_jump[1]) == (1, 132, 152)
+
+
+class _Discard:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def write(self, chunk, omega, status):
+        pass
+
+
 # ------------------------------------------------------------------------------------------------ errors
 
 

@@ -26,6 +26,7 @@ opens omegahat's CSV, and the trajectory formats of :mod:`omegahat.io.trajectori
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -168,6 +169,8 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     mapped = options.column_map or fmt.columns
     allow_blanks = fmt.blanks if fmt.blanks is not None else bool(mapped)
     first_text = _decode(clean(first, False, allow_blanks and fmt.blanks is not False))
+    if n_header:
+        _refuse_numbers_as_names(first_text, where)
     delim = delimiter(first_text, where, allow_blanks)
     rows = [split_line(_decode(clean(h, False, delim == WHITESPACE)), delim, where) for h in header]
     if n_header == 0:
@@ -293,6 +296,23 @@ def _first_time(sample: list[list[str]], j: int) -> ExactTimes:
     """The time conversion, decided on the first row's time (absolute times are kept exact)."""
     first = next((r[j] for r in sample if j < len(r) and r[j].strip()), "0")
     return ExactTimes(first)
+
+
+def _refuse_numbers_as_names(text: str, where: str) -> None:
+    """A header line of numbers only is the first row of a file without a header: read as names, that row would be
+    lost, so it is refused with the options that read it (positions for the usual widths)."""
+    fields = [f for f in re.split(r"[,;\t ]+", text.strip()) if f]
+    if len(fields) < 2 or not all(is_number(f, decimal_comma=False) for f in fields):
+        return
+    by_width = {
+        5: "--columns t=1,qw=2,qx=3,qy=4,qz=5 (the quaternion's scalar first; t=1,qx=2,qy=3,qz=4,qw=5 if last)",
+        10: "--columns t=1," + ",".join(f"r{i}{j}={3 * i + j - 2}" for i in (1, 2, 3) for j in (1, 2, 3)),
+    }
+    line = by_width.get(len(fields), "--columns t=1,qw=2,... (which column holds what, by position)")
+    raise LogFormatError(
+        f"{where}: numbers where the header should name the columns ({', '.join(fields[:5])}"
+        f"{', ...' if len(fields) > 5 else ''}): a file without a header is read with --header-rows 0 and {line}"
+    )
 
 
 def _hint(original: list[str], rows: list[list[str]], sample: list[list[str]], mapped) -> str:

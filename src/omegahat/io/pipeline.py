@@ -17,8 +17,11 @@ order:
    first; each chunk is written with the estimator's own per-row statuses (:class:`omegahat.interface.Status`). A
    sample that is not a rotation stops the run with a message naming its line and column and the options that
    would accept or skip it, unless ``skip_bad_samples`` (:class:`BadSamples`): then it is treated as missing,
-   counted and reported. Gaps longer than twice the median spacing are counted.
-5. **Summary**: rows written, samples skipped and why, bad samples, gaps, what ran.
+   counted and reported. Gaps longer than twice the median spacing are counted, and so are jumps: consecutive
+   attitudes more than :data:`JUMP_ANGLE` apart, a turn faster than the samples can follow (a quarter of the
+   half-turn beyond which the sampled attitudes cannot tell the direction at all) or, in real logs, a reset or
+   glitch of the attitude source (an iPhone's CoreMotion attitude jumped 130° in one 9 ms step).
+5. **Summary**: rows written, samples skipped and why, bad samples, gaps, jumps, what ran.
 
 The loop knows options by their keys only; messages name them through the caller's spelling (``spell``,
 :mod:`omegahat.io.settings`: ``rotation_tol=0.02`` from Python, ``--rotation-tol 0.02`` from the command), and an
@@ -27,6 +30,7 @@ error that a setting would solve carries the ``(key, suggested value)`` pairs as
 
 from __future__ import annotations
 
+import math
 import re
 import sys
 import time
@@ -52,6 +56,8 @@ from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.single_direction import LostExcitationWarning
 
+JUMP_ANGLE = math.pi / 2  #: rad between consecutive attitudes beyond which the summary reports a jump
+
 __all__ = ["BadSamples", "ChunkWriter", "EstimateSettings", "RunSummary", "estimate_stream"]
 
 
@@ -68,7 +74,8 @@ class RunSummary:
     """What :func:`estimate_stream` did: ``rows`` written, the ``gains`` and the ``gains_text`` saying why,
     ``n_skipped`` samples skipped by the estimator (of which ``n_collinear`` with nearly collinear directions),
     ``n_bad`` treated as missing (``skip_bad_samples``), ``gaps`` and the ``largest_gap`` ``(seconds, label after
-    it)``, ``elapsed`` seconds estimating, ``compile_s`` seconds checking the head (compilation included),
+    it)``, ``jumps`` (consecutive attitudes more than :data:`JUMP_ANGLE` apart) and the ``largest_jump`` ``(rad,
+    label after it)``, ``elapsed`` seconds estimating, ``compile_s`` seconds checking the head (compilation included),
     ``output``: what the writer says it wrote (its ``describe()``), and ``lines``: the report."""
 
     rows: int = 0
@@ -80,6 +87,8 @@ class RunSummary:
     n_bad: int = 0
     gaps: int = 0
     largest_gap: tuple[float, int | None] = (0.0, None)
+    jumps: int = 0
+    largest_jump: tuple[float, int | None] = (0.0, None)
     elapsed: float = 0.0
     compile_s: float = 0.0
     lines: list[str] = field(default_factory=list)
@@ -155,6 +164,7 @@ class _Run:
         self.summary = summary
         self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing
         self.t_prev: float | None = None
+        self.last_attitude: np.ndarray | None = None  # the previous chunk's last row, for the jump across chunks
 
     def _estimate(self, t: np.ndarray, data: np.ndarray, torque: np.ndarray | None) -> Estimate:
         with warnings.catch_warnings():
@@ -204,6 +214,17 @@ class _Run:
             if dt[j] > s.largest_gap[0]:
                 s.largest_gap = (float(dt[j]), int(chunk.labels[j + 1 if self.t_prev is None else j]))
         self.t_prev = float(chunk.t[-1])
+        if self.stream.kind in ("quaternion", "matrix") and len(chunk):
+            turn = _turns(
+                chunk.data if self.last_attitude is None else np.concatenate([self.last_attitude, chunk.data])
+            )
+            jump = np.flatnonzero(turn > JUMP_ANGLE)  # NaN (a missing sample on either side) is not a jump
+            s.jumps += jump.size
+            if jump.size:
+                j = int(jump[np.argmax(turn[jump])])
+                if turn[j] > s.largest_jump[0]:
+                    s.largest_jump = (float(turn[j]), int(chunk.labels[j + 1 if self.last_attitude is None else j]))
+            self.last_attitude = chunk.data[-1:]
 
     def feed(self, chunk: LogChunk) -> None:
         """A streaming estimator: one chunk."""
@@ -218,6 +239,16 @@ class _Run:
             stop = start + len(chunk)
             self.write(chunk, Estimate(est.omega[start:stop], est.status[start:stop]))
             start = stop
+
+
+def _turns(data: np.ndarray) -> np.ndarray:
+    """The angle (rad) between each two consecutive attitudes of ``data`` (quaternions ``(m, 4)`` in either order of
+    the scalar, or rotation matrices ``(m, 3, 3)``): ``2 acos |q_k · q_k+1|`` or ``acos((tr(R_kᵀ R_k+1) − 1)/2)``."""
+    with np.errstate(invalid="ignore"):  # missing samples: NaN angles
+        if data.ndim == 2:
+            q = data / np.linalg.norm(data, axis=1, keepdims=True)
+            return 2.0 * np.arccos(np.minimum(np.abs(np.einsum("ij,ij->i", q[:-1], q[1:])), 1.0))
+        return np.arccos(np.clip((np.einsum("kij,kij->k", data[:-1], data[1:]) - 1.0) / 2.0, -1.0, 1.0))
 
 
 def _head(chunks) -> list[LogChunk]:
@@ -318,6 +349,13 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
         lines.append(
             f"gaps: {s.gaps} intervals longer than twice the median spacing; the longest {s.largest_gap[0]:.4g} s "
             f"before {stream.label} {s.largest_gap[1]} (predicted through)"
+        )
+    if s.jumps:
+        lines.append(
+            f"jumps: {s.jumps} step{'s' if s.jumps > 1 else ''} between consecutive samples turn"
+            f"{'' if s.jumps > 1 else 's'} the attitude more than {math.degrees(JUMP_ANGLE):.0f}°; the largest "
+            f"{math.degrees(s.largest_jump[0]):.0f}° before {stream.label} {s.largest_jump[1]}: faster than the "
+            "samples can follow, or a reset or glitch of the attitude source (the rates there are not the body's)"
         )
     return [*lines, *choice.closing(), choice.used()]
 
