@@ -1,9 +1,12 @@
 """The files of other tools, written by the tests from their vendors' documentation (tests/vendor_files.py): EuRoC,
-TUM, KITTI, Qualisys QTM 6D TSV and every OptiTrack Motive layout, each recognised with its one-line message, read
-as the vendor documents it, and giving through ``omegahat estimate`` the rates of omegahat's own CSV of the same
-numbers (< 1e-6 rad/s); absolute times kept exact; every error with its message."""
+TUM, KITTI, Qualisys QTM 6D TSV and MAT exports and every OptiTrack Motive layout, each recognised with its one-line
+message, read as the vendor documents it, and giving through ``omegahat estimate`` the rates of omegahat's own CSV of
+the same numbers (< 1e-6 rad/s); absolute times kept exact; every error with its message."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -266,9 +269,17 @@ def test_qtm_mat_errors(tmp_path, monkeypatch):
         read_log(rows)
     with pytest.raises(LogFormatError, match=r"no rigid body named 'c'; the file has b"):
         read_log(write_qtm_mat(tmp_path / "one.mat", {"b": R}, 100.0), body="c")
-    savemat(tmp_path / "arrays.mat", {"ts": t, "rots": R})
-    with pytest.raises(LogFormatError, match=r"arrays\.mat: no QTM measurement structs with RigidBodies \(variables: "):
+    # UPenn ESE 650's layout: rots (3, 3, T), ts (1, T); the message's line writes the NPZ log omegahat reads
+    savemat(tmp_path / "arrays.mat", {"ts": t, "rots": np.moveaxis(R, 0, -1)})
+    with pytest.raises(LogFormatError) as refused:
         read_log(tmp_path / "arrays.mat")
+    text = str(refused.value)
+    assert "arrays.mat: no QTM measurement structs with RigidBodies (variables: ts 1x30, rots 3x3x30)" in text
+    line = text.split('e.g. python -c "')[1].split('"')[0]
+    subprocess.run([sys.executable, "-c", line], cwd=tmp_path, check=True)
+    converted = read_log(tmp_path / "arrays.npz")
+    np.testing.assert_array_equal(converted.t, t)
+    np.testing.assert_allclose(converted.data, R, rtol=0, atol=1e-15)
     hdf5 = tmp_path / "v73.mat"  # MATLAB 7.3: a MAT header of version 0x0200 over an HDF5 file
     hdf5.write_bytes(b"MATLAB 7.3 MAT-file".ljust(116) + bytes(8) + b"\x00\x02IM" + b"\x89HDF\r\n\x1a\n" + bytes(64))
     with pytest.raises(

@@ -30,7 +30,9 @@ gigabytes). A damaged file is an error naming it, whatever SciPy's parser raised
 
 from __future__ import annotations
 
+import math
 import os
+import re
 import struct
 import zlib
 
@@ -129,17 +131,51 @@ def _names(cells: np.ndarray | None, n: int) -> list[str]:
     return names
 
 
+def _recipe(path: str, variables: dict) -> str:
+    """``, e.g. python -c "..."``: the line that writes this MAT file's arrays as an NPZ log, guessed from their names
+    and shapes (a time vector or a rate, ``(T, 4)`` quaternions or ``(3, 3, T)`` matrices); empty when no attitude
+    array is found."""
+    arrays = {k: np.shape(v) for k, v in variables.items() if isinstance(v, np.ndarray) and v.dtype.kind in "fiu"}
+    attitude = next(((k, s) for k, s in arrays.items() if len(s) == 2 and 4 in s and max(s) > 4), None)
+    matrices = next(((k, s) for k, s in arrays.items() if len(s) == 3 and s.count(3) >= 2 and max(s) > 3), None)
+    found = attitude if attitude is not None else matrices
+    if found is None:
+        return ""
+    name, shape = found
+    T = max(shape)
+    clock = re.compile(r"time|stamp|^ts$|^t$", re.I)
+    times = [k for k, s in arrays.items() if clock.search(k) and sorted(s)[-1] == T and math.prod(s) == T]
+    rates = [k for k, s in arrays.items() if re.search(r"rate|freq|^fs$|hz", k, re.I) and math.prod(s) == 1]
+    t = (
+        f"m[{times[0]!r}].ravel()"
+        if times
+        else f"np.arange({T}) / m[{rates[0]!r}].item()"
+        if rates
+        else f"np.arange({T}) / RATE_HZ"
+    )
+    if found is attitude:
+        what = f"q=m[{name!r}]" + (".T" if shape[0] == 4 else "") + ", scalar_first=True"
+        tail = " (scalar_first=False if the quaternion's scalar is its last column)"
+    else:
+        what, tail = "R=" + (f"np.moveaxis(m[{name!r}], -1, 0)" if shape[-1] == T else f"m[{name!r}]"), ""
+    stem = os.path.splitext(os.path.basename(path))[0]
+    return (
+        f', e.g. python -c "import numpy as np, scipy.io; m = scipy.io.loadmat({os.path.basename(path)!r}); '
+        f'np.savez({stem + ".npz"!r}, t={t}, {what})"{tail}'
+    )
+
+
 def open_qtm_mat(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One body's attitude from a QTM MAT export (module docstring)."""
     path = os.fspath(path)
     variables = {k: v for k, v in _load(path).items() if not k.startswith("__")}
     captures = [k for k, v in variables.items() if isinstance(v, np.ndarray) and _field(v, "RigidBodies") is not None]
     if len(captures) != 1:
-        found = ", ".join(variables) or "none"
+        found = ", ".join(f"{k} {'x'.join(map(str, np.shape(v)))}" for k, v in variables.items()) or "none"
         raise LogFormatError(
             f"{path}: " + ("no" if not captures else f"{len(captures)}") + " QTM measurement structs with "
             f"RigidBodies (variables: {found}); omegahat reads the MAT export of QTM with 6DOF data, one measurement "
-            "per file (other MAT files: write the arrays as an NPZ or CSV log)"
+            f"per file. Other MAT files: write the arrays as an NPZ log (t, and q or R){_recipe(path, variables)}"
         )
     capture = variables[captures[0]]
     bodies = _field(capture, "RigidBodies")
