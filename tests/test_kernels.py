@@ -72,6 +72,21 @@ def test_quaternion_of_a_slightly_non_orthogonal_matrix_is_that_of_its_nearest_r
     assert np.allclose(rotation.quat_from_matrix(R), Rotation.from_matrix(nearest).as_quat(canonical=True), atol=1e-15)
 
 
+@pytest.mark.parametrize("deviation", [1e-11, 1e-7, 1e-5, 9e-4, 5e-3])
+def test_near_rotations_and_near_reflections_take_the_nearest_rotation(deviation):
+    """A matrix near a rotation (QTM, Vicon and C3D write theirs in single precision: 1e-7 off) takes Newton–Schulz
+    steps to its polar factor, one further off or near a reflection takes the SVD: either way the quaternion is
+    that of the SVD's nearest rotation (NumPy's SVD, then SciPy's quaternion), for 200 matrices each."""
+    rng = np.random.default_rng(int(1e6 * deviation) + 3)
+    for k in range(200):
+        R = Rotation.random(random_state=k).as_matrix() * (1.0 if k % 4 else -1.0)  # every 4th a reflection
+        D = R + deviation * rng.normal(size=(3, 3))
+        U, _, Vt = np.linalg.svd(D)
+        nearest = U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
+        want = Rotation.from_matrix(nearest).as_quat(canonical=True)
+        np.testing.assert_allclose(rotation.quat_from_matrix(D), want, rtol=0, atol=5e-15)
+
+
 def test_orthogonality_error_and_determinant():
     R = Rotation.random(random_state=1).as_matrix()
     assert rotation.orthogonality_error(R) < 1e-15

@@ -340,7 +340,7 @@ def _reset(R, w, a, dx, aug):
     """(E8): ``R̂ ← R̂ Exp(δθ̂)``, ``ω̂ ← ω̂ + δω̂`` (and ``â ← â + δâ``); then ``R̂ ← R̂ (3I − R̂ᵀR̂)/2`` (one
     Newton–Schulz step of the polar factor: a deviation ε of ``R̂ᵀR̂`` from I becomes O(ε²)). Without it a product
     of millions of rotations drifts from orthogonality by rounding, and once past 1e-12 every attitude fix takes the
-    SVD of :func:`~omegahat.kernels.rotation.quat_from_matrix`'s nearest-rotation path."""
+    nearest-rotation path of :func:`~omegahat.kernels.rotation.quat_from_matrix`."""
     _put(R, 0, 0, polished(matmul(mat3(R), exp_matrix(dx[0], dx[1], dx[2]))))
     for c in range(3):
         w[c] += dx[3 + c]

@@ -24,6 +24,8 @@ import math
 import numba
 import numpy as np
 
+from omegahat.kernels.vec3 import mat3, polished
+
 __all__ = [
     "det",
     "dexpinv",
@@ -134,6 +136,24 @@ def det(R):
     )
 
 
+@numba.njit(cache=True, error_model="numpy")
+def _polar(D, dev):
+    """The nearest rotation (R4) to ``D``, whose ``D Dᵀ`` differs from I by ``dev`` (largest entry). A rotation
+    matrix written in single precision (QTM, Vicon and C3D files: ``dev`` about 1e-7) is a proper matrix that
+    close to orthogonal: then (R4) is its polar factor, reached by Newton–Schulz steps ``D (3I − DᵀD)/2``, each
+    turning ``dev`` into about ``3 dev²/4`` (three at most from 1e-3; five times faster than the SVD, which every
+    sample of such a file took). Anything else takes the SVD."""
+    if dev <= 1e-3 and det(D) > 0.0:
+        M = mat3(D)
+        for _ in range(3):
+            M = polished(M)
+        A = np.empty((3, 3))
+        for a in range(9):
+            A[a // 3, a % 3] = M[a]
+        return A
+    return nearest_rotation(D)
+
+
 @numba.njit(cache=True)
 def quat_from_matrix(D):
     """Unit quaternion ``(x, y, z, w)`` of a rotation matrix, ``w ≥ 0``: Shepperd's method (R3) with SciPy's pivot
@@ -145,7 +165,7 @@ def quat_from_matrix(D):
             g = D[i, 0] * D[j, 0] + D[i, 1] * D[j, 1] + D[i, 2] * D[j, 2]
             dev = max(dev, abs(g - (1.0 if i == j else 0.0)))
     if dev > 1e-12:
-        D = nearest_rotation(D)
+        D = _polar(D, dev)
     tr = D[0, 0] + D[1, 1] + D[2, 2]
     q = np.empty(4)
     i = 0
