@@ -427,3 +427,27 @@ def test_a_column_map_is_refused_where_it_cannot_apply(tmp_path):
         read_log(tmp_path / "x.npz", columns="t=1,qw=2,qx=3,qy=4,qz=5")
     with pytest.raises(ValueError, match=r"x\.npz is an omegahat NPZ log: --header-rows applies only to an omegahat"):
         read_log(tmp_path / "x.npz", header_rows=2)
+
+
+def test_a_first_line_of_numbers_is_no_header(tmp_path):
+    """A file without a header (an iPhone's attitude.txt: blank-separated t, w, x, y, z) would lose its first row to
+    the header: it is refused with --header-rows 0 and the columns by position, which then read every row. Names
+    that are numbers 0.. or 1.. (pandas' default names) are names, and get the usual message."""
+    t = np.arange(50) / 100.0
+    q = turning(t).as_quat()
+    rows = [f"{num(t[k])} {num(q[k, 3])} {num(q[k, 0])} {num(q[k, 1])} {num(q[k, 2])}" for k in range(t.size)]
+    bare = tmp_path / "attitude.txt"
+    bare.write_text("\n".join(rows) + "\n")
+    with pytest.raises(LogFormatError, match=r"attitude\.txt, line 1 \(header\): numbers where the header should name "
+                       r"the columns \(0\.0, .*--header-rows 0 and --columns t=1,qw=2,qx=3,qy=4,qz=5"):  # fmt: skip
+        read_log(bare)
+    log = read_log(bare, header_rows=0, columns="t=1,qw=2,qx=3,qy=4,qz=5")
+    assert log.t.size == t.size
+    np.testing.assert_allclose(log.data, q, atol=1e-15)
+    (tmp_path / "comma.csv").write_text("\n".join(r.replace(" ", ",") for r in rows) + "\n")
+    with pytest.raises(LogFormatError, match=r"numbers where the header should name the columns"):
+        read_log(tmp_path / "comma.csv")
+    pandas = tmp_path / "frame.csv"
+    pandas.write_text("0,1,2,3,4\n" + "\n".join(r.replace(" ", ",") for r in rows) + "\n")
+    with pytest.raises(LogFormatError, match=r"frame\.csv, line 1 \(header\): no time column 't' \(found: 0, 1, 2"):
+        read_log(pandas)

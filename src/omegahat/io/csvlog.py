@@ -304,6 +304,8 @@ def _refuse_numbers_as_names(text: str, where: str) -> None:
     fields = [f for f in re.split(r"[,;\t ]+", text.strip()) if f]
     if len(fields) < 2 or not all(is_number(f, decimal_comma=False) for f in fields):
         return
+    if fields in ([str(j) for j in range(len(fields))], [str(j + 1) for j in range(len(fields))]):
+        return  # columns numbered 0.. or 1.. (pandas writes a frame's default names so): names, not a row
     by_width = {
         5: "--columns t=1,qw=2,qx=3,qy=4,qz=5 (the quaternion's scalar first; t=1,qx=2,qy=3,qz=4,qw=5 if last)",
         10: "--columns t=1," + ",".join(f"r{i}{j}={3 * i + j - 2}" for i in (1, 2, 3) for j in (1, 2, 3)),
