@@ -75,8 +75,8 @@ def test_quaternion_of_a_slightly_non_orthogonal_matrix_is_that_of_its_nearest_r
 @pytest.mark.parametrize("deviation", [1e-11, 1e-7, 1e-5, 9e-4, 5e-3])
 def test_near_rotations_and_near_reflections_take_the_nearest_rotation(deviation):
     """A matrix near a rotation (QTM, Vicon and C3D write theirs in single precision: 1e-7 off) takes Newton–Schulz
-    steps to its polar factor, one further off or near a reflection takes the SVD: either way the quaternion is
-    that of the SVD's nearest rotation (NumPy's SVD, then SciPy's quaternion), for 200 matrices each."""
+    steps to its polar factor, one further off or near a reflection takes the SVD: either way the nearest rotation
+    is the SVD's (NumPy's), and the quaternion SciPy's of it, for 200 matrices each."""
     rng = np.random.default_rng(int(1e6 * deviation) + 3)
     for k in range(200):
         R = Rotation.random(random_state=k).as_matrix() * (1.0 if k % 4 else -1.0)  # every 4th a reflection
@@ -84,6 +84,7 @@ def test_near_rotations_and_near_reflections_take_the_nearest_rotation(deviation
         U, _, Vt = np.linalg.svd(D)
         nearest = U @ np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))]) @ Vt
         want = Rotation.from_matrix(nearest).as_quat(canonical=True)
+        np.testing.assert_allclose(rotation.nearest_rotation(D), nearest, rtol=0, atol=1e-14)  # the SVD rounds too
         np.testing.assert_allclose(rotation.quat_from_matrix(D), want, rtol=0, atol=5e-15)
 
 

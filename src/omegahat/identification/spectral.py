@@ -192,9 +192,14 @@ def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
     return 2.0 * 4.0 * np.sin(np.pi * freq) ** 2 / h**2
 
 
+def _welch_step(segment: int) -> int:
+    """Samples from one Welch segment's start to the next's: half overlapping, as SciPy cuts them."""
+    return segment - segment // 2
+
+
 def welch_segments(lengths: list[int], segment: int) -> int:
     """How many half-overlapping Welch segments of ``segment`` samples fit in stretches of ``lengths`` samples."""
-    return sum((n - segment) // (segment - segment // 2) + 1 for n in lengths if n >= segment)
+    return sum((n - segment) // _welch_step(segment) + 1 for n in lengths if n >= segment)
 
 
 def welch_density(x: np.ndarray, segment: int) -> tuple[np.ndarray, np.ndarray]:
@@ -203,7 +208,7 @@ def welch_density(x: np.ndarray, segment: int) -> tuple[np.ndarray, np.ndarray]:
     (the DC and Nyquist bins once); ``(freq, P)``. It is ``scipy.signal.welch(x, nperseg=segment, axis=0,
     detrend="constant")`` (the tests compare them), written here because importing ``scipy.signal`` costs a
     command half a second of start-up (it loads ``scipy.stats`` and parses their docstrings)."""
-    starts = np.arange(0, x.shape[0] - segment + 1, segment - segment // 2)  # as welch_segments counts them
+    starts = np.arange(0, x.shape[0] - segment + 1, _welch_step(segment))
     window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(segment) / segment)
     P = np.zeros((segment // 2 + 1, x.shape[1]))
     for a in starts:  # one segment at a time: a log of millions of rates holds no copy of all its segments
