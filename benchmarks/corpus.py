@@ -82,7 +82,7 @@ def convert_broad(src: Path, out: Path) -> list[str]:
             print(f"  {path.name}: an acceptance trial: not converted")
             continue
         trial = broad.load_trial(path)
-        cal = calibrate(trial.t, trial.R, trial.t, trial.gyro)
+        cal = calibrate(trial.t, trial.R, trial.t, trial.gyro, max_offset=SEARCH_OFFSET)
         ref_t, ref_w = cal.apply(trial.t, trial.gyro)
         q = np.full((trial.t.size, 4), np.nan)
         ok = ~trial.gaps
@@ -127,6 +127,9 @@ def _regular(t: np.ndarray) -> tuple[np.ndarray, str]:
 STUCK_COUNTS = np.array([382.0, 383.0, 384.0])  #: the UPenn gyroscope's value while it does not respond
 STUCK_MIN_SAMPLES = 10
 MAX_CONDITION = 3.0  #: a calibrated scale matrix less well conditioned than this has a dead channel
+#: s: the clock offset is searched within ± this (the calibration's own default until it searched every overlap):
+#: the recordings stay those every table was measured on
+SEARCH_OFFSET = 2.0
 
 
 def stuck_gyro(g: np.ndarray) -> np.ndarray:
@@ -162,7 +165,7 @@ def convert_upenn(src: Path, out: Path) -> tuple[list[str], dict]:
         g = np.asarray(imu["vals"], dtype=float)[3:6].T  # the gyroscope's counts, in the order stored
         stuck = stuck_gyro(g)
         t_i, g = t_i[~stuck], g[~stuck]  # left out: the calibration and the score treat the holes as gaps
-        cal = calibrate(t_v, R, t_i, g, scale="matrix")
+        cal = calibrate(t_v, R, t_i, g, scale="matrix", max_offset=SEARCH_OFFSET)
         sv = np.linalg.svd(cal.matrix, compute_uv=False)
         if sv[-1] < sv[0] / MAX_CONDITION:
             print(f"  upenn-{n:02d}: not converted: a gyroscope channel does not respond (scale factors "
@@ -268,7 +271,7 @@ def _held_run_starts(g: np.ndarray) -> np.ndarray:
 
 
 def _heldout_recording(
-    out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: str, changes: str, notes, decimate, max_offset=None
+    out: Path, name: str, t, q_wxyz, gyro_t, gyro, source: str, changes: str, notes, decimate, max_offset=SEARCH_OFFSET
 ):
     """Calibrate the gyroscope ``(gyro_t, gyro)`` against the quaternions ``q_wxyz`` (scalar first, NaN rows missing)
     at the times ``t``, and write the recording ``out/name.npz``; its name, or None (said) where the calibration
@@ -281,16 +284,16 @@ def _heldout_recording(
 
 
 def _calibrated_recording(
-    out: Path, name: str, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate, max_offset=None
+    out: Path, name: str, t, q_wxyz, gyro_t, gyro, source, changes, notes, decimate, max_offset=SEARCH_OFFSET
 ) -> str:
     """:func:`_heldout_recording`'s work; raises ValueError where the pair cannot be calibrated. ``max_offset`` (s):
-    how far the clocks may be apart (None: the calibration's default, for separate clocks)."""
+    how far the clocks may be apart (:data:`SEARCH_OFFSET` for separate clocks)."""
     ok = np.all(np.isfinite(q_wxyz), axis=1)
     q = np.full((t.size, 4), np.nan)
     q[ok] = np.roll(q_wxyz[ok], -1, axis=1)  # scalar last, as Recording keeps it
     R = np.full((t.size, 3, 3), np.nan)
     R[ok] = so3.from_quat(q[ok])
-    cal = calibrate(t, R, gyro_t, gyro, **({} if max_offset is None else {"max_offset": max_offset}))
+    cal = calibrate(t, R, gyro_t, gyro, max_offset=max_offset)
     ref_t, ref_w = cal.apply(gyro_t, gyro)
     residual, rate = float(np.sqrt(np.sum(cal.residual_rms**2))), float(np.sqrt(np.mean(np.sum(ref_w**2, axis=1))))
     if residual > MAX_RESIDUAL * rate:

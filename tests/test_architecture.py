@@ -43,7 +43,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("simulation", "baselines"),
     ("identification",),
     ("io",),
-    ("cli", "calibration", "calibration_result"),
+    ("cli", "calibration", "calibration_result", "clock_offset"),
     ("lab",),
 )
 

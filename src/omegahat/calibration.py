@@ -23,12 +23,13 @@ The fit, in the order that keeps it robust:
    linear with unit DC gain, so (C1) holds for ``F g`` and ``F ω`` with the same ``A``, ``b``, ``δ``: the fit uses
    the band where both sensors are accurate, and less noise in ``F ω`` means less attenuation of ``A`` (the
    regressor's noise biases a least-squares slope towards zero by its variance over the signal's).
-2. ``δ`` coarsely from the normalised cross-correlation of ``|F ω − mean|`` and ``|F g − mean|`` (frame-invariant:
-   a rotation keeps the norm, a scale matrix nearly does), within ``±max_offset`` of a guess; then the ``δ`` on a
-   grid of 0.1 sample that minimises the residual of the linear least-squares fit of ``A``, ``b`` (C1). A motion
-   that repeats itself matches at several lags; another local maximum, a period of the band or more away, with
-   :data:`AMBIGUOUS_OFFSET` of the best's correlation is named in a note (a back-and-forth turn about one axis fits
-   as well shifted by half its period with the axis reversed: only a narrower search can tell).
+2. ``δ`` coarsely from the cross-correlation of ``|F ω − mean|`` and ``|F g − mean|`` (frame-invariant: a rotation
+   keeps the norm, a scale matrix nearly does; :mod:`omegahat.clock_offset`) at every lag at which the logs
+   overlap, whatever their clocks' origins, or within ``±max_offset`` of a guess where a bound is given; then the
+   ``δ`` on a grid of 0.1 sample that minimises the residual of the linear least-squares fit of ``A``, ``b``
+   (C1). A motion that repeats itself matches at several lags; another local maximum, a period of the band or more
+   away, with :data:`AMBIGUOUS_OFFSET` of the best's correlation is named in a note (a back-and-forth turn about one
+   axis fits as well shifted by half its period with the axis reversed: only a narrower search can tell).
 3. Starting values: ``R_c`` from Wahba's problem on the centred vectors, the rotation nearest to
    ``Σ (F g_k − ḡ)(F ω_k − ω̄)ᵀ`` (:func:`omegahat.so3.project`); ``b = ḡ − A ω̄``; ``s`` per axis by least squares;
    a general ``A`` by linear least squares.
@@ -69,16 +70,16 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 from scipy.optimize import least_squares
-from scipy.signal import butter, correlate, sosfiltfilt
+from scipy.signal import butter, sosfiltfilt
 
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.spline import spline_rate
 from omegahat.calibration_result import Calibration
+from omegahat.clock_offset import OffsetSearch, search_offset
 
 __all__ = [
     "DEFAULT_CUTOFF_HZ",
-    "DEFAULT_MAX_OFFSET",
     "MIN_EXCITATION",
     "MODES",
     "Calibration",
@@ -88,7 +89,6 @@ __all__ = [
 
 MODES = ("none", "axes", "matrix")  #: scale factors: none (A = R_c), per gyro axis, or a general matrix
 DEFAULT_CUTOFF_HZ = 10.0  #: the fit's band, lowered to 0.4 × the slower log's rate
-DEFAULT_MAX_OFFSET = 2.0  #: s: the clock offset is searched within ± this of the guess
 MIN_EXCITATION = 0.05  #: weakest / strongest principal standard deviation of the rate that identifies R_c
 AMBIGUOUS_OFFSET = 0.9  #: a second offset whose correlation is this share of the best's is named in a note
 UNEXPLAINED = 0.5  #: a note where the residual's RMS is more than this share of the band-limited gyro's
@@ -133,17 +133,25 @@ class _Problem:
         self.mode, self.t, self.fc = mode, t_a, cutoff_hz
         self.fa, self.fg = _rate(t_a), _rate(t_g)
         self.sos = butter(4, cutoff_hz, fs=self.fa, output="sos")
-        gp = g
+        self.g = g
         if self.fg > 1.25 * self.fa:  # anti-alias before the attitude's times pick the gyro's samples
-            gp = sosfiltfilt(butter(4, 0.45 * self.fa, fs=self.fg, output="sos"), g, axis=0)
-        self.gyro = CubicSpline(t_g, gp, axis=0)
-        self.gyro_dot = self.gyro.derivative()
-        self.tg_range = (t_g[0], t_g[-1])
+            self.g = sosfiltfilt(butter(4, 0.45 * self.fa, fs=self.fg, output="sos"), g, axis=0)
+        self.t_g = t_g
+        self.rebase(0.0)
         self.W = sosfiltfilt(self.sos, W, axis=0)
         self.valid_a = valid_a
-        self.gap_a, self.gap_g = _Gaps(t_a, ~valid_a), _Gaps(t_g)
+        self.gap_a = _Gaps(t_a, ~valid_a)
         self.margin = _MARGIN_PERIODS / cutoff_hz
         self.use = np.zeros(t_a.size, dtype=bool)
+
+    def rebase(self, base: float) -> None:
+        """Count offsets from ``base`` s: near zero, the fit's relative tolerances stay tight for clocks far apart."""
+        self.base = base
+        t_g = self.t_g - base
+        self.gyro = CubicSpline(t_g, self.g, axis=0)
+        self.gyro_dot = self.gyro.derivative()
+        self.tg_range = (t_g[0], t_g[-1])
+        self.gap_g = _Gaps(t_g)
 
     def usable(self, delta: float, slack: float) -> np.ndarray:
         """Attitude samples far enough (margin + ``slack``) from gaps and both logs' ends at offset ``delta``."""
@@ -204,42 +212,20 @@ class _Problem:
         return np.concatenate(cols, axis=2).reshape(3 * N, -1)
 
 
-def _coarse_offset(p: _Problem, guess: float, max_offset: float, min_overlap: int) -> tuple[float, float, float]:
-    """Step 2: the lag maximising the normalised cross-correlation of the centred rates' norms (module docstring),
-    and the runner-up: the best other local maximum at least a period of the band away, and its correlation over the
-    best's (NaN where there is none). A motion that repeats itself has several."""
+def _coarse_offset(p: _Problem, guess: float, max_offset: float | None, min_overlap: int) -> OffsetSearch:
+    """Step 2 (module docstring; :func:`omegahat.clock_offset.search_offset`) on the centred rates' norms."""
     step = 1.0 / p.fa
-    L = math.ceil(max_offset / step)
     grid = p.t[0] + step * np.arange(math.floor((p.t[-1] - p.t[0]) / step) + 1)
-    mx = ~p.gap_a.near(grid, p.margin)
     Wc = p.W - p.W[p.valid_a].mean(axis=0)
-    x = np.interp(grid, p.t, np.linalg.norm(Wc, axis=1))
-    ug = guess + p.t[0] + step * np.arange(-L, grid.size + L)
-    my = (ug >= p.tg_range[0]) & (ug <= p.tg_range[1]) & ~p.gap_g.near(ug, p.margin)
-    if not my.any():
-        return math.nan, math.nan, math.nan
-    gy = p.gyro(np.clip(ug, *p.tg_range))
-    y = np.linalg.norm(gy - gy[my].mean(axis=0), axis=1)
-    xt = np.where(mx, x - x[mx].mean(), 0.0)
-    yt = np.where(my, y - y[my].mean(), 0.0)
-    fx, fy = mx.astype(float), my.astype(float)
-    num = correlate(yt, xt, mode="valid", method="fft")
-    sxx = correlate(fy, xt**2, mode="valid", method="fft")
-    syy = correlate(yt**2, fx, mode="valid", method="fft")
-    n = correlate(fy, fx, mode="valid", method="fft")
-    c = np.where((n >= min_overlap - 0.5) & (sxx > 0) & (syy > 0), num / np.sqrt(np.abs(sxx * syy) + 1e-300), -np.inf)
-    if not np.isfinite(c).any():
-        return math.nan, math.nan, math.nan
-    k = int(np.argmax(c))
-    frac = 0.0
-    if 0 < k < c.size - 1 and np.isfinite(c[k - 1]) and np.isfinite(c[k + 1]):
-        den = c[k - 1] - 2 * c[k] + c[k + 1]
-        frac = 0.5 * (c[k - 1] - c[k + 1]) / den if den < 0 else 0.0
-    peaks = np.flatnonzero((c[1:-1] >= c[:-2]) & (c[1:-1] >= c[2:]) & np.isfinite(c[1:-1])) + 1
-    peaks = peaks[np.abs(peaks - k) >= p.fa / p.fc]
-    other = int(peaks[np.argmax(c[peaks])]) if peaks.size and c[k] > 0 else -1
-    runner_up = (guess + (other - L) * step, float(c[other] / c[k])) if other >= 0 else (math.nan, math.nan)
-    return guess + (k - L + frac) * step, *runner_up
+
+    def gyro_norms(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ok = (u >= p.tg_range[0]) & (u <= p.tg_range[1]) & ~p.gap_g.near(u, p.margin)
+        g = p.gyro(np.clip(u, *p.tg_range))
+        return np.linalg.norm(g - g[ok].mean(axis=0), axis=1) if ok.any() else g[:, 0], ok
+
+    norms = np.interp(grid, p.t, np.linalg.norm(Wc, axis=1))
+    usable = ~p.gap_a.near(grid, p.margin)
+    return search_offset(grid, norms, usable, gyro_norms, p.tg_range, guess, max_offset, min_overlap, p.fa / p.fc)
 
 
 def _sandwich(J: np.ndarray, r: np.ndarray, block: int) -> np.ndarray:
@@ -362,11 +348,12 @@ def calibrate(
     scale: str = "none",
     cutoff_hz: float | None = None,
     offset_guess: float = 0.0,
-    max_offset: float = DEFAULT_MAX_OFFSET,
+    max_offset: float | None = None,
 ) -> Calibration:
     """Fit (C1) (module docstring). ``attitudes``: rotation matrices ``(T, 3, 3)`` or quaternions ``(T, 4)`` scalar
     last, body → inertial, NaN rows missing; ``gyro (M, 3)`` at ``t_gyro`` (its own clock, s). ``scale``: ``"none"``,
-    ``"axes"`` or ``"matrix"``; the offset is searched within ``offset_guess ± max_offset`` s. Raises ``ValueError``
+    ``"axes"`` or ``"matrix"``; the offset is searched at every lag at which the logs overlap, within
+    ``offset_guess ± max_offset`` s where ``max_offset`` is given. Raises ``ValueError``
     saying why when the logs do not overlap, hold too few samples, or the motion cannot identify the parameters."""
     p, _, span, notes = _prepare(t_attitude, attitudes, t_gyro, gyro, scale, cutoff_hz)
     fc = p.fc
@@ -381,32 +368,44 @@ def calibrate(
         )
     t = p.t
     _excitation(p.W[p.valid_a & ~p.gap_a.near(t, p.margin) & (t > t[0] + p.margin) & (t < t[-1] - p.margin)], scale)
-    delta, other, likeness = _coarse_offset(p, offset_guess, max_offset, n_min // 2)
-    if likeness >= AMBIGUOUS_OFFSET:  # a motion that repeats itself: say so, the fit below cannot tell
-        notes.append(
-            f"the motion repeats itself: a clock offset of {other:+.4g} s matches the rates' norms nearly as well "
-            f"({likeness:.2f} of the correlation at the {delta:+.4g} s chosen); where the clocks are known to be "
-            "closer, narrow the search (offset_guess and max_offset; --offset and --max-offset on the command line)"
-        )
+    search = _coarse_offset(p, offset_guess, max_offset, n_min // 2)
+    delta = search.offset
+    where = (
+        "at any clock offset"
+        if max_offset is None
+        else f"at any clock offset within {offset_guess:g} ± {max_offset:g} s"
+    )
     if not math.isfinite(delta):
         raise ValueError(
-            f"the logs do not overlap in time at any clock offset within {offset_guess:g} ± {max_offset:g} s ({span}) "
-            "by enough samples: give a guess of the offset (gyro time - attitude time) or a wider search"
+            f"the logs do not overlap in time {where} by enough samples ({span}; at least {n_min // 2} needed)"
+            + (
+                ""
+                if max_offset is None
+                else ": give a better guess of the offset (gyro time - attitude time) or a wider search"
+            )
         )
-    if abs(delta - offset_guess) > max_offset - 1.0 / p.fa:  # the best lag is the search's last: it may lie beyond
+    if search.likeness >= AMBIGUOUS_OFFSET:  # a motion that repeats itself: say so, the fit below cannot tell
+        notes.append(
+            f"the motion repeats itself: a clock offset of {search.runner_up:+.4g} s matches the rates' norms nearly "
+            f"as well ({search.likeness:.2f} of the correlation at the {delta:+.4g} s chosen); where the clocks are "
+            "known to be closer, narrow the search (offset_guess and max_offset; --offset and --max-offset on the "
+            "command line)"
+        )
+    if search.at_bound:  # the best lag is the search's last: it may lie beyond
         notes.append(
             f"the clock offset found, {delta:+.4g} s, is at the edge of the search ({offset_guess:g} ± {max_offset:g} "
             "s): the clocks may be further apart; widen the search (max_offset; --max-offset on the command line)"
         )
     h = 1.0 / p.fa
-    p.use = p.usable(delta, 2.5 * h)
+    p.rebase(delta)  # from here on δ is counted from the coarse offset
+    p.use = p.usable(0.0, 2.5 * h)
     if p.use.sum() < n_min:
         raise ValueError(
             f"too few samples to calibrate: {int(p.use.sum())} attitude samples overlap the gyro log away from gaps "
             f"and ends at the offset found ({delta:+.4g} s; {span}); at least {n_min} are needed"
         )
     excitation = _excitation(p.W[p.use], scale)
-    fine = delta + h * np.linspace(-1.5, 1.5, 31)
+    fine = h * np.linspace(-1.5, 1.5, 31)
     delta = float(fine[int(np.argmin([p.linear_fit(d)[2] for d in fine]))])
     A, b, _ = p.linear_fit(delta)
     Gc, Wc = p.G(delta)[p.use], p.W[p.use]
@@ -448,8 +447,9 @@ def calibrate(
     C = T @ _sandwich(p.jacobian(x, R0) @ T, r, block) @ T.T
     std = np.sqrt(np.diag(C))
     delta, A, b, Rc, s = p.split(x, R0)
+    delta += p.base
     res_rms = np.sqrt(np.mean(r.reshape(-1, 3) ** 2, axis=0))
-    notes.extend(_unexplained(p.G(delta)[p.use], r.reshape(-1, 3), scale))
+    notes.extend(_unexplained(p.G(delta - p.base)[p.use], r.reshape(-1, 3), scale))
     if scale == "matrix":
         names = ("offset", *(f"A{i + 1}{j + 1}" for i in range(3) for j in range(3)), "bx", "by", "bz")
         Rc = _orth(A)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from omegahat import so3
-from omegahat.calibration import DEFAULT_MAX_OFFSET, MODES, Calibration, band_limited, calibrate
+from omegahat.calibration import MODES, Calibration, band_limited, calibrate
 from omegahat.cli import add_column_options, add_quaternion_order, positive_float
 from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import read_gyro
@@ -98,14 +98,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--cutoff", type=positive_float, metavar="HZ", help="band of the fit (default min(10 Hz, 0.4 x slower rate))"
     )
     fit.add_argument(
-        "--offset", type=float, default=0.0, metavar="S", help="guess of the clock offset, gyro time - attitude time"
+        "--offset",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="guess of the offset, gyro - attitude time (with --max-offset)",
     )
     fit.add_argument(
         "--max-offset",
         type=positive_float,
-        default=DEFAULT_MAX_OFFSET,
         metavar="S",
-        help=f"search the offset within the guess +- this (default {DEFAULT_MAX_OFFSET:g} s)",
+        help="search the offset within the guess +- this (default: every offset at which the logs overlap)",
     )
     att = parser.add_argument_group("conventions of the attitude log (as omegahat estimate)")
     att.add_argument("--time-unit", choices=list(TIME_UNITS), default="s")
