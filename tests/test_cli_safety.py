@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from numba.core import event
 
-from logmaker import constant_rate, read_output, write_csv
+from logmaker import DiscardWriter, constant_rate, read_output, write_csv
 from omegahat.cli import main
 from omegahat.io import ReadOptions, read_log
 from omegahat.kernels import compiling
@@ -145,22 +145,8 @@ def test_a_jump_of_the_attitude_source_is_reported(tmp_path, capsys, columns):
 
     stream = LogStream("jump", "quaternion", 0, False, "line", chunks)
     checked_stream(stream, ReadOptions())
-    summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: _Discard(), report=print)
+    summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print)
     assert (summary.jumps, round(np.degrees(summary.largest_jump[0])), summary.largest_jump[1]) == (1, 132, 152)
-
-
-class _Discard:
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def write(self, chunk, omega, status):
-        pass
-
-
-# ------------------------------------------------------------------------------------------------ errors
 
 
 def test_a_bad_sample_names_its_line_and_the_options(tmp_path, capsys):

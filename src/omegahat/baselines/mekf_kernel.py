@@ -35,7 +35,7 @@ __all__ = ["run_log"]
 @numba.njit(cache=True, error_model="numpy")
 def run_log(
     times, meas, valid, torques, references, directions, dynamic, J, J_inv, q, meas_var, max_step, max_angle,
-    linear_hold, q_a, state, R, P, tau, omega0, P0, likelihood, rate_covariances,
+    linear_hold, q_a, state, R, P, tau, omega0, P0, likelihood, rate_covariances, max_rate=np.inf,
 ):  # fmt: skip
     """``MEKF.update`` over a checked log. ``meas``: rotation matrices ``(T, 3, 3)`` or unit directions
     ``(T, n, 3)``; ``valid`` the usable samples. The filter's state goes in and comes out: ``state = [t_prev,
@@ -45,7 +45,9 @@ def run_log(
     ``[fixes to leave out, Σ log det S, Σ ν, degrees of freedom]`` of the fixes' innovations (the first
     ``likelihood[0]`` fixes, a diffuse prior's, are counted down and left out). Returns ``(ω̂ (T, 3), R, P,
     n_skipped, n_restarts)``; ``rate_covariances`` ``(T, 3, 3)`` receives the rate block of P after each sample
-    (``(0, 3, 3)``: not kept; NaN where the filter restarted)."""
+    (``(0, 3, 3)``: not kept; NaN where the filter restarted). ``max_rate`` (rad/s): a fix that leaves |ω̂| above it
+    ends the run, the rest of ``ω̂`` NaN and ``likelihood[2]`` infinite (the identification's passes of a kinematic
+    model: a rate beyond half a turn per step is an alias the filter has locked onto, not a model of the log)."""
     T = times.size
     out = np.empty((T, 3))
     R, P, tau = R.copy(), P.copy(), tau.copy()
@@ -81,6 +83,12 @@ def run_log(
                     likelihood[2] += nis
                     likelihood[3] += 3.0 * (references.shape[0] if directions else 1)
             finite = ekf_finite(R, omega, accel, P)
+            if finite and omega[0] ** 2 + omega[1] ** 2 + omega[2] ** 2 > max_rate * max_rate:
+                likelihood[2] = np.inf
+                for i in range(j, T):
+                    for c in range(3):
+                        out[i, c] = np.nan
+                break
         t_prev = times[j]
         has_t = True
         tau = torques[j].copy()

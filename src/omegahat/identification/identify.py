@@ -5,7 +5,8 @@ r"""The model and the noises of a log, chosen by the log's own likelihood: what 
 ``Λ`` and measurement noise ``σ`` of maximum likelihood, the model chosen, the expected RMS errors of the estimate
 and of backward differencing, and the estimator to run (:meth:`Identification.estimator`).
 
-1. **Noise bound.** ``σ_q`` of :mod:`omegahat.identification.noise` (the quietest tenth of the log).
+1. **Noise bound.** ``σ_q`` of :mod:`omegahat.identification.noise` (the quietest tenth of the log), after the
+   isolated spikes of :mod:`omegahat.identification.spikes` are left out (of every step).
 2. **Each model** (``rate`` and ``acceleration``; with J also ``dynamic`` and ``dynamic+disturbance``): ``Λ``
    maximising ``ℓ(Λ, σ)`` of (L3) with ``σ = min(σ̂(Λ), σ_q)`` — the likelihood's own noise, but never above what
    the quiet parts of the log show (see the noise module: a stationary model would otherwise take a bursty motion
@@ -57,6 +58,7 @@ from omegahat.identification.causal import CausalFilter, causal_filter, model_to
 from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
 from omegahat.identification.noise import quiet_noise, rigid_directions
 from omegahat.identification.spectral import increment_spectrum, read_steps, stretches
+from omegahat.identification.spikes import describe_spikes, isolated_spikes
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
@@ -182,6 +184,8 @@ class Identification:
     rigid : bool, optional
         Directions that are a rotation's, identified as their least-squares attitudes ((R0) of
         :func:`omegahat.identification.noise.rigid_directions`).
+    spikes : tuple of (float, float), optional
+        The isolated spikes left out (:mod:`omegahat.identification.spikes`): each one's time (s) and detour (rad).
 
     Examples
     --------
@@ -218,6 +222,7 @@ class Identification:
     stamp_step: float | None = None
     causal: CausalFilter | None = None
     rigid: bool = False
+    spikes: tuple[tuple[float, float], ...] = ()
 
     def estimator(self, **options: object) -> SupervisedKalmanEstimator | DifferencingEstimator:
         """The default estimator for this identification (module docstring, step 5): the observer supervising the
@@ -291,6 +296,7 @@ class Identification:
             )
             + ("\ndirections: their angles are the references' (a rotation's, as if computed from attitudes): "
                "identified as their least-squares attitudes (R0)" if self.rigid else "")
+            + describe_spikes(self.spikes)
         )  # fmt: skip
 
 
@@ -419,6 +425,8 @@ def identify(
     data = np.asarray(data, dtype=float)
     refs = None if kind != "directions" else as_directions(references)  # type: ignore[arg-type]
     valid, R, filt_data = _attitudes(data, kind, refs)
+    spikes = isolated_spikes(R, valid)  # left out: one such sample throws every fast filter onto an alias
+    valid[spikes.samples] = False
     if np.count_nonzero(valid) < MIN_SAMPLES:
         raise ValueError(
             f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
@@ -455,7 +463,7 @@ def identify(
         if chosen.model in likelihood.DYNAMIC
         else likelihood.steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
     )  # fmt: skip
-    differencing = differencing_error(phi, h, chosen.sigma)
+    differencing = differencing_error(spikes.skipped(phi, valid), h, chosen.sigma)  # (D1): steps of one spacing
     if chosen.misfit > MISFIT_MAX:
         use, why = (
             False,
@@ -485,6 +493,8 @@ def identify(
                 ),
             )
     causal = None if use or spectrum is None else causal_filter(spectrum)
+    spiked = tuple((float(t[k]), float(d)) for k, d in zip(spikes.samples, spikes.detour, strict=True))
     return Identification(
-        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal, rigid
-    )
+        1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal, rigid,
+        spiked,
+    )  # fmt: skip

@@ -41,6 +41,7 @@ from scipy.linalg import solve_discrete_are
 from omegahat.baselines.mekf_kernel import run_log
 from omegahat.conversion import read_only, torques_array
 from omegahat.kernels.ekf import NOMINAL_SUBSTEP_ANGLE
+from omegahat.observer.kalman import NYQUIST_RATE
 
 __all__ = [
     "BURN_IN",
@@ -109,6 +110,7 @@ def filter_pass(
     references: np.ndarray | None = None,
     linear_hold: bool = False,
     covariances: bool = False,
+    max_rate: float = np.inf,
 ) -> Pass:
     """One pass of the EKF of ``model`` with measurement noise ``sigma`` and the process noise of (L2) at
     ``tracking_index``, over the log ``t (T,)``, ``data`` (rotation matrices ``(T, 3, 3)``, or unit directions
@@ -156,6 +158,7 @@ def filter_pass(
         P0,
         sums,
         P_rates,
+        max_rate,
     )
     return Pass(omega, P_rates, Sums(float(sums[1]), float(sums[2]), float(sums[3])))
 
@@ -173,10 +176,14 @@ def innovation_sums(
     references: np.ndarray | None = None,
     linear_hold: bool = False,
 ) -> Sums:
-    """``(D, N, d)`` of (L3): :func:`filter_pass` at ``σ = 1``."""
+    """``(D, N, d)`` of (L3): :func:`filter_pass` at ``σ = 1``; for a kinematic model the pass ends, its ``N``
+    infinite, where the filter's rate passes half a turn per step (:data:`~omegahat.observer.kalman.NYQUIST_RATE`
+    over ``h``: an alias of the rate, as a spike or a reset of the attitude source throws a fast filter onto)."""
+    max_rate = np.inf if model in DYNAMIC else NYQUIST_RATE / h
     return filter_pass(
-        t, data, valid, model, tracking_index, h=h, J=J, torque=torque, references=references, linear_hold=linear_hold
-    ).sums
+        t, data, valid, model, tracking_index, h=h, J=J, torque=torque, references=references,
+        linear_hold=linear_hold, max_rate=max_rate,
+    ).sums  # fmt: skip
 
 
 def log_likelihood(sums: Sums, sigma: float | None = None) -> tuple[float, float]:

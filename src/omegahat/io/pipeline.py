@@ -17,11 +17,12 @@ order:
    first; each chunk is written with the estimator's own per-row statuses (:class:`omegahat.interface.Status`). A
    sample that is not a rotation stops the run with a message naming its line and column and the options that
    would accept or skip it, unless ``skip_bad_samples`` (:class:`BadSamples`): then it is treated as missing,
-   counted and reported. Gaps longer than twice the median spacing are counted, and so are jumps: consecutive
-   attitudes more than :data:`JUMP_ANGLE` apart, a turn faster than the samples can follow (a quarter of the
-   half-turn beyond which the sampled attitudes cannot tell the direction at all) or, in real logs, a reset or
-   glitch of the attitude source (an iPhone's CoreMotion attitude jumped 130° in one 9 ms step).
-5. **Summary**: rows written, samples skipped and why, bad samples, gaps, jumps, what ran.
+   counted and reported. Gaps longer than twice the median spacing are counted, and so are isolated spikes
+   (:mod:`omegahat.identification.spikes`: one sample far from both neighbours, a marker swap) and jumps:
+   consecutive attitudes more than :data:`JUMP_ANGLE` apart, a turn faster than the samples can follow (a quarter
+   of the half-turn beyond which the sampled attitudes cannot tell the direction at all) or, in real logs, a reset
+   or glitch of the attitude source (an iPhone's CoreMotion attitude jumped 130° in one 9 ms step).
+5. **Summary**: rows written, samples skipped and why, bad samples, gaps, jumps, spikes, what ran.
 
 The loop knows options by their keys only; messages name them through the caller's spelling (``spell``,
 :mod:`omegahat.io.settings`: ``rotation_tol=0.02`` from Python, ``--rotation-tol 0.02`` from the command), and an
@@ -43,6 +44,7 @@ from typing import Protocol
 import numpy as np
 
 from omegahat import measurements as ms
+from omegahat.identification.spikes import judged_spikes
 from omegahat.interface import Estimate, Status
 from omegahat.io.choice import attitude_choice, references
 from omegahat.io.columns import LogFormatError
@@ -75,7 +77,8 @@ class RunSummary:
     ``n_skipped`` samples skipped by the estimator (of which ``n_collinear`` with nearly collinear directions),
     ``n_bad`` treated as missing (``skip_bad_samples``), ``gaps`` and the ``largest_gap`` ``(seconds, label after
     it)``, ``jumps`` (consecutive attitudes more than :data:`JUMP_ANGLE` apart) and the ``largest_jump`` ``(rad,
-    label after it)``, ``elapsed`` seconds estimating, ``compile_s`` seconds checking the head (compilation included),
+    label after it)``, isolated ``spikes`` (:mod:`omegahat.identification.spikes`) and the ``largest_spike`` ``(rad,
+    its label)``, ``elapsed`` seconds estimating, ``compile_s`` seconds checking the head (compilation included),
     ``output``: what the writer says it wrote (its ``describe()``), and ``lines``: the report."""
 
     rows: int = 0
@@ -89,6 +92,8 @@ class RunSummary:
     largest_gap: tuple[float, int | None] = (0.0, None)
     jumps: int = 0
     largest_jump: tuple[float, int | None] = (0.0, None)
+    spikes: int = 0
+    largest_spike: tuple[float, int | None] = (0.0, None)
     elapsed: float = 0.0
     compile_s: float = 0.0
     lines: list[str] = field(default_factory=list)
@@ -164,7 +169,9 @@ class _Run:
         self.summary = summary
         self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing
         self.t_prev: float | None = None
-        self.last_attitude: np.ndarray | None = None  # the previous chunk's last row, for the jump across chunks
+        # the previous chunk's last rows and labels: the jump across chunks, the spikes the next chunk's rows judge
+        self.carry: tuple[np.ndarray, np.ndarray] | None = None
+        self.typical_step = math.nan  # the first chunk's median step: the scale a spike is judged against
 
     def _estimate(self, t: np.ndarray, data: np.ndarray, torque: np.ndarray | None) -> Estimate:
         with warnings.catch_warnings():
@@ -215,16 +222,32 @@ class _Run:
                 s.largest_gap = (float(dt[j]), int(chunk.labels[j + 1 if self.t_prev is None else j]))
         self.t_prev = float(chunk.t[-1])
         if self.stream.kind in ("quaternion", "matrix") and len(chunk):
-            turn = _turns(
-                chunk.data if self.last_attitude is None else np.concatenate([self.last_attitude, chunk.data])
-            )
-            jump = np.flatnonzero(turn > JUMP_ANGLE)  # NaN (a missing sample on either side) is not a jump
-            s.jumps += jump.size
-            if jump.size:
-                j = int(jump[np.argmax(turn[jump])])
-                if turn[j] > s.largest_jump[0]:
-                    s.largest_jump = (float(turn[j]), int(chunk.labels[j + 1 if self.last_attitude is None else j]))
-            self.last_attitude = chunk.data[-1:]
+            self._check_turns(chunk)
+
+    def _check_turns(self, chunk: LogChunk) -> None:
+        """Count the jumps and the isolated spikes (:mod:`omegahat.identification.spikes`) of ``chunk``, with the
+        previous chunk's last rows: a sample is judged once its two successors are read (the log's last two never)."""
+        s, c = self.summary, 0 if self.carry is None else self.carry[0].shape[0]
+        data = chunk.data if self.carry is None else np.concatenate([self.carry[0], chunk.data])
+        labels = chunk.labels if self.carry is None else np.concatenate([self.carry[1], chunk.labels])
+        turn = _turns(data)
+        new = max(c - 1, 0)  # the steps not counted yet: from the carry's last row on
+        jump = np.flatnonzero(turn[new:] > JUMP_ANGLE) + new  # NaN (a missing sample on either side) is not a jump
+        s.jumps += jump.size
+        if jump.size:
+            j = int(jump[np.argmax(turn[jump])])
+            if turn[j] > s.largest_jump[0]:
+                s.largest_jump = (float(turn[j]), int(labels[j + 1]))
+        if math.isnan(self.typical_step) and np.isfinite(turn).any():
+            self.typical_step = float(np.nanmedian(turn))
+        valid = np.all(np.isfinite(data.reshape(data.shape[0], -1)), axis=1)
+        spikes = judged_spikes(turn, _turns(data, 2), valid, self.typical_step, max(c - 2, 1), data.shape[0] - 3)
+        s.spikes += spikes.samples.size
+        if spikes.samples.size:
+            j = int(np.argmax(spikes.detour))
+            if spikes.detour[j] > s.largest_spike[0]:
+                s.largest_spike = (float(spikes.detour[j]), int(labels[spikes.samples[j]]))
+        self.carry = (data[-4:], labels[-4:])
 
     def feed(self, chunk: LogChunk) -> None:
         """A streaming estimator: one chunk."""
@@ -241,14 +264,15 @@ class _Run:
             start = stop
 
 
-def _turns(data: np.ndarray) -> np.ndarray:
-    """The angle (rad) between each two consecutive attitudes of ``data`` (quaternions ``(m, 4)`` in either order of
-    the scalar, or rotation matrices ``(m, 3, 3)``): ``2 acos |q_k · q_k+1|`` or ``acos((tr(R_kᵀ R_k+1) − 1)/2)``."""
+def _turns(data: np.ndarray, lag: int = 1) -> np.ndarray:
+    """The angle (rad) between each attitude of ``data`` and the one ``lag`` samples on (quaternions ``(m, 4)`` in
+    either order of the scalar, or rotation matrices ``(m, 3, 3)``): ``2 acos |q_k · q_k+lag|`` or
+    ``acos((tr(R_kᵀ R_k+lag) − 1)/2)``."""
     with np.errstate(invalid="ignore"):  # missing samples: NaN angles
         if data.ndim == 2:
             q = data / np.linalg.norm(data, axis=1, keepdims=True)
-            return 2.0 * np.arccos(np.minimum(np.abs(np.einsum("ij,ij->i", q[:-1], q[1:])), 1.0))
-        return np.arccos(np.clip((np.einsum("kij,kij->k", data[:-1], data[1:]) - 1.0) / 2.0, -1.0, 1.0))
+            return 2.0 * np.arccos(np.minimum(np.abs(np.einsum("ij,ij->i", q[:-lag], q[lag:])), 1.0))
+        return np.arccos(np.clip((np.einsum("kij,kij->k", data[:-lag], data[lag:]) - 1.0) / 2.0, -1.0, 1.0))
 
 
 def _head(chunks) -> list[LogChunk]:
@@ -356,6 +380,12 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
             f"{'' if s.jumps > 1 else 's'} the attitude more than {math.degrees(JUMP_ANGLE):.0f}°; the largest "
             f"{math.degrees(s.largest_jump[0]):.0f}° before {stream.label} {s.largest_jump[1]}: faster than the "
             "samples can follow, or a reset or glitch of the attitude source (the rates there are not the body's)"
+        )
+    if s.spikes:
+        lines.append(
+            f"spikes: {s.spikes} isolated sample{'s' if s.spikes > 1 else ''} far from both neighbours, which agree "
+            f"with each other; the largest {math.degrees(s.largest_spike[0]):.3g}° off at {stream.label} "
+            f"{s.largest_spike[1]}: a marker swap or a misread frame (the rates there are not the body's)"
         )
     return [*lines, *choice.closing(), choice.used()]
 

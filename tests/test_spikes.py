@@ -1,0 +1,170 @@
+"""Isolated spikes (:mod:`omegahat.identification.spikes`): found where they are put, never in motion or noise, and
+left out of the identification, which without them declines a model it then accepts.
+
+The logs are integrated here from a closed-form rate with SciPy's rotations (independent of the code under test);
+a spike is a sample turned by a fixed rotation, as a marker swap does."""
+
+from __future__ import annotations
+
+import importlib
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from logmaker import DiscardWriter
+from omegahat.identification import identify
+from omegahat.identification import spikes as spikes_module
+from omegahat.identification.likelihood import filter_pass, log_likelihood
+from omegahat.identification.spikes import isolated_spikes
+
+H = 1.0 / 60.0
+GLITCHES = (300, 700, 1500, 2900)
+
+
+def rate(t: np.ndarray) -> np.ndarray:
+    """A body rate (rad/s, body axes) whose axis and size keep changing."""
+    s, f = np.sin(0.5 * t)[:, None], np.sin(2.3 * t)[:, None]
+    return np.array([1.0, -2.0, 0.5]) * s + np.array([0.3, 0.1, 0.2]) + 0.5 * f * np.array([0.0, 1.0, 1.0])
+
+
+def attitudes(w: np.ndarray, h: float, sigma: float, seed: int = 0) -> np.ndarray:
+    """Body → inertial attitudes of the rate ``w`` (trapezoidal increments) with ``sigma`` rad of noise per axis."""
+    steps = Rotation.from_rotvec(0.5 * (w[:-1] + w[1:]) * h).as_matrix()
+    R = np.empty((w.shape[0], 3, 3))
+    R[0] = np.eye(3)
+    for k in range(1, w.shape[0]):
+        R[k] = R[k - 1] @ steps[k - 1]
+    noise = Rotation.from_rotvec(np.random.default_rng(seed).normal(0.0, sigma, (w.shape[0], 3))).as_matrix()
+    return R @ noise
+
+
+def spiked(R: np.ndarray, where=GLITCHES, turn=(1.1, 0.5, 0.0)) -> np.ndarray:
+    out = R.copy()
+    out[list(where)] = out[list(where)] @ Rotation.from_rotvec(turn).as_matrix()
+    return out
+
+
+def test_the_spikes_put_in_a_moving_log_are_found_and_nothing_else():
+    t = H * np.arange(3600)
+    R = attitudes(rate(t), H, 3e-4)
+    valid = np.ones(t.size, bool)
+    assert isolated_spikes(R, valid).samples.size == 0
+    found = isolated_spikes(spiked(R), valid)
+    assert found.samples.tolist() == list(GLITCHES)
+    np.testing.assert_allclose(found.detour, np.linalg.norm([1.1, 0.5, 0.0]), atol=0.1)
+    small = isolated_spikes(spiked(R, turn=(0.02, 0.0, 0.0)), valid)  # 1.1°: motion-sized, not judged a spike
+    assert small.samples.size == 0
+    gap = valid.copy()
+    gap[GLITCHES[0] + 1] = False  # a spike beside a missing sample has one neighbour: not judged
+    assert isolated_spikes(spiked(R), gap).samples.tolist() == list(GLITCHES[1:])
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["noise at rest", "a bounce", "a fast spin", "an impact", "a slow log's alternation"],
+)
+def test_motion_and_noise_are_not_spikes(case):
+    """Noise alone (100,000 samples at rest), a turn reversed within one sample, half a radian per step, a rate that
+    jumps by 20 rad/s between two samples, and a 1 rad oscillation at the log's Nyquist frequency: none is isolated."""
+    rng = np.random.default_rng(1)
+    if case == "noise at rest":
+        R = Rotation.from_rotvec(rng.normal(0.0, 1e-3, (100_000, 3))).as_matrix()
+    else:
+        n = 400
+        t = 0.01 * np.arange(n)
+        if case == "a bounce":  # 3 rad/s about z, reversed at 2 s: back and forth, mirror images about the stop
+            angle = 3.0 * np.minimum(t, 4.0 - t)
+        elif case == "a fast spin":
+            angle = 50.0 * t
+        elif case == "an impact":
+            angle = np.where(t < 2.0, 0.5 * t, 1.0 + 20.5 * (t - 2.0))
+        else:
+            angle = np.where(np.arange(n) % 2 == 0, 0.5, -0.5)
+        axis = np.array([0.3, -0.4, 0.87]) / np.linalg.norm([0.3, -0.4, 0.87])
+        R = Rotation.from_rotvec(np.outer(angle, axis) + rng.normal(0.0, 1e-4, (n, 3))).as_matrix()
+    assert isolated_spikes(R, np.ones(R.shape[0], bool)).samples.size == 0
+
+
+def test_the_identification_leaves_the_spikes_out_and_keeps_the_model():
+    """Four 69° spikes in a minute at 60 Hz: with them left out, the identification of the spiked log is the clean
+    log's (the rate model at the same tracking index, run, differencing's expected error the same) and says so;
+    without the screen (the same identification with it disabled) every fast filter is thrown onto an alias and the
+    log's likelihood makes the model decline."""
+    t = H * np.arange(3600)
+    R = attitudes(rate(t), H, 3e-4)
+    clean, bad = identify(t, R, "matrix"), identify(t, spiked(R), "matrix")
+    assert clean.use_model and bad.use_model and bad.chosen.model == clean.chosen.model == "rate"
+    assert abs(np.log(bad.chosen.tracking_index / clean.chosen.tracking_index)) < 0.1
+    assert abs(bad.differencing_rms / clean.differencing_rms - 1.0) < 0.05
+    assert [round(s[0], 6) for s in bad.spikes] == [round(t[k], 6) for k in GLITCHES] and not clean.spikes
+    assert "spikes: 4 isolated samples far from both neighbours (the largest" in bad.explain()
+    assert "at t = " in bad.explain() and "spikes" not in clean.explain()
+
+
+def test_without_the_screen_the_spikes_make_the_model_decline(monkeypatch):
+    t = H * np.arange(600)  # 10 s (the aliased passes take thousands of substeps per sample: slow)
+    R = spiked(attitudes(rate(t), H, 3e-4), where=(300,))
+    none = spikes_module.Spikes(np.zeros(0, dtype=np.int64), np.zeros(0))
+    module = importlib.import_module("omegahat.identification.identify")  # the package's name is the function's
+    monkeypatch.setattr(module, "isolated_spikes", lambda R, valid: none)
+    unscreened = identify(t, R, "matrix")
+    assert not unscreened.use_model
+
+
+def test_a_kinematic_pass_ends_where_its_rate_passes_half_a_turn_per_step():
+    """The alias itself: a fast pass of the rate model over a spiked log ends with rates far beyond π/h (the samples
+    cannot tell them from the rate less 2π/h); given that bound, the pass stops at the first fix beyond it, its
+    estimates NaN from there and its likelihood minus infinity, while a pass that stays below runs through."""
+    t = H * np.arange(600)
+    R = spiked(attitudes(rate(t), H, 3e-4), where=(300,))
+    valid = np.ones(t.size, bool)
+    free = filter_pass(t, R, valid, "rate", 1e3, sigma=3e-4, h=H)
+    speed = np.linalg.norm(free.omega, axis=1)
+    assert speed[:300].max() < 5.0 and speed[-1] > np.pi / H  # locked onto an alias after the spike
+    bounded = filter_pass(t, R, valid, "rate", 1e3, sigma=3e-4, h=H, max_rate=np.pi / H)
+    first = int(np.argmax(speed > np.pi / H))
+    assert np.isnan(bounded.omega[first:]).all() and np.isfinite(bounded.omega[:first]).all()
+    np.testing.assert_array_equal(bounded.omega[:first], free.omega[:first])
+    assert bounded.sums.nis == np.inf and log_likelihood(bounded.sums)[0] == -np.inf
+    slow = filter_pass(t, R, valid, "rate", 1.0, sigma=3e-4, h=H, max_rate=np.pi / H)
+    assert np.isfinite(slow.omega).all() and np.isfinite(log_likelihood(slow.sums)[0])
+
+
+@pytest.mark.parametrize("cut", [0, *range(148, 157)])  # the writer sees the chunks a row earlier (the time policy)
+def test_the_summary_counts_the_spikes_of_the_whole_log_across_chunks(cut):
+    """Spikes at samples 150 and 9,500 of a 10,000-sample log (the second beyond the identification's head), the log
+    handed on in two chunks cut anywhere around the first (0: one chunk): each is counted once, the largest named
+    by its label, the same samples as :func:`isolated_spikes` finds on the whole log."""
+    from omegahat.io import LogChunk, LogStream, ReadOptions, pipeline
+    from omegahat.io.registry import checked_stream
+
+    t = H * np.arange(10_000)
+    clean = attitudes(rate(t), H, 3e-4)
+    R = spiked(spiked(clean, where=(150,)), where=(9500,), turn=(0.0, 1.4, 0.0))
+    found = isolated_spikes(R, np.ones(t.size, bool))
+    assert found.samples.tolist() == [150, 9500]
+    q = Rotation.from_matrix(R).as_quat()
+    cuts = [(0, t.size)] if cut == 0 else [(0, cut), (cut, t.size)]
+
+    def chunks():
+        for a, b in cuts:
+            yield LogChunk(t[a:b], q[a:b], None, np.arange(a, b) + 2)  # labels: the lines of a file with a header
+
+    stream = LogStream("spikes", "quaternion", 0, False, "line", chunks)
+    checked_stream(stream, ReadOptions())
+    summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print)
+    assert summary.spikes == 2 and summary.largest_spike[1] == 9502
+    assert abs(summary.largest_spike[0] - found.detour[1]) < 1e-6  # the quaternions' angle is the log map's
+    assert abs(np.degrees(found.detour[1]) - 80.2) < 2.0  # 1.4 rad, less at most a step of the motion
+    assert any(line.startswith("spikes: 2 isolated samples far from both neighbours") and "line 9502" in line
+               for line in summary.lines), summary.lines  # fmt: skip
+    t_clean = H * np.arange(2000)
+    q_clean = Rotation.from_matrix(attitudes(rate(t_clean), H, 3e-4)).as_quat()
+    stream = LogStream("clean", "quaternion", 0, False, "line",
+                       lambda: iter([LogChunk(t_clean, q_clean, None, np.arange(t_clean.size) + 2)]))  # fmt: skip
+    checked_stream(stream, ReadOptions())
+    assert (
+        pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print).spikes
+        == 0
+    )
