@@ -427,6 +427,7 @@ def identify(
     valid, R, filt_data = _attitudes(data, kind, refs)
     spikes = isolated_spikes(R, valid)  # left out: one such sample throws every fast filter onto an alias
     valid[spikes.samples] = False
+    spiked = tuple((float(t[k]), float(d)) for k, d in zip(spikes.samples, spikes.detour, strict=True))  # as stamped
     if np.count_nonzero(valid) < MIN_SAMPLES:
         raise ValueError(
             f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
@@ -493,7 +494,6 @@ def identify(
                 ),
             )
     causal = None if use or spectrum is None else causal_filter(spectrum)
-    spiked = tuple((float(t[k]), float(d)) for k, d in zip(spikes.samples, spikes.detour, strict=True))
     return Identification(
         1.0 / h, bound, chosen, tuple(candidates), expected, differencing, J_, use, why, stamp_step, causal, rigid,
         spiked,
