@@ -229,6 +229,9 @@ def test_command_messages(tmp_path, capsys):
     assert "no column 'wx' (found: t, gx, gy, gz); name the gyro's rate with --gyro-columns" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(tmp_path / "none.csv")]) == 2
     assert "No such file" in capsys.readouterr().err
+    assert main(["calibrate", str(att), str(gyro), "--offset", "0.2"]) == 2  # a guess without its bound does nothing
+    assert "a guess of the clock offset (0.2 s) centres a bounded search: give its bound too" in capsys.readouterr().err
+    assert main(["calibrate", str(att), str(gyro), "--offset", "0.2", "--max-offset", "0.5"]) == 0
     lines = gyro.read_text().splitlines()
     lines[7] = lines[7].split(",")[0] + ",abc,1,2"
     gyro.write_text("\n".join(lines) + "\n")

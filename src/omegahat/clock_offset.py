@@ -68,7 +68,13 @@ def search_offset(
     """(O1)–(O2) (module docstring). ``norms`` are the attitude's centred rate norms on the regular grid ``t``
     (step ``h``), ``norms_ok`` where they are usable; ``gyro_norms(u)`` gives the gyroscope's at the times ``u`` and
     where they are usable; ``tg_range`` the gyroscope log's first and last times. Raises ``ValueError`` where the
-    search would need more than :data:`MAX_GRID` samples (clocks far apart need a guess and a bound)."""
+    search would need more than :data:`MAX_GRID` samples (clocks far apart need a guess and a bound), or where a
+    guess comes without a bound."""
+    if max_offset is None and guess != 0.0:  # a guess alone would change nothing: every lag is searched
+        raise ValueError(
+            f"a guess of the clock offset ({guess:g} s) centres a bounded search: give its bound too (max_offset; "
+            "--max-offset on the command line), or neither to search every offset"
+        )
     nan = OffsetSearch(math.nan, math.nan, math.nan, False)
     h = float(t[1] - t[0])
     lo, hi, bounded = _lags(t[0], t[-1], tg_range, guess, max_offset, min_overlap * h)
