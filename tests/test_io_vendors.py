@@ -280,6 +280,21 @@ def test_qtm_mat_errors(tmp_path, monkeypatch):
     converted = read_log(tmp_path / "arrays.npz")
     np.testing.assert_array_equal(converted.t, t)
     np.testing.assert_allclose(converted.data, R, rtol=0, atol=1e-15)
+    # one vector per component (the hinge recordings' all_imu2_q1 … q4), the scalar first; a second quaternion named
+    q = Rotation.from_matrix(R).as_quat(scalar_first=True)
+    parts = {f"imu_q{i + 1}": q[:, i : i + 1] for i in range(4)} | {
+        f"ref_q{c}": q[:, [i]] for i, c in enumerate("wxyz")
+    }
+    savemat(tmp_path / "parts.mat", {"time": t[:, None], **parts})
+    with pytest.raises(LogFormatError) as refused:
+        read_log(tmp_path / "parts.mat")
+    text = str(refused.value)
+    assert "(the scalar taken as its first name's component: reorder the names if it is not); another quaternion: " \
+        "ref_qw, ref_qx, ref_qy, ref_qz" in text  # fmt: skip
+    subprocess.run([sys.executable, "-c", text.split('e.g. python -c "')[1].split('"')[0]], cwd=tmp_path, check=True)
+    converted = read_log(tmp_path / "parts.npz")
+    np.testing.assert_array_equal(converted.t, t)
+    np.testing.assert_allclose(Rotation.from_quat(converted.data).as_matrix(), R, rtol=0, atol=1e-12)  # scalar last
     hdf5 = tmp_path / "v73.mat"  # MATLAB 7.3: a MAT header of version 0x0200 over an HDF5 file
     hdf5.write_bytes(b"MATLAB 7.3 MAT-file".ljust(116) + bytes(8) + b"\x00\x02IM" + b"\x89HDF\r\n\x1a\n" + bytes(64))
     with pytest.raises(

@@ -131,6 +131,24 @@ def _names(cells: np.ndarray | None, n: int) -> list[str]:
     return names
 
 
+_COMPONENTS = ("1234", "0123", "wxyz")  # a quaternion's names end in these, one vector each (the scalar first)
+
+
+def _quaternion_parts(arrays: dict) -> list[tuple[str, ...]]:
+    """Quaternions stored one component per vector (``imu_q1`` … ``imu_q4``, ``q_w`` … ``q_z``): the names of each
+    group of four same-length vectors (more than 4 samples) with one stem, in the scalar-first order of the suffixes."""
+    vectors = {k.lower(): k for k, s in arrays.items() if max(s, default=0) > 4 and math.prod(s) == max(s)}
+    groups = []
+    for name in vectors:
+        for order in _COMPONENTS:
+            stem = name[:-1]
+            if name[-1] == order[0] and all(stem + c in vectors for c in order):
+                names = tuple(vectors[stem + c] for c in order)
+                if len({arrays[k] for k in names}) == 1:
+                    groups.append(names)
+    return groups
+
+
 def _recipe(path: str, variables: dict) -> str:
     """``, e.g. python -c "..."``: the line that writes this MAT file's arrays as an NPZ log, guessed from their names
     and shapes (a time vector or a rate, ``(T, 4)`` quaternions or ``(3, 3, T)`` matrices); empty when no attitude
@@ -138,10 +156,11 @@ def _recipe(path: str, variables: dict) -> str:
     arrays = {k: np.shape(v) for k, v in variables.items() if isinstance(v, np.ndarray) and v.dtype.kind in "fiu"}
     attitude = next(((k, s) for k, s in arrays.items() if len(s) == 2 and 4 in s and max(s) > 4), None)
     matrices = next(((k, s) for k, s in arrays.items() if len(s) == 3 and s.count(3) >= 2 and max(s) > 3), None)
+    parts = _quaternion_parts(arrays)
     found = attitude if attitude is not None else matrices
-    if found is None:
+    if found is None and not parts:
         return ""
-    name, shape = found
+    name, shape = found if found is not None else (parts[0][0], arrays[parts[0][0]])
     T = max(shape)
     clock = re.compile(r"time|stamp|^ts$|^t$", re.I)
     times = [k for k, s in arrays.items() if clock.search(k) and sorted(s)[-1] == T and math.prod(s) == T]
@@ -153,7 +172,13 @@ def _recipe(path: str, variables: dict) -> str:
         if rates
         else f"np.arange({T}) / RATE_HZ"
     )
-    if found is attitude:
+    if found is None:  # four vectors, one per component
+        what = f"q=np.column_stack([m[k].ravel() for k in {parts[0]!r}]), scalar_first=True"
+        scalar = "its first name's" if parts[0][0][-1].lower() != "w" else "w"
+        tail = f" (the scalar taken as {scalar} component: reorder the names if it is not)" + "".join(
+            f"; another quaternion: {', '.join(other)}" for other in parts[1:]
+        )
+    elif found is attitude:
         what = f"q=m[{name!r}]" + (".T" if shape[0] == 4 else "") + ", scalar_first=True"
         tail = " (scalar_first=False if the quaternion's scalar is its last column)"
     else:
