@@ -27,6 +27,7 @@ rest the steps are ``√2 σ`` times a chi variable of 3 degrees of freedom (med
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -53,40 +54,47 @@ class Spikes(NamedTuple):
         return np.where(spans[:, None], np.nan, increments)
 
 
-def _angles(R: np.ndarray, lag: int) -> np.ndarray:
-    """``d(k, k + lag)`` for every k, NaN where either sample is missing."""
-    return np.linalg.norm(so3.log(np.swapaxes(R[:-lag], -1, -2) @ R[lag:]), axis=-1)
+def _angle(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``d`` between the rotations ``A (n, 3, 3)`` and ``B``, row by row; NaN where either is missing."""
+    return np.linalg.norm(so3.log(np.swapaxes(A, -1, -2) @ B), axis=-1)
 
 
 def isolated_spikes(R: np.ndarray, valid: np.ndarray) -> Spikes:
     """(P1) on the attitudes ``R (T, 3, 3)`` (body → inertial), ``valid (T,)`` the usable samples (module
     docstring)."""
-    if R.shape[0] < 3:
-        return Spikes(np.zeros(0, dtype=np.int64), np.zeros(0))
     Rv = np.where(valid[:, None, None], R, np.nan)
-    step = _angles(Rv, 1)
-    return judged_spikes(step, _angles(Rv, 2), valid, float(np.nanmedian(step)) if np.isfinite(step).any() else 0.0)
+    step = _angle(Rv[:-1], Rv[1:])
+    typical = float(np.nanmedian(step)) if np.isfinite(step).any() else 0.0
+    return judged_spikes(step, lambda k: _angle(Rv[k - 1], Rv[k + 1]), typical)
 
 
 def judged_spikes(
-    step: np.ndarray, across: np.ndarray, valid: np.ndarray, typical: float, first: int = 1, last: int | None = None
+    step: np.ndarray,
+    across: Callable[[np.ndarray], np.ndarray],
+    typical: float,
+    first: int = 1,
+    last: int | None = None,
 ) -> Spikes:
-    """(P1) from the angles of a log (or of a window of one): ``step[k] = d(k, k + 1)`` ``(T − 1,)``, ``across[k] =
-    d(k, k + 2)`` ``(T − 2,)`` (NaN where a sample is missing), ``valid (T,)``, the log's median step ``typical``;
-    the samples ``first … last`` judged (default every one with two neighbours, ``1 … T − 2``)."""
-    T = valid.size
+    """(P1) from the angles of a log (or of a window of one): ``step[k] = d(k, k + 1)`` ``(T − 1,)``, NaN where a
+    sample is missing; ``across(k)`` gives ``d(k − 1, k + 1)`` for the samples ``k``, asked only of those whose detour
+    passes the scale test; ``typical`` the log's median step; the samples ``first … last`` judged (default every one
+    with two neighbours, ``1 … T − 2``)."""
+    T = step.size + 1
     k = np.arange(max(first, 1), min(T - 2 if last is None else last, T - 2) + 1)
+    none = Spikes(np.zeros(0, dtype=np.int64), np.zeros(0))
     if k.size == 0 or not typical > 0:
-        return Spikes(np.zeros(0, dtype=np.int64), np.zeros(0))
-    detour = np.fmin(step[k - 1], step[k])  # NaN only where both neighbours are missing
-    near = across[k - 1]  # NaN (a neighbour missing) fails the comparison below
+        return none
+    detour = np.minimum(step[k - 1], step[k])  # NaN where a neighbour or the sample is missing: never a spike
+    with np.errstate(invalid="ignore"):
+        far = detour > SCALE * typical
+    k, detour = k[far], detour[far]  # the few candidates: the other tests on them alone
+    if k.size == 0:
+        return none
     outer = np.zeros(k.size)
     before, after = k - 2 >= 0, k + 1 < T - 1
-    outer[before] = np.fmax(outer[before], np.nan_to_num(step[k[before] - 2]))
+    outer[before] = np.fmax(outer[before], np.nan_to_num(step[k[before] - 2]))  # a missing one is no motion
     outer[after] = np.fmax(outer[after], np.nan_to_num(step[k[after] + 1]))
-    with np.errstate(invalid="ignore"):
-        spike = (detour > ISOLATION * near) & (detour > ISOLATION * outer) & (detour > SCALE * typical)
-    spike &= valid[k] & valid[k - 1] & valid[k + 1]
+    spike = (detour > ISOLATION * across(k)) & (detour > ISOLATION * outer)
     return Spikes(k[spike], detour[spike])
 
 

@@ -240,8 +240,9 @@ class _Run:
                 s.largest_jump = (float(turn[j]), int(labels[j + 1]))
         if math.isnan(self.typical_step) and np.isfinite(turn).any():
             self.typical_step = float(np.nanmedian(turn))
-        valid = np.all(np.isfinite(data.reshape(data.shape[0], -1)), axis=1)
-        spikes = judged_spikes(turn, _turns(data, 2), valid, self.typical_step, max(c - 2, 1), data.shape[0] - 3)
+        spikes = judged_spikes(
+            turn, lambda k: _angle(data[k - 1], data[k + 1]), self.typical_step, max(c - 2, 1), data.shape[0] - 3
+        )
         s.spikes += spikes.samples.size
         if spikes.samples.size:
             j = int(np.argmax(spikes.detour))
@@ -264,15 +265,19 @@ class _Run:
             start = stop
 
 
-def _turns(data: np.ndarray, lag: int = 1) -> np.ndarray:
-    """The angle (rad) between each attitude of ``data`` and the one ``lag`` samples on (quaternions ``(m, 4)`` in
-    either order of the scalar, or rotation matrices ``(m, 3, 3)``): ``2 acos |q_k · q_k+lag|`` or
-    ``acos((tr(R_kᵀ R_k+lag) − 1)/2)``."""
+def _turns(data: np.ndarray) -> np.ndarray:
+    """The angle (rad) between each two consecutive attitudes of ``data`` (:func:`_angle`)."""
+    return _angle(data[:-1], data[1:])
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The angle (rad) between the attitudes ``a`` and ``b``, row by row (quaternions ``(m, 4)`` in either order of
+    the scalar, or rotation matrices ``(m, 3, 3)``): ``2 acos |q_a · q_b|`` or ``acos((tr(R_aᵀ R_b) − 1)/2)``."""
     with np.errstate(invalid="ignore"):  # missing samples: NaN angles
-        if data.ndim == 2:
-            q = data / np.linalg.norm(data, axis=1, keepdims=True)
-            return 2.0 * np.arccos(np.minimum(np.abs(np.einsum("ij,ij->i", q[:-lag], q[lag:])), 1.0))
-        return np.arccos(np.clip((np.einsum("kij,kij->k", data[:-lag], data[lag:]) - 1.0) / 2.0, -1.0, 1.0))
+        if a.ndim == 2:
+            dot = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
+            return 2.0 * np.arccos(np.minimum(np.abs(dot), 1.0))
+        return np.arccos(np.clip((np.einsum("kij,kij->k", a, b) - 1.0) / 2.0, -1.0, 1.0))
 
 
 def _head(chunks) -> list[LogChunk]:
