@@ -87,3 +87,10 @@ def test_a_search_too_long_to_build_is_refused_before_it_is_built():
     cal = calibrate(ta, Ra, tg, g, max_offset=2.0)
     assert abs(cal.offset - truth["delta"]) < 1e-3
     assert abs(Rotation.from_matrix(cal.rotation.T @ truth["Rc"]).magnitude()) < 0.01
+
+
+@pytest.mark.parametrize("guess, bound", [(np.nan, 1.0), (np.inf, 1.0), (0.0, np.nan), (0.0, -1.0), (0.0, 0.0)])
+def test_a_guess_or_bound_that_is_not_a_number_of_seconds_is_refused(guess, bound):
+    (ta, Ra, tg, g), _ = simulated(1)
+    with pytest.raises(ValueError, match="must be a finite number of seconds and its bound a positive one"):
+        calibrate(ta, Ra, tg, g, offset_guess=guess, max_offset=bound)

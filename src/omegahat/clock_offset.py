@@ -70,6 +70,11 @@ def search_offset(
     where they are usable; ``tg_range`` the gyroscope log's first and last times. Raises ``ValueError`` where the
     search would need more than :data:`MAX_GRID` samples (clocks far apart need a guess and a bound), or where a
     guess comes without a bound."""
+    if not math.isfinite(guess) or not (max_offset is None or max_offset > 0):  # NaN too
+        raise ValueError(
+            f"the guess of the clock offset must be a finite number of seconds and its bound a positive one; got "
+            f"offset_guess={guess!r}, max_offset={max_offset!r}"
+        )
     if max_offset is None and guess != 0.0:  # a guess alone would change nothing: every lag is searched
         raise ValueError(
             f"a guess of the clock offset ({guess:g} s) centres a bounded search: give its bound too (max_offset; "
