@@ -1,15 +1,14 @@
 r"""Isolated spikes of an attitude log: samples that leave both neighbours, which agree with each other.
 
 A marker swap or a misread frame of a motion-capture system puts one sample far from the body's attitude and the
-next one back on it (one Tyrex phone recording, 60 Hz: one sample 34° off both neighbours). To the
-identification's passes (:mod:`omegahat.identification.likelihood`) such a sample is an innovation of thousands of
-standard deviations at any noise. The filters it kicks turn more than half a revolution per step and lock onto an
-alias of the rate, which the samples cannot tell from the rate itself, and the likelihood of every model collapses:
-four such samples in a minute of a 60 Hz log (0.3 mrad of noise) made the default difference a log whose model,
-identified without them, runs with two thirds of differencing's error. The identification therefore leaves them
-out, and says so; the estimators still read them (the supervisor restarts its filter, differencing's two
-intervals there are wrong). Faults longer than one sample are the likelihood passes' to survive
-(:func:`omegahat.identification.likelihood.innovation_sums` ends a pass that follows an alias).
+next one back on it. To the identification's passes (:mod:`omegahat.identification.likelihood`) such a sample is
+an innovation of thousands of standard deviations at any noise. The filters it kicks turn more than half a
+revolution per step and lock onto an alias of the rate, which the samples cannot tell from the rate itself, and
+the likelihood of every model collapses (``docs/theory/identification.md``, "Spikes and aliases", measures it).
+The identification therefore leaves them out, and says so; the estimators still read them (the supervisor
+restarts its filter, differencing's two intervals there are wrong). Faults longer than one sample are the
+likelihood passes' to survive (:func:`omegahat.identification.likelihood.innovation_sums` ends a pass that follows
+an alias).
 
 With ``d(i, j)`` the angle between ``R_i`` and ``R_j``, a sample ``k`` whose neighbours ``k − 1`` and ``k + 1`` are
 valid is an isolated spike where its detour ::
