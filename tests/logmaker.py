@@ -122,3 +122,19 @@ class DiscardWriter:
 
     def write(self, chunk, omega, status):
         pass
+
+
+class KeepWriter(DiscardWriter):
+    """A writer for :func:`omegahat.io.pipeline.estimate_stream` that keeps every row's label, rate and status."""
+
+    def __init__(self):
+        self.labels, self.omega, self.status = [], [], []
+
+    def write(self, chunk, omega, status):
+        self.labels.append(chunk.labels.copy())
+        self.omega.append(omega.copy())
+        self.status.append(status.copy())
+
+    def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(labels, omega, status)`` of every row written, in order."""
+        return np.concatenate(self.labels), np.concatenate(self.omega), np.concatenate(self.status)

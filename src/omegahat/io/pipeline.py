@@ -17,11 +17,13 @@ order:
    first; each chunk is written with the estimator's own per-row statuses (:class:`omegahat.interface.Status`). A
    sample that is not a rotation stops the run with a message naming its line and column and the options that
    would accept or skip it, unless ``skip_bad_samples`` (:class:`BadSamples`): then it is treated as missing,
-   counted and reported. Gaps longer than twice the median spacing are counted, and so are isolated spikes
-   (:mod:`omegahat.identification.spikes`: one sample far from both neighbours, a marker swap) and jumps:
-   consecutive attitudes more than :data:`JUMP_ANGLE` apart, a turn faster than the samples can follow (a quarter
-   of the half-turn beyond which the sampled attitudes cannot tell the direction at all) or, in real logs, a reset
-   or glitch of the attitude source (an iPhone's CoreMotion attitude jumped 130° in one 9 ms step).
+   counted and reported. An isolated spike (:mod:`omegahat.identification.spikes`: one attitude far from both
+   neighbours, a marker swap) is treated as missing before the estimator reads it (:class:`TurnScreen`, which
+   holds each chunk's last two rows back until their successors are read) and counted. Gaps longer than twice the
+   median spacing are counted, and so are jumps: consecutive attitudes more than :data:`JUMP_ANGLE` apart, a turn
+   faster than the samples can follow (a quarter of the half-turn beyond which the sampled attitudes cannot tell
+   the direction at all) or, in real logs, a reset or glitch of the attitude source (an iPhone's CoreMotion
+   attitude jumped 130° in one 9 ms step).
 5. **Summary**: rows written, samples skipped and why, bad samples, gaps, jumps, spikes, what ran.
 
 The loop knows options by their keys only; messages name them through the caller's spelling (``spell``,
@@ -169,9 +171,8 @@ class _Run:
         self.summary = summary
         self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing
         self.t_prev: float | None = None
-        # the previous chunk's last rows and labels: the jump across chunks, the spikes the next chunk's rows judge
-        self.carry: tuple[np.ndarray, np.ndarray] | None = None
-        self.typical_step = math.nan  # the first chunk's median step: the scale a spike is judged against
+        turns = stream.kind in ("quaternion", "matrix")  # attitudes: the spikes and jumps of the rows read
+        self.screen = TurnScreen(bad.settings, summary) if turns else None
 
     def _estimate(self, t: np.ndarray, data: np.ndarray, torque: np.ndarray | None) -> Estimate:
         with warnings.catch_warnings():
@@ -221,48 +222,129 @@ class _Run:
             if dt[j] > s.largest_gap[0]:
                 s.largest_gap = (float(dt[j]), int(chunk.labels[j + 1 if self.t_prev is None else j]))
         self.t_prev = float(chunk.t[-1])
-        if self.stream.kind in ("quaternion", "matrix") and len(chunk):
-            self._check_turns(chunk)
 
-    def _check_turns(self, chunk: LogChunk) -> None:
-        """Count the jumps and the isolated spikes (:mod:`omegahat.identification.spikes`) of ``chunk``, with the
-        previous chunk's last rows: a sample is judged once its two successors are read (the log's last two never)."""
-        s, c = self.summary, 0 if self.carry is None else self.carry[0].shape[0]
-        data = chunk.data if self.carry is None else np.concatenate([self.carry[0], chunk.data])
-        labels = chunk.labels if self.carry is None else np.concatenate([self.carry[1], chunk.labels])
-        turn = _turns(data)
-        new = max(c - 1, 0)  # the steps not counted yet: from the carry's last row on
-        jump = np.flatnonzero(turn[new:] > JUMP_ANGLE) + new  # NaN (a missing sample on either side) is not a jump
-        s.jumps += jump.size
-        if jump.size:
-            j = int(jump[np.argmax(turn[jump])])
-            if turn[j] > s.largest_jump[0]:
-                s.largest_jump = (float(turn[j]), int(labels[j + 1]))
-        if math.isnan(self.typical_step) and np.isfinite(turn).any():
-            self.typical_step = float(np.nanmedian(turn))
-        spikes = judged_spikes(
-            turn, lambda k: _angle(data[k - 1], data[k + 1]), self.typical_step, max(c - 2, 1), data.shape[0] - 3
-        )
-        s.spikes += spikes.samples.size
-        if spikes.samples.size:
-            j = int(np.argmax(spikes.detour))
-            if spikes.detour[j] > s.largest_spike[0]:
-                s.largest_spike = (float(spikes.detour[j]), int(labels[spikes.samples[j]]))
-        self.carry = (data[-4:], labels[-4:])
+    def _screened(self, chunk: LogChunk | None) -> list[LogChunk]:
+        """The rows ready for the estimator once ``chunk`` is read (None: the end of the stream)."""
+        if self.screen is None:
+            return [] if chunk is None else [chunk]
+        ready = self.screen.feed(chunk) if chunk is not None else self.screen.finish()
+        return [] if ready is None else [ready]
 
-    def feed(self, chunk: LogChunk) -> None:
-        """A streaming estimator: one chunk."""
-        self.write(chunk, self._checked([chunk]))
+    def feed(self, chunk: LogChunk | None) -> None:
+        """A streaming estimator: one chunk (None: the end of the stream, the rows the spike screen held back)."""
+        for ready in self._screened(chunk):
+            self.write(ready, self._checked([ready]))
 
     def feed_all(self, chunks: list[LogChunk]) -> None:
         """A batch estimator: the whole stream at once, written chunk by chunk (``chunks`` emptied on the way)."""
-        est = self._checked(chunks)
+        screened = [ready for chunk in [*chunks, None] for ready in self._screened(chunk)]
+        chunks.clear()
+        est = self._checked(screened)
         start = 0
-        while chunks:
-            chunk = chunks.pop(0)
+        while screened:
+            chunk = screened.pop(0)
             stop = start + len(chunk)
             self.write(chunk, Estimate(est.omega[start:stop], est.status[start:stop]))
             start = stop
+
+
+class TurnScreen:
+    """The turns between consecutive attitudes, as the rows are read: isolated spikes (P1,
+    :mod:`omegahat.identification.spikes`) become missing samples before an estimator reads them, so that a marker
+    swap costs one predicted row instead of a restart or two wrong differences, and jumps (turns beyond
+    :data:`JUMP_ANGLE`) are counted.
+
+    A sample is judged once its two successors are read: :meth:`feed` returns the rows judged so far (the chunk's,
+    a copy where spikes are set to NaN) and holds the last two back for the next chunk; :meth:`finish` returns those
+    of the log's end (never judged). A spike that is not a rotation at all is left for :class:`BadSamples` to name.
+    Both are counted in ``summary``, the largest of each by its label."""
+
+    def __init__(self, settings: EstimateSettings, summary: RunSummary) -> None:
+        self.settings, self.summary = settings, summary
+        self.rows: LogChunk | None = None  # the last two rows handed on (as read), then the rows held back
+        self.handed = 0  # how many of ``rows`` were handed on already (the next samples' neighbours)
+        self.typical_step = math.nan  # the first chunk's median step: the scale a spike is judged against
+        self.last_missing = False  # the last row handed on was a spike, set missing
+
+    def feed(self, chunk: LogChunk) -> LogChunk | None:
+        """The rows judged once ``chunk`` is read (None if none yet)."""
+        rows = chunk if self.rows is None else _joined(self.rows, chunk)
+        data, done = rows.data, self.handed
+        step = _turns(data)
+        if math.isnan(self.typical_step) and np.isfinite(step).any():
+            self.typical_step = float(np.nanmedian(step))
+        ready = max(len(rows) - 2, done)  # the rows judged now: done … ready − 1
+        found = judged_spikes(step, lambda k: _angle(data[k - 1], data[k + 1]), self.typical_step, done, ready - 1)
+        status, _ = ms.sample_status(
+            data[found.samples], rotation_tol=self.settings.rotation_tol, quat_norm_tol=self.settings.quat_norm_tol
+        )
+        spikes, detour = found.samples[status < ms.ERROR], found.detour[status < ms.ERROR]
+        keep = max(ready - 2, 0)
+        self.rows, self.handed = _rows(rows, keep, len(rows)), ready - keep
+        if ready == done:
+            return None
+        out = _rows(rows, done, ready)
+        lo = max(done - 1, 0)
+        turn = step[lo : ready - 1]  # the turns into the rows handed on now (from the last one handed on before)
+        if spikes.size:
+            out.data = out.data.copy()
+            out.data[spikes - done] = np.nan
+            turn = turn.copy()
+            near = np.concatenate([spikes - 1, spikes]) - lo  # a missing sample turns nothing: no jump on either side
+            turn[near[near < turn.size]] = np.nan
+            self._count(spikes, detour, rows.labels, "largest_spike", "spikes")
+        self._jumps(turn, rows.labels[lo:ready], after_missing=done > 0 and self.last_missing)
+        self.last_missing = bool(spikes.size) and int(spikes[-1]) == ready - 1
+        return out
+
+    def finish(self) -> LogChunk | None:
+        """The rows held back at the end of the log (once)."""
+        rows, done = self.rows, self.handed
+        if rows is None or len(rows) == done:
+            return None
+        self.handed = len(rows)
+        lo = max(done - 1, 0)
+        self._jumps(_turns(rows.data)[lo:], rows.labels[lo:], after_missing=done > 0 and self.last_missing)
+        return _rows(rows, done, len(rows))
+
+    def _jumps(self, step: np.ndarray, labels: np.ndarray, after_missing: bool) -> None:
+        """Count the jumps among the turns ``step`` between the rows labelled ``labels`` (``after_missing``: the
+        first row was set missing, so the first turn is none)."""
+        with np.errstate(invalid="ignore"):  # NaN (a missing sample on either side) is not a jump
+            jump = np.flatnonzero(step > JUMP_ANGLE)
+        jump = jump[jump > 0] if after_missing else jump
+        self._count(jump + 1, step[jump], labels, "largest_jump", "jumps")
+
+    def _count(self, rows: np.ndarray, angle: np.ndarray, labels: np.ndarray, largest: str, count: str) -> None:
+        s = self.summary
+        setattr(s, count, getattr(s, count) + rows.size)
+        if rows.size:
+            j = int(np.argmax(angle))
+            if angle[j] > getattr(s, largest)[0]:
+                setattr(s, largest, (float(angle[j]), int(labels[rows[j]])))
+
+
+def _rows(chunk: LogChunk, start: int, stop: int) -> LogChunk:
+    """The rows ``start … stop − 1`` of ``chunk`` (views)."""
+    cut = slice(start, stop)
+    torque = None if chunk.torque is None else chunk.torque[cut]
+    extra = None if chunk.extra is None else {k: v[cut] for k, v in chunk.extra.items()}
+    return LogChunk(chunk.t[cut], chunk.data[cut], torque, chunk.labels[cut], extra)
+
+
+def _joined(a: LogChunk, b: LogChunk) -> LogChunk:
+    """The rows of ``a`` then those of ``b``."""
+    torque = None if a.torque is None or b.torque is None else np.concatenate([a.torque, b.torque])
+    extra = (
+        None if a.extra is None or b.extra is None else {k: np.concatenate([a.extra[k], b.extra[k]]) for k in a.extra}
+    )
+    return LogChunk(
+        np.concatenate([a.t, b.t]),
+        np.concatenate([a.data, b.data]),
+        torque,
+        np.concatenate([a.labels, b.labels]),
+        extra,
+    )
 
 
 def _turns(data: np.ndarray) -> np.ndarray:
@@ -348,6 +430,7 @@ def estimate_stream(
                 job.feed(chunk)
                 if progress is not None:
                     progress(summary.rows)
+            job.feed(None)  # the rows held back at the end
     finally:
         compiling.announce_with(None)
     summary.compile_s = compiling.seconds() - compiled_before
@@ -360,10 +443,11 @@ def estimate_stream(
 
 def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell: Spelling, notes) -> list[str]:
     lines = [f"note: {note}" for note in notes]  # what the timestamp policy changed, known once the stream is read
-    if s.n_skipped:
+    missing = s.n_skipped - s.n_collinear - s.spikes  # the spikes are set missing: said on their own line
+    if missing > 0 or s.n_collinear:
         lines.append(
-            f"skipped {s.n_skipped} of {s.rows} samples ({s.n_skipped - s.n_collinear} missing, {s.n_collinear} with "
-            "nearly collinear directions): predicted through (status 'predicted')"
+            f"skipped {missing + s.n_collinear} of {s.rows} samples ({missing} missing, {s.n_collinear} with nearly "
+            "collinear directions): predicted through (status 'predicted')"
         )
     n_restarts = getattr(choice.estimator, "n_restarts", 0)
     if n_restarts:
@@ -390,7 +474,8 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
         lines.append(
             f"spikes: {s.spikes} isolated sample{'s' if s.spikes > 1 else ''} far from both neighbours, which agree "
             f"with each other; the largest {math.degrees(s.largest_spike[0]):.3g}° off at {stream.label} "
-            f"{s.largest_spike[1]}: a marker swap or a misread frame (the rates there are not the body's)"
+            f"{s.largest_spike[1]}: a marker swap or a misread frame, treated as missing (predicted through, status "
+            "'predicted')"
         )
     return [*lines, *choice.closing(), choice.used()]
 
