@@ -36,7 +36,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 
 from omegahat.baselines.differencing import log_difference
 from omegahat.baselines.spline import spline_rate
-from omegahat.identification import spectral
+from omegahat.identification import steps
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.lab.evaluation.broad import score
 from omegahat.lab.evaluation.corpus import Recording, corpus_dir, group_of, load_recording, pipeline_method, recordings
@@ -91,13 +91,13 @@ def as_stamped(runs: list[np.ndarray], steps: list[np.ndarray]) -> bool:
 @contextlib.contextmanager
 def without_s8(before: bool) -> Iterator[None]:
     """Within: (S8) answers "the samples are at their stamps" (the smoother and the identification as before)."""
-    read = spectral.stamped_steps
+    read = steps.stamped_steps
     if before:
-        spectral.stamped_steps = as_stamped
+        steps.stamped_steps = as_stamped
     try:
         yield
     finally:
-        spectral.stamped_steps = read
+        steps.stamped_steps = read
 
 
 def smoothed(t: np.ndarray, R: np.ndarray, before: bool) -> tuple[np.ndarray, str]:

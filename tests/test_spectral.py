@@ -5,7 +5,7 @@ sample bridged by SciPy's rotation spline. References: closed forms and SciPy.""
 import numpy as np
 import pytest
 from scipy import signal, stats
-from scipy.spatial.transform import Rotation, RotationSpline
+from scipy.spatial.transform import Rotation, RotationSpline, Slerp
 
 from omegahat.baselines.differencing import log_difference
 from omegahat.identification.fold import folded
@@ -14,7 +14,6 @@ from omegahat.identification.spectral import (
     SIGNIFICANCE,
     SpectralSmoother,
     increment_spectrum,
-    stretches,
     top_noise,
     welch_density,
     welch_segment,
@@ -22,6 +21,7 @@ from omegahat.identification.spectral import (
     wiener_filter,
     wiener_gain,
 )
+from omegahat.identification.steps import bridged, stretches
 from omegahat.interface import Status
 
 H = 0.01
@@ -98,16 +98,37 @@ def test_the_gain_is_the_wiener_gain_where_the_motion_is_significant():
     assert np.all(g == 0.0)
 
 
-def test_a_skipped_sample_is_bridged_by_the_rotation_spline():
+def test_a_single_skipped_sample_is_bridged_and_filtered():
+    """(S9): a single missing sample is put on the geodesic between its neighbours (SciPy's ``Slerp`` at its time)
+    for the spectrum and the filter: its stretch is not cut, its rate is the filter's (as accurate as its
+    neighbours'), and its status stays ``predicted``."""
     t, R, rate = turning(10.0)
     q = noisy(R, 1e-4).as_quat()
     q[500] = np.nan
+    keep = np.all(np.isfinite(q), axis=1)
+    off = t.copy()
+    off[500] += 0.3 * H  # off the middle: the geodesic's fraction is the sample's own time
+    filled, used = bridged(off, Rotation.from_quat(np.where(keep[:, None], q, [0, 0, 0, 1])).as_matrix(), keep)
+    slerp = Slerp(off[[499, 501]], Rotation.from_quat(q[[499, 501]]))(off[500]).as_matrix()
+    np.testing.assert_allclose(filled[500], slerp, atol=1e-12)
+    assert used.all() and not keep[500]
+    est = SpectralSmoother()
+    out = est.run(t, q)
+    assert out.status[500] == Status.PREDICTED and est.n_skipped == 1 and est.n_unfiltered == 0
+    assert np.all(out.status[keep] == Status.CORRECTED)
+    assert np.linalg.norm(out.omega[500] - rate[500]) < 3.0 * rms(out.omega[100:900] - rate[100:900])
+
+
+def test_two_skipped_samples_are_a_gap_bridged_by_the_rotation_spline():
+    t, R, rate = turning(10.0)
+    q = noisy(R, 1e-4).as_quat()
+    q[500:502] = np.nan
     est = SpectralSmoother()
     out = est.run(t, q)
     keep = np.all(np.isfinite(q), axis=1)
-    bridge = RotationSpline(t[keep], Rotation.from_quat(q[keep]))(t[500:501], 1)[0]
-    np.testing.assert_allclose(out.omega[500], bridge, atol=1e-12)
-    assert out.status[500] == Status.PREDICTED and est.n_skipped == 1
+    bridge = RotationSpline(t[keep], Rotation.from_quat(q[keep]))(t[500:502], 1)
+    np.testing.assert_allclose(out.omega[500:502], bridge, atol=1e-12)
+    assert np.all(out.status[500:502] == Status.PREDICTED) and est.n_skipped == 2
     assert np.all(out.status[keep] == Status.CORRECTED)
     inner = np.r_[100:450, 550:900]
     assert rms(out.omega[inner] - rate[inner]) < 0.05  # both stretches filtered

@@ -53,11 +53,11 @@ from scipy.spatial.transform import Rotation
 from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.differencing import DifferencingEstimator, sample_clock
-from omegahat.identification import likelihood
+from omegahat.identification import likelihood, steps
 from omegahat.identification.causal import CausalFilter, causal_filter, model_to_differencing
 from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
 from omegahat.identification.noise import quiet_noise, rigid_directions
-from omegahat.identification.spectral import increment_spectrum, read_steps, stretches
+from omegahat.identification.spectral import increment_spectrum
 from omegahat.identification.spikes import describe_spikes, isolated_spikes
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
@@ -433,7 +433,7 @@ def identify(
             f"at least {MIN_SAMPLES} valid samples are needed to identify a model; got {np.count_nonzero(valid)}"
         )
     # (S8): regular samples with jittered stamps are identified on the samples' clock (D3), every interval whole steps
-    reading, step = read_steps(t, so3.increments(R), [(a, b) for a, b in stretches(t, valid) if b - a >= 3])
+    reading, step = steps.read_steps(t, so3.increments(R), [(a, b) for a, b in steps.stretches(t, valid) if b - a >= 3])
     stamp_step = step if reading == "stamps" else None
     t = t if stamp_step is None else sample_clock(t, stamp_step)
     tv = t[valid]

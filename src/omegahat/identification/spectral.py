@@ -61,21 +61,15 @@ The stretch's least-squares line is taken out before the FFT and added back afte
 falls to zero along a raised cosine (no jump at the zero padding to ring through the filter's edge), and the filter
 is interpolated from Welch's frequencies as ``F·sinc``, then divided by the exact ``sinc`` (tested).
 
-A skipped sample, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples), get SciPy's
-``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
+Two or more skipped samples in a row, and a stretch too short to filter (fewer than :data:`MIN_STRETCH` samples),
+get SciPy's ``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
 
-**Uneven steps.** A stretch's steps may differ because the samples were taken at uneven times, or because regular
-samples were stamped unevenly (a message's arrival time, rounded stamps): ``b_k = φ_k / h_k`` is right for the
-first and adds ``ε |ω|`` of noise for a jitter ``ε`` in the second, where ``φ_k / h̄`` (the stretch's mean step) is
-right. The increments tell which: where the samples are regular, ``φ_k / h̄`` is the smoother sequence, so over the
-stretches whose steps differ from their mean by more than 0.1 %::
-
-    Σ_k |φ_{k+1}/h̄ − φ_k/h̄|²  <  Σ_k |φ_{k+1}/h_{k+1} − φ_k/h_k|²   ⇒   regular samples, jittered stamps    (S8)
-
-and then every stretch (linked across steps within 50 % of the median: a dropped sample breaks it) is filtered with
-the samples' step ``h̄``, the mean step over the stretches, which is also (S1)'s ``h``. Otherwise each step is used
-as stamped, and a step 5 % or more off the median breaks the stretch (the rotation spline, exact at uneven times,
-takes what is too short to filter).
+**Uneven steps** are read by (S8) of :mod:`omegahat.identification.steps`: either every stretch is filtered with
+the samples' mean step, or each step is used as stamped and a step 5 % or more off the median breaks the stretch
+(the rotation spline, exact at uneven times, takes what is too short to filter). **A single missing sample**
+between two present ones (a dropped frame, a spike treated as missing) is bridged (S9, same module) for the
+spectrum and the filter: cutting the stretch there would leave two ends, where the extension (S4) errs more than
+the filter does inside, and would lay Welch's segments out anew.
 
 **The fold.** Sampling folds the rate's spectrum above the Nyquist frequency onto the band: the component at
 ``2π − x`` shows in ``b`` at ``x`` with the gain ``sinc_a(x) = sinc((2π − x)/2)`` and, against the rate at the
@@ -117,6 +111,7 @@ from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.identification.fold import rate_spectra
 from omegahat.identification.noise import REGULAR_STEP, quiet_noise
+from omegahat.identification.steps import JITTER_LINK, bridged, read_steps, stretches
 from omegahat.interface import Measurements
 
 __all__ = [
@@ -132,6 +127,7 @@ __all__ = [
     "increment_spectrum",
     "noise_shape",
     "spectral_rate",
+    "stretch_rates",
     "top_noise",
     "welch_density",
     "welch_dof",
@@ -146,44 +142,7 @@ MIN_SEGMENTS = 27  #: (S1'): ν = 2K/(1 + 2·0.167²) ≥ 50 Welch segments' dof
 SIGNIFICANCE = 0.95  #: (S3): a frequency counts as motion where its power is above the noise's 95th percentile
 HANN_HALF_OVERLAP = 0.167  #: the correlation of half-overlapping Hann segments (Welch 1967), for (S3)'s ν
 MIN_STRETCH = 16  #: the fewest contiguous samples a stretch must have to be filtered
-UNEVEN_STEP = 1e-3  #: a stretch whose steps differ from their mean by more than 0.1 % has jittered steps (S8)
 TOP_BAND = 0.05  #: (N3): the band's top tenth, 0.45 … 0.5 cycles per step, bounds the noise
-JITTER_LINK = 0.5  #: a step within 50 % of the median joins two samples in a stretch (a dropped sample does not)
-
-
-def stamped_steps(increments: list[np.ndarray], steps: list[np.ndarray]) -> bool:
-    """(S8): True where the log's jittered steps are the stamps' and not the samples' (the samples regular): the
-    increments ``φ_k`` (per stretch ``(m, 3)``) divided by the stretch's mean step vary less from one step to the
-    next than divided by each stamped step (``steps``, per stretch ``(m,)``)."""
-    pairs = list(zip(increments, steps, strict=True))
-    by_stamp = sum(float(np.nansum(np.diff(phi / dt[:, None], axis=0) ** 2)) for phi, dt in pairs)
-    by_mean = sum(float(np.nansum(np.diff(phi / np.mean(dt), axis=0) ** 2)) for phi, dt in pairs)
-    return by_mean < by_stamp
-
-
-def read_steps(t: np.ndarray, increments: np.ndarray, runs: list[tuple[int, int]]) -> tuple[str, float]:
-    """(S8) over the stretches ``runs`` of the times ``t (T,)`` with the increments ``φ (T − 1, 3)`` between
-    consecutive samples: ``("", nan)`` where every stretch's steps are within 0.1 % of their mean, else
-    ``("stamps", h̄)`` (regular samples with jittered stamps; ``h̄`` the stretches' mean step) or
-    ``("sampling", nan)`` (the samples taken at their stamps)."""
-    steps = [np.diff(t[a:b]) for a, b in runs]
-    uneven = [d.size > 1 and bool(np.any(np.abs(d / np.mean(d) - 1.0) > UNEVEN_STEP)) for d in steps]
-    if not any(uneven):
-        return "", math.nan
-    chosen = [(run, d) for run, d, u in zip(runs, steps, uneven, strict=True) if u]
-    if stamped_steps([increments[a : b - 1] for (a, b), _ in chosen], [d for _, d in chosen]):
-        return "stamps", sum(float(np.sum(d)) for d in steps) / sum(d.size for d in steps)
-    return "sampling", math.nan
-
-
-def stretches(t: np.ndarray, valid: np.ndarray, tolerance: float = JITTER_LINK) -> list[tuple[int, int]]:
-    """``[(a, b), ...]``: the maximal runs ``a ≤ k < b`` of valid samples whose steps are within ``tolerance`` of the
-    log's median step (:data:`JITTER_LINK`: one sample follows the next; a dropped one, a step of two, does not)."""
-    h = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    link = valid[:-1] & valid[1:] & (np.abs(np.diff(t) / h - 1.0) < tolerance)  # k and k + 1 in one run
-    starts = np.flatnonzero(valid & np.concatenate([[True], ~link]))
-    ends = np.flatnonzero(valid & np.concatenate([~link, [True]])) + 1
-    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
 def noise_shape(freq: np.ndarray, h: float) -> np.ndarray:
@@ -292,7 +251,7 @@ def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.nda
 class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
     ``(3,)`` it assumed (rad, (N2) capped by (N3)), ``filtered (T,)``: True where (S2) gave the rate (False: the
-    rotation spline, for a skipped sample or a stretch too short to filter), ``expected`` the RMS error (S7) expects
+    rotation spline, for a gap or a stretch too short to filter), ``expected`` the RMS error (S7) expects
     (rad/s; NaN where nothing was filtered), and ``jitter`` what (S8) read where a stretch's steps differ from their
     mean by more than 0.1 %: ``"stamps"`` (the samples regular, their stamps jittered), ``"sampling"`` (the samples
     at their stamps), or ``""`` (the steps even)."""
@@ -331,22 +290,18 @@ class IncrementSpectrum(NamedTuple):
 
 
 def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
-    """(S1), (S3), (N2), (N3) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where
-    ``valid``)."""
-    runs = stretches(t, valid)
-    long_runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
+    """(S1), (S3), (N2), (N3), (S8) and (S9) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where
+    ``valid``; a single missing sample bridged by (S9), except for (N2))."""
     R = np.where(valid[:, None, None], R, np.nan)
-    phi = so3.increments(R)  # (T − 1, 3), NaN across a skipped sample
-    quiet = quiet_noise(t[valid], so3.increments(R[valid]), higher=True)  # (N2)
+    quiet = quiet_noise(t[valid], so3.increments(R[valid]), higher=True)  # (N2): the samples as they are
     quiet = 0.0 if not math.isfinite(quiet) else quiet
+    R, valid = bridged(t, R, valid)  # (S9): a single missing sample does not cut its stretch
+    phi = so3.increments(np.where(valid[:, None, None], R, np.nan))  # (T − 1, 3), NaN across a gap
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
-    jitter, mean_step = read_steps(t, phi, long_runs)
+    jitter, mean_step = read_steps(t, phi, [(a, b) for a, b in stretches(t, valid) if b - a >= MIN_STRETCH])
     if jitter == "stamps":  # the samples' own step (a median of rounded stamps is one of the roundings)
         h = mean_step
-    elif jitter == "sampling":  # each step as stamped; a step 5 % or more off the median breaks the stretch
-        long_runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP) if b - a >= MIN_STRETCH]
-    # b_k per stretch (S1), over each step; (S8): over the samples' step where only the stamps jitter
-    rates = [phi[a : b - 1] / (h if jitter == "stamps" else np.diff(t[a:b])[:, None]) for a, b in long_runs]
+    long_runs, rates = stretch_rates(t, phi, valid, h, jitter)
     segment = welch_segment([r.shape[0] for r in rates])
     usable = [r for r in rates if r.shape[0] >= segment]
     if not usable or segment < 8:
@@ -361,6 +316,17 @@ def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> Incre
     g = wiener_gain(freq, P_b, sigma, h, segments)
     N_b = noise_shape(freq, h)[:, None] * sigma**2
     return IncrementSpectrum(freq, P_b, g, N_b, sigma, h, jitter, long_runs, rates, segments)
+
+
+def stretch_rates(
+    t: np.ndarray, phi: np.ndarray, valid: np.ndarray, h: float, jitter: str
+) -> tuple[list[tuple[int, int]], list[np.ndarray]]:
+    """The stretches of at least :data:`MIN_STRETCH` ``valid`` samples, linked as (S8) reads the steps ``jitter``
+    (``"sampling"``: each step as stamped, one 5 % or more off the median breaks the stretch), and their ``b_k``
+    (S1) from the increments ``φ (T − 1, 3)``: over each step, or over the samples' step ``h`` (``"stamps"``)."""
+    runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP if jitter == "sampling" else JITTER_LINK)]
+    runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
+    return runs, [phi[a : b - 1] / (h if jitter == "stamps" else np.diff(t[a:b])[:, None]) for a, b in runs]
 
 
 def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRate:
@@ -445,7 +411,7 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
     After ``run``: ``measurement_noise`` (the σ per body axis it assumed, rad, (N2) capped by (N3)) and
     ``n_unfiltered`` (the valid samples in stretches too short to filter, which take the rotation spline) and
     ``timestamps`` (what (S8) read of uneven steps: ``"stamps"``, ``"sampling"`` or ``""`` for even ones). A
-    skipped sample is bridged by the rotation spline (status ``predicted``).
+    single skipped sample is bridged by (S9) and filtered, a longer gap by the rotation spline (status ``predicted``).
 
     Parameters
     ----------

@@ -5,7 +5,8 @@ next one back on it. To the identification's passes (:mod:`omegahat.identificati
 an innovation of thousands of standard deviations at any noise. The filters it kicks turn more than half a
 revolution per step and lock onto an alias of the rate, which the samples cannot tell from the rate itself, and
 the likelihood of every model collapses (``docs/theory/identification.md``, "Spikes and aliases", measures it).
-The identification therefore leaves them out, and says so; the estimators still read them (the supervisor
+The identification therefore leaves them out, and says so; ``omegahat estimate`` treats them as missing samples
+(:class:`omegahat.io.pipeline.TurnScreen`), while an estimator given arrays directly reads them (the supervisor
 restarts its filter, differencing's two intervals there are wrong). Faults longer than one sample are the
 likelihood passes' to survive (:func:`omegahat.identification.likelihood.innovation_sums` ends a pass that follows
 an alias).
@@ -105,5 +106,5 @@ def describe_spikes(spikes: tuple[tuple[float, float], ...]) -> str:
     return (
         f"\nspikes: {len(spikes)} isolated sample{'s' if len(spikes) > 1 else ''} far from both neighbours (the "
         f"largest {np.degrees(d):.3g}° at t = {t:.6g} s) left out of the identification: a marker swap or a misread "
-        "frame; the estimate there is not the body's rate"
+        "frame"
     )
