@@ -231,6 +231,10 @@ def test_command_messages(tmp_path, capsys):
     assert "No such file" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(gyro), "--offset", "0.2"]) == 2  # a guess without its bound does nothing
     assert "a guess of the clock offset (0.2 s) centres a bounded search: give its bound too" in capsys.readouterr().err
+    garbage = tmp_path / "garbage.csv"
+    garbage.write_text("not,a,gyro,log\nat,all,,\n")
+    assert main(["calibrate", str(att), str(garbage), "--offset", "0.2"]) == 2  # said before either log is read
+    assert "a guess of the clock offset (0.2 s) centres a bounded search" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(gyro), "--offset", "0.2", "--max-offset", "0.5"]) == 0
     lines = gyro.read_text().splitlines()
     lines[7] = lines[7].split(",")[0] + ",abc,1,2"

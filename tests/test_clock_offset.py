@@ -94,3 +94,5 @@ def test_a_guess_or_bound_that_is_not_a_number_of_seconds_is_refused(guess, boun
     (ta, Ra, tg, g), _ = simulated(1)
     with pytest.raises(ValueError, match="must be a finite number of seconds and its bound a positive one"):
         calibrate(ta, Ra, tg, g, offset_guess=guess, max_offset=bound)
+    with pytest.raises(ValueError, match="must be a finite number of seconds and its bound a positive one"):
+        calibrate(ta[:3], Ra[:3], tg[:3], g[:3], offset_guess=guess, max_offset=bound)  # too few samples: said first

@@ -41,15 +41,13 @@ The fit, in the order that keeps it robust:
    and (C1) sees ``R_c`` only through ``u = R_c a``: a turn ``Exp(θ u)`` leaves every residual as it is. So ``φ`` is
    kept perpendicular to ``u`` (``x = T y``, ``T``'s rotation block an orthonormal basis of that plane), and each
    re-centring takes ``R̂_c`` to the least rotation with the same ``u``, about ``a × u`` by ``∠(a, u)``: the turn
-   about ``u`` is a convention, said in a note and in ``free_axis``. The covariance is (C4)'s in ``y``, mapped
-   by ``T`` (none along ``u``). Rates about ``a``, the offset and the bias are calibrated; rates about other axes
-   take the convention's turn.
+   about ``u`` is a convention, said in a note and in ``free_axis``. The covariance is (C4)'s in ``y``, mapped by
+   ``T`` (none along ``u``). Rates about ``a``, the offset and the bias are calibrated; others take that turn.
 
 **Uncertainties.** The filtered residuals are correlated over about ``f/f_c`` samples, so the textbook
-``σ² (JᵀJ)⁻¹`` would understate them. The covariance is the sandwich
-``C = H⁻¹ Ω H⁻¹`` with ``H = Σ J_kᵀ J_k`` (``J_k`` the 3 × p Jacobian of sample k) and ``Ω`` the long-run
-covariance of the scores ``u_k = J_kᵀ r_k`` by overlapping batch means over blocks of ``B = 8 f / f_c`` samples
-(equivalent to a Bartlett-window Newey–West estimate)::
+``σ² (JᵀJ)⁻¹`` would understate them. The covariance is the sandwich ``C = H⁻¹ Ω H⁻¹`` with ``H = Σ J_kᵀ J_k``
+(``J_k`` the 3 × p Jacobian of sample k) and ``Ω`` the long-run covariance of the scores ``u_k = J_kᵀ r_k`` by
+overlapping batch means over blocks of ``B = 8 f / f_c`` samples (a Bartlett-window Newey–West estimate)::
 
     Ω = N / ((N − B + 1) B) Σ_k U_k U_kᵀ,   U_k = Σ_{j=k}^{k+B−1} u_j                                     (C4)
 
@@ -76,7 +74,7 @@ from omegahat import measurements as ms
 from omegahat import so3
 from omegahat.baselines.spline import spline_rate
 from omegahat.calibration_result import Calibration
-from omegahat.clock_offset import OffsetSearch, search_offset
+from omegahat.clock_offset import OffsetSearch, check_search, search_offset
 
 __all__ = [
     "DEFAULT_CUTOFF_HZ",
@@ -353,8 +351,10 @@ def calibrate(
     """Fit (C1) (module docstring). ``attitudes``: rotation matrices ``(T, 3, 3)`` or quaternions ``(T, 4)`` scalar
     last, body → inertial, NaN rows missing; ``gyro (M, 3)`` at ``t_gyro`` (its own clock, s). ``scale``: ``"none"``,
     ``"axes"`` or ``"matrix"``; the offset is searched at every lag at which the logs overlap, within
-    ``offset_guess ± max_offset`` s where ``max_offset`` is given. Raises ``ValueError``
-    saying why when the logs do not overlap, hold too few samples, or the motion cannot identify the parameters."""
+    ``offset_guess ± max_offset`` s where ``max_offset`` is given. Raises ``ValueError`` saying why when the search
+    is ill-posed (:func:`check_search`, first), the logs do not overlap, hold too few samples, or the motion cannot
+    identify the parameters."""
+    check_search(offset_guess, max_offset)
     p, _, span, notes = _prepare(t_attitude, attitudes, t_gyro, gyro, scale, cutoff_hz)
     fc = p.fc
     n_params = {"none": 7, "axes": 10, "matrix": 13}[scale]

@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.signal import correlate
 
-__all__ = ["MAX_GRID", "OffsetSearch", "search_offset"]
+__all__ = ["MAX_GRID", "OffsetSearch", "check_search", "search_offset"]
 
 MAX_GRID = 20_000_000  #: samples: the longest grid of gyroscope rates the search builds (0.5 GB as 3 columns)
 
@@ -54,6 +54,22 @@ def _lags(t_first, t_last, tg_range, guess, max_offset, min_span):
     return max(lo, guess - max_offset), min(hi, guess + max_offset), (guess - max_offset > lo, guess + max_offset < hi)
 
 
+def check_search(guess: float, max_offset: float | None) -> None:
+    """Raise ``ValueError`` where the search's guess is not a finite number of seconds, its bound not a positive
+    one, or a guess comes without a bound (it would change nothing: every lag is searched); called before anything
+    is read or built."""
+    if not math.isfinite(guess) or not (max_offset is None or max_offset > 0):  # NaN too
+        raise ValueError(
+            f"the guess of the clock offset must be a finite number of seconds and its bound a positive one; got "
+            f"offset_guess={guess!r}, max_offset={max_offset!r}"
+        )
+    if max_offset is None and guess != 0.0:  # a guess alone would change nothing: every lag is searched
+        raise ValueError(
+            f"a guess of the clock offset ({guess:g} s) centres a bounded search: give its bound too (max_offset; "
+            "--max-offset on the command line), or neither to search every offset"
+        )
+
+
 def search_offset(
     t: np.ndarray,
     norms: np.ndarray,
@@ -70,16 +86,7 @@ def search_offset(
     where they are usable; ``tg_range`` the gyroscope log's first and last times. Raises ``ValueError`` where the
     search would need more than :data:`MAX_GRID` samples (clocks far apart need a guess and a bound), or where a
     guess comes without a bound."""
-    if not math.isfinite(guess) or not (max_offset is None or max_offset > 0):  # NaN too
-        raise ValueError(
-            f"the guess of the clock offset must be a finite number of seconds and its bound a positive one; got "
-            f"offset_guess={guess!r}, max_offset={max_offset!r}"
-        )
-    if max_offset is None and guess != 0.0:  # a guess alone would change nothing: every lag is searched
-        raise ValueError(
-            f"a guess of the clock offset ({guess:g} s) centres a bounded search: give its bound too (max_offset; "
-            "--max-offset on the command line), or neither to search every offset"
-        )
+    check_search(guess, max_offset)
     nan = OffsetSearch(math.nan, math.nan, math.nan, False)
     h = float(t[1] - t[0])
     lo, hi, bounded = _lags(t[0], t[-1], tg_range, guess, max_offset, min_overlap * h)

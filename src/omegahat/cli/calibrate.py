@@ -20,6 +20,7 @@ import numpy as np
 from omegahat import so3
 from omegahat.calibration import MODES, Calibration, band_limited, calibrate
 from omegahat.cli import add_column_options, add_quaternion_order, positive_float
+from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
@@ -159,6 +160,7 @@ def run(args: argparse.Namespace) -> int:
             raise FileNotFoundError(f"[Errno 2] No such file or directory: '{p}'")
     if args.gyro_unit == "raw" and args.scale == "none":
         raise ValueError("--gyro-unit raw needs scale factors: add --scale axes or --scale matrix")
+    check_search(args.offset, args.max_offset)  # before either log is read
     columns = None if args.gyro_columns is None else tuple(c.strip() for c in args.gyro_columns.split(","))
     if columns is not None and len(columns) != 3:
         raise ValueError(f"--gyro-columns names 3 columns x,y,z; got {args.gyro_columns!r}")
