@@ -68,8 +68,8 @@ get SciPy's ``RotationSpline`` through the valid attitudes (status ``predicted``
 the samples' mean step, or each step is used as stamped and a step 5 % or more off the median breaks the stretch
 (the rotation spline, exact at uneven times, takes what is too short to filter). **A single missing sample**
 between two present ones (a dropped frame, a spike treated as missing) is bridged (S9, same module) for the
-spectrum and the filter: cutting the stretch there would leave two ends, where the extension (S4) errs more than
-the filter does inside, and would lay Welch's segments out anew.
+filter, not for the spectrum: cutting the filter's stretch there would leave two ends, where the extension (S4)
+errs more than the filter does inside.
 
 **The fold.** Sampling folds the rate's spectrum above the Nyquist frequency onto the band: the component at
 ``2π − x`` shows in ``b`` at ``x`` with the gain ``sinc_a(x) = sinc((2π − x)/2)`` and, against the rate at the
@@ -290,13 +290,12 @@ class IncrementSpectrum(NamedTuple):
 
 
 def increment_spectrum(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> IncrementSpectrum:
-    """(S1), (S3), (N2), (N3), (S8) and (S9) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where
-    ``valid``; a single missing sample bridged by (S9), except for (N2))."""
+    """(S1), (S3), (N2), (N3) and (S8) of the attitudes ``R (T, 3, 3)`` at the times ``t (T,)`` (used where
+    ``valid``)."""
     R = np.where(valid[:, None, None], R, np.nan)
-    quiet = quiet_noise(t[valid], so3.increments(R[valid]), higher=True)  # (N2): the samples as they are
+    phi = so3.increments(R)  # (T − 1, 3), NaN across a skipped sample
+    quiet = quiet_noise(t[valid], so3.increments(R[valid]), higher=True)  # (N2)
     quiet = 0.0 if not math.isfinite(quiet) else quiet
-    R, valid = bridged(t, R, valid)  # (S9): a single missing sample does not cut its stretch
-    phi = so3.increments(np.where(valid[:, None, None], R, np.nan))  # (T − 1, 3), NaN across a gap
     h = float(np.median(np.diff(t)))  # the step of the stretches (a gap does not lengthen it)
     jitter, mean_step = read_steps(t, phi, [(a, b) for a, b in stretches(t, valid) if b - a >= MIN_STRETCH])
     if jitter == "stamps":  # the samples' own step (a median of rounded stamps is one of the roundings)
@@ -345,7 +344,12 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
-        for (a, b), r in zip(spectrum.runs, spectrum.rates, strict=True):
+        runs, rates = spectrum.runs, spectrum.rates
+        filled, used = bridged(t, R, valid)  # (S9): the filter's stretches go through a single missing sample
+        if used is not valid:
+            phi = so3.increments(np.where(used[:, None, None], filled, np.nan))
+            runs, rates = stretch_rates(t, phi, used, spectrum.h, spectrum.jitter)
+        for (a, b), r in zip(runs, rates, strict=True):
             steps = np.full(r.shape[0], spectrum.h) if spectrum.jitter == "stamps" else np.diff(t[a:b])
             first = _filtered(r, freq, F, min(edge, r.shape[0]))
             # (S1c): the increments less their coning term (M1), from the first pass's rates, filtered again

@@ -15,17 +15,19 @@ bridges it for the filter) is filtered with the samples' step ``h̄``, the mean 
 also (S1)'s ``h``. Otherwise each step is used as stamped, and a step 5 % or more off the median breaks the stretch
 (the rotation spline, exact at uneven times, takes what is too short to filter).
 
-**A single missing sample.** Where sample ``k`` is missing and ``k − 1`` and ``k + 1`` are present, a stretch would
-end at ``k − 1`` and start again at ``k + 1``: two ends, each extended by the smoother's (S4), which errs more
-there than inside a stretch, and Welch's segments laid out anew over the two parts. The increment across the gap is
-known, and the sample is put on the geodesic between its neighbours at its own time::
+**A single missing sample.** Where sample ``k`` is missing and ``k − 1`` and ``k + 1`` are present, the smoother's
+stretch would end at ``k − 1`` and start again at ``k + 1``: two ends, each extended by the smoother's (S4), which
+errs more there than inside a stretch. The increment across the gap is known, and for the filter the sample is put
+on the geodesic between its neighbours at its own time::
 
     R_k = R_{k−1} exp( s log(R_{k−1}ᵀ R_{k+1}) ),    s = (t_k − t_{k−1}) / (t_{k+1} − t_{k−1})                (S9)
 
 so the two rates ``b_k``, ``b_{k+1}`` are the mean rate over the two steps: one sample's worth of low-pass where
-there would otherwise be two ends. The spectrum and the smoother read the bridged log; the quiet part's noise (N2)
-and the likelihood's passes read the log as it is, and a bridged sample keeps its status (``predicted``). Two or
-more consecutive missing samples are a gap, never bridged. Measured in ``docs/theory/identification.md``.
+there would otherwise be two ends. The spectrum, the noise bounds and the identification read the log as it is: a
+bridged sample carries no motion above the two steps' mean, and where many samples are missing (a decimated log of
+fast motion) it would lower the spectrum's top and make the filter cut motion. A bridged sample keeps its status
+(``predicted``). Two or more consecutive missing samples are a gap, never bridged. Measured in
+``docs/theory/identification.md``.
 """
 
 from __future__ import annotations
