@@ -89,6 +89,15 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
     np.savez(folder / "log.npz", t=t, q=q)
     seeds.append(Seed("npz", {"log.npz": (folder / "log.npz").read_bytes()}, "log.npz", "log.npz", rows))
 
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    pq.write_table(
+        pa.table({"t": t, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}), folder / "log.parquet"
+    )
+    parquet = (folder / "log.parquet").read_bytes()
+    seeds.append(Seed("parquet", {"log.parquet": parquet}, "log.parquet", "log.parquet", rows))
+
     write_motive_csv(folder / "take.csv", t, {"wand": q})
     motive = (folder / "take.csv").read_bytes()
     seeds.append(Seed("motive", {"take.csv": motive}, "take.csv", "take.csv", rows, 6, {"body": "wand"}))

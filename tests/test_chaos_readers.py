@@ -26,7 +26,7 @@ def seeds(tmp_path_factory):
 
 
 def _pairs():
-    names = ("csv", "npz", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2")
+    names = ("csv", "npz", "parquet", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2")
     for name in names:
         kinds = chaos.TEXT_MUTATIONS if name in ("csv", "motive", "vicon") else chaos.BINARY_MUTATIONS
         for kind in kinds:

@@ -381,3 +381,21 @@ def test_parquet_outputs_for_a_folder(tmp_path, capsys):
     assert [p.name for p in out.glob("*.csv")] == [SUMMARY_CSV]  # the summary is the only CSV
     code, _, err = batch(capsys, logs[0], "-o", tmp_path / "o.csv", *OPTS, "--output-format", "parquet")
     assert code == 2 and "--output-format: for many inputs" in err
+
+
+def test_parquet_logs_are_run_and_parquet_outputs_skipped(tmp_path, capsys):
+    """A folder with a Parquet log and an omegahat output written as Parquet: the log is run (its output named
+    ``.csv`` like any other), the output is skipped with its reason, as a CSV output is."""
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    d = tmp_path / "in"
+    src = good_log(d / "a.csv")
+    pq.write_table(pacsv.read_csv(src), d / "b.parquet")
+    assert main(["estimate", str(src), "-o", str(d / "old.parquet"), "--inertia", "1", "1", "1.6"]) == 0
+    code, printed, _ = batch(capsys, d, "-o", tmp_path / "o", *OPTS, "--jobs", "1")
+    assert code == 0 and "2 files (2 ok)" in printed
+    text = (tmp_path / "o" / SUMMARY_TXT).read_text()
+    assert "in/old.parquet: an output of omegahat (t,wx,wy,wz,status, as Parquet)" in text
+    a, b = ((tmp_path / "o" / name).read_text() for name in ("a.csv", "b.csv"))
+    assert a == b  # the same rows, read from CSV and from Parquet, give the same estimates

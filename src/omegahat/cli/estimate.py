@@ -133,9 +133,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         nargs="+",
         metavar="INPUT",
-        help="attitude data: an omegahat log (.csv, .npz), a Motive or Vicon CSV export, a C3D file, a ROS 1 bag "
-        "(.bag) or a ROS 2 bag (directory); recognised from the file. Several files, a directory or a quoted glob "
-        "('logs/**/*.csv'): every log in them, -o then names a directory (see 'many files' below)",
+        help="attitude data: an omegahat log (.csv, .npz, .parquet), a Motive or Vicon CSV export, a C3D file, a ROS "
+        "1 bag (.bag) or a ROS 2 bag (directory); recognised from the file. Several files, a directory or a quoted "
+        "glob ('logs/**/*.csv'): every log in them, -o then names a directory (see 'many files' below)",
     )
     parser.add_argument(
         "-o",

@@ -12,8 +12,8 @@ unchanged. Several inputs, a directory that is not a bag, or a glob (quoted, so 
 so). In a directory or a glob's matches, the files whose extension a registered format reads
 (:func:`omegahat.io.registry.registered_extensions`) and the ROS 2 bags are run; the rest is skipped, each with its
 reason in the summary: hidden files, other extensions, subdirectories (a directory is not searched inside: a glob
-with ``**`` is), an output of omegahat (a CSV whose header is ``t,wx,wy,wz,status``) and the summaries of an
-earlier batch. A file reached twice (a directory and a glob over it) is run once.
+with ``**`` is), an output of omegahat (a CSV whose header is ``t,wx,wy,wz,status``, or a Parquet file of those
+columns) and the summaries of an earlier batch. A file reached twice (a directory and a glob over it) is run once.
 
 **Output names.** ``OUTDIR`` mirrors each input's path below its root (the directory given; a glob's directory
 before its first wildcard; a named file's own directory) with the log's extension replaced by ``.csv``:
@@ -149,7 +149,20 @@ def _skip_reason(path: Path) -> str | None:
         with open(path, "rb") as f:
             if f.read(len(HEADER) + 1).rstrip(b"\r\n") == HEADER.encode():
                 return f"an output of omegahat ({HEADER})"
+    if ext == ".parquet" and _parquet_columns(path) == HEADER.split(","):
+        return f"an output of omegahat ({HEADER}, as Parquet)"
     return None
+
+
+def _parquet_columns(path: Path) -> list[str] | None:
+    """The column names of a Parquet file (its footer alone), or None where it cannot be read as one."""
+    import pyarrow as pa  # a batch without Parquet files does not load it
+    import pyarrow.parquet as pq
+
+    try:
+        return [str(n) for n in pq.read_schema(path).names]
+    except (OSError, pa.ArrowException):  # not Parquet, or damaged: the reader will say so, naming the file
+        return None
 
 
 def _glob_root(pattern: str) -> Path:

@@ -2,7 +2,8 @@
 
 1. **Formats** are registered here with :func:`register_format` (:mod:`omegahat.io.registry`) and recognised
    from the file (:func:`detect_format`): omegahat's CSV (:mod:`omegahat.io.csvlog`, which also reads any text log
-   through a column map, :mod:`omegahat.io.colmap`) and NPZ (:mod:`omegahat.io.npzlog`) logs, OptiTrack Motive and
+   through a column map, :mod:`omegahat.io.colmap`), NPZ (:mod:`omegahat.io.npzlog`) and Parquet
+   (:mod:`omegahat.io.parquet_input`) logs, OptiTrack Motive and
    Vicon CSV exports (:mod:`omegahat.io.mocap`), Qualisys QTM 6D TSV and MAT exports (:mod:`omegahat.io.qualisys`,
    :mod:`omegahat.io.qtm_mat`), the
    EuRoC / ASL, TUM and KITTI trajectories of robotics (:mod:`omegahat.io.trajectories`), C3D files
@@ -29,6 +30,7 @@ from omegahat.io.logs import AttitudeLog, read_csv, read_log, read_npz, write_om
 from omegahat.io.mocap import is_motive, is_vicon, open_motive_csv, open_vicon_csv
 from omegahat.io.npzlog import open_npz
 from omegahat.io.output import OmegaWriter, check_output_path
+from omegahat.io.parquet_input import open_parquet
 from omegahat.io.parquet_output import ParquetOmegaWriter
 from omegahat.io.qtm_mat import open_qtm_mat
 from omegahat.io.qualisys import is_qtm_6d, open_qtm_6d
@@ -70,6 +72,7 @@ register_format(
     options=(*COLUMN_OPTIONS, *MAP_OPTIONS, "rate"),
 )
 register_format(".npz", open_npz, name="npz", title="an omegahat NPZ log")
+register_format(".parquet", open_parquet, name="parquet", title="a Parquet table", options=(*COLUMN_OPTIONS, "columns"))
 register_format(".mat", open_qtm_mat, name="qtm-mat", title="a Qualisys QTM MAT export", options=("body",))
 register_format(".c3d", open_c3d, name="c3d", title="a C3D file", options=("body",))
 register_format(".bag", open_bag, name="rosbag1", title="a ROS 1 bag", options=_BAG)

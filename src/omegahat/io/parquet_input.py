@@ -1,0 +1,154 @@
+"""Parquet tables as input: ``omegahat estimate log.parquet -o omega.csv``.
+
+A Parquet table holds one sample per row under the column names of omegahat's CSV logs (:mod:`omegahat.io.columns`,
+any case): the time ``t`` (or the one ``--time-column`` names), a quaternion ``qw, qx, qy, qz`` (or numbered
+columns with ``--scalar-first``/``--scalar-last``), a rotation matrix ``r11 … r33`` or body-frame directions
+``b1x, b1y, b1z, b2x, …``, and optionally the torque ``tau_x, tau_y, tau_z``; ``--columns`` names other columns as it
+does for a CSV. Numeric times are in seconds (or ``--time-unit``); a Parquet timestamp or duration column is read as
+whole nanoseconds from the first row's, so that equal stamps stay equal and an epoch time keeps its precision (a
+timezone-aware stamp is the instant it names). Every numeric type is read as float64.
+
+It is read with PyArrow, a row group's batches at a time, so memory follows :data:`~omegahat.io.registry.CHUNK_ROWS`
+rather than the file. A null or NaN in the attitude makes the sample missing (predicted through), as in every
+input; a null time, a null or non-finite torque, or a column that holds no numbers are refused, naming the row (its
+position in the table, the first being row 0) and the column. The stream then takes the path every format takes
+(:func:`omegahat.io.registry.checked_stream`): the rotation convention and the timestamp policy.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.parquet as pq
+
+from omegahat.io.colmap import apply_columns
+from omegahat.io.columns import LogFormatError, layout
+from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
+
+__all__ = ["open_parquet"]
+
+NANOSECONDS = {"s": 10**9, "ms": 10**6, "us": 10**3, "ns": 1}  #: a temporal column's unit, in nanoseconds
+
+
+def _numeric(field: pa.Field) -> bool:
+    return pa.types.is_integer(field.type) or pa.types.is_floating(field.type) or pa.types.is_null(field.type)
+
+
+def _floats(column: pa.Array) -> np.ndarray:
+    """A numeric column as float64, nulls as NaN."""
+    return pc.fill_null(column.cast(pa.float64()), np.nan).to_numpy(zero_copy_only=False)
+
+
+def _temporal_unit(field: pa.Field) -> int | None:
+    """Nanoseconds per unit of a timestamp or duration column; None for a numeric one."""
+    if pa.types.is_timestamp(field.type) or pa.types.is_duration(field.type):
+        return NANOSECONDS[field.type.unit]
+    return None
+
+
+def _batches(table: pq.ParquetFile, path: str, columns: list[str], size: int) -> Iterator[tuple[int, pa.RecordBatch]]:
+    """``(first row, batch)`` of ``columns``, ``size`` rows at a time; a page that cannot be decoded (a damaged
+    file) is refused naming the file and the rows read before it."""
+    batches = table.iter_batches(batch_size=size, columns=columns)
+    row = 0
+    while True:
+        try:
+            batch = next(batches)
+        except StopIteration:
+            return
+        except (OSError, pa.ArrowException) as exc:
+            raise LogFormatError(f"{path}: its rows from row {row} on cannot be read ({exc})") from None
+        yield row, batch
+        row += batch.num_rows
+
+
+def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
+    """Open a Parquet table (module docstring): its schema now, its rows batch by batch."""
+    path = os.fspath(path)
+    try:
+        table = pq.ParquetFile(path)
+    except (OSError, pa.ArrowException) as exc:
+        raise LogFormatError(f"{path}: not a readable Parquet file ({exc})") from None
+    schema = table.schema_arrow
+    original = [str(n) for n in schema.names]
+    where = f"{path} (its columns)"
+    names = apply_columns(original, options.column_map, where, options.time_column)
+    mapped = options.column_map
+    time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
+    lay = layout(names, where, time_column, options.scalar_first)
+    column = {n: original[j] for j, n in enumerate(names) if n}
+    time_name = column[lay.time]
+    unit = _temporal_unit(schema.field(time_name))
+    if unit is not None and options.time_unit != "s":
+        raise LogFormatError(
+            f"{path}, column {time_name}: a {schema.field(time_name).type} column carries its own unit; leave "
+            "--time-unit out"
+        )
+    attitude = [column[c] for c in lay.attitude]
+    torque = [column[c] for c in lay.torque] if lay.torque else []
+    for name in ([time_name] if unit is None else []) + attitude + torque:
+        if not _numeric(schema.field(name)):
+            raise LogFormatError(f"{path}, column {name}: holds {schema.field(name).type}, not numbers")
+    n_rows = table.metadata.num_rows
+    if n_rows == 0:
+        raise LogFormatError(f"{path}: no rows")
+    first_row = next(_batches(table, path, [time_name], 1), None)
+    if first_row is None or first_row[1].num_rows == 0:
+        raise LogFormatError(f"{path}: no rows")
+    head = first_row[1].column(0)
+    if head.null_count:
+        raise LogFormatError(f"{path}, row 0, column {time_name}: no time (null)")
+    # the first row's time is the stream's t0 (s), and the chunks' times count from it: an epoch keeps its digits
+    first = head.cast(pa.int64())[0].as_py() if unit is not None else float(_floats(head)[0])
+    t0 = first * unit * 1e-9 if unit is not None else first * TIME_UNITS[options.time_unit]
+    stream = LogStream(
+        path,
+        lay.kind,
+        lay.n_directions,
+        bool(torque),
+        "row",
+        lambda: iter(()),
+        size=n_rows,
+        n_rows_hint=n_rows,
+        attitude_name=",".join(attitude),
+        time_name=time_name,
+        description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
+        t0=t0,
+    )
+    if options.column_map:
+        stream.notes.append(f"columns read: {', '.join(f'{k}={v}' for k, v in options.column_map)}")
+
+    def chunks() -> Iterator[LogChunk]:
+        for row, batch in _batches(table, path, [time_name, *attitude, *torque], CHUNK_ROWS):
+            n = batch.num_rows
+            times = batch.column(0)
+            if times.null_count:
+                k = int(np.flatnonzero(times.is_null().to_numpy(zero_copy_only=False))[0])
+                raise LogFormatError(f"{path}, row {row + k}, column {time_name}: no time (null)")
+            if unit is None:
+                t = _floats(times) - first  # in the file's unit: the checked stream scales by --time-unit
+            else:
+                t = (times.cast(pa.int64()).to_numpy(zero_copy_only=False) - first).astype(np.float64) * (unit * 1e-9)
+            data = np.column_stack([_floats(batch.column(1 + j)) for j in range(len(attitude))])
+            if lay.kind == "matrix":
+                data = data.reshape(n, 3, 3)
+            elif lay.kind == "directions":
+                data = data.reshape(n, -1, 3)
+            tau = None
+            if torque:
+                tau = np.column_stack([_floats(batch.column(1 + len(attitude) + j)) for j in range(len(torque))])
+                bad = np.flatnonzero(~np.all(np.isfinite(tau), axis=1))
+                if bad.size:
+                    k = int(bad[0])
+                    raise LogFormatError(
+                        f"{path}, row {row + k}, columns {','.join(torque)}: torque {tau[k].tolist()} is not finite"
+                    )
+            yield LogChunk(t, data, tau, np.arange(row, row + n))
+            stream.done = row + n
+
+    stream._chunks = chunks
+    return stream
