@@ -75,6 +75,9 @@ def test_timestamps_are_read_as_whole_nanoseconds_from_the_first(tmp_path):
     assert np.array_equal(read_log(path).t, (ns // 1_000_000 - ns[0] // 1_000_000) * 1e-3)
     with pytest.raises(LogFormatError, match="carries its own unit; leave --time-unit out"):
         read_log(path, time_unit="ms")
+    pq.write_table(quaternion_table(t, rot).drop(["Time"]).append_column("t", pa.array(ns)), path)  # plain int64
+    log = read_log(path, time_unit="ns")  # as floats first, 1.7e18 ns would keep steps of 256 ns only
+    assert np.array_equal(log.t, (ns - ns[0]) * 1e-9) and abs(log.t0 - 1_700_000_000.123456789) < 1e-6
 
 
 def test_a_numeric_time_takes_the_time_unit(tmp_path):

@@ -4,9 +4,10 @@ A Parquet table holds one sample per row under the column names of omegahat's CS
 any case): the time ``t`` (or the one ``--time-column`` names), a quaternion ``qw, qx, qy, qz`` (or numbered
 columns with ``--scalar-first``/``--scalar-last``), a rotation matrix ``r11 … r33`` or body-frame directions
 ``b1x, b1y, b1z, b2x, …``, and optionally the torque ``tau_x, tau_y, tau_z``; ``--columns`` names other columns as it
-does for a CSV. Numeric times are in seconds (or ``--time-unit``); a Parquet timestamp or duration column is read as
-whole nanoseconds from the first row's, so that equal stamps stay equal and an epoch time keeps its precision (a
-timezone-aware stamp is the instant it names). Every numeric type is read as float64.
+does for a CSV. Numeric times are in seconds (or ``--time-unit``); a Parquet timestamp or duration column carries its
+unit. Integer and temporal times are counted from the first row's as integers before they become floats, so that
+equal stamps stay equal and an epoch time in nanoseconds keeps its precision (a timezone-aware stamp is the instant
+it names). The attitude and torque columns, of any numeric type, are read as float64.
 
 It is read with PyArrow, a row group's batches at a time, so memory follows :data:`~omegahat.io.registry.CHUNK_ROWS`
 rather than the file. A null or NaN in the attitude makes the sample missing (predicted through), as in every
@@ -80,9 +81,12 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     mapped = options.column_map
     time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
     lay = layout(names, where, time_column, options.scalar_first)
+    if not lay.time:
+        raise LogFormatError(f"{where}: a Parquet log needs a time column (name it t or pass --time-column NAME)")
     column = {n: original[j] for j, n in enumerate(names) if n}
     time_name = column[lay.time]
     unit = _temporal_unit(schema.field(time_name))
+    whole = unit is not None or pa.types.is_integer(schema.field(time_name).type)  # read as integers, exactly
     if unit is not None and options.time_unit != "s":
         raise LogFormatError(
             f"{path}, column {time_name}: a {schema.field(time_name).type} column carries its own unit; leave "
@@ -103,8 +107,10 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     if head.null_count:
         raise LogFormatError(f"{path}, row 0, column {time_name}: no time (null)")
     # the first row's time is the stream's t0 (s), and the chunks' times count from it: an epoch keeps its digits
-    first = head.cast(pa.int64())[0].as_py() if unit is not None else float(_floats(head)[0])
-    t0 = first * unit * 1e-9 if unit is not None else first * TIME_UNITS[options.time_unit]
+    # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
+    first = head.cast(pa.int64())[0].as_py() if whole else float(_floats(head)[0])
+    scale = unit * 1e-9 if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
+    t0 = first * scale * TIME_UNITS[options.time_unit]
     stream = LogStream(
         path,
         lay.kind,
@@ -129,10 +135,10 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
             if times.null_count:
                 k = int(np.flatnonzero(times.is_null().to_numpy(zero_copy_only=False))[0])
                 raise LogFormatError(f"{path}, row {row + k}, column {time_name}: no time (null)")
-            if unit is None:
-                t = _floats(times) - first  # in the file's unit: the checked stream scales by --time-unit
+            if whole:
+                t = (times.cast(pa.int64()).to_numpy(zero_copy_only=False) - first).astype(np.float64) * scale
             else:
-                t = (times.cast(pa.int64()).to_numpy(zero_copy_only=False) - first).astype(np.float64) * (unit * 1e-9)
+                t = _floats(times) - first  # in the file's unit: the checked stream scales by --time-unit
             data = np.column_stack([_floats(batch.column(1 + j)) for j in range(len(attitude))])
             if lay.kind == "matrix":
                 data = data.reshape(n, 3, 3)
