@@ -200,7 +200,7 @@ def test_not_an_npz_and_unknown_extension(tmp_path):
     with pytest.raises(
         LogFormatError,
         match=r"unknown log format '\.dat'; use \.bag or \.c3d or \.csv or \.db3 or \.mat or \.mcap or \.npz or "
-        r"\.tsv or \.tum or \.txt",
+        r"\.parquet or \.tsv or \.tum or \.txt",
     ):
         read_log(write(tmp_path, "t\n", "x.dat"))  # (.txt is a format now: TUM, KITTI, or text read by columns)
 
