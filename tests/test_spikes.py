@@ -260,3 +260,26 @@ def test_four_spikes_cost_the_estimate_nothing(smooth):
         errors.append(np.linalg.norm(omega[1:] - w[1:], axis=1))
     clean, spikes = (float(np.sqrt(np.mean(e**2))) for e in errors)
     assert summary.spikes == 4 and spikes < 1.1 * clean and errors[1].max() < 0.15, (clean, spikes)
+
+
+@pytest.mark.parametrize("cut", [0, *range(999, 1004)])  # the writer sees the chunks two rows earlier (the screen)
+def test_a_gap_is_named_by_the_row_after_it_wherever_the_chunks_are_cut(cut):
+    """Samples 1,000 … 1,009 dropped (a gap of 11 steps before the row that was sample 1,010, line 1,012), the log
+    handed on whole or cut around the gap: one gap, its length and that line, as the summary's other records are."""
+    t = H * np.arange(2000)
+    q = Rotation.from_matrix(attitudes(rate(t), H, 3e-4)).as_quat()
+    keep = np.r_[0:1000, 1010:2000]
+    t, q = t[keep], q[keep]
+    cuts = [(0, t.size)] if cut == 0 else [(0, cut), (cut, t.size)]
+    from omegahat.io import LogChunk, LogStream, ReadOptions, pipeline
+    from omegahat.io.registry import checked_stream
+
+    def chunks():
+        for a, b in cuts:
+            yield LogChunk(t[a:b], q[a:b], None, keep[a:b] + 2)
+
+    stream = LogStream("gap", "quaternion", 0, False, "line", chunks)
+    checked_stream(stream, ReadOptions())
+    summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print)
+    assert summary.gaps == 1 and summary.largest_gap[1] == 1012
+    assert abs(summary.largest_gap[0] - 11 * H) < 1e-9

@@ -32,8 +32,6 @@ from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, Re
 
 __all__ = ["open_parquet"]
 
-NANOSECONDS = {"s": 10**9, "ms": 10**6, "us": 10**3, "ns": 1}  #: a temporal column's unit, in nanoseconds
-
 
 def _numeric(field: pa.Field) -> bool:
     return pa.types.is_integer(field.type) or pa.types.is_floating(field.type) or pa.types.is_null(field.type)
@@ -44,10 +42,10 @@ def _floats(column: pa.Array) -> np.ndarray:
     return pc.fill_null(column.cast(pa.float64()), np.nan).to_numpy(zero_copy_only=False)
 
 
-def _temporal_unit(field: pa.Field) -> int | None:
-    """Nanoseconds per unit of a timestamp or duration column; None for a numeric one."""
+def _temporal_unit(field: pa.Field) -> float | None:
+    """Seconds per unit of a timestamp or duration column (Arrow's units are the time units'); None for a number."""
     if pa.types.is_timestamp(field.type) or pa.types.is_duration(field.type):
-        return NANOSECONDS[field.type.unit]
+        return TIME_UNITS[field.type.unit]
     return None
 
 
@@ -109,7 +107,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     # the first row's time is the stream's t0 (s), and the chunks' times count from it: an epoch keeps its digits
     # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
     first = head.cast(pa.int64())[0].as_py() if whole else float(_floats(head)[0])
-    scale = unit * 1e-9 if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
+    scale = unit if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
     t0 = first * scale * TIME_UNITS[options.time_unit]
     stream = LogStream(
         path,

@@ -217,27 +217,25 @@ class _Run:
         dt = np.diff(chunk.t if self.t_prev is None else np.concatenate([[self.t_prev], chunk.t]))
         big = np.flatnonzero(dt > self.gap_limit)
         s.gaps += big.size
-        if big.size:
-            j = int(big[np.argmax(dt[big])])
-            if dt[j] > s.largest_gap[0]:
-                s.largest_gap = (float(dt[j]), int(chunk.labels[j + 1 if self.t_prev is None else j]))
+        after = big + (1 if self.t_prev is None else 0)  # the row after each gap (dt[0] is the carried one's)
+        s.largest_gap = _largest(s.largest_gap, after, dt[big], chunk.labels)
         self.t_prev = float(chunk.t[-1])
 
-    def _screened(self, chunk: LogChunk | None) -> list[LogChunk]:
-        """The rows ready for the estimator once ``chunk`` is read (None: the end of the stream)."""
+    def _screened(self, chunk: LogChunk | None) -> LogChunk | None:
+        """The rows ready for the estimator once ``chunk`` is read (None: the end of the stream), if any."""
         if self.screen is None:
-            return [] if chunk is None else [chunk]
-        ready = self.screen.feed(chunk) if chunk is not None else self.screen.finish()
-        return [] if ready is None else [ready]
+            return chunk
+        return self.screen.feed(chunk) if chunk is not None else self.screen.finish()
 
     def feed(self, chunk: LogChunk | None) -> None:
         """A streaming estimator: one chunk (None: the end of the stream, the rows the spike screen held back)."""
-        for ready in self._screened(chunk):
+        ready = self._screened(chunk)
+        if ready is not None:
             self.write(ready, self._checked([ready]))
 
     def feed_all(self, chunks: list[LogChunk]) -> None:
         """A batch estimator: the whole stream at once, written chunk by chunk (``chunks`` emptied on the way)."""
-        screened = [ready for chunk in [*chunks, None] for ready in self._screened(chunk)]
+        screened = [ready for chunk in [*chunks, None] if (ready := self._screened(chunk)) is not None]
         chunks.clear()
         est = self._checked(screened)
         start = 0
@@ -292,7 +290,8 @@ class TurnScreen:
             turn = turn.copy()
             near = np.concatenate([spikes - 1, spikes]) - lo  # a missing sample turns nothing: no jump on either side
             turn[near[near < turn.size]] = np.nan
-            self._count(spikes, detour, rows.labels, "largest_spike", "spikes")
+            self.summary.spikes += spikes.size
+            self.summary.largest_spike = _largest(self.summary.largest_spike, spikes, detour, rows.labels)
         self._jumps(turn, rows.labels[lo:ready], after_missing=done > 0 and self.last_missing)
         self.last_missing = bool(spikes.size) and int(spikes[-1]) == ready - 1
         return out
@@ -313,15 +312,19 @@ class TurnScreen:
         with np.errstate(invalid="ignore"):  # NaN (a missing sample on either side) is not a jump
             jump = np.flatnonzero(step > JUMP_ANGLE)
         jump = jump[jump > 0] if after_missing else jump
-        self._count(jump + 1, step[jump], labels, "largest_jump", "jumps")
+        self.summary.jumps += jump.size
+        self.summary.largest_jump = _largest(self.summary.largest_jump, jump + 1, step[jump], labels)
 
-    def _count(self, rows: np.ndarray, angle: np.ndarray, labels: np.ndarray, largest: str, count: str) -> None:
-        s = self.summary
-        setattr(s, count, getattr(s, count) + rows.size)
-        if rows.size:
-            j = int(np.argmax(angle))
-            if angle[j] > getattr(s, largest)[0]:
-                setattr(s, largest, (float(angle[j]), int(labels[rows[j]])))
+
+def _largest(
+    largest: tuple[float, int | None], rows: np.ndarray, size: np.ndarray, labels: np.ndarray
+) -> tuple[float, int | None]:
+    """The summary's largest gap, jump or spike ``(size, label)``: ``largest``, or the largest ``size`` at the
+    ``rows`` (labelled ``labels[rows]``) where that is larger."""
+    if rows.size == 0:
+        return largest
+    j = int(np.argmax(size))
+    return (float(size[j]), int(labels[rows[j]])) if size[j] > largest[0] else largest
 
 
 def _rows(chunk: LogChunk, start: int, stop: int) -> LogChunk:
