@@ -367,3 +367,26 @@ def test_the_coning_term_is_the_increments_departure_from_the_mean_rate():
     w = rate(t)
     assert np.max(np.abs(b - mean)) > 4e-4
     assert np.max(np.abs(b - mean - so3.coning(w[:-1], w[1:], h))) < 1e-6
+
+
+def test_angle_is_scipys_relative_magnitude_at_every_angle_for_quaternions_and_matrices():
+    """``so3.angle`` against SciPy's ``(a⁻¹ b).magnitude()``: random pairs, turns of 1e-9 rad and of π − 1e-9 rad
+    (where an arccosine of a dot product or a trace loses half its digits), quaternions of any norm and sign in
+    either scalar order, matrices, and NaN for a missing sample."""
+    rng = np.random.default_rng(3)
+    a = Rotation.random(200, random_state=rng)
+    turns = np.concatenate([rng.uniform(0.0, np.pi, 194), [1e-9, 3e-7, 1e-4, np.pi - 1e-9, np.pi - 1e-5, 0.0]])
+    axes = rng.normal(size=(200, 3))
+    b = a * Rotation.from_rotvec(axes / np.linalg.norm(axes, axis=1, keepdims=True) * turns[:, None])
+    truth = (a.inv() * b).magnitude()
+    assert np.allclose(truth, turns, rtol=1e-12, atol=1e-15)  # SciPy recovers the turns made
+    qa, qb = a.as_quat(), b.as_quat() * rng.choice([-3.0, 0.5], (200, 1))  # any norm, either sign
+    np.testing.assert_allclose(so3.angle(qa, qb), truth, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(so3.angle(np.roll(qa, 1, axis=1), np.roll(qb, 1, axis=1)), truth, rtol=1e-9, atol=1e-15)
+    near_pi = truth > np.pi - 1e-4  # the sine of a matrix's turn is of its entries' rounding there: 1e-8 rad
+    matrices = so3.angle(a.as_matrix(), b.as_matrix())
+    np.testing.assert_allclose(matrices[~near_pi], truth[~near_pi], rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(matrices[near_pi], truth[near_pi], atol=1e-7)
+    assert so3.angle(a.as_matrix()[0], b.as_matrix()[0]).shape == ()
+    qa[5] = np.nan
+    assert np.isnan(so3.angle(qa, qb)[5]) and np.isfinite(np.delete(so3.angle(qa, qb), 5)).all()

@@ -27,6 +27,7 @@ from scipy.spatial.transform import Rotation
 from omegahat.kernels import rotation as rot
 
 __all__ = [
+    "angle",
     "as_matrix",
     "coning",
     "cross",
@@ -161,6 +162,29 @@ def increments(R: ArrayLike) -> np.ndarray:
     NaN where either rotation is NaN (a missing sample)."""
     R = np.asarray(R, dtype=float)
     return log(np.swapaxes(R[:-1], -1, -2) @ R[1:])
+
+
+def angle(a: ArrayLike, b: ArrayLike) -> np.ndarray:
+    r"""The angle (rad, 0 … π) of the turn between the attitudes ``a`` and ``b``, row by row: quaternions ``(*B, 4)``
+    (of any norm and sign, the scalar first or last alike: the angle depends on none of them) or rotation matrices
+    ``(*B, 3, 3)``; NaN where either is missing. Both forms are of half-angles, accurate at every angle::
+
+        θ = 4 atan2(|â − s b̂|, |â + s b̂|),   â = a/|a|, b̂ = b/|b|, s = ±1 the sign of â·b̂        (quaternions)
+        θ = atan2(|vee(M)|, (tr M − 1) / 2),   M = aᵀ b  (vee reads the antisymmetric part)       (matrices)
+    """
+    x, y = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):  # missing samples: NaN angles
+        if x.shape[-1] == 4:
+            dot = np.einsum("...i,...i->...", x, y)
+            x = x / np.sqrt(np.einsum("...i,...i->...", x, x))[..., None]
+            y = y * (np.copysign(1.0, dot) / np.sqrt(np.einsum("...i,...i->...", y, y)))[..., None]
+            apart, together = x - y, x + y
+            return 4.0 * np.arctan2(
+                np.sqrt(np.einsum("...i,...i->...", apart, apart)),
+                np.sqrt(np.einsum("...i,...i->...", together, together)),
+            )
+        M = np.swapaxes(x, -1, -2) @ y
+        return np.arctan2(np.linalg.norm(vee(M), axis=-1), 0.5 * (np.trace(M, axis1=-2, axis2=-1) - 1.0))
 
 
 def coning(omega_start: ArrayLike, omega_end: ArrayLike, h: ArrayLike) -> np.ndarray:

@@ -54,18 +54,13 @@ class Spikes(NamedTuple):
         return np.where(spans[:, None], np.nan, increments)
 
 
-def _angle(A: np.ndarray, B: np.ndarray) -> np.ndarray:
-    """``d`` between the rotations ``A (n, 3, 3)`` and ``B``, row by row; NaN where either is missing."""
-    return np.linalg.norm(so3.log(np.swapaxes(A, -1, -2) @ B), axis=-1)
-
-
 def isolated_spikes(R: np.ndarray, valid: np.ndarray) -> Spikes:
     """(P1) on the attitudes ``R (T, 3, 3)`` (body → inertial), ``valid (T,)`` the usable samples (module
     docstring)."""
     Rv = np.where(valid[:, None, None], R, np.nan)
-    step = _angle(Rv[:-1], Rv[1:])
+    step = so3.angle(Rv[:-1], Rv[1:])
     typical = float(np.nanmedian(step)) if np.isfinite(step).any() else 0.0
-    return judged_spikes(step, lambda k: _angle(Rv[k - 1], Rv[k + 1]), typical)
+    return judged_spikes(step, lambda k: so3.angle(Rv[k - 1], Rv[k + 1]), typical)
 
 
 def judged_spikes(

@@ -46,6 +46,7 @@ from typing import Protocol
 import numpy as np
 
 from omegahat import measurements as ms
+from omegahat import so3
 from omegahat.identification.spikes import judged_spikes
 from omegahat.interface import Estimate, Status
 from omegahat.io.choice import attitude_choice, references
@@ -272,7 +273,7 @@ class TurnScreen:
         if math.isnan(self.typical_step) and np.isfinite(step).any():
             self.typical_step = float(np.nanmedian(step))
         ready = max(len(rows) - 2, done)  # the rows judged now: done … ready − 1
-        found = judged_spikes(step, lambda k: _angle(data[k - 1], data[k + 1]), self.typical_step, done, ready - 1)
+        found = judged_spikes(step, lambda k: so3.angle(data[k - 1], data[k + 1]), self.typical_step, done, ready - 1)
         status, _ = ms.sample_status(
             data[found.samples], rotation_tol=self.settings.rotation_tol, quat_norm_tol=self.settings.quat_norm_tol
         )
@@ -351,18 +352,8 @@ def _joined(a: LogChunk, b: LogChunk) -> LogChunk:
 
 
 def _turns(data: np.ndarray) -> np.ndarray:
-    """The angle (rad) between each two consecutive attitudes of ``data`` (:func:`_angle`)."""
-    return _angle(data[:-1], data[1:])
-
-
-def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The angle (rad) between the attitudes ``a`` and ``b``, row by row (quaternions ``(m, 4)`` in either order of
-    the scalar, or rotation matrices ``(m, 3, 3)``): ``2 acos |q_a · q_b|`` or ``acos((tr(R_aᵀ R_b) − 1)/2)``."""
-    with np.errstate(invalid="ignore"):  # missing samples: NaN angles
-        if a.ndim == 2:
-            dot = np.einsum("ij,ij->i", a, b) / (np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1))
-            return 2.0 * np.arccos(np.minimum(np.abs(dot), 1.0))
-        return np.arccos(np.clip((np.einsum("kij,kij->k", a, b) - 1.0) / 2.0, -1.0, 1.0))
+    """The angle (rad) between each two consecutive attitudes of ``data`` (:func:`omegahat.so3.angle`)."""
+    return so3.angle(data[:-1], data[1:])
 
 
 def _head(chunks) -> list[LogChunk]:

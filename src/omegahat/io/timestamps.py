@@ -52,6 +52,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
+from omegahat import so3
 from omegahat.io.columns import LogFormatError
 
 __all__ = ["DUPLICATE_CHOICES", "DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "sort_by_time"]
@@ -137,8 +138,7 @@ def _difference(kind: str, a: np.ndarray, b: np.ndarray) -> tuple[str, float] | 
     if ca.shape == cb.shape and np.sqrt(np.sum((ca - cb) ** 2)) <= DUPLICATE_TOL:
         return None
     if ca.shape == (3, 3) and cb.shape == (3, 3):
-        cos = np.clip((np.trace(ca.T @ cb) - 1.0) / 2.0, -1.0, 1.0)
-        angle = float(np.degrees(np.arccos(cos)))
+        angle = float(np.degrees(so3.angle(ca, cb)))
         return f"attitudes {angle:.4g}° apart", angle
     size = float(np.abs(ca - cb).max())
     return f"values differing by up to {size:.3g}", size
