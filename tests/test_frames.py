@@ -96,6 +96,21 @@ def test_polars_with_datetime_and_float_times():
     np.testing.assert_allclose(out2.select(W).to_numpy(), direct(t, q), rtol=0, atol=1e-13)
 
 
+def test_polars_millisecond_durations_and_times_beyond_nanoseconds():
+    """A Duration in ms is read as the same seconds; a Datetime in ms past what int64 nanoseconds hold (year 2262)
+    is refused, not wrapped round to a time in the past."""
+    t, _, q, _ = motion()
+    ms = np.round(t * 1e3).astype(np.int64)
+    quats = {"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}
+    df = pl.DataFrame({"t": pl.Series(ms).cast(pl.Duration("ms")), **quats})
+    out = omegahat.estimate_frame(df, **FIXED)
+    np.testing.assert_allclose(out.select(W).to_numpy(), direct(ms / 1e3, q), rtol=0, atol=1e-12)
+    year_3000 = 32_503_680_000_000  # ms since 1970
+    far = pl.DataFrame({"t": pl.Series(year_3000 + ms).cast(pl.Datetime("ms")), **quats})
+    with pytest.raises(LogFormatError, match="column t: times beyond what nanoseconds hold"):
+        omegahat.estimate_frame(far, **FIXED)
+
+
 def test_matrices_directions_missing_values_and_torque():
     t, R, q, _ = motion()
     cols = {f"r{i + 1}{j + 1}": R[:, i, j] for i in range(3) for j in range(3)}

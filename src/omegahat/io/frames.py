@@ -37,7 +37,7 @@ import numpy as np
 from omegahat.interface import STATUS_WORDS
 from omegahat.io.colmap import apply_columns, frame_names
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name
-from omegahat.io.registry import LogStream, ReadOptions, checked_stream
+from omegahat.io.registry import TIME_UNITS, LogStream, ReadOptions, checked_stream
 from omegahat.io.timestamps import sort_by_time
 
 if TYPE_CHECKING:
@@ -127,8 +127,11 @@ def _polars_times(df, time: str | None):
         raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
     if s.dtype.is_temporal():
         if isinstance(s.dtype, pl.Datetime | pl.Duration):
-            scale = {"ns": 1, "us": 1_000, "ms": 1_000_000}[s.dtype.time_unit]
-            return s.to_physical().to_numpy().astype(np.int64) * scale, name
+            ns_per_tick = round(TIME_UNITS[s.dtype.time_unit] / TIME_UNITS["ns"])
+            ticks = s.to_physical().to_numpy().astype(np.int64)
+            if ticks.size and np.abs(ticks).max() > np.iinfo(np.int64).max // ns_per_tick:  # no silent wrap-around
+                raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold")
+            return ticks * ns_per_tick, name
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
     return _numbers(df, [name], "polars")[:, 0], name
 
