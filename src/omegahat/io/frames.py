@@ -45,8 +45,9 @@ if TYPE_CHECKING:
     import polars as pl
     from numpy.typing import ArrayLike
 
-    from omegahat.io.settings import Start
+    from omegahat.io.settings import EstimatorName, Start
     from omegahat.observer.gains import ObserverGains  # loads the compiled kernels: imported when estimate_frame runs
+    from omegahat.observer.presets import Preset
 
 __all__ = ["estimate_frame", "open_frame"]
 
@@ -296,6 +297,9 @@ def estimate_frame(
     header_rows: int | None = None,
     duplicate_times: str = "error",
     start: Start = "fit",
+    estimator: EstimatorName = "auto",
+    smooth: bool = False,
+    preset: Preset | None = None,
     skip_bad_samples: bool = False,
     rotation_tol: float | None = None,
     quat_norm_tol: float | None = None,
@@ -303,9 +307,12 @@ def estimate_frame(
 ) -> pd.DataFrame | pl.DataFrame:
     """Angular velocity (rad/s, body axes) for every row of a pandas or Polars DataFrame (module docstring).
 
-    The path of ``omegahat estimate``. Gains, as the command chooses them: automatic by default (from the frame's
-    sample rate, noise and motion: :func:`omegahat.observer.autogain.choose_gains`); or ``bandwidth_hz``; or
-    ``gains``. All parameters but ``df`` are keyword-only; errors name them (and carry them: ``exc.options``).
+    The path of ``omegahat estimate``, option for option. By default the model and noises are identified from the
+    frame (:func:`omegahat.identification.identify`) and its filter runs where it expects less error than
+    differencing, else backward differencing through the log's own causal filter; ``smooth=True`` is
+    ``--smooth`` (the whole frame, forwards and backwards); ``bandwidth_hz`` or ``gains`` fix the observer's gains;
+    ``preset`` and ``estimator`` are ``--preset`` and ``--estimator``. All parameters but ``df`` are keyword-only;
+    errors name them (and carry them: ``exc.options``).
 
     Parameters
     ----------
@@ -339,6 +346,15 @@ def estimate_frame(
     start : {"fit", "warm", "zero"}, optional
         ``fit`` (default: a least-squares rate over the first window), ``warm`` (from the first two samples) or
         ``zero``.
+    estimator : {"auto", "omegahat", "sarras"}, optional
+        As ``--estimator``: ``auto`` (default) as above, ``omegahat`` the identified model's filter (with ``smooth``
+        its smoother) even where differencing is expected to do better, ``sarras`` the fixed-gain observer.
+    smooth : bool, optional
+        As ``--smooth``: the zero-lag estimate of the identified model, or the log's own Wiener smoother where the
+        model is declined (the whole frame is read first).
+    preset : {"mocap"}, optional
+        As ``--preset`` (:mod:`omegahat.observer.presets`); not with ``inertia``, ``gains``, ``bandwidth_hz`` or
+        ``estimator``.
     skip_bad_samples : bool, optional
         Treat samples that are not rotations as missing instead of raising.
     rotation_tol, quat_norm_tol : float, optional
@@ -401,6 +417,9 @@ def estimate_frame(
         gains=gains,
         bandwidth_hz=bandwidth_hz,
         start=start,
+        estimator=estimator,
+        preset=preset,
+        smooth=smooth,
         skip_bad_samples=skip_bad_samples,
     )
     if rotation_tol is not None:  # else the measurements' default
