@@ -61,11 +61,12 @@ GROUP = {
 COLUMNS = ("cases", "messages", "right result", "tracebacks", "silent losses", "unnamed", "left behind")
 
 
-def readers(folder: Path, files: int, base: int) -> tuple[Counter, Counter, list[str]]:
+def readers(folder: Path, files: int, base: int) -> tuple[Counter, Counter, list[str], int]:
     """Every reader, ``files`` mutated files per mutation: (totals, known failures by cause, examples of the
-    others)."""
+    others, how many formats were seeded)."""
     totals, known, other = Counter(), Counter(), []
-    for seed in chaos.make_seeds(folder / "seeds"):
+    seeds = chaos.make_seeds(folder / "seeds")
+    for seed in seeds:
         for kind in seed.mutations:
             cases = chaos.run_cases(seed, folder / "cases", files, base_seed=base, mutations=(kind,))
             for c in cases:
@@ -77,7 +78,7 @@ def readers(folder: Path, files: int, base: int) -> tuple[Counter, Counter, list
                         known[cause] += 1
                     else:
                         other.append(f"{c.seed} {c.mutation} rng={c.rng_seed}: {c.outcome}: {c.detail[:200]}")
-    return totals, known, other
+    return totals, known, other, len(seeds)
 
 
 def api(examples: int, base: int) -> tuple[Counter, Counter, list[str]]:
@@ -180,14 +181,14 @@ def main() -> int:
     cpu0 = os.times()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        r_totals, r_known, r_other = readers(folder, args.files, args.seed)
+        r_totals, r_known, r_other, n_formats = readers(folder, args.files, args.seed)
         a_totals, a_known, a_other = api(args.examples, args.seed)
         (folder / "w").mkdir()
         w_totals, w_other = writer(folder / "w", args.rows)
     cpu1 = os.times()
     cpu = (cpu1.user - cpu0.user) + (cpu1.system - cpu0.system) + (cpu1.children_user - cpu0.children_user)
     known = r_known + a_known
-    parts = {"readers (7 formats, mutated files)": r_totals, "API (calls; DataFrames)": a_totals,
+    parts = {f"readers ({n_formats} formats, mutated files)": r_totals, "API (calls; DataFrames)": a_totals,
              "writer (faults at every write, chunk, rename)": w_totals}  # fmt: skip
     text = [
         f"{machine_line()} Command: `python benchmarks/chaos.py --files {args.files} --examples {args.examples} "
