@@ -283,3 +283,24 @@ def test_a_gap_is_named_by_the_row_after_it_wherever_the_chunks_are_cut(cut):
     summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print)
     assert summary.gaps == 1 and summary.largest_gap[1] == 1012
     assert abs(summary.largest_gap[0] - 11 * H) < 1e-9
+
+
+def test_the_array_recipe_of_getting_started_screens_spikes_for_an_estimator_class():
+    """docs/getting-started.md: an estimator given arrays reads a spike as it is; ``isolated_spikes`` and NaN make it
+    a missing sample, and the estimate is then the clean log's where the spiked one was far off."""
+    from omegahat import DifferencingEstimator
+
+    t = H * np.arange(3000)
+    w = rate(t)
+    R = attitudes(w, H, 3e-4)
+    bad = spiked(R)
+    screened = bad.copy()
+    screened[isolated_spikes(bad, np.ones(t.size, bool)).samples] = np.nan
+    clean, raw, fixed = (DifferencingEstimator().run(t, x).omega for x in (R, bad, screened))
+    near = np.zeros(t.size, bool)
+    near[0] = True  # differencing has no estimate at the first sample
+    for k in GLITCHES:
+        near[k - 2 : k + 3] = True
+    assert np.nanmax(np.abs(raw - clean)) > 30.0  # one step of 69 degrees read as a rate
+    assert np.abs(fixed[~near] - clean[~near]).max() < 1e-12
+    assert np.nanmax(np.abs(fixed[near] - w[near])) < 0.15  # predicted through the missing sample
