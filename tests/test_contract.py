@@ -323,3 +323,18 @@ def test_a_complex_sample_is_refused_not_truncated():
 def test_word_options_are_checked_against_their_literal_type(make_bad, match):
     with pytest.raises(ValueError, match=rf"^{match} must be one of [a-z, ]+; got '"):
         make_bad()
+
+
+@pytest.mark.parametrize("angle", [90.0, -1.0, float("nan")])
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda a: SarrasEstimator(J, gains=ObserverGains.constant(1.0, 1.0, n=3), min_angle_deg=a),
+        lambda a: SupervisedKalmanEstimator(J, rate_hz=RATE, measurement_noise=1e-3, min_angle_deg=a),
+        lambda a: MEKF(J, min_angle_deg=a),
+        lambda a: MinimumEnergyFilter(J, min_angle_deg=a),
+    ],
+)
+def test_the_least_angle_between_directions_is_checked_alike(make, angle):
+    with pytest.raises(ValueError, match=r"^min_angle_deg must be in \[0, 90\); got "):
+        make(angle)

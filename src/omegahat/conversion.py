@@ -20,6 +20,7 @@ from omegahat.validation import as_directions, as_positive
 __all__ = [
     "as_references",
     "log_array",
+    "min_angle",
     "read_only",
     "real_array",
     "sample_array",
@@ -129,6 +130,14 @@ def log_array(measurements: Measurements, T: int, n: int | None = None) -> tuple
 def tolerances(rotation_tol: float, quat_norm_tol: float) -> tuple[float, float]:
     """An estimator's ``(rotation_tol, quat_norm_tol)`` (P), checked positive and finite."""
     return float(as_positive(rotation_tol, "rotation_tol")[0]), float(as_positive(quat_norm_tol, "quat_norm_tol")[0])
+
+
+def min_angle(min_angle_deg: float) -> float:
+    """An estimator's ``min_angle_deg`` (the least angle between two measured directions, degrees), checked in
+    ``[0, 90)``."""
+    if not 0 <= min_angle_deg < 90:  # False for NaN too
+        raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
+    return float(min_angle_deg)
 
 
 def times_array(times: ArrayLike) -> np.ndarray:

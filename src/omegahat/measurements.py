@@ -61,6 +61,7 @@ from omegahat import so3
 from omegahat.conversion import (
     as_references,
     log_array,
+    min_angle,
     read_only,
     real_array,
     sample_array,
@@ -146,6 +147,7 @@ __all__ = [
     "convert_sample",
     "describe_rejection",
     "log_array",
+    "min_angle",
     "python_option",
     "real_array",
     "rejection_error",

@@ -124,9 +124,7 @@ class TSO3Filter(CompiledEstimator):
         self.omega_hat0 = np.zeros(3) if omega_hat0 is None else as_vector3(omega_hat0, "omega_hat0")
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
-        if not 0 <= min_angle_deg < 90:
-            raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
-        self.min_angle_deg = float(min_angle_deg)
+        self.min_angle_deg = ms.min_angle(min_angle_deg)
         self.R0: np.ndarray | None = None
         if R0 is not None:
             tols = {"rotation_tol": self.rotation_tol, "quat_norm_tol": self.quat_norm_tol}

@@ -204,9 +204,7 @@ class SarrasEstimator(CompiledEstimator):
         self.scalar_first = bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
         self.max_substep_angle = float(as_positive(max_substep_angle, "max_substep_angle")[0])
-        if not 0 <= min_angle_deg < 90:
-            raise ValueError(f"min_angle_deg must be in [0, 90); got {min_angle_deg!r}")
-        self.min_angle_deg = float(min_angle_deg)
+        self.min_angle_deg = ms.min_angle(min_angle_deg)
         self.warm_start = (omega_hat0 is None and r_hat0 is None) if warm_start is None else bool(warm_start)
         self.torque_hold: TorqueHold = one_of("torque_hold", torque_hold, TorqueHold)
         if isotropic_rate is None:
