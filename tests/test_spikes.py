@@ -8,6 +8,7 @@ a spike is a sample turned by a fixed rotation, as a marker swap does."""
 from __future__ import annotations
 
 import importlib
+import itertools
 
 import numpy as np
 import pytest
@@ -304,3 +305,29 @@ def test_the_array_recipe_of_getting_started_screens_spikes_for_an_estimator_cla
     assert np.nanmax(np.abs(raw - clean)) > 30.0  # one step of 69 degrees read as a rate
     assert np.abs(fixed[~near] - clean[~near]).max() < 1e-12
     assert np.nanmax(np.abs(fixed[near] - w[near])) < 0.15  # predicted through the missing sample
+
+
+@pytest.mark.parametrize("smooth", [False, True])
+def test_any_chunks_give_the_rows_of_one_chunk(smooth):
+    """Spikes next to each other's neighbourhoods, at the log's second and last-but-one samples, a single missing
+    sample, a gap and a reset, the log handed on in chunks of random lengths (chunks of one and two rows among
+    them, shorter than the two rows the screen holds back): the rows written, their statuses and rates, and the
+    summary's counts are those of one chunk."""
+    t = H * np.arange(2400)
+    R = spiked(attitudes(rate(t), H, 3e-4), where=(1, 400, 404, 900, 2398))
+    R = spiked(R, where=range(1800, 2400), turn=(0.0, np.radians(120.0), 0.0))  # a reset: one jump
+    q = Rotation.from_matrix(R).as_quat()
+    q[600] = np.nan
+    q[1200:1210] = np.nan
+    whole, (labels0, omega0, status0) = _estimated(t, q, [(0, t.size)], smooth=smooth)
+    assert (whole.spikes, whole.jumps) == (5, 1)
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        sizes = rng.choice([1, 2, 3, 7, 50, 333], size=200)
+        edges = np.unique(np.clip(np.concatenate([[0], np.cumsum(sizes)]), 0, t.size))
+        edges = edges if edges[-1] == t.size else np.append(edges, t.size)
+        summary, (labels, omega, status) = _estimated(t, q, list(itertools.pairwise(edges)), smooth=smooth)
+        assert labels.tolist() == labels0.tolist()
+        assert np.array_equal(status, status0)
+        np.testing.assert_array_equal(omega, omega0)
+        assert (summary.spikes, summary.jumps, summary.largest_spike) == (5, 1, whole.largest_spike)

@@ -255,8 +255,9 @@ class TurnScreen:
 
     A sample is judged once its two successors are read: :meth:`feed` returns the rows judged so far (the chunk's,
     a copy where spikes are set to NaN) and holds the last two back for the next chunk; :meth:`finish` returns those
-    of the log's end (never judged). A spike that is not a rotation at all is left for :class:`BadSamples` to name.
-    Both are counted in ``summary``, the largest of each by its label."""
+    of the log's end, the last-but-one judged with the one successor it has (as the identification judges the whole
+    log), the last never. A spike that is not a rotation at all is left for :class:`BadSamples` to name. Both are
+    counted in ``summary``, the largest of each by its label."""
 
     def __init__(self, settings: EstimateSettings, summary: RunSummary) -> None:
         self.settings, self.summary = settings, summary
@@ -268,17 +269,27 @@ class TurnScreen:
     def feed(self, chunk: LogChunk) -> LogChunk | None:
         """The rows judged once ``chunk`` is read (None if none yet)."""
         rows = chunk if self.rows is None else _joined(self.rows, chunk)
+        return self._hand_on(rows, max(len(rows) - 2, self.handed), hold=True)
+
+    def finish(self) -> LogChunk | None:
+        """The rows held back at the end of the log (once)."""
+        if self.rows is None or len(self.rows) == self.handed:
+            return None
+        return self._hand_on(self.rows, len(self.rows), hold=False)
+
+    def _hand_on(self, rows: LogChunk, ready: int, hold: bool) -> LogChunk | None:
+        """The rows ``handed … ready − 1`` of ``rows`` judged (those with a successor), spikes set to NaN, their
+        jumps counted; ``hold``: keep the last two rows as the next chunk's neighbours."""
         data, done = rows.data, self.handed
         step = _turns(data)
         if math.isnan(self.typical_step) and np.isfinite(step).any():
             self.typical_step = float(np.nanmedian(step))
-        ready = max(len(rows) - 2, done)  # the rows judged now: done … ready − 1
         found = judged_spikes(step, lambda k: so3.angle(data[k - 1], data[k + 1]), self.typical_step, done, ready - 1)
         status, _ = ms.sample_status(
             data[found.samples], rotation_tol=self.settings.rotation_tol, quat_norm_tol=self.settings.quat_norm_tol
         )
         spikes, detour = found.samples[status < ms.ERROR], found.detour[status < ms.ERROR]
-        keep = max(ready - 2, 0)
+        keep = max(ready - 2, 0) if hold else len(rows)
         self.rows, self.handed = _rows(rows, keep, len(rows)), ready - keep
         if ready == done:
             return None
@@ -296,16 +307,6 @@ class TurnScreen:
         self._jumps(turn, rows.labels[lo:ready], after_missing=done > 0 and self.last_missing)
         self.last_missing = bool(spikes.size) and int(spikes[-1]) == ready - 1
         return out
-
-    def finish(self) -> LogChunk | None:
-        """The rows held back at the end of the log (once)."""
-        rows, done = self.rows, self.handed
-        if rows is None or len(rows) == done:
-            return None
-        self.handed = len(rows)
-        lo = max(done - 1, 0)
-        self._jumps(_turns(rows.data)[lo:], rows.labels[lo:], after_missing=done > 0 and self.last_missing)
-        return _rows(rows, done, len(rows))
 
     def _jumps(self, step: np.ndarray, labels: np.ndarray, after_missing: bool) -> None:
         """Count the jumps among the turns ``step`` between the rows labelled ``labels`` (``after_missing``: the
