@@ -104,6 +104,24 @@ def test_a_damaged_ros2_database(tmp_path):
         read_log(bag)
 
 
+def test_a_ros2_message_without_data(tmp_path):
+    # Found by the chaos suite (rosbag2, "zeros", rng 128): a zeroed page left a message's payload NULL, and the
+    # message about it took the length of None (a traceback).
+    stamps, q, _ = motion(50)
+    bag = write_bag(tmp_path / "run", 2, {"/p": (POSE, pose_messages(stamps, q))})
+    (db,) = Path(bag).glob("*.db3")
+    with sqlite3.connect(db) as con:  # the table as damaged bytes leave it: its NOT NULL no longer holds
+        con.executescript(
+            "ALTER TABLE messages RENAME TO kept; CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER, "
+            "timestamp INTEGER, data BLOB); INSERT INTO messages SELECT * FROM kept; DROP TABLE kept; "
+            "UPDATE messages SET data = NULL WHERE id = 7;"
+        )
+    with pytest.raises(
+        LogFormatError, match=r"run, topic /p, message 6: cannot be decoded as geometry_msgs/PoseStamped \(no data\)"
+    ):
+        read_log(bag)
+
+
 def test_a_message_the_bag_lost_is_not_lost_without_a_word(tmp_path):
     # A damaged byte moved a message to a topic that does not exist: the bag's own count says one is missing.
     stamps, q, _ = motion(50)

@@ -186,9 +186,11 @@ def _decoded(reader, conns, where: str) -> Iterator[tuple[int, int, Any]]:
         try:
             msg = reader.deserialize(raw, conn.msgtype)
         except Exception as exc:
+            # a damaged SQLite bag can hold a NULL message
+            what = "no data" if raw is None else f"{len(raw)} bytes: {_why(exc)}"
             raise LogFormatError(
-                f"{where}, message {k}: cannot be decoded as {conn.msgtype.replace('/msg/', '/')} ({len(raw)} bytes: "
-                f"{_why(exc)}); the bag is damaged there"
+                f"{where}, message {k}: cannot be decoded as {conn.msgtype.replace('/msg/', '/')} ({what}); the bag is "
+                "damaged there"
             ) from None
         yield k, int(timestamp), msg
         k += 1
