@@ -109,44 +109,61 @@ def test_gaps_are_reported(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("columns", ["quaternion", "matrix"])
-def test_a_jump_of_the_attitude_source_is_reported(tmp_path, capsys, columns):
-    """As an iPhone's attitude that jumped 132° in one 9 ms step: a reset of the attitude source is no motion the
-    samples can follow; the summary names it, the largest first, with its line; 80° in one step is not reported. A
-    jump between two chunks is found too."""
+def test_a_reset_of_the_attitude_source_is_stitched_and_a_jump_reported(tmp_path, capsys, columns):
+    """As an iPhone's attitude that jumped 132° in one 9 ms step: a reset of the attitude source (its reference turned
+    132° at sample 150, then 80° at 300) is stitched, the sample it reached predicted, and every other rate is the
+    body's constant one (the closed form); the same reset beside a missing sample (120° at 350, 348 missing), which
+    (P2) cannot judge, is reported as a jump with its line. Both are found between two chunks too."""
     from scipy.spatial.transform import Rotation
 
     t = np.arange(400) / 100.0
     R = constant_rate(t, OMEGA)
     reset = Rotation.from_rotvec([0.0, np.radians(132.0), 0.0])
-    fast = Rotation.from_rotvec([np.radians(80.0), 0.0, 0.0])
-    R = Rotation.concatenate([R[:150], reset * R[150:300], fast * reset * R[300:]])
+    second = Rotation.from_rotvec([np.radians(80.0), 0.0, 0.0])
+    third = Rotation.from_rotvec([0.0, 0.0, np.radians(120.0)])
+    R = Rotation.concatenate(
+        [R[:150], reset * R[150:300], second * reset * R[300:350], third * second * reset * R[350:]]
+    )
     if columns == "matrix":
         M = R.as_matrix().reshape(-1, 9)
         rows = [f"{float(t[k])!r}," + ",".join(repr(float(v)) for v in M[k]) for k in range(t.size)]
         header = "t," + ",".join(f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
-        (tmp_path / "jump.csv").write_text(header + "\n" + "\n".join(rows) + "\n")
-        src = tmp_path / "jump.csv"
+        lines = [header, *rows]
     else:
-        src = write_csv(tmp_path / "jump.csv", t, R)
+        lines = write_csv(tmp_path / "jump.csv", t, R).read_text().splitlines()
+    lines[1 + 348] = lines[1 + 348].split(",")[0] + "," * (len(lines[1].split(",")) - 1)  # sample 348: missing
+    src = tmp_path / "jump.csv"
+    src.write_text("\n".join(lines) + "\n")
     code, out, _ = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
     assert code == 0
-    assert "jumps: 1 step between consecutive samples turns the attitude more than 90°; the largest 132° before line " \
-        "152: faster than the samples can follow, or a reset or glitch of the attitude source" in out  # fmt: skip
+    assert "resets: 2 steps far larger than the steps beside them; the largest 132° before line 152: the attitude " \
+        "source restarted from another reference" in out  # fmt: skip
+    assert "jumps: 1 step between consecutive samples turns the attitude more than 90°; the largest 120° before line " \
+        "352: faster than the samples can follow, or a reset or glitch of the attitude source" in out  # fmt: skip
+    _, w, status = read_output(tmp_path / "o.csv")
+    assert [status[k] for k in (150, 300, 348)] == ["predicted"] * 3
+    body = np.ones(t.size, bool)
+    body[[0, 150, 300]] = False
+    body[345:] = False  # the jump is read as it is
+    np.testing.assert_allclose(w[body], np.broadcast_to(OMEGA, w[body].shape), rtol=0, atol=1e-3)
     smooth = write_csv(tmp_path / "smooth.csv", t, constant_rate(t, OMEGA))
     assert "jumps:" not in run(capsys, "estimate", smooth, "-o", tmp_path / "s.csv")[1]
     from omegahat.io import LogChunk, LogStream, pipeline
     from omegahat.io.registry import checked_stream
 
     q = R.as_quat()
+    q[348] = np.nan
+    for cut in (150, 151, 350, 351):  # the time policy holds the last row back: the estimator sees the cut a row on
 
-    def chunks():  # handed on cut between the two samples of the jump (149, 150)
-        for a, b in ((0, 151), (151, 400)):  # the time policy holds the last row back: 0..149, then 150..
-            yield LogChunk(t[a:b], q[a:b], None, np.arange(a, b) + 2)
+        def chunks(cut=cut):
+            for a, b in ((0, cut), (cut, 400)):
+                yield LogChunk(t[a:b], q[a:b], None, np.arange(a, b) + 2)
 
-    stream = LogStream("jump", "quaternion", 0, False, "line", chunks)
-    checked_stream(stream, ReadOptions())
-    summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print)
-    assert (summary.jumps, round(np.degrees(summary.largest_jump[0])), summary.largest_jump[1]) == (1, 132, 152)
+        stream = LogStream("jump", "quaternion", 0, False, "line", chunks)
+        checked_stream(stream, ReadOptions())
+        summary = pipeline.estimate_stream(stream, pipeline.EstimateSettings(), lambda s: DiscardWriter(), report=print)
+        assert (summary.resets, round(np.degrees(summary.largest_reset[0])), summary.largest_reset[1]) == (2, 132, 152)
+        assert (summary.jumps, round(np.degrees(summary.largest_jump[0])), summary.largest_jump[1]) == (1, 120, 352)
 
 
 def test_a_bad_sample_names_its_line_and_the_options(tmp_path, capsys):

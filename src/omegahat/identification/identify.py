@@ -6,7 +6,7 @@ r"""The model and the noises of a log, chosen by the log's own likelihood: what 
 and of backward differencing, and the estimator to run (:meth:`Identification.estimator`).
 
 1. **Noise bound.** ``σ_q`` of :mod:`omegahat.identification.noise` (the quietest tenth of the log), after the
-   isolated spikes of :mod:`omegahat.identification.spikes` are left out (of every step).
+   isolated spikes and the resets of :mod:`~omegahat.identification.spikes` are left out (of every step).
 2. **Each model** (``rate`` and ``acceleration``; with J also ``dynamic`` and ``dynamic+disturbance``): ``Λ``
    maximising ``ℓ(Λ, σ)`` of (L3) with ``σ = min(σ̂(Λ), σ_q)`` — the likelihood's own noise, but never above what
    the quiet parts of the log show (see the noise module: a stationary model would otherwise take a bursty motion
@@ -38,8 +38,7 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    and reported but not run (on the development recordings it lost to differencing whenever it won the likelihood,
    ``docs/theory/identification.md``). Direction logs are differenced through each sample's least-squares
    attitude. Without J the supervisor's innovation test is off and its divergence test loose
-   (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, the rotation's Nyquist bound): a hand never gives white
-   innovations.
+   (:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR`, the rotation's Nyquist bound): a hand's are never white.
 """
 
 from __future__ import annotations
@@ -58,7 +57,7 @@ from omegahat.identification.causal import CausalFilter, causal_filter, model_to
 from omegahat.identification.likelihood import MODELS, ORDER, Sums, innovation_sums, log_likelihood, noise_intensity
 from omegahat.identification.noise import quiet_noise, rigid_directions
 from omegahat.identification.spectral import increment_spectrum
-from omegahat.identification.spikes import describe_spikes, isolated_spikes
+from omegahat.identification.spikes import describe_spikes, isolated_spikes, stitched
 from omegahat.observer.kalman import DIVERGENCE_FACTOR, NYQUIST_RATE, SupervisedKalmanEstimator
 from omegahat.observer.tuning import differencing_error
 from omegahat.validation import as_directions, as_inertia
@@ -301,9 +300,9 @@ class Identification:
 
 
 def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(valid (T,), R (T, 3, 3), the filter's input)``: the attitudes (NaN where missing; of directions, Wahba's,
-    for the noise bound only) or the directions made unit, a collinear sample skipped, as the estimators read them
-    (a magnetometer's µT would otherwise weigh in the innovations)."""
+    """``(valid (T,), R (T, 3, 3), the filter's input)``: the attitudes (NaN where missing, a reset's step left out;
+    of directions, Wahba's, for the noise bound only) or the directions made unit, a collinear sample skipped, as
+    the estimators read them (a magnetometer's µT would otherwise weigh in the innovations)."""
     if refs is not None:
         checked = ms.body_directions(data)
         data = np.where((checked.status == ms.OK)[:, None, None], checked.r, np.nan)
@@ -317,6 +316,7 @@ def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np
         R[valid] = Rotation.from_quat(data[valid]).as_matrix()
     else:
         R[valid] = data[valid]
+    R, valid, _ = stitched(R, valid)  # (P2)–(P3): the attitudes after a reset of their source turned back
     return valid, R, R
 
 

@@ -23,6 +23,30 @@ as far as it moves ``k`` itself (the steps before and after a reversal are the t
 neighbours while they are close together is one the body did not take. The second keeps noise out: for a body at
 rest the steps are ``√2 σ`` times a chi variable of 3 degrees of freedom (median 1.54), so a detour of
 ``SCALE`` median steps is ``43 σ`` or more, which Gaussian noise does not reach.
+
+**Resets.** An attitude source that restarts from another reference (an orientation filter re-aligning its
+heading, a rigid body re-fitted to its markers) turns every attitude after one step by the same rotation: one step
+far larger than those beside it, and the body's increments on either side as they were. The step into sample ``j``
+is a reset where ::
+
+    d(j − 1, j) > ISOLATION · max(d(j − 2, j − 1), d(j, j + 1), q₉₉)   and   d(j − 1, j) > SCALE · median step  (P2)
+
+(both neighbouring steps present; ``q₉₉`` the 99th percentile of the log's steps). Body motion does not do that:
+the step is four times both of its neighbours, a rate that changes fourfold within a step and back, and four
+times the fastest hundredth of the log's steps. The last test is what a log sampled slowly for its motion needs:
+BROAD's hand-held trials at 9.5 Hz start and stop within a step (steps of 5° and 41° beside ones four times
+smaller), but none of those steps is above the log's 99th percentile, while the resets and flips of the Tyrex
+phones' optical attitudes (25° to 146° in one step at 60 Hz) are 10 to 42 times theirs.
+
+The attitudes from ``j`` on are turned back by one rotation ``S`` (a turn of the inertial frame, which leaves every
+later increment ``R_kᵀ R_{k+1}`` as it was), chosen so that the step across the reset is the mean of its two
+neighbours' increments, and sample ``j`` is then treated as missing (the rate over the reset's step is not in the
+samples)::
+
+    S = R_{j−1} Exp((φ_{j−2} + φ_j)/2) R_jᵀ,   R_k ← S R_k  (k ≥ j),   φ_k = Log(R_kᵀ R_{k+1})            (P3)
+
+A reset that turns the body frame instead (``R_k T``) leaves its later increments turned by ``T``: the rates
+after it are then in the source's new body axes, as the source gives them.
 """
 
 from __future__ import annotations
@@ -34,10 +58,23 @@ import numpy as np
 
 from omegahat import so3
 
-__all__ = ["ISOLATION", "SCALE", "Spikes", "describe_spikes", "isolated_spikes", "judged_spikes"]
+__all__ = [
+    "FASTEST",
+    "ISOLATION",
+    "SCALE",
+    "Spikes",
+    "describe_spikes",
+    "isolated_spikes",
+    "judged_resets",
+    "judged_spikes",
+    "reset_turn",
+    "step_scales",
+    "stitched",
+]
 
 ISOLATION = 4.0  #: a spike's detour is at least this many times its neighbours' steps (P1)
-SCALE = 20.0  #: and at least this many times the log's median step (P1)
+SCALE = 20.0  #: and at least this many times the log's median step (P1), (P2)
+FASTEST = 99.0  #: (P2): a reset's step is ISOLATION times this percentile of the log's steps
 
 
 class Spikes(NamedTuple):
@@ -59,8 +96,7 @@ def isolated_spikes(R: np.ndarray, valid: np.ndarray) -> Spikes:
     docstring)."""
     Rv = np.where(valid[:, None, None], R, np.nan)
     step = so3.angle(Rv[:-1], Rv[1:])
-    typical = float(np.nanmedian(step)) if np.isfinite(step).any() else 0.0
-    return judged_spikes(step, lambda k: so3.angle(Rv[k - 1], Rv[k + 1]), typical)
+    return judged_spikes(step, lambda k: so3.angle(Rv[k - 1], Rv[k + 1]), step_scales(step)[0])
 
 
 def judged_spikes(
@@ -91,6 +127,51 @@ def judged_spikes(
     outer[after] = np.fmax(outer[after], np.nan_to_num(step[k[after] + 1]))
     spike = (detour > ISOLATION * across(k)) & (detour > ISOLATION * outer)
     return Spikes(k[spike], detour[spike])
+
+
+def step_scales(step: np.ndarray) -> tuple[float, float]:
+    """The scales (P1) and (P2) judge a log's steps ``step (T − 1,)`` (rad, NaN where a sample is missing) against:
+    their median and their :data:`FASTEST` percentile (0 and 0 where no step is known)."""
+    if not np.isfinite(step).any():
+        return 0.0, 0.0
+    return float(np.nanmedian(step)), float(np.nanpercentile(step, FASTEST))
+
+
+def judged_resets(step: np.ndarray, typical: float, fastest: float, first: int = 2, last: int | None = None) -> Spikes:
+    """(P2) from the angles ``step[k] = d(k, k + 1)`` ``(T − 1,)`` of a log (NaN where a sample is missing), its
+    median step ``typical`` and its :data:`FASTEST` percentile ``fastest``: the samples ``j`` (``first … last``,
+    default every one with a step on either side of the one into it, ``2 … T − 2``) reached by a reset, and the
+    reset's angle ``d(j − 1, j)``."""
+    T = step.size + 1
+    j = np.arange(max(first, 2), min(T - 2 if last is None else last, T - 2) + 1)
+    if j.size == 0 or not typical > 0:
+        return Spikes(np.zeros(0, dtype=np.int64), np.zeros(0))
+    into, before, after = step[j - 1], step[j - 2], step[j]
+    with np.errstate(invalid="ignore"):  # NaN beside a missing sample: never a reset
+        reset = (into > SCALE * typical) & (into > ISOLATION * np.maximum(np.maximum(before, after), fastest))
+    return Spikes(j[reset], into[reset])
+
+
+def reset_turn(before: np.ndarray, at: np.ndarray, phi_before: np.ndarray, phi_after: np.ndarray) -> np.ndarray:
+    """``S`` of (P3): the rotation that turns the attitude ``at`` (3, 3), reached by a reset from ``before``, and
+    every later one back, so that the step across the reset is the mean of the increments beside it."""
+    return before @ so3.exp(0.5 * (phi_before + phi_after)) @ at.T
+
+
+def stitched(R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, Spikes]:
+    """(P2)–(P3) over a whole log of attitudes ``R (T, 3, 3)`` used where ``valid``: ``(R', valid', resets)``, the
+    attitudes after each reset turned back and the sample reached by it no longer valid; ``R`` and ``valid``
+    themselves where there is none."""
+    Rv = np.where(valid[:, None, None], R, np.nan)
+    step = so3.angle(Rv[:-1], Rv[1:])
+    resets = judged_resets(step, *step_scales(step))
+    if resets.samples.size == 0:
+        return R, valid, resets
+    R, valid, phi = R.copy(), valid.copy(), so3.increments(Rv)  # a turn of the later ones leaves φ as it is
+    for j in resets.samples:
+        R[j:] = reset_turn(R[j - 1], R[j], phi[j - 2], phi[j]) @ R[j:]
+        valid[j] = False
+    return R, valid, resets
 
 
 def describe_spikes(spikes: tuple[tuple[float, float], ...]) -> str:

@@ -18,13 +18,13 @@ order:
    sample that is not a rotation stops the run with a message naming its line and column and the options that
    would accept or skip it, unless ``skip_bad_samples`` (:class:`BadSamples`): then it is treated as missing,
    counted and reported. An isolated spike (:mod:`omegahat.identification.spikes`: one attitude far from both
-   neighbours, a marker swap) is treated as missing before the estimator reads it (:class:`TurnScreen`, which
-   holds each chunk's last two rows back until their successors are read) and counted. Gaps longer than twice the
+   neighbours, a marker swap) is treated as missing before the estimator reads it, and a reset of the attitude
+   source (one step far larger than those beside it; an iPhone's CoreMotion attitude jumped 130° in one 9 ms step)
+   is stitched, the attitudes after it turned back (:class:`~omegahat.io.screen.TurnScreen`, which holds each
+   chunk's last two rows back until their successors are read); both are counted. Gaps longer than twice the
    median spacing are counted, and so are jumps: consecutive attitudes more than :data:`JUMP_ANGLE` apart, a turn
-   faster than the samples can follow (a quarter of the half-turn beyond which the sampled attitudes cannot tell
-   the direction at all) or, in real logs, a reset or glitch of the attitude source (an iPhone's CoreMotion
-   attitude jumped 130° in one 9 ms step).
-5. **Summary**: rows written, samples skipped and why, bad samples, gaps, jumps, spikes, what ran.
+   faster than the samples can follow or a reset beside a missing sample.
+5. **Summary**: rows written, samples skipped and why, bad samples, gaps, jumps, spikes, resets, what ran.
 
 The loop knows options by their keys only; messages name them through the caller's spelling (``spell``,
 :mod:`omegahat.io.settings`: ``rotation_tol=0.02`` from Python, ``--rotation-tol 0.02`` from the command), and an
@@ -46,12 +46,11 @@ from typing import Protocol
 import numpy as np
 
 from omegahat import measurements as ms
-from omegahat import so3
-from omegahat.identification.spikes import judged_spikes
 from omegahat.interface import Estimate, Status
 from omegahat.io.choice import attitude_choice, references
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import LogChunk, LogStream, prefetch
+from omegahat.io.screen import JUMP_ANGLE, TurnScreen, largest_of
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
 from omegahat.io.single_direction import single_direction_choice
 from omegahat.kernels import compiling
@@ -60,8 +59,6 @@ from omegahat.observer.compiled import SkippedSamplesWarning
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
 from omegahat.observer.single_direction import LostExcitationWarning
-
-JUMP_ANGLE = math.pi / 2  #: rad between consecutive attitudes beyond which the summary reports a jump
 
 __all__ = ["BadSamples", "ChunkWriter", "EstimateSettings", "RunSummary", "estimate_stream"]
 
@@ -81,8 +78,9 @@ class RunSummary:
     ``n_bad`` treated as missing (``skip_bad_samples``), ``gaps`` and the ``largest_gap`` ``(seconds, label after
     it)``, ``jumps`` (consecutive attitudes more than :data:`JUMP_ANGLE` apart) and the ``largest_jump`` ``(rad,
     label after it)``, isolated ``spikes`` (:mod:`omegahat.identification.spikes`) and the ``largest_spike`` ``(rad,
-    its label)``, ``elapsed`` seconds estimating, ``compile_s`` seconds checking the head (compilation included),
-    ``output``: what the writer says it wrote (its ``describe()``), and ``lines``: the report."""
+    its label)``, ``resets`` of the attitude source stitched and the ``largest_reset`` ``(rad, label after it)``,
+    ``elapsed`` seconds estimating, ``compile_s`` seconds checking the head (compilation included), ``output``: what
+    the writer says it wrote (its ``describe()``), and ``lines``: the report."""
 
     rows: int = 0
     output: str = ""
@@ -97,6 +95,8 @@ class RunSummary:
     largest_jump: tuple[float, int | None] = (0.0, None)
     spikes: int = 0
     largest_spike: tuple[float, int | None] = (0.0, None)
+    resets: int = 0
+    largest_reset: tuple[float, int | None] = (0.0, None)
     elapsed: float = 0.0
     compile_s: float = 0.0
     lines: list[str] = field(default_factory=list)
@@ -167,13 +167,15 @@ def _check_head(head: list[LogChunk], stream: LogStream, refs: np.ndarray, bad: 
 class _Run:
     """One pass over the stream with any estimator: bad samples, estimation, gaps, output (state across chunks)."""
 
-    def __init__(self, choice: Choice, stream: LogStream, writer: ChunkWriter, bad: BadSamples, summary: RunSummary):
+    def __init__(
+        self, choice: Choice, stream: LogStream, writer: ChunkWriter, bad: BadSamples, summary: RunSummary, head
+    ):
         self.choice, self.est, self.stream, self.writer, self.bad = choice, choice.estimator, stream, writer, bad
         self.summary = summary
         self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing
         self.t_prev: float | None = None
-        turns = stream.kind in ("quaternion", "matrix")  # attitudes: the spikes and jumps of the rows read
-        self.screen = TurnScreen(bad.settings, summary) if turns else None
+        turns = stream.kind in ("quaternion", "matrix")  # attitudes: the spikes, resets and jumps of the rows read
+        self.screen = TurnScreen(bad.settings, summary, [c.data for c in head]) if turns else None
 
     def _estimate(self, t: np.ndarray, data: np.ndarray, torque: np.ndarray | None) -> Estimate:
         with warnings.catch_warnings():
@@ -219,7 +221,7 @@ class _Run:
         big = np.flatnonzero(dt > self.gap_limit)
         s.gaps += big.size
         after = big + (1 if self.t_prev is None else 0)  # the row after each gap (dt[0] is the carried one's)
-        s.largest_gap = _largest(s.largest_gap, after, dt[big], chunk.labels)
+        s.largest_gap = largest_of(s.largest_gap, after, dt[big], chunk.labels)
         self.t_prev = float(chunk.t[-1])
 
     def _screened(self, chunk: LogChunk | None) -> LogChunk | None:
@@ -245,116 +247,6 @@ class _Run:
             stop = start + len(chunk)
             self.write(chunk, Estimate(est.omega[start:stop], est.status[start:stop]))
             start = stop
-
-
-class TurnScreen:
-    """The turns between consecutive attitudes, as the rows are read: isolated spikes (P1,
-    :mod:`omegahat.identification.spikes`) become missing samples before an estimator reads them, so that a marker
-    swap costs one predicted row instead of a restart or two wrong differences, and jumps (turns beyond
-    :data:`JUMP_ANGLE`) are counted.
-
-    A sample is judged once its two successors are read: :meth:`feed` returns the rows judged so far (the chunk's,
-    a copy where spikes are set to NaN) and holds the last two back for the next chunk; :meth:`finish` returns those
-    of the log's end, the last-but-one judged with the one successor it has (as the identification judges the whole
-    log), the last never. A spike that is not a rotation at all is left for :class:`BadSamples` to name. Both are
-    counted in ``summary``, the largest of each by its label."""
-
-    def __init__(self, settings: EstimateSettings, summary: RunSummary) -> None:
-        self.settings, self.summary = settings, summary
-        self.rows: LogChunk | None = None  # the last two rows handed on (as read), then the rows held back
-        self.handed = 0  # how many of ``rows`` were handed on already (the next samples' neighbours)
-        self.typical_step = math.nan  # the first chunk's median step: the scale a spike is judged against
-        self.last_missing = False  # the last row handed on was a spike, set missing
-
-    def feed(self, chunk: LogChunk) -> LogChunk | None:
-        """The rows judged once ``chunk`` is read (None if none yet)."""
-        rows = chunk if self.rows is None else _joined(self.rows, chunk)
-        return self._hand_on(rows, max(len(rows) - 2, self.handed), hold=True)
-
-    def finish(self) -> LogChunk | None:
-        """The rows held back at the end of the log (once)."""
-        if self.rows is None or len(self.rows) == self.handed:
-            return None
-        return self._hand_on(self.rows, len(self.rows), hold=False)
-
-    def _hand_on(self, rows: LogChunk, ready: int, hold: bool) -> LogChunk | None:
-        """The rows ``handed … ready − 1`` of ``rows`` judged (those with a successor), spikes set to NaN, their
-        jumps counted; ``hold``: keep the last two rows as the next chunk's neighbours."""
-        data, done = rows.data, self.handed
-        step = _turns(data)
-        if math.isnan(self.typical_step) and np.isfinite(step).any():
-            self.typical_step = float(np.nanmedian(step))
-        found = judged_spikes(step, lambda k: so3.angle(data[k - 1], data[k + 1]), self.typical_step, done, ready - 1)
-        status, _ = ms.sample_status(
-            data[found.samples], rotation_tol=self.settings.rotation_tol, quat_norm_tol=self.settings.quat_norm_tol
-        )
-        spikes, detour = found.samples[status < ms.ERROR], found.detour[status < ms.ERROR]
-        keep = max(ready - 2, 0) if hold else len(rows)
-        self.rows, self.handed = _rows(rows, keep, len(rows)), ready - keep
-        if ready == done:
-            return None
-        out = _rows(rows, done, ready)
-        lo = max(done - 1, 0)
-        turn = step[lo : ready - 1]  # the turns into the rows handed on now (from the last one handed on before)
-        if spikes.size:
-            out.data = out.data.copy()
-            out.data[spikes - done] = np.nan
-            turn = turn.copy()
-            near = np.concatenate([spikes - 1, spikes]) - lo  # a missing sample turns nothing: no jump on either side
-            turn[near[near < turn.size]] = np.nan
-            self.summary.spikes += spikes.size
-            self.summary.largest_spike = _largest(self.summary.largest_spike, spikes, detour, rows.labels)
-        self._jumps(turn, rows.labels[lo:ready], after_missing=done > 0 and self.last_missing)
-        self.last_missing = bool(spikes.size) and int(spikes[-1]) == ready - 1
-        return out
-
-    def _jumps(self, step: np.ndarray, labels: np.ndarray, after_missing: bool) -> None:
-        """Count the jumps among the turns ``step`` between the rows labelled ``labels`` (``after_missing``: the
-        first row was set missing, so the first turn is none)."""
-        with np.errstate(invalid="ignore"):  # NaN (a missing sample on either side) is not a jump
-            jump = np.flatnonzero(step > JUMP_ANGLE)
-        jump = jump[jump > 0] if after_missing else jump
-        self.summary.jumps += jump.size
-        self.summary.largest_jump = _largest(self.summary.largest_jump, jump + 1, step[jump], labels)
-
-
-def _largest(
-    largest: tuple[float, int | None], rows: np.ndarray, size: np.ndarray, labels: np.ndarray
-) -> tuple[float, int | None]:
-    """The summary's largest gap, jump or spike ``(size, label)``: ``largest``, or the largest ``size`` at the
-    ``rows`` (labelled ``labels[rows]``) where that is larger."""
-    if rows.size == 0:
-        return largest
-    j = int(np.argmax(size))
-    return (float(size[j]), int(labels[rows[j]])) if size[j] > largest[0] else largest
-
-
-def _rows(chunk: LogChunk, start: int, stop: int) -> LogChunk:
-    """The rows ``start … stop − 1`` of ``chunk`` (views)."""
-    cut = slice(start, stop)
-    torque = None if chunk.torque is None else chunk.torque[cut]
-    extra = None if chunk.extra is None else {k: v[cut] for k, v in chunk.extra.items()}
-    return LogChunk(chunk.t[cut], chunk.data[cut], torque, chunk.labels[cut], extra)
-
-
-def _joined(a: LogChunk, b: LogChunk) -> LogChunk:
-    """The rows of ``a`` then those of ``b``."""
-    torque = None if a.torque is None or b.torque is None else np.concatenate([a.torque, b.torque])
-    extra = (
-        None if a.extra is None or b.extra is None else {k: np.concatenate([a.extra[k], b.extra[k]]) for k in a.extra}
-    )
-    return LogChunk(
-        np.concatenate([a.t, b.t]),
-        np.concatenate([a.data, b.data]),
-        torque,
-        np.concatenate([a.labels, b.labels]),
-        extra,
-    )
-
-
-def _turns(data: np.ndarray) -> np.ndarray:
-    """The angle (rad) between each two consecutive attitudes of ``data`` (:func:`omegahat.so3.angle`)."""
-    return so3.angle(data[:-1], data[1:])
 
 
 def _head(chunks) -> list[LogChunk]:
@@ -415,7 +307,7 @@ def estimate_stream(
         summary.gains, summary.gains_text = choice.gains, choice.gains_text
         est = choice.estimator
         with open_writer(stream) as writer:
-            job = _Run(choice, stream, writer, bad, summary)
+            job = _Run(choice, stream, writer, bad, summary, head)
             if not est.streaming:  # the whole stream first (a smoother runs backwards too)
                 job.feed_all([*head, *chunks])
                 head.clear()
@@ -438,7 +330,7 @@ def estimate_stream(
 
 def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell: Spelling, notes) -> list[str]:
     lines = [f"note: {note}" for note in notes]  # what the timestamp policy changed, known once the stream is read
-    missing = s.n_skipped - s.n_collinear - s.spikes  # the spikes are set missing: said on their own line
+    missing = s.n_skipped - s.n_collinear - s.spikes - s.resets  # set missing: said on their own lines
     if missing > 0 or s.n_collinear:
         lines.append(
             f"skipped {missing + s.n_collinear} of {s.rows} samples ({missing} missing, {s.n_collinear} with nearly "
@@ -471,6 +363,14 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
             f"with each other; the largest {math.degrees(s.largest_spike[0]):.3g}° off at {stream.label} "
             f"{s.largest_spike[1]}: a marker swap or a misread frame, treated as missing (predicted through, status "
             "'predicted')"
+        )
+    if s.resets:
+        lines.append(
+            f"resets: {s.resets} step{'s' if s.resets > 1 else ''} far larger than the steps beside "
+            f"{'them' if s.resets > 1 else 'it'}; the largest {math.degrees(s.largest_reset[0]):.3g}° before "
+            f"{stream.label} {s.largest_reset[1]}: the attitude source restarted from another reference; the "
+            "attitudes after it turned back to continue the body's steps, the sample it reached treated as missing "
+            "(status 'predicted')"
         )
     return [*lines, *choice.closing(), choice.used()]
 
