@@ -214,3 +214,20 @@ def test_an_interval_too_far_to_integrate_fails_at_once_in_both_filters():
             np.testing.assert_array_equal(P2, np.eye(6))
         else:
             np.testing.assert_allclose(w2, w, rtol=1e-9)  # the NumPy oracle and the kernel agree
+
+
+@pytest.mark.parametrize("part", ["R", "w", "a", "P"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_the_ekf_state_guard_finds_any_entry_that_is_not_finite(part, bad):
+    """``ekf_finite``, the guard after every EKF step: False where any entry of R̂, ω̂, â or P (6×6 and 9×9) is NaN
+    or ±inf, wherever it is; True for a state of finite entries as large as floats go."""
+    from omegahat.kernels.ekf import ekf_finite
+
+    rng = np.random.default_rng(3)
+    for n in (6, 9):
+        state = {"R": np.eye(3), "w": rng.normal(size=3), "a": rng.normal(size=3), "P": np.full((n, n), 1e308)}
+        assert ekf_finite(state["R"], state["w"], state["a"], state["P"])
+        for index in np.ndindex(state[part].shape):
+            broken = {k: v.copy() for k, v in state.items()}
+            broken[part][index] = bad
+            assert not ekf_finite(broken["R"], broken["w"], broken["a"], broken["P"]), (part, index)

@@ -137,16 +137,17 @@ def _torque_at(tau0, tau1, s):
 @numba.njit(cache=True, error_model="numpy")
 def ekf_finite(R, w, a, P):
     """Whether the filter's whole state (R̂, ω̂, â, P) is finite: the guard every caller applies after a step."""
-    for x in R.flat:
-        if not math.isfinite(x):
-            return False
+    # x − x is 0 for a finite x and NaN for ±inf or NaN: one test at the end instead of a branch per entry (the
+    # guard runs twice per sample; a `.flat` loop of branches took 0.23 µs of the default's 4 µs per sample)
+    s = 0.0
     for i in range(3):
-        if not (math.isfinite(w[i]) and math.isfinite(a[i])):
-            return False
-    for x in P.flat:
-        if not math.isfinite(x):
-            return False
-    return True
+        s += (w[i] - w[i]) + (a[i] - a[i])
+        for j in range(3):
+            s += R[i, j] - R[i, j]
+    for i in range(P.shape[0]):
+        for j in range(P.shape[1]):
+            s += P[i, j] - P[i, j]
+    return s == 0.0
 
 
 @numba.njit(cache=True, forceinline=True, error_model="numpy")
