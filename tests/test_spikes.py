@@ -397,3 +397,17 @@ def test_any_chunks_give_the_rows_of_one_chunk(smooth):
         np.testing.assert_array_equal(omega, omega0)
         assert (summary.spikes, summary.resets, summary.jumps) == (5, 1, 1)
         assert (summary.largest_spike, summary.largest_reset) == (whole.largest_spike, whole.largest_reset)
+
+
+def test_a_sample_that_is_not_a_rotation_after_a_reset_is_named_as_read():
+    """After a reset every attitude is turned back; a quaternion of norm 2 among them is still named by its line and
+    its |q| = 2 (a turn keeps the norm), whichever chunk it arrives in."""
+    from omegahat.io import LogFormatError
+
+    t = H * np.arange(1200)
+    R = spiked(attitudes(rate(t), H, 3e-4), where=range(400, 1200), turn=(0.0, 0.0, np.radians(120.0)))
+    q = Rotation.from_matrix(R).as_quat()
+    q[900] *= 2.0
+    for cuts in ([(0, t.size)], [(0, 600), (600, t.size)]):
+        with pytest.raises(LogFormatError, match=r"line 902: a quaternion far from unit norm: \|q\| = 2,"):
+            _estimated(t, q, cuts)

@@ -33,10 +33,9 @@ is a reset where ::
 
 (both neighbouring steps present; ``q₉₉`` the 99th percentile of the log's steps). Body motion does not do that:
 the step is four times both of its neighbours, a rate that changes fourfold within a step and back, and four
-times the fastest hundredth of the log's steps. The last test is what a log sampled slowly for its motion needs:
-BROAD's hand-held trials at 9.5 Hz start and stop within a step (steps of 5° and 41° beside ones four times
-smaller), but none of those steps is above the log's 99th percentile, while the resets and flips of the Tyrex
-phones' optical attitudes (25° to 146° in one step at 60 Hz) are 10 to 42 times theirs.
+times the fastest hundredth of the log's steps. The last test is what a log sampled slowly for its motion needs,
+where a hand starts or stops within one step; it keeps that motion in the log's own range of steps
+(``docs/theory/identification.md``, "Spikes and aliases", measures both kinds on real recordings).
 
 The attitudes from ``j`` on are turned back by one rotation ``S`` (a turn of the inertial frame, which leaves every
 later increment ``R_kᵀ R_{k+1}`` as it was), chosen so that the step across the reset is the mean of its two

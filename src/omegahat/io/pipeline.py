@@ -168,8 +168,14 @@ class _Run:
     """One pass over the stream with any estimator: bad samples, estimation, gaps, output (state across chunks)."""
 
     def __init__(
-        self, choice: Choice, stream: LogStream, writer: ChunkWriter, bad: BadSamples, summary: RunSummary, head
-    ):
+        self,
+        choice: Choice,
+        stream: LogStream,
+        writer: ChunkWriter,
+        bad: BadSamples,
+        summary: RunSummary,
+        head: list[LogChunk],
+    ) -> None:
         self.choice, self.est, self.stream, self.writer, self.bad = choice, choice.estimator, stream, writer, bad
         self.summary = summary
         self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing

@@ -56,7 +56,7 @@ class TurnScreen:
     attitudes after a reset turned back) and holds the last two back for the next chunk; :meth:`finish` returns
     those of the log's end, the last-but-one judged with the one successor it has (as the identification judges
     the whole log), the last never. A spike that is not a rotation at all is left for the pipeline's
-    ``BadSamples`` to name, and so is a sample that is not a rotation after a reset (it keeps the values read)."""
+    ``BadSamples`` to name, and so is one after a reset (turned, it has the same ``|q|``, ``|RᵀR − I|``, ``det R``)."""
 
     def __init__(self, settings: EstimateSettings, summary: Counts, head: list[np.ndarray]) -> None:
         self.settings, self.summary = settings, summary
@@ -70,8 +70,9 @@ class TurnScreen:
 
     def feed(self, chunk: LogChunk) -> LogChunk | None:
         """The rows judged once ``chunk`` is read (None if none yet)."""
-        if self.turn is not None:
-            chunk = self._turned(chunk, 0, self.turn)
+        if self.turn is not None:  # after a reset: every row read from now on, turned back (a copy of the chunk)
+            chunk = LogChunk(chunk.t, chunk.data.copy(), chunk.torque, chunk.labels, chunk.extra)
+            self._turn(chunk.data, self.turn)
         rows = chunk if self.rows is None else _joined(self.rows, chunk)
         return self._hand_on(rows, max(len(rows) - 2, self.handed), hold=True)
 
@@ -126,24 +127,19 @@ class TurnScreen:
             R = _matrices(rows.data[j - 2 : j + 2])  # the increments beside the reset: a turn leaves them as they are
             phi = so3.increments(R)
             S = reset_turn(R[1], R[2], phi[0], phi[2])
-            rows = self._turned(rows, j, S)
+            self._turn(rows.data[j:], S)
             self.turn = S if self.turn is None else S @ self.turn
         rows.data[reached] = np.nan
         return rows
 
-    def _turned(self, rows: LogChunk, start: int, S: np.ndarray) -> LogChunk:
-        """``rows`` with the attitudes from ``start`` on turned by ``S`` (in place where ``rows`` is the screen's
-        own copy; a chunk as read is copied); a sample that is not a rotation keeps the values read."""
-        data = rows.data if start else rows.data.copy()
-        tail = data[start:]
-        status, _ = ms.sample_status(tail, rotation_tol=self.settings.rotation_tol,
-                                     quat_norm_tol=self.settings.quat_norm_tol)  # fmt: skip
-        ok = status < ms.ERROR
-        if tail.ndim == 2:  # quaternions x, y, z, w: s ⊗ q (the norm kept, for the checks after)
-            tail[ok] = _quaternion_product(so3.to_quat(S), tail[ok])
+    @staticmethod
+    def _turn(data: np.ndarray, S: np.ndarray) -> None:
+        """The attitudes ``data`` turned by ``S`` (``S R``), in place. A sample that is not a rotation keeps what its
+        message says (``|q|``, ``|RᵀR − I|``, ``det R``: a turn changes none of them)."""
+        if data.ndim == 2:  # quaternions x, y, z, w: s ⊗ q
+            data[:] = _quaternion_product(so3.to_quat(S), data)
         else:
-            tail[ok] = S @ tail[ok]
-        return rows if start else LogChunk(rows.t, data, rows.torque, rows.labels, rows.extra)
+            data[:] = S @ data
 
     def _jumps(self, step: np.ndarray, labels: np.ndarray, after_missing: bool) -> None:
         """Count the jumps among the turns ``step`` between the rows labelled ``labels`` (``after_missing``: the

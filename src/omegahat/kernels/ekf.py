@@ -138,7 +138,7 @@ def _torque_at(tau0, tau1, s):
 def ekf_finite(R, w, a, P):
     """Whether the filter's whole state (R̂, ω̂, â, P) is finite: the guard every caller applies after a step."""
     # x − x is 0 for a finite x and NaN for ±inf or NaN: one test at the end instead of a branch per entry (the
-    # guard runs twice per sample; a `.flat` loop of branches took 0.23 µs of the default's 4 µs per sample)
+    # guard runs twice per sample)
     s = 0.0
     for i in range(3):
         s += (w[i] - w[i]) + (a[i] - a[i])
