@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from omegahat.baselines.differencing import DifferencingEstimator, log_difference, lowpass, lowpass_reference
+from omegahat.baselines.differencing import (
+    DifferencingEstimator,
+    log_difference,
+    lowpass,
+    lowpass_reference,
+    whole_steps,
+)
 from omegahat.interface import Status
 
 # Closed-form trajectory: R(t) = Exp(a t) Exp(b t), so RᵀṘ = (Exp(b t)ᵀ a)× + b×, i.e. ω(t) = Exp(−b t) a + b.
@@ -232,3 +238,14 @@ def test_jittered_stamps_of_regular_samples_are_read_as_whole_steps():
         assert np.nanmax(np.abs(log_difference(stamps, R, scheme=scheme) - truth)) > 1.0
     with pytest.raises(ValueError, match="step must be positive"):
         DifferencingEstimator(step=0.0)
+
+
+def test_whole_steps_of_one_interval_are_those_of_an_array():
+    """(D3) has two forms, a float for one streaming step and an array for a log: they agree, halves included (both
+    round half to even), and never read less than one step."""
+    intervals = [0.001, 0.004, 0.005, 0.006, 0.01, 0.015, 0.025, 0.0349, 0.035, 1.0]
+    as_array = whole_steps(np.array(intervals), 0.01)
+    one_by_one = [whole_steps(x, 0.01) for x in intervals]
+    assert all(isinstance(x, float) for x in one_by_one)
+    np.testing.assert_array_equal(one_by_one, as_array)
+    assert min(one_by_one) == 0.01

@@ -390,3 +390,10 @@ def test_angle_is_scipys_relative_magnitude_at_every_angle_for_quaternions_and_m
     assert so3.angle(a.as_matrix()[0], b.as_matrix()[0]).shape == ()
     qa[5] = np.nan
     assert np.isnan(so3.angle(qa, qb)[5]) and np.isfinite(np.delete(so3.angle(qa, qb), 5)).all()
+
+
+@given(vectors, vectors, st.floats(1e-4, 1.0))
+def test_the_coning_term_of_one_step_is_that_of_a_stack(a, b, h):
+    """(M1) for one step (a float ``h``, a streaming filter's) and for a stack of one (an array ``h``) agree."""
+    np.testing.assert_allclose(so3.coning(a, b, h), so3.coning(a[None], b[None], np.array([h]))[0], rtol=1e-15)
+    np.testing.assert_allclose(so3.coning(a, b, h), h / 12.0 * np.cross(a, b), rtol=1e-12, atol=1e-13)

@@ -124,6 +124,10 @@ def cross(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     if a.shape[-1:] != (3,) or b.shape[-1:] != (3,):
         raise ValueError(f"cross: 3-vectors expected, got shapes {a.shape} and {b.shape}")
+    if a.ndim == 1 and b.ndim == 1:  # one pair (a streaming step): Python floats beat nine array operations
+        a0, a1, a2 = a.tolist()
+        b0, b1, b2 = b.tolist()
+        return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
@@ -196,6 +200,8 @@ def coning(omega_start: ArrayLike, omega_end: ArrayLike, h: ArrayLike) -> np.nda
     ``(h³/6) ω̇ × ω_k``, and ``h ω_k × ω̇ = ω_k × ω_{k+1}`` to first order). A rate whose axis turns (coning) makes
     differenced attitudes depart from the interval's mean rate by this much; a rate of fixed axis does not.
     ``(*B, 3), (*B, 3), (*B,) or scalar -> (*B, 3)``: rad/s."""
+    if isinstance(h, float):  # one step's (a streaming filter's): no broadcasting needed
+        return (h / 12.0) * cross(omega_start, omega_end)
     a, b = np.asarray(omega_start, dtype=float), np.asarray(omega_end, dtype=float)
     return np.asarray(h, dtype=float)[..., None] / 12.0 * cross(a, b)
 

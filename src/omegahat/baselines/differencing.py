@@ -52,7 +52,7 @@ have been seen there is no estimate: NaN (status ``unavailable``).
 
 from __future__ import annotations
 
-from typing import Literal, TypeAlias, get_args
+from typing import Literal, TypeAlias, get_args, overload
 
 import numba
 import numpy as np
@@ -205,8 +205,15 @@ def lowpass(x: ArrayLike, times: ArrayLike, cutoff_hz: float) -> np.ndarray:
     return _lowpass_kernel(x, t, c)
 
 
-def whole_steps(intervals: ArrayLike, step: float) -> np.ndarray:
-    """(D3): stamped ``intervals`` (s) read as the whole number of ``step`` nearest to each, at least one."""
+@overload
+def whole_steps(intervals: float, step: float) -> float: ...
+@overload
+def whole_steps(intervals: ArrayLike, step: float) -> np.ndarray: ...
+def whole_steps(intervals: ArrayLike, step: float) -> np.ndarray | float:
+    """(D3): stamped ``intervals`` (s) read as the whole number of ``step`` nearest to each, at least one (a float
+    for a float: one streaming step's; ``round`` rounds half to even as ``np.round`` does)."""
+    if isinstance(intervals, float):
+        return step * max(1.0, round(intervals / step))
     return step * np.maximum(1.0, np.round(np.asarray(intervals, dtype=float) / step))
 
 
@@ -329,7 +336,7 @@ class DifferencingEstimator(StreamingEstimator):
 
     def _span(self, interval: float) -> float:
         """A stamped interval as the differences take it: itself, or (D3) where the samples' step is given."""
-        return interval if self.step is None else float(whole_steps(interval, self.step))
+        return interval if self.step is None else whole_steps(interval, self.step)
 
     def _checks(self) -> dict:
         return {
