@@ -26,6 +26,9 @@ Two families:
 - **Σ c = 1**: the taps pass a constant rate as it is, as the default's filter does ((C3)'s ``H(0) = 1``): the
   ceiling of a filter that estimates the body's rate rather than the reference's reading of it.
 
+Least squares in the band is not the score, so neither family is the score's exact minimum, and free taps may
+score worse than taps summing to 1 (UPenn's rows do).
+
 Both are oracles (fitted on the very samples they are scored on, with the reference they are scored against): not
 estimators, an upper bound on what a filter of ``L`` differences can show under this score. Samples where ``b``
 is 10 times the median distance from ``g`` plus 1 rad/s (a reset or a spike) are left out of the fit and are NaN in
