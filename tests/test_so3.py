@@ -397,3 +397,18 @@ def test_the_coning_term_of_one_step_is_that_of_a_stack(a, b, h):
     """(M1) for one step (a float ``h``, a streaming filter's) and for a stack of one (an array ``h``) agree."""
     np.testing.assert_allclose(so3.coning(a, b, h), so3.coning(a[None], b[None], np.array([h]))[0], rtol=1e-15)
     np.testing.assert_allclose(so3.coning(a, b, h), h / 12.0 * np.cross(a, b), rtol=1e-12, atol=1e-13)
+
+
+@given(st.integers(0, 2**31), st.floats(0.1, 10.0), st.floats(0.1, 10.0))
+def test_quat_product_composes_rotations_and_keeps_the_norms(seed, a, b):
+    """``p ⊗ q`` is SciPy's composition ``R(p) R(q)`` (the rows' quaternion up to sign), and with quaternions of
+    norm ``a`` and ``b`` its norm is ``a b`` (nothing normalised)."""
+    p, q = Rotation.random(2, random_state=seed).as_quat()
+    pq = so3.quat_product(p, q[None])[0]
+    np.testing.assert_allclose(
+        so3.from_quat(pq), (Rotation.from_quat(p) * Rotation.from_quat(q)).as_matrix(), atol=1e-12
+    )
+    scaled = so3.quat_product(a * p, np.stack([b * q, q]))
+    np.testing.assert_allclose(np.linalg.norm(scaled, axis=1), [a * b, a], rtol=1e-12)
+    with pytest.raises(ValueError, match="quat_product"):
+        so3.quat_product(p[:3], q)

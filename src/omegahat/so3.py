@@ -39,6 +39,7 @@ __all__ = [
     "log",
     "orthogonality_error",
     "project",
+    "quat_product",
     "to_quat",
     "vee",
     "wahba",
@@ -90,6 +91,14 @@ def _from_quat_rows(q, out):
 def _to_quat_rows(R, out):
     for j in range(R.shape[0]):
         out[j, 0], out[j, 1], out[j, 2], out[j, 3] = rot.quat_from_matrix(R[j])
+
+
+@numba.njit(cache=True)
+def _quat_product_rows(p, q, out):
+    for j in range(q.shape[0]):
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = rot.quat_multiply(
+            p[0], p[1], p[2], p[3], q[j, 0], q[j, 1], q[j, 2], q[j, 3]
+        )
 
 
 @numba.njit(cache=True)
@@ -268,6 +277,18 @@ def to_quat(R: ArrayLike, scalar_first: bool = False) -> np.ndarray:
     out = np.empty((*R.shape[:-2], 4))
     _to_quat_rows(_rows(R, (3, 3)), out.reshape(-1, 4))
     return np.roll(out, 1, axis=-1) if scalar_first else out
+
+
+def quat_product(p: ArrayLike, q: ArrayLike) -> np.ndarray:
+    """Hamilton product ``p ⊗ q`` of one quaternion ``p (4,)`` and quaternions ``q (*B, 4)``, scalar last: the
+    rotation ``R(p) R(q)``. Neither is normalised (``|p ⊗ q| = |p| |q|``), so a sample's norm is kept as it came.
+    ``-> (*B, 4)``."""
+    p, q = np.asarray(p, dtype=float), np.asarray(q, dtype=float)
+    if p.shape != (4,) or q.shape[-1:] != (4,):
+        raise ValueError(f"quat_product expects p of shape (4,) and q of shape (..., 4); got {p.shape} and {q.shape}")
+    out = np.empty(q.shape)
+    _quat_product_rows(p, _rows(q, (4,)), out.reshape(-1, 4))
+    return out
 
 
 def as_matrix(attitude: ArrayLike | Rotation, scalar_first: bool = False) -> np.ndarray:

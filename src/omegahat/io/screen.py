@@ -137,7 +137,7 @@ class TurnScreen:
         """The attitudes ``data`` turned by ``S`` (``S R``), in place. A sample that is not a rotation keeps what its
         message says (``|q|``, ``|RᵀR − I|``, ``det R``: a turn changes none of them)."""
         if data.ndim == 2:  # quaternions x, y, z, w: s ⊗ q
-            data[:] = _quaternion_product(so3.to_quat(S), data)
+            data[:] = so3.quat_product(so3.to_quat(S), data)
         else:
             data[:] = S @ data
 
@@ -160,13 +160,6 @@ def largest_of(
         return largest
     j = int(np.argmax(size))
     return (float(size[j]), int(labels[rows[j]])) if size[j] > largest[0] else largest
-
-
-def _quaternion_product(s: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``s ⊗ q`` (Hamilton), scalar last: ``s (4,)``, ``q (n, 4)``; the rotation ``R(s) R(q)``."""
-    sv, sw = s[:3], s[3]
-    qv, qw = q[:, :3], q[:, 3:]
-    return np.concatenate([sw * qv + qw * sv + np.cross(sv, qv), sw * qw - qv @ sv[:, None]], axis=1)
 
 
 def _matrices(data: np.ndarray) -> np.ndarray:
