@@ -1,9 +1,9 @@
-"""How far any causal filter of backward differences could go on a corpus: the best one in hindsight.
+"""How far any filter of backward differences could go on a corpus, causal or zero-lag: the best one in hindsight.
 
 Run: ``python benchmarks/filter_ceiling.py [DIR]`` (the development corpus's real recordings; ``$OMEGAHAT_CORPUS_DIR``
 by default) or ``python benchmarks/filter_ceiling.py --heldout OUT`` (every recording of a held-out corpus).
-Writes its section of ``benchmarks/RESULTS.md`` (one per corpus); skips cleanly without a corpus. About 15 minutes
-for Tyrex's 232 rows on one core.
+Writes its section of ``benchmarks/RESULTS.md`` (one per corpus); skips cleanly without a corpus. About 7 minutes
+for Tyrex's 232 rows, 8 for the development corpus's 87 (RESULTS.md has each run's time).
 
 The default ``omegahat estimate`` runs, on every real recording, backward differencing through the log's causal
 filter ((C1)–(C5) of :mod:`omegahat.identification.causal`): a filter of the last ``L`` differences
@@ -29,10 +29,24 @@ Two families:
 Least squares in the band is not the score, so neither family is the score's exact minimum, and free taps may
 score worse than taps summing to 1 (UPenn's rows do).
 
-Both are oracles (fitted on the very samples they are scored on, with the reference they are scored against): not
+**Zero-lag, for ``--smooth``** (O2). ``--smooth`` is asked to beat the best of central differencing and
+``RotationSpline``, both estimates of the rate *at the samples*. Its family's bound in hindsight: taps on the
+differences on both sides of the sample, ``b_{k+j}`` for ``j = −15 … 16`` (``b_k`` is the mean over
+``[t_{k−1}, t_k]``, so the window is centred on ``t_k``), summing to 1, fitted to the reference at the sample times
+themselves (no shift: the calibration shared by every method has already aligned the clocks)::
+
+    ĉ = argmin_{Σc = 1} Σ_{k scored} | B[g](t_k) − Σ_{j=−15}^{16} c_j B[b]_{k+j} |²                     (O2)
+
+then scored like every method (the fair score still gives it its best shift), with central differencing itself
+(``c_0 = c_1 = ½``) as one candidate. A target half a step earlier, the midpoint backward differencing estimates,
+would score far better at 10 samples per second (``benchmarks/midpoint_target.py`` says why), but it is a
+half-step lag, not a zero-lag rate. Ratios of (O2) are to the best of central differencing and ``RotationSpline``
+scored on the same samples.
+
+All are oracles (fitted on the very samples they are scored on, with the reference they are scored against): not
 estimators, an upper bound on what a filter of ``L`` differences can show under this score. Samples where ``b``
-is 10 times the median distance from ``g`` plus 1 rad/s (a reset or a spike) are left out of the fit and are NaN in
-every estimate, backward differencing's included, so that all are scored on the same samples.
+is 10 times the median distance from ``g`` plus 1 rad/s (a reset or a spike), and two samples either side, are left
+out of the fit and are NaN in every estimate, the peers' included, so that all are scored on the same samples.
 
 **What the reference sees near the band's top** (M): the median over ``0.30 ≤ f < 0.45`` cycles per step of the
 reference's power spectrum over the differences' (Welch, 256-sample Hann segments, the three axes summed; the
@@ -65,6 +79,7 @@ from scipy.signal import butter, sosfiltfilt, welch
 
 from midpoint_target import SOURCES, geo
 from omegahat.baselines.differencing import log_difference
+from omegahat.baselines.spline import spline_rate
 from omegahat.identification.causal import TAPS
 from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
 from omegahat.lab.evaluation.corpus import Recording, corpus_dir, group_of, load_recording, recordings
@@ -78,14 +93,30 @@ SHIFTS = np.arange(-3.0, 0.01, 0.5)  #: s of (O1), samples: the reference at t_k
 SEEN_BAND = (0.30, 0.45)  #: (M): cycles per step: 18-27 Hz at 60 Hz
 LOW_BAND = (0.02, 0.07)  #: (M2): cycles per step: 1.2-4.2 Hz at 60 Hz
 SPIKE_FACTOR, SPIKE_FLOOR = 10.0, 1.0  #: a sample with |b − g| above 10 × median + 1 rad/s is left out
+SPIKE_REACH = 2  #: and this many samples either side (central differencing and the spline reach that far)
+ZERO_LAG = np.arange(-15, 17)  #: j of (O2): b_{k+j}, a window centred on t_k
 
 
-def _lagged(x: np.ndarray, taps: int) -> np.ndarray:
-    """``(T, 3, L)``: column j is ``x`` delayed by j samples (zeros before the start)."""
-    out = np.zeros((*x.shape, taps))
-    for j in range(taps):
-        out[j:, :, j] = x[: x.shape[0] - j]
+def _lagged(x: np.ndarray, lags: np.ndarray) -> np.ndarray:
+    """``(T, 3, len(lags))``: column i is ``x`` delayed by ``lags[i]`` samples (advanced if negative; zeros beyond
+    the ends)."""
+    out = np.zeros((*x.shape, lags.size))
+    T = x.shape[0]
+    for i, j in enumerate(lags):
+        if j >= 0:
+            out[j:, :, i] = x[: T - j]
+        else:
+            out[: T + j, :, i] = x[-j:]
     return out
+
+
+def _sum_one_fit(A: np.ndarray, target: np.ndarray, anchor: np.ndarray) -> np.ndarray:
+    """The taps ``c`` with ``Σ c = 1`` that fit ``A c`` (``A (n, 3, L)``) to ``target (n, 3)`` by least squares:
+    ``c = anchor + Z z`` with ``Σ anchor = 1`` and ``Z``'s columns summing to 0 (``e_i − e_0``, ``i ≥ 1``)."""
+    L = anchor.size
+    basis = np.eye(L)[:, 1:] - np.eye(L)[:, :1]
+    z, *_ = np.linalg.lstsq((A @ basis).reshape(-1, L - 1), (target - A @ anchor).reshape(-1), rcond=None)
+    return anchor + basis @ z
 
 
 def ceiling(rec: Recording, taps: int = TAPS) -> dict[str, float]:
@@ -98,7 +129,8 @@ def ceiling(rec: Recording, taps: int = TAPS) -> dict[str, float]:
     distance = np.linalg.norm(b - g0, axis=1)
     finite = np.isfinite(distance)
     spike = finite & (distance > SPIKE_FACTOR * np.median(distance[finite]) + SPIKE_FLOOR)
-    b[spike] = np.nan
+    dropped = binary_dilation(spike, iterations=SPIKE_REACH) if spike.any() else spike
+    b[dropped] = np.nan
     ok = np.all(np.isfinite(b), axis=1)
     steady = ok & (rec.t > ref_t[0] + 1) & (rec.t < ref_t[-1] - 1)
 
@@ -114,34 +146,49 @@ def ceiling(rec: Recording, taps: int = TAPS) -> dict[str, float]:
         else (lambda x: sosfiltfilt(butter(4, cutoff, fs=rec.fs, output="sos"), x, axis=0))
     )
     filled = np.where(ok[:, None], b, 0.0)
-    X = _lagged(filled, taps)
-    Xb = _lagged(band(filled), taps)
-    # fitted where the last L differences and the reference are all there, a second from any gap
-    usable = ~binary_dilation(~ok, structure=np.ones(2 * taps + 1)) & (rec.t > ref_t[0] + 1) & (rec.t < ref_t[-1] - 1)
+    filled_band = band(filled)
+    # fitted where the differences and the reference are all there, a second from any gap
+    inside = (rec.t > ref_t[0] + 1) & (rec.t < ref_t[-1] - 1)
+    usable = ~binary_dilation(~ok, structure=np.ones(2 * taps + 1)) & inside
     fit = rec.movement & ~binary_dilation(~usable, iterations=round(rec.fs))
-    fit[:taps] = False
+    fit[:taps] = fit[-taps:] = False  # the windows of (O1) and (O2) reach 16 samples
+
+    def reference_at(shift: float) -> np.ndarray:
+        return band(reference(np.clip(rec.t + shift / rec.fs, ref_t[0], ref_t[-1])))[fit]  # (n, 3)
+
+    def scored(X: np.ndarray, c: np.ndarray, window_ok: np.ndarray) -> float:
+        estimate = X @ c
+        estimate[~window_ok] = np.nan
+        try:
+            return score(rec, estimate, **options).rms
+        except ValueError:
+            return math.inf
+
+    causal_lags = np.arange(taps)
+    X, A = _lagged(filled, causal_lags), _lagged(filled_band, causal_lags)[fit]  # (T, 3, L), (n, 3, L)
     window_ok = np.convolve(~ok, np.ones(taps))[: ok.size] == 0  # no gap among the last L differences
-    A = Xb[fit]  # (n, 3, L)
-    basis = np.eye(taps)[:, 1:] - np.eye(taps)[:, :1]  # columns sum to 0: c = e_0 + basis z has Σ c = 1
     best = {"free": backward, "sum1": backward}  # differencing itself is one of the filters (c = e_0)
     for s in SHIFTS:
-        target = band(reference(np.clip(rec.t + s / rec.fs, ref_t[0], ref_t[-1])))[fit]  # (n, 3)
+        target = reference_at(s)
         free, *_ = np.linalg.lstsq(A.reshape(-1, taps), target.reshape(-1), rcond=None)
-        z, *_ = np.linalg.lstsq((A @ basis).reshape(-1, taps - 1), (target - A[:, :, 0]).reshape(-1), rcond=None)
-        for name, c in (("free", free), ("sum1", np.eye(taps)[0] + basis @ z)):
-            estimate = X @ c
-            estimate[~window_ok] = np.nan
-            try:
-                best[name] = min(best[name], score(rec, estimate, **options).rms)
-            except ValueError:
-                continue
+        for name, c in (("free", free), ("sum1", _sum_one_fit(A, target, np.eye(taps)[0]))):
+            best[name] = min(best[name], scored(X, c, window_ok))
+
+    # (O2): zero-lag, against the offline peers on the same samples
+    central, spline = log_difference(rec.t, rec.R, scheme="central"), spline_rate(rec.t, rec.R)
+    central[dropped] = spline[dropped] = np.nan
+    offline = min(score(rec, central, **options).rms, score(rec, spline, **options).rms)
+    X, A = _lagged(filled, -ZERO_LAG), _lagged(filled_band, -ZERO_LAG)[fit]  # column i: b_{k + ZERO_LAG[i]}
+    window_ok = ~binary_dilation(~ok, structure=np.ones(2 * ZERO_LAG.size + 1))
+    centred = np.where((ZERO_LAG == 0) | (ZERO_LAG == 1), 0.5, 0.0)  # central differencing: one candidate
+    zero_lag = min(scored(X, centred, window_ok), scored(X, _sum_one_fit(A, reference_at(0.0), centred), window_ok))
     # What the reference shows of the differences' power near the band's top (M: module docstring)
     near_top = (SEEN_BAND[0] * rec.fs <= freq) & (freq < SEEN_BAND[1] * rec.fs)
     seen = float(np.median(power(g0)[near_top] / power(b)[near_top]))
     low = (LOW_BAND[0] * rec.fs <= freq) & (freq < LOW_BAND[1] * rec.fs)
     error = power(b - g0)
     flat = float(np.median(error[low]) / np.median(error[near_top]))
-    return {"backward": backward, **best, "seen": seen, "flat": flat}
+    return {"backward": backward, **best, "offline": offline, "zero_lag": zero_lag, "seen": seen, "flat": flat}
 
 
 def white_noise_shape() -> float:
@@ -181,28 +228,31 @@ def main(argv: list[str] | None = None) -> int:
             cells = ratios[group_of(rec.name)]
             for name in ("free", "sum1"):
                 cells[name].append(found[name] / found["backward"])
+            cells["zero_lag"].append(found["zero_lag"] / found["offline"])
             cells["seen"].append(found["seen"])
             cells["flat"].append(found["flat"])
             print(
-                f"{rec.name}: ÷ backward: free {cells['free'][-1]:.3f}, Σc = 1 {cells['sum1'][-1]:.3f}; reference "
+                f"{rec.name}: ÷ backward: free {cells['free'][-1]:.3f}, Σc = 1 {cells['sum1'][-1]:.3f}; zero-lag ÷ "
+                f"best offline {cells['zero_lag'][-1]:.3f}; reference "
                 f"÷ differences near the top {found['seen']:.3g}; b − g low ÷ top {found['flat']:.3g}",
                 flush=True,
             )
     lines = [
-        "| group | n | best filter in hindsight, free taps | best filter in hindsight, Σ c = 1 | reference ÷ "
-        "differences near the band's top (M), median; lowest–highest | b − g, low band ÷ top (M2), median; "
-        "lowest–highest |",
-        "| --- | ---: | --- | --- | --- | --- |",
+        "| group | n | best filter in hindsight, free taps | best filter in hindsight, Σ c = 1 | best zero-lag "
+        "filter in hindsight (O2) ÷ best offline peer | reference ÷ differences near the band's top (M), median; "
+        "lowest–highest | b − g, low band ÷ top (M2), median; lowest–highest |",
+        "| --- | ---: | --- | --- | --- | --- | --- |",
     ]
     for group, cells in sorted(ratios.items()):
         lines.append(
             f"| {group} | {len(cells['free'])} | {geo(cells['free'])} | {geo(cells['sum1'])} | "
-            f"{spread(cells['seen'])} | {spread(cells['flat'])} |"
+            f"{geo(cells['zero_lag'])} | {spread(cells['seen'])} | {spread(cells['flat'])} |"
         )
-    every = {name: [x for cells in ratios.values() for x in cells[name]] for name in ("free", "sum1", "seen", "flat")}
+    names = ("free", "sum1", "zero_lag", "seen", "flat")
+    every = {name: [x for cells in ratios.values() for x in cells[name]] for name in names}
     lines.append(
-        f"| all | {len(every['free'])} | {geo(every['free'])} | {geo(every['sum1'])} | {spread(every['seen'])} | "
-        f"{spread(every['flat'])} |"
+        f"| all | {len(every['free'])} | {geo(every['free'])} | {geo(every['sum1'])} | {geo(every['zero_lag'])} | "
+        f"{spread(every['seen'])} | {spread(every['flat'])} |"
     )
     intro = (
         f"{machine_line()} Command: `python benchmarks/filter_ceiling.py{' --heldout OUT' if heldout else ''}` "
@@ -211,7 +261,10 @@ def main(argv: list[str] | None = None) -> int:
         "the reference ((O1) of the script), over backward differencing's, by the fair score (best shift, "
         "low-passed); geometric mean; lowest–highest. Oracles, not estimators: the bound a filter of differences "
         "can reach under this score. 'Free taps' also fits a scale error of the reference gyroscope; 'Σ c = 1' "
-        "passes a constant rate as it is, as the default's filter does. (M), (M2): the script's docstring; white "
+        "passes a constant rate as it is, as the default's filter does. Zero-lag (O2): the best filter of 32 "
+        "differences centred on each sample, fitted to the reference at the samples, over the best of central "
+        "differencing and RotationSpline on the same samples: the bound of `--smooth`'s family. (M), (M2): the "
+        "script's docstring; white "
         f"attitude noise alone gives (M2) = {white_noise_shape():.4f}."
     )
     body = intro + "\n\n" + "\n".join(lines)

@@ -514,13 +514,14 @@ def test_the_self_assessment_benchmark_skips_cleanly_without_a_corpus(tmp_path, 
     assert results.read_text() == before
 
 
-def test_the_midpoint_benchmark_skips_cleanly_without_a_corpus(tmp_path, monkeypatch, capsys):
-    """``benchmarks/midpoint_target.py`` on an empty corpus directory says so, exits 0 and leaves RESULTS.md as is,
-    for either corpus."""
+@pytest.mark.parametrize("name", ["midpoint_target", "filter_ceiling"])
+def test_a_corpus_benchmark_skips_cleanly_without_a_corpus(name, tmp_path, monkeypatch, capsys):
+    """``benchmarks/midpoint_target.py`` and ``filter_ceiling.py`` on an empty corpus directory say so, exit 0 and
+    leave RESULTS.md as is, for either corpus."""
     monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
     results = ROOT / "benchmarks" / "RESULTS.md"
     before = results.read_text()
-    bench = _script("midpoint_target")
+    bench = _script(name)
     for argv in ([str(tmp_path)], ["--heldout", str(tmp_path)]):
         assert bench.main(argv) == 0
         assert "skipped" in capsys.readouterr().out
@@ -576,3 +577,37 @@ def test_a_recording_s_group_is_its_source_and_its_decimated_rate():
     assert group_of("broad-06_undisturbed_fast_rotation_A@28.6Hz") == "broad @28.6Hz"
     assert group_of("broad-06_undisturbed_fast_rotation_A") == "broad"
     assert group_of("upenn-03") == "upenn"
+
+
+def test_the_filter_ceiling_s_windows_and_taps(monkeypatch):
+    """The oracle's pieces against what they must be: ``_lagged``'s column for lag ``j`` is ``x`` moved ``j`` samples
+    later (earlier for ``j < 0``, (O2)'s window), zeros beyond the ends; ``_sum_one_fit`` recovers taps summing to
+    1 exactly from data they made, and on any data returns taps summing to 1 that fit at least as well as its
+    anchor; (M2)'s white-noise value is the closed form ``∫ sin²(πf) df = f/2 − sin(2πf)/(4π)`` over each band."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    bench = _script("filter_ceiling")
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(12, 3))
+    lags = np.array([-2, 0, 3])
+    out = bench._lagged(x, lags)
+    np.testing.assert_array_equal(out[:10, :, 0], x[2:])
+    np.testing.assert_array_equal(out[10:, :, 0], 0.0)
+    np.testing.assert_array_equal(out[:, :, 1], x)
+    np.testing.assert_array_equal(out[3:, :, 2], x[:9])
+    np.testing.assert_array_equal(out[:3, :, 2], 0.0)
+
+    A = rng.normal(size=(200, 3, 5))
+    c_true = np.array([0.7, 0.5, -0.4, 0.1, 0.1])  # Σ = 1
+    anchor = np.eye(5)[0]
+    np.testing.assert_allclose(bench._sum_one_fit(A, A @ c_true, anchor), c_true, atol=1e-12)
+    target = rng.normal(size=(200, 3))
+    c = bench._sum_one_fit(A, target, anchor)
+    assert c.sum() == pytest.approx(1.0, abs=1e-12)
+    assert np.sum((A @ c - target) ** 2) <= np.sum((A @ anchor - target) ** 2)
+
+    def integral(a: float, b: float) -> float:
+        return (b - a) / 2 - (math.sin(2 * math.pi * b) - math.sin(2 * math.pi * a)) / (4 * math.pi)
+
+    low, top = bench.LOW_BAND, bench.SEEN_BAND
+    expected = (integral(*low) / (low[1] - low[0])) / (integral(*top) / (top[1] - top[0]))
+    assert bench.white_noise_shape() == pytest.approx(expected, rel=1e-3)  # a mean over 1001 points
