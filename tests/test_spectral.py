@@ -8,11 +8,12 @@ from scipy import signal, stats
 from scipy.spatial.transform import Rotation, RotationSpline, Slerp
 
 from omegahat.baselines.differencing import log_difference
-from omegahat.identification.fold import folded
+from omegahat.identification.fold import fold_remark, folded, rate_spectra
 from omegahat.identification.spectral import (
     HANN_HALF_OVERLAP,
     SIGNIFICANCE,
     SpectralSmoother,
+    expected_error,
     increment_spectrum,
     top_noise,
     welch_density,
@@ -256,6 +257,38 @@ def test_the_expected_error_is_the_error_within_a_factor_two():
     omega = est.run(t, noisy(R, 1e-3).as_quat()).omega
     measured = rms(omega[100:-100] - rate[100:-100])
     assert 0.5 < est.expected_rms / measured < 2.0
+
+
+def test_the_folds_part_of_the_expected_error_is_its_term_of_the_three():
+    """(S7b) on written-out spectra. (S7)'s closed form is the sum of three errors of the filter ``F`` of (S6) on
+    the rate in the band, on its fold and on the noise, ``S (sinc F − 1)² + S_a (sinc_a F + 1)² + N_b F²`` (where
+    ``P_b = sinc² S + sinc_a² S_a + N_b``); the fold's part is the second: none where the motion stays far below the
+    Nyquist frequency, most of the error where it reaches it."""
+    h, freq = 0.01, np.linspace(0.0, 0.5, 129)
+    N_b = np.tile((8 * np.sin(np.pi * freq) ** 2 / h**2 * 1e-6)[:, None], (1, 3))
+    quiet_top = N_b + 1e3 * np.exp(-freq / 0.02)[:, None]
+    for P_b, fold_share in ((quiet_top, (0.0, 1e-6)), (quiet_top + 50.0, (0.5, 1.0))):
+        g = wiener_gain(freq, P_b, 1e-3, h, 50)
+        S, S_a = rate_spectra(freq, P_b, g, N_b)
+        F = wiener_filter(freq, P_b, g, N_b)
+        sinc, sinc_a = np.sinc(freq)[:, None], np.sinc(1.0 - freq)[:, None]
+        terms = [S * (sinc * F - 1) ** 2, S_a * (sinc_a * F + 1) ** 2, N_b * F**2]
+        band, fold, noise = (np.sqrt(np.sum(x) * (freq[1] - freq[0])) for x in terms)
+        total = expected_error(freq, P_b, g, N_b)
+        assert total == pytest.approx(np.sqrt(band**2 + fold**2 + noise**2), rel=1e-9)
+        assert expected_error(freq, P_b, g, N_b, fold_only=True) == pytest.approx(fold, rel=1e-12, abs=1e-15)
+        assert fold_share[0] <= fold / total <= fold_share[1]
+
+
+def test_the_command_names_the_folds_part_where_it_is_more_than_a_tenth():
+    """``fold_remark``: nothing at a tenth or less (or without a figure), the part where it is more; the smoother
+    keeps the part it expects, no more than the whole."""
+    assert fold_remark(1.0, 0.1) == "" and fold_remark(1.0, float("nan")) == ""
+    assert "0.5 of it from the rate above the Nyquist frequency" in fold_remark(1.0, 0.5)
+    t, R, _ = turning()
+    est = SpectralSmoother()
+    est.run(t, noisy(R, 1e-3).as_quat())
+    assert 0.0 <= est.fold_rms <= est.expected_rms
 
 
 @pytest.mark.parametrize("rate", [10.0, 30.0])

@@ -79,7 +79,7 @@ _BY_SPECTRUM = re.compile(r"expected RMS error ([0-9.eE+-]+) rad/s by the log's 
 #: the smoothers' closing line (omegahat.io.choice): the two expectations where both ran, or the Wiener smoother's
 _SMOOTHED = re.compile(
     r"expected RMS error: the model's smoother ([0-9.eE+-]+) rad/s, the Wiener smoother ([0-9.eE+-]+) rad/s"
-    r"|expected RMS error ([0-9.eE+-]+) rad/s \((?:its spectrum's|the model's) account\)"
+    r"|expected RMS error ([0-9.eE+-]+) rad/s (?:\(the model's account\)|by its spectrum's account)"
 )
 
 

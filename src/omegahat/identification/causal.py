@@ -79,7 +79,7 @@ import numpy as np
 from scipy import optimize
 from scipy.special import ndtri, polygamma
 
-from omegahat.identification.fold import UPPER, leaving_slope, rate_spectra
+from omegahat.identification.fold import UPPER, fold_remark, leaving_slope, rate_spectra
 from omegahat.identification.spectral import SIGNIFICANCE, IncrementSpectrum, noise_shape, welch_dof
 
 __all__ = [
@@ -114,11 +114,7 @@ class CausalFilter(NamedTuple):
         if not math.isfinite(self.expected_rms):
             return "\n  the log gives no spectrum for a causal filter (C3): the differences as they are"
         expected = f"expected RMS error {self.expected_rms:.3g} rad/s by the log's spectrum"
-        if self.fold_rms > 0.1 * self.expected_rms:  # the samples cannot show it: say how much is extrapolated
-            expected += (
-                f" ({self.fold_rms:.3g} of it from the rate above the Nyquist frequency, which the samples cannot "
-                "show: extrapolated from the band's top)"
-            )
+        expected += fold_remark(self.expected_rms, self.fold_rms)  # the samples cannot show it: how much is read
         if self.is_differencing:
             return (
                 "\n  the log's causal filter (C3) finds no band to gain in: the differences as they are, "

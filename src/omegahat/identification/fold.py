@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["UPPER", "folded", "leaving_slope", "rate_spectra"]
+__all__ = ["UPPER", "fold_remark", "folded", "leaving_slope", "rate_spectra"]
 
 UPPER = (0.35, 0.5)  #: cycles per step: the upper part of the band, whose decay (S6) continues beyond it
 
@@ -57,3 +57,15 @@ def rate_spectra(
     motion = np.where(g > 0, np.maximum(P_b - N_b, 0.0), 0.0)
     above = folded(freq, motion) if fold else np.zeros_like(motion)
     return np.maximum(motion - sinc_a**2 * above, 0.0) / sinc**2, above
+
+
+def fold_remark(expected_rms: float, fold_rms: float) -> str:
+    """What ``omegahat estimate`` adds to an expected RMS error (rad/s) where more than a tenth of it, ``fold_rms``,
+    is the rate above the Nyquist frequency: the part (S6) extrapolates from the band's top, which the samples
+    cannot show (the log's causal filter's line and the Wiener smoother's). Empty otherwise."""
+    if not fold_rms > 0.1 * expected_rms:
+        return ""
+    return (
+        f" ({fold_rms:.3g} of it from the rate above the Nyquist frequency, which the samples cannot show: "
+        "extrapolated from the band's top)"
+    )

@@ -90,7 +90,12 @@ fold may dominate. On written-out power-law spectra the fold so read is 1.06–1
     E|ω̂ − ω|² = ∫₀^½ [ S + S_a − max(0, sinc S − sinc_a S_a)² / P_b ] df     (where significant)          (S7)
 
 — the filter's own account, from the same spectrum; :class:`omegahat.identification.smoother.ChosenSmoother`
-weighs it against the model's smoother's.
+weighs it against the model's smoother's. For the filter ``F`` of (S6) (real, the advance aside) it is the sum of
+the errors on the rate in the band, on its fold and on the noise, ``S (sinc F − 1)² + S_a (sinc_a F + 1)² + N_b F²``,
+and the command names the fold's part where it is more than a tenth (a figure the samples cannot show,
+extrapolated from the band's top)::
+
+    E_a = ∫₀^½ S_a (sinc_a F + 1)² df                                                                   (S7b)
 
 What (S2)–(S6) do not know: a motion whose spectrum changes along the log (filtered with its average spectrum), a
 fold that does not continue the band's decay. Measured: ``docs/theory/identification.md``.
@@ -236,14 +241,20 @@ def wiener_filter(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndar
     return np.nan_to_num(F, nan=0.0, posinf=0.0, neginf=0.0)
 
 
-def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray) -> float:
+def expected_error(freq: np.ndarray, P_b: np.ndarray, g: np.ndarray, N_b: np.ndarray, fold_only: bool = False) -> float:
     """(S7): the RMS error (rad/s, the three axes together) the filter of (S6) expects on the spectrum ``P_b``: per
     frequency the rate's power less what the filter recovers, ``S + S_a − max(0, sinc S − sinc_a S_a)² / P_b``,
     integrated over the band (Welch's one-sided density: the variance is its integral over 0 … 0.5 cycles per step).
+    ``fold_only``: the part (S7b) from the rate above the Nyquist frequency, ``S_a (sinc_a F + 1)²``, which (S6)
+    extrapolates from the band's top (module docstring).
     """
-    rate, cross = _cross(freq, P_b, g, N_b)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        left = np.where(g > 0, rate - np.maximum(cross, 0.0) ** 2 / P_b, 0.0)
+    if fold_only:
+        _, fold = rate_spectra(freq, P_b, g, N_b)
+        left = fold * (np.sinc(1.0 - freq)[:, None] * wiener_filter(freq, P_b, g, N_b) + 1.0) ** 2
+    else:
+        rate, cross = _cross(freq, P_b, g, N_b)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            left = np.where(g > 0, rate - np.maximum(cross, 0.0) ** 2 / P_b, 0.0)
     left = np.nan_to_num(np.maximum(left, 0.0), nan=0.0, posinf=0.0)
     return float(np.sqrt(np.sum(left) * (freq[1] - freq[0])))
 
@@ -252,15 +263,17 @@ class SpectralRate(NamedTuple):
     """What :func:`spectral_rate` gives: ``omega (T, 3)`` (body frame, rad/s), the attitude ``noise`` per body axis
     ``(3,)`` it assumed (rad, (N2) capped by (N3)), ``filtered (T,)``: True where (S2) gave the rate (False: the
     rotation spline, for a gap or a stretch too short to filter), ``expected`` the RMS error (S7) expects
-    (rad/s; NaN where nothing was filtered), and ``jitter`` what (S8) read where a stretch's steps differ from their
+    (rad/s; NaN where nothing was filtered), ``jitter`` what (S8) read where a stretch's steps differ from their
     mean by more than 0.1 %: ``"stamps"`` (the samples regular, their stamps jittered), ``"sampling"`` (the samples
-    at their stamps), or ``""`` (the steps even)."""
+    at their stamps), or ``""`` (the steps even), and ``fold`` the part (S7b) of ``expected`` from the rate above
+    the Nyquist frequency."""
 
     omega: np.ndarray
     noise: np.ndarray
     filtered: np.ndarray
     expected: float
     jitter: str = ""
+    fold: float = math.nan
 
 
 class IncrementSpectrum(NamedTuple):
@@ -336,11 +349,12 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         raise ValueError(f"the smoother needs at least 2 valid attitude samples; got {int(np.count_nonzero(valid))}")
     spectrum = increment_spectrum(t, R, valid)
     freq, P_b, g, N_b = spectrum.freq, spectrum.P_b, spectrum.g, spectrum.N_b
-    expected = math.nan
+    expected = fold = math.nan
     covered = np.zeros(T, dtype=bool)
     if freq.size:
         F = wiener_filter(freq, P_b, g, N_b)
         expected = expected_error(freq, P_b, g, N_b)
+        fold = expected_error(freq, P_b, g, N_b, fold_only=True)
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
@@ -358,7 +372,7 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
     if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
         spline = RotationSpline(t[valid], Rotation.from_matrix(R[valid]))
         omega[~covered] = spline(t[~covered], 1)
-    return SpectralRate(omega, spectrum.sigma, covered, expected, spectrum.jitter)
+    return SpectralRate(omega, spectrum.sigma, covered, expected, spectrum.jitter, fold)
 
 
 def _filtered(rates: np.ndarray, freq: np.ndarray, F: np.ndarray, edge: int) -> np.ndarray:
@@ -456,12 +470,14 @@ class SpectralSmoother(ms.AttitudeBatchEstimator):
         self.n_unfiltered = 0  # valid samples of the last ``run`` in stretches too short to filter
         self.timestamps = ""  # (S8) on the last ``run``'s uneven steps: "stamps", "sampling" or "" (even)
         self.expected_rms = math.nan  # the RMS error (S7) the last ``run`` expected (rad/s)
+        self.fold_rms = math.nan  # its part (S7b) from the rate above the Nyquist frequency (rad/s)
 
     def rates(self, log: ms.CheckedLog, data: Measurements) -> np.ndarray:
-        """(S2) at the log's times; sets :attr:`measurement_noise`, :attr:`n_unfiltered` and :attr:`expected_rms`."""
+        """(S2) at the log's times; sets :attr:`measurement_noise`, :attr:`n_unfiltered`, :attr:`expected_rms` and
+        :attr:`fold_rms`."""
         found = spectral_rate(log.times, log.values, log.valid)
         self.measurement_noise = found.noise
         self.n_unfiltered = int(np.count_nonzero(log.valid & ~found.filtered))
-        self.expected_rms = found.expected
+        self.expected_rms, self.fold_rms = found.expected, found.fold
         self.timestamps = found.jitter
         return found.omega

@@ -30,6 +30,7 @@ import numpy as np
 from omegahat.baselines.differencing import DifferencingEstimator
 from omegahat.baselines.spline import SplineEstimator
 from omegahat.identification import MIN_SAMPLES, Identification, identify
+from omegahat.identification.fold import fold_remark
 from omegahat.identification.smoother import ChosenSmoother, ModelSmoother
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.identification.start import balanced_start, noise_window
@@ -326,7 +327,7 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
             return (
                 f"estimator used: {kept} (offline, zero lag; expected RMS error: the model's smoother "
                 f"{est.expected['model']:.2g} rad/s, the Wiener smoother {est.expected['spectrum']:.2g} rad/s"
-                f"{jitter}), {body}"
+                f"{fold_remark(est.spectrum.expected_rms, est.spectrum.fold_rms)}{jitter}), {body}"
             )
         if isinstance(est, ModelSmoother):
             return (
@@ -341,7 +342,8 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
                 else ""
             )
             expected = (
-                f"expected RMS error {est.expected_rms:.2g} rad/s (its spectrum's account); "
+                f"expected RMS error {est.expected_rms:.3g} rad/s by its spectrum's account"
+                f"{fold_remark(est.expected_rms, est.fold_rms)}; "
                 if math.isfinite(est.expected_rms)
                 else ""
             )
