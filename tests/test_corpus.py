@@ -611,3 +611,34 @@ def test_the_filter_ceiling_s_windows_and_taps(monkeypatch):
     low, top = bench.LOW_BAND, bench.SEEN_BAND
     expected = (integral(*low) / (low[1] - low[0])) / (integral(*top) / (top[1] - top[0]))
     assert bench.white_noise_shape() == pytest.approx(expected, rel=1e-3)  # a mean over 1001 points
+
+
+def test_the_stamped_rates_table_reads_the_errors_at_no_shift(tmp_path, monkeypatch):
+    """``benchmarks/stamped_rates.py``'s rows from a CSV written by hand: per group, each method's error at no shift
+    over backward differencing's (geometric mean; lowest–highest: here 0.5 and 0.8 give 0.632; 0.500–0.800) and the
+    median best shifts; a recording without every method is left out."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    bench = _script("stamped_rates")
+    head = (
+        "recording,samples,method,causal,rms_rad_s,shift_samples,zero_shift_rms,n_scored,ratio_to_backward,"
+        "ratio_to_best_offline,predicted_rad_s,cpu_us_per_sample,note\n"
+    )
+    methods = ("backward diff.", "omegahat estimate", "omegahat estimate --smooth", "central diff.", "RotationSpline")
+    zero = {  # recording -> method -> (zero-shift RMS, best shift)
+        "tyrex-a": dict(zip(methods, [(2.0, -0.5), (2.0, -0.5), (1.0, 0.0), (1.2, 0.0), (1.1, 0.1)], strict=True)),
+        "tyrex-b": dict(zip(methods, [(1.0, -0.4), (1.0, -0.4), (0.8, 0.0), (0.9, 0.0), (0.9, 0.1)], strict=True)),
+        "tyrex-c": {"backward diff.": (1.0, -0.5)},  # no other method: left out
+    }
+    lines = [
+        f"{name},100,{method},True,{z},{s},{z},90,1.0,1.0,–,1.0,\n"
+        for name, methods in zero.items()
+        for method, (z, s) in methods.items()
+    ]
+    path = tmp_path / "rows.csv"
+    path.write_text(head + "".join(lines))
+    (row,) = bench.table(path)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[:3] == ["rows.csv", "tyrex", "2"]
+    assert cells[3] == "1.000; 1.000–1.000"
+    assert cells[4] == f"{math.sqrt(0.5 * 0.8):.3f}; 0.500–0.800"
+    assert cells[7] == "-0.45 / -0.45 / +0.00 / +0.00 / +0.10"
