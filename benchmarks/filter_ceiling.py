@@ -46,7 +46,8 @@ scored on the same samples.
 All are oracles (fitted on the very samples they are scored on, with the reference they are scored against): not
 estimators, an upper bound on what a filter of ``L`` differences can show under this score. Samples where ``b``
 is 10 times the median distance from ``g`` plus 1 rad/s (a reset or a spike), and two samples either side, are left
-out of the fit and are NaN in every estimate, the peers' included, so that all are scored on the same samples.
+out of the fit and are NaN in every estimate, the peers' included, as are the samples within 16 of any of them
+or of a missing one (the filters' windows), so that all are scored on the same samples.
 
 **What the reference sees near the band's top** (M): the median over ``0.30 ≤ f < 0.45`` cycles per step of the
 reference's power spectrum over the differences' (Welch, 256-sample Hann segments, the three axes summed; the
@@ -138,7 +139,18 @@ def ceiling(rec: Recording, taps: int = TAPS) -> dict[str, float]:
         return welch(np.where(steady[:, None], x, 0.0), fs=rec.fs, nperseg=256, axis=0)[1].sum(axis=1)
 
     freq = welch(np.zeros(max(256, rec.t.size)), fs=rec.fs, nperseg=256)[0]
-    backward = score(rec, b, **options).rms
+    # every estimate is scored on the same samples: those whose 16 differences either side are all there (the
+    # windows of (O1) and (O2)); the score leaves out a second around what it does not get
+    complete = ~binary_dilation(~ok, structure=np.ones(2 * taps + 1))
+
+    def scored(estimate: np.ndarray) -> float:
+        estimate = np.where(complete[:, None], estimate, np.nan)
+        try:
+            return score(rec, estimate, **options).rms
+        except ValueError:
+            return math.inf
+
+    backward = scored(b)
     cutoff = options.get("cutoff_hz", min(DEFAULT_CUTOFF_HZ, 0.4 * rec.fs))
     band = (
         (lambda x: x)
@@ -149,39 +161,28 @@ def ceiling(rec: Recording, taps: int = TAPS) -> dict[str, float]:
     filled_band = band(filled)
     # fitted where the differences and the reference are all there, a second from any gap
     inside = (rec.t > ref_t[0] + 1) & (rec.t < ref_t[-1] - 1)
-    usable = ~binary_dilation(~ok, structure=np.ones(2 * taps + 1)) & inside
+    usable = complete & inside
     fit = rec.movement & ~binary_dilation(~usable, iterations=round(rec.fs))
     fit[:taps] = fit[-taps:] = False  # the windows of (O1) and (O2) reach 16 samples
 
     def reference_at(shift: float) -> np.ndarray:
         return band(reference(np.clip(rec.t + shift / rec.fs, ref_t[0], ref_t[-1])))[fit]  # (n, 3)
 
-    def scored(X: np.ndarray, c: np.ndarray, window_ok: np.ndarray) -> float:
-        estimate = X @ c
-        estimate[~window_ok] = np.nan
-        try:
-            return score(rec, estimate, **options).rms
-        except ValueError:
-            return math.inf
-
     causal_lags = np.arange(taps)
     X, A = _lagged(filled, causal_lags), _lagged(filled_band, causal_lags)[fit]  # (T, 3, L), (n, 3, L)
-    window_ok = np.convolve(~ok, np.ones(taps))[: ok.size] == 0  # no gap among the last L differences
     best = {"free": backward, "sum1": backward}  # differencing itself is one of the filters (c = e_0)
     for s in SHIFTS:
         target = reference_at(s)
         free, *_ = np.linalg.lstsq(A.reshape(-1, taps), target.reshape(-1), rcond=None)
         for name, c in (("free", free), ("sum1", _sum_one_fit(A, target, np.eye(taps)[0]))):
-            best[name] = min(best[name], scored(X, c, window_ok))
+            best[name] = min(best[name], scored(X @ c))
 
     # (O2): zero-lag, against the offline peers on the same samples
     central, spline = log_difference(rec.t, rec.R, scheme="central"), spline_rate(rec.t, rec.R)
-    central[dropped] = spline[dropped] = np.nan
-    offline = min(score(rec, central, **options).rms, score(rec, spline, **options).rms)
+    offline = min(scored(central), scored(spline))
     X, A = _lagged(filled, -ZERO_LAG), _lagged(filled_band, -ZERO_LAG)[fit]  # column i: b_{k + ZERO_LAG[i]}
-    window_ok = ~binary_dilation(~ok, structure=np.ones(2 * ZERO_LAG.size + 1))
     centred = np.where((ZERO_LAG == 0) | (ZERO_LAG == 1), 0.5, 0.0)  # central differencing: one candidate
-    zero_lag = min(scored(X, centred, window_ok), scored(X, _sum_one_fit(A, reference_at(0.0), centred), window_ok))
+    zero_lag = min(scored(X @ centred), scored(X @ _sum_one_fit(A, reference_at(0.0), centred)))
     # What the reference shows of the differences' power near the band's top (M: module docstring)
     near_top = (SEEN_BAND[0] * rec.fs <= freq) & (freq < SEEN_BAND[1] * rec.fs)
     seen = float(np.median(power(g0)[near_top] / power(b)[near_top]))
