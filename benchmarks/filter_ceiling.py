@@ -78,13 +78,13 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import binary_dilation
 from scipy.signal import butter, sosfiltfilt, welch
 
-from midpoint_target import SOURCES, geo
+from midpoint_target import SOURCES
 from omegahat.baselines.differencing import log_difference
 from omegahat.baselines.spline import spline_rate
 from omegahat.identification.causal import TAPS
 from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
 from omegahat.lab.evaluation.corpus import Recording, corpus_dir, group_of, load_recording, recordings
-from results_md import machine_line, write_section
+from results_md import geo, machine_line, write_section
 
 SECTION = "## The best causal filter of differences in hindsight (benchmarks/filter_ceiling.py)"
 HELDOUT_SECTION = (

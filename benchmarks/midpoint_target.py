@@ -27,7 +27,6 @@ is a measurement of the target, not an estimator of omegahat: ``--smooth`` write
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 import warnings
@@ -43,7 +42,7 @@ from omegahat.identification.spectral import increment_spectrum, spectral_rate
 from omegahat.lab.evaluation.broad import score
 from omegahat.lab.evaluation.corpus import corpus_dir, group_of, load_recording, recordings
 from real_world import read_csv
-from results_md import machine_line, write_section
+from results_md import geo, machine_line, write_section
 
 SECTION = "## The rate at the samples or at the intervals' midpoints (benchmarks/midpoint_target.py)"
 HELDOUT_SECTION = "## The rate at the samples or at the midpoints, held out (benchmarks/midpoint_target.py --heldout)"
@@ -80,10 +79,6 @@ def measured(path: Path) -> dict[str, dict[str, float]]:
         if row.score is not None:
             by[row.recording][row.method] = row.score.rms
     return by
-
-
-def geo(xs: list[float]) -> str:
-    return f"{math.exp(sum(math.log(x) for x in xs) / len(xs)):.3f}; {min(xs):.3f}–{max(xs):.3f}"
 
 
 def main(argv: list[str] | None = None) -> int:

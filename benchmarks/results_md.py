@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime
+import math
 import os
 import platform
 from pathlib import Path
@@ -53,3 +54,8 @@ def machine_line() -> str:
         f"Machine: {cpu or platform.machine()}, {os.cpu_count()} cores (shared), {platform.system()}; Python "
         f"{platform.python_version()}; {now}."
     )
+
+
+def geo(xs: list[float]) -> str:
+    """A table cell for ratios: ``geometric mean; lowest–highest`` (three decimals)."""
+    return f"{math.exp(sum(math.log(x) for x in xs) / len(xs)):.3f}; {min(xs):.3f}–{max(xs):.3f}"

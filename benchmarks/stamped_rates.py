@@ -25,16 +25,11 @@ from pathlib import Path
 
 from omegahat.lab.evaluation.corpus import group_of
 from real_world import AFTER_CSV, HELDOUT_CSV, read_csv
-from results_md import machine_line, write_section
+from results_md import geo, machine_line, write_section
 
 SECTION = "## The rates read at their stamps: the error at no shift (benchmarks/stamped_rates.py)"
 METHODS = ("omegahat estimate", "omegahat estimate --smooth", "central diff.", "RotationSpline")
 BASELINE = "backward diff."
-
-
-def geo(xs: list[float]) -> str:
-    """``geometric mean; lowest–highest``."""
-    return f"{math.exp(sum(math.log(x) for x in xs) / len(xs)):.3f}; {min(xs):.3f}–{max(xs):.3f}"
 
 
 def table(path: Path) -> list[str]:
