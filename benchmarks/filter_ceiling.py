@@ -2,8 +2,8 @@
 
 Run: ``python benchmarks/filter_ceiling.py [DIR]`` (the development corpus's real recordings; ``$OMEGAHAT_CORPUS_DIR``
 by default) or ``python benchmarks/filter_ceiling.py --heldout OUT`` (every recording of a held-out corpus).
-Writes its section of ``benchmarks/RESULTS.md`` (one per corpus); skips cleanly without a corpus. About 7 minutes
-for Tyrex's 232 rows, 8 for the development corpus's 87 (RESULTS.md has each run's time).
+Writes its section of ``benchmarks/RESULTS.md`` (one per corpus); skips cleanly without a corpus. Each run's time
+is in its section of RESULTS.md.
 
 The default ``omegahat estimate`` runs, on every real recording, backward differencing through the log's causal
 filter ((C1)–(C5) of :mod:`omegahat.identification.causal`): a filter of the last ``L`` differences

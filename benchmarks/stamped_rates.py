@@ -1,7 +1,7 @@
 """The rates read at their stamps: each method's error at no shift, beside the fair score's best shift.
 
 Run: ``python benchmarks/stamped_rates.py`` after ``python benchmarks/real_world.py --after`` and/or
-``--heldout OUT`` (it reads ``real_world_after.csv`` and ``real_world_heldout.csv``, whichever exist; a second).
+``--heldout OUT`` (it reads ``real_world_after.csv`` and ``real_world_heldout.csv``, whichever exist).
 Writes its section of ``benchmarks/RESULTS.md``; skips cleanly where neither CSV exists.
 
 The fair score (:func:`omegahat.lab.evaluation.broad.score`) compares each method at its best constant shift
