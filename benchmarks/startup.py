@@ -1,6 +1,6 @@
-"""Start-up of the command line: how long a user waits for ``omegahat --version``, ``omegahat estimate --help`` and
-the default ``omegahat estimate`` of a short log, where the work itself takes a few milliseconds and the rest is
-the interpreter, the imports and the loading of the compiled kernels from their cache.
+"""Start-up of the command line: how long a user waits for ``omegahat --version``, the overview ``omegahat --help``,
+``omegahat estimate --help`` and the default ``omegahat estimate`` of a short log, where the work itself takes a
+few milliseconds and the rest is the interpreter, the imports and the loading of the compiled kernels from their cache.
 
 Run: ``python benchmarks/startup.py [--rounds N] [--before SRC]``. ``SRC``: the ``src`` folder of another checkout
 of omegahat (``git worktree add /tmp/before COMMIT``, then ``--before /tmp/before/src``), measured the same way in
@@ -66,6 +66,7 @@ def main() -> None:
         write_log(tmp / "log.csv")
         commands = {
             "`omegahat --version`": ["--version"],
+            "`omegahat --help`": ["--help"],
             "`omegahat estimate --help`": ["estimate", "--help"],
             "`omegahat estimate log.csv -o out.csv` (3,000 rows)": [
                 "estimate", str(tmp / "log.csv"), "-o", str(tmp / "out.csv"), "--no-progress",

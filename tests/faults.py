@@ -79,8 +79,9 @@ def patched(owner, name: str, value) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def many_chunks(chunk_bytes: int = 1 << 14) -> Iterator[None]:
-    """``omegahat estimate`` reading its input in chunks of ``chunk_bytes`` (many chunks for a small log)."""
+def many_chunks(chunk_bytes: int = 1 << 12) -> Iterator[None]:
+    """``omegahat estimate`` reading its input in chunks of ``chunk_bytes`` (many chunks for a small log; the
+    default is the CSV reader's least chunk, so that a short log, quick to identify, has many)."""
     import omegahat.cli.estimate as cli_estimate
     from omegahat.io import ReadOptions
 

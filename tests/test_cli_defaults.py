@@ -227,22 +227,33 @@ def test_quaternions_from_scipy_by_row_are_body_to_inertial():
     np.testing.assert_allclose(rot.as_matrix()[0], expected, atol=1e-15)
 
 
-def test_the_version_alone_loads_no_command_and_the_overview_lists_them_all():
-    """``omegahat --version`` answers without importing any subcommand (it took 2.3 s, loading them all); with
-    ``--help`` before it, or alone, the overview still names every command."""
+def test_the_version_and_the_overview_load_no_command_and_the_overview_lists_them_all():
+    """``omegahat --version`` and the overview ``omegahat --help`` answer without importing any subcommand (the
+    version took 2.3 s loading them all, the overview 3 s); with ``--help`` before ``--version``, or alone, the
+    overview names every command with its line. One fresh process runs the four, each output after a line of its
+    own, and says after each which subcommand modules are loaded; then ``estimate --help`` loads its own."""
     code = (
         "import sys; from omegahat.cli import main, SUBCOMMANDS\n"
-        "try:\n    main(sys.argv[1:])\nexcept SystemExit as stop:\n    print('exit', stop.code)\n"
-        "print(sorted(m for m in SUBCOMMANDS.values() if m in sys.modules))"
+        "for words in (['--version'], ['--version', '-h'], ['--help', '--version'], ['--help'], "
+        "['estimate', '--help']):\n"
+        "    print('=== run', *words)\n"
+        "    try:\n        main(words)\n    except SystemExit as stop:\n        print('exit', stop.code)\n"
+        "    print(sorted(m for m in SUBCOMMANDS.values() if m in sys.modules))\n"
     )
     from omegahat import __version__
-    from omegahat.cli import SUBCOMMANDS
+    from omegahat.cli import SUBCOMMANDS, SUMMARIES
 
-    def run(*words):
-        return subprocess.run([sys.executable, "-c", code, *words], capture_output=True, text=True, check=True).stdout
-
-    assert run("--version").splitlines() == [f"omegahat {__version__}", "exit 0", "[]"]
-    assert run("--version", "-h").splitlines()[0] == f"omegahat {__version__}"  # argparse: the first one acts
-    for words in (["--help", "--version"], ["--help"]):
-        out = run(*words)
-        assert all(re.search(rf"^\s+{name}\b", out, re.M) for name in SUBCOMMANDS), (words, out)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    runs = {block.split("\n", 1)[0]: block.split("\n", 1)[1] for block in out.split("=== run ")[1:]}
+    assert list(runs) == ["--version", "--version -h", "--help --version", "--help", "estimate --help"], out
+    assert runs["--version"].splitlines() == [f"omegahat {__version__}", "exit 0", "[]"]
+    assert runs["--version -h"].splitlines()[0] == f"omegahat {__version__}"  # argparse: the first one acts
+    for words in ("--help --version", "--help"):
+        assert runs[words].splitlines()[-2:] == ["exit 0", "[]"], (words, out)
+        overview = " ".join(runs[words].split())  # argparse wraps the lines
+        for name in SUBCOMMANDS:
+            assert re.search(rf"^\s+{name}\b", runs[words], re.M), (words, out)
+            assert " ".join(SUMMARIES[name].split()[:6]) in overview, (name, out)
+    estimate = runs["estimate --help"]
+    assert "--smooth" in estimate and " ".join(SUMMARIES["estimate"].split()[:6]) in " ".join(estimate.split())
+    assert estimate.splitlines()[-1] == "['omegahat.cli.estimate']"

@@ -43,14 +43,23 @@ def test_the_parquet_file_holds_the_csv_files_rows(log, tmp_path, capsys):
     assert pq.ParquetFile(tmp_path / "o.parquet").num_row_groups > 5
 
 
-def test_a_disk_full_at_every_write_leaves_the_previous_file(log, tmp_path):
+@pytest.fixture(scope="module")
+def short_log(tmp_path_factory):
+    """500 samples: the runs with a fault, one per write or chunk, each identify their model on a short head."""
+    t = np.arange(500) / 100.0
+    return write_csv(
+        tmp_path_factory.mktemp("short") / "log.csv", t, constant_rate(t, np.array([0.1, -0.2, 0.3]), 1e-4)
+    )
+
+
+def test_a_disk_full_at_every_write_leaves_the_previous_file(short_log, tmp_path):
     """At every write call of a run (the magic bytes, each column's pages, the footer: one chunk, as the many
     chunks' writes are the same calls over again)."""
-    cases = faults.disk_full_cases(log, tmp_path / "o.parquet")
+    cases = faults.disk_full_cases(short_log, tmp_path / "o.parquet")
     assert len(cases) >= 5 and all(outcome == "message" for _, outcome in cases), cases
 
 
-def test_an_interrupt_at_every_chunk_leaves_the_previous_file(log, tmp_path):
+def test_an_interrupt_at_every_chunk_leaves_the_previous_file(short_log, tmp_path):
     with faults.many_chunks():
-        cases = faults.signal_cases(log, tmp_path / "o.parquet", signal.SIGINT)
+        cases = faults.signal_cases(short_log, tmp_path / "o.parquet", signal.SIGINT)
     assert len(cases) >= 8 and all(outcome == "message" for _, outcome in cases), cases

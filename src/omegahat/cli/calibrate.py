@@ -25,7 +25,6 @@ from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
 
-HELP = "Calibrate a gyroscope against an attitude log of the same body: clock offset, frame rotation, bias, scale."
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
         matrix (--scale matrix: raw counts, permuted or mirrored axes); omega in body axes, rad/s

@@ -56,7 +56,6 @@ from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
 from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
-HELP = "Estimate the angular velocity (rad/s, body axes) from attitude data (logs, exports, ROS bags)."
 EPILOG = """\
 input:  a CSV whose header names the columns (any order, any case; ',' ';' or tab), or an NPZ of named arrays:
           t                   sample times (--time-unit, default s), in order

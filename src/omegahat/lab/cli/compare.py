@@ -26,8 +26,6 @@ from omegahat.lab.evaluation import comparison as C
 from omegahat.lab.evaluation import peer_methods as PM
 from omegahat.lab.evaluation import robustness as RB
 
-HELP = "Compare omegahat with differencing, a spline, an EKF and published gyro-free filters on standard scenarios."
-
 #: every method (the comparison's, then the gyro-free peers' and the one-direction observer's)
 METHODS = (*C.METHODS, *PM.METHODS)
 #: every scenario: the attitude scenarios, then those whose sensor gives directions

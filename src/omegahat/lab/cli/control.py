@@ -17,11 +17,6 @@ from omegahat.lab.control import basin, report
 from omegahat.lab.control.closed_loop import ClosedLoopRun, Plant
 from omegahat.lab.control.scenarios import ARCSEC, ControlScenario, detumble, run_scenario, slew
 
-HELP = (
-    "Simulate velocity-free attitude control (detumble from 2 rad/s, 180 deg slew, a Monte-Carlo of the basin) "
-    "with the true rate, omegahat's estimate and differenced attitudes; write figures, CSV files and summary.md."
-)
-
 FEEDS = ("gyro", "omegahat", "differencing")
 SWEEP_DEG = (90.0, 150.0, 170.0, 179.0, 179.9, 180.0)
 #: basin runs at most: every run's results, and a row of basin_runs.csv, are held in memory

@@ -14,11 +14,6 @@ from omegahat.cli import positive_float, positive_int
 from omegahat.io.output import check_output_folder, staged_folder
 from omegahat.lab import campaigns
 
-HELP = (
-    "Run a Monte-Carlo campaign (TOML config, see examples/campaign.toml) and write summary.json, "
-    "counterexamples.json, envelopes.png and rates.png."
-)
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", type=Path, help="campaign configuration (TOML)")

@@ -24,8 +24,6 @@ from omegahat.lab.plots import plot_direction, plot_filter_errors, plot_omega
 from omegahat.observer.gains import check_gains
 from omegahat.simulation import PAPER_OMEGA_MAX, CoupledTrajectory, paper_problem, simulate
 
-HELP = "Simulate the paper's scenario and write its four figures, trajectory.csv and a summary."
-
 FIGURES = ("fig1_omega", "fig2_r1", "fig3_r2", "fig4_filter_errors")
 #: output samples at most (horizon / dt + 1): each is in the trajectory, its CSV and the figures
 MAX_SAMPLES = 2_000_000
