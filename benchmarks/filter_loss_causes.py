@@ -1,7 +1,9 @@
 """Why the causal filter (C3) can lose to differencing on a real log: two checks, per recording.
 
 Run: ``python benchmarks/filter_loss_causes.py CORPUS_DIR NAME[/STEP] ...`` (recordings of ``benchmarks/corpus.py``;
-``STEP`` decimates, as ``real_world.py`` does). Prints; writes nothing. Skips cleanly when a recording is absent.
+``STEP`` decimates, as ``real_world.py`` does), or ``python benchmarks/filter_loss_causes.py --all CORPUS_DIR`` for
+the first check over every attitude recording of the corpus at every rate it is scored at (below). Prints; writes
+nothing. Skips cleanly when a recording is absent.
 
 **Is the filter's expected gain optimistic because it is judged by the spectrum it was designed on?** (C3) of
 :mod:`omegahat.identification.causal` designs the filter on the log's spectrum and prints what (C2) expects of it by
@@ -9,6 +11,13 @@ that same spectrum. Here each half of the log designs its own filter, and (C2) j
 spectrum (:func:`omegahat.identification.causal.expected_rms_below` over the whole band, against differencing's by
 the same spectrum). Where the out-of-sample ratio matches the in-sample one, the design has not fitted the
 spectrum's scatter, and a gap between the expected and the measured gain has another cause.
+
+``--all`` does it for every recording as ``omegahat estimate`` designs the filter (on the head it identifies on,
+:data:`omegahat.io.choice.IDENTIFY_SAMPLES` rows, split in two halves), beside the filter's measured error over
+backward differencing's (the fair score of :func:`omegahat.lab.evaluation.broad.score`; the filter run alone, by
+:class:`omegahat.baselines.differencing.DifferencingEstimator`, without the stitching of resets), and asks what a
+rule would have done that ran differencing wherever the account by the other half expects no gain in the score's
+band (``expected ≥ 1`` for either half's filter).
 
 **Does the reference respond to the motion as the attitude does?** Backward differences ``b`` carry the rate at the
 intervals' midpoints with the interval mean's gain ``sinc(f)`` (f in cycles per step) plus the attitude's noise; the
@@ -34,10 +43,12 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.signal import csd, welch
 
-from omegahat.baselines.differencing import log_difference
+from omegahat.baselines.differencing import DifferencingEstimator, log_difference
 from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
 from omegahat.identification.spectral import increment_spectrum
-from omegahat.lab.evaluation.corpus import load_recording
+from omegahat.io.choice import IDENTIFY_SAMPLES
+from omegahat.lab.evaluation.broad import score
+from omegahat.lab.evaluation.corpus import load_recording, recordings
 
 BANDS_HZ = (0.5, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0)
 
@@ -98,7 +109,70 @@ def halves(path: Path, step: int) -> tuple[float, list[tuple[float, float]]]:
     return whole.expected_rms / whole.differencing_rms, out
 
 
+def _gmean(x: np.ndarray) -> float:
+    return float(np.exp(np.mean(np.log(x)))) if x.size else float("nan")
+
+
+def cross_validated(corpus: Path) -> int:
+    """``--all``: per scored rate of every attitude recording where (C3) keeps a filter, the measured ratio, the
+    expected one (whole band) and the score's band's expected ratio by each half's filter judged by the other half;
+    then the summary (geometric means, and the rule of the module docstring)."""
+    identity = np.zeros((TAPS, 3))
+    identity[0] = 1.0
+    rows, kept_differencing = [], 0
+    for path in recordings(corpus):
+        rec = load_recording(path)
+        if rec.kind != "quaternion" or rec.meta.get("truth"):  # a simulated plant is scored against its truth
+            continue
+        for step in [1, *rec.meta.get("decimate", [])]:
+            r = rec.decimated(step)
+            head = slice(0, IDENTIFY_SAMPLES)
+            t, R, valid = r.t[head], r.R[head], ~r.gaps[head]
+            design = causal_filter(increment_spectrum(t, R, valid))
+            if design.is_differencing or not np.isfinite(design.expected_rms):
+                kept_differencing += 1
+                continue
+            options = r.score_options()
+            cutoff = min(options.get("cutoff_hz", 10.0), 0.4 * r.fs)
+            band = cutoff / r.fs if np.isfinite(cutoff) else 0.5
+            bwd = score(r, DifferencingEstimator().run(r.t, r.data).omega, **options).rms
+            mine = score(r, DifferencingEstimator(taps=design.taps).run(r.t, r.data).omega, **options).rms
+            m = t.size // 2
+            halves_ = [increment_spectrum(t[:m], R[:m], valid[:m]), increment_spectrum(t[m:], R[m:], valid[m:])]
+            judged = []
+            for mine_half, other in ((0, 1), (1, 0)):
+                taps = causal_filter(halves_[mine_half]).taps
+                spectrum = halves_[other]
+                judged.append(expected_rms_below(spectrum, taps, band) / expected_rms_below(spectrum, identity, band))
+            rows.append((r.name, mine / bwd, design.expected_rms / design.differencing_rms, *judged))
+            print(f"{r.name:48s} measured {mine / bwd:.4f}  expected {rows[-1][2]:.3f}  "
+                  f"by the other half, in the score's band {judged[0]:.3f} / {judged[1]:.3f}", flush=True)  # fmt: skip
+    if not rows:
+        print(f"skipped: no attitude recording with a filter in {corpus}")
+        return 0
+    a = np.array([row[1:] for row in rows], dtype=float)
+    a = a[np.all(np.isfinite(a), axis=1)]
+    measured, expected, first, second = a.T
+    declined = (first >= 1.0) | (second >= 1.0)
+    ruled = np.where(declined, 1.0, measured)
+    print(f"\n{len(rows)} rows ran the filter ({kept_differencing} kept differencing); geometric means:")
+    print(f"  measured {_gmean(measured):.4f}, worst {measured.max():.4f}, above 1.02 on {np.sum(measured > 1.02)}")
+    print(f"  expected (whole band, in-sample) {_gmean(expected):.4f}")
+    print(f"  by the other half, score's band {_gmean(np.sqrt(first * second)):.4f}")
+    print(f"  the rule declines {declined.sum()} rows, which measured {_gmean(measured[declined]):.4f} "
+          f"(worst {measured[declined].max() if declined.any() else float('nan'):.4f}), "
+          f"{np.sum(declined & (measured > 1.02))} of the rows above 1.02")  # fmt: skip
+    print(f"  with the rule: {_gmean(ruled):.4f}, worst {ruled.max():.4f}, above 1.02 on {np.sum(ruled > 1.02)}")
+    return 0
+
+
 def main(argv: list[str]) -> int:
+    if len(argv) == 2 and argv[0] == "--all":
+        warnings.simplefilter("ignore")
+        if not Path(argv[1]).is_dir():
+            print(f"skipped: {argv[1]} is not a folder")
+            return 0
+        return cross_validated(Path(argv[1]))
     if len(argv) < 2:
         print(__doc__.split("\n\n")[1])
         return 2

@@ -528,6 +528,19 @@ def test_a_corpus_benchmark_skips_cleanly_without_a_corpus(name, tmp_path, monke
     assert results.read_text() == before
 
 
+def test_the_filter_loss_benchmark_skips_cleanly_without_a_corpus(tmp_path, monkeypatch, capsys):
+    """``benchmarks/filter_loss_causes.py --all`` on an empty corpus directory, or on one that is absent, says so
+    and exits 0; a named recording that is absent is skipped by name."""
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    bench = _script("filter_loss_causes")
+    assert bench.main(["--all", str(tmp_path)]) == 0
+    assert "skipped: no attitude recording with a filter" in capsys.readouterr().out
+    assert bench.main(["--all", str(tmp_path / "absent")]) == 0
+    assert "skipped:" in capsys.readouterr().out
+    assert bench.main([str(tmp_path), "ring-trial1-seg3/3"]) == 0
+    assert "ring-trial1-seg3: skipped" in capsys.readouterr().out
+
+
 def test_the_midpoint_benchmark_s_filter_gives_the_rate_half_a_step_back(monkeypatch):
     """(M-1) of ``benchmarks/midpoint_target.py`` on a fixed-axis turn whose rate is a constant plus a 3 Hz sine,
     sampled at 10 Hz with 10 µrad of noise: row k is the rate at ``t_k − h/2`` (the closed form), where backward
