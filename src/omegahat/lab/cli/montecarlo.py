@@ -2,16 +2,22 @@
 
 Checked before any work: the configuration (:func:`omegahat.lab.campaigns.load_campaign`: every value, and a
 campaign whose results would exceed :data:`omegahat.lab.campaigns.config.MAX_RESULT_BYTES` in memory), ``--runs``,
-``--horizon``, ``--out`` a folder (or absent). The files appear in ``--out`` only when all are written."""
+``--horizon``, ``--out`` a folder (or absent). The files appear in ``--out`` only when all are written.
+
+The simulation engine is compiled for each campaign's sizes (directions, torque terms) on its first run, as the
+wheel's warm-up compiles only the paper's (:mod:`omegahat.lab.warmup`): about 50 s on 2 cores for the example's
+sizes. That wait is announced when it starts and reported with the closing line, the runs' own time without it."""
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 from omegahat.cli import positive_float, positive_int
 from omegahat.io.output import check_output_folder, staged_folder
+from omegahat.kernels import compiling
 from omegahat.lab import campaigns
 
 
@@ -74,17 +80,23 @@ def run(args: argparse.Namespace) -> int:
     check_output_folder(args.out)
     if args.observers is not None:
         return run_observers(campaign, args)
+    compiled = compiling.seconds()
+    # on its own line: a progress bar may be on the terminal's current one
+    compiling.announce_with(lambda notice: print(f"\n{notice}", file=sys.stderr, flush=True))
     start = time.perf_counter()
-    if args.dask is None:
-        results = campaigns.run_campaign(campaign, progress=not args.no_progress)
-    else:
-        from omegahat.lab.campaigns import distributed
+    try:
+        if args.dask is None:
+            results = campaigns.run_campaign(campaign, progress=not args.no_progress)
+        else:
+            from omegahat.lab.campaigns import distributed
 
-        results = distributed.run_campaign_on(campaign, args.dask, progress=not args.no_progress)
-    elapsed = time.perf_counter() - start
+            results = distributed.run_campaign_on(campaign, args.dask, progress=not args.no_progress)
+    finally:
+        compiling.announce_with(None)
+    elapsed = time.perf_counter() - start - (compiling.seconds() - compiled)  # compiling is not running
     with staged_folder(args.out) as stage:
         summary = campaigns.write_outputs(campaign, results, stage)
-    print(f"{campaign.runs} runs in {elapsed:.1f} s; outputs in {args.out}/")
+    print(f"{campaign.runs} runs in {elapsed:.1f} s; outputs in {args.out}/{compiling.wait_note(compiled)}")
     for name, s in summary["gain_sets"].items():
         lam = "n/a" if s["worst_lambda"] is None else f"{s['worst_lambda']:.4g}/s"
         c = "n/a" if s["worst_c"] is None else f"{s['worst_c']:.4g}"
