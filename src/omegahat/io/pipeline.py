@@ -293,8 +293,7 @@ def estimate_stream(
     settings.check(spell)
     summary = RunSummary()
     compiled_before = compiling.seconds()
-    compiling.announce_with(announce or _stderr)  # said when a compilation starts (the head's check, a chunk)
-    try:
+    with compiling.announced(announce):  # said when a compilation starts (the head's check, a chunk)
         bad = BadSamples(settings, stream, spell)
         source = stream.chunks()
         head: list[LogChunk] = []
@@ -324,8 +323,6 @@ def estimate_stream(
                 if progress is not None:
                     progress(summary.rows)
             job.feed(None)  # the rows held back at the end
-    finally:
-        compiling.announce_with(None)
     summary.compile_s = compiling.seconds() - compiled_before
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"

@@ -11,14 +11,16 @@ user reads how long the run took in all and how much of it was compiling, not a 
 
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 from numba.core import event
 
-__all__ = ["NOTICE", "announce_with", "process_seconds", "seconds", "wait_note"]
+__all__ = ["NOTICE", "announce_with", "announced", "process_seconds", "seconds", "wait_note"]
 
 NOTICE = "compiling kernels, once (later runs load them from the cache) ..."  #: what the notice says by default
 _T_IMPORT = time.perf_counter()
@@ -73,6 +75,21 @@ def seconds() -> float:
 def announce_with(notice: Callable[[str], None] | None) -> None:
     """Call ``notice(NOTICE)`` when the next compilation starts, once (None: no notice)."""
     _LISTENER.notice = notice
+
+
+def _on_stderr(notice: str) -> None:
+    print(notice, file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def announced(notice: Callable[[str], None] | None = None) -> Iterator[None]:
+    """While active, the notice of :func:`announce_with` is said once when a compilation starts, by ``notice``
+    (None: printed on standard error), and no longer after: a command's work, with the wait said whole."""
+    announce_with(notice or _on_stderr)
+    try:
+        yield
+    finally:
+        announce_with(None)
 
 
 def process_seconds() -> float:

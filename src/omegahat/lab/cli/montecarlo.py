@@ -54,22 +54,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _on_its_own_line(notice: str) -> None:
+    """The compilation's notice on a line of its own: a progress bar may be on the terminal's current one."""
+    print(f"\n{notice}", file=sys.stderr, flush=True)
+
+
 def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int:
     """``--observers``: the uniformity comparison on the campaign's draws, written to ``OUT/uniformity.md``."""
     from omegahat.lab.evaluation import uniformity
 
     names = [n.strip() for n in args.observers.split(",") if n.strip()]
     show = None if args.no_progress else (lambda j, n: print(f"\r{j}/{n} runs", end="", flush=True))
-    rows = uniformity.run_uniformity(
-        campaign, names, gains=args.gains, horizon=args.horizon, tol=args.tol, progress=show
-    )
+    compiled = compiling.seconds()
+    with compiling.announced(_on_its_own_line):
+        rows = uniformity.run_uniformity(
+            campaign, names, gains=args.gains, horizon=args.horizon, tol=args.tol, progress=show
+        )
     if show is not None:
         print()
     text = uniformity.markdown(rows)
     with staged_folder(args.out) as stage:
         (stage / "uniformity.md").write_text(text)
     print(text, end="")
-    print(f"same draws for every observer: {uniformity.same_draws(rows)}; written to {args.out}/uniformity.md")
+    print(
+        f"same draws for every observer: {uniformity.same_draws(rows)}; written to {args.out}/uniformity.md"
+        + compiling.wait_note(compiled)
+    )
     return 0
 
 
@@ -81,18 +91,14 @@ def run(args: argparse.Namespace) -> int:
     if args.observers is not None:
         return run_observers(campaign, args)
     compiled = compiling.seconds()
-    # on its own line: a progress bar may be on the terminal's current one
-    compiling.announce_with(lambda notice: print(f"\n{notice}", file=sys.stderr, flush=True))
     start = time.perf_counter()
-    try:
+    with compiling.announced(_on_its_own_line):
         if args.dask is None:
             results = campaigns.run_campaign(campaign, progress=not args.no_progress)
         else:
             from omegahat.lab.campaigns import distributed
 
             results = distributed.run_campaign_on(campaign, args.dask, progress=not args.no_progress)
-    finally:
-        compiling.announce_with(None)
     elapsed = time.perf_counter() - start - (compiling.seconds() - compiled)  # compiling is not running
     with staged_folder(args.out) as stage:
         summary = campaigns.write_outputs(campaign, results, stage)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import csv
 import inspect
-import sys
 import time
 from pathlib import Path
 
@@ -95,14 +94,12 @@ def run(args: argparse.Namespace) -> int:
     check_args(args)
     problem = paper_problem()
     check_gains(problem.gains, problem.J, PAPER_OMEGA_MAX)  # warns if the theorem's conditions fail
-    compiling.announce_with(lambda notice: print(notice, file=sys.stderr, flush=True))
     start, before = time.perf_counter(), compiling.seconds()
-    try:
-        traj = simulate(problem, horizon=args.horizon, dt_out=args.dt)
-    except RuntimeError as exc:  # the step budget ran out before the horizon (tiny steps all along)
-        raise ValueError(f"--horizon {args.horizon:g}: {exc}") from None
-    finally:
-        compiling.announce_with(None)
+    with compiling.announced():
+        try:
+            traj = simulate(problem, horizon=args.horizon, dt_out=args.dt)
+        except RuntimeError as exc:  # the step budget ran out before the horizon (tiny steps all along)
+            raise ValueError(f"--horizon {args.horizon:g}: {exc}") from None
     elapsed = time.perf_counter() - start - (compiling.seconds() - before)  # compiling is not simulating
     out: Path = args.out
     with staged_folder(out) as stage:
