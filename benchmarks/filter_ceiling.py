@@ -82,7 +82,7 @@ from midpoint_target import SOURCES
 from omegahat.baselines.differencing import log_difference
 from omegahat.baselines.spline import spline_rate
 from omegahat.identification.causal import TAPS
-from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
+from omegahat.lab.evaluation.broad import score, score_cutoff_hz
 from omegahat.lab.evaluation.corpus import Recording, corpus_dir, group_of, load_recording, recordings
 from results_md import geo, machine_line, write_section
 
@@ -151,7 +151,7 @@ def ceiling(rec: Recording, taps: int = TAPS) -> dict[str, float]:
             return math.inf
 
     backward = scored(b)
-    cutoff = options.get("cutoff_hz", min(DEFAULT_CUTOFF_HZ, 0.4 * rec.fs))
+    cutoff = score_cutoff_hz(rec.fs, options.get("cutoff_hz"))
     band = (
         (lambda x: x)
         if cutoff == math.inf

@@ -44,11 +44,12 @@ from scipy.interpolate import CubicSpline
 from scipy.signal import csd, welch
 
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
-from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
+from omegahat.identification.causal import TAPS, CausalFilter, causal_filter, expected_rms_below
 from omegahat.identification.spectral import increment_spectrum
 from omegahat.io.choice import IDENTIFY_SAMPLES
-from omegahat.lab.evaluation.broad import score
+from omegahat.lab.evaluation.broad import score, score_cutoff_hz
 from omegahat.lab.evaluation.corpus import load_recording, recordings
+from results_md import gmean
 
 BANDS_HZ = (0.5, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0)
 
@@ -90,10 +91,10 @@ def response(path: Path, step: int) -> list[tuple[float, float, float, float]]:
     return rows
 
 
-def halves(path: Path, step: int) -> tuple[float, list[tuple[float, float]]]:
-    """The whole log's expected ratio to differencing, and per half (in-sample, judged by the other half)."""
-    rec = load_recording(path).decimated(step)
-    R, valid, t = rec.R, ~rec.gaps, rec.t
+def halves(t: np.ndarray, R: np.ndarray, valid: np.ndarray, band: float = 0.5) -> tuple[CausalFilter, list]:
+    """(C3)'s filter of the log ``(t, R)`` (used where ``valid``), and per half of it ``(in-sample, judged)``: the
+    ratio to differencing (C2) expects of the half's own filter by its own spectrum (the whole band), and by the other
+    half's spectrum in the band 0 … ``band`` (cycles per step)."""
     identity = np.zeros((TAPS, 3))
     identity[0] = 1.0
     whole = causal_filter(increment_spectrum(t, R, valid))
@@ -102,23 +103,17 @@ def halves(path: Path, step: int) -> tuple[float, list[tuple[float, float]]]:
     out = []
     for mine, other in ((0, 1), (1, 0)):
         design = causal_filter(spectra[mine])
-        judged = expected_rms_below(spectra[other], design.taps, 0.5) / expected_rms_below(
-            spectra[other], identity, 0.5
+        judged = expected_rms_below(spectra[other], design.taps, band) / expected_rms_below(
+            spectra[other], identity, band
         )
         out.append((design.expected_rms / design.differencing_rms, judged))
-    return whole.expected_rms / whole.differencing_rms, out
-
-
-def _gmean(x: np.ndarray) -> float:
-    return float(np.exp(np.mean(np.log(x)))) if x.size else float("nan")
+    return whole, out
 
 
 def cross_validated(corpus: Path) -> int:
     """``--all``: per scored rate of every attitude recording where (C3) keeps a filter, the measured ratio, the
     expected one (whole band) and the score's band's expected ratio by each half's filter judged by the other half;
     then the summary (geometric means, and the rule of the module docstring)."""
-    identity = np.zeros((TAPS, 3))
-    identity[0] = 1.0
     rows, kept_differencing = [], 0
     for path in recordings(corpus):
         rec = load_recording(path)
@@ -127,23 +122,15 @@ def cross_validated(corpus: Path) -> int:
         for step in [1, *rec.meta.get("decimate", [])]:
             r = rec.decimated(step)
             head = slice(0, IDENTIFY_SAMPLES)
-            t, R, valid = r.t[head], r.R[head], ~r.gaps[head]
-            design = causal_filter(increment_spectrum(t, R, valid))
+            options = r.score_options()
+            band = min(0.5, score_cutoff_hz(r.fs, options.get("cutoff_hz")) / r.fs)
+            design, parts = halves(r.t[head], r.R[head], ~r.gaps[head], band)
             if design.is_differencing or not np.isfinite(design.expected_rms):
                 kept_differencing += 1
                 continue
-            options = r.score_options()
-            cutoff = min(options.get("cutoff_hz", 10.0), 0.4 * r.fs)
-            band = cutoff / r.fs if np.isfinite(cutoff) else 0.5
             bwd = score(r, DifferencingEstimator().run(r.t, r.data).omega, **options).rms
             mine = score(r, DifferencingEstimator(taps=design.taps).run(r.t, r.data).omega, **options).rms
-            m = t.size // 2
-            halves_ = [increment_spectrum(t[:m], R[:m], valid[:m]), increment_spectrum(t[m:], R[m:], valid[m:])]
-            judged = []
-            for mine_half, other in ((0, 1), (1, 0)):
-                taps = causal_filter(halves_[mine_half]).taps
-                spectrum = halves_[other]
-                judged.append(expected_rms_below(spectrum, taps, band) / expected_rms_below(spectrum, identity, band))
+            judged = [b for _, b in parts]
             rows.append((r.name, mine / bwd, design.expected_rms / design.differencing_rms, *judged))
             print(f"{r.name:48s} measured {mine / bwd:.4f}  expected {rows[-1][2]:.3f}  "
                   f"by the other half, in the score's band {judged[0]:.3f} / {judged[1]:.3f}", flush=True)  # fmt: skip
@@ -156,13 +143,13 @@ def cross_validated(corpus: Path) -> int:
     declined = (first >= 1.0) | (second >= 1.0)
     ruled = np.where(declined, 1.0, measured)
     print(f"\n{len(rows)} rows ran the filter ({kept_differencing} kept differencing); geometric means:")
-    print(f"  measured {_gmean(measured):.4f}, worst {measured.max():.4f}, above 1.02 on {np.sum(measured > 1.02)}")
-    print(f"  expected (whole band, in-sample) {_gmean(expected):.4f}")
-    print(f"  by the other half, score's band {_gmean(np.sqrt(first * second)):.4f}")
-    print(f"  the rule declines {declined.sum()} rows, which measured {_gmean(measured[declined]):.4f} "
+    print(f"  measured {gmean(measured):.4f}, worst {measured.max():.4f}, above 1.02 on {np.sum(measured > 1.02)}")
+    print(f"  expected (whole band, in-sample) {gmean(expected):.4f}")
+    print(f"  by the other half, score's band {gmean(np.sqrt(first * second)):.4f}")
+    print(f"  the rule declines {declined.sum()} rows, which measured {gmean(measured[declined]):.4f} "
           f"(worst {measured[declined].max() if declined.any() else float('nan'):.4f}), "
           f"{np.sum(declined & (measured > 1.02))} of the rows above 1.02")  # fmt: skip
-    print(f"  with the rule: {_gmean(ruled):.4f}, worst {ruled.max():.4f}, above 1.02 on {np.sum(ruled > 1.02)}")
+    print(f"  with the rule: {gmean(ruled):.4f}, worst {ruled.max():.4f}, above 1.02 on {np.sum(ruled > 1.02)}")
     return 0
 
 
@@ -184,7 +171,9 @@ def main(argv: list[str]) -> int:
         if not path.is_file():
             print(f"{name}: skipped ({path} absent)")
             continue
-        whole, parts = halves(path, int(step or 1))
+        rec = load_recording(path).decimated(int(step or 1))
+        design, parts = halves(rec.t, rec.R, ~rec.gaps)
+        whole = design.expected_rms / design.differencing_rms
         judged = "; ".join(
             f"half {k + 1} in-sample {a:.3f}, by the other half {b:.3f}" for k, (a, b) in enumerate(parts)
         )

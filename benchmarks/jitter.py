@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import fnmatch
-import math
 import time
 import warnings
 from collections.abc import Callable, Iterator
@@ -40,7 +39,7 @@ from omegahat.identification import steps
 from omegahat.identification.spectral import SpectralSmoother
 from omegahat.lab.evaluation.broad import score
 from omegahat.lab.evaluation.corpus import Recording, corpus_dir, group_of, load_recording, pipeline_method, recordings
-from results_md import machine_line, write_section
+from results_md import gmean, machine_line, write_section
 
 SECTION = "## `--smooth` and the default on jittered timestamps (benchmarks/jitter.py)"
 DEFAULT = pipeline_method("omegahat estimate")
@@ -120,10 +119,6 @@ def _quaternions(R: np.ndarray) -> np.ndarray:
     return q
 
 
-def _geomean(xs: list[float]) -> float:
-    return math.exp(sum(math.log(x) for x in xs) / len(xs)) if xs else math.nan
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--only", nargs="+", metavar="PATTERN", help="recordings whose name matches (fnmatch)")
@@ -172,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     for (group, name), rows in found.items():
         cols = [[float(r[i]) for r in rows] for i in (0, 1, 3, 4)]
         reads = ", ".join(f"{k or 'even'} {sum(r[2] == k for r in rows)}" for k in sorted({r[2] for r in rows}))
-        a, b, c, d = (f"{_geomean(v):.3f}; {max(v):.3f}" for v in cols)
+        a, b, c, d = (f"{gmean(v):.3f}; {max(v):.3f}" for v in cols)
         lines.append(f"| {group} | {name} | {len(rows)} | {a} | {b} | {reads} | {c} | {d} |")
     table = "\n".join(lines)
     print("\n" + table + f"\n\n{sum(len(v) for v in found.values())} runs in {time.perf_counter() - t0:.0f} s")

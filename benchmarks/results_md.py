@@ -56,6 +56,12 @@ def machine_line() -> str:
     )
 
 
+def gmean(xs) -> float:
+    """The geometric mean of positive numbers (NaN for none)."""
+    xs = list(xs)
+    return math.exp(sum(math.log(x) for x in xs) / len(xs)) if xs else math.nan
+
+
 def geo(xs: list[float]) -> str:
     """A table cell for ratios: ``geometric mean; lowest–highest`` (three decimals)."""
-    return f"{math.exp(sum(math.log(x) for x in xs) / len(xs)):.3f}; {min(xs):.3f}–{max(xs):.3f}"
+    return f"{gmean(xs):.3f}; {min(xs):.3f}–{max(xs):.3f}"

@@ -37,7 +37,7 @@ from omegahat.identification import identify
 from omegahat.identification.causal import TAPS, causal_filter, expected_rms_below
 from omegahat.identification.spectral import increment_spectrum
 from omegahat.io.choice import IDENTIFY_SAMPLES
-from omegahat.lab.evaluation.broad import DEFAULT_CUTOFF_HZ, score
+from omegahat.lab.evaluation.broad import score, score_cutoff_hz
 from omegahat.lab.evaluation.corpus import METHODS, Recording, group_of, load_recording, recordings
 from results_md import machine_line, write_section
 
@@ -145,7 +145,7 @@ def main() -> int:
             identity = np.zeros_like(taps)
             identity[0] = 1.0
             rate = 1.0 / float(np.median(np.diff(rec.t)))
-            band = min(DEFAULT_CUTOFF_HZ, 0.4 * rate) / rate  # cycles per step
+            band = score_cutoff_hz(rate) / rate  # cycles per step
             if rec.native is not None and rec.name.startswith("broad"):
                 folds.append((group_of(rec.name), *fold_split(rec)))
             w_mine, w_theirs = (score(rec, method[m].run(rec).omega, **whole).rms for m in (DEFAULT, BACKWARD))

@@ -78,6 +78,7 @@ __all__ = [
     "load_csv_cut",
     "load_trial",
     "score",
+    "score_cutoff_hz",
 ]
 
 TRIALS = {
@@ -320,6 +321,12 @@ def _outside_reference(t: np.ndarray, reach: float, ref_t: np.ndarray) -> np.nda
     return out
 
 
+def score_cutoff_hz(fs: float, cutoff_hz: float | None = None) -> float:
+    """The score's low-pass corner (Hz) for a log sampled at ``fs`` Hz: ``cutoff_hz`` where given (``math.inf``:
+    no low-pass), else :data:`DEFAULT_CUTOFF_HZ` lowered to 0.4 × the rate for slower logs."""
+    return min(DEFAULT_CUTOFF_HZ, 0.4 * fs) if cutoff_hz is None else cutoff_hz
+
+
 def score(
     trial: Scorable,
     estimate: ArrayLike,
@@ -340,8 +347,7 @@ def score(
         raise ValueError(
             f"estimate must have shape ({N}, 3), one row per sample of trial {trial.name!r}; got {w.shape}"
         )
-    if cutoff_hz is None:
-        cutoff_hz = min(DEFAULT_CUTOFF_HZ, 0.4 * trial.fs)
+    cutoff_hz = score_cutoff_hz(trial.fs, cutoff_hz)
     _check_score_options(trial, cutoff_hz, order, gap_margin_s, max_shift, resolution)
     movement = trial.movement
     if movement is None:
