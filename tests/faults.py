@@ -89,6 +89,17 @@ def many_chunks(chunk_bytes: int = 1 << 12) -> Iterator[None]:
         yield
 
 
+def short_log(folder: Path) -> Path:
+    """``folder/log.csv``: 500 samples of a constant rate at 100 Hz (0.1 mrad of noise), 13 chunks under
+    :func:`many_chunks`: the runs with a fault, one per write or chunk, each identify their model on a short head."""
+    import numpy as np
+
+    from logmaker import constant_rate, write_csv
+
+    t = np.arange(500) / 100.0
+    return write_csv(folder / "log.csv", t, constant_rate(t, np.array([0.1, -0.2, 0.3]), 1e-4))
+
+
 def _parts(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
 

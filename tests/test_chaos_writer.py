@@ -9,19 +9,15 @@ import errno
 import os
 import signal
 
-import numpy as np
 import pytest
 
 import faults
-from logmaker import constant_rate, write_csv
 from omegahat.cli import main
 
 
 @pytest.fixture(scope="module")
 def log(tmp_path_factory):
-    # 500 samples: 13 chunks of 4 KiB, and each of the many runs identifies its model on a short head
-    t = np.arange(500) / 100.0
-    return write_csv(tmp_path_factory.mktemp("log") / "log.csv", t, constant_rate(t, np.array([0.1, -0.2, 0.3]), 1e-4))
+    return faults.short_log(tmp_path_factory.mktemp("log"))
 
 
 def check(cases, expected: str, at_least: int) -> None:

@@ -45,11 +45,7 @@ def test_the_parquet_file_holds_the_csv_files_rows(log, tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def short_log(tmp_path_factory):
-    """500 samples: the runs with a fault, one per write or chunk, each identify their model on a short head."""
-    t = np.arange(500) / 100.0
-    return write_csv(
-        tmp_path_factory.mktemp("short") / "log.csv", t, constant_rate(t, np.array([0.1, -0.2, 0.3]), 1e-4)
-    )
+    return faults.short_log(tmp_path_factory.mktemp("short"))
 
 
 def test_a_disk_full_at_every_write_leaves_the_previous_file(short_log, tmp_path):
