@@ -474,8 +474,9 @@ def test_command_writes_summary_and_figures(tmp_path):
     assert json.loads((out / "counterexamples.json").read_text()).keys() == {"theorem", "small"}
 
 
+@pytest.mark.parametrize("progress", [False, True])
 @pytest.mark.parametrize("observers", [False, True])
-def test_command_announces_a_compilation_and_reports_it_apart(observers, tmp_path, capsys, monkeypatch):
+def test_command_announces_a_compilation_and_reports_it_apart(observers, progress, tmp_path, capsys, monkeypatch):
     """A campaign's first run compiles the engine for its sizes (50 s for the example's, which the wheel does not
     ship): the notice when it starts, once, on a line of its own; the closing line's runs time without it, and the
     run's whole time with the compilation's share. The same for ``--observers``. A stand-in compilation of 30 s on a
@@ -499,10 +500,16 @@ def test_command_announces_a_compilation_and_reports_it_apart(observers, tmp_pat
     monkeypatch.setattr(owner, name, compiling_first)
     cfg = tmp_path / "c.toml"
     cfg.write_text(GOOD)
-    extra = ["--observers", "sarras", "--runs", "1"] if observers else []
-    assert main(["montecarlo", str(cfg), "--out", str(tmp_path / "out"), "--no-progress", *extra]) == 0
+    extra = (["--observers", "sarras", "--runs", "1"] if observers else []) + ([] if progress else ["--no-progress"])
+    assert main(["montecarlo", str(cfg), "--out", str(tmp_path / "out"), *extra]) == 0
     out, err = capsys.readouterr()
-    assert err.count(compiling.NOTICE) == 1 and f"\n{compiling.NOTICE}\n" in err
+    # a line of its own: after the progress bar's where one is drawn, and no empty line before it where none is
+    lines = err.splitlines()
+    assert err.count(compiling.NOTICE) == 1 and compiling.NOTICE in lines
+    if progress:
+        assert f"\n{compiling.NOTICE}\n" in err
+    else:
+        assert "" not in lines[: lines.index(compiling.NOTICE)]
     whole, share = re.search(
         r"; (\d+\.\d) s in all, (\d+\.\d) s of it compiling the kernels \(once: later", out
     ).groups()

@@ -55,8 +55,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _on_its_own_line(notice: str) -> None:
-    """The compilation's notice on a line of its own: a progress bar may be on the terminal's current one."""
+    """The compilation's notice after the progress bar's line (:func:`_notice`)."""
     print(f"\n{notice}", file=sys.stderr, flush=True)
+
+
+def _notice(args: argparse.Namespace):
+    """How the compilation's notice is said: on a line of its own, after the progress bar's where one is drawn
+    (None: :func:`omegahat.kernels.compiling.announced`'s own, on standard error)."""
+    return None if args.no_progress else _on_its_own_line
 
 
 def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int:
@@ -66,7 +72,7 @@ def run_observers(campaign: campaigns.Campaign, args: argparse.Namespace) -> int
     names = [n.strip() for n in args.observers.split(",") if n.strip()]
     show = None if args.no_progress else (lambda j, n: print(f"\r{j}/{n} runs", end="", flush=True))
     compiled = compiling.seconds()
-    with compiling.announced(_on_its_own_line):
+    with compiling.announced(_notice(args)):
         rows = uniformity.run_uniformity(
             campaign, names, gains=args.gains, horizon=args.horizon, tol=args.tol, progress=show
         )
@@ -92,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
         return run_observers(campaign, args)
     compiled = compiling.seconds()
     start = time.perf_counter()
-    with compiling.announced(_on_its_own_line):
+    with compiling.announced(_notice(args)):
         if args.dask is None:
             results = campaigns.run_campaign(campaign, progress=not args.no_progress)
         else:
