@@ -125,6 +125,23 @@ def add_quaternion_order(group: Any, where: str = "") -> None:
     )
 
 
+def add_euler_conventions(group: Any) -> None:
+    """``--euler SEQ`` and ``--angle-unit {deg,rad}`` (into ``euler`` and ``angle_unit``, None when not given) on
+    ``group``: the conventions of ``roll, pitch, yaw`` columns (:mod:`omegahat.io.euler`), which no log shows."""
+    from omegahat.io.euler import ANGLE_UNITS  # the commands that read logs load omegahat.io anyway
+
+    group.add_argument(
+        "--euler",
+        metavar="SEQ",
+        help="roll,pitch,yaw columns (angles about x, y, z): their sequence as SciPy writes it, upper case about the "
+        "rotating axes, lower case about the fixed ones (ZYX = xyz: R = Rz(yaw) Ry(pitch) Rx(roll), the aerospace "
+        "convention); required for such logs",
+    )
+    group.add_argument(
+        "--angle-unit", choices=ANGLE_UNITS, help="unit of the roll,pitch,yaw columns; required for such logs"
+    )
+
+
 def _integer(text: str) -> int:
     """An integer written as one (``20``) or as an integral number (``1e6``)."""
     try:

@@ -19,7 +19,7 @@ import numpy as np
 
 from omegahat import so3
 from omegahat.calibration import MODES, Calibration, band_limited, calibrate
-from omegahat.cli import add_column_options, add_quaternion_order, positive_float
+from omegahat.cli import add_column_options, add_euler_conventions, add_quaternion_order, positive_float
 from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import read_gyro
@@ -115,6 +115,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     att.add_argument("--time-column", default="t", metavar="NAME")
     att.add_argument("--rotation", choices=ROTATIONS, default="body-to-inertial")
     add_quaternion_order(att)
+    add_euler_conventions(att)
     att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon, Qualisys or C3D file")
     add_column_options(att)
     att.add_argument(
@@ -173,6 +174,8 @@ def run(args: argparse.Namespace) -> int:
         header_rows=args.header_rows,
         rate=args.rate,
         duplicate_times=args.duplicate_times,
+        euler=args.euler,
+        angle_unit=args.angle_unit,
     )
     log = read_log(args.attitude, options=options)
     if log.kind == "directions":

@@ -6,13 +6,14 @@ does the work on the stream :func:`omegahat.io.open_log` opens, writing through 
 messages name the options as flags (:func:`cli_option`).
 
 Input (:mod:`omegahat.io`, recognised from the file): omegahat's CSV (a header naming the columns: ``t`` plus a
-quaternion ``qw,qx,qy,qz``, a rotation matrix ``r11..r33`` or body-frame directions ``b1x,b1y,b1z,b2x,...``
-with ``--references``; optionally the torque ``tau_x,tau_y,tau_z``, N·m, body axes) or NPZ log; an OptiTrack
-Motive or Vicon CSV export or a C3D file (``--body``); a ROS 1 bag (``.bag``) or ROS 2 bag (directory) with
-``--topic`` and, for transforms, ``--parent-frame``/``--child-frame``. Conventions, each an option with a stated
-default: ``--time-unit s``, ``--rotation body-to-inertial`` (``v_inertial = R v_body``; spacecraft logs often store
-the inverse: ``inertial-to-body``), ``--scalar-first``/``--scalar-last`` (SciPy's name; only for unnamed
-quaternions: NPZ ``q`` arrays, default scalar last, or ``q0..q3``/``q1..q4`` columns).
+quaternion ``qw,qx,qy,qz``, a rotation matrix ``r11..r33``, body-frame directions ``b1x,b1y,b1z,b2x,...`` with
+``--references``, or Euler angles ``roll,pitch,yaw`` with ``--euler`` and ``--angle-unit``; optionally the torque
+``tau_x,tau_y,tau_z``, N·m, body axes) or NPZ log; an OptiTrack Motive or Vicon CSV export or a C3D file
+(``--body``); a ROS 1 bag (``.bag``) or ROS 2 bag (directory) with ``--topic`` and, for transforms,
+``--parent-frame``/``--child-frame``. Conventions, each an option with a stated default: ``--time-unit s``,
+``--rotation body-to-inertial`` (``v_inertial = R v_body``; spacecraft logs often store the inverse:
+``inertial-to-body``), ``--scalar-first``/``--scalar-last`` (SciPy's name; only for unnamed quaternions: NPZ ``q``
+arrays, default scalar last, or ``q0..q3``/``q1..q4`` columns).
 
 Output: ``-o X.csv``: ``t,wx,wy,wz,status``: rad/s in **body axes**, one row per sample (duplicates dropped by
 the timestamp policy have none); ``status`` is ``corrected``, ``predicted`` (no usable sample there: predicted
@@ -46,7 +47,7 @@ import numpy as np
 from tqdm import tqdm
 
 from omegahat import measurements as ms
-from omegahat.cli import add_column_options, add_quaternion_order, many
+from omegahat.cli import add_column_options, add_euler_conventions, add_quaternion_order, many
 from omegahat.io import ReadOptions, check_output, open_log, open_output
 from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import RunSummary, estimate_stream
@@ -62,7 +63,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           qw,qx,qy,qz         attitude quaternion (names say which is the scalar), or
           r11,r12,...,r33     rotation matrix, row i column j, or
           b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references); one direction
-                              alone (a sun sensor) needs a tumbling body and --inertia (its own observer)
+                              alone (a sun sensor) needs a tumbling body and --inertia (its own observer), or
+          roll,pitch,yaw      Euler angles about x, y, z, with --euler SEQ and --angle-unit deg|rad
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
         an attitude with an empty field, nan or inf is a missing sample; other columns are ignored.
         other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
@@ -162,6 +164,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "NPZ array q (default: scalar last) or columns q0..q3 / q1..q4 (one of --scalar-first/--scalar-last required "
         "there); named columns qw,qx,qy,qz need neither",
     )
+    add_euler_conventions(conv)
     model = parser.add_argument_group("model and gains")
     model.add_argument(
         "--inertia",
@@ -342,6 +345,8 @@ def estimate_file(
         rate=args.rate,
         times=args.times,
         duplicate_times=args.duplicate_times,
+        euler=args.euler,
+        angle_unit=args.angle_unit,
     )
     out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
     stream = open_log(args.input, options)

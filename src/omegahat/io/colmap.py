@@ -2,7 +2,8 @@ r"""The column map: which column of a file holds what, when its names are not om
 
 ``--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME`` (``columns=`` in :func:`omegahat.io.read_log` and
 :func:`omegahat.estimate_frame`) names, for each of omegahat's quantities (the keys of :mod:`omegahat.io.columns`:
-``t``, ``qw qx qy qz``, ``r11 … r33``, ``b1x b1y b1z …``, ``tau_x tau_y tau_z``), the column holding it:
+``t``, ``qw qx qy qz``, ``r11 … r33``, ``b1x b1y b1z …``, ``roll pitch yaw``, ``tau_x tau_y tau_z``), the column
+holding it:
 
 * by **name**, compared as :func:`omegahat.io.columns.normalise_name` compares names (case and surrounding blanks
   ignored), after the header rows are joined (below);
@@ -30,6 +31,7 @@ import re
 from collections.abc import Mapping, Sequence
 
 from omegahat.io.columns import (
+    EULER_COLUMNS,
     MATRIX_COLUMNS,
     QUATERNION_COLUMNS,
     TORQUE_COLUMNS,
@@ -50,7 +52,13 @@ __all__ = [
 
 ColumnMap = tuple[tuple[str, "str | int"], ...]  #: parsed map: (key, column name or 1-based position), in order
 _DIRECTION_KEY = re.compile(r"b[1-9]\d*[xyz]")
-_GROUPS = {"time": ("t",), "quaternion": QUATERNION_COLUMNS, "matrix": MATRIX_COLUMNS, "torque": TORQUE_COLUMNS}
+_GROUPS = {
+    "time": ("t",),
+    "quaternion": QUATERNION_COLUMNS,
+    "matrix": MATRIX_COLUMNS,
+    "euler": EULER_COLUMNS,
+    "torque": TORQUE_COLUMNS,
+}
 #: what :func:`suggest_columns` prints where the names suggest no reading
 COLUMNS_TEMPLATE = "--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by position: t=1,qw=2,qx=3,qy=4,qz=5)"
 
@@ -58,7 +66,7 @@ COLUMNS_TEMPLATE = "--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by posi
 def _group(key: str) -> str:
     for g, keys in _GROUPS.items():
         if key in keys:
-            return "attitude" if g in ("quaternion", "matrix") else g
+            return "attitude" if g in ("quaternion", "matrix", "euler") else g
     return "attitude" if _DIRECTION_KEY.fullmatch(key) else ""
 
 
@@ -92,7 +100,7 @@ def parse_columns(spec: str | Mapping[str, str | int] | Sequence | None) -> Colu
         if not _group(k):
             raise ValueError(
                 f"columns: unknown key {key!r}; the keys are t, qw, qx, qy, qz, r11..r33, b1x, b1y, b1z, b2x, ..., "
-                "tau_x, tau_y, tau_z"
+                "roll, pitch, yaw, tau_x, tau_y, tau_z"
             )
         if k in out:
             raise ValueError(f"columns: {k} given twice")

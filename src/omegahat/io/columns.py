@@ -9,6 +9,7 @@ removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups,
 * rotation matrix ``r11 … r33`` (``rij`` = row i, column j);
 * body-frame directions ``b1x, b1y, b1z, b2x, …`` (numbered without gaps; one direction alone goes to
   :mod:`omegahat.io.single_direction`);
+* Euler angles ``roll, pitch, yaw`` (about x, y, z; the sequence and unit are options: :mod:`omegahat.io.euler`);
 * torque ``tau_x, tau_y, tau_z``.
 
 Exactly one attitude group may be present. A reader (CSV, NPZ, or a format registered in
@@ -23,6 +24,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 __all__ = [
+    "EULER_COLUMNS",
     "MATRIX_COLUMNS",
     "MAX_COLUMNS",
     "QUATERNION_COLUMNS",
@@ -38,6 +40,7 @@ __all__ = [
 QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")  # stored in this order: SciPy's scalar-last
 MATRIX_COLUMNS = tuple(f"r{i}{j}" for i in range(1, 4) for j in range(1, 4))
 TORQUE_COLUMNS = ("tau_x", "tau_y", "tau_z")
+EULER_COLUMNS = ("roll", "pitch", "yaw")  # the angles about x, y, z (omegahat.io.euler)
 QUATERNION_ORDERS = ("wxyz", "xyzw")
 MAX_COLUMNS = 200_000  #: a header naming more columns is refused before its names are split (issue 23: size limits)
 _AXES = ("x", "y", "z")
@@ -48,7 +51,9 @@ _NUMBERED: dict[tuple[str, ...], dict[str, tuple[str, ...]]] = {
 }
 
 
-_KEYS = frozenset(("t", *QUATERNION_COLUMNS, *MATRIX_COLUMNS, *TORQUE_COLUMNS, *(f"q{i}" for i in range(5))))
+_KEYS = frozenset(
+    ("t", *QUATERNION_COLUMNS, *MATRIX_COLUMNS, *EULER_COLUMNS, *TORQUE_COLUMNS, *(f"q{i}" for i in range(5)))
+)
 
 
 class LogFormatError(ValueError):
@@ -60,7 +65,7 @@ class Layout:
     """Where a log's quantities are: names as found (normalised), attitude columns in storage order."""
 
     time: str
-    kind: str  # "quaternion", "matrix" or "directions"
+    kind: str  # "quaternion", "matrix", "directions" or "euler" (angles about x, y, z)
     attitude: tuple[str, ...]
     torque: tuple[str, ...] | None
     quaternion_named: bool = True  # False for q0..q3 / q1..q4 (order from the option)
@@ -126,11 +131,14 @@ def layout(names: Iterable[str], where: str, time_column: str | None = "t", scal
         "quaternion": list(numbered or QUATERNION_COLUMNS),
         "matrix": list(MATRIX_COLUMNS),
         "directions": direction_columns(normalised),
+        "euler": list(EULER_COLUMNS),
     }
     touched = {kind: cols for kind, cols in groups.items() if cols and present & set(cols)}
+    if len(touched) > 1:  # Euler angles beside an exact attitude (exports often write both): the exact one is read
+        touched.pop("euler", None)
     if not touched:
         raise LogFormatError(
-            f"{where}: no attitude columns; expected qw,qx,qy,qz or r11..r33 or b1x,b1y,b1z,b2x,... "
+            f"{where}: no attitude columns; expected qw,qx,qy,qz or r11..r33 or b1x,b1y,b1z,b2x,... or roll,pitch,yaw "
             f"(found: {', '.join(normalised)})"
         )
     if len(touched) > 1:

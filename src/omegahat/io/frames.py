@@ -296,6 +296,8 @@ def estimate_frame(
     columns: str | dict | None = None,
     header_rows: int | None = None,
     duplicate_times: str = "error",
+    euler: str | None = None,
+    angle_unit: str | None = None,
     start: Start = "fit",
     estimator: EstimatorName = "auto",
     smooth: bool = False,
@@ -343,6 +345,9 @@ def estimate_frame(
         Rows at one time whose attitudes differ are refused (``"error"``, the default) or the ``"first"`` or
         ``"last"`` of them is kept, the others getting its estimate (:mod:`omegahat.io.timestamps`, rule 3), with a
         warning that counts them.
+    euler, angle_unit : str, optional
+        For ``roll, pitch, yaw`` columns, as ``--euler`` and ``--angle-unit``: the sequence (``"ZYX"``) and
+        ``"deg"`` or ``"rad"`` (:mod:`omegahat.io.euler`); required for such frames.
     start : {"fit", "warm", "zero"}, optional
         ``fit`` (default: a least-squares rate over the first window), ``warm`` (from the first two samples) or
         ``zero``.
@@ -409,6 +414,8 @@ def estimate_frame(
         columns=columns,
         header_rows=header_rows,
         duplicate_times=duplicate_times,
+        euler=euler,
+        angle_unit=angle_unit,
     )
     stream = open_frame(df, options, time=time, quaternion=quaternion)
     settings = EstimateSettings(

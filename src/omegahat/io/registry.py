@@ -50,6 +50,7 @@ from numpy.typing import ArrayLike
 
 from omegahat.io.colmap import ColumnMap, parse_columns
 from omegahat.io.columns import LogFormatError
+from omegahat.io.euler import as_matrices, check_conventions
 from omegahat.io.precision import Normaliser
 from omegahat.io.timestamps import DUPLICATE_CHOICES, TimePolicy
 
@@ -83,7 +84,7 @@ STAMPS = ("header", "receive")
 DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)
 CHUNK_ROWS = 1 << 17  #: rows per chunk of formats read whole (NPZ, bags, exports, DataFrames)
 #: options for logs whose columns are named by omegahat's rules (CSV, NPZ): the default of register_format
-COLUMN_OPTIONS = ("time_unit", "scalar_first", "time_column")
+COLUMN_OPTIONS = ("time_unit", "scalar_first", "time_column", "euler", "angle_unit")
 #: options of the formats read column by column through a column map (omegahat.io.colmap): text logs
 MAP_OPTIONS = ("columns", "header_rows")
 #: option -> its name on the command line (messages say both where it matters)
@@ -100,6 +101,8 @@ OPTION_FLAGS = {
     "header_rows": "--header-rows",
     "rate": "--rate",
     "times": "--times",
+    "euler": "--euler",
+    "angle_unit": "--angle-unit",
 }
 
 
@@ -108,7 +111,7 @@ class ReadOptions:
     """How to read a log: conventions the file itself may not state, and which body or topic to read.
 
     ``time_unit``, ``scalar_first`` (the quaternion order, as SciPy names it: True ``w, x, y, z``, False
-    ``x, y, z, w``), ``time_column``: omegahat's CSV and NPZ logs (module docstring);
+    ``x, y, z, w``), ``time_column``, ``euler``, ``angle_unit`` (:mod:`omegahat.io.euler`): CSV, NPZ and Parquet logs;
     ``columns`` (a column map: ``"t=1,qw=2,..."`` or ``{"t": "Time", "qw": 2}``) and ``header_rows`` (rows the
     header spans; 0: none): text logs (:mod:`omegahat.io.colmap`); ``rotation``: every attitude format; ``body``:
     the rigid body of a Motive, Vicon, Qualisys or C3D file; ``topic``, ``parent_frame``, ``child_frame``,
@@ -132,6 +135,8 @@ class ReadOptions:
     rate: float | None = None
     times: str | None = None
     duplicate_times: str = "error"
+    euler: str | None = None
+    angle_unit: str | None = None
     chunk_bytes: int = 1 << 21  # CSV: bytes per chunk (memory stays proportional to this, not to the log)
 
     def __post_init__(self):
@@ -152,6 +157,7 @@ class ReadOptions:
             raise ValueError(
                 f"duplicate times must be one of {', '.join(DUPLICATE_CHOICES)}; got {self.duplicate_times!r}"
             )
+        check_conventions(self.euler, self.angle_unit)
         if self.stamp not in STAMPS:
             raise ValueError(f"stamp must be {' or '.join(STAMPS)}; got {self.stamp!r}")
 
@@ -421,6 +427,7 @@ def _chunk(arrays: tuple, sel) -> LogChunk:
 def checked_stream(stream: LogStream, options: ReadOptions) -> LogStream:
     """Wrap a format's raw stream in the conversions and checks of the module docstring (done by
     :func:`open_log`; formats not read from a path, e.g. DataFrames, call it themselves)."""
+    as_matrices(stream, options.euler, options.angle_unit)  # Euler angles (a no-op for other attitudes)
     raw = stream._chunks
     stream._chunks = lambda: _checked(stream, raw, options)
     stream.options = options

@@ -1,0 +1,119 @@
+r"""Attitude logged as Euler angles: columns ``roll``, ``pitch``, ``yaw``, the angles about the x, y and z axes.
+
+Many loggers (IMU and flight-controller exports, phone apps, hand-written CSVs) store the attitude as three angles.
+The names say which axis each angle turns about, but not the two conventions needed to build the rotation, and no
+log can show them (any sequence and either unit turn any column of numbers into *some* rotation). So they are asked
+for, never assumed:
+
+* the **sequence** (``euler``, ``--euler``): three letters, each of x, y, z once, as SciPy writes them. Upper case
+  turns about the body's own axes as they move (intrinsic), lower case about the fixed axes (extrinsic). For the
+  sequence :math:`a_1 a_2 a_3`, with :math:`R_a(\theta)` the rotation by :math:`\theta` about axis :math:`a` and
+  :math:`\theta_a` the angle of the column for :math:`a` (x: ``roll``, y: ``pitch``, z: ``yaw``),
+
+  .. math::
+
+     R = R_{a_1}(\theta_{a_1})\,R_{a_2}(\theta_{a_2})\,R_{a_3}(\theta_{a_3})   \quad\text{(upper case)}  \tag{E1}
+
+  .. math::
+
+     R = R_{a_3}(\theta_{a_3})\,R_{a_2}(\theta_{a_2})\,R_{a_1}(\theta_{a_1})   \quad\text{(lower case)}  \tag{E2}
+
+  so ``ZYX`` and ``xyz`` are the same rotation, :math:`R = R_z(\text{yaw})\,R_y(\text{pitch})\,R_x(\text{roll})`:
+  the aerospace convention (and ROS's roll-pitch-yaw, and most IMU vendors'). R maps body to inertial
+  (:math:`v_\text{inertial} = R\,v_\text{body}`) unless ``--rotation inertial-to-body`` says otherwise;
+* the **unit** (``angle_unit``, ``--angle-unit``): ``deg`` or ``rad``.
+
+The angles are turned into rotation matrices (SciPy's :meth:`~scipy.spatial.transform.Rotation.from_euler`) as the
+rows are read; from there the log is a log of rotation matrices. The conversion has no singularity (only the inverse,
+matrix to angles, has one at pitch ±90° for ``ZYX``). A sample with an empty or non-finite angle is a missing sample,
+as for every attitude. Sequences that repeat an axis (``ZXZ``) have no column per axis and are not read.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from omegahat.io.columns import EULER_COLUMNS, LogFormatError
+
+__all__ = ["ANGLE_UNITS", "as_matrices", "check_conventions"]
+
+ANGLE_UNITS = ("deg", "rad")
+_ASK = (
+    "--euler SEQ (e.g. ZYX: yaw, then pitch, then roll about the body's rotating axes, the aerospace convention; "
+    "lower case turns about the fixed axes) and --angle-unit deg or rad"
+)
+
+
+def check_conventions(euler: str | None, angle_unit: str | None) -> None:
+    """Raise ``ValueError`` unless ``euler`` is None or three letters naming x, y and z once each, all upper or all
+    lower case, and ``angle_unit`` is None, ``"deg"`` or ``"rad"``."""
+    if euler is not None and not (
+        isinstance(euler, str)
+        and len(euler) == 3
+        and (euler.isupper() or euler.islower())
+        and set(euler.lower()) == set("xyz")
+    ):
+        raise ValueError(
+            "Euler sequence must be three letters naming x, y and z once each, upper case (about the rotating axes) "
+            f"or lower case (about the fixed axes), e.g. ZYX; got {euler!r}"
+        )
+    if angle_unit not in (None, *ANGLE_UNITS):
+        raise ValueError(f"angle unit must be {' or '.join(ANGLE_UNITS)}; got {angle_unit!r}")
+
+
+def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
+    """Make ``stream`` (a :class:`~omegahat.io.registry.LogStream`; that module imports this one) of kind
+    ``"euler"`` (chunks of angles ``(m, 3)`` about x, y, z) a stream of rotation matrices by (E1)/(E2). Raises
+    :class:`LogFormatError` asking for the conventions when either is missing, and when they are given for a log of
+    another attitude."""
+    if stream.kind != "euler":
+        if euler is not None or angle_unit is not None:
+            raise LogFormatError(
+                f"{stream.source}{stream.context}: --euler and --angle-unit read roll,pitch,yaw columns; this log's "
+                f"attitude is {stream.attitude_name or stream.kind} (leave them out)"
+            )
+        return
+    missing = [flag for flag, value in (("--euler", euler), ("--angle-unit", angle_unit)) if value is None]
+    if missing:
+        raise LogFormatError(
+            f"{stream.source}{stream.context}: the attitude is Euler angles ({stream.attitude_name}), whose sequence "
+            f"and unit the log cannot show; pass {_ASK} (missing: {', '.join(missing)}; in Python euler= and "
+            "angle_unit=)"
+        )
+    assert euler is not None and angle_unit is not None
+    check_conventions(euler, angle_unit)
+    from scipy.spatial.transform import Rotation  # loaded only for Euler logs
+
+    order = ["xyz".index(a) for a in euler.lower()]  # columns x, y, z in the order of the sequence
+    degrees = angle_unit == "deg"
+    raw: Callable[[], Iterator] = stream._chunks
+    seen = {"largest": 0.0}
+
+    def chunks() -> Iterator:
+        for chunk in raw():
+            angles = np.asarray(chunk.data, dtype=float)
+            ok = np.all(np.isfinite(angles), axis=1)
+            matrices = np.full((len(angles), 3, 3), np.nan)
+            if ok.any():
+                matrices[ok] = Rotation.from_euler(euler, angles[ok][:, order], degrees=degrees).as_matrix()
+                seen["largest"] = max(seen["largest"], float(np.max(np.abs(angles[ok]))))
+            yield replace(chunk, data=matrices)
+        if not degrees and seen["largest"] > 2 * np.pi + 0.5:
+            stream.notes.append(
+                f"angles up to {seen['largest']:.4g} read as radians (--angle-unit rad): more than a turn; if they are "
+                "degrees, pass --angle-unit deg"
+            )
+
+    names = ", ".join(EULER_COLUMNS)
+    about = "rotating" if euler.isupper() else "fixed"
+    stream.notes.append(
+        f"attitude: Euler angles {names} in {'degrees' if degrees else 'radians'}, sequence {euler} (about the "
+        f"{about} axes)"
+    )
+    stream.kind = "matrix"
+    stream.digits = None  # the angles' digits say nothing of the matrices' precision
+    stream._chunks = chunks
