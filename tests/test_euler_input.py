@@ -187,3 +187,17 @@ def test_column_map_names_euler_columns(tmp_path):
     columns = "t=Time,roll=Roll (deg),pitch=Pitch (deg),yaw=Yaw (deg)"
     log = read_log(path, columns=columns, euler="ZYX", angle_unit="deg")
     np.testing.assert_allclose(log.data, by_hand("ZYX", angles), atol=1e-12)
+
+
+def test_the_error_for_unknown_names_prints_the_euler_line_that_reads_them(tmp_path, capsys):
+    t, angles = sample_angles()
+    path = write(tmp_path / "e.csv", t, np.degrees(angles), header="Time (s),Roll (deg),Pitch (deg),Yaw (deg)")
+    assert main(["estimate", str(path), "-o", str(tmp_path / "o.csv")]) != 0
+    err = capsys.readouterr().err
+    line = "--columns 't=Time (s),roll=Roll (deg),pitch=Pitch (deg),yaw=Yaw (deg)' --euler SEQ --angle-unit deg"
+    assert line in err
+    filled = ["--columns", "t=Time (s),roll=Roll (deg),pitch=Pitch (deg),yaw=Yaw (deg)", "--euler", "ZYX"]
+    assert main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), *filled, "--angle-unit", "deg"]) == 0
+    unitless = write(tmp_path / "u.csv", t, angles, header="time,Roll,Pitch,Yaw")
+    assert main(["estimate", str(unitless), "-o", str(tmp_path / "o.csv")]) != 0
+    assert "--columns t=time,roll=Roll,pitch=Pitch,yaw=Yaw --euler SEQ --angle-unit deg|rad" in capsys.readouterr().err

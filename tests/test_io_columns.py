@@ -92,11 +92,18 @@ def test_prose_comment_lines_above_the_header_are_skipped_and_said(tmp_path):
     log = read_log(path)
     np.testing.assert_array_equal(log.t, t)
     np.testing.assert_array_equal(log.data, q)
-    assert "2 comment line(s) starting with '#' above the header skipped" in log.notes
+    assert "2 comment line(s) starting with '#' or '//' above the header skipped" in log.notes
     rows[2] = "0.2,nonsense,0,0,0"  # the line numbers still count the comment lines: this is line 6
     path.write_text("# sampling frequency: 10\n# units\nt,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
     with pytest.raises(LogFormatError, match=r"commented\.csv, line 6\b"):
         read_log(path)
+    slashes = tmp_path / "slashes.txt"  # an IMU export's preamble: '//' lines of prose, then a tab-separated header
+    tabbed = [f"{t[k]}\t{num(q[k, 3])}\t{num(q[k, 0])}\t{num(q[k, 1])}\t{num(q[k, 2])}" for k in range(3)]
+    preamble = "// Start Time: 2026-01-01 12:00:00\n// Update Rate: 10.0Hz\n// Firmware Version: 4.2.1\n"
+    slashes.write_text(preamble + "t\tqw\tqx\tqy\tqz\n" + "\n".join(tabbed) + "\n")
+    log = read_log(slashes)
+    np.testing.assert_array_equal(log.data, q[:3])
+    assert "3 comment line(s) starting with '#' or '//' above the header skipped" in log.notes
     header_with_hash = tmp_path / "hash_header.csv"  # '#' before names with delimiters: a header, not prose
     header_with_hash.write_text("#t,qw,qx,qy,qz\n" + "\n".join(rows[:2]) + "\n")
     with pytest.raises(LogFormatError, match=r"hash_header\.csv, line 1 \(header\)"):

@@ -207,7 +207,8 @@ def suggest_columns(names: Sequence[str]) -> str:
     """The ``--columns`` line that reads a file with these header names, guessed from them (a time-like column; four
     columns ending in w, x, y, z with a common prefix, preferring orientation-like prefixes), or the template. Four
     columns numbered 0–3 or 1–4 instead (``QUATERNION_0`` … ``QUATERNION_3``) do not say which is the scalar part:
-    then both lines, each with the column it takes for the scalar."""
+    then both lines, each with the column it takes for the scalar. Columns roll, pitch and yaw: their line, with
+    ``--euler`` and ``--angle-unit`` to complete."""
     base = [_unit_free(normalise_name(n)) for n in names]
     pos = {j: (names[j] if names[j].strip() and not re.search(r"[,=]", names[j]) else j + 1) for j in range(len(names))}
     unique = {b for b in base if base.count(b) == 1}
@@ -221,12 +222,24 @@ def suggest_columns(names: Sequence[str]) -> str:
         return columns_line([("t", pos[time]), *((f"q{a}", pos[g[a]]) for a in "wxyz")])
     numbered = _four(base, unique, r"[0-4]", ({"0", "1", "2", "3"}, {"1", "2", "3", "4"}))
     if not numbered:
-        return COLUMNS_TEMPLATE
+        return _euler_line(names, base, unique, pos, time)
     g = min(numbered, key=rank)[1]
     cols = [g[d] for d in sorted(g)]
     first = columns_line([("t", pos[time]), *zip(("qw", "qx", "qy", "qz"), (pos[j] for j in cols), strict=True)])
     last = columns_line([("t", pos[time]), *zip(("qx", "qy", "qz", "qw"), (pos[j] for j in cols), strict=True)])
     return f"{first} if {names[cols[0]]} is the quaternion's scalar part, {last} if {names[cols[3]]} is"
+
+
+def _euler_line(names: Sequence[str], base: list[str], unique: set[str], pos: dict, time: int) -> str:
+    """The ``--columns`` line for columns named roll, pitch and yaw (once each, units aside), with the Euler options
+    to fill in (the unit given when every name states the same one: ``Roll (deg)``), or the template."""
+    found = {a: base.index(a) for a in EULER_COLUMNS if a in unique}
+    if len(found) < 3:
+        return COLUMNS_TEMPLATE
+    units = {u for j in found.values() for u in ("deg", "rad") if re.search(rf"[\[(]\s*{u}", names[j].lower())}
+    unit = units.pop() if len(units) == 1 else "deg|rad"
+    line = columns_line([("t", pos[time]), *((a, pos[j]) for a, j in found.items())])
+    return f"{line} --euler SEQ --angle-unit {unit} (SEQ the angles' sequence, e.g. ZYX: yaw, pitch, then roll)"
 
 
 def _four(base: list[str], unique: set[str], suffix: str, sets: tuple[set[str], ...]) -> list[tuple[str, dict]]:

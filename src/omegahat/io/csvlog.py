@@ -120,10 +120,11 @@ def _blank(raw: bytes, comment: bool) -> bool:
 
 
 def _prose_comment(raw: bytes) -> bool:
-    """A line of prose after ``#`` above a header: no delimiter in it, so it cannot name columns (a ``#`` line that
-    has them, as EuRoC's ``#timestamp [ns],...``, is the header)."""
+    """A line of prose after ``#`` or ``//`` above a header (``// Update Rate: 100.0Hz``, as IMU exports write
+    them): no delimiter in it, so it cannot name columns (a ``#`` line that has them, as EuRoC's
+    ``#timestamp [ns],...``, is the header)."""
     text = raw.strip()
-    return text.startswith(b"#") and not any(d in text for d in (b",", b";", b"\t"))
+    return text.startswith((b"#", b"//")) and not any(d in text for d in (b",", b";", b"\t"))
 
 
 def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
@@ -231,7 +232,7 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     if rate is not None:
         stream.notes.append(f"times: row k at k / {rate:g} s (--rate; the log has no time column)")
     if skipped_comments:
-        stream.notes.append(f"{skipped_comments} comment line(s) starting with '#' above the header skipped")
+        stream.notes.append(f"{skipped_comments} comment line(s) starting with '#' or '//' above the header skipped")
     parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment, rate)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
