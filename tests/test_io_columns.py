@@ -458,3 +458,34 @@ def test_a_first_line_of_numbers_is_no_header(tmp_path):
     pandas.write_text("0,1,2,3,4\n" + "\n".join(r.replace(" ", ",") for r in rows) + "\n")
     with pytest.raises(LogFormatError, match=r"frame\.csv, line 1 \(header\): no time column 't' \(found: 0, 1, 2"):
         read_log(pandas)
+
+
+def test_a_time_column_whose_name_states_its_unit_is_read_in_it(tmp_path):
+    """``timestamp_ns`` is nanoseconds without ``--time-unit ns``; a given ``--time-unit`` still decides."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    t = np.arange(6) * 0.01
+    q = turning(t).as_quat()
+    ns = 1_700_000_000_000_000_000 + np.arange(6) * 10_000_000  # epoch nanoseconds, exact integers
+    rows = [f"{ns[k]},{num(q[k, 3])},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])}" for k in range(6)]
+    path = tmp_path / "stamped.csv"
+    path.write_text("timestamp_ns,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    log = read_log(path, time_column="timestamp_ns")
+    np.testing.assert_allclose(log.t, t, rtol=1e-15, atol=0)
+    assert log.t0 == 1_700_000_000.0
+    assert "time unit: ns, as the time column's name says ('timestamp_ns'; converted to s)" in log.notes
+    given = read_log(path, time_column="timestamp_ns", time_unit="us")
+    np.testing.assert_allclose(given.t, t * 1000, rtol=1e-12)
+    assert "the time column's name says ns ('timestamp_ns'); read in us, as --time-unit says" in given.notes
+    ms = tmp_path / "ms.parquet"
+    columns = {"time [ms]": t * 1000, "qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2]}
+    pq.write_table(pa.table(columns), ms)
+    np.testing.assert_allclose(read_log(ms, time_column="time [ms]").t, t, rtol=1e-12, atol=1e-15)
+    seconds = tmp_path / "seconds.csv"
+    seconds.write_text(
+        "Time (s),qw,qx,qy,qz\n" + "\n".join(f"{t[k]}," + r.split(",", 1)[1] for k, r in enumerate(rows))
+    )
+    plain = read_log(seconds, time_column="Time (s)")
+    np.testing.assert_array_equal(plain.t, t)
+    assert not any("time unit" in n for n in plain.notes)

@@ -149,7 +149,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     many.add_arguments(parser)
     conv = parser.add_argument_group("conventions of the input")
-    conv.add_argument("--time-unit", choices=list(TIME_UNITS), default="s", help="unit of the time column (default s)")
+    conv.add_argument(
+        "--time-unit",
+        choices=list(TIME_UNITS),
+        default="s",
+        help="unit of the time column (default s, or the unit its name states: timestamp_ns, Time (ms))",
+    )
     conv.add_argument("--time-column", default="t", metavar="NAME", help="name of the time column (default t)")
     conv.add_argument(
         "--rotation",

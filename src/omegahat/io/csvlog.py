@@ -38,7 +38,14 @@ from omegahat.io.colmap import (
     join_header_rows,
     suggest_columns,
 )
-from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name
+from omegahat.io.columns import (
+    Layout,
+    LogFormatError,
+    layout,
+    named_unit_note,
+    normalise_name,
+    time_unit_in_name,
+)
 from omegahat.io.csvparse import ChunkParser
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import TIME_UNITS, LogChunk, LogStream, ReadOptions
@@ -214,7 +221,12 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     stream.time_name = labels[names.index(lay.time)] if lay.time else f"row / {rate:g} Hz"
     stream.attitude_name = _attitude_name(lay, labels, names)
     stream.columns = _columns_read(lay, original, names)
-    scale = fmt.time_scale if fmt.time_scale is not None else TIME_UNITS[options.time_unit]
+    time_scale = fmt.time_scale
+    named = time_unit_in_name(original[names.index(lay.time)]) if lay.time and time_scale is None else None
+    if named is not None and named != options.time_unit:
+        stream.notes.append(named_unit_note(named, original[names.index(lay.time)].strip(), options.time_unit))
+        time_scale = TIME_UNITS[named] if options.time_unit == "s" else None  # --time-unit given: it decides
+    scale = time_scale if time_scale is not None else TIME_UNITS[options.time_unit]
     stream.t0 = times.base * scale
     if times.exact:
         stream.meta["time_base"] = times.base  # in the file's unit, exactly (descriptions)
@@ -233,7 +245,7 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         stream.notes.append(f"times: row k at k / {rate:g} s (--rate; the log has no time column)")
     if skipped_comments:
         stream.notes.append(f"{skipped_comments} comment line(s) starting with '#' or '//' above the header skipped")
-    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, fmt.time_scale or 1.0, comment, rate)
+    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, time_scale or 1.0, comment, rate)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
 

@@ -27,7 +27,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from omegahat.io.colmap import apply_columns
-from omegahat.io.columns import LogFormatError, layout
+from omegahat.io.columns import LogFormatError, layout, named_unit_note, time_unit_in_name
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
 
 __all__ = ["open_parquet"]
@@ -108,6 +108,9 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
     first = head.cast(pa.int64())[0].as_py() if whole else float(_floats(head)[0])
     scale = unit if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
+    named = time_unit_in_name(time_name) if unit is None else None
+    if named is not None and named != options.time_unit and options.time_unit == "s":  # --time-unit given: it decides
+        scale = TIME_UNITS[named]  # the name's (timestamp_ns), as a CSV's
     t0 = first * scale * TIME_UNITS[options.time_unit]
     stream = LogStream(
         path,
@@ -123,6 +126,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
         t0=t0,
     )
+    if named is not None and named != options.time_unit:
+        stream.notes.append(named_unit_note(named, time_name, options.time_unit))
     if options.column_map:
         stream.notes.append(f"columns read: {', '.join(f'{k}={v}' for k, v in options.column_map)}")
 
@@ -136,7 +141,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
             if whole:
                 t = (times.cast(pa.int64()).to_numpy(zero_copy_only=False) - first).astype(np.float64) * scale
             else:
-                t = _floats(times) - first  # in the file's unit: the checked stream scales by --time-unit
+                t = (_floats(times) - first) * scale  # the checked stream scales by --time-unit
             data = np.column_stack([_floats(batch.column(1 + j)) for j in range(len(attitude))])
             if lay.kind == "matrix":
                 data = data.reshape(n, 3, 3)
