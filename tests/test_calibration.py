@@ -362,3 +362,30 @@ def _saved(tmp_path, att, gyro, *words):
     out = tmp_path / "cal.json"
     assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "-o", str(out), *words]) == 0
     return out
+
+
+def test_command_reads_euler_attitudes_and_a_gyro_time_in_the_unit_its_name_states(tmp_path, capsys):
+    """The attitude as roll, pitch, yaw (degrees, ZYX) and the gyro's time in milliseconds (``time_ms``) give the
+    offset of the quaternion log and the gyro in seconds."""
+    data, truth = simulated(4)
+    ta, Ra, tg, g = data
+    att, gyro = _write_logs(tmp_path, data)
+    ypr = Rotation.from_matrix(Ra).as_euler("ZYX", degrees=True)
+    euler = tmp_path / "euler.csv"
+    np.savetxt(euler, np.column_stack([ta, ypr[:, ::-1]]), delimiter=",", header="t,roll,pitch,yaw", comments="",
+               fmt="%.17g")  # fmt: skip
+    ms = tmp_path / "imu_ms.csv"
+    np.savetxt(ms, np.column_stack([tg * 1000, np.degrees(g)]), delimiter=",", header="time_ms,gx,gy,gz", comments="",
+               fmt="%.13g")  # fmt: skip
+    offsets = []
+    for a, gy, extra in (
+        (att, gyro, []),
+        (euler, ms, ["--euler", "ZYX", "--angle-unit", "deg", "--gyro-time-column", "time_ms"]),
+    ):
+        out = tmp_path / f"{a.stem}.json"
+        assert main(["calibrate", str(a), str(gy), "--gyro-unit", "deg/s", "-o", str(out), *extra]) == 0
+        offsets.append(json.loads(out.read_text())["offset"])
+    text = capsys.readouterr().out
+    assert "time unit: ms, as the time column's name says ('time_ms'; converted to s)" in text
+    assert abs(offsets[1] - offsets[0]) < 1e-7
+    assert abs(offsets[1] - truth["delta"]) < 1e-3

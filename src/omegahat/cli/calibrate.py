@@ -22,6 +22,7 @@ from omegahat.calibration import MODES, Calibration, band_limited, calibrate
 from omegahat.cli import add_column_options, add_euler_conventions, add_quaternion_order, positive_float
 from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
+from omegahat.io.columns import named_unit_note, time_unit_in_name
 from omegahat.io.gyrolog import read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
 
@@ -151,7 +152,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="rows its header spans (default 1; names joined per column; 0: no header, columns by position)",
     )
-    gyr.add_argument("--gyro-time-unit", choices=list(TIME_UNITS), default="s", help="unit of its times (default s)")
+    gyr.add_argument(
+        "--gyro-time-unit",
+        choices=list(TIME_UNITS),
+        default="s",
+        help="unit of its times (default s, or the unit its name states: time_ms)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -190,8 +196,13 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"attitude: {log.t.size} samples of {args.attitude}" + "".join(f"; {n}" for n in log.notes))
     times = f"time {gyro.names[0]!r}" if args.gyro_rate is None else f"times row / {args.gyro_rate:g} Hz"
-    print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}")
-    t_g = gyro.t / args.gyro_rate if args.gyro_rate is not None else gyro.t * TIME_UNITS[args.gyro_time_unit]
+    named = time_unit_in_name(gyro.names[0]) if args.gyro_rate is None else None
+    time_unit = named if named is not None and args.gyro_time_unit == "s" else args.gyro_time_unit  # as a log's
+    said = ""
+    if named is not None and named != args.gyro_time_unit:
+        said = f"; {named_unit_note(named, gyro.names[0], args.gyro_time_unit)}"
+    print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}{said}")
+    t_g = gyro.t / args.gyro_rate if args.gyro_rate is not None else gyro.t * TIME_UNITS[time_unit]
     g = gyro.g * GYRO_UNITS[args.gyro_unit]
     t_a = log.absolute_times
     cal = calibrate(t_a, log.data, t_g, g, scale=args.scale, cutoff_hz=args.cutoff, offset_guess=args.offset,
