@@ -489,3 +489,33 @@ def test_a_time_column_whose_name_states_its_unit_is_read_in_it(tmp_path):
     plain = read_log(seconds, time_column="Time (s)")
     np.testing.assert_array_equal(plain.t, t)
     assert not any("time unit" in n for n in plain.notes)
+
+
+def test_epoch_stamps_that_cannot_be_seconds_are_read_in_the_one_unit_they_fit(tmp_path):
+    """``rostopic echo -p`` writes ``%time`` in epoch nanoseconds: 1.7e18 s would be 5e10 years, and only as ns are
+    the stamps both a plausible date and a plausible rate. Relative stamps (from 0) do not show their unit."""
+    from omegahat.io.time_units import unit_by_magnitude
+
+    assert unit_by_magnitude(1.7e18, 1e7) == "ns" and unit_by_magnitude(1.7e15, 1e4) == "us"
+    assert unit_by_magnitude(1.7e12, 10.0) == "ms" and unit_by_magnitude(1.7e9, 0.01) is None  # seconds: as given
+    assert unit_by_magnitude(0.0, 10.0) is None and unit_by_magnitude(1.7e18, 1.0) is None  # 1 GHz fits no unit
+    t = np.arange(6) * 0.01
+    q = turning(t).as_quat()
+    for scale, unit in ((10**9, "ns"), (10**3, "ms")):
+        stamps = 1_700_000_000 * scale + np.arange(6) * (scale // 100)
+        path = tmp_path / f"ros_{unit}.csv"
+        rows = [f"{stamps[k]},{k},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])},{num(q[k, 3])}" for k in range(6)]
+        path.write_text("%time,field.seq,field.x,field.y,field.z,field.w\n" + "\n".join(rows) + "\n")
+        columns = "t=%time,qx=field.x,qy=field.y,qz=field.z,qw=field.w"
+        log = read_log(path, columns=columns)
+        np.testing.assert_allclose(log.t, t, rtol=1e-15, atol=1e-17)
+        assert log.t0 == 1_700_000_000.0
+        assert any(n.startswith(f"time unit: {unit}, by the times themselves") for n in log.notes)
+        said = read_log(path, columns=columns, time_unit="us")  # a given unit decides
+        assert not any("by the times themselves" in n for n in said.notes)
+    relative = tmp_path / "relative_ms.csv"
+    rows = [f"{k * 10},{num(q[k, 3])},{num(q[k, 0])},{num(q[k, 1])},{num(q[k, 2])}" for k in range(6)]
+    relative.write_text("t,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    plain = read_log(relative)
+    np.testing.assert_array_equal(plain.t, np.arange(6) * 10.0)
+    assert not any("time unit" in n for n in plain.notes)

@@ -22,9 +22,9 @@ from omegahat.calibration import MODES, Calibration, band_limited, calibrate
 from omegahat.cli import add_column_options, add_euler_conventions, add_quaternion_order, positive_float
 from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
-from omegahat.io.columns import named_unit_note, time_unit_in_name
 from omegahat.io.gyrolog import read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
+from omegahat.io.time_units import named_unit_note, time_unit_in_name
 
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3

@@ -38,6 +38,7 @@ from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
+from omegahat.io.time_units import plausible
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
@@ -94,12 +95,12 @@ def references(settings: EstimateSettings, stream: LogStream, spell: Spelling) -
 
 
 def time_unit_warning(h: float, t0: float, unit: str, spell: Spelling) -> str | None:
-    """A warning when samples ``h`` s apart (first time ``t0``) are implausible in ``unit`` (rates outside
-    0.5 Hz – 5 kHz, or times beyond 1e11), suggesting the unit that would make them plausible."""
+    """A warning when samples ``h`` s apart (first time ``t0``) are implausible in ``unit``
+    (:func:`omegahat.io.time_units.plausible`), suggesting the unit that would make them plausible."""
     rate = 1.0 / h
-    if abs(t0) > 1e11 or not (0.5 <= rate <= 5000.0):
+    if not plausible(t0, h):
         scale = TIME_UNITS[unit]
-        better = [u for u, f in TIME_UNITS.items() if u != unit and 0.5 <= 1.0 / (h / scale * f) <= 5000.0]
+        better = [u for u, f in TIME_UNITS.items() if u != unit and plausible(t0 / scale * f, h / scale * f)]
         tip = "".join(
             f"; if the times are in {u}, pass {spell('time_unit', u)} ({scale / (h * TIME_UNITS[u]):.4g} Hz)"
             for u in better[:1]

@@ -19,7 +19,6 @@ attitude kind and its columns in storage order (quaternions scalar **last**, Sci
 
 from __future__ import annotations
 
-import re
 from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -35,9 +34,7 @@ __all__ = [
     "LogFormatError",
     "direction_columns",
     "layout",
-    "named_unit_note",
     "normalise_name",
-    "time_unit_in_name",
 ]
 
 QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")  # stored in this order: SciPy's scalar-last
@@ -86,30 +83,6 @@ class Layout:
 def normalise_name(name: str) -> str:
     """Column name as compared: BOM, quotes and surrounding whitespace removed, lower case."""
     return name.replace("\ufeff", "").strip().strip('"').strip("'").strip().lower()
-
-
-#: the words a time column's name may end in to state its unit (``timestamp_ns``, ``Time (s)``, ``t [ms]``)
-_TIME_UNIT_WORDS = {
-    **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
-    **dict.fromkeys(("ms", "msec", "millisecond", "milliseconds"), "ms"),
-    **dict.fromkeys(("us", "µs", "usec", "microsecond", "microseconds"), "us"),
-    **dict.fromkeys(("ns", "nsec", "nanosecond", "nanoseconds"), "ns"),
-}
-
-
-def time_unit_in_name(name: str) -> str | None:
-    """The unit (``s``, ``ms``, ``us`` or ``ns``) a time column's name states in its last word, after ``_``, ``-``,
-    ``.`` or a blank, or in brackets (``timestamp_ns``, ``Time (s)``, ``#timestamp [ns]``); None when it states
-    none (``t``, ``time``, ``SampleTimeFine``)."""
-    m = re.search(r"(?:^|[\s_.\-\[(])([a-zµ]+)\s*[\])]?$", normalise_name(name))
-    return _TIME_UNIT_WORDS.get(m.group(1)) if m else None
-
-
-def named_unit_note(named: str, column: str, given: str) -> str:
-    """What was done where the time column's name states a unit other than ``--time-unit``'s (default s)."""
-    if given == "s":
-        return f"time unit: {named}, as the time column's name says ({column!r}; converted to s)"
-    return f"the time column's name says {named} ({column!r}); read in {given}, as --time-unit says"
 
 
 def direction_columns(names: Iterable[str]) -> list[str]:

@@ -30,6 +30,8 @@ import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
+import numpy as np
+
 from omegahat.io.colmap import (
     COLUMNS_TEMPLATE,
     ColumnMap,
@@ -38,14 +40,7 @@ from omegahat.io.colmap import (
     join_header_rows,
     suggest_columns,
 )
-from omegahat.io.columns import (
-    Layout,
-    LogFormatError,
-    layout,
-    named_unit_note,
-    normalise_name,
-    time_unit_in_name,
-)
+from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name
 from omegahat.io.csvparse import ChunkParser
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import TIME_UNITS, LogChunk, LogStream, ReadOptions
@@ -59,6 +54,7 @@ from omegahat.io.textlines import (
     source_blocks,
     split_line,
 )
+from omegahat.io.time_units import named_unit_note, time_unit_in_name, unit_by_magnitude
 from omegahat.io.timestamps import ExactTimes
 
 __all__ = ["TextFormat", "open_csv", "open_text"]
@@ -221,11 +217,9 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     stream.time_name = labels[names.index(lay.time)] if lay.time else f"row / {rate:g} Hz"
     stream.attitude_name = _attitude_name(lay, labels, names)
     stream.columns = _columns_read(lay, original, names)
-    time_scale = fmt.time_scale
-    named = time_unit_in_name(original[names.index(lay.time)]) if lay.time and time_scale is None else None
-    if named is not None and named != options.time_unit:
-        stream.notes.append(named_unit_note(named, original[names.index(lay.time)].strip(), options.time_unit))
-        time_scale = TIME_UNITS[named] if options.time_unit == "s" else None  # --time-unit given: it decides
+    j_time = names.index(lay.time) if lay.time else -1
+    head_times = [r[j_time] for r in sample if 0 <= j_time < len(r)]
+    time_scale = _time_scale(stream, fmt, options, original[j_time].strip() if lay.time else "", head_times)
     scale = time_scale if time_scale is not None else TIME_UNITS[options.time_unit]
     stream.t0 = times.base * scale
     if times.exact:
@@ -266,6 +260,30 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
 
     stream._chunks = chunks
     return stream
+
+
+def _time_scale(stream: LogStream, fmt: TextFormat, options: ReadOptions, column: str, head: list[str]):
+    """Seconds per unit of the time ``column`` where the reader decides it (None: ``--time-unit``'s): the
+    format's, or where ``--time-unit`` is s (its default) the unit the column's name states, or else the one its
+    first times (``head``, as written) can be in (:func:`omegahat.io.time_units.unit_by_magnitude`); said in a
+    note."""
+    if fmt.time_scale is not None or not column:
+        return fmt.time_scale
+    named = time_unit_in_name(column)
+    if named is not None and named != options.time_unit:
+        stream.notes.append(named_unit_note(named, column, options.time_unit))
+        return TIME_UNITS[named] if options.time_unit == "s" else None  # --time-unit given: it decides
+    values = [float(v) for v in head if is_number(v, decimal_comma=False)]
+    step = float(np.median(np.diff(values))) if len(values) > 1 else 0.0
+    found = unit_by_magnitude(values[0], step) if named is None and step > 0 else None
+    if found is None or options.time_unit != "s" or found == "s":
+        return None
+    f = TIME_UNITS[found]
+    stream.notes.append(
+        f"time unit: {found}, by the times themselves ({values[0]:.4g} cannot be seconds; in {found} they are "
+        f"{values[0] * f:.4g} s since their origin, samples {step * f:.4g} s apart; --time-unit says otherwise)"
+    )
+    return TIME_UNITS[found]
 
 
 def _columns_read(lay: Layout, original: list[str], names: list[str]) -> str:

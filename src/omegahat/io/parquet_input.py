@@ -27,8 +27,9 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from omegahat.io.colmap import apply_columns
-from omegahat.io.columns import LogFormatError, layout, named_unit_note, time_unit_in_name
+from omegahat.io.columns import LogFormatError, layout
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
+from omegahat.io.time_units import named_unit_note, time_unit_in_name
 
 __all__ = ["open_parquet"]
 

@@ -52,6 +52,7 @@ from omegahat.io.colmap import ColumnMap, parse_columns
 from omegahat.io.columns import LogFormatError
 from omegahat.io.euler import as_matrices, check_conventions
 from omegahat.io.precision import Normaliser
+from omegahat.io.time_units import TIME_UNITS
 from omegahat.io.timestamps import DUPLICATE_CHOICES, TimePolicy
 
 __all__ = [
@@ -78,7 +79,6 @@ __all__ = [
     "with_options",
 ]
 
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 ROTATIONS = ("body-to-inertial", "inertial-to-body")
 STAMPS = ("header", "receive")
 DIRECTORY = "/"  #: the "extension" of a directory (a ROS 2 bag)

@@ -1,0 +1,66 @@
+"""Time units: the unit names the readers take (``--time-unit``), the unit a time column's name states, and the
+unit a log's own times reveal when they cannot be seconds.
+
+**Plausible times** (:func:`plausible`): a first time of at most :data:`PLAUSIBLE_SECONDS` (3,000 years, in any
+origin) and samples :data:`PLAUSIBLE_RATES_HZ` apart. Epoch stamps show their unit by their size: 2026 is
+1.8e9 s, 1.8e12 ms, 1.8e15 µs or 1.8e18 ns since 1970, and a sample rate then tells the units apart.
+"""
+
+from __future__ import annotations
+
+import re
+
+from omegahat.io.columns import normalise_name
+
+__all__ = [
+    "PLAUSIBLE_RATES_HZ",
+    "PLAUSIBLE_SECONDS",
+    "TIME_UNITS",
+    "named_unit_note",
+    "plausible",
+    "time_unit_in_name",
+    "unit_by_magnitude",
+]
+
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
+PLAUSIBLE_SECONDS = 1e11  #: no log's time (s from any origin) is larger: 3,000 years
+PLAUSIBLE_RATES_HZ = (0.5, 5000.0)  #: the sample rates of the logs omegahat reads
+
+#: the words a time column's name may end in to state its unit (``timestamp_ns``, ``Time (s)``, ``t [ms]``)
+_TIME_UNIT_WORDS = {
+    **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
+    **dict.fromkeys(("ms", "msec", "millisecond", "milliseconds"), "ms"),
+    **dict.fromkeys(("us", "µs", "usec", "microsecond", "microseconds"), "us"),
+    **dict.fromkeys(("ns", "nsec", "nanosecond", "nanoseconds"), "ns"),
+}
+
+
+def time_unit_in_name(name: str) -> str | None:
+    """The unit (``s``, ``ms``, ``us`` or ``ns``) a time column's name states in its last word, after ``_``, ``-``,
+    ``.`` or a blank, or in brackets (``timestamp_ns``, ``Time (s)``, ``#timestamp [ns]``); None when it states
+    none (``t``, ``time``, ``SampleTimeFine``)."""
+    m = re.search(r"(?:^|[\s_.\-\[(])([a-zµ]+)\s*[\])]?$", normalise_name(name))
+    return _TIME_UNIT_WORDS.get(m.group(1)) if m else None
+
+
+def named_unit_note(named: str, column: str, given: str) -> str:
+    """What was done where the time column's name states a unit other than ``--time-unit``'s (default s)."""
+    if given == "s":
+        return f"time unit: {named}, as the time column's name says ({column!r}; converted to s)"
+    return f"the time column's name says {named} ({column!r}); read in {given}, as --time-unit says"
+
+
+def plausible(t0: float, h: float) -> bool:
+    """Whether a log whose first time is ``t0`` s and whose samples are ``h`` s apart is plausible (module
+    docstring)."""
+    return abs(t0) <= PLAUSIBLE_SECONDS and h > 0 and PLAUSIBLE_RATES_HZ[0] <= 1.0 / h <= PLAUSIBLE_RATES_HZ[1]
+
+
+def unit_by_magnitude(t0: float, h: float) -> str | None:
+    """The unit in which times whose first is ``t0`` and whose samples are ``h`` apart (both as written) are
+    plausible, when seconds are not because ``t0`` is too large and exactly one unit is (``1.7e18`` stamps 1e7
+    apart: ns, 100 Hz); else None."""
+    if abs(t0) <= PLAUSIBLE_SECONDS:
+        return None
+    fits = [u for u, f in TIME_UNITS.items() if plausible(t0 * f, h * f)]
+    return fits[0] if len(fits) == 1 else None
