@@ -145,3 +145,16 @@ def test_a_file_that_is_not_parquet_and_options_it_does_not_take(tmp_path, capsy
     pq.write_table(quaternion_table(t, rot), path)
     assert main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--header-rows", "2"]) == 2
     assert "--header-rows" in capsys.readouterr().err
+
+
+def test_epoch_nanoseconds_in_an_integer_column_are_read_as_such(tmp_path):
+    """An int64 ``t`` of epoch nanoseconds (1.7e18 cannot be seconds) is read in ns, as a CSV's, and said."""
+    t = np.arange(50) * 0.01
+    q = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    stamps = 1_700_000_000_000_000_000 + np.arange(50, dtype=np.int64) * 10_000_000
+    path = tmp_path / "ns.parquet"
+    pq.write_table(pa.table({"t": stamps, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}), path)
+    log = read_log(path)
+    np.testing.assert_allclose(log.t, t, rtol=1e-15, atol=1e-17)
+    assert log.t0 == 1_700_000_000.0
+    assert any(n.startswith("time unit: ns, by the times themselves") for n in log.notes)

@@ -54,7 +54,7 @@ from omegahat.io.textlines import (
     source_blocks,
     split_line,
 )
-from omegahat.io.time_units import named_unit_note, time_unit_in_name, unit_by_magnitude
+from omegahat.io.time_units import magnitude_note, named_unit_note, time_unit_in_name, unit_by_magnitude
 from omegahat.io.timestamps import ExactTimes
 
 __all__ = ["TextFormat", "open_csv", "open_text"]
@@ -278,11 +278,7 @@ def _time_scale(stream: LogStream, fmt: TextFormat, options: ReadOptions, column
     found = unit_by_magnitude(values[0], step) if named is None and step > 0 else None
     if found is None or options.time_unit != "s" or found == "s":
         return None
-    f = TIME_UNITS[found]
-    stream.notes.append(
-        f"time unit: {found}, by the times themselves ({values[0]:.4g} cannot be seconds; in {found} they are "
-        f"{values[0] * f:.4g} s since their origin, samples {step * f:.4g} s apart; --time-unit says otherwise)"
-    )
+    stream.notes.append(magnitude_note(found, values[0], step))
     return TIME_UNITS[found]
 
 

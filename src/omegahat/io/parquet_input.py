@@ -29,7 +29,7 @@ import pyarrow.parquet as pq
 from omegahat.io.colmap import apply_columns
 from omegahat.io.columns import LogFormatError, layout
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
-from omegahat.io.time_units import named_unit_note, time_unit_in_name
+from omegahat.io.time_units import magnitude_note, named_unit_note, time_unit_in_name, unit_by_magnitude
 
 __all__ = ["open_parquet"]
 
@@ -99,11 +99,11 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     n_rows = table.metadata.num_rows
     if n_rows == 0:
         raise LogFormatError(f"{path}: no rows")
-    first_row = next(_batches(table, path, [time_name], 1), None)
-    if first_row is None or first_row[1].num_rows == 0:
+    first_rows = next(_batches(table, path, [time_name], 64), None)
+    if first_rows is None or first_rows[1].num_rows == 0:
         raise LogFormatError(f"{path}: no rows")
-    head = first_row[1].column(0)
-    if head.null_count:
+    head = first_rows[1].column(0)
+    if not head[0].is_valid:
         raise LogFormatError(f"{path}, row 0, column {time_name}: no time (null)")
     # the first row's time is the stream's t0 (s), and the chunks' times count from it: an epoch keeps its digits
     # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
@@ -112,6 +112,12 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     named = time_unit_in_name(time_name) if unit is None else None
     if named is not None and named != options.time_unit and options.time_unit == "s":  # --time-unit given: it decides
         scale = TIME_UNITS[named]  # the name's (timestamp_ns), as a CSV's
+    plain = unit is None and named is None  # a number whose unit nothing states
+    values = np.asarray(head.to_numpy(zero_copy_only=False), dtype=float) if plain else np.empty(0)
+    step = float(np.nanmedian(np.diff(values))) if np.isfinite(values).sum() > 1 else 0.0
+    found = unit_by_magnitude(float(values[0]), step) if step > 0 and options.time_unit == "s" else None
+    if found not in (None, "s"):  # epoch stamps that cannot be seconds, as a CSV's
+        scale = TIME_UNITS[found]
     t0 = first * scale * TIME_UNITS[options.time_unit]
     stream = LogStream(
         path,
@@ -129,6 +135,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     )
     if named is not None and named != options.time_unit:
         stream.notes.append(named_unit_note(named, time_name, options.time_unit))
+    if found not in (None, "s"):
+        stream.notes.append(magnitude_note(found, float(values[0]), step))
     if options.column_map:
         stream.notes.append(f"columns read: {', '.join(f'{k}={v}' for k, v in options.column_map)}")
 

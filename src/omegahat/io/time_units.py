@@ -16,6 +16,7 @@ __all__ = [
     "PLAUSIBLE_RATES_HZ",
     "PLAUSIBLE_SECONDS",
     "TIME_UNITS",
+    "magnitude_note",
     "named_unit_note",
     "plausible",
     "time_unit_in_name",
@@ -64,3 +65,12 @@ def unit_by_magnitude(t0: float, h: float) -> str | None:
         return None
     fits = [u for u, f in TIME_UNITS.items() if plausible(t0 * f, h * f)]
     return fits[0] if len(fits) == 1 else None
+
+
+def magnitude_note(unit: str, t0: float, h: float) -> str:
+    """The note of a unit found by :func:`unit_by_magnitude` (first time ``t0``, spacing ``h``, as written)."""
+    f = TIME_UNITS[unit]
+    return (
+        f"time unit: {unit}, by the times themselves ({t0:.4g} cannot be seconds; in {unit} they are {t0 * f:.4g} s "
+        f"since their origin, samples {h * f:.4g} s apart; --time-unit says otherwise)"
+    )
