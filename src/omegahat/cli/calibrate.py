@@ -24,7 +24,7 @@ from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
-from omegahat.io.time_units import named_unit_note, time_unit_in_name
+from omegahat.io.time_units import unit_stated
 
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
@@ -196,11 +196,12 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"attitude: {log.t.size} samples of {args.attitude}" + "".join(f"; {n}" for n in log.notes))
     times = f"time {gyro.names[0]!r}" if args.gyro_rate is None else f"times row / {args.gyro_rate:g} Hz"
-    named = time_unit_in_name(gyro.names[0]) if args.gyro_rate is None else None
-    time_unit = named if named is not None and args.gyro_time_unit == "s" else args.gyro_time_unit  # as a log's
-    said = ""
-    if named is not None and named != args.gyro_time_unit:
-        said = f"; {named_unit_note(named, gyro.names[0], args.gyro_time_unit)}"
+    stated, note = None, None  # the unit its name or size states, as an attitude log's
+    if args.gyro_rate is None and gyro.t.size:
+        step = float(np.median(np.diff(gyro.t[:64]))) if gyro.t.size > 1 else None
+        stated, note = unit_stated(gyro.names[0], args.gyro_time_unit, float(gyro.t[0]), step)
+    time_unit = stated or args.gyro_time_unit
+    said = f"; {note}" if note else ""
     print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}{said}")
     t_g = gyro.t / args.gyro_rate if args.gyro_rate is not None else gyro.t * TIME_UNITS[time_unit]
     g = gyro.g * GYRO_UNITS[args.gyro_unit]

@@ -54,7 +54,7 @@ from omegahat.io.textlines import (
     source_blocks,
     split_line,
 )
-from omegahat.io.time_units import magnitude_note, named_unit_note, time_unit_in_name, unit_by_magnitude
+from omegahat.io.time_units import unit_stated
 from omegahat.io.timestamps import ExactTimes
 
 __all__ = ["TextFormat", "open_csv", "open_text"]
@@ -269,17 +269,12 @@ def _time_scale(stream: LogStream, fmt: TextFormat, options: ReadOptions, column
     note."""
     if fmt.time_scale is not None or not column:
         return fmt.time_scale
-    named = time_unit_in_name(column)
-    if named is not None and named != options.time_unit:
-        stream.notes.append(named_unit_note(named, column, options.time_unit))
-        return TIME_UNITS[named] if options.time_unit == "s" else None  # --time-unit given: it decides
     values = [float(v) for v in head if is_number(v, decimal_comma=False)]
-    step = float(np.median(np.diff(values))) if len(values) > 1 else 0.0
-    found = unit_by_magnitude(values[0], step) if named is None and step > 0 else None
-    if found is None or options.time_unit != "s" or found == "s":
-        return None
-    stream.notes.append(magnitude_note(found, values[0], step))
-    return TIME_UNITS[found]
+    step = float(np.median(np.diff(values))) if len(values) > 1 else None
+    unit, note = unit_stated(column, options.time_unit, values[0] if values else None, step)
+    if note:
+        stream.notes.append(note)
+    return TIME_UNITS[unit] if unit else None
 
 
 def _columns_read(lay: Layout, original: list[str], names: list[str]) -> str:

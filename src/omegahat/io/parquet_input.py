@@ -29,7 +29,7 @@ import pyarrow.parquet as pq
 from omegahat.io.colmap import apply_columns
 from omegahat.io.columns import LogFormatError, layout
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
-from omegahat.io.time_units import magnitude_note, named_unit_note, time_unit_in_name, unit_by_magnitude
+from omegahat.io.time_units import unit_stated
 
 __all__ = ["open_parquet"]
 
@@ -109,15 +109,12 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
     first = head.cast(pa.int64())[0].as_py() if whole else float(_floats(head)[0])
     scale = unit if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
-    named = time_unit_in_name(time_name) if unit is None else None
-    if named is not None and named != options.time_unit and options.time_unit == "s":  # --time-unit given: it decides
-        scale = TIME_UNITS[named]  # the name's (timestamp_ns), as a CSV's
-    plain = unit is None and named is None  # a number whose unit nothing states
-    values = np.asarray(head.to_numpy(zero_copy_only=False), dtype=float) if plain else np.empty(0)
-    step = float(np.nanmedian(np.diff(values))) if np.isfinite(values).sum() > 1 else 0.0
-    found = unit_by_magnitude(float(values[0]), step) if step > 0 and options.time_unit == "s" else None
-    if found not in (None, "s"):  # epoch stamps that cannot be seconds, as a CSV's
-        scale = TIME_UNITS[found]
+    stated, note = None, None  # a number's unit, where its name or size states it (as a CSV's)
+    if unit is None:
+        values = np.asarray(head.to_numpy(zero_copy_only=False), dtype=float)
+        step = float(np.nanmedian(np.diff(values))) if np.isfinite(values).sum() > 1 else None
+        stated, note = unit_stated(time_name, options.time_unit, float(values[0]), step)
+    scale = TIME_UNITS[stated] if stated else scale
     t0 = first * scale * TIME_UNITS[options.time_unit]
     stream = LogStream(
         path,
@@ -133,10 +130,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
         t0=t0,
     )
-    if named is not None and named != options.time_unit:
-        stream.notes.append(named_unit_note(named, time_name, options.time_unit))
-    if found not in (None, "s"):
-        stream.notes.append(magnitude_note(found, float(values[0]), step))
+    if note:
+        stream.notes.append(note)
     if options.column_map:
         stream.notes.append(f"columns read: {', '.join(f'{k}={v}' for k, v in options.column_map)}")
 

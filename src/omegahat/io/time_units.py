@@ -21,6 +21,7 @@ __all__ = [
     "plausible",
     "time_unit_in_name",
     "unit_by_magnitude",
+    "unit_stated",
 ]
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
@@ -74,3 +75,19 @@ def magnitude_note(unit: str, t0: float, h: float) -> str:
         f"time unit: {unit}, by the times themselves ({t0:.4g} cannot be seconds; in {unit} they are {t0 * f:.4g} s "
         f"since their origin, samples {h * f:.4g} s apart; --time-unit says otherwise)"
     )
+
+
+def unit_stated(column: str, given: str, t0: float | None, h: float | None) -> tuple[str | None, str | None]:
+    """The unit a time ``column`` is read in where the log states it, and the note that says so: the unit its name
+    states (``timestamp_ns``) where ``given`` (``--time-unit``) is s, its default; else, for a name that states none,
+    the unit its first time ``t0`` and spacing ``h`` (as written; None: not known) fit (:func:`unit_by_magnitude`).
+    ``(None, note or None)`` where ``given`` applies."""
+    named = time_unit_in_name(column)
+    if named is not None:
+        if named == given:
+            return None, None
+        return (named if given == "s" else None), named_unit_note(named, column, given)
+    if given != "s" or t0 is None or h is None or not h > 0:
+        return None, None
+    found = unit_by_magnitude(t0, h)
+    return (None, None) if found in (None, "s") else (found, magnitude_note(found, t0, h))
