@@ -197,9 +197,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"attitude: {log.t.size} samples of {args.attitude}" + "".join(f"; {n}" for n in log.notes))
     times = f"time {gyro.names[0]!r}" if args.gyro_rate is None else f"times row / {args.gyro_rate:g} Hz"
     stated, note = None, None  # the unit its name or size states, as an attitude log's
-    if args.gyro_rate is None and gyro.t.size:
-        step = float(np.median(np.diff(gyro.t[:64]))) if gyro.t.size > 1 else None
-        stated, note = unit_stated(gyro.names[0], args.gyro_time_unit, float(gyro.t[0]), step)
+    if args.gyro_rate is None:
+        stated, note = unit_stated(gyro.names[0], args.gyro_time_unit, gyro.t[:64])
     time_unit = stated or args.gyro_time_unit
     said = f"; {note}" if note else ""
     print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}{said}")

@@ -30,8 +30,6 @@ import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-import numpy as np
-
 from omegahat.io.colmap import (
     COLUMNS_TEMPLATE,
     ColumnMap,
@@ -269,9 +267,7 @@ def _time_scale(stream: LogStream, fmt: TextFormat, options: ReadOptions, column
     note."""
     if fmt.time_scale is not None or not column:
         return fmt.time_scale
-    values = [float(v) for v in head if is_number(v, decimal_comma=False)]
-    step = float(np.median(np.diff(values))) if len(values) > 1 else None
-    unit, note = unit_stated(column, options.time_unit, values[0] if values else None, step)
+    unit, note = unit_stated(column, options.time_unit, [float(v) for v in head if is_number(v, decimal_comma=False)])
     if note:
         stream.notes.append(note)
     return TIME_UNITS[unit] if unit else None

@@ -39,7 +39,7 @@ import numpy as np
 
 from omegahat.io.columns import EULER_COLUMNS, LogFormatError
 
-__all__ = ["ANGLE_UNITS", "as_matrices", "check_conventions"]
+__all__ = ["ANGLE_UNITS", "as_matrices", "check_conventions", "matrices"]
 
 ANGLE_UNITS = ("deg", "rad")
 _ASK = (
@@ -65,6 +65,20 @@ def check_conventions(euler: str | None, angle_unit: str | None) -> None:
         raise ValueError(f"angle unit must be {' or '.join(ANGLE_UNITS)}; got {angle_unit!r}")
 
 
+def matrices(angles: np.ndarray, euler: str, degrees: bool) -> np.ndarray:
+    """(E1)/(E2): the rotation matrices ``(T, 3, 3)`` of ``angles (T, 3)`` about x, y, z (in that order, whatever the
+    sequence) for the sequence ``euler``; a row with a non-finite angle gives a matrix of NaN (a missing sample)."""
+    from scipy.spatial.transform import Rotation  # loaded only for Euler angles
+
+    angles = np.asarray(angles, dtype=float)
+    ok = np.all(np.isfinite(angles), axis=1)
+    out = np.full((len(angles), 3, 3), np.nan)
+    if ok.any():
+        order = ["xyz".index(a) for a in euler.lower()]  # the columns in the order of the sequence
+        out[ok] = Rotation.from_euler(euler, angles[ok][:, order], degrees=degrees).as_matrix()
+    return out
+
+
 def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
     """Make ``stream`` (a :class:`~omegahat.io.registry.LogStream`; that module imports this one) of kind
     ``"euler"`` (chunks of angles ``(m, 3)`` about x, y, z) a stream of rotation matrices by (E1)/(E2). Raises
@@ -84,11 +98,7 @@ def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
             f"and unit the log cannot show; pass {_ASK} (missing: {', '.join(missing)}; in Python euler= and "
             "angle_unit=)"
         )
-    assert euler is not None and angle_unit is not None
-    check_conventions(euler, angle_unit)
-    from scipy.spatial.transform import Rotation  # loaded only for Euler logs
-
-    order = ["xyz".index(a) for a in euler.lower()]  # columns x, y, z in the order of the sequence
+    assert euler is not None and angle_unit is not None  # and checked (check_conventions) by ReadOptions
     degrees = angle_unit == "deg"
     raw: Callable[[], Iterator] = stream._chunks
     seen = {"largest": 0.0}
@@ -96,12 +106,10 @@ def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
     def chunks() -> Iterator:
         for chunk in raw():
             angles = np.asarray(chunk.data, dtype=float)
-            ok = np.all(np.isfinite(angles), axis=1)
-            matrices = np.full((len(angles), 3, 3), np.nan)
-            if ok.any():
-                matrices[ok] = Rotation.from_euler(euler, angles[ok][:, order], degrees=degrees).as_matrix()
-                seen["largest"] = max(seen["largest"], float(np.max(np.abs(angles[ok]))))
-            yield replace(chunk, data=matrices)
+            finite = angles[np.all(np.isfinite(angles), axis=1)]
+            if finite.size:
+                seen["largest"] = max(seen["largest"], float(np.max(np.abs(finite))))
+            yield replace(chunk, data=matrices(angles, euler, degrees))
         if not degrees and seen["largest"] > 2 * np.pi + 0.5:
             stream.notes.append(
                 f"angles up to {seen['largest']:.4g} read as radians (--angle-unit rad): more than a turn; if they are "

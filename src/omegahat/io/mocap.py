@@ -41,6 +41,7 @@ import os
 import numpy as np
 
 from omegahat.io.columns import LogFormatError
+from omegahat.io.euler import matrices as euler_matrices
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import is_number
@@ -242,12 +243,7 @@ def open_motive_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogSt
     if not times:
         raise LogFormatError(f"{path}: no data rows after the header (line {i_axes + 1})")
     if euler:
-        from scipy.spatial.transform import Rotation  # SciPy's transforms load in 0.1 s: only for Euler exports
-
-        angles = np.array(values)[:, ["XYZ".index(a) for a in euler]]  # in the order of the sequence
-        ok = np.all(np.isfinite(angles), axis=1)
-        data = np.full((len(times), 3, 3), np.nan)
-        data[ok] = Rotation.from_euler(euler, angles[ok], degrees=True).as_matrix()
+        data = euler_matrices(np.array(values), euler, degrees=True)  # values: the angles about X, Y, Z
         kind = "matrix"
         product = "·".join("R" + a.lower() for a in euler)
         what = f"Euler angles X,Y,Z in degrees, order {euler} about the rotating axes (R = {product})"

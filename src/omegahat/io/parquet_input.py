@@ -111,9 +111,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     scale = unit if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
     stated, note = None, None  # a number's unit, where its name or size states it (as a CSV's)
     if unit is None:
-        values = np.asarray(head.to_numpy(zero_copy_only=False), dtype=float)
-        step = float(np.nanmedian(np.diff(values))) if np.isfinite(values).sum() > 1 else None
-        stated, note = unit_stated(time_name, options.time_unit, float(values[0]), step)
+        stated, note = unit_stated(time_name, options.time_unit, head.to_numpy(zero_copy_only=False))
     scale = TIME_UNITS[stated] if stated else scale
     t0 = first * scale * TIME_UNITS[options.time_unit]
     stream = LogStream(

@@ -31,6 +31,7 @@ import os
 import numpy as np
 
 from omegahat.io.columns import LogFormatError
+from omegahat.io.euler import matrices as euler_matrices
 from omegahat.io.mocap import choose_body
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
@@ -65,9 +66,7 @@ def _rot_blocks(labels: list[str]) -> list[int]:
 
 def _from_angles(roll, pitch, yaw) -> np.ndarray:
     """``Rx(roll) Ry(pitch) Rz(yaw)`` (degrees): QTM's default angles, written out from the manual's definition."""
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_euler("XYZ", np.column_stack([roll, pitch, yaw]), degrees=True).as_matrix()
+    return euler_matrices(np.column_stack([roll, pitch, yaw]), "XYZ", degrees=True)
 
 
 def check_order(R: np.ndarray, angles: np.ndarray | None, path: str, name: str) -> str:

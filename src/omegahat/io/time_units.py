@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import re
 
+import numpy as np
+from numpy.typing import ArrayLike
+
 from omegahat.io.columns import normalise_name
 
 __all__ = [
@@ -77,17 +80,20 @@ def magnitude_note(unit: str, t0: float, h: float) -> str:
     )
 
 
-def unit_stated(column: str, given: str, t0: float | None, h: float | None) -> tuple[str | None, str | None]:
+def unit_stated(column: str, given: str, head: ArrayLike) -> tuple[str | None, str | None]:
     """The unit a time ``column`` is read in where the log states it, and the note that says so: the unit its name
     states (``timestamp_ns``) where ``given`` (``--time-unit``) is s, its default; else, for a name that states none,
-    the unit its first time ``t0`` and spacing ``h`` (as written; None: not known) fit (:func:`unit_by_magnitude`).
-    ``(None, note or None)`` where ``given`` applies."""
+    the unit its first times ``head`` (as written; NaN where unknown) fit by their first value and median spacing
+    (:func:`unit_by_magnitude`). ``(None, note or None)`` where ``given`` applies."""
     named = time_unit_in_name(column)
     if named is not None:
         if named == given:
             return None, None
         return (named if given == "s" else None), named_unit_note(named, column, given)
-    if given != "s" or t0 is None or h is None or not h > 0:
+    times = np.asarray(head, dtype=float)
+    times = times[np.isfinite(times)]
+    if given != "s" or times.size < 2:
         return None, None
-    found = unit_by_magnitude(t0, h)
+    t0, h = float(times[0]), float(np.median(np.diff(times)))
+    found = unit_by_magnitude(t0, h) if h > 0 else None
     return (None, None) if found in (None, "s") else (found, magnitude_note(found, t0, h))
