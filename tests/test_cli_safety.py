@@ -292,11 +292,20 @@ def test_an_unknown_delimiter_is_named(tmp_path):
 
 
 def test_time_column_option(tmp_path):
-    src = _dialect(tmp_path, "Time,qw,qx,qy,qz\n0,1,0,0,0\n")
+    # one column named as a time is read without the option, said in a note; of two, the option chooses
+    one = _dialect(tmp_path, "Time,qw,qx,qy,qz\n0.5,1,0,0,0\n")
+    log = read_log(one)
+    assert log.t.tolist() == [0.5]
+    assert "time column: 'time', the one named as a time (the log has no column 't')" in log.notes
+    src = tmp_path / "two.csv"
+    src.write_text("Time,Stamp,qw,qx,qy,qz\n0,7,1,0,0,0\n")
     with pytest.raises(
-        ValueError, match=r"no time column 't' \(found: time, qw, qx, qy, qz\); pass --time-column time"
+        ValueError,
+        match=r"no time column 't' \(found: time, stamp, qw, qx, qy, qz\); several columns are named as a time "
+        r"\(time, stamp\): pass --time-column with the one to read",
     ):
         read_log(src)
+    assert read_log(src, options=ReadOptions(time_column="stamp")).t.tolist() == [7.0]
     assert read_log(src, options=ReadOptions(time_column="time")).t.tolist() == [0.0]
 
 

@@ -198,6 +198,9 @@ def test_the_error_for_unknown_names_prints_the_euler_line_that_reads_them(tmp_p
     assert line in err
     filled = ["--columns", "t=Time (s),roll=Roll (deg),pitch=Pitch (deg),yaw=Yaw (deg)", "--euler", "ZYX"]
     assert main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), *filled, "--angle-unit", "deg"]) == 0
-    unitless = write(tmp_path / "u.csv", t, angles, header="time,Roll,Pitch,Yaw")
+    unitless = write(tmp_path / "u.csv", t, angles, header="time,Roll,Pitch,Yaw")  # names read as they are
     assert main(["estimate", str(unitless), "-o", str(tmp_path / "o.csv")]) != 0
-    assert "--columns t=time,roll=Roll,pitch=Pitch,yaw=Yaw --euler SEQ --angle-unit deg|rad" in capsys.readouterr().err
+    assert "(missing: --euler, --angle-unit; in Python euler= and angle_unit=)" in capsys.readouterr().err
+    assert (
+        main(["estimate", str(unitless), "-o", str(tmp_path / "o.csv"), "--euler", "ZYX", "--angle-unit", "rad"]) == 0
+    )

@@ -100,7 +100,11 @@ def test_whitespace_around_names_and_values(tmp_path):
         ),
         ("t,qw,qx,qy,qz\n0,1,0,0,0\n,1,0,0,0\n", r"line 3, column t: empty time"),
         ("t,qw,qx,qy,qz\nnan,1,0,0,0\n", r"line 2, column t: time nan is not finite"),
-        ("time,qw,qx,qy,qz\n0,1,0,0,0\n", r"no time column 't' \(found: time, qw, qx, qy, qz\)"),
+        (
+            "time,timestamp,qw,qx,qy,qz\n0,0,1,0,0,0\n",
+            r"no time column 't' \(found: time, timestamp, qw, qx, qy, qz\); several columns are named as a time "
+            r"\(time, timestamp\): pass --time-column with the one to read",
+        ),
         ("t,x,y\n0,1,2\n", r"no attitude columns; expected qw,qx,qy,qz or r11\.\.r33"),
         ("", r"empty file, expected a header"),
         ("t,qw,qx,qy,qz\n", r"no data rows after the header \(line 1\)"),

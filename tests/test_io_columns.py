@@ -245,7 +245,7 @@ def test_errors_print_the_columns_line_that_would_read_the_file(tmp_path, capsys
     p.write_text("Timestamp,Pos X,Pos Y,Orient W,Orient X,Orient Y,Orient Z\n0,1,2,1,0,0,0\n")
     with pytest.raises(
         LogFormatError,
-        match=r"no time column 't' .*; to read other columns: --columns 't=Timestamp,qw=Orient W,qx=Orient X,"
+        match=r"no attitude columns.*; to read other columns: --columns 't=Timestamp,qw=Orient W,qx=Orient X,"
         r"qy=Orient Y,qz=Orient Z'",
     ):
         read_log(p)

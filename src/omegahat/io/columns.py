@@ -3,7 +3,8 @@
 Names are compared after :func:`normalise_name`: surrounding whitespace, quotes and a UTF-8 byte-order mark
 removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups, each by name and in any order:
 
-* time: ``t`` (or the name given as ``time_column``);
+* time: ``t`` (or the name given as ``time_column``); a log without ``t`` whose one time column is named as a time
+  (``time``, ``timestamp``, ``Time (s)``: :func:`time_named_columns`) has that one read, said in a note;
 * quaternion: ``qw, qx, qy, qz`` (the names say which is the scalar part), or the ambiguous ``q0, q1, q2, q3`` /
   ``q1, q2, q3, q4``, whose scalar part only the ``scalar_first`` option can say (SciPy's name);
 * rotation matrix ``r11 … r33`` (``rij`` = row i, column j);
@@ -19,6 +20,7 @@ attitude kind and its columns in storage order (quaternions scalar **last**, Sci
 
 from __future__ import annotations
 
+import re
 from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -29,12 +31,16 @@ __all__ = [
     "MAX_COLUMNS",
     "QUATERNION_COLUMNS",
     "QUATERNION_ORDERS",
+    "TIME_COLUMN_NAMES",
     "TORQUE_COLUMNS",
     "Layout",
     "LogFormatError",
     "direction_columns",
     "layout",
     "normalise_name",
+    "time_column_by_name",
+    "time_named_columns",
+    "time_unit_in_name",
 ]
 
 QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")  # stored in this order: SciPy's scalar-last
@@ -85,6 +91,56 @@ def normalise_name(name: str) -> str:
     return name.replace("\ufeff", "").strip().strip('"').strip("'").strip().lower()
 
 
+#: the words a time column's name may end in to state its unit (``timestamp_ns``, ``Time (s)``, ``t [ms]``)
+_TIME_UNIT_WORDS = {
+    **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
+    **dict.fromkeys(("ms", "msec", "millisecond", "milliseconds"), "ms"),
+    **dict.fromkeys(("us", "µs", "usec", "microsecond", "microseconds"), "us"),
+    **dict.fromkeys(("ns", "nsec", "nanosecond", "nanoseconds"), "ns"),
+}
+
+
+def time_unit_in_name(name: str) -> str | None:
+    """The unit (``s``, ``ms``, ``us`` or ``ns``) a time column's name states in its last word, after ``_``, ``-``,
+    ``.`` or a blank, or in brackets (``timestamp_ns``, ``Time (s)``, ``#timestamp [ns]``); None when it states
+    none (``t``, ``time``, ``SampleTimeFine``)."""
+    m = re.search(r"(?:^|[\s_.\-\[(])([a-zµ]+)\s*[\])]?$", normalise_name(name))
+    return _TIME_UNIT_WORDS.get(m.group(1)) if m else None
+
+
+#: the names (less a unit they state: ``time_s``, ``Timestamp [ns]``) that name a log's time column where it has no
+#: column ``t`` (``%time`` and ``field.header.stamp``, rostopic's two times, are left to the user to choose)
+TIME_COLUMN_NAMES = frozenset(
+    ("time", "times", "timestamp", "timestamps", "time_stamp", "stamp", "sec", "secs", "seconds", "datetime")
+)
+
+
+def time_named_columns(names: list[str]) -> list[str]:
+    """The ``names`` (normalised, in order) that name a time column: one of :data:`TIME_COLUMN_NAMES`, alone or
+    followed by the unit it states (``time``, ``Time (s)``, ``timestamp_ns``)."""
+    found = []
+    for name in names:
+        stem = normalise_name(name)
+        if time_unit_in_name(stem) is not None and stem not in TIME_COLUMN_NAMES:
+            stem = re.sub(r"[\s_.\-\[(]*[a-zµ]+\s*[\])]?$", "", stem)  # less its unit word
+        if stem in TIME_COLUMN_NAMES:
+            found.append(normalise_name(name))
+    return found
+
+
+def time_column_by_name(names: list[str], time_column: str) -> tuple[str, str | None]:
+    """The time column to read and the note that says why: ``time_column`` unless it is ``t``, the log has no
+    column ``t`` and exactly one column is named as a time (:func:`time_named_columns`), which is then read (a log
+    with several leaves the choice to ``--time-column``; the error names them)."""
+    if normalise_name(time_column) != "t":
+        return time_column, None
+    normalised = [normalise_name(n) for n in names]
+    found = time_named_columns(normalised)
+    if "t" in normalised or len(found) != 1:
+        return time_column, None
+    return found[0], f"time column: {found[0]!r}, the one named as a time (the log has no column 't')"
+
+
 def direction_columns(names: Iterable[str]) -> list[str]:
     """``b1x, b1y, b1z, b2x, …`` for every i such that some ``bi?`` column is present (checked by :func:`layout`)."""
     idx = sorted(
@@ -123,8 +179,12 @@ def layout(names: Iterable[str], where: str, time_column: str | None = "t", scal
     if dup:
         raise LogFormatError(f"{where}: duplicate column(s) {', '.join(dup)} (names are compared ignoring case)")
     if time_column and time_column not in present:
-        hint = [n for n in normalised if n in ("time", "timestamp", "times", "time_s", "stamp", "sec", "seconds")]
-        tip = f"; pass --time-column {hint[0]}" if hint else "; name it t or pass --time-column NAME"
+        hint = time_named_columns(normalised)
+        tip = "; name it t or pass --time-column NAME"
+        if len(hint) == 1:
+            tip = f"; pass --time-column {hint[0]}"
+        elif hint:
+            tip = f"; several columns are named as a time ({', '.join(hint)}): pass --time-column with the one to read"
         raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(normalised)}){tip}")
     numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
     groups = {

@@ -38,7 +38,7 @@ from omegahat.io.colmap import (
     join_header_rows,
     suggest_columns,
 )
-from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name
+from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name, time_column_by_name
 from omegahat.io.csvparse import ChunkParser
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import TIME_UNITS, LogChunk, LogStream, ReadOptions
@@ -182,6 +182,9 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         original = rows[0] if n_header == 1 else join_header_rows(rows)
     names = apply_columns(original, mapped, where, options.time_column)
     time_column: str | None = "t" if mapped and "t" in dict(mapped) else options.time_column
+    if not mapped and options.rate is None:  # no column t: the one named as a time, if there is one
+        time_column, named = time_column_by_name(names, options.time_column)
+        stream.notes.extend([named] if named else [])
     has_time = bool(time_column) and normalise_name(str(time_column)) in {normalise_name(n) for n in names}
     rate = options.rate  # --rate: a log without times (row k at k / rate)
     if rate is not None:
@@ -217,7 +220,11 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     stream.columns = _columns_read(lay, original, names)
     j_time = names.index(lay.time) if lay.time else -1
     head_times = [r[j_time] for r in sample if 0 <= j_time < len(r)]
-    time_scale = _time_scale(stream, fmt, options, original[j_time].strip() if lay.time else "", head_times)
+    if times.dates is not None:
+        _read_dates(stream, options, where, times, labels[j_time])
+        time_scale = None
+    else:
+        time_scale = _time_scale(stream, fmt, options, original[j_time].strip() if lay.time else "", head_times)
     scale = time_scale if time_scale is not None else TIME_UNITS[options.time_unit]
     stream.t0 = times.base * scale
     if times.exact:
@@ -271,6 +278,24 @@ def _time_scale(stream: LogStream, fmt: TextFormat, options: ReadOptions, column
     if note:
         stream.notes.append(note)
     return TIME_UNITS[unit] if unit else None
+
+
+def _read_dates(stream: LogStream, options: ReadOptions, where: str, times: ExactTimes, column: str) -> None:
+    """A time column of dates (:class:`~omegahat.io.timestamps.ExactTimes`, (6)): its unit is the dates' own, and
+    a note says how they are read and written back."""
+    if options.time_unit != "s":
+        raise LogFormatError(
+            f"{where}: the time column {column!r} holds dates, which carry their own unit; leave --time-unit out"
+        )
+    stream.meta["time_dates"] = True
+    zone = (
+        "their time zone converted to UTC"
+        if getattr(times.dates, "tz", None)
+        else "no time zone given, so read as if UTC: only differences matter to the rates"
+    )
+    stream.notes.append(
+        f"times: dates read as seconds since 1970-01-01 UTC ({zone}); the output's times are written so"
+    )
 
 
 def _columns_read(lay: Layout, original: list[str], names: list[str]) -> str:

@@ -175,8 +175,10 @@ class ChunkParser:
                     hi = mid
             # the field's bytes, as text whatever they hold (a stray byte that is not UTF-8 is shown, not raised)
             value = text.cast(pa.binary())[lo].as_py().decode("utf-8", errors="replace")
-            hint = " (digit grouping is not read)" if "_" in value or (not self.decimal_comma and "," in value) else ""
-            raise LogFormatError(f"{self._where(int(lines[lo]), col)}: {value!r} is not a number{hint}") from None
+            expected = self.times.expected if col == self.time_col else "a number"
+            grouped = expected == "a number" and ("_" in value or (not self.decimal_comma and "," in value))
+            hint = " (digit grouping is not read)" if grouped else ""
+            raise LogFormatError(f"{self._where(int(lines[lo]), col)}: {value!r} is not {expected}{hint}") from None
 
     def parse(self, buf: bytes, first_line: int) -> tuple[LogChunk | None, int]:
         """``(chunk or None if no rows, number of lines in buf)``."""

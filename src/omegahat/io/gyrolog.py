@@ -7,7 +7,8 @@ logs, :func:`omegahat.io.colmap.join_header_rows`; ``0``: no header, the columns
 A decimal comma is read where the delimiter is not ``,``. Blank lines are skipped; any other field that is not a
 number is an error naming its line and column.
 
-**Columns**: ``time_column`` (default ``t``; None: no times are read, ``t`` is the row's index from 0, for the
+**Columns**: ``time_column`` (default ``t``, or where the header has no ``t`` its one column named as a time,
+:func:`omegahat.io.columns.time_column_by_name`; None: no times are read, ``t`` is the row's index from 0, for the
 caller to scale by a rate) and the three rate columns ``columns`` by name (any case) or 1-based position; without
 ``columns``, the header's one group of :data:`GYRO_COLUMNS`, else its one triple of names ending in x, y, z whose
 stem names a gyroscope (``IMU Gyroscope X``, ``gyr.x``...); the errors list what was found and suggest
@@ -27,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 from omegahat.io.colmap import join_header_rows
-from omegahat.io.columns import LogFormatError
+from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.textlines import delimiter, is_number, split_line
 
 __all__ = ["GYRO_COLUMNS", "GyroLog", "gyro_columns", "read_gyro"]
@@ -134,7 +135,8 @@ def read_gyro(
     rate = gyro_columns(names, path) if columns is None else columns
     idx = [_index(c, names, path, "rate") for c in rate]
     if time_column is not None:
-        idx.insert(0, _index(time_column, names, path, "time"))
+        named = time_column_by_name(names, time_column)[0] if head else time_column  # no column t: one named so
+        idx.insert(0, _index(named, names, path, "time"))  # (the caller prints the name read)
     comma = delim != ","  # a decimal comma: only where the comma does not separate the columns
     out = np.empty((len(body), 4))
     out[:, 0] = np.arange(len(body))  # the row's index, where no time column is read

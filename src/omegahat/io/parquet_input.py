@@ -27,7 +27,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from omegahat.io.colmap import apply_columns
-from omegahat.io.columns import LogFormatError, layout
+from omegahat.io.columns import LogFormatError, layout, time_column_by_name
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
 from omegahat.io.time_units import unit_stated
 
@@ -79,6 +79,9 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     names = apply_columns(original, options.column_map, where, options.time_column)
     mapped = options.column_map
     time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
+    named = None
+    if not mapped:  # no column t: the one named as a time, if there is one
+        time_column, named = time_column_by_name(names, time_column)
     lay = layout(names, where, time_column, options.scalar_first)
     if not lay.time:
         raise LogFormatError(f"{where}: a Parquet log needs a time column (name it t or pass --time-column NAME)")
@@ -128,8 +131,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
         t0=t0,
     )
-    if note:
-        stream.notes.append(note)
+    stream.notes.extend(n for n in (named, note) if n)
     if options.column_map:
         stream.notes.append(f"columns read: {', '.join(f'{k}={v}' for k, v in options.column_map)}")
 

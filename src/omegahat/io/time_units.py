@@ -8,12 +8,10 @@ origin) and samples :data:`PLAUSIBLE_RATES_HZ` apart. Epoch stamps show their un
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 from numpy.typing import ArrayLike
 
-from omegahat.io.columns import normalise_name
+from omegahat.io.columns import time_unit_in_name
 
 __all__ = [
     "PLAUSIBLE_RATES_HZ",
@@ -30,22 +28,6 @@ __all__ = [
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
 PLAUSIBLE_SECONDS = 1e11  #: no log's time (s from any origin) is larger: 3,000 years
 PLAUSIBLE_RATES_HZ = (0.5, 5000.0)  #: the sample rates of the logs omegahat reads
-
-#: the words a time column's name may end in to state its unit (``timestamp_ns``, ``Time (s)``, ``t [ms]``)
-_TIME_UNIT_WORDS = {
-    **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
-    **dict.fromkeys(("ms", "msec", "millisecond", "milliseconds"), "ms"),
-    **dict.fromkeys(("us", "µs", "usec", "microsecond", "microseconds"), "us"),
-    **dict.fromkeys(("ns", "nsec", "nanosecond", "nanoseconds"), "ns"),
-}
-
-
-def time_unit_in_name(name: str) -> str | None:
-    """The unit (``s``, ``ms``, ``us`` or ``ns``) a time column's name states in its last word, after ``_``, ``-``,
-    ``.`` or a blank, or in brackets (``timestamp_ns``, ``Time (s)``, ``#timestamp [ns]``); None when it states
-    none (``t``, ``time``, ``SampleTimeFine``)."""
-    m = re.search(r"(?:^|[\s_.\-\[(])([a-zµ]+)\s*[\])]?$", normalise_name(name))
-    return _TIME_UNIT_WORDS.get(m.group(1)) if m else None
 
 
 def named_unit_note(named: str, column: str, given: str) -> str:

@@ -39,6 +39,11 @@ two chunks is treated exactly as one inside a chunk.
    relative to the integer part of the first one *before* they become floats (:class:`ExactTimes`), which the
    stream keeps as ``t0``: as floats ``1.7e9`` s would be rounded to 0.24 µs and ``1.4e18`` ns to 256 ns.
 
+6. **Dates are read as seconds since 1970.** A text time column of ISO 8601 dates and times (pandas' ``to_csv``
+   of a ``DatetimeIndex``, ``2026-01-01T12:00:00.010Z``) is read as seconds since 1970-01-01 UTC, kept exact in the
+   same way (:class:`ExactTimes`), and the output's times are written so. A time with a zone offset is converted to
+   UTC; one without is read as if it were UTC, which the reader says in a note.
+
 The jitter test (``tests/test_timestamps.py``) checks that a log with irregular sampling, dropped frames and
 duplicates gives the same rate as the clean log within the noise.
 """
@@ -55,7 +60,7 @@ import pyarrow.compute as pc
 from omegahat import so3
 from omegahat.io.columns import LogFormatError
 
-__all__ = ["DUPLICATE_CHOICES", "DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "sort_by_time"]
+__all__ = ["DUPLICATE_CHOICES", "DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "date_text", "sort_by_time"]
 
 DUPLICATE_TOL = 1e-6  #: ‖R_a − R_b‖_F (≈ √2 × the angle in rad) below which two samples at one time are the same
 DUPLICATE_CHOICES = ("error", "first", "last")  #: (3) what to do with samples at one time that disagree
@@ -69,22 +74,51 @@ class ExactTimes:
     magnitude is :data:`EXACT_FROM` or more (else ``base`` is 0 and the times are read as they are).
     :meth:`convert` turns a chunk's time texts (blanks trimmed, a decimal comma read as a point) into floats
     ``time − base``; a text that is no decimal number (``nan``, a word) is read as a float, which the readers
-    refuse, naming it."""
+    refuse, naming it.
+
+    (6) **Dates.** A first time written as an ISO 8601 date and time (``2026-01-01 12:00:00.010``,
+    ``2026-01-01T12:00:00.010Z``, ``…+02:00``: what pandas, spreadsheets and many loggers write) makes every time
+    one: :attr:`dates` is the Arrow type they are read as, ``base`` the whole seconds since 1970-01-01 UTC of the
+    first, and :meth:`convert` gives seconds since ``base``, from integer nanoseconds (exact to 1 ns over 104 days).
+    A time with a zone offset is the instant it names (converted to UTC). One without is read as if it were UTC:
+    only differences of times matter to the estimate, so the zone changes nothing but the times written back
+    (seconds since 1970 "UTC" are then the local clock's). Either way every row must be like the first (all with a
+    zone or none), else its line is named. A local clock's daylight-saving jump back is a time going backwards,
+    refused by rule 4."""
 
     def __init__(self, first: str):
+        text = first.strip()
+        self.dates: pa.DataType | None = None
         try:
-            value = Decimal(first.strip().replace(",", "."))
+            value = Decimal(text.replace(",", "."))
         except InvalidOperation:
             value = Decimal(0)
+            self.dates = _date_type(text)
+        if self.dates is not None:
+            ns = pc.cast(pc.cast(pa.array([text]), self.dates), pa.int64())[0].as_py()
+            self.base = ns // 10**9
+            return
         self.base = int(value) if value.is_finite() and abs(value) >= Decimal(EXACT_FROM) else 0
 
     @property
     def exact(self) -> bool:
-        return self.base != 0
+        """Whether the times are read as text (absolute times made relative, or dates), not as floats."""
+        return self.base != 0 or self.dates is not None
+
+    @property
+    def expected(self) -> str:
+        """What every time must be, for the message naming one that is not."""
+        if self.dates is None:
+            return "a number"
+        zone = "with" if pa.types.is_timestamp(self.dates) and self.dates.tz else "without"
+        return f"a date and time {zone} a time zone, as the first row's (ISO 8601: 2026-01-31 12:00:00.010)"
 
     def convert(self, text: pa.Array) -> pa.Array:
         """float64 ``time − base`` (nulls kept) of a string array; raises ``pa.ArrowInvalid`` for text that is no
-        number."""
+        number (no date, for dates)."""
+        if self.dates is not None:
+            ns = pc.cast(pc.cast(text, self.dates), pa.int64())
+            return pc.divide(pc.cast(pc.subtract(ns, pa.scalar(self.base * 10**9)), pa.float64()), 1e9)
         if not self.exact:
             return pc.cast(text, pa.float64())
         try:
@@ -92,6 +126,23 @@ class ExactTimes:
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):  # nan/inf, or more than 18 decimals: as floats
             return pc.subtract(pc.cast(text, pa.float64()), pa.scalar(float(self.base)))
         return pc.cast(pc.subtract(d, pa.scalar(Decimal(self.base), _DIFFERENCE)), pa.float64())
+
+
+def _date_type(text: str) -> pa.DataType | None:
+    """The Arrow type an ISO 8601 date and time ``text`` is read as (6): nanoseconds in UTC where it names a zone,
+    without a zone where it does not; None where it is no date."""
+    for kind in (pa.timestamp("ns"), pa.timestamp("ns", "UTC")):
+        try:
+            pc.cast(pa.array([text]), kind)
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            continue
+        return kind
+    return None
+
+
+def date_text(base: int, seconds: float) -> str:
+    """A time of (6), ``seconds`` after ``base`` s since 1970-01-01 UTC, as an ISO 8601 text (for messages)."""
+    return str(np.datetime64(base * 10**9 + round(seconds * 1e9), "ns"))
 
 
 def sort_by_time(times: np.ndarray) -> tuple[np.ndarray, int]:
@@ -151,7 +202,7 @@ class TimePolicy:
     ``unit`` is the labels' word (``"line"``, ``"index"``, ``"message"`` ...), ``time_name`` the time column named
     in messages, ``duplicates`` one of :data:`DUPLICATE_CHOICES` (rule 3; checked by
     :class:`omegahat.io.ReadOptions`), ``time_base`` the integer :class:`ExactTimes` subtracted from the raw times
-    (added back in messages). :meth:`feed` takes arrays ``(t, raw_t,
+    (added back in messages; ``dates``: shown as dates, (6)). :meth:`feed` takes arrays ``(t, raw_t,
     data, torque, labels, extra)`` of one chunk (``t`` in seconds, ``raw_t`` as the file writes it, for messages)
     and returns the indices of the rows to hand on and the concatenated arrays they index; :meth:`finish` returns
     the last sample held back.
@@ -165,9 +216,11 @@ class TimePolicy:
         time_name: str | None,
         duplicates: str = "error",
         time_base: int = 0,
+        dates: bool = False,
     ):
         self.kind, self.where, self.unit, self.time_name = kind, where, unit, time_name
         self.time_base = time_base  # (5): raw times are relative to it; messages show the time the file writes
+        self.dates = dates  # (6): raw times are seconds after time_base since 1970, shown as dates
         self.duplicates = duplicates
         self.n_dropped = 0  # exact duplicates (rule 2)
         self.n_conflicts = 0  # samples dropped from times whose samples disagree (rule 3, first or last)
@@ -223,6 +276,8 @@ class TimePolicy:
 
     def _num(self, x) -> str:
         """A raw time as the file writes it (its exact base added back as decimals: a float would round it)."""
+        if self.dates:
+            return date_text(self.time_base, float(x))
         if not self.time_base:
             return repr(float(x))
         return str(Decimal(self.time_base) + Decimal(repr(float(x))))

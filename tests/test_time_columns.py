@@ -1,0 +1,178 @@
+"""Time columns as other tools write them: a column named as a time where the log has no ``t`` (``time``,
+``Timestamp``, ``Time (s)``), and ISO 8601 dates and times (pandas' ``to_csv`` of a ``DatetimeIndex``, ``…Z``,
+``…+02:00``). The reference instants come from Python's ``datetime`` (an independent clock arithmetic), the
+reference rates from the same rotations logged with numeric times."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta, timezone
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat.cli import main
+from omegahat.io import LogFormatError, ReadOptions, read_log
+from omegahat.io.gyrolog import read_gyro
+from recording_files import read_omega_csv
+
+CLI = ["--no-progress"]
+OMEGA = np.array([0.3, -0.2, 0.5])  # rad/s, body axes
+START = datetime(2026, 3, 29, 0, 59, 59, tzinfo=UTC)  # one second before Europe's clocks jump from +01:00 to +02:00
+RATE = 100.0
+
+
+def _quaternions(n: int) -> np.ndarray:
+    t = np.arange(n) / RATE
+    return (Rotation.from_rotvec([0.2, 0.0, 0.0]) * Rotation.from_rotvec(np.outer(t, OMEGA))).as_quat()  # x,y,z,w
+
+
+def _write(path, times: list[str], q: np.ndarray, name: str = "time") -> None:
+    rows = [f"{s},{w:.17g},{x:.17g},{y:.17g},{z:.17g}" for s, (x, y, z, w) in zip(times, q, strict=True)]
+    path.write_text(f"{name},qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+
+
+def _rates(path, tmp_path, capsys, *extra):
+    out = tmp_path / "o.csv"
+    out.unlink(missing_ok=True)
+    code = main(["estimate", str(path), "-o", str(out), *CLI, *extra])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    return read_omega_csv(out), printed.out + printed.err
+
+
+def _instants(n: int) -> list[datetime]:
+    return [START + timedelta(microseconds=10_000 * k) for k in range(n)]
+
+
+def test_pandas_dates_are_read_as_seconds_since_1970_and_give_the_numeric_logs_rates(tmp_path, capsys):
+    pd = pytest.importorskip("pandas")
+    n = 400
+    q = _quaternions(n)
+    frame = pd.DataFrame(q[:, [3, 0, 1, 2]], columns=["qw", "qx", "qy", "qz"])
+    frame.index = pd.DatetimeIndex([d.replace(tzinfo=None) for d in _instants(n)], name="time")
+    dated = tmp_path / "dated.csv"
+    frame.to_csv(dated)
+    assert dated.read_text().splitlines()[1].startswith("2026-03-29 00:59:59.000,")  # pandas' text, no zone
+    numeric = tmp_path / "numeric.csv"
+    _write(numeric, [repr(k / RATE) for k in range(n)], q, name="t")
+
+    log = read_log(dated)
+    expected = np.array([d.timestamp() for d in _instants(n)])
+    np.testing.assert_allclose(log.absolute_times, expected, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(np.diff(log.t), 0.01, rtol=0, atol=1e-12)  # from integer ns: no float rounding
+    assert any("dates read as seconds since 1970-01-01 UTC (no time zone given" in note for note in log.notes)
+
+    (table_d, _), err = _rates(dated, tmp_path, capsys)
+    (table_n, _), _ = _rates(numeric, tmp_path, capsys)
+    t_d, w_d, w_n = table_d[:, 0], table_d[:, 1:], table_n[:, 1:]
+    assert "time column: 'time', the one named as a time" in err
+    np.testing.assert_allclose(t_d, expected, rtol=0, atol=1e-6)  # the output's times: seconds since 1970
+    np.testing.assert_allclose(w_d, w_n, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(w_d[50:], np.broadcast_to(OMEGA, (n - 50, 3)), atol=1e-6)
+
+
+def test_zoned_times_are_the_instants_they_name_across_a_clock_change(tmp_path):
+    # Central European time: +01:00 until 01:00 UTC on 2026-03-29, then +02:00; the local clock jumps an hour,
+    # the instants do not
+    n = 300
+    local = []
+    for d in _instants(n):
+        zone = timezone(timedelta(hours=1 if d < datetime(2026, 3, 29, 1, tzinfo=UTC) else 2))
+        local.append(d.astimezone(zone).isoformat(timespec="milliseconds"))
+    assert local[0].endswith("+01:00") and local[-1].endswith("+02:00")
+    path = tmp_path / "zoned.csv"
+    _write(path, local, _quaternions(n), name="Timestamp")
+    log = read_log(path)
+    np.testing.assert_allclose(log.absolute_times, [d.timestamp() for d in _instants(n)], rtol=0, atol=1e-6)
+    assert any("their time zone converted to UTC" in note for note in log.notes)
+
+    utc = tmp_path / "utc.csv"
+    _write(utc, [d.strftime("%Y-%m-%dT%H:%M:%S.%fZ") for d in _instants(n)], _quaternions(n))
+    np.testing.assert_allclose(read_log(utc).absolute_times, log.absolute_times, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("line", "text", "match"),
+    [
+        (
+            51,
+            "2026-03-29T00:59:59.490Z",
+            r"line 51, column time: '2026-03-29T00:59:59\.490Z' is not a date and time without a time zone, as the "
+            r"first row's",
+        ),
+        (61, "soon", r"line 61, column time: 'soon' is not a date and time without a time zone"),
+        (
+            71,
+            "2026-03-29 00:59:58",
+            r"line 71, column time: time 2026-03-29T00:59:58\.000000000 is not after 2026-03-29T00:59:59\.680000000 "
+            r"\(line 70\); times must increase",
+        ),
+    ],
+)
+def test_a_bad_date_is_named_and_no_output_is_written(tmp_path, capsys, line, text, match):
+    n = 100
+    times = [d.strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] for d in _instants(n)]
+    times[line - 2] = text
+    path = tmp_path / "bad.csv"
+    _write(path, times, _quaternions(n))
+    with pytest.raises(LogFormatError, match=match):
+        read_log(path)
+    out = tmp_path / "o.csv"
+    assert main(["estimate", str(path), "-o", str(out), *CLI]) == 2
+    assert "Traceback" not in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_dates_refuse_a_time_unit(tmp_path):
+    path = tmp_path / "d.csv"
+    _write(path, [d.isoformat() for d in _instants(20)], _quaternions(20))
+    with pytest.raises(LogFormatError, match=r"the time column 'time' holds dates, which carry their own unit"):
+        read_log(path, options=ReadOptions(time_unit="ms"))
+
+
+@pytest.mark.parametrize(
+    ("name", "scale"),
+    [("time", 1.0), ("Time (s)", 1.0), ("timestamp_ms", 1e-3), ("Timestamp [ns]", 1e-9), ("seconds", 1.0)],
+)
+def test_the_one_column_named_as_a_time_is_read_in_the_unit_its_name_states(tmp_path, name, scale):
+    n = 50
+    written = np.arange(n) * (0.01 / scale)  # 100 Hz in the column's unit, from 0
+    path = tmp_path / "named.csv"
+    _write(path, [f"{v:.12g}" for v in written], _quaternions(n), name=name)
+    log = read_log(path)
+    np.testing.assert_allclose(log.t, np.arange(n) / RATE, rtol=0, atol=1e-12)
+    column = name.lower()
+    assert f"time column: {column!r}, the one named as a time (the log has no column 't')" in log.notes
+
+
+def test_names_that_are_not_one_time_column_are_left_to_the_user(tmp_path):
+    # rostopic's two times are not chosen between; a column t is read whatever else is named as a time
+    path = tmp_path / "ros.csv"
+    path.write_text("%time,field.header.stamp,field.w,field.x,field.y,field.z\n1,1,1,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"no time column 't' \(found: %time, field\.header\.stamp"):
+        read_log(path)
+    both = tmp_path / "both.csv"
+    both.write_text("t,time,qw,qx,qy,qz\n0.25,9,1,0,0,0\n")
+    log = read_log(both)
+    assert log.t.tolist() == [0.25]
+    assert not any("time column" in note for note in log.notes)
+
+
+def test_a_parquet_tables_time_named_column_and_a_gyro_logs(tmp_path):
+    pd = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
+    n = 30
+    q = _quaternions(n)
+    frame = pd.DataFrame(q[:, [3, 0, 1, 2]], columns=["qw", "qx", "qy", "qz"])
+    frame.insert(0, "Time", np.arange(n) / RATE)
+    frame.to_parquet(tmp_path / "log.parquet")
+    log = read_log(tmp_path / "log.parquet")
+    np.testing.assert_allclose(log.t, np.arange(n) / RATE, rtol=0, atol=1e-15)
+    assert "time column: 'time', the one named as a time (the log has no column 't')" in log.notes
+
+    gyro = tmp_path / "gyro.csv"
+    gyro.write_text("timestamp,gx,gy,gz\n0.5,1,2,3\n0.6,4,5,6\n")
+    read = read_gyro(gyro)
+    assert read.names[0] == "timestamp"
+    np.testing.assert_array_equal(read.t, [0.5, 0.6])
