@@ -176,3 +176,46 @@ def test_a_parquet_tables_time_named_column_and_a_gyro_logs(tmp_path):
     read = read_gyro(gyro)
     assert read.names[0] == "timestamp"
     np.testing.assert_array_equal(read.t, [0.5, 0.6])
+
+
+@pytest.mark.parametrize("kind", ["pandas", "polars"])
+def test_a_dataframes_column_of_date_texts_named_as_a_time(kind):
+    pd = pytest.importorskip("pandas")
+    import omegahat
+
+    n = 200
+    q = _quaternions(n)
+    texts = [d.isoformat() for d in _instants(n)]  # '2026-03-29T00:59:59+00:00', then with microseconds
+    frame = pd.DataFrame({"Timestamp": texts, "qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2]})
+    numeric = frame.drop(columns="Timestamp").assign(t=np.arange(n) / RATE)
+    if kind == "polars":
+        pl = pytest.importorskip("polars")
+        frame, numeric = pl.from_pandas(frame), pl.from_pandas(numeric)
+    got = omegahat.estimate_frame(frame)
+    want = omegahat.estimate_frame(numeric)
+    np.testing.assert_allclose(np.asarray(got[["wx", "wy", "wz"]]), np.asarray(want[["wx", "wy", "wz"]]), atol=1e-9)
+
+    bad = frame.to_pandas() if kind == "polars" else frame.copy()
+    bad.loc[7, "Timestamp"] = "later"
+    if kind == "polars":
+        bad = pl.from_pandas(bad)
+    with pytest.raises(
+        LogFormatError, match=r"DataFrame, row 7, column Timestamp: 'later' is not a date and time with a"
+    ):
+        omegahat.estimate_frame(bad)
+    gap = frame.to_pandas() if kind == "polars" else frame.copy()
+    gap.loc[9, "Timestamp"] = None
+    with pytest.raises(LogFormatError, match=r"DataFrame, row 9, column Timestamp: missing time"):
+        omegahat.estimate_frame(pl.from_pandas(gap) if kind == "polars" else gap)
+
+
+def test_a_dataframes_time_index_wins_over_a_column_named_as_a_time():
+    pd = pytest.importorskip("pandas")
+    import omegahat
+
+    n = 100
+    q = _quaternions(n)
+    frame = pd.DataFrame({"time": np.arange(n) * 7.0, "qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2]})
+    frame.index = pd.Index(np.arange(n) / RATE)  # float seconds: the index is the time, as before
+    got = omegahat.estimate_frame(frame)
+    np.testing.assert_allclose(np.asarray(got[["wx", "wy", "wz"]])[20:], np.broadcast_to(OMEGA, (n - 20, 3)), atol=1e-6)

@@ -36,9 +36,9 @@ import numpy as np
 
 from omegahat.interface import STATUS_WORDS
 from omegahat.io.colmap import apply_columns, frame_names
-from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name
+from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name, time_column_by_name
 from omegahat.io.registry import TIME_UNITS, LogStream, ReadOptions, checked_stream
-from omegahat.io.timestamps import sort_by_time
+from omegahat.io.timestamps import sort_by_time, text_dates
 
 if TYPE_CHECKING:
     import pandas as pd  # optional, like polars: imported where a frame of theirs is read
@@ -85,16 +85,28 @@ def _pandas_times(df, time: str | None):
         s = df[name]
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
             return _nanoseconds(s, name), name
-        return _numbers(df, [name], "pandas")[:, 0], name
+        dates = text_dates(s.tolist(), _row_of(name)) if pd.api.types.is_string_dtype(s) else None
+        return (_numbers(df, [name], "pandas")[:, 0] if dates is None else dates), name
     idx = df.index
     if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
         return _nanoseconds(idx, "index"), None
-    if pd.api.types.is_float_dtype(idx):
+    if _time_index(idx):
         return idx.to_numpy(dtype=float), None
     raise LogFormatError(
         "DataFrame: no time: give a column 't' (seconds) or time='column', or use a DatetimeIndex, TimedeltaIndex "
         f"or float index in seconds (the index is {type(idx).__name__} of {idx.dtype})"
     )
+
+
+def _row_of(name: str):
+    return lambda k: f"DataFrame, row {k}, column {name}"
+
+
+def _time_index(idx) -> bool:
+    """Whether a pandas index holds times: datetimes, durations or floats (seconds)."""
+    import pandas as pd
+
+    return isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex) or pd.api.types.is_float_dtype(idx)
 
 
 def _nanoseconds(values, name: str) -> np.ndarray:
@@ -134,7 +146,8 @@ def _polars_times(df, time: str | None):
                 raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold")
             return ticks * ns_per_tick, name
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
-    return _numbers(df, [name], "polars")[:, 0], name
+    dates = text_dates(s.to_list(), _row_of(name)) if s.dtype == pl.String else None
+    return (_numbers(df, [name], "polars")[:, 0] if dates is None else dates), name
 
 
 def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
@@ -200,6 +213,10 @@ def open_frame(
         as_named = dict(zip(q, QUATERNION_COLUMNS, strict=True))
     else:
         as_named = {n: m for n, m in zip(names, mapped, strict=True) if m != "t"} if options.column_map else {}
+    named = None
+    if time is None and "t" not in names and (frame_kind == "polars" or not _time_index(getattr(df, "index", None))):
+        found, named = time_column_by_name(names, "t")  # no column t: the one named as a time, if there is one
+        time = next((n for n in names if normalise_name(n) == found), None) if named else None
     if frame_kind == "pandas":
         times, time_name = _pandas_times(df, time)
     else:
@@ -227,7 +244,7 @@ def open_frame(
         row_t, t0 = (times - base).astype(np.float64) * 1e-9, base * 1e-9
     else:
         row_t, t0 = np.asarray(times, dtype=float), 0.0
-    notes = [f"{n_late} row(s) came after a later one: sorted by time"] if n_late else []
+    notes = [n for n in (named, f"{n_late} row(s) came after a later one: sorted by time" if n_late else "") if n]
     cols = ", ".join(original[c] for c in lay.attitude)
     stream = LogStream.from_arrays(
         "DataFrame",

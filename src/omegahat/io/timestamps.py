@@ -60,7 +60,16 @@ import pyarrow.compute as pc
 from omegahat import so3
 from omegahat.io.columns import LogFormatError
 
-__all__ = ["DUPLICATE_CHOICES", "DUPLICATE_TOL", "EXACT_FROM", "ExactTimes", "TimePolicy", "date_text", "sort_by_time"]
+__all__ = [
+    "DUPLICATE_CHOICES",
+    "DUPLICATE_TOL",
+    "EXACT_FROM",
+    "ExactTimes",
+    "TimePolicy",
+    "date_text",
+    "sort_by_time",
+    "text_dates",
+]
 
 DUPLICATE_TOL = 1e-6  #: ‖R_a − R_b‖_F (≈ √2 × the angle in rad) below which two samples at one time are the same
 DUPLICATE_CHOICES = ("error", "first", "last")  #: (3) what to do with samples at one time that disagree
@@ -113,11 +122,16 @@ class ExactTimes:
         zone = "with" if pa.types.is_timestamp(self.dates) and self.dates.tz else "without"
         return f"a date and time {zone} a time zone, as the first row's (ISO 8601: 2026-01-31 12:00:00.010)"
 
+    def nanoseconds(self, text: pa.Array) -> pa.Array:
+        """int64 nanoseconds since 1970-01-01 UTC of a string array of dates (6); raises ``pa.ArrowInvalid`` for a
+        text unlike the first."""
+        return pc.cast(pc.cast(text, self.dates), pa.int64())
+
     def convert(self, text: pa.Array) -> pa.Array:
         """float64 ``time − base`` (nulls kept) of a string array; raises ``pa.ArrowInvalid`` for text that is no
         number (no date, for dates)."""
         if self.dates is not None:
-            ns = pc.cast(pc.cast(text, self.dates), pa.int64())
+            ns = self.nanoseconds(text)
             return pc.divide(pc.cast(pc.subtract(ns, pa.scalar(self.base * 10**9)), pa.float64()), 1e9)
         if not self.exact:
             return pc.cast(text, pa.float64())
@@ -138,6 +152,34 @@ def _date_type(text: str) -> pa.DataType | None:
             continue
         return kind
     return None
+
+
+def text_dates(texts: list, where: Callable[[int], str]) -> np.ndarray | None:
+    """Integer nanoseconds since 1970-01-01 UTC of a column of ISO 8601 date texts (a DataFrame's strings), read
+    as a CSV's are (6); None where the first is no date (the caller reads numbers). ``where(k)`` names row ``k`` in
+    the error for a text unlike the first or a missing one."""
+    texts = [None if _missing(v) else str(v).strip() for v in texts]
+    times = ExactTimes(next((v for v in texts if v is not None), ""))
+    if times.dates is None:
+        return None
+    try:
+        ns = times.nanoseconds(pa.array(texts, pa.string()))
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        for k, v in enumerate(texts):  # the first that is no date like the first, for the message
+            try:
+                times.nanoseconds(pa.array([v], pa.string()))
+            except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+                raise LogFormatError(f"{where(k)}: {v!r} is not {times.expected}") from None
+        raise
+    if ns.null_count:
+        k = int(np.flatnonzero(ns.is_null().to_numpy(zero_copy_only=False))[0])
+        raise LogFormatError(f"{where(k)}: missing time (every row needs one)")
+    return ns.to_numpy().astype(np.int64)
+
+
+def _missing(value) -> bool:
+    """None, NaN or pandas' NA: a missing value in a DataFrame's column of texts."""
+    return value is None or (isinstance(value, float) and value != value) or type(value).__name__ == "NAType"
 
 
 def date_text(base: int, seconds: float) -> str:
