@@ -246,7 +246,7 @@ def test_command_messages(tmp_path, capsys):
 def test_read_gyro_npz(tmp_path):
     t = np.arange(5.0)
     np.savez(tmp_path / "g.npz", t=t, g=np.ones((5, 3)))
-    tt, g, _ = read_gyro(tmp_path / "g.npz")
+    tt, g = read_gyro(tmp_path / "g.npz")[:2]
     np.testing.assert_array_equal(tt, t)
     assert g.shape == (5, 3)
     np.savez(tmp_path / "h.npz", t=t, g=np.ones((4, 3)))
@@ -269,7 +269,7 @@ def test_gyro_columns_by_their_usual_names(tmp_path, header):
     path = tmp_path / "imu.csv"
     np.savetxt(path, np.column_stack([table_.get(j, -np.ones(4)) for j in range(len(names))]), delimiter=",",
                header=header, comments="")  # fmt: skip
-    t, g, _ = read_gyro(path)
+    t, g = read_gyro(path)[:2]
     np.testing.assert_array_equal(t, np.arange(4.0))
     np.testing.assert_array_equal(g, rows)
     np.savez(tmp_path / "imu.npz", t=np.arange(4.0), **{n: rows[:, i] for i, n in enumerate(rate)})
@@ -389,3 +389,36 @@ def test_command_reads_euler_attitudes_and_a_gyro_time_in_the_unit_its_name_stat
     assert "time unit: ms, as the time column's name says ('time_ms'; converted to s)" in text
     assert abs(offsets[1] - offsets[0]) < 1e-7
     assert abs(offsets[1] - truth["delta"]) < 1e-3
+
+
+def test_command_reads_iso_dates_in_both_logs(tmp_path, capsys):
+    """Both logs stamped with ISO 8601 dates (the attitude's without a zone, as pandas writes them; the gyro's in
+    UTC with ``Z``) give the offset of the logs stamped in seconds: both are read as seconds since 1970 UTC."""
+    data, truth = simulated(4)
+    ta, Ra, tg, g = data
+    att, gyro = _write_logs(tmp_path, data)
+    start = np.datetime64("2026-01-01T00:00:00", "ns")
+
+    def dates(t):
+        return [str(start + np.timedelta64(round(x * 1e9), "ns")) for x in t]
+
+    q = Rotation.from_matrix(Ra).as_quat()
+    dated_att = tmp_path / "mocap_dates.csv"
+    rows = [
+        f"{d.replace('T', ' ')},{w!r},{x!r},{y!r},{z!r}" for d, (x, y, z, w) in zip(dates(ta), q.tolist(), strict=True)
+    ]
+    dated_att.write_text("Timestamp,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    dated_gyro = tmp_path / "imu_dates.csv"
+    rows = [f"{d}Z,{a!r},{b!r},{c!r}" for d, (a, b, c) in zip(dates(tg), np.degrees(g).tolist(), strict=True)]
+    dated_gyro.write_text("time,gx,gy,gz\n" + "\n".join(rows) + "\n")
+    offsets = []
+    for a, gy in ((att, gyro), (dated_att, dated_gyro)):
+        out = tmp_path / f"{a.stem}.json"
+        assert main(["calibrate", str(a), str(gy), "--gyro-unit", "deg/s", "-o", str(out)]) == 0
+        offsets.append(json.loads(out.read_text())["offset"])
+    text = capsys.readouterr().out
+    assert "time 'time'" in text and "dates read as seconds since 1970-01-01 UTC" in text
+    assert abs(offsets[1] - offsets[0]) < 1e-6
+    assert abs(offsets[1] - truth["delta"]) < 1e-3
+    assert main(["calibrate", str(dated_att), str(dated_gyro), "--gyro-time-unit", "ms"]) == 2
+    assert "its time column holds dates, which carry their own unit" in capsys.readouterr().err

@@ -197,7 +197,13 @@ def run(args: argparse.Namespace) -> int:
     print(f"attitude: {log.t.size} samples of {args.attitude}" + "".join(f"; {n}" for n in log.notes))
     times = f"time {gyro.names[0]!r}" if args.gyro_rate is None else f"times row / {args.gyro_rate:g} Hz"
     stated, note = None, None  # the unit its name or size states, as an attitude log's
-    if args.gyro_rate is None:
+    if gyro.dates:
+        if args.gyro_time_unit != "s":
+            raise ValueError(
+                f"{args.gyro}: its time column holds dates, which carry their own unit; leave --gyro-time-unit out"
+            )
+        note = "dates read as seconds since 1970-01-01 UTC (without a time zone: as if UTC, as the attitude log's)"
+    elif args.gyro_rate is None:
         stated, note = unit_stated(gyro.names[0], args.gyro_time_unit, gyro.t[:64])
     time_unit = stated or args.gyro_time_unit
     said = f"; {note}" if note else ""

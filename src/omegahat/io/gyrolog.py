@@ -30,6 +30,7 @@ import numpy as np
 from omegahat.io.colmap import join_header_rows
 from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.textlines import delimiter, is_number, split_line
+from omegahat.io.timestamps import text_dates
 
 __all__ = ["GYRO_COLUMNS", "GyroLog", "gyro_columns", "read_gyro"]
 
@@ -46,11 +47,13 @@ GYRO_COLUMNS = (
 
 class GyroLog(NamedTuple):
     """What :func:`read_gyro` read: ``t (M,)`` as written, ``g (M, 3)``, and the columns' names as the file gives
-    them (time, x, y, z)."""
+    them (time, x, y, z); ``dates``: the times were ISO 8601 dates, ``t`` is in seconds since 1970-01-01 UTC
+    (:func:`omegahat.io.timestamps.text_dates`)."""
 
     t: np.ndarray
     g: np.ndarray
     names: tuple[str, str, str, str]
+    dates: bool = False
 
 
 def _triples(names: list[str]) -> list[tuple[str, str, str]]:
@@ -140,9 +143,17 @@ def read_gyro(
     comma = delim != ","  # a decimal comma: only where the comma does not separate the columns
     out = np.empty((len(body), 4))
     out[:, 0] = np.arange(len(body))  # the row's index, where no time column is read
-    for r, (line, row) in enumerate(body):
-        fields = split_line(row, delim, f"{path}, line {line}")
-        for c, i in enumerate(idx, start=4 - len(idx)):
+    rows = [split_line(row, delim, f"{path}, line {line}") for line, row in body]
+    dates = None
+    if time_column is not None:  # ISO 8601 dates: seconds since 1970 (the attitude reader's rule)
+        texts = [fields[idx[0]] if idx[0] < len(fields) else None for fields in rows]
+        dates = text_dates(texts, lambda k: f"{path}, line {body[k][0]}, column {names[idx[0]]}")
+        if dates is not None:
+            out[:, 0] = dates * 1e-9
+    numbers = list(enumerate(idx, start=4 - len(idx)))[(dates is not None) :]  # (out's column, the file's)
+    for r, (line, _) in enumerate(body):
+        fields = rows[r]
+        for c, i in numbers:
             field = fields[i].strip() if i < len(fields) else ""
             try:
                 out[r, c] = float(field.replace(",", ".") if comma else field)
@@ -150,7 +161,8 @@ def read_gyro(
                 shown = repr(field) if i < len(fields) else "nothing"
                 raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
     x, y, z = (names[i] for i in idx[-3:])
-    return GyroLog(out[:, 0], out[:, 1:], (names[idx[0]] if time_column is not None else "row", x, y, z))
+    time_name = names[idx[0]] if time_column is not None else "row"
+    return GyroLog(out[:, 0], out[:, 1:], (time_name, x, y, z), dates is not None)
 
 
 def _read_npz(path: str, time_column: str | None, columns: tuple[str, str, str] | None) -> GyroLog:

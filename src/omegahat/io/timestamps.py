@@ -158,10 +158,10 @@ def text_dates(texts: list, where: Callable[[int], str]) -> np.ndarray | None:
     """Integer nanoseconds since 1970-01-01 UTC of a column of ISO 8601 date texts (a DataFrame's strings), read
     as a CSV's are (6); None where the first is no date (the caller reads numbers). ``where(k)`` names row ``k`` in
     the error for a text unlike the first or a missing one."""
-    texts = [None if _missing(v) else str(v).strip() for v in texts]
-    times = ExactTimes(next((v for v in texts if v is not None), ""))
+    times = ExactTimes(next((str(v) for v in texts if not _missing(v)), ""))
     if times.dates is None:
         return None
+    texts = [None if _missing(v) else str(v).strip() for v in texts]
     try:
         ns = times.nanoseconds(pa.array(texts, pa.string()))
     except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
