@@ -229,6 +229,19 @@ def read_omega_csv(path):
     return table, status
 
 
+def estimate_file(path, tmp_path, capsys, *options):
+    """``omegahat estimate path -o tmp_path/o.csv --no-progress *options``, which must succeed: ``(its table, as
+    :func:`read_omega_csv`'s, what it printed on both streams)``."""
+    from omegahat.cli import main
+
+    out = tmp_path / "o.csv"
+    out.unlink(missing_ok=True)
+    code = main(["estimate", str(path), "-o", str(out), "--no-progress", *options])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    return read_omega_csv(out)[0], printed.out + printed.err
+
+
 def read_twist_bag(path):
     """``(topic, header stamps ns, receive ns, frame_ids, angular (T, 3), linear (T, 3))`` from a bag, read
     with rosbags directly."""

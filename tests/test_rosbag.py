@@ -170,7 +170,8 @@ def test_topic_errors_name_what_the_bag_has(tmp_path):
         read_log(tmp_path / "b.bag", topic="/chatter")
     assert len(read_log(tmp_path / "b.bag")) == 5  # the one topic with an orientation
     with pytest.raises(
-        ValueError, match=r"x\.csv is an omegahat CSV log: --topic applies only to a ROS 1 bag and a ROS 2"
+        ValueError,
+        match=r"x\.csv is an omegahat CSV log: --topic applies only to a ROS 1 bag, a PX4 ULog flight log and a ROS 2",
     ):
         read_log(tmp_path / "x.csv", topic="/pose")
 

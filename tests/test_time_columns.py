@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 from omegahat.cli import main
 from omegahat.io import LogFormatError, ReadOptions, read_log
 from omegahat.io.gyrolog import read_gyro
-from recording_files import read_omega_csv
+from recording_files import estimate_file
 
 CLI = ["--no-progress"]
 OMEGA = np.array([0.3, -0.2, 0.5])  # rad/s, body axes
@@ -30,15 +30,6 @@ def _quaternions(n: int) -> np.ndarray:
 def _write(path, times: list[str], q: np.ndarray, name: str = "time") -> None:
     rows = [f"{s},{w:.17g},{x:.17g},{y:.17g},{z:.17g}" for s, (x, y, z, w) in zip(times, q, strict=True)]
     path.write_text(f"{name},qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
-
-
-def _rates(path, tmp_path, capsys, *extra):
-    out = tmp_path / "o.csv"
-    out.unlink(missing_ok=True)
-    code = main(["estimate", str(path), "-o", str(out), *CLI, *extra])
-    printed = capsys.readouterr()
-    assert code == 0, printed.err
-    return read_omega_csv(out), printed.out + printed.err
 
 
 def _instants(n: int) -> list[datetime]:
@@ -63,8 +54,8 @@ def test_pandas_dates_are_read_as_seconds_since_1970_and_give_the_numeric_logs_r
     np.testing.assert_allclose(np.diff(log.t), 0.01, rtol=0, atol=1e-12)  # from integer ns: no float rounding
     assert any("dates read as seconds since 1970-01-01 UTC (no time zone given" in note for note in log.notes)
 
-    (table_d, _), err = _rates(dated, tmp_path, capsys)
-    (table_n, _), _ = _rates(numeric, tmp_path, capsys)
+    table_d, err = estimate_file(dated, tmp_path, capsys)
+    table_n, _ = estimate_file(numeric, tmp_path, capsys)
     t_d, w_d, w_n = table_d[:, 0], table_d[:, 1:], table_n[:, 1:]
     assert "time column: 'time', the one named as a time" in err
     np.testing.assert_allclose(t_d, expected, rtol=0, atol=1e-6)  # the output's times: seconds since 1970

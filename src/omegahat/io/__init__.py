@@ -7,7 +7,8 @@
    Vicon CSV exports (:mod:`omegahat.io.mocap`), Qualisys QTM 6D TSV and MAT exports (:mod:`omegahat.io.qualisys`,
    :mod:`omegahat.io.qtm_mat`), the
    EuRoC / ASL, TUM and KITTI trajectories of robotics (:mod:`omegahat.io.trajectories`), C3D files
-   (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`); pandas and Polars DataFrames enter
+   (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`), PX4 ULog flight logs and
+   ulog2csv's CSV files (:mod:`omegahat.io.px4`); pandas and Polars DataFrames enter
    the same path through :func:`omegahat.io.frames.open_frame`.
 2. :func:`open_log` opens any of them as a :class:`LogStream` of :class:`LogChunk` and applies, in one place,
    the time unit, the rotation convention, the precision policy (:mod:`omegahat.io.precision`) and the timestamp
@@ -32,6 +33,7 @@ from omegahat.io.npzlog import open_npz
 from omegahat.io.output import OmegaWriter, check_output_path
 from omegahat.io.parquet_input import open_parquet
 from omegahat.io.parquet_output import ParquetOmegaWriter
+from omegahat.io.px4 import is_px4_csv, is_ulog, open_px4_csv, open_ulog
 from omegahat.io.qtm_mat import open_qtm_mat
 from omegahat.io.qualisys import is_qtm_6d, open_qtm_6d
 from omegahat.io.registry import (
@@ -59,6 +61,7 @@ register_format(
 )
 register_format(".csv", open_vicon_csv, name="vicon", title="a Vicon CSV export", sniff=is_vicon, options=("body",))
 register_format(".csv", open_euroc, name="euroc", title="an EuRoC / ASL trajectory CSV", sniff=is_euroc, options=())
+register_format(".csv", open_px4_csv, name="px4-csv", title="a PX4 ulog2csv topic CSV", sniff=is_px4_csv, options=())
 register_format((".txt", ".tum"), open_tum, name="tum", title="a TUM trajectory", sniff=is_tum, options=())
 register_format(".txt", open_kitti, name="kitti", title="a KITTI pose list", sniff=is_kitti, options=("rate", "times"))
 register_format(
@@ -76,6 +79,7 @@ register_format(".parquet", open_parquet, name="parquet", title="a Parquet table
 register_format(".mat", open_qtm_mat, name="qtm-mat", title="a Qualisys QTM MAT export", options=("body",))
 register_format(".c3d", open_c3d, name="c3d", title="a C3D file", options=("body",))
 register_format(".bag", open_bag, name="rosbag1", title="a ROS 1 bag", options=_BAG)
+register_format(".ulg", open_ulog, name="ulog", title="a PX4 ULog flight log", sniff=is_ulog, options=("topic",))
 register_format(
     (DIRECTORY, ".db3", ".mcap"), open_bag, name="rosbag2", title="a ROS 2 bag", sniff=is_ros2_bag, options=_BAG
 )

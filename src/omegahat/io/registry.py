@@ -363,7 +363,7 @@ def _refuse_options(path: str, fmt: Format, options: ReadOptions) -> None:
     flags = ", ".join(OPTION_FLAGS[o] for o in wrong)
     raise ValueError(
         f"{path} is {fmt.title}: {flags} appl{'ies' if len(wrong) == 1 else 'y'} only to "
-        + (" and ".join(takers) if takers else "other formats")
+        + (", ".join(takers[:-1]) + " and " * (len(takers) > 1) + takers[-1] if takers else "other formats")
     )
 
 

@@ -32,6 +32,7 @@ __all__ = [
     "cut_lines",
     "delimiter",
     "head_lines",
+    "header_fields",
     "is_number",
     "source_blocks",
     "split_line",
@@ -92,6 +93,12 @@ def head_lines(path: str, n: int = 12, size: int = 1 << 16) -> list[str]:
     except (OSError, LogFormatError):
         return []
     return [line.rstrip("\r") for line in data.decode("utf-8", errors="replace").split("\n")[:n]]
+
+
+def header_fields(path: str) -> list[str]:
+    """The first line's comma-separated fields, blanks trimmed (for the sniffers of CSV formats; never raises)."""
+    lines = head_lines(path, 1)
+    return [f.strip() for f in lines[0].split(",")] if lines else []
 
 
 def cut_lines(blocks: Iterator[bytes], path: str) -> Iterator[bytes]:

@@ -38,7 +38,7 @@ from omegahat.io.columns import Layout, LogFormatError, normalise_name
 from omegahat.io.csvlog import TextFormat, open_text
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
-from omegahat.io.textlines import head_lines
+from omegahat.io.textlines import head_lines, header_fields
 
 __all__ = ["TUM_COLUMNS", "is_euroc", "is_kitti", "is_tum", "open_euroc", "open_kitti", "open_tum"]
 
@@ -74,14 +74,9 @@ def _euroc_map(names: list[str]) -> ColumnMap | None:
         return None
 
 
-def _header_names(path: str) -> list[str]:
-    lines = head_lines(path, 1)
-    return [f.strip() for f in lines[0].split(",")] if lines else []
-
-
 def is_euroc(path: str | os.PathLike[str]) -> bool:
     """Whether a CSV file is an EuRoC / ASL trajectory: ``#timestamp`` first, and ``q_RS_w .. q_RS_z`` columns."""
-    return _euroc_map(_header_names(os.fspath(path))) is not None
+    return _euroc_map(header_fields(os.fspath(path))) is not None
 
 
 def _since(stream: LogStream, unit: str) -> str:
@@ -101,7 +96,7 @@ def _describe_euroc(stream: LogStream, lay: Layout, names: list[str]) -> str:
 def open_euroc(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """The attitude of an EuRoC / ASL trajectory CSV (module docstring)."""
     path = os.fspath(path)
-    cmap = _euroc_map(_header_names(path))
+    cmap = _euroc_map(header_fields(path))
     if cmap is None:
         raise LogFormatError(f"{path}, line 1: not an EuRoC trajectory (no '#timestamp' and q_RS_w..q_RS_z columns)")
     return open_text(path, options, TextFormat(columns=cmap, time_scale=1e-9, describe=_describe_euroc))

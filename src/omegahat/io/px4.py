@@ -1,0 +1,181 @@
+r"""PX4 flight logs: ULog files (``.ulg``, read with ``pyulog``: ``pip install "omegahat[px4]"``) and the per-topic
+CSV files ``ulog2csv`` writes from them.
+
+PX4's attitude messages (``vehicle_attitude``, ``vehicle_attitude_groundtruth``, ``estimator_attitude``, and the
+odometry messages ``vehicle_odometry``, ``vehicle_mocap_odometry``, ``vehicle_visual_odometry``) carry a quaternion
+``q`` of four floats, **Hamilton, scalar first** (``q[0] = w``), that rotates the body's FRD axes into the earth's
+NED axes: body → inertial, omegahat's ``R``, so the rate comes out in the body's FRD axes. Their times are integers
+in **microseconds** since the autopilot started: ``timestamp`` (when the message was published) and
+``timestamp_sample`` (when the data it carries were sampled); the sample time is read where the message has it,
+else the publication time.
+
+**Which topic.** ``--topic NAME`` (``topic=`` in Python) names one: the message's name, with ``_N`` for its
+instance ``N`` when the log has several (``estimator_attitude_1``; ``_0`` may be left out). Without it,
+``vehicle_attitude`` is read where the log has it and the note lists the others: it is PX4's own attitude
+estimate, made **with** the vehicle's gyroscope, so a rate from it is not independent of that gyroscope; an
+external source (``vehicle_mocap_odometry``, ``vehicle_visual_odometry``) is, and is chosen with ``--topic``. A log
+without ``vehicle_attitude`` and with several others is refused, naming them.
+
+**Messages** are read in their order in the log and sorted by time where they are not (counted in a note, as for
+ROS bags: :func:`omegahat.io.timestamps.sort_by_time`); a quaternion of NaN (an odometry message whose attitude is
+invalid) is a missing sample. The stream is labelled by message index, so errors name ``message N``. Dropouts
+the logger recorded (messages it could not write) are said in a note, with their total length.
+
+**ulog2csv's CSV** (``<log>_<topic>_<instance>.csv``): a header whose first column is ``timestamp`` and which has
+``q[0] .. q[3]``; read as above (microseconds, scalar first; ``timestamp_sample`` where present) through the text
+reader (:func:`omegahat.io.csvlog.open_text`).
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+
+import numpy as np
+
+from omegahat.io.columns import Layout, LogFormatError, normalise_name
+from omegahat.io.csvlog import TextFormat, open_text
+from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.textlines import header_fields
+from omegahat.io.timestamps import sort_by_time
+
+__all__ = ["ULOG_MAGIC", "is_px4_csv", "is_ulog", "open_px4_csv", "open_ulog"]
+
+ULOG_MAGIC = b"ULog\x01\x12\x35"  #: the first 7 bytes of every ULog file
+_QUATERNION = ("q[0]", "q[1]", "q[2]", "q[3]")  # w, x, y, z
+_DEFAULT_TOPIC = "vehicle_attitude"
+_MICROSECONDS = 1e-6
+
+
+def is_ulog(path: str | os.PathLike[str]) -> bool:
+    """Whether a file starts with the ULog magic bytes."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(ULOG_MAGIC)) == ULOG_MAGIC
+    except OSError:
+        return False
+
+
+def _pyulog():
+    """pyulog's reader and the exception it raises for a file it cannot read."""
+    try:
+        from pyulog import ULog
+        from pyulog.exceptions import ULogException
+    except ImportError:  # pragma: no cover - the test extra installs it
+        raise ImportError('reading PX4 ULog files needs pyulog: pip install "omegahat[px4]"') from None
+    return ULog, ULogException
+
+
+def _with_quaternion(fields) -> bool:
+    """Whether a message format (pyulog's ``(type, array size, name)`` fields) has ``timestamp`` and ``q[4]``."""
+    names = {(name, size) for _, size, name in fields}
+    return ("timestamp", 0) in names and ("q", 4) in names
+
+
+def _display(name: str, multi_id: int, instances: int) -> str:
+    return f"{name}_{multi_id}" if instances > 1 or multi_id else name
+
+
+def _choose(found: dict[str, object], topic: str | None, path: str) -> str:
+    """The display name of the topic to read (module docstring)."""
+    if not found:
+        raise LogFormatError(f"{path}: no attitude topic (no message with a quaternion q[4] and a timestamp)")
+    if topic is not None:
+        for name in (topic, topic.removesuffix("_0"), f"{topic}_0"):
+            if name in found:
+                return name
+        raise LogFormatError(f"{path}: no topic {topic!r} with an attitude; the log has {', '.join(found)}")
+    for name in (_DEFAULT_TOPIC, f"{_DEFAULT_TOPIC}_0"):
+        if name in found:
+            return name
+    if len(found) == 1:
+        return next(iter(found))
+    raise LogFormatError(
+        f"{path}: {len(found)} attitude topics ({', '.join(found)}); choose one with --topic NAME (topic= in Python)"
+    )
+
+
+def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
+    """One attitude topic of a PX4 ULog file (module docstring)."""
+    path = os.fspath(path)
+    ULog, ULogException = _pyulog()
+    try:
+        head = ULog(path, parse_header_only=True)
+        wanted = sorted(n for n, fmt in head.message_formats.items() if _with_quaternion(fmt.fields))
+        log = ULog(path, message_name_filter_list=wanted or [""])
+    except (ULogException, OSError, ValueError, IndexError, KeyError, TypeError, struct.error) as exc:  # damaged
+        raise LogFormatError(f"{path}: not a readable ULog file ({type(exc).__name__}: {exc})") from None
+    counts: dict[str, int] = {}
+    for d in log.data_list:
+        counts[d.name] = counts.get(d.name, 0) + 1
+    found = {_display(d.name, d.multi_id, counts[d.name]): d for d in log.data_list if d.name in wanted}
+    chosen = _choose(found, options.topic, path)
+    data = found[chosen].data
+    field = "timestamp_sample" if "timestamp_sample" in data and np.all(data["timestamp_sample"] > 0) else "timestamp"
+    stamps = np.asarray(data[field], dtype=np.int64)
+    if stamps.size == 0:
+        raise LogFormatError(f"{path}, topic {chosen}: no messages")
+    order, n_late = sort_by_time(stamps)
+    base = int(stamps.min())
+    q = np.column_stack([np.asarray(data[c], dtype=float) for c in _QUATERNION])  # w, x, y, z
+    notes = [f"{n_late} message(s) came after a later one: sorted by time"] if n_late else []
+    others = [n for n in found if n != chosen]
+    if others:
+        own = " (PX4's attitude estimate, made with its gyroscope)" if chosen.startswith(_DEFAULT_TOPIC) else ""
+        notes.append(f"topic {chosen}{own}; the log also has {', '.join(others)} (--topic NAME)")
+    if log.file_corruption:
+        notes.append("pyulog found damaged parts in the file and skipped them: messages may be missing there")
+    lost = [float(getattr(d, "duration", 0)) for d in log.dropouts]
+    if lost:
+        notes.append(f"the logger recorded {len(lost)} dropout(s), {sum(lost):g} ms in all: messages lost there")
+    return LogStream.from_arrays(
+        path,
+        "quaternion",
+        (stamps[order] - base) * _MICROSECONDS,
+        q[order][:, [1, 2, 3, 0]],  # storage order x, y, z, w
+        labels=order,
+        label="message",
+        t0=base * _MICROSECONDS,
+        time_name=field,
+        attitude_name="q[0],q[1],q[2],q[3]",
+        description=(
+            f"PX4 ULog: topic {chosen}, {stamps.size} messages, quaternion q[0..3] (w first; body FRD to earth NED), "
+            f"time from {field} in µs"
+        ),
+        notes=notes,
+        context=f", topic {chosen}",
+    )
+
+
+def _px4_columns(names: list[str]) -> tuple[tuple[str, int], ...] | None:
+    """ulog2csv's columns as a column map (1-based), or None where the header is not one."""
+    base = [normalise_name(n) for n in names]
+    if not base or base[0] != "timestamp" or not set(_QUATERNION) <= set(base):
+        return None
+    time = base.index("timestamp_sample") if "timestamp_sample" in base else 0
+    return (
+        ("t", time + 1),
+        *((k, base.index(c) + 1) for k, c in zip(("qw", "qx", "qy", "qz"), _QUATERNION, strict=True)),
+    )
+
+
+def is_px4_csv(path: str | os.PathLike[str]) -> bool:
+    """Whether a CSV file is one of ulog2csv's: ``timestamp`` first, and ``q[0] .. q[3]`` columns."""
+    return _px4_columns(header_fields(os.fspath(path))) is not None
+
+
+def _describe(stream: LogStream, lay: Layout, names: list[str]) -> str:
+    del lay
+    return (
+        f"PX4 ulog2csv CSV: quaternion q[0..3] (w first; body FRD to earth NED), time from column "
+        f"{stream.time_name!r} in µs"
+    )
+
+
+def open_px4_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
+    """The attitude of one of ulog2csv's CSV files (module docstring)."""
+    path = os.fspath(path)
+    cmap = _px4_columns(header_fields(path))
+    if cmap is None:
+        raise LogFormatError(f"{path}, line 1: not a PX4 ulog2csv file (no 'timestamp' first and q[0]..q[3])")
+    return open_text(path, options, TextFormat(columns=cmap, time_scale=_MICROSECONDS, describe=_describe))

@@ -1,0 +1,176 @@
+"""PX4 flight logs: ULog files written here byte by byte from the ULog specification (header, flag bits, formats,
+subscriptions, data; an independent writer, not pyulog's) and ulog2csv's CSV files. The rates are checked against
+the same float32 quaternions written as an omegahat CSV, and the body's known rate."""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat.cli import main
+from omegahat.io import LogFormatError, ReadOptions, read_log
+from recording_files import estimate_file, read_omega_csv
+
+pytest.importorskip("pyulog", reason="PX4 ULog files need pyulog (the test extra installs it: omegahat[px4])")
+
+CLI = ["--no-progress"]
+OMEGA = np.array([0.3, -0.2, 0.5])  # rad/s, body (FRD) axes
+RATE = 250.0
+START_US = 123_456_789  # µs since the autopilot started
+
+_ATTITUDE = (
+    "uint64_t timestamp;uint64_t timestamp_sample;float[4] q;float[4] delta_q_reset;uint8_t quat_reset_counter;"
+    "uint8_t[7] _padding0;"
+)
+_ODOMETRY = (
+    "uint64_t timestamp;uint64_t timestamp_sample;float[3] position;float[4] q;uint8_t pose_frame;uint8_t[3] _padding0;"
+)
+
+
+def _message(kind: bytes, payload: bytes) -> bytes:
+    return struct.pack("<HB", len(payload), kind[0]) + payload
+
+
+def write_ulog(path, topics: dict[tuple[str, int], list[bytes]], formats: dict[str, str]) -> None:
+    """A ULog file (version 1): header, flag bits, one format per message, then each topic's subscription and its
+    messages (``topics[(name, multi_id)]``: each message's payload without the msg_id, and without the padding
+    fields at its end, which the logger does not write)."""
+    out = bytearray(b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", START_US))
+    out += _message(b"B", bytes(16) + struct.pack("<3Q", 0, 0, 0))
+    for name, fields in formats.items():
+        out += _message(b"F", f"{name}:{fields}".encode())
+    for msg_id, ((name, multi_id), payloads) in enumerate(topics.items()):
+        out += _message(b"A", struct.pack("<BH", multi_id, msg_id) + name.encode())
+        for payload in payloads:
+            out += _message(b"D", struct.pack("<H", msg_id) + payload)
+    path.write_bytes(bytes(out))
+
+
+def _quaternions(n: int, turn=(0.2, 0.0, 0.0)) -> np.ndarray:
+    t = np.arange(n) / RATE
+    xyzw = (Rotation.from_rotvec(turn) * Rotation.from_rotvec(np.outer(t, OMEGA))).as_quat()
+    return xyzw[:, [3, 0, 1, 2]].astype(np.float32)  # w, x, y, z as PX4 logs them (float32)
+
+
+def _stamps(n: int) -> np.ndarray:
+    return START_US + np.round(np.arange(n) * 1e6 / RATE).astype(np.int64)
+
+
+def _attitude(stamps, wxyz, lag_us=300) -> list[bytes]:
+    return [
+        struct.pack("<QQ4f4fB", int(s) + lag_us, int(s), *map(float, q), 1.0, 0.0, 0.0, 0.0, 0)
+        for s, q in zip(stamps, wxyz, strict=True)
+    ]
+
+
+def _odometry(stamps, wxyz) -> list[bytes]:
+    return [
+        struct.pack("<QQ3f4fB", int(s) + 100, int(s), 0.0, 0.0, 0.0, *map(float, q), 0)
+        for s, q in zip(stamps, wxyz, strict=True)
+    ]
+
+
+def _reference_csv(path, stamps, wxyz) -> None:
+    rows = [
+        f"{(s - START_US) * 1e-6:.17g},{','.join(repr(float(v)) for v in q)}" for s, q in zip(stamps, wxyz, strict=True)
+    ]
+    path.write_text("t,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+
+
+def test_a_ulogs_vehicle_attitude_gives_the_rates_of_its_quaternions(tmp_path, capsys):
+    n = 1500
+    stamps, q = _stamps(n), _quaternions(n)
+    mocap = _quaternions(n, turn=(0.0, 0.1, 0.0))
+    ulg = tmp_path / "flight.ulg"
+    write_ulog(
+        ulg,
+        {("vehicle_attitude", 0): _attitude(stamps, q), ("vehicle_mocap_odometry", 0): _odometry(stamps, mocap)},
+        {"vehicle_attitude": _ATTITUDE, "vehicle_mocap_odometry": _ODOMETRY},
+    )
+    log = read_log(ulg)
+    np.testing.assert_allclose(log.absolute_times, stamps * 1e-6, rtol=0, atol=1e-9)  # the sample times, in s
+    assert "topic vehicle_attitude (PX4's attitude estimate, made with its gyroscope); the log also has " in (
+        " ".join(log.notes)
+    )
+    reference = tmp_path / "reference.csv"
+    _reference_csv(reference, stamps, q)
+    got, printed = estimate_file(ulg, tmp_path, capsys)
+    want, _ = estimate_file(reference, tmp_path, capsys)
+    assert "PX4 ULog: topic vehicle_attitude, 1500 messages" in printed
+    np.testing.assert_allclose(got[:, 0], stamps * 1e-6, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got[100:, 1:], np.broadcast_to(OMEGA, (n - 100, 3)), atol=2e-3)  # float32 attitudes
+
+    mocap_csv = tmp_path / "mocap.csv"
+    _reference_csv(mocap_csv, stamps, mocap)
+    got, _ = estimate_file(ulg, tmp_path, capsys, "--topic", "vehicle_mocap_odometry")
+    want, _ = estimate_file(mocap_csv, tmp_path, capsys)
+    np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-9)
+
+
+def test_topics_are_chosen_or_named(tmp_path):
+    n = 50
+    stamps, q = _stamps(n), _quaternions(n)
+    ulg = tmp_path / "two.ulg"
+    write_ulog(
+        ulg,
+        {("estimator_attitude", 0): _attitude(stamps, q), ("estimator_attitude", 1): _attitude(stamps, q[::-1])},
+        {"estimator_attitude": _ATTITUDE},
+    )
+    with pytest.raises(
+        LogFormatError, match=r"2 attitude topics \(estimator_attitude_0, estimator_attitude_1\); choose"
+    ):
+        read_log(ulg)
+    second = read_log(ulg, options=ReadOptions(topic="estimator_attitude_1"))
+    assert second.data.shape == (n, 4)
+    with pytest.raises(LogFormatError, match=r"no topic 'gps' with an attitude; the log has estimator_attitude_0"):
+        read_log(ulg, options=ReadOptions(topic="gps"))
+    none = tmp_path / "none.ulg"
+    write_ulog(
+        none,
+        {("battery_status", 0): [struct.pack("<Qf", START_US, 12.0)]},
+        {"battery_status": "uint64_t timestamp;float voltage_v;uint8_t[4] _padding0;"},
+    )
+    with pytest.raises(LogFormatError, match=r"no attitude topic"):
+        read_log(none)
+
+
+def test_a_damaged_ulog_and_an_invalid_attitude(tmp_path, capsys):
+    bad = tmp_path / "bad.ulg"
+    bad.write_bytes(b"ULog\x01\x12\x35\x01" + b"\x00" * 3)  # the header cut short
+    out = tmp_path / "o.csv"
+    assert main(["estimate", str(bad), "-o", str(out), *CLI]) == 2
+    err = capsys.readouterr().err
+    assert "bad.ulg" in err and "Traceback" not in err
+    assert not out.exists()
+
+    n = 200
+    stamps, q = _stamps(n), _quaternions(n)
+    q[50] = np.nan  # an odometry message whose attitude is invalid
+    ulg = tmp_path / "gap.ulg"
+    write_ulog(ulg, {("vehicle_visual_odometry", 0): _odometry(stamps, q)}, {"vehicle_visual_odometry": _ODOMETRY})
+    table, status = read_omega_csv(out) if main(["estimate", str(ulg), "-o", str(out), *CLI]) == 0 else (None, None)
+    assert table is not None and status[50] == "predicted"
+    assert np.all(np.isfinite(table[:, 1:]))
+
+
+def test_ulog2csv_files_are_read_in_microseconds_scalar_first(tmp_path, capsys):
+    n = 1000
+    stamps, q = _stamps(n), _quaternions(n)
+    path = tmp_path / "flight_vehicle_attitude_0.csv"
+    header = "timestamp,timestamp_sample,q[0],q[1],q[2],q[3],delta_q_reset[0],delta_q_reset[1],delta_q_reset[2],"
+    rows = [
+        f"{s + 300},{s},{','.join(f'{float(v):.9g}' for v in row)},1,0,0,0,0" for s, row in zip(stamps, q, strict=True)
+    ]
+    path.write_text(header + "delta_q_reset[3],quat_reset_counter\n" + "\n".join(rows) + "\n")
+    log = read_log(path)
+    np.testing.assert_allclose(log.absolute_times, stamps * 1e-6, rtol=0, atol=1e-9)
+    reference = tmp_path / "reference.csv"
+    _reference_csv(reference, stamps, q)
+    got, printed = estimate_file(path, tmp_path, capsys)
+    want, _ = estimate_file(reference, tmp_path, capsys)
+    assert "PX4 ulog2csv CSV" in printed
+    np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-6)
