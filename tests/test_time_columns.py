@@ -115,6 +115,17 @@ def test_a_bad_date_is_named_and_no_output_is_written(tmp_path, capsys, line, te
     assert not out.exists()
 
 
+def test_dates_in_another_form_are_named_with_the_form_that_is_read(tmp_path):
+    path = tmp_path / "us.csv"
+    _write(path, [d.strftime("%m/%d/%Y %H:%M:%S.%f") for d in _instants(20)], _quaternions(20))
+    with pytest.raises(
+        LogFormatError,
+        match=r"line 2, column time: '03/29/2026 00:59:59\.000000' is not a number \(dates and times are read in ISO "
+        r"8601 form",
+    ):
+        read_log(path)
+
+
 def test_dates_refuse_a_time_unit(tmp_path):
     path = tmp_path / "d.csv"
     _write(path, [d.isoformat() for d in _instants(20)], _quaternions(20))

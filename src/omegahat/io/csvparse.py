@@ -178,6 +178,8 @@ class ChunkParser:
             expected = self.times.expected if col == self.time_col else "a number"
             grouped = expected == "a number" and ("_" in value or (not self.decimal_comma and "," in value))
             hint = " (digit grouping is not read)" if grouped else ""
+            if col == self.time_col and expected == "a number" and any(ch in value for ch in "/:"):
+                hint = " (dates and times are read in ISO 8601 form: 2026-01-31 12:00:00.010)"
             raise LogFormatError(f"{self._where(int(lines[lo]), col)}: {value!r} is not {expected}{hint}") from None
 
     def parse(self, buf: bytes, first_line: int) -> tuple[LogChunk | None, int]:
