@@ -221,3 +221,66 @@ def test_a_dataframes_time_index_wins_over_a_column_named_as_a_time():
     frame.index = pd.Index(np.arange(n) / RATE)  # float seconds: the index is the time, as before
     got = omegahat.estimate_frame(frame)
     np.testing.assert_allclose(np.asarray(got[["wx", "wy", "wz"]])[20:], np.broadcast_to(OMEGA, (n - 20, 3)), atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("header", "order"),
+    [
+        ("time,quat_w,quat_x,quat_y,quat_z", "wxyz"),
+        ("t,pos_x,pos_y,pos_z,orientation.x,orientation.y,orientation.z,orientation.w", "pppxyzw"),
+        ("Time,Rotation X,Rotation Y,Rotation Z,Rotation W", "xyzw"),
+        ("timestamp,q_w,q_x,q_y,q_z", "wxyz"),
+    ],
+)
+def test_one_quaternion_named_by_its_parts_is_read(tmp_path, capsys, header, order):
+    n = 300
+    q = _quaternions(n)  # x, y, z, w
+    part = {"x": 0, "y": 1, "z": 2, "w": 3}
+    rows = [
+        ",".join([f"{k / RATE:.17g}", *(f"{q[k, part[c]]:.17g}" if c in part else "0.5" for c in order)])
+        for k in range(n)
+    ]
+    path = tmp_path / "named.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    reference = tmp_path / "reference.csv"
+    _write(reference, [f"{k / RATE:.17g}" for k in range(n)], q, name="t")
+    got, printed = estimate_file(path, tmp_path, capsys)
+    want, _ = estimate_file(reference, tmp_path, capsys)
+    assert "attitude: the one quaternion named so, --columns " in printed
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    pd = pytest.importorskip("pandas")
+    pd.read_csv(path).to_parquet(tmp_path / "named.parquet")
+    got, printed = estimate_file(tmp_path / "named.parquet", tmp_path, capsys)
+    assert "attitude: the one quaternion named so" in printed
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("header", "match"),
+    [
+        (  # two quaternions: which is the body's is the user's choice
+            "t,imu_quat_w,imu_quat_x,imu_quat_y,imu_quat_z,mocap_quat_w,mocap_quat_x,mocap_quat_y,mocap_quat_z",
+            r"no attitude columns.*--columns t=t,qw=imu_quat_w",
+        ),
+        ("t,w,x,y,z", r"no attitude columns.*--columns t=t,qw=w,qx=x,qy=y,qz=z"),  # no attitude-like prefix
+        (  # rostopic's two times: the line for both is suggested
+            "%time,field.header.stamp,field.pose.orientation.w,field.pose.orientation.x,field.pose.orientation.y,"
+            "field.pose.orientation.z",
+            r"no time column 't'.*--columns 't=%time,qw=field\.pose\.orientation\.w",
+        ),
+    ],
+)
+def test_quaternions_named_by_parts_that_are_not_one_are_left_to_the_user(tmp_path, header, match):
+    path = tmp_path / "ambiguous.csv"
+    width = header.count(",") + 1
+    path.write_text(header + "\n" + ",".join(["0"] * (width - 4) + ["1", "0", "0", "0"]) + "\n")
+    with pytest.raises(LogFormatError, match=match):
+        read_log(path)
+
+
+def test_omegahats_own_names_win_over_a_quaternion_named_by_its_parts(tmp_path):
+    path = tmp_path / "both.csv"
+    path.write_text("t,qw,qx,qy,qz,quat_w,quat_x,quat_y,quat_z\n0,1,0,0,0,0,1,0,0\n")
+    log = read_log(path)
+    np.testing.assert_allclose(log.data, [[0, 0, 0, 1]])  # qw = 1: the identity, scalar last
+    assert not any("named so" in note for note in log.notes)

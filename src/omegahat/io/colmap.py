@@ -36,7 +36,9 @@ from omegahat.io.columns import (
     QUATERNION_COLUMNS,
     TORQUE_COLUMNS,
     LogFormatError,
+    attitude_groups,
     normalise_name,
+    time_column_by_name,
 )
 
 __all__ = [
@@ -46,6 +48,8 @@ __all__ = [
     "columns_line",
     "frame_names",
     "join_header_rows",
+    "named_quaternion",
+    "named_quaternion_note",
     "parse_columns",
     "suggest_columns",
 ]
@@ -203,6 +207,40 @@ def _unit_free(name: str) -> str:
     return re.sub(r"\s*[\[(][^\])]*[\])]\s*$", "", name).strip()  # "q_RS_w []" -> "q_RS_w"
 
 
+_ORIENTATION = r"orient|quat|rot|att|^q"  # the prefixes that name an attitude (orientation_w, quat.x, Rotation Z, q_w)
+
+
+def _references(names: Sequence[str]) -> dict[int, str | int]:
+    """How ``--columns`` names each column: its name where a command line can carry it, else its position."""
+    return {
+        j: (names[j] if names[j].strip() and not re.search(r"[,=]", names[j]) else j + 1) for j in range(len(names))
+    }
+
+
+def named_quaternion(names: Sequence[str], time_column: str = "t", timed: bool = False) -> ColumnMap | None:
+    """The column map (``qw, qx, qy, qz``) of the one quaternion a header names by its parts, four columns of one
+    attitude-like prefix ending in w, x, y, z (``quat_w``, ``orientation.x``, ``Rotation Z``, ``q_w``), where the
+    header has no attitude columns of omegahat's own names and its time is known (``time_column``, or the one column
+    named as a time, or ``timed``: times given otherwise); None where it has them, or no such group, or several
+    (which one is the body's is then the user's choice), or no time (the error then suggests a line for both)."""
+    normal = [normalise_name(n) for n in names]
+    known = timed or normalise_name(time_column) in normal or time_column_by_name(normal, time_column)[1]
+    if attitude_groups(normal) or not known:
+        return None
+    base = [_unit_free(n) for n in normal]
+    unique = {b for b in base if base.count(b) == 1}
+    groups = [g for p, g in _four(base, unique, r"[wxyz]", ({"w", "x", "y", "z"},)) if re.search(_ORIENTATION, p)]
+    if len(groups) != 1:
+        return None
+    refs = _references(names)
+    return tuple((f"q{a}", refs[groups[0][a]]) for a in "wxyz")
+
+
+def named_quaternion_note(columns: ColumnMap) -> str:
+    """The note of a map found by :func:`named_quaternion`."""
+    return f"attitude: the one quaternion named so, {columns_line(columns)}"
+
+
 def suggest_columns(names: Sequence[str]) -> str:
     """The ``--columns`` line that reads a file with these header names, guessed from them (a time-like column; four
     columns ending in w, x, y, z with a common prefix, preferring orientation-like prefixes), or the template. Four
@@ -210,12 +248,12 @@ def suggest_columns(names: Sequence[str]) -> str:
     then both lines, each with the column it takes for the scalar. Columns roll, pitch and yaw: their line, with
     ``--euler`` and ``--angle-unit`` to complete."""
     base = [_unit_free(normalise_name(n)) for n in names]
-    pos = {j: (names[j] if names[j].strip() and not re.search(r"[,=]", names[j]) else j + 1) for j in range(len(names))}
+    pos = _references(names)
     unique = {b for b in base if base.count(b) == 1}
     time = next((j for j, b in enumerate(base) if re.search(r"time|stamp|^t$|sec", b)), None)
     if time is None:
         return COLUMNS_TEMPLATE
-    rank = lambda item: (not re.search(r"orient|quat|rot|att|^q", item[0]), min(item[1].values()))  # noqa: E731
+    rank = lambda item: (not re.search(_ORIENTATION, item[0]), min(item[1].values()))  # noqa: E731
     named = _four(base, unique, r"[wxyz]", ({"w", "x", "y", "z"},))
     if named:
         g = min(named, key=rank)[1]

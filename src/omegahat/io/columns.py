@@ -35,6 +35,7 @@ __all__ = [
     "TORQUE_COLUMNS",
     "Layout",
     "LogFormatError",
+    "attitude_groups",
     "direction_columns",
     "layout",
     "normalise_name",
@@ -165,6 +166,20 @@ def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
     return None
 
 
+def attitude_groups(names: list[str]) -> dict[str, list[str]]:
+    """The attitude groups (quaternion, matrix, directions, euler) of which some column is among ``names``
+    (normalised), each with its columns."""
+    present = set(names)
+    numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
+    groups = {
+        "quaternion": list(numbered or QUATERNION_COLUMNS),
+        "matrix": list(MATRIX_COLUMNS),
+        "directions": direction_columns(names),
+        "euler": list(EULER_COLUMNS),
+    }
+    return {kind: cols for kind, cols in groups.items() if cols and present & set(cols)}
+
+
 def layout(names: Iterable[str], where: str, time_column: str | None = "t", scalar_first: bool | None = None) -> Layout:
     """The :class:`Layout` of a log whose columns are ``names`` (normalised); ``where`` prefixes every message.
     ``time_column`` None: the time is not among the columns (a DataFrame's index); ``Layout.time`` is then ``""``.
@@ -186,14 +201,8 @@ def layout(names: Iterable[str], where: str, time_column: str | None = "t", scal
         elif hint:
             tip = f"; several columns are named as a time ({', '.join(hint)}): pass --time-column with the one to read"
         raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(normalised)}){tip}")
+    touched = attitude_groups(normalised)
     numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
-    groups = {
-        "quaternion": list(numbered or QUATERNION_COLUMNS),
-        "matrix": list(MATRIX_COLUMNS),
-        "directions": direction_columns(normalised),
-        "euler": list(EULER_COLUMNS),
-    }
-    touched = {kind: cols for kind, cols in groups.items() if cols and present & set(cols)}
     if len(touched) > 1:  # Euler angles beside an exact attitude (exports often write both): the exact one is read
         touched.pop("euler", None)
     if not touched:

@@ -36,6 +36,8 @@ from omegahat.io.colmap import (
     apply_columns,
     columns_line,
     join_header_rows,
+    named_quaternion,
+    named_quaternion_note,
     suggest_columns,
 )
 from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name, time_column_by_name
@@ -180,9 +182,12 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         original = list(fmt.names) if fmt.names and len(fmt.names) == width else [str(j + 1) for j in range(width)]
     else:
         original = rows[0] if n_header == 1 else join_header_rows(rows)
+    if not mapped and n_header:  # no attitude columns of omegahat's names: the one quaternion named by its parts
+        mapped = named_quaternion(original, options.time_column, options.rate is not None)
+        stream.notes.extend([named_quaternion_note(mapped)] if mapped else [])
     names = apply_columns(original, mapped, where, options.time_column)
     time_column: str | None = "t" if mapped and "t" in dict(mapped) else options.time_column
-    if not mapped and options.rate is None:  # no column t: the one named as a time, if there is one
+    if "t" not in dict(mapped or ()) and options.rate is None:  # no column t: the one named as a time, if one is
         time_column, named = time_column_by_name(names, options.time_column)
         stream.notes.extend([named] if named else [])
     has_time = bool(time_column) and normalise_name(str(time_column)) in {normalise_name(n) for n in names}

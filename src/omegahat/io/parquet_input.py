@@ -26,7 +26,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
-from omegahat.io.colmap import apply_columns
+from omegahat.io.colmap import apply_columns, named_quaternion, named_quaternion_note
 from omegahat.io.columns import LogFormatError, layout, time_column_by_name
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
 from omegahat.io.time_units import unit_stated
@@ -76,11 +76,11 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     schema = table.schema_arrow
     original = [str(n) for n in schema.names]
     where = f"{path} (its columns)"
-    names = apply_columns(original, options.column_map, where, options.time_column)
-    mapped = options.column_map
+    mapped = options.column_map or named_quaternion(original, options.time_column)  # or the one named by its parts
+    names = apply_columns(original, mapped, where, options.time_column)
     time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
     named = None
-    if not mapped:  # no column t: the one named as a time, if there is one
+    if "t" not in dict(mapped or ()):  # no column t: the one named as a time, if there is one
         time_column, named = time_column_by_name(names, time_column)
     lay = layout(names, where, time_column, options.scalar_first)
     if not lay.time:
@@ -131,7 +131,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
         t0=t0,
     )
-    stream.notes.extend(n for n in (named, note) if n)
+    guessed = named_quaternion_note(mapped) if mapped and not options.column_map else ""
+    stream.notes.extend(n for n in (guessed, named, note) if n)
     if options.column_map:
         stream.notes.append(f"columns read: {', '.join(f'{k}={v}' for k, v in options.column_map)}")
 
