@@ -284,3 +284,23 @@ def test_omegahats_own_names_win_over_a_quaternion_named_by_its_parts(tmp_path):
     log = read_log(path)
     np.testing.assert_allclose(log.data, [[0, 0, 0, 1]])  # qw = 1: the identity, scalar last
     assert not any("named so" in note for note in log.notes)
+
+
+@pytest.mark.parametrize("kind", ["pandas", "polars"])
+def test_a_dataframes_quaternion_named_by_its_parts(kind):
+    pd = pytest.importorskip("pandas")
+    import omegahat
+
+    n = 200
+    q = _quaternions(n)
+    parts = {"orientation.w": q[:, 3], "orientation.x": q[:, 0], "orientation.y": q[:, 1], "orientation.z": q[:, 2]}
+    frame = pd.DataFrame({"time": np.arange(n) / RATE, **parts})
+    numeric = pd.DataFrame({"t": np.arange(n) / RATE, "qw": q[:, 3], "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2]})
+    indexed = pd.DataFrame(parts, index=pd.Index(np.arange(n) / RATE))  # the times in a float index
+    if kind == "polars":
+        pl = pytest.importorskip("polars")
+        frame, numeric = pl.from_pandas(frame), pl.from_pandas(numeric)
+    want = np.asarray(omegahat.estimate_frame(numeric)[["wx", "wy", "wz"]])
+    np.testing.assert_allclose(np.asarray(omegahat.estimate_frame(frame)[["wx", "wy", "wz"]]), want, atol=1e-12)
+    if kind == "pandas":
+        np.testing.assert_allclose(np.asarray(omegahat.estimate_frame(indexed)[["wx", "wy", "wz"]]), want, atol=1e-12)

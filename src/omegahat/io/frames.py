@@ -2,10 +2,13 @@ r"""DataFrames in, angular velocity out: :func:`estimate_frame` for pandas and P
 
 The frame holds one sample per row with the column names of omegahat's logs (:mod:`omegahat.io.columns`: any
 case): a quaternion ``qx, qy, qz, qw`` (or the names given by ``quaternion=``, in ``x, y, z, w`` order), or a
-rotation matrix ``r11 … r33``, or body-frame directions ``b1x, b1y, b1z, b2x, …`` with ``references=``;
-optionally the torque ``tau_x, tau_y, tau_z``. Time is the column ``t`` (seconds, or ``time_unit``) or the one
-named by ``time=``; for pandas, without such a column, a ``DatetimeIndex``, ``TimedeltaIndex`` or floating-point
-index. Datetime and duration times are used as integer nanoseconds, so that equal stamps compare exactly; a
+rotation matrix ``r11 … r33``, or body-frame directions ``b1x, b1y, b1z, b2x, …`` with ``references=``, or
+without any of those the one quaternion named by its parts (``orientation.w``, ``quat_x``:
+:func:`omegahat.io.colmap.named_quaternion`, said in a note); optionally the torque ``tau_x, tau_y, tau_z``. Time
+is the column ``t`` (seconds, or ``time_unit``) or the one named by ``time=``; for pandas, without such a column, a
+``DatetimeIndex``, ``TimedeltaIndex`` or floating-point index; else the one column named as a time (``time``,
+``Timestamp``), whose ISO 8601 date texts are read as a CSV's (:mod:`omegahat.io.frame_columns`). Datetime and
+duration times are used as integer nanoseconds, so that equal stamps compare exactly; a
 timezone-aware time is the instant it names (a clock change is no gap). A Polars ``LazyFrame`` is collected first
 (the estimate needs every row; the result is a ``DataFrame``); anything else (a ``Series``, an array) is refused.
 
@@ -35,10 +38,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from omegahat.interface import STATUS_WORDS
-from omegahat.io.colmap import apply_columns, frame_names
+from omegahat.io.colmap import apply_columns, frame_names, named_quaternion, named_quaternion_note
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name, time_column_by_name
-from omegahat.io.registry import TIME_UNITS, LogStream, ReadOptions, checked_stream
-from omegahat.io.timestamps import sort_by_time, text_dates
+from omegahat.io.frame_columns import frame_numbers, pandas_times, polars_times, time_index
+from omegahat.io.registry import LogStream, ReadOptions, checked_stream
+from omegahat.io.timestamps import sort_by_time
 
 if TYPE_CHECKING:
     import pandas as pd  # optional, like polars: imported where a frame of theirs is read
@@ -75,112 +79,6 @@ def _as_frame(df) -> tuple[pd.DataFrame | pl.DataFrame, str]:
     )
 
 
-def _pandas_times(df, time: str | None):
-    import pandas as pd
-
-    if time is not None or "t" in df.columns:
-        name = time or "t"
-        if name not in df.columns:
-            raise LogFormatError(f"DataFrame: no time column {name!r} (found: {', '.join(map(str, df.columns))})")
-        s = df[name]
-        if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
-            return _nanoseconds(s, name), name
-        dates = text_dates(s.tolist(), _row_of(name)) if pd.api.types.is_string_dtype(s) else None
-        return (_numbers(df, [name], "pandas")[:, 0] if dates is None else dates), name
-    idx = df.index
-    if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
-        return _nanoseconds(idx, "index"), None
-    if _time_index(idx):
-        return idx.to_numpy(dtype=float), None
-    raise LogFormatError(
-        "DataFrame: no time: give a column 't' (seconds) or time='column', or use a DatetimeIndex, TimedeltaIndex "
-        f"or float index in seconds (the index is {type(idx).__name__} of {idx.dtype})"
-    )
-
-
-def _row_of(name: str):
-    return lambda k: f"DataFrame, row {k}, column {name}"
-
-
-def _time_index(idx) -> bool:
-    """Whether a pandas index holds times: datetimes, durations or floats (seconds)."""
-    import pandas as pd
-
-    return isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex) or pd.api.types.is_float_dtype(idx)
-
-
-def _nanoseconds(values, name: str) -> np.ndarray:
-    """Integer nanoseconds of pandas datetimes (since 1970, UTC: a timezone-aware time is the instant it names,
-    so that a clock change is no gap) or durations."""
-    import pandas as pd
-
-    timedelta = pd.api.types.is_timedelta64_dtype(values)
-    idx = pd.TimedeltaIndex(values) if timedelta else pd.DatetimeIndex(values)
-    missing = np.asarray(idx.isna())
-    if missing.any():
-        k = int(np.flatnonzero(missing)[0])
-        raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
-    if not timedelta and idx.tz is not None:
-        idx = idx.tz_convert("UTC").tz_localize(None)
-    try:
-        return np.array(idx.as_unit("ns").asi8, dtype=np.int64)
-    except (OverflowError, pd.errors.OutOfBoundsDatetime, pd.errors.OutOfBoundsTimedelta) as exc:
-        raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold ({exc})") from None
-
-
-def _polars_times(df, time: str | None):
-    import polars as pl
-
-    name = time or "t"
-    if name not in df.columns:
-        raise LogFormatError(f"DataFrame: no time column {name!r}; give time='column' (found: {', '.join(df.columns)})")
-    s = df.get_column(name)
-    if s.null_count():
-        k = int(np.flatnonzero(s.is_null().to_numpy())[0])
-        raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
-    if s.dtype.is_temporal():
-        if isinstance(s.dtype, pl.Datetime | pl.Duration):
-            ns_per_tick = round(TIME_UNITS[s.dtype.time_unit] / TIME_UNITS["ns"])
-            ticks = s.to_physical().to_numpy().astype(np.int64)
-            if ticks.size and np.abs(ticks).max() > np.iinfo(np.int64).max // ns_per_tick:  # no silent wrap-around
-                raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold")
-            return ticks * ns_per_tick, name
-        raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
-    dates = text_dates(s.to_list(), _row_of(name)) if s.dtype == pl.String else None
-    return (_numbers(df, [name], "polars")[:, 0] if dates is None else dates), name
-
-
-def _numbers(df, cols: list[str], frame_kind: str) -> np.ndarray:
-    """The columns ``cols`` as floats ``(rows, len(cols))`` (missing values: NaN); a value that is not a number
-    (text, a complex number) is an error naming its row and column."""
-    if frame_kind == "pandas":
-        try:
-            return df[cols].to_numpy(dtype=float, na_value=np.nan)
-        except (ValueError, TypeError) as exc:
-            raise _not_a_number(df, cols, frame_kind, exc) from None
-    import polars as pl
-
-    out = df.select([pl.col(c).cast(pl.Float64, strict=False) for c in cols])
-    lost = [c for c in cols if out.get_column(c).null_count() > df.get_column(c).null_count()]
-    if lost:
-        raise _not_a_number(df, lost, frame_kind, None)
-    return out.to_numpy().astype(float)
-
-
-def _not_a_number(df, cols: list[str], frame_kind: str, exc: Exception | None) -> LogFormatError:
-    """The error for the first value of ``cols`` that is not a real number."""
-    for c in cols:
-        values = df[c].to_list() if frame_kind == "polars" else df[c].tolist()
-        for k, v in enumerate(values):
-            if v is None or isinstance(v, bool | int | float | np.integer | np.floating):
-                continue
-            try:
-                float(v)
-            except (ValueError, TypeError):
-                return LogFormatError(f"DataFrame, row {k}, column {c}: {v!r} is not a number")
-    return LogFormatError(f"DataFrame, column(s) {', '.join(map(str, cols))}: not numbers ({exc})")
-
-
 def open_frame(
     df: pd.DataFrame | pl.DataFrame | pl.LazyFrame,
     options: ReadOptions | None = None,
@@ -203,6 +101,7 @@ def open_frame(
             time = names[mapped.index("t")]
         if quaternion is not None:
             raise ValueError("give the quaternion's columns once: columns= or quaternion=")
+    auto = None  # the map of a quaternion named by its parts (colmap.named_quaternion), where one is read
     if quaternion is not None:
         q = [str(c) for c in quaternion]
         if len(q) != 4:
@@ -212,19 +111,23 @@ def open_frame(
             raise LogFormatError(f"DataFrame: missing quaternion column(s) {', '.join(missing)} (quaternion=)")
         as_named = dict(zip(q, QUATERNION_COLUMNS, strict=True))
     else:
-        as_named = {n: m for n, m in zip(names, mapped, strict=True) if m != "t"} if options.column_map else {}
+        indexed = frame_kind == "pandas" and time_index(getattr(df, "index", None))  # the index holds the times
+        auto = None if options.column_map else named_quaternion(names, time or "t", time is not None or indexed)
+        if auto:  # no attitude columns of omegahat's names: the one quaternion named by its parts
+            mapped = apply_columns(names, auto, "DataFrame")
+        as_named = {n: m for n, m in zip(names, mapped, strict=True) if m != "t"} if options.column_map or auto else {}
     named = None
-    if time is None and "t" not in names and (frame_kind == "polars" or not _time_index(getattr(df, "index", None))):
+    if time is None and "t" not in names and (frame_kind == "polars" or not time_index(getattr(df, "index", None))):
         found, named = time_column_by_name(names, "t")  # no column t: the one named as a time, if there is one
         time = next((n for n in names if normalise_name(n) == found), None) if named else None
     if frame_kind == "pandas":
-        times, time_name = _pandas_times(df, time)
+        times, time_name = pandas_times(df, time)
     else:
-        times, time_name = _polars_times(df, time)
+        times, time_name = polars_times(df, time)
     used = [as_named.get(n, n) for n in names]
     lay = layout([u for u, n in zip(used, names, strict=True) if n != time_name], "DataFrame", None)
     original = {normalise_name(u): n for u, n in zip(used, names, strict=True)}
-    data = _numbers(df, [original[c] for c in lay.attitude], frame_kind)
+    data = frame_numbers(df, [original[c] for c in lay.attitude], frame_kind)
     T = data.shape[0]
     if T == 0:
         raise LogFormatError("DataFrame: no rows")
@@ -234,7 +137,7 @@ def open_frame(
         data = data.reshape(T, -1, 3)
     torque = None
     if lay.torque:
-        torque = _numbers(df, [original[c] for c in lay.torque], frame_kind)
+        torque = frame_numbers(df, [original[c] for c in lay.torque], frame_kind)
         bad = np.flatnonzero(~np.all(np.isfinite(torque), axis=1))
         if bad.size:
             raise LogFormatError(f"DataFrame, row {int(bad[0])}: torque {torque[bad[0]].tolist()} is not finite")
@@ -244,7 +147,8 @@ def open_frame(
         row_t, t0 = (times - base).astype(np.float64) * 1e-9, base * 1e-9
     else:
         row_t, t0 = np.asarray(times, dtype=float), 0.0
-    notes = [n for n in (named, f"{n_late} row(s) came after a later one: sorted by time" if n_late else "") if n]
+    late = f"{n_late} row(s) came after a later one: sorted by time" if n_late else ""
+    notes = [n for n in (named_quaternion_note(auto) if auto else "", named, late) if n]
     cols = ", ".join(original[c] for c in lay.attitude)
     stream = LogStream.from_arrays(
         "DataFrame",
