@@ -149,6 +149,12 @@ def test_a_damaged_ulog_and_an_invalid_attitude(tmp_path, capsys):
 
     n = 200
     stamps, q = _stamps(n), _quaternions(n)
+    wild = stamps.astype(np.uint64)
+    wild[7] = 2**63 + 5  # a damaged stamp, beyond what int64 holds
+    broken = tmp_path / "broken.ulg"
+    write_ulog(broken, {("vehicle_attitude", 0): _attitude(wild, q, lag_us=0)}, {"vehicle_attitude": _ATTITUDE})
+    with pytest.raises(LogFormatError, match=r"topic vehicle_attitude, message 7: timestamp_sample \d+ µs is no time"):
+        read_log(broken)
     q[50] = np.nan  # an odometry message whose attitude is invalid
     ulg = tmp_path / "gap.ulg"
     write_ulog(ulg, {("vehicle_visual_odometry", 0): _odometry(stamps, q)}, {"vehicle_visual_odometry": _ODOMETRY})

@@ -112,9 +112,14 @@ def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     chosen = _choose(found, options.topic, path)
     data = found[chosen].data
     field = "timestamp_sample" if "timestamp_sample" in data and np.all(data["timestamp_sample"] > 0) else "timestamp"
-    stamps = np.asarray(data[field], dtype=np.int64)
-    if stamps.size == 0:
+    raw = np.asarray(data[field])
+    if raw.size == 0:
         raise LogFormatError(f"{path}, topic {chosen}: no messages")
+    beyond = np.flatnonzero(raw.astype(np.float64) >= 2.0**62)  # a damaged stamp: no int64 wrap-around
+    if beyond.size:
+        k = int(beyond[0])
+        raise LogFormatError(f"{path}, topic {chosen}, message {k}: {field} {raw[k]} µs is no time since boot")
+    stamps = raw.astype(np.int64)
     order, n_late = sort_by_time(stamps)
     base = int(stamps.min())
     q = np.column_stack([np.asarray(data[c], dtype=float) for c in _QUATERNION])  # w, x, y, z
