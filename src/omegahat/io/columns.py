@@ -105,8 +105,13 @@ def time_unit_in_name(name: str) -> str | None:
     """The unit (``s``, ``ms``, ``us`` or ``ns``) a time column's name states in its last word, after ``_``, ``-``,
     ``.`` or a blank, or in brackets (``timestamp_ns``, ``Time (s)``, ``#timestamp [ns]``); None when it states
     none (``t``, ``time``, ``SampleTimeFine``)."""
-    m = re.search(r"(?:^|[\s_.\-\[(])([a-zµ]+)\s*[\])]?$", normalise_name(name))
+    m = _last_word(normalise_name(name))
     return _TIME_UNIT_WORDS.get(m.group(1)) if m else None
+
+
+def _last_word(name: str) -> re.Match | None:
+    """The last word of a (normalised) name, after a separator or in brackets, with the separator in its span."""
+    return re.search(r"(?:^|[\s_.\-\[(]+)([a-zµ]+)\s*[\])]?$", name)
 
 
 #: the names (less a unit they state: ``time_s``, ``Timestamp [ns]``) that name a log's time column where it has no
@@ -122,8 +127,9 @@ def time_named_columns(names: list[str]) -> list[str]:
     found = []
     for name in names:
         stem = normalise_name(name)
-        if time_unit_in_name(stem) is not None and stem not in TIME_COLUMN_NAMES:
-            stem = re.sub(r"[\s_.\-\[(]*[a-zµ]+\s*[\])]?$", "", stem)  # less its unit word
+        unit = _last_word(stem)
+        if unit and unit.group(1) in _TIME_UNIT_WORDS and stem not in TIME_COLUMN_NAMES:
+            stem = stem[: unit.start()]  # less its unit word
         if stem in TIME_COLUMN_NAMES:
             found.append(normalise_name(name))
     return found
