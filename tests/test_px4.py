@@ -66,6 +66,20 @@ def _attitude(stamps, wxyz, lag_us=300) -> list[bytes]:
     ]
 
 
+def _attitude_with_resets(stamps, wxyz, resets: dict[int, np.ndarray]) -> list[bytes]:
+    """vehicle_attitude messages whose estimator reset its earth frame by ``resets[k]`` (w, x, y, z) at message
+    ``k``: from ``k`` on, ``q = Δ ⊗ q̃`` (PX4's ``q_after = Δ ⊗ q_before``), the counter counting the resets."""
+    total = Rotation.identity()
+    out, count, last = [], 0, np.array([1.0, 0.0, 0.0, 0.0])
+    for k, (s, q) in enumerate(zip(stamps, wxyz, strict=True)):
+        if k in resets:
+            total = Rotation.from_quat(resets[k], scalar_first=True) * total
+            count, last = count + 1, resets[k]
+        shown = (total * Rotation.from_quat(q.astype(float), scalar_first=True)).as_quat(scalar_first=True)
+        out.append(struct.pack("<QQ4f4fB", int(s) + 300, int(s), *map(float, shown), *map(float, last), count))
+    return out
+
+
 def _odometry(stamps, wxyz) -> list[bytes]:
     return [
         struct.pack("<QQ3f4fB", int(s) + 100, int(s), 0.0, 0.0, 0.0, *map(float, q), 0)
@@ -180,3 +194,24 @@ def test_ulog2csv_files_are_read_in_microseconds_scalar_first(tmp_path, capsys):
     want, _ = estimate_file(reference, tmp_path, capsys)
     assert "PX4 ulog2csv CSV" in printed
     np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-6)
+
+
+def test_the_estimators_resets_are_undone_by_their_own_rotation(tmp_path, capsys):
+    """Two resets of PX4's estimator (a 20° turn of its heading, then 5° about another axis) make the published
+    attitude jump; read with their delta_q_reset undone, the rates are those of the log without resets, and no
+    sample is lost to them."""
+    n = 1000
+    stamps, q = _stamps(n), _quaternions(n)
+    yaw = Rotation.from_rotvec([0.0, 0.0, np.radians(20.0)]).as_quat(scalar_first=True)
+    tilt = Rotation.from_rotvec(np.radians(5.0) * np.array([0.6, 0.8, 0.0])).as_quat(scalar_first=True)
+    reset = tmp_path / "reset.ulg"
+    write_ulog(reset, {("vehicle_attitude", 0): _attitude_with_resets(stamps, q, {400: yaw, 700: tilt})},
+               {"vehicle_attitude": _ATTITUDE})  # fmt: skip
+    plain = tmp_path / "plain.ulg"
+    write_ulog(plain, {("vehicle_attitude", 0): _attitude(stamps, q)}, {"vehicle_attitude": _ATTITUDE})
+    got, printed = estimate_file(reset, tmp_path, capsys)
+    want, _ = estimate_file(plain, tmp_path, capsys)
+    assert "undid 2 reset(s) of PX4's estimator by its delta_q_reset (the largest 20°)" in printed
+    assert "resets:" not in printed  # no step is left for the generic detection
+    np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-4)  # float32 attitudes, turned
+    np.testing.assert_allclose(got[100:, 1:], np.broadcast_to(OMEGA, (n - 100, 3)), atol=2e-3)

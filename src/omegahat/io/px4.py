@@ -18,7 +18,8 @@ without ``vehicle_attitude`` and with several others is refused, naming them.
 
 **Messages** are read in their order in the log and sorted by time where they are not (counted in a note, as for
 ROS bags: :func:`omegahat.io.timestamps.sort_by_time`); a quaternion of NaN (an odometry message whose attitude is
-invalid) is a missing sample. The stream is labelled by message index, so errors name ``message N``. Dropouts
+invalid) is a missing sample. Resets of PX4's estimator (``quat_reset_counter``, ``delta_q_reset``) are undone
+(:func:`_undo_resets`), said in a note. The stream is labelled by message index, so errors name ``message N``. Dropouts
 the logger recorded (messages it could not write) are said in a note, with their total length.
 
 **ulog2csv's CSV** (``<log>_<topic>_<instance>.csv``): a header whose first column is ``timestamp`` and which has
@@ -38,6 +39,7 @@ from omegahat.io.csvlog import TextFormat, open_text
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import header_fields
 from omegahat.io.timestamps import sort_by_time
+from omegahat.so3 import quat_product
 
 __all__ = ["ULOG_MAGIC", "is_px4_csv", "is_ulog", "open_px4_csv", "open_ulog"]
 
@@ -133,11 +135,13 @@ def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     lost = [float(getattr(d, "duration", 0)) for d in log.dropouts]
     if lost:
         notes.append(f"the logger recorded {len(lost)} dropout(s), {sum(lost):g} ms in all: messages lost there")
+    q, undone = _undo_resets(q[order][:, [1, 2, 3, 0]], data, order)  # storage order x, y, z, w
+    notes.extend([undone] if undone else [])
     return LogStream.from_arrays(
         path,
         "quaternion",
         (stamps[order] - base) * _MICROSECONDS,
-        q[order][:, [1, 2, 3, 0]],  # storage order x, y, z, w
+        q,
         labels=order,
         label="message",
         t0=base * _MICROSECONDS,
@@ -149,6 +153,41 @@ def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         ),
         notes=notes,
         context=f", topic {chosen}",
+    )
+
+
+def _undo_resets(q: np.ndarray, data: dict, order: np.ndarray) -> tuple[np.ndarray, str]:
+    """The quaternions ``q`` (scalar last, in time order) with the estimator's resets undone, and the note saying so
+    (empty where there were none).
+
+    PX4's estimator resets its attitude (its heading, mostly) by a rotation of the earth frame, ``q_after = Δ ⊗
+    q_before``, publishes ``Δ`` as ``delta_q_reset`` and counts the resets in ``quat_reset_counter`` (a ``uint8``).
+    From the ``n``-th reset on, ``q̃ = (Δ_n ⊗ … ⊗ Δ_1)⁻¹ ⊗ q`` continues the attitude of before (R1): no step
+    carries a reset, and no sample is lost to it. A rate in body axes does not change under a constant rotation of the
+    earth frame, so nothing else does."""
+    fields = ("quat_reset_counter", *(f"delta_q_reset[{k}]" for k in range(4)))
+    if not all(f in data for f in fields) or q.shape[0] < 2:
+        return q, ""
+    counter = np.asarray(data["quat_reset_counter"])[order].astype(np.int64)
+    resets = np.flatnonzero(np.diff(counter) % 256 != 0) + 1
+    delta = np.column_stack([np.asarray(data[f"delta_q_reset[{k}]"], dtype=float)[order] for k in (1, 2, 3, 0)])
+    total, used, largest = np.array([0.0, 0.0, 0.0, 1.0]), 0, 0.0
+    out = q.copy()
+    for i, k in enumerate(resets):
+        d = delta[k]
+        size = float(np.linalg.norm(d))
+        if np.isfinite(size) and size > 0:  # a reset without its rotation changes nothing below
+            d = d / size
+            total = quat_product(d, total)  # Δ_n ⊗ … ⊗ Δ_1
+            used += 1
+            largest = max(largest, 2.0 * float(np.arccos(min(1.0, abs(d[3])))))
+        end = resets[i + 1] if i + 1 < resets.size else q.shape[0]
+        out[k:end] = quat_product(total * np.array([-1.0, -1.0, -1.0, 1.0]), q[k:end])
+    if not used:
+        return q, ""
+    return out, (
+        f"undid {used} reset(s) of PX4's estimator by its delta_q_reset (the largest {np.degrees(largest):.3g}°): "
+        "the attitude continues across them"
     )
 
 
