@@ -421,4 +421,4 @@ def test_command_reads_iso_dates_in_both_logs(tmp_path, capsys):
     assert abs(offsets[1] - offsets[0]) < 1e-6
     assert abs(offsets[1] - truth["delta"]) < 1e-3
     assert main(["calibrate", str(dated_att), str(dated_gyro), "--gyro-time-unit", "ms"]) == 2
-    assert "its time column holds dates, which carry their own unit" in capsys.readouterr().err
+    assert "its times carry their own unit (dates read as seconds since 1970-01-01 UTC" in capsys.readouterr().err

@@ -215,3 +215,57 @@ def test_the_estimators_resets_are_undone_by_their_own_rotation(tmp_path, capsys
     assert "resets:" not in printed  # no step is left for the generic detection
     np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-4)  # float32 attitudes, turned
     np.testing.assert_allclose(got[100:, 1:], np.broadcast_to(OMEGA, (n - 100, 3)), atol=2e-3)
+
+
+def test_calibrate_reads_a_ulogs_gyroscope(tmp_path, capsys):
+    """``omegahat calibrate`` with the gyroscope in a ULog (sensor_combined by default, float32, µs since boot) finds
+    the calibration of the same gyroscope written as a CSV; ``--gyro-topic`` chooses another topic."""
+    import json
+
+    from calibration_logs import simulated
+
+    (ta, Ra, tg, g), truth = simulated(4)
+    since_boot = np.round((tg + 1.0) * 1e6).astype(np.int64)  # µs: the boot one second before the attitude's 0
+    q = Rotation.from_matrix(Ra).as_quat()
+    attitude = tmp_path / "mocap.csv"
+    np.savetxt(attitude, np.column_stack([ta, q[:, 3], q[:, :3]]), delimiter=",", header="t,qw,qx,qy,qz", comments="")
+    g32 = g.astype(np.float32)
+    SHIFT = np.array([0.1, 0.0, 0.0], dtype=np.float32)  # vehicle_angular_velocity's rates: the bias moved by it
+    ulg = tmp_path / "flight.ulg"
+    write_ulog(
+        ulg,
+        {
+            ("sensor_combined", 0): [
+                struct.pack("<Q3f", int(s), *map(float, r)) for s, r in zip(since_boot, g32, strict=True)
+            ],
+            ("vehicle_angular_velocity", 0): [
+                struct.pack("<QQ3f", int(s), int(s), *map(float, r + SHIFT))
+                for s, r in zip(since_boot, g32, strict=True)
+            ],
+        },
+        {
+            "sensor_combined": "uint64_t timestamp;float[3] gyro_rad;",
+            "vehicle_angular_velocity": "uint64_t timestamp;uint64_t timestamp_sample;float[3] xyz;",
+        },
+    )
+    csv = tmp_path / "imu.csv"
+    np.savetxt(
+        csv, np.column_stack([since_boot * 1e-6, g32]), delimiter=",", header="t,gx,gy,gz", comments="", fmt="%.17g"
+    )
+    found = {}
+    for name, gyro, extra in (
+        ("csv", csv, []),
+        ("ulog", ulg, []),
+        ("avel", ulg, ["--gyro-topic", "vehicle_angular_velocity"]),
+    ):
+        out = tmp_path / f"{name}.json"
+        assert main(["calibrate", str(attitude), str(gyro), "-o", str(out), *extra]) == 0, capsys.readouterr().err
+        found[name] = json.loads(out.read_text())
+    printed = capsys.readouterr().out
+    assert "PX4 ULog topic sensor_combined, timestamp in µs since boot (converted to s)" in printed
+    assert abs(found["ulog"]["offset"] - found["csv"]["offset"]) < 1e-6
+    assert abs(found["ulog"]["offset"] - (truth["delta"] + 1.0)) < 1e-3
+    np.testing.assert_allclose(found["ulog"]["bias"], found["csv"]["bias"], atol=1e-6)
+    np.testing.assert_allclose(found["avel"]["bias"], np.asarray(found["csv"]["bias"]) + SHIFT, atol=1e-5)
+    assert main(["calibrate", str(attitude), str(ulg), "--gyro-time-unit", "ms"]) == 2
+    assert "its times carry their own unit" in capsys.readouterr().err

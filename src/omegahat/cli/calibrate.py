@@ -81,7 +81,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "attitude", type=Path, metavar="ATTITUDE", help="attitude log (any format omegahat estimate reads)"
     )
-    parser.add_argument("gyro", type=Path, metavar="GYRO", help="gyroscope log: CSV t,gx,gy,gz or NPZ")
+    parser.add_argument("gyro", type=Path, metavar="GYRO", help="gyroscope log: CSV t,gx,gy,gz, NPZ or PX4 ULog")
     parser.add_argument("-o", "--output", type=Path, help="write the calibration as JSON (for benchmarks/corpus.py)")
     parser.add_argument("--plot", type=Path, metavar="FILE.png", help="draw the band-limited gyro, model and residuals")
     fit = parser.add_argument_group("the fit")
@@ -118,6 +118,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_quaternion_order(att)
     add_euler_conventions(att)
     att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon, Qualisys or C3D file")
+    att.add_argument("--topic", metavar="NAME", help="topic of a ROS bag or a PX4 ULog")
     add_column_options(att)
     att.add_argument(
         "--rate",
@@ -153,6 +154,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="rows its header spans (default 1; names joined per column; 0: no header, columns by position)",
     )
     gyr.add_argument(
+        "--gyro-topic",
+        metavar="NAME",
+        help="a PX4 ULog's gyroscope topic (default sensor_combined, else vehicle_angular_velocity; sensor_gyro_N)",
+    )
+    gyr.add_argument(
         "--gyro-time-unit",
         choices=list(TIME_UNITS),
         default="s",
@@ -176,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
         rotation=args.rotation,
         scalar_first=args.scalar_first,
         body=args.body,
+        topic=args.topic,
         columns=args.columns,
         header_rows=args.header_rows,
         rate=args.rate,
@@ -193,16 +200,17 @@ def run(args: argparse.Namespace) -> int:
         None if columns is None else (columns[0], columns[1], columns[2]),
         None if args.gyro_rate is not None else args.gyro_time_column,
         args.gyro_header_rows,
+        args.gyro_topic,
     )
     print(f"attitude: {log.t.size} samples of {args.attitude}" + "".join(f"; {n}" for n in log.notes))
     times = f"time {gyro.names[0]!r}" if args.gyro_rate is None else f"times row / {args.gyro_rate:g} Hz"
     stated, note = None, None  # the unit its name or size states, as an attitude log's
-    if gyro.dates:
+    if gyro.own_unit:
         if args.gyro_time_unit != "s":
             raise ValueError(
-                f"{args.gyro}: its time column holds dates, which carry their own unit; leave --gyro-time-unit out"
+                f"{args.gyro}: its times carry their own unit ({gyro.own_unit}); leave --gyro-time-unit out"
             )
-        note = "dates read as seconds since 1970-01-01 UTC (without a time zone: as if UTC, as the attitude log's)"
+        note = gyro.own_unit
     elif args.gyro_rate is None:
         stated, note = unit_stated(gyro.names[0], args.gyro_time_unit, gyro.t[:64])
     time_unit = stated or args.gyro_time_unit

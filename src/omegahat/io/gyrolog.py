@@ -15,6 +15,9 @@ stem names a gyroscope (``IMU Gyroscope X``, ``gyr.x``...); the errors list what
 ``--gyro-columns``.
 
 **NPZ**: arrays ``t`` and ``g (M, 3)``, or one array per rate column under the names above.
+
+**PX4 ULog** (``.ulg``, recognised by its first bytes): a gyroscope topic, in seconds
+(:func:`omegahat.io.px4.read_ulog_gyro`).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import numpy as np
 
 from omegahat.io.colmap import join_header_rows
 from omegahat.io.columns import LogFormatError, time_column_by_name
+from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import delimiter, is_number, split_line
 from omegahat.io.timestamps import text_dates
 
@@ -47,13 +51,14 @@ GYRO_COLUMNS = (
 
 class GyroLog(NamedTuple):
     """What :func:`read_gyro` read: ``t (M,)`` as written, ``g (M, 3)``, and the columns' names as the file gives
-    them (time, x, y, z); ``dates``: the times were ISO 8601 dates, ``t`` is in seconds since 1970-01-01 UTC
-    (:func:`omegahat.io.timestamps.text_dates`)."""
+    them (time, x, y, z); ``own_unit``: empty where ``t`` is as written (its unit the caller's), else what says how
+    the reader turned the log's own times into seconds (ISO 8601 dates, :func:`omegahat.io.timestamps.text_dates`;
+    a PX4 ULog's microseconds, :func:`omegahat.io.px4.read_ulog_gyro`)."""
 
     t: np.ndarray
     g: np.ndarray
     names: tuple[str, str, str, str]
-    dates: bool = False
+    own_unit: str = ""
 
 
 def _triples(names: list[str]) -> list[tuple[str, str, str]]:
@@ -106,11 +111,16 @@ def read_gyro(
     columns: tuple[str, str, str] | None = None,
     time_column: str | None = "t",
     header_rows: int = 1,
+    topic: str | None = None,
 ) -> GyroLog:
-    """A gyroscope log (module docstring): ``t`` as written (its unit is the caller's) and ``g (M, 3)``."""
+    """A gyroscope log (module docstring): ``t`` as written (its unit is the caller's, unless ``own_unit`` says
+    otherwise) and ``g (M, 3)``; ``topic`` chooses a PX4 ULog's gyroscope topic."""
     path = os.fspath(path)
     if path.lower().endswith(".npz"):
         return _read_npz(path, time_column, columns)
+    if is_ulog(path):
+        t, g, read, said = read_ulog_gyro(path, topic)
+        return GyroLog(t, g, (read[0], read[1], read[2], read[3]), said)
     if header_rows < 0:
         raise ValueError(f"--gyro-header-rows is 0 or more; got {header_rows}")
     try:
@@ -162,7 +172,8 @@ def read_gyro(
                 raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
     x, y, z = (names[i] for i in idx[-3:])
     time_name = names[idx[0]] if time_column is not None else "row"
-    return GyroLog(out[:, 0], out[:, 1:], (time_name, x, y, z), dates is not None)
+    said = "" if dates is None else "dates read as seconds since 1970-01-01 UTC (without a time zone: as if UTC)"
+    return GyroLog(out[:, 0], out[:, 1:], (time_name, x, y, z), said)
 
 
 def _read_npz(path: str, time_column: str | None, columns: tuple[str, str, str] | None) -> GyroLog:

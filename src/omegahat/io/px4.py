@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import os
 import struct
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +43,7 @@ from omegahat.io.textlines import header_fields
 from omegahat.io.timestamps import sort_by_time
 from omegahat.so3 import quat_product
 
-__all__ = ["ULOG_MAGIC", "is_px4_csv", "is_ulog", "open_px4_csv", "open_ulog"]
+__all__ = ["ULOG_MAGIC", "is_px4_csv", "is_ulog", "open_px4_csv", "open_ulog", "read_ulog_gyro"]
 
 ULOG_MAGIC = b"ULog\x01\x12\x35"  #: the first 7 bytes of every ULog file
 _QUATERNION = ("q[0]", "q[1]", "q[2]", "q[3]")  # w, x, y, z
@@ -78,50 +80,62 @@ def _display(name: str, multi_id: int, instances: int) -> str:
     return f"{name}_{multi_id}" if instances > 1 or multi_id else name
 
 
-def _choose(found: dict[str, object], topic: str | None, path: str) -> str:
-    """The display name of the topic to read (module docstring)."""
+def _choose(found: dict[str, Any], topic: str | None, path: str, what: str, defaults: tuple[str, ...]) -> str:
+    """The display name of the topic to read: ``topic`` (``_0`` optional), else the first of ``defaults`` the log
+    has, else its only one; ``what`` (``attitude``, ``gyroscope``) names them in the errors."""
     if not found:
-        raise LogFormatError(f"{path}: no attitude topic (no message with a quaternion q[4] and a timestamp)")
+        raise LogFormatError(f"{path}: no {what} topic")
     if topic is not None:
         for name in (topic, topic.removesuffix("_0"), f"{topic}_0"):
             if name in found:
                 return name
-        raise LogFormatError(f"{path}: no topic {topic!r} with an attitude; the log has {', '.join(found)}")
-    for name in (_DEFAULT_TOPIC, f"{_DEFAULT_TOPIC}_0"):
+        article = "an" if what[0] in "aeiou" else "a"
+        raise LogFormatError(f"{path}: no topic {topic!r} with {article} {what}; the log has {', '.join(found)}")
+    for name in (n for d in defaults for n in (d, f"{d}_0")):
         if name in found:
             return name
     if len(found) == 1:
         return next(iter(found))
-    raise LogFormatError(
-        f"{path}: {len(found)} attitude topics ({', '.join(found)}); choose one with --topic NAME (topic= in Python)"
-    )
+    raise LogFormatError(f"{path}: {len(found)} {what} topics ({', '.join(found)}); choose one with --topic NAME")
 
 
-def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
-    """One attitude topic of a PX4 ULog file (module docstring)."""
-    path = os.fspath(path)
+def _topics(path: str, keep: Callable[[str, list], bool]) -> tuple[Any, dict[str, Any]]:
+    """pyulog's reading of the messages whose format ``keep(name, fields)`` accepts, and those topics by display
+    name; a file pyulog cannot read is a :class:`LogFormatError`."""
     ULog, ULogException = _pyulog()
     try:
         head = ULog(path, parse_header_only=True)
-        wanted = sorted(n for n, fmt in head.message_formats.items() if _with_quaternion(fmt.fields))
+        wanted = sorted(n for n, fmt in head.message_formats.items() if keep(n, fmt.fields))
         log = ULog(path, message_name_filter_list=wanted or [""])
     except (ULogException, OSError, ValueError, IndexError, KeyError, TypeError, struct.error) as exc:  # damaged
         raise LogFormatError(f"{path}: not a readable ULog file ({type(exc).__name__}: {exc})") from None
     counts: dict[str, int] = {}
     for d in log.data_list:
         counts[d.name] = counts.get(d.name, 0) + 1
-    found = {_display(d.name, d.multi_id, counts[d.name]): d for d in log.data_list if d.name in wanted}
-    chosen = _choose(found, options.topic, path)
-    data = found[chosen].data
+    return log, {_display(d.name, d.multi_id, counts[d.name]): d for d in log.data_list if d.name in wanted}
+
+
+def _stamps(data: dict, path: str, chosen: str) -> tuple[np.ndarray, str]:
+    """A topic's times (int64 µs) and the field they come from: ``timestamp_sample`` where every message has one,
+    else ``timestamp``; none, or a stamp beyond what int64 holds (a damaged message), is refused."""
     field = "timestamp_sample" if "timestamp_sample" in data and np.all(data["timestamp_sample"] > 0) else "timestamp"
     raw = np.asarray(data[field])
     if raw.size == 0:
         raise LogFormatError(f"{path}, topic {chosen}: no messages")
-    beyond = np.flatnonzero(raw.astype(np.float64) >= 2.0**62)  # a damaged stamp: no int64 wrap-around
+    beyond = np.flatnonzero(raw.astype(np.float64) >= 2.0**62)  # no int64 wrap-around
     if beyond.size:
         k = int(beyond[0])
         raise LogFormatError(f"{path}, topic {chosen}, message {k}: {field} {raw[k]} µs is no time since boot")
-    stamps = raw.astype(np.int64)
+    return raw.astype(np.int64), field
+
+
+def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
+    """One attitude topic of a PX4 ULog file (module docstring)."""
+    path = os.fspath(path)
+    log, found = _topics(path, lambda name, fields: _with_quaternion(fields))
+    chosen = _choose(found, options.topic, path, "attitude", (_DEFAULT_TOPIC,))
+    data = found[chosen].data
+    stamps, field = _stamps(data, path, chosen)
     order, n_late = sort_by_time(stamps)
     base = int(stamps.min())
     q = np.column_stack([np.asarray(data[c], dtype=float) for c in _QUATERNION])  # w, x, y, z
@@ -130,11 +144,7 @@ def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     if others:
         own = " (PX4's attitude estimate, made with its gyroscope)" if chosen.startswith(_DEFAULT_TOPIC) else ""
         notes.append(f"topic {chosen}{own}; the log also has {', '.join(others)} (--topic NAME)")
-    if log.file_corruption:
-        notes.append("pyulog found damaged parts in the file and skipped them: messages may be missing there")
-    lost = [float(getattr(d, "duration", 0)) for d in log.dropouts]
-    if lost:
-        notes.append(f"the logger recorded {len(lost)} dropout(s), {sum(lost):g} ms in all: messages lost there")
+    notes += _damage(log)
     q, undone = _undo_resets(q[order][:, [1, 2, 3, 0]], data, order)  # storage order x, y, z, w
     notes.extend([undone] if undone else [])
     return LogStream.from_arrays(
@@ -154,6 +164,48 @@ def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         notes=notes,
         context=f", topic {chosen}",
     )
+
+
+#: PX4's gyroscope topics and the prefix of their three rate fields (rad/s): the full-rate gyro in body axes, the
+#: controllers' filtered and bias-corrected rate, and each raw sensor in its own axes (sensor_gyro_N)
+_GYROSCOPES = {"sensor_combined": "gyro_rad", "vehicle_angular_velocity": "xyz", "sensor_gyro": ""}
+
+
+def _gyro_fields(name: str) -> tuple[str, ...]:
+    prefix = _GYROSCOPES[name]
+    return tuple(f"{prefix}[{k}]" for k in range(3)) if prefix else ("x", "y", "z")
+
+
+def read_ulog_gyro(path: str, topic: str | None = None) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], str]:
+    """A PX4 ULog's gyroscope for ``omegahat calibrate``: ``(t (M,) s since boot, g (M, 3) rad/s, the names of the
+    time and rate fields, the note saying what was read)``. ``topic`` chooses among :data:`_GYROSCOPES`' topics
+    the log has (default ``sensor_combined``, else ``vehicle_angular_velocity``); messages in time order."""
+    log, found = _topics(
+        path, lambda name, fields: name in _GYROSCOPES and set(_gyro_fields(name)) <= {f[2] for f in _fields(fields)}
+    )
+    chosen = _choose(found, topic, path, "gyroscope", ("sensor_combined", "vehicle_angular_velocity"))
+    data = found[chosen].data
+    stamps, field = _stamps(data, path, chosen)
+    order, _ = sort_by_time(stamps)
+    rates = _gyro_fields(found[chosen].name)
+    g = np.column_stack([np.asarray(data[f], dtype=float) for f in rates])[order]
+    note = "; ".join([f"PX4 ULog topic {chosen}, {field} in µs since boot (converted to s)", *_damage(log)])
+    return stamps[order] * _MICROSECONDS, g, (field, *rates), note
+
+
+def _fields(fields: list) -> list[tuple[str, int, str]]:
+    """pyulog's ``(type, array size, name)`` fields with each array's elements named ``name[k]``."""
+    return [(t, 0, f"{n}[{k}]") for t, size, n in fields for k in range(size)] + [f for f in fields if f[1] == 0]
+
+
+def _damage(log: Any) -> list[str]:
+    """What the file says was lost: parts pyulog skipped as damaged, and the logger's own dropouts."""
+    notes = ["pyulog found damaged parts in the file and skipped them: messages may be missing there"]
+    notes = notes if log.file_corruption else []
+    lost = [float(getattr(d, "duration", 0)) for d in log.dropouts]
+    if lost:
+        notes.append(f"the logger recorded {len(lost)} dropout(s), {sum(lost):g} ms in all: messages lost there")
+    return notes
 
 
 def _undo_resets(q: np.ndarray, data: dict, order: np.ndarray) -> tuple[np.ndarray, str]:
