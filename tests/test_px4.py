@@ -269,3 +269,25 @@ def test_calibrate_reads_a_ulogs_gyroscope(tmp_path, capsys):
     np.testing.assert_allclose(found["avel"]["bias"], np.asarray(found["csv"]["bias"]) + SHIFT, atol=1e-5)
     assert main(["calibrate", str(attitude), str(ulg), "--gyro-time-unit", "ms"]) == 2
     assert "its times carry their own unit" in capsys.readouterr().err
+
+    # both logs in one ULog: the attitude as motion-capture odometry, chosen with --topic, on the same boot clock
+    wxyz = q[:, [3, 0, 1, 2]].astype(np.float32)
+    both = tmp_path / "both.ulg"
+    write_ulog(
+        both,
+        {
+            ("sensor_combined", 0): [
+                struct.pack("<Q3f", int(s), *map(float, r)) for s, r in zip(since_boot, g32, strict=True)
+            ],
+            ("vehicle_mocap_odometry", 0): _odometry(np.round((ta + 1.0) * 1e6).astype(np.int64), wxyz),
+            ("vehicle_attitude", 0): _attitude(since_boot[:50], np.tile(wxyz[:1], (50, 1))),
+        },
+        {
+            "sensor_combined": "uint64_t timestamp;float[3] gyro_rad;",
+            "vehicle_mocap_odometry": _ODOMETRY,
+            "vehicle_attitude": _ATTITUDE,
+        },
+    )
+    out = tmp_path / "both.json"
+    assert main(["calibrate", str(both), str(both), "--topic", "vehicle_mocap_odometry", "-o", str(out)]) == 0
+    assert abs(json.loads(out.read_text())["offset"] - (found["csv"]["offset"] - 1.0)) < 1e-5
