@@ -70,7 +70,9 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV and MAT, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
-        bags (.bag) and ROS 2 bags (directory) (--topic, frames).
+        bags (.bag) and ROS 2 bags (directory) (--topic, frames), PX4 flight logs (.ulg, --topic) and ulog2csv's CSV.
+        A time column named time, timestamp, Time (s)... is read where there is no t; ISO 8601 dates as seconds
+        since 1970 UTC; one quaternion named by its parts (quat_w, orientation.x...) without --columns.
         Equal times: the same attitude is one sample (dropped), different attitudes are an error
         (--duplicate-times first|last keeps one, counted and reported).
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
@@ -231,9 +233,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     rec = parser.add_argument_group(
         "recordings (ROS bags, motion-capture exports)",
         "Bags: the orientation on one topic (PoseStamped, TransformStamped or tf2_msgs/TFMessage on /tf, Odometry, "
-        "Imu). Motive, Vicon, C3D: one rigid body.",
+        "Imu). PX4 ULog: one attitude topic (vehicle_attitude by default). Motive, Vicon, C3D: one rigid body.",
     )
-    rec.add_argument("--topic", help="bag topic to read (optional when one topic carries an orientation)")
+    rec.add_argument(
+        "--topic",
+        help="bag or ULog topic to read (optional when one topic carries an orientation; a ULog's vehicle_attitude)",
+    )
     rec.add_argument("--parent-frame", metavar="FRAME", help="for /tf and transforms: the fixed (parent) frame")
     rec.add_argument("--child-frame", metavar="FRAME", help="for /tf and transforms: the body (child) frame")
     rec.add_argument(
