@@ -148,12 +148,36 @@ def test_the_one_column_named_as_a_time_is_read_in_the_unit_its_name_states(tmp_
     assert f"time column: {column!r}, the one named as a time (the log has no column 't')" in log.notes
 
 
-def test_names_that_are_not_one_time_column_are_left_to_the_user(tmp_path):
-    # rostopic's two times are not chosen between; a column t is read whatever else is named as a time
-    path = tmp_path / "ros.csv"
-    path.write_text("%time,field.header.stamp,field.w,field.x,field.y,field.z\n1,1,1,0,0,0\n")
-    with pytest.raises(LogFormatError, match=r"no time column 't' \(found: %time, field\.header\.stamp"):
-        read_log(path)
+def test_rostopics_csv_is_read_at_its_header_stamps(tmp_path, capsys):
+    """``rostopic echo -p`` of a PoseStamped topic: its header stamps (ns since 1970, exact), as a bag is read, and
+    the pose's quaternion named by its parts; ``--time-column %time`` reads the receive times."""
+    n = 300
+    q = _quaternions(n)
+    stamp = 1_700_000_000_000_000_000 + np.arange(n) * 10_000_000  # 100 Hz
+    received = stamp + 2_000_000 + (np.arange(n) % 7) * 300_000  # later, with jitter
+    header = (
+        "%time,field.header.seq,field.header.stamp,field.header.frame_id,field.pose.position.x,field.pose.position.y,"
+        "field.pose.position.z,field.pose.orientation.x,field.pose.orientation.y,field.pose.orientation.z,"
+        "field.pose.orientation.w"
+    )
+    rows = [
+        f"{received[k]},{k},{stamp[k]},world,0,0,0," + ",".join(f"{q[k, j]:.17g}" for j in range(4)) for k in range(n)
+    ]
+    path = tmp_path / "rostopic.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    log = read_log(path)
+    assert any("'field.header.stamp', the messages' header stamps, as for a ROS bag" in note for note in log.notes)
+    np.testing.assert_allclose(log.t, np.arange(n) / RATE, rtol=0, atol=1e-12)  # exact: relative to 1.7e9 s
+    assert log.t0 == 1.7e9
+    reference = tmp_path / "reference.csv"
+    _write(reference, [f"{k / RATE:.17g}" for k in range(n)], q, name="t")
+    got, _ = estimate_file(path, tmp_path, capsys)
+    want, _ = estimate_file(reference, tmp_path, capsys)
+    np.testing.assert_allclose(got[:, 1:], want[:, 1:], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(read_log(path, time_column="%time").absolute_times, received * 1e-9, rtol=1e-15)
+
+
+def test_a_column_t_is_read_whatever_else_is_named_as_a_time(tmp_path):
     both = tmp_path / "both.csv"
     both.write_text("t,time,qw,qx,qy,qz\n0.25,9,1,0,0,0\n")
     log = read_log(both)
@@ -263,10 +287,9 @@ def test_one_quaternion_named_by_its_parts_is_read(tmp_path, capsys, header, ord
             r"no attitude columns.*--columns t=t,qw=imu_quat_w",
         ),
         ("t,w,x,y,z", r"no attitude columns.*--columns t=t,qw=w,qx=x,qy=y,qz=z"),  # no attitude-like prefix
-        (  # rostopic's two times: the line for both is suggested
-            "%time,field.header.stamp,field.pose.orientation.w,field.pose.orientation.x,field.pose.orientation.y,"
-            "field.pose.orientation.z",
-            r"no time column 't'.*--columns 't=%time,qw=field\.pose\.orientation\.w",
+        (  # no time: the line for both is suggested
+            "elapsed,field.pose.orientation.w,field.pose.orientation.x,field.pose.orientation.y,field.pose.orientation.z",
+            r"no time column 't' \(found: elapsed, field\.pose\.orientation\.w.*name it t or pass --time-column NAME",
         ),
     ],
 )

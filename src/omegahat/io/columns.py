@@ -121,6 +121,9 @@ TIME_COLUMN_NAMES = frozenset(
 )
 
 
+_ROSTOPIC_RECEIVED, _ROSTOPIC_STAMP = "%time", "field.header.stamp"  # the two times of `rostopic echo -p`'s CSV
+
+
 def time_named_columns(names: list[str]) -> list[str]:
     """The ``names`` (normalised, in order) that name a time column: one of :data:`TIME_COLUMN_NAMES`, alone or
     followed by the unit it states (``time``, ``Time (s)``, ``timestamp_ns``)."""
@@ -138,12 +141,20 @@ def time_named_columns(names: list[str]) -> list[str]:
 def time_column_by_name(names: list[str], time_column: str) -> tuple[str, str | None]:
     """The time column to read and the note that says why: ``time_column`` unless it is ``t``, the log has no
     column ``t`` and exactly one column is named as a time (:func:`time_named_columns`), which is then read (a log
-    with several leaves the choice to ``--time-column``; the error names them)."""
+    with several leaves the choice to ``--time-column``; the error names them). A CSV of ``rostopic echo -p``, with
+    its receive time ``%time`` and the messages' ``field.header.stamp``, has the header stamp read, as a bag has."""
     if normalise_name(time_column) != "t":
         return time_column, None
     normalised = [normalise_name(n) for n in names]
+    if "t" in normalised:
+        return time_column, None
+    if {_ROSTOPIC_RECEIVED, _ROSTOPIC_STAMP} <= set(normalised):  # rostopic echo -p: the header stamp, as for a bag
+        return _ROSTOPIC_STAMP, (
+            f"time column: {_ROSTOPIC_STAMP!r}, the messages' header stamps, as for a ROS bag (rostopic's "
+            f"{_ROSTOPIC_RECEIVED!r} is when it received them: --time-column {_ROSTOPIC_RECEIVED})"
+        )
     found = time_named_columns(normalised)
-    if "t" in normalised or len(found) != 1:
+    if len(found) != 1:
         return time_column, None
     return found[0], f"time column: {found[0]!r}, the one named as a time (the log has no column 't')"
 
