@@ -28,7 +28,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from omegahat.io.colmap import (
     COLUMNS_TEMPLATE,
@@ -50,6 +50,7 @@ from omegahat.io.textlines import (
     clean,
     cut_lines,
     delimiter,
+    header_fields,
     is_number,
     source_blocks,
     split_line,
@@ -57,7 +58,7 @@ from omegahat.io.textlines import (
 from omegahat.io.time_units import unit_stated
 from omegahat.io.timestamps import ExactTimes
 
-__all__ = ["TextFormat", "open_csv", "open_text"]
+__all__ = ["TextFormat", "open_by_header", "open_csv", "open_text"]
 
 _DIGIT_ROWS = 200  # rows whose attitude fields say how many digits the file carries
 
@@ -133,6 +134,22 @@ def _prose_comment(raw: bytes) -> bool:
 def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open a CSV log (module docstring); its header is read now, its rows chunk by chunk."""
     return open_text(path, options, TextFormat())
+
+
+def open_by_header(
+    path: str | os.PathLike[str],
+    options: ReadOptions,
+    columns_of: Callable[[list[str]], ColumnMap | None],
+    refusal: str,
+    fmt: TextFormat,
+) -> LogStream:
+    """Open a text log of a format known by its header (EuRoC, PX4's ulog2csv): ``columns_of`` its first line's
+    fields gives the format's column map, read as ``fmt`` says; None is refused with ``refusal``."""
+    path = os.fspath(path)
+    cmap = columns_of(header_fields(path))
+    if cmap is None:
+        raise LogFormatError(f"{path}, line 1: {refusal}")
+    return open_text(path, options, replace(fmt, columns=cmap))
 
 
 def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextFormat) -> LogStream:
@@ -293,14 +310,7 @@ def _read_dates(stream: LogStream, options: ReadOptions, where: str, times: Exac
             f"{where}: the time column {column!r} holds dates, which carry their own unit; leave --time-unit out"
         )
     stream.meta["time_dates"] = True
-    zone = (
-        "their time zone converted to UTC"
-        if getattr(times.dates, "tz", None)
-        else "no time zone given, so read as if UTC: only differences matter to the rates"
-    )
-    stream.notes.append(
-        f"times: dates read as seconds since 1970-01-01 UTC ({zone}); the output's times are written so"
-    )
+    stream.notes.append(f"times: {times.dates_note}; the output's times are written so")
 
 
 def _columns_read(lay: Layout, original: list[str], names: list[str]) -> str:

@@ -30,11 +30,9 @@ import pyarrow.csv as pacsv
 from omegahat.io.columns import Layout, LogFormatError
 from omegahat.io.registry import LogChunk
 from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean
-from omegahat.io.timestamps import ExactTimes
+from omegahat.io.timestamps import ARROW_ERRORS, ExactTimes, first_failure
 
 __all__ = ["ChunkParser"]
-
-_ARROW_ERRORS = (pa.ArrowInvalid, pa.ArrowNotImplementedError)
 
 
 class ChunkParser:
@@ -164,15 +162,8 @@ class ChunkParser:
         convert = self.times.convert if col == self.time_col else (lambda a: pc.cast(a, pa.float64()))
         try:
             return convert(s)
-        except _ARROW_ERRORS:
-            lo, hi = 0, len(s)  # bisect for the first element that does not convert
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                try:
-                    convert(s[lo:mid])
-                    lo = mid
-                except _ARROW_ERRORS:
-                    hi = mid
+        except ARROW_ERRORS:
+            lo = first_failure(convert, s)
             # the field's bytes, as text whatever they hold (a stray byte that is not UTF-8 is shown, not raised)
             value = text.cast(pa.binary())[lo].as_py().decode("utf-8", errors="replace")
             expected = self.times.expected if col == self.time_col else "a number"
@@ -197,12 +188,12 @@ class ChunkParser:
                         values[self.time_col] = self._numbers(
                             table[self.time_col].combine_chunks(), lines, self.time_col
                         )
-            except _ARROW_ERRORS:
+            except ARROW_ERRORS:
                 try:
                     table = self._arrow(buf, as_text=True)
                     if table.num_rows == lines.size:  # _numbers raises naming the first field that is no number
                         values = {c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.cols}
-                except _ARROW_ERRORS:
+                except ARROW_ERRORS:
                     values = None
         if values is None:
             text, lines = self._python_rows(buf, first_line)

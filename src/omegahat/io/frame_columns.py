@@ -29,7 +29,7 @@ def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None]:
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
             return nanoseconds(s, name), name
         dates = text_dates(s.tolist(), row_of(name)) if pd.api.types.is_string_dtype(s) else None
-        return (frame_numbers(df, [name], "pandas")[:, 0] if dates is None else dates), name
+        return (frame_numbers(df, [name], "pandas")[:, 0] if dates is None else dates[0]), name
     idx = df.index
     if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
         return nanoseconds(idx, "index"), None
@@ -93,7 +93,7 @@ def polars_times(df: Any, time: str | None) -> tuple[np.ndarray, str]:
             return ticks * ns_per_tick, name
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
     dates = text_dates(s.to_list(), row_of(name)) if s.dtype == pl.String else None
-    return (frame_numbers(df, [name], "polars")[:, 0] if dates is None else dates), name
+    return (frame_numbers(df, [name], "polars")[:, 0] if dates is None else dates[0]), name
 
 
 def frame_numbers(df: Any, cols: list[str], frame_kind: str) -> np.ndarray:

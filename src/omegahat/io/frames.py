@@ -102,6 +102,7 @@ def open_frame(
         if quaternion is not None:
             raise ValueError("give the quaternion's columns once: columns= or quaternion=")
     auto = None  # the map of a quaternion named by its parts (colmap.named_quaternion), where one is read
+    indexed = frame_kind == "pandas" and time_index(getattr(df, "index", None))  # the index holds the times
     if quaternion is not None:
         q = [str(c) for c in quaternion]
         if len(q) != 4:
@@ -111,13 +112,12 @@ def open_frame(
             raise LogFormatError(f"DataFrame: missing quaternion column(s) {', '.join(missing)} (quaternion=)")
         as_named = dict(zip(q, QUATERNION_COLUMNS, strict=True))
     else:
-        indexed = frame_kind == "pandas" and time_index(getattr(df, "index", None))  # the index holds the times
         auto = None if options.column_map else named_quaternion(names, time or "t", time is not None or indexed)
         if auto:  # no attitude columns of omegahat's names: the one quaternion named by its parts
             mapped = apply_columns(names, auto, "DataFrame")
         as_named = {n: m for n, m in zip(names, mapped, strict=True) if m != "t"} if options.column_map or auto else {}
     named = None
-    if time is None and "t" not in names and (frame_kind == "polars" or not time_index(getattr(df, "index", None))):
+    if time is None and "t" not in names and not indexed:
         found, named = time_column_by_name(names, "t")  # no column t: the one named as a time, if there is one
         time = next((n for n in names if normalise_name(n) == found), None) if named else None
     if frame_kind == "pandas":

@@ -119,8 +119,7 @@ def read_gyro(
     if path.lower().endswith(".npz"):
         return _read_npz(path, time_column, columns)
     if is_ulog(path):
-        t, g, read, said = read_ulog_gyro(path, topic)
-        return GyroLog(t, g, (read[0], read[1], read[2], read[3]), said)
+        return GyroLog(*read_ulog_gyro(path, topic))
     if header_rows < 0:
         raise ValueError(f"--gyro-header-rows is 0 or more; got {header_rows}")
     try:
@@ -159,7 +158,7 @@ def read_gyro(
         texts = [fields[idx[0]] if idx[0] < len(fields) else None for fields in rows]
         dates = text_dates(texts, lambda k: f"{path}, line {body[k][0]}, column {names[idx[0]]}")
         if dates is not None:
-            out[:, 0] = dates * 1e-9
+            out[:, 0] = dates[0] * 1e-9
     numbers = list(enumerate(idx, start=4 - len(idx)))[(dates is not None) :]  # (out's column, the file's)
     for r, (line, _) in enumerate(body):
         fields = rows[r]
@@ -172,8 +171,7 @@ def read_gyro(
                 raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
     x, y, z = (names[i] for i in idx[-3:])
     time_name = names[idx[0]] if time_column is not None else "row"
-    said = "" if dates is None else "dates read as seconds since 1970-01-01 UTC (without a time zone: as if UTC)"
-    return GyroLog(out[:, 0], out[:, 1:], (time_name, x, y, z), said)
+    return GyroLog(out[:, 0], out[:, 1:], (time_name, x, y, z), "" if dates is None else dates[1])
 
 
 def _read_npz(path: str, time_column: str | None, columns: tuple[str, str, str] | None) -> GyroLog:

@@ -24,7 +24,7 @@ the logger recorded (messages it could not write) are said in a note, with their
 
 **ulog2csv's CSV** (``<log>_<topic>_<instance>.csv``): a header whose first column is ``timestamp`` and which has
 ``q[0] .. q[3]``; read as above (microseconds, scalar first; ``timestamp_sample`` where present) through the text
-reader (:func:`omegahat.io.csvlog.open_text`).
+reader (:func:`omegahat.io.csvlog.open_by_header`).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from omegahat.io.columns import Layout, LogFormatError, normalise_name
-from omegahat.io.csvlog import TextFormat, open_text
+from omegahat.io.csvlog import TextFormat, open_by_header
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import header_fields
 from omegahat.io.timestamps import sort_by_time
@@ -70,10 +70,10 @@ def _pyulog():
     return ULog, ULogException
 
 
-def _with_quaternion(fields) -> bool:
-    """Whether a message format (pyulog's ``(type, array size, name)`` fields) has ``timestamp`` and ``q[4]``."""
-    names = {(name, size) for _, size, name in fields}
-    return ("timestamp", 0) in names and ("q", 4) in names
+def _field_names(fields: list) -> set[str]:
+    """The field names of a message format (pyulog's ``(type, array size, name)``), an array's elements named
+    ``name[k]`` as pyulog reads them."""
+    return {f"{name}[{k}]" for _, size, name in fields for k in range(size)} | {n for _, s, n in fields if s == 0}
 
 
 def _display(name: str, multi_id: int, instances: int) -> str:
@@ -132,14 +132,14 @@ def _stamps(data: dict, path: str, chosen: str) -> tuple[np.ndarray, str]:
 def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """One attitude topic of a PX4 ULog file (module docstring)."""
     path = os.fspath(path)
-    log, found = _topics(path, lambda name, fields: _with_quaternion(fields))
+    log, found = _topics(path, lambda name, fields: {"timestamp", *_QUATERNION} <= _field_names(fields))
     chosen = _choose(found, options.topic, path, "attitude", (_DEFAULT_TOPIC,))
     data = found[chosen].data
     stamps, field = _stamps(data, path, chosen)
     order, n_late = sort_by_time(stamps)
     base = int(stamps.min())
     q = np.column_stack([np.asarray(data[c], dtype=float) for c in _QUATERNION])  # w, x, y, z
-    notes = [f"{n_late} message(s) came after a later one: sorted by time"] if n_late else []
+    notes = _late(n_late)
     others = [n for n in found if n != chosen]
     if others:
         own = " (PX4's attitude estimate, made with its gyroscope)" if chosen.startswith(_DEFAULT_TOPIC) else ""
@@ -171,37 +171,39 @@ def open_ulog(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
 _GYROSCOPES = {"sensor_combined": "gyro_rad", "vehicle_angular_velocity": "xyz", "sensor_gyro": ""}
 
 
-def _gyro_fields(name: str) -> tuple[str, ...]:
+def _gyro_fields(name: str) -> tuple[str, str, str]:
     prefix = _GYROSCOPES[name]
-    return tuple(f"{prefix}[{k}]" for k in range(3)) if prefix else ("x", "y", "z")
+    return (f"{prefix}[0]", f"{prefix}[1]", f"{prefix}[2]") if prefix else ("x", "y", "z")
 
 
-def read_ulog_gyro(path: str, topic: str | None = None) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], str]:
+def read_ulog_gyro(
+    path: str, topic: str | None = None
+) -> tuple[np.ndarray, np.ndarray, tuple[str, str, str, str], str]:
     """A PX4 ULog's gyroscope for ``omegahat calibrate``: ``(t (M,) s since boot, g (M, 3) rad/s, the names of the
     time and rate fields, the note saying what was read)``. ``topic`` chooses among :data:`_GYROSCOPES`' topics
     the log has (default ``sensor_combined``, else ``vehicle_angular_velocity``); messages in time order."""
     log, found = _topics(
-        path, lambda name, fields: name in _GYROSCOPES and set(_gyro_fields(name)) <= {f[2] for f in _fields(fields)}
+        path, lambda name, fields: name in _GYROSCOPES and {"timestamp", *_gyro_fields(name)} <= _field_names(fields)
     )
     chosen = _choose(found, topic, path, "gyroscope", ("sensor_combined", "vehicle_angular_velocity"))
     data = found[chosen].data
     stamps, field = _stamps(data, path, chosen)
-    order, _ = sort_by_time(stamps)
-    rates = _gyro_fields(found[chosen].name)
-    g = np.column_stack([np.asarray(data[f], dtype=float) for f in rates])[order]
-    note = "; ".join([f"PX4 ULog topic {chosen}, {field} in µs since boot (converted to s)", *_damage(log)])
-    return stamps[order] * _MICROSECONDS, g, (field, *rates), note
+    order, n_late = sort_by_time(stamps)
+    x, y, z = _gyro_fields(found[chosen].name)
+    g = np.column_stack([np.asarray(data[f], dtype=float) for f in (x, y, z)])[order]
+    said = [f"PX4 ULog topic {chosen}, {field} in µs since boot (converted to s)", *_late(n_late), *_damage(log)]
+    return stamps[order] * _MICROSECONDS, g, (field, x, y, z), "; ".join(said)
 
 
-def _fields(fields: list) -> list[tuple[str, int, str]]:
-    """pyulog's ``(type, array size, name)`` fields with each array's elements named ``name[k]``."""
-    return [(t, 0, f"{n}[{k}]") for t, size, n in fields for k in range(size)] + [f for f in fields if f[1] == 0]
+def _late(n_late: int) -> list[str]:
+    return [f"{n_late} message(s) came after a later one: sorted by time"] if n_late else []
 
 
 def _damage(log: Any) -> list[str]:
     """What the file says was lost: parts pyulog skipped as damaged, and the logger's own dropouts."""
-    notes = ["pyulog found damaged parts in the file and skipped them: messages may be missing there"]
-    notes = notes if log.file_corruption else []
+    notes = []
+    if log.file_corruption:
+        notes.append("pyulog found damaged parts in the file and skipped them: messages may be missing there")
     lost = [float(getattr(d, "duration", 0)) for d in log.dropouts]
     if lost:
         notes.append(f"the logger recorded {len(lost)} dropout(s), {sum(lost):g} ms in all: messages lost there")
@@ -270,8 +272,7 @@ def _describe(stream: LogStream, lay: Layout, names: list[str]) -> str:
 
 def open_px4_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """The attitude of one of ulog2csv's CSV files (module docstring)."""
-    path = os.fspath(path)
-    cmap = _px4_columns(header_fields(path))
-    if cmap is None:
-        raise LogFormatError(f"{path}, line 1: not a PX4 ulog2csv file (no 'timestamp' first and q[0]..q[3])")
-    return open_text(path, options, TextFormat(columns=cmap, time_scale=_MICROSECONDS, describe=_describe))
+    refusal = "not a PX4 ulog2csv file (no 'timestamp' first and q[0]..q[3])"
+    return open_by_header(
+        path, options, _px4_columns, refusal, TextFormat(time_scale=_MICROSECONDS, describe=_describe)
+    )

@@ -61,12 +61,14 @@ from omegahat import so3
 from omegahat.io.columns import LogFormatError
 
 __all__ = [
+    "ARROW_ERRORS",
     "DUPLICATE_CHOICES",
     "DUPLICATE_TOL",
     "EXACT_FROM",
     "ExactTimes",
     "TimePolicy",
     "date_text",
+    "first_failure",
     "sort_by_time",
     "text_dates",
 ]
@@ -74,6 +76,7 @@ __all__ = [
 DUPLICATE_TOL = 1e-6  #: ‖R_a − R_b‖_F (≈ √2 × the angle in rad) below which two samples at one time are the same
 DUPLICATE_CHOICES = ("error", "first", "last")  #: (3) what to do with samples at one time that disagree
 EXACT_FROM = float(2**20)  #: (5) times from this magnitude on are made relative before they become floats
+ARROW_ERRORS = (pa.ArrowInvalid, pa.ArrowNotImplementedError)  #: what an Arrow cast raises for a value it refuses
 _DECIMAL = pa.decimal128(38, 18)  # 20 integer digits (ns since 1970: 19) and 18 decimals
 _DIFFERENCE = pa.decimal128(37, 18)  # one digit less, so that a difference still fits 38 digits
 
@@ -104,8 +107,7 @@ class ExactTimes:
             value = Decimal(0)
             self.dates = _date_type(text)
         if self.dates is not None:
-            ns = pc.cast(pc.cast(pa.array([text]), self.dates), pa.int64())[0].as_py()
-            self.base = ns // 10**9
+            self.base = self.nanoseconds(pa.array([text]))[0].as_py() // 10**9
             return
         self.base = int(value) if value.is_finite() and abs(value) >= Decimal(EXACT_FROM) else 0
 
@@ -115,12 +117,23 @@ class ExactTimes:
         return self.base != 0 or self.dates is not None
 
     @property
+    def zoned(self) -> bool:
+        """Whether the dates name their time zone (then converted to UTC)."""
+        return self.dates is not None and self.dates.tz is not None
+
+    @property
     def expected(self) -> str:
         """What every time must be, for the message naming one that is not."""
         if self.dates is None:
             return "a number"
-        zone = "with" if pa.types.is_timestamp(self.dates) and self.dates.tz else "without"
+        zone = "with" if self.zoned else "without"
         return f"a date and time {zone} a time zone, as the first row's (ISO 8601: 2026-01-31 12:00:00.010)"
+
+    @property
+    def dates_note(self) -> str:
+        """The note of a log whose times are dates (6)."""
+        zone = "their time zone converted to UTC" if self.zoned else "no time zone given, so read as if UTC"
+        return f"dates read as seconds since 1970-01-01 UTC ({zone}: only differences matter to the rates)"
 
     def nanoseconds(self, text: pa.Array) -> pa.Array:
         """int64 nanoseconds since 1970-01-01 UTC of a string array of dates (6); raises ``pa.ArrowInvalid`` for a
@@ -137,7 +150,7 @@ class ExactTimes:
             return pc.cast(text, pa.float64())
         try:
             d = pc.cast(pc.cast(text, _DECIMAL), _DIFFERENCE)
-        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):  # nan/inf, or more than 18 decimals: as floats
+        except ARROW_ERRORS:  # nan/inf, or more than 18 decimals: as floats
             return pc.subtract(pc.cast(text, pa.float64()), pa.scalar(float(self.base)))
         return pc.cast(pc.subtract(d, pa.scalar(Decimal(self.base), _DIFFERENCE)), pa.float64())
 
@@ -148,33 +161,43 @@ def _date_type(text: str) -> pa.DataType | None:
     for kind in (pa.timestamp("ns"), pa.timestamp("ns", "UTC")):
         try:
             pc.cast(pa.array([text]), kind)
-        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        except ARROW_ERRORS:
             continue
         return kind
     return None
 
 
-def text_dates(texts: list, where: Callable[[int], str]) -> np.ndarray | None:
-    """Integer nanoseconds since 1970-01-01 UTC of a column of ISO 8601 date texts (a DataFrame's strings), read
-    as a CSV's are (6); None where the first is no date (the caller reads numbers). ``where(k)`` names row ``k`` in
-    the error for a text unlike the first or a missing one."""
+def text_dates(texts: list, where: Callable[[int], str]) -> tuple[np.ndarray, str] | None:
+    """Integer nanoseconds since 1970-01-01 UTC of a column of ISO 8601 date texts (a DataFrame's strings, a gyro
+    log's column), read as a CSV's are (6), and the note that says so; None where the first is no date (the caller
+    reads numbers). ``where(k)`` names row ``k`` in the error for a text unlike the first or a missing one."""
     times = ExactTimes(next((str(v) for v in texts if not _missing(v)), ""))
     if times.dates is None:
         return None
-    texts = [None if _missing(v) else str(v).strip() for v in texts]
+    text = pa.array([None if _missing(v) else str(v).strip() for v in texts], pa.string())
     try:
-        ns = times.nanoseconds(pa.array(texts, pa.string()))
-    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-        for k, v in enumerate(texts):  # the first that is no date like the first, for the message
-            try:
-                times.nanoseconds(pa.array([v], pa.string()))
-            except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-                raise LogFormatError(f"{where(k)}: {v!r} is not {times.expected}") from None
-        raise
+        ns = times.nanoseconds(text)
+    except ARROW_ERRORS:
+        k = first_failure(times.nanoseconds, text)
+        raise LogFormatError(f"{where(k)}: {text[k].as_py()!r} is not {times.expected}") from None
     if ns.null_count:
         k = int(np.flatnonzero(ns.is_null().to_numpy(zero_copy_only=False))[0])
         raise LogFormatError(f"{where(k)}: missing time (every row needs one)")
-    return ns.to_numpy().astype(np.int64)
+    return ns.to_numpy().astype(np.int64), times.dates_note
+
+
+def first_failure(convert: Callable[[pa.Array], object], values: pa.Array) -> int:
+    """The index of the first of ``values`` that ``convert`` (an Arrow cast) refuses, found by bisection (the whole
+    array is known to fail): the element a message names."""
+    lo, hi = 0, len(values)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        try:
+            convert(values[lo:mid])
+            lo = mid
+        except ARROW_ERRORS:
+            hi = mid
+    return lo
 
 
 def _missing(value) -> bool:

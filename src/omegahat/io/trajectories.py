@@ -35,7 +35,7 @@ import numpy as np
 
 from omegahat.io.colmap import ColumnMap
 from omegahat.io.columns import Layout, LogFormatError, normalise_name
-from omegahat.io.csvlog import TextFormat, open_text
+from omegahat.io.csvlog import TextFormat, open_by_header, open_text
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import head_lines, header_fields
@@ -95,11 +95,8 @@ def _describe_euroc(stream: LogStream, lay: Layout, names: list[str]) -> str:
 
 def open_euroc(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """The attitude of an EuRoC / ASL trajectory CSV (module docstring)."""
-    path = os.fspath(path)
-    cmap = _euroc_map(header_fields(path))
-    if cmap is None:
-        raise LogFormatError(f"{path}, line 1: not an EuRoC trajectory (no '#timestamp' and q_RS_w..q_RS_z columns)")
-    return open_text(path, options, TextFormat(columns=cmap, time_scale=1e-9, describe=_describe_euroc))
+    refusal = "not an EuRoC trajectory (no '#timestamp' and q_RS_w..q_RS_z columns)"
+    return open_by_header(path, options, _euroc_map, refusal, TextFormat(time_scale=1e-9, describe=_describe_euroc))
 
 
 # ---------------------------------------------------------------------------------------------------- TUM
