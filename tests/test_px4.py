@@ -291,3 +291,22 @@ def test_calibrate_reads_a_ulogs_gyroscope(tmp_path, capsys):
     out = tmp_path / "both.json"
     assert main(["calibrate", str(both), str(both), "--topic", "vehicle_mocap_odometry", "-o", str(out)]) == 0
     assert abs(json.loads(out.read_text())["offset"] - (found["csv"]["offset"] - 1.0)) < 1e-5
+
+
+def test_damage_inside_a_ulog_is_said_once_in_a_note(tmp_path, capsys):
+    """A message whose id names no subscription (a damaged byte): pyulog skips it and prints a warning per message;
+    the command says it once, in a note, and reads the rest."""
+    n = 300
+    stamps, q = _stamps(n), _quaternions(n)
+    ulg = tmp_path / "damaged.ulg"
+    write_ulog(ulg, {("vehicle_attitude", 0): _attitude(stamps, q)}, {"vehicle_attitude": _ATTITUDE})
+    data = bytearray(ulg.read_bytes())
+    size = 3 + 2 + struct.calcsize("<QQ4f4fB")  # one data message: header, msg_id, payload
+    first = len(data) - n * size
+    for k in (100, 101, 102):
+        data[first + k * size + 3 : first + k * size + 5] = struct.pack("<H", 77)  # an id nothing subscribed to
+    ulg.write_bytes(bytes(data))
+    table, printed = estimate_file(ulg, tmp_path, capsys)
+    assert "pyulog found damaged parts in the file and skipped them" in printed
+    assert "Warning" not in printed and "subscription" not in printed
+    assert table.shape[0] == n - 3 and np.all(np.isfinite(table[20:, 1:]))

@@ -29,6 +29,8 @@ reader (:func:`omegahat.io.csvlog.open_by_header`).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import struct
 from collections.abc import Callable
@@ -103,10 +105,11 @@ def _topics(path: str, keep: Callable[[str, list], bool]) -> tuple[Any, dict[str
     """pyulog's reading of the messages whose format ``keep(name, fields)`` accepts, and those topics by display
     name; a file pyulog cannot read is a :class:`LogFormatError`."""
     ULog, ULogException = _pyulog()
-    try:
-        head = ULog(path, parse_header_only=True)
-        wanted = sorted(n for n, fmt in head.message_formats.items() if keep(n, fmt.fields))
-        log = ULog(path, message_name_filter_list=wanted or [""])
+    try:  # pyulog prints what it finds damaged, line by line: said once, in a note (_damage)
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            head = ULog(path, parse_header_only=True)
+            wanted = sorted(n for n, fmt in head.message_formats.items() if keep(n, fmt.fields))
+            log = ULog(path, message_name_filter_list=wanted or [""])
     except (ULogException, OSError, ValueError, IndexError, KeyError, TypeError, struct.error) as exc:  # damaged
         raise LogFormatError(f"{path}: not a readable ULog file ({type(exc).__name__}: {exc})") from None
     counts: dict[str, int] = {}
