@@ -418,6 +418,8 @@ def test_command_reads_iso_dates_in_both_logs(tmp_path, capsys):
         offsets.append(json.loads(out.read_text())["offset"])
     text = capsys.readouterr().out
     assert "time 'time'" in text and "dates read as seconds since 1970-01-01 UTC" in text
+    # the gyro's stamps name their zone (Z), the attitude's do not, and the notes say which
+    assert "(their time zone converted to UTC" in text and "(no time zone given, so read as if UTC" in text
     assert abs(offsets[1] - offsets[0]) < 1e-6
     assert abs(offsets[1] - truth["delta"]) < 1e-3
     assert main(["calibrate", str(dated_att), str(dated_gyro), "--gyro-time-unit", "ms"]) == 2
