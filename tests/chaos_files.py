@@ -2,7 +2,7 @@
 ``benchmarks/chaos.py`` (a longer seeded run): valid files of every reader, mutated, read, and each outcome classified.
 
 **Seeds.** :func:`make_seeds` writes one valid file per reader (omegahat's CSV with an ignored column, NPZ,
-Motive, Vicon, C3D, ROS 1 and ROS 2 bags) and knows how many rows reading it gives.
+Motive, Vicon, C3D, ROS 1 and ROS 2 bags, a CCSDS AEM) and knows how many rows reading it gives.
 
 **Mutations** (:data:`TEXT_MUTATIONS`, :data:`BINARY_MUTATIONS`), seeded: byte flips, truncation, a block of
 zeros, a duplicated block; for text also a stray quote (anywhere, or opening a field), CR-LF or CR-only line ends, a
@@ -126,6 +126,13 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
     files = {f"run2/{p.name}": p.read_bytes() for p in sorted((folder / "run2").iterdir())}
     (db,) = [name for name in files if name.endswith(".db3")]
     seeds.append(Seed("rosbag2", files, db, "run2", rows))
+
+    # a CCSDS AEM (version 2.0 leaves out DATA_START / DATA_STOP, so every line after the metadata is a row)
+    head = ["CCSDS_AEM_VERS = 2.0", "ORIGINATOR = TEST", "META_START", "OBJECT_NAME = SAT", "REF_FRAME_A = EME2000"]
+    head += ["REF_FRAME_B = SC_BODY_1", "TIME_SYSTEM = UTC", "ATTITUDE_TYPE = QUATERNION", "META_STOP"]
+    epochs = [f"2026-01-01T00:00:{k // 100:02d}.{k % 100:02d}" for k in range(rows)]
+    aem = head + [f"{e} " + " ".join(repr(float(x)) for x in q[k]) for k, e in enumerate(epochs)]
+    seeds.append(Seed("aem", {"att.aem": ("\n".join(aem) + "\n").encode()}, "att.aem", "att.aem", rows, len(head)))
     return seeds
 
 

@@ -13,7 +13,7 @@ import pytest
 
 import chaos_files as chaos
 
-CASES = 8  #: mutated files per (reader, mutation) pair: 53 pairs, 424 files
+CASES = 8  #: mutated files per (reader, mutation) pair: 64 pairs, 512 files
 
 #: (reader, mutation) -> why it fails today (each reproducible: ``chaos.mutate(seed, mutation, rng(seed))``); none
 #: since a stray non-UTF-8 byte is shown in the message and ezc3d reads in a child process (its abort a message)
@@ -26,9 +26,9 @@ def seeds(tmp_path_factory):
 
 
 def _pairs():
-    names = ("csv", "npz", "parquet", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2")
+    names = ("csv", "npz", "parquet", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2", "aem")
     for name in names:
-        kinds = chaos.TEXT_MUTATIONS if name in ("csv", "motive", "vicon") else chaos.BINARY_MUTATIONS
+        kinds = chaos.TEXT_MUTATIONS if name in ("csv", "motive", "vicon", "aem") else chaos.BINARY_MUTATIONS
         for kind in kinds:
             why = KNOWN.get((name, kind))
             marks = [pytest.mark.xfail(strict=True, reason=why)] if why else []

@@ -203,8 +203,8 @@ def test_not_an_npz_and_unknown_extension(tmp_path):
         read_log(p)
     with pytest.raises(
         LogFormatError,
-        match=r"unknown log format '\.dat'; use \.bag or \.c3d or \.csv or \.db3 or \.mat or \.mcap or \.npz or "
-        r"\.parquet or \.tsv or \.tum or \.txt",
+        match=r"unknown log format '\.dat'; use \.aem or \.bag or \.c3d or \.csv or \.db3 or \.kvn or \.mat or "
+        r"\.mcap or \.npz or \.parquet or \.tsv or \.tum or \.txt or \.ulg or \.xml",
     ):
         read_log(write(tmp_path, "t\n", "x.dat"))  # (.txt is a format now: TUM, KITTI, or text read by columns)
 

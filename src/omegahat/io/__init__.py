@@ -8,8 +8,8 @@
    :mod:`omegahat.io.qtm_mat`), the
    EuRoC / ASL, TUM and KITTI trajectories of robotics (:mod:`omegahat.io.trajectories`), C3D files
    (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`), PX4 ULog flight logs and
-   ulog2csv's CSV files (:mod:`omegahat.io.px4`); pandas and Polars DataFrames enter
-   the same path through :func:`omegahat.io.frames.open_frame`.
+   ulog2csv's CSV files (:mod:`omegahat.io.px4`), CCSDS attitude ephemeris messages (:mod:`omegahat.io.aem`);
+   pandas and Polars DataFrames enter the same path through :func:`omegahat.io.frames.open_frame`.
 2. :func:`open_log` opens any of them as a :class:`LogStream` of :class:`LogChunk` and applies, in one place,
    the time unit, the rotation convention, the precision policy (:mod:`omegahat.io.precision`) and the timestamp
    policy (:mod:`omegahat.io.timestamps`);
@@ -22,6 +22,7 @@
    ``omegahat estimate`` and :func:`estimate_frame` are thin shells over it.
 """
 
+from omegahat.io.aem import is_aem, open_aem
 from omegahat.io.c3d import open_c3d
 from omegahat.io.colmap import parse_columns, suggest_columns
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, LogFormatError
@@ -62,6 +63,14 @@ register_format(
 register_format(".csv", open_vicon_csv, name="vicon", title="a Vicon CSV export", sniff=is_vicon, options=("body",))
 register_format(".csv", open_euroc, name="euroc", title="an EuRoC / ASL trajectory CSV", sniff=is_euroc, options=())
 register_format(".csv", open_px4_csv, name="px4-csv", title="a PX4 ulog2csv topic CSV", sniff=is_px4_csv, options=())
+register_format(
+    (".aem", ".kvn", ".txt", ".xml"),
+    open_aem,
+    name="aem",
+    title="a CCSDS attitude ephemeris message (AEM)",
+    sniff=is_aem,
+    options=(),
+)
 register_format((".txt", ".tum"), open_tum, name="tum", title="a TUM trajectory", sniff=is_tum, options=())
 register_format(".txt", open_kitti, name="kitti", title="a KITTI pose list", sniff=is_kitti, options=("rate", "times"))
 register_format(

@@ -1,0 +1,219 @@
+"""CCSDS attitude ephemeris messages (AEM). The files are written here from a body turning at a known constant rate
+in its own axes, ``R(t) = R0 exp(S(ω) t)``; what each file holds is pinned to the standard's own definitions, written
+out in the test (the direction cosine matrix of a quaternion, (A1); successive rotations of the frame about its own
+axes for an Euler sequence; the spin axis's right ascension and declination), not to the reader's formulas. The
+reader's rotations must then turn at ω in body axes: ``log(R_kᵀ R_k+1) = ω Δt`` exactly."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat.cli import main
+from omegahat.io import LogFormatError, read_log
+from omegahat.io.aem import epoch_nanoseconds
+from recording_files import estimate_file
+
+OMEGA = np.array([0.03, -0.02, 0.05])  # rad/s, body axes: a slow spacecraft slew
+R0 = Rotation.from_rotvec([0.4, -1.1, 0.7])
+START = datetime(2026, 3, 14, 23, 59, 50, 250000, tzinfo=UTC)
+STEP = 0.5  # s: a 2 Hz star tracker
+N = 120
+
+
+def _truth() -> tuple[list[datetime], Rotation]:
+    times = [START + timedelta(seconds=STEP * k) for k in range(N)]
+    return times, R0 * Rotation.from_rotvec(np.outer(np.arange(N) * STEP, OMEGA))  # body -> external
+
+
+def _dcm(q1, q2, q3, qc) -> np.ndarray:
+    """The standard's direction cosine matrix of a quaternion (vector part first, scalar ``qc`` last): it maps a
+    vector's components from the frame the attitude starts from to the frame it ends at."""
+    return np.array(
+        [
+            [qc**2 + q1**2 - q2**2 - q3**2, 2 * (q1 * q2 + q3 * qc), 2 * (q1 * q3 - q2 * qc)],
+            [2 * (q1 * q2 - q3 * qc), qc**2 - q1**2 + q2**2 - q3**2, 2 * (q2 * q3 + q1 * qc)],
+            [2 * (q1 * q3 + q2 * qc), 2 * (q2 * q3 - q1 * qc), qc**2 - q1**2 - q2**2 + q3**2],
+        ]
+    )
+
+
+def _frame_turn(axis: str, degrees: float) -> np.ndarray:
+    """The components of a fixed vector in a frame turned by ``degrees`` about its own ``axis``, from the old
+    frame's: the transpose of the rotation matrix about that axis."""
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    i = "XYZ".index(axis)
+    j, k = (i + 1) % 3, (i + 2) % 3
+    m = np.eye(3)
+    m[j, j], m[j, k], m[k, j], m[k, k] = c, s, -s, c
+    return m
+
+
+def _header(version: str = "1.0") -> str:
+    return f"CCSDS_AEM_VERS = {version}\nCOMMENT written by omegahat's tests\nCREATION_DATE = 2026-11-29T12:00:00\n"
+
+
+def _meta(a: str, b: str, kind: str, extra: str = "", direction: str | None = "A2B", system: str = "UTC") -> str:
+    lines = ["META_START", "OBJECT_NAME = TESTSAT", "OBJECT_ID = 2026-001A", f"REF_FRAME_A = {a}", f"REF_FRAME_B = {b}"]
+    lines += [f"ATTITUDE_DIR = {direction}"] if direction else []
+    lines += [f"TIME_SYSTEM = {system}", f"ATTITUDE_TYPE = {kind}", *filter(None, extra.split("\n")), "META_STOP"]
+    return "\n".join(lines) + "\n"
+
+
+def _epoch(t: datetime, day_of_year: bool = False) -> str:
+    return t.strftime("%Y-%jT%H:%M:%S.%f" if day_of_year else "%Y-%m-%dT%H:%M:%S.%f")
+
+
+def _data(times, rows, markers: bool = True, day_of_year: bool = False) -> str:
+    body = "".join(
+        f"{_epoch(t, day_of_year)} " + " ".join(f"{v:.15g}" for v in row) + "\n"
+        for t, row in zip(times, rows, strict=True)
+    )
+    return f"DATA_START\n{body}DATA_STOP\n" if markers else body
+
+
+def _rates_of(log) -> np.ndarray:
+    r = Rotation.from_quat(log.data)
+    return (r[:-1].inv() * r[1:]).as_rotvec() / np.diff(log.t)[:, None]
+
+
+def _quaternions(external_to_body: bool) -> np.ndarray:
+    """(q1, q2, q3, qc) per epoch whose (A1) matrix maps external → body (or body → external), checked here."""
+    _, rot = _truth()
+    q = rot.as_quat()  # x, y, z, w of body -> external
+    if external_to_body:
+        assert np.allclose(_dcm(*q[7]), rot[7].as_matrix().T, atol=1e-12)  # v_B = M v_E
+    else:
+        q = q * [-1, -1, -1, 1]
+        assert np.allclose(_dcm(*q[7]), rot[7].as_matrix(), atol=1e-12)  # v_E = M v_B
+    return q
+
+
+@pytest.mark.parametrize(
+    ("a", "b", "direction", "order", "external_to_body"),
+    [
+        ("EME2000", "SC_BODY_1", "A2B", "LAST", True),
+        ("EME2000", "SC_BODY_1", "B2A", "FIRST", False),
+        ("SC_BODY_1", "ICRF", "A2B", "LAST", False),
+        ("STARTRACKER_2", "EME2000", "B2A", "FIRST", True),
+    ],
+)
+def test_quaternions_in_every_direction_and_order_turn_at_the_bodys_rate(
+    tmp_path, a, b, direction, order, external_to_body
+):
+    times, _ = _truth()
+    q = _quaternions(external_to_body)
+    rows = q[:, [3, 0, 1, 2]] if order == "FIRST" else q
+    path = tmp_path / "slew.aem"
+    path.write_text(_header() + _meta(a, b, "QUATERNION", f"QUATERNION_TYPE = {order}", direction) + _data(times, rows))
+    log = read_log(path)
+    assert log.format == "aem"
+    np.testing.assert_allclose(_rates_of(log), np.tile(OMEGA, (N - 1, 1)), atol=1e-9)
+    body = a if a.startswith(("SC_", "STAR")) else b
+    assert f"rates of {body} in its own axes" in " ".join(log.notes)
+
+
+def test_version_2_without_direction_or_data_markers_and_day_of_year_epochs(tmp_path):
+    times, _ = _truth()
+    q = _quaternions(True)
+    rates = np.tile(np.degrees(OMEGA), (N, 1))  # the file's own rates: carried, not used
+    text = _header("2.0") + _meta("EME2000", "SC_BODY_1", "QUATERNION/ANGVEL", "ANGVEL_FRAME = REF_FRAME_B", None)
+    path = tmp_path / "v2.txt"
+    path.write_text(text + _data(times, np.hstack([q, rates]), markers=False, day_of_year=True))
+    log = read_log(path)
+    np.testing.assert_allclose(_rates_of(log), np.tile(OMEGA, (N - 1, 1)), atol=1e-9)
+    assert any("QUATERNION/ANGVEL" in n and "not used" in n for n in log.notes)
+
+
+@pytest.mark.parametrize("sequence", ["321", "ZXZ", "SPIN"])
+def test_euler_angles_and_spin_are_successive_turns_of_the_frame(tmp_path, sequence):
+    times, rot = _truth()
+    if sequence == "SPIN":
+        a1, a2, a3 = rot.as_euler("ZXZ", degrees=True).T
+        alpha, delta = a1 - 90.0, 90.0 - a2
+        # the spin axis (body z) points at right ascension alpha, declination delta in the external frame
+        axis = rot.apply([0.0, 0.0, 1.0])
+        d, al = np.radians(delta), np.radians(alpha)
+        np.testing.assert_allclose(
+            axis, np.column_stack([np.cos(d) * np.cos(al), np.cos(d) * np.sin(al), np.sin(d)]), atol=1e-12
+        )
+        rows = np.column_stack([alpha, delta, a3, np.zeros(N)])
+        meta = _meta("EME2000", "SC_BODY_1", "SPIN")
+    else:
+        axes = "".join("XYZ"[int(c) - 1] for c in sequence) if sequence.isdigit() else sequence
+        rows = rot.as_euler(axes, degrees=True)
+        k = 11
+        turned = _frame_turn(axes[2], rows[k, 2]) @ _frame_turn(axes[1], rows[k, 1]) @ _frame_turn(axes[0], rows[k, 0])
+        np.testing.assert_allclose(turned, rot[k].as_matrix().T, atol=1e-12)  # external -> body, turn by turn
+        meta = _meta("EME2000", "SC_BODY_1", "EULER_ANGLE", f"EULER_ROT_SEQ = {sequence}")
+    path = tmp_path / "angles.aem"
+    path.write_text(_header() + meta + _data(times, rows))
+    np.testing.assert_allclose(_rates_of(read_log(path)), np.tile(OMEGA, (N - 1, 1)), atol=1e-9)
+
+
+def test_the_command_reads_an_aem_of_two_segments_and_writes_the_epochs(tmp_path, capsys):
+    times, _ = _truth()
+    q = _quaternions(True)
+    meta = _meta("EME2000", "SC_BODY_1", "QUATERNION", "QUATERNION_TYPE = LAST")
+    half = N // 2  # the second segment repeats the first one's last epoch, as segments often do
+    text = _header() + meta + _data(times[:half], q[:half]) + "\n" + meta + _data(times[half - 1 :], q[half - 1 :])
+    path = tmp_path / "two.aem"
+    path.write_text(text)
+    got, printed = estimate_file(path, tmp_path, capsys)
+    assert "CCSDS AEM 1.0: 121 epochs in 2 segments, attitude of SC_BODY_1 relative to EME2000" in printed
+    want = np.array([(t - datetime(1970, 1, 1, tzinfo=UTC)).total_seconds() for t in times])
+    np.testing.assert_allclose(got[:, 0], want, rtol=0, atol=1e-6)  # the repeated epoch merged, said in a note
+    assert "merged" in printed or "same time" in printed
+    np.testing.assert_allclose(got[-20:, 1:], np.tile(OMEGA, (20, 1)), atol=1e-4)
+
+
+def test_epochs_to_the_nanosecond():
+    for text, want in [
+        ("2026-03-14T23:59:50.25", datetime(2026, 3, 14, 23, 59, 50, 250000, tzinfo=UTC)),
+        ("2024-366T00:00:01", datetime(2024, 12, 31, 0, 0, 1, tzinfo=UTC)),
+        ("1996-11-28T21:29:07.2555Z", datetime(1996, 11, 28, 21, 29, 7, 255500, tzinfo=UTC)),
+    ]:
+        assert epoch_nanoseconds(text) == round(want.timestamp() * 1e6) * 1000
+    assert epoch_nanoseconds("2026-01-01T00:00:00.1234567895") == 1767225600_123456790
+    for bad in ["2025-366T00:00:00", "2026-02-30T00:00:00", "2026-01-01T23:59:60", "2026-01-01 00:00:00", "12.5"]:
+        assert epoch_nanoseconds(bad) is None
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda s: s.replace("0.5 ", "0.5x ", 1), "field 2: '0.5x' is not a number"),
+        (lambda s: s.replace("T23:59:50.250000", "T23:59:60.250000", 1), "a leap second"),
+        (lambda s: s.replace("SC_BODY_1", "SPACECRAFT"), "neither is a spacecraft frame"),
+        (lambda s: s.replace("QUATERNION_TYPE = LAST\n", ""), "has no QUATERNION_TYPE"),
+        (lambda s: s.replace("ATTITUDE_TYPE = QUATERNION", "ATTITUDE_TYPE = SPIN/NUTATION"), "is not read"),
+        (lambda s: s.replace(" 0.5\n", "\n", 1), "3 numbers after the epoch; the segment's type has 4"),
+        (lambda s: s.replace("DATA_STOP", "DATA_STOP\nJUNK"), "'JUNK' is out of place"),
+        (lambda s: "<?xml version='1.0'?>\n<aem id='CCSDS_AEM_VERS' version='2.0'>\n</aem>\n", "XML form"),
+    ],
+)
+def test_bad_files_are_refused_naming_the_line(tmp_path, capsys, change, message):
+    times = [START + timedelta(seconds=k) for k in range(3)]
+    good = _header() + _meta("EME2000", "SC_BODY_1", "QUATERNION", "QUATERNION_TYPE = LAST")
+    good += _data(times, [[0.5, 0.5, 0.5, 0.5]] * 3)
+    path = tmp_path / ("bad.xml" if "XML" in message else "bad.aem")
+    path.write_text(change(good))
+    with pytest.raises(LogFormatError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        read_log(path)
+    out = tmp_path / "o.csv"
+    assert main(["estimate", str(path), "-o", str(out), "--no-progress"]) == 2
+    assert message.split(":")[0] in capsys.readouterr().err and not out.exists()
+
+
+def test_segments_of_different_frames_are_refused(tmp_path):
+    times = [START + timedelta(seconds=k) for k in range(3)]
+    rows = [[0.5, 0.5, 0.5, 0.5]] * 3
+    text = _header() + _meta("EME2000", "SC_BODY_1", "QUATERNION", "QUATERNION_TYPE = LAST") + _data(times, rows)
+    text += _meta("ITRF2000", "SC_BODY_1", "QUATERNION", "QUATERNION_TYPE = LAST") + _data(times, rows)
+    path = tmp_path / "frames.aem"
+    path.write_text(text)
+    with pytest.raises(LogFormatError, match="SC_BODY_1 relative to ITRF2000 in UTC, unlike the one before"):
+        read_log(path)
