@@ -187,7 +187,7 @@ def test_epochs_to_the_nanosecond():
     [
         (lambda s: s.replace("0.5 ", "0.5x ", 1), "field 2: '0.5x' is not a number"),
         (lambda s: s.replace("T23:59:50.250000", "T23:59:60.250000", 1), "a leap second"),
-        (lambda s: s.replace("SC_BODY_1", "SPACECRAFT"), "neither is a spacecraft frame"),
+        (lambda s: s.replace("SC_BODY_1", "BCS"), "neither is named as a spacecraft frame of the standard"),
         (lambda s: s.replace("QUATERNION_TYPE = LAST\n", ""), "has no QUATERNION_TYPE"),
         (lambda s: s.replace("ATTITUDE_TYPE = QUATERNION", "ATTITUDE_TYPE = SPIN/NUTATION"), "is not read"),
         (lambda s: s.replace(" 0.5\n", "\n", 1), "3 numbers after the epoch; the segment's type has 4"),
@@ -217,3 +217,18 @@ def test_segments_of_different_frames_are_refused(tmp_path):
     path.write_text(text)
     with pytest.raises(LogFormatError, match="SC_BODY_1 relative to ITRF2000 in UTC, unlike the one before"):
         read_log(path)
+
+
+def test_a_spacecraft_frame_of_another_name_is_named_with_body(tmp_path, capsys):
+    times, _ = _truth()
+    q = _quaternions(False)  # spacecraft -> external: B2A with B the spacecraft
+    meta = _meta("J2000", "BCS", "QUATERNION", "QUATERNION_TYPE = LAST", "B2A")
+    path = tmp_path / "bcs.aem"
+    path.write_text(_header() + meta + _data(times, q))
+    with pytest.raises(LogFormatError, match="--body BCS or --body J2000"):
+        read_log(path)
+    np.testing.assert_allclose(_rates_of(read_log(path, body="bcs")), np.tile(OMEGA, (N - 1, 1)), atol=1e-9)
+    with pytest.raises(LogFormatError, match="--body SC_BODY_1 is neither"):
+        read_log(path, body="SC_BODY_1")
+    _, printed = estimate_file(path, tmp_path, capsys, "--body", "BCS")
+    assert "attitude of BCS relative to J2000" in printed

@@ -117,7 +117,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     att.add_argument("--rotation", choices=ROTATIONS, default="body-to-inertial")
     add_quaternion_order(att)
     add_euler_conventions(att)
-    att.add_argument("--body", metavar="NAME", help="rigid body of a Motive, Vicon, Qualisys or C3D file")
+    att.add_argument(
+        "--body", metavar="NAME", help="rigid body of a Motive, Vicon, Qualisys or C3D file; spacecraft frame of an AEM"
+    )
     att.add_argument("--topic", metavar="NAME", help="topic of a ROS bag or a PX4 ULog")
     add_column_options(att)
     att.add_argument(

@@ -249,7 +249,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="bag time: the messages' header stamps (default) or the time the recorder received them",
     )
     rec.add_argument(
-        "--body", metavar="NAME", help="rigid body / object / segment of a Motive, Vicon, Qualisys or C3D file"
+        "--body",
+        metavar="NAME",
+        help="rigid body / object / segment of a Motive, Vicon, Qualisys or C3D file; the spacecraft frame of an AEM",
     )
     rec.add_argument(
         "--rate",

@@ -69,7 +69,7 @@ register_format(
     name="aem",
     title="a CCSDS attitude ephemeris message (AEM)",
     sniff=is_aem,
-    options=(),
+    options=("body",),
 )
 register_format((".txt", ".tum"), open_tum, name="tum", title="a TUM trajectory", sniff=is_tum, options=())
 register_format(".txt", open_kitti, name="kitti", title="a KITTI pose list", sniff=is_kitti, options=("rate", "times"))

@@ -15,13 +15,14 @@ segment's ``TIME_SYSTEM`` (UTC, TAI, TT, GPS, TDB ...). They are read to the nan
 those seconds (the note names the scale). A leap second (``23:59:60``) is refused with its line: a uniform count of
 seconds cannot place it. Every segment must use the same time system.
 
-**Frames and direction.** ``REF_FRAME_A`` and ``REF_FRAME_B`` name two frames; one of them is the spacecraft's
-(a name of the standard's spacecraft body frames: ``SC_BODY_1``, ``STARTRACKER_2``, ``INSTRUMENT_A`` ... — an
-equipment word of :data:`SPACECRAFT_EQUIPMENT`, ``_`` and a label), the other the external frame (``EME2000``,
-``ICRF``, an orbit frame ...). ``ATTITUDE_DIR`` (version 1.0; always ``A2B`` in version 2.0) says which way the
-attitude maps. The standard's quaternion :math:`q = (q_1, q_2, q_3, q_c)` (vector part, then the scalar
-:math:`q_c = \cos\frac\varphi2`) maps the components of a vector from the frame it starts from to the frame it
-ends at through the direction cosine matrix
+**Frames and direction.** ``REF_FRAME_A`` and ``REF_FRAME_B`` name two frames; one of them is the spacecraft's (a
+name of the standard's spacecraft body frames: ``SC_BODY_1``, ``STARTRACKER_2``, ``INSTRUMENT_A`` ... — an equipment
+word of :data:`SPACECRAFT_EQUIPMENT`, ``_`` and a label), the other the external frame (``EME2000``, ``ICRF``, an
+orbit frame ...). A file that names its spacecraft frame otherwise (``BCS``, ``BODY``) is refused with a message
+until ``--body NAME`` (``body=`` in Python) says which frame it is. ``ATTITUDE_DIR`` (version 1.0; always ``A2B`` in
+version 2.0) says which way the attitude maps. The standard's quaternion :math:`q = (q_1, q_2, q_3, q_c)` (vector
+part, then the scalar :math:`q_c = \cos\frac\varphi2`) maps the components of a vector from the frame it starts from
+to the frame it ends at through the direction cosine matrix
 
 .. math::
 
@@ -224,20 +225,25 @@ def _frame(name: str) -> str:
     return re.sub(r"[\s_]+", "_", name.strip().upper())
 
 
-def _direction(segment: _Segment, version: str, path: str) -> tuple[str, str, bool]:
-    """(spacecraft frame, external frame, whether the attitude maps external → spacecraft)."""
+def _direction(segment: _Segment, version: str, path: str, body: str | None) -> tuple[str, str, bool]:
+    """(spacecraft frame, external frame, whether the attitude maps external → spacecraft); ``body`` (``--body``)
+    names the spacecraft frame where the file's names do not say it."""
     a, b = _frame(_key(segment, "REF_FRAME_A", path)), _frame(_key(segment, "REF_FRAME_B", path))
     direction = _key(segment, "ATTITUDE_DIR", path, None if version == "1" else "A2B")
     if direction not in ("A2B", "B2A"):
         raise LogFormatError(f"{path}, line {segment.line}: ATTITUDE_DIR = {direction}; A2B or B2A")
-    craft = [f for f in (a, b) if _SPACECRAFT.match(f)]
+    named = f"{path}, line {segment.line}: REF_FRAME_A = {a} and REF_FRAME_B = {b}"
+    if body is not None:
+        if _frame(body) not in (a, b):
+            raise LogFormatError(f"{named}: --body {body} is neither")
+        craft = [_frame(body)]
+    else:
+        craft = [f for f in (a, b) if _SPACECRAFT.match(f)]
     if len(craft) != 1:
         raise LogFormatError(
-            f"{path}, line {segment.line}: REF_FRAME_A = {a} and REF_FRAME_B = {b}: "
-            + ("both are" if craft else "neither is")
-            + " a spacecraft frame (one of them must be, named EQUIPMENT_label with EQUIPMENT one of "
-            + ", ".join(SPACECRAFT_EQUIPMENT)
-            + ")"
+            f"{named}: {'both are' if craft else 'neither is'} named as a spacecraft frame of the standard "
+            f"(EQUIPMENT_label, EQUIPMENT one of {', '.join(SPACECRAFT_EQUIPMENT)}); "
+            f"say which one is the spacecraft's: --body {b} or --body {a}"
         )
     body_is_b = craft[0] == b
     return craft[0], (a if body_is_b else b), (direction == "A2B") == body_is_b
@@ -314,7 +320,7 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             raise LogFormatError(
                 f"{path}, line {segment.line}: ATTITUDE_TYPE = {kind} is not read (read: {', '.join(_TYPES)})"
             )
-        craft, external, external_to_craft = _direction(segment, version, path)
+        craft, external, external_to_craft = _direction(segment, version, path, options.body)
         frames.add((craft, external))
         systems.add(_key(segment, "TIME_SYSTEM", path))
         if len(frames) > 1 or len(systems) > 1:

@@ -114,7 +114,8 @@ class ReadOptions:
     ``x, y, z, w``), ``time_column``, ``euler``, ``angle_unit`` (:mod:`omegahat.io.euler`): CSV, NPZ and Parquet logs;
     ``columns`` (a column map: ``"t=1,qw=2,..."`` or ``{"t": "Time", "qw": 2}``) and ``header_rows`` (rows the
     header spans; 0: none): text logs (:mod:`omegahat.io.colmap`); ``rotation``: every attitude format; ``body``:
-    the rigid body of a Motive, Vicon, Qualisys or C3D file; ``topic``, ``parent_frame``, ``child_frame``,
+    the rigid body of a Motive, Vicon, Qualisys or C3D file, the spacecraft frame of a CCSDS AEM; ``topic``,
+    ``parent_frame``, ``child_frame``,
     ``stamp`` (``header`` or ``receive`` time): ROS bags; ``rate`` (Hz) or ``times`` (a file of one time per line):
     the times of pose lists that have none (KITTI); ``duplicate_times``: every format, what to do with samples at
     one time whose attitudes differ (:data:`omegahat.io.timestamps.DUPLICATE_CHOICES`: ``error``, the default, or
