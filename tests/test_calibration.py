@@ -226,7 +226,10 @@ def test_command_messages(tmp_path, capsys):
     assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "raw"]) == 2
     assert "--gyro-unit raw needs scale factors" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(gyro), "--gyro-columns", "wx,wy,wz"]) == 2
-    assert "no column 'wx' (found: t, gx, gy, gz); name the gyro's rate with --gyro-columns" in capsys.readouterr().err
+    assert (
+        "no column 'wx' (found: t, gx, gy, gz); name the gyroscope log's rate with --gyro-columns"
+        in capsys.readouterr().err
+    )
     assert main(["calibrate", str(att), str(tmp_path / "none.csv")]) == 2
     assert "No such file" in capsys.readouterr().err
     assert main(["calibrate", str(att), str(gyro), "--offset", "0.2"]) == 2  # a guess without its bound does nothing

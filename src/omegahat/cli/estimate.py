@@ -54,6 +54,7 @@ from omegahat.io.pipeline import RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
+from omegahat.io.torque_log import attach_torque, read_torque_log
 from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
@@ -180,6 +181,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         nargs="+",
         metavar="J",
         help="inertia: 3 numbers (diagonal) or 9 (row-major); default identity (then the model is a constant rate)",
+    )
+    model.add_argument(
+        "--torque",
+        type=Path,
+        metavar="FILE",
+        help="known torques from a log of their own (t and tau_x,tau_y,tau_z, N m, body axes, on the attitude's "
+        "clock): each row held until the next, averaged over each interval between attitude samples; with --inertia",
+    )
+    model.add_argument(
+        "--torque-columns",
+        metavar="X,Y,Z",
+        help="the torque log's three columns by name or 1-based position (default: tau_x,tau_y,tau_z or torque_x,...)",
     )
     model.add_argument(
         "--bandwidth",
@@ -331,6 +344,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _torque_columns(text: str | None) -> tuple[str, str, str] | None:
+    if text is None:
+        return None
+    names = tuple(c.strip() for c in text.split(","))
+    if len(names) != 3 or not all(names):
+        raise ValueError(f"--torque-columns names 3 columns x,y,z; got {text!r}")
+    return names[0], names[1], names[2]
+
+
 def estimate_file(
     args: argparse.Namespace,
     report: Callable[[str], None] = print,
@@ -363,6 +385,10 @@ def estimate_file(
     )
     out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
     stream = open_log(args.input, options)
+    if args.torque is not None:
+        attach_torque(stream, read_torque_log(args.torque, args.time_unit, _torque_columns(args.torque_columns)))
+    elif args.torque_columns is not None:
+        raise ValueError("--torque-columns names the columns of a --torque FILE; give the file")
     settings = EstimateSettings(
         inertia=None if args.inertia is None else np.array(args.inertia),
         references=args.references,

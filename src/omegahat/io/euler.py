@@ -31,7 +31,7 @@ as for every attitude. Sequences that repeat an axis (``ZXZ``) have no column pe
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import replace
 from typing import Any
 
@@ -100,11 +100,10 @@ def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
         )
     assert euler is not None and angle_unit is not None  # and checked (check_conventions) by ReadOptions
     degrees = angle_unit == "deg"
-    raw: Callable[[], Iterator] = stream._chunks
     seen = {"largest": 0.0}
 
-    def chunks() -> Iterator:
-        for chunk in raw():
+    def chunks(raw: Iterator) -> Iterator:
+        for chunk in raw:
             angles = np.asarray(chunk.data, dtype=float)
             finite = angles[np.all(np.isfinite(angles), axis=1)]
             if finite.size:
@@ -124,4 +123,4 @@ def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
     )
     stream.kind = "matrix"
     stream.digits = None  # the angles' digits say nothing of the matrices' precision
-    stream._chunks = chunks
+    stream.convert(chunks)

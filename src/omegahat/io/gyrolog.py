@@ -36,7 +36,7 @@ from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import delimiter, is_number, split_line
 from omegahat.io.timestamps import text_dates
 
-__all__ = ["GYRO_COLUMNS", "GyroLog", "gyro_columns", "read_gyro"]
+__all__ = ["GYROSCOPE", "GYRO_COLUMNS", "GyroLog", "VectorRole", "gyro_columns", "read_gyro", "read_vectors"]
 
 GYRO_COLUMNS = (
     ("gx", "gy", "gz"),
@@ -47,6 +47,22 @@ GYRO_COLUMNS = (
     ("omega_x", "omega_y", "omega_z"),
     ("angular_velocity_x", "angular_velocity_y", "angular_velocity_z"),
 )  #: the gyroscope's rate columns recognised by name (one group of them in a header; others: --gyro-columns)
+
+
+class VectorRole(NamedTuple):
+    """What a log of three columns holds, for the column search and the messages: ``noun`` ("gyroscope"),
+    ``flag`` (the options' prefix, ``--gyro``), ``groups`` (column names recognised), ``stem`` (a regular expression
+    the stem of the one triple ``stem·x, stem·y, stem·z`` must match to be taken without a group's names) and
+    ``what`` (the three columns' word in messages: "rate")."""
+
+    noun: str
+    flag: str
+    groups: tuple[tuple[str, str, str], ...]
+    stem: str
+    what: str
+
+
+GYROSCOPE = VectorRole("gyroscope", "--gyro", GYRO_COLUMNS, "gyr", "rate")
 
 
 class GyroLog(NamedTuple):
@@ -72,27 +88,28 @@ def _triples(names: list[str]) -> list[tuple[str, str, str]]:
     ]
 
 
-def gyro_columns(names: list[str], where: str) -> tuple[str, str, str]:
-    """The rate columns among ``names`` (lower case; module docstring), or an error that names what was found and
-    suggests ``--gyro-columns`` where three columns end in x, y, z."""
-    found = [g for g in GYRO_COLUMNS if all(c in names for c in g)]
+def gyro_columns(names: list[str], where: str, role: VectorRole = GYROSCOPE) -> tuple[str, str, str]:
+    """The ``role``'s three columns among ``names`` (lower case; module docstring), or an error that names what was
+    found and suggests ``--gyro-columns`` (the role's flag) where three columns end in x, y, z."""
+    found = [g for g in role.groups if all(c in names for c in g)]
     if len(found) == 1:
         return found[0]
+    flag = f"{role.flag}-columns X,Y,Z"
     if found:
         groups = " and ".join(",".join(g) for g in found)
-        raise LogFormatError(f"{where}: several gyroscope columns ({groups}); name one with --gyro-columns X,Y,Z")
+        raise LogFormatError(f"{where}: several {role.noun} columns ({groups}); name one with {flag}")
     triples = _triples(names)
-    gyros = [t for t in triples if "gyr" in t[0]]
-    if len(gyros) == 1:
-        return gyros[0]
-    tip = f" (perhaps --gyro-columns {shlex.quote(','.join(triples[0]))})" if len(triples) == 1 else ""
+    taken = [t for t in triples if re.search(role.stem, t[0])]
+    if len(taken) == 1:
+        return taken[0]
+    tip = f" (perhaps {role.flag}-columns {shlex.quote(','.join(triples[0]))})" if len(triples) == 1 else ""
     raise LogFormatError(
-        f"{where}: no gyroscope columns (found: {', '.join(names)}); expected one of "
-        f"{'; '.join(','.join(g) for g in GYRO_COLUMNS)}: name them with --gyro-columns X,Y,Z{tip}"
+        f"{where}: no {role.noun} columns (found: {', '.join(names)}); expected one of "
+        f"{'; '.join(','.join(g) for g in role.groups)}: name them with {flag}{tip}"
     )
 
 
-def _index(name: str, names: list[str], path: str, what: str) -> int:
+def _index(name: str, names: list[str], path: str, what: str, role: VectorRole) -> int:
     """The column ``name`` (any case) or 1-based position among ``names``."""
     key = name.strip().lower()
     if key in names:
@@ -100,9 +117,8 @@ def _index(name: str, names: list[str], path: str, what: str) -> int:
     if key.isdigit() and 1 <= int(key) <= len(names):
         return int(key) - 1
     raise LogFormatError(
-        f"{path}: no column {name!r} (found: {', '.join(names)}); name the gyro's {what} with "
-        + ("--gyro-time-column" if what == "time" else "--gyro-columns")
-        + " (a name or a 1-based position)"
+        f"{path}: no column {name!r} (found: {', '.join(names)}); name the {role.noun} log's {what} with "
+        + f"{role.flag}-{'time-column' if what == 'time' else 'columns'} (a name or a 1-based position)"
     )
 
 
@@ -120,8 +136,20 @@ def read_gyro(
         return _read_npz(path, time_column, columns)
     if is_ulog(path):
         return GyroLog(*read_ulog_gyro(path, topic))
+    return read_vectors(path, GYROSCOPE, columns, time_column, header_rows)
+
+
+def read_vectors(
+    path: str,
+    role: VectorRole,
+    columns: tuple[str, str, str] | None = None,
+    time_column: str | None = "t",
+    header_rows: int = 1,
+) -> GyroLog:
+    """A text log of a time column and three columns (module docstring, **Text** and **Columns**, with ``role``'s
+    names and flags): ``t`` as written, unless ``own_unit`` says otherwise, and the three columns ``(M, 3)``."""
     if header_rows < 0:
-        raise ValueError(f"--gyro-header-rows is 0 or more; got {header_rows}")
+        raise ValueError(f"{role.flag}-header-rows is 0 or more; got {header_rows}")
     try:
         with open(path, encoding="utf-8-sig", newline="") as f:
             text = f.read()
@@ -141,14 +169,15 @@ def read_gyro(
     if head and all(is_number(n) for n in names):
         raise LogFormatError(
             f"{path}, line {head[0][0]}: numbers where the header should name the columns ({', '.join(names[:4])}"
-            f"{', ...' if len(names) > 4 else ''}): a file without a header is read with --gyro-header-rows 0 and the "
-            "columns by position (--gyro-time-column 1 --gyro-columns 2,3,4, or --gyro-rate HZ without times)"
+            f"{', ...' if len(names) > 4 else ''}): a file without a header is read with {role.flag}-header-rows 0 "
+            f"and the columns by position ({role.flag}-time-column 1 {role.flag}-columns 2,3,4"
+            + (", or --gyro-rate HZ without times)" if role is GYROSCOPE else ")")
         )
-    rate = gyro_columns(names, path) if columns is None else columns
-    idx = [_index(c, names, path, "rate") for c in rate]
+    rate = gyro_columns(names, path, role) if columns is None else columns
+    idx = [_index(c, names, path, role.what, role) for c in rate]
     if time_column is not None:
         named = time_column_by_name(names, time_column)[0] if head else time_column  # no column t: one named so
-        idx.insert(0, _index(named, names, path, "time"))  # (the caller prints the name read)
+        idx.insert(0, _index(named, names, path, "time", role))  # (the caller prints the name read)
     comma = delim != ","  # a decimal comma: only where the comma does not separate the columns
     out = np.empty((len(body), 4))
     out[:, 0] = np.arange(len(body))  # the row's index, where no time column is read

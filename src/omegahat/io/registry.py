@@ -114,13 +114,12 @@ class ReadOptions:
     ``x, y, z, w``), ``time_column``, ``euler``, ``angle_unit`` (:mod:`omegahat.io.euler`): CSV, NPZ and Parquet logs;
     ``columns`` (a column map: ``"t=1,qw=2,..."`` or ``{"t": "Time", "qw": 2}``) and ``header_rows`` (rows the
     header spans; 0: none): text logs (:mod:`omegahat.io.colmap`); ``rotation``: every attitude format; ``body``:
-    the rigid body of a Motive, Vicon, Qualisys or C3D file, the spacecraft frame of a CCSDS AEM; ``topic``,
-    ``parent_frame``, ``child_frame``,
-    ``stamp`` (``header`` or ``receive`` time): ROS bags; ``rate`` (Hz) or ``times`` (a file of one time per line):
-    the times of pose lists that have none (KITTI); ``duplicate_times``: every format, what to do with samples at
-    one time whose attitudes differ (:data:`omegahat.io.timestamps.DUPLICATE_CHOICES`: ``error``, the default, or
-    keep the ``first`` or the ``last``, counted and reported). A format refuses the selection options it does not
-    take when they differ from their defaults."""
+    the rigid body of a Motive, Vicon, Qualisys or C3D file, an AEM's spacecraft frame; ``topic``, ``parent_frame``,
+    ``child_frame``, ``stamp`` (``header`` or ``receive`` time): ROS bags; ``rate`` (Hz) or ``times`` (a file of
+    one time per line): the times of pose lists that have none (KITTI); ``duplicate_times``: every format, what to
+    do with samples at one time whose attitudes differ (:data:`omegahat.io.timestamps.DUPLICATE_CHOICES`:
+    ``error``, the default, or keep the ``first`` or the ``last``, counted and reported). A format refuses the
+    selection options it does not take when they differ from their defaults."""
 
     time_unit: str = "s"
     scalar_first: bool | None = None  # None: the names say it (qw..), else the format's documented default
@@ -239,6 +238,12 @@ class LogStream:
 
     def chunks(self) -> Iterator[LogChunk]:
         return self._chunks()
+
+    def convert(self, step: Callable[[Iterator[LogChunk]], Iterator[LogChunk]]) -> None:
+        """From now on, hand the rows on through ``step``, a generator over the chunks as they were (Euler angles,
+        :func:`open_log`'s checks, a torque log)."""
+        raw = self._chunks
+        self._chunks = lambda: step(raw())
 
     @classmethod
     def from_arrays(
@@ -374,7 +379,7 @@ def _conjugate(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _checked(stream: LogStream, raw, options: ReadOptions) -> Iterator[LogChunk]:
+def _checked(stream: LogStream, raw: Iterator[LogChunk], options: ReadOptions) -> Iterator[LogChunk]:
     scale = TIME_UNITS[options.time_unit]
     invert = options.rotation == "inertial-to-body"
     if invert and stream.kind == "directions":
@@ -386,7 +391,7 @@ def _checked(stream: LogStream, raw, options: ReadOptions) -> Iterator[LogChunk]
     policy = TimePolicy(stream.kind, stream.where, stream.label, stream.time_name, options.duplicate_times,
                         int(meta.get("time_base", 0)), bool(meta.get("time_dates", False)))  # fmt: skip
     precise = Normaliser(stream.kind, stream.digits, stream.where, stream.attitude_name, stream.columns, stream.label)
-    for chunk in raw():
+    for chunk in raw:
         t = chunk.t * scale if scale != 1.0 else np.asarray(chunk.t, dtype=float)
         bad = np.flatnonzero(~np.isfinite(t))
         if bad.size:
@@ -424,8 +429,7 @@ def checked_stream(stream: LogStream, options: ReadOptions) -> LogStream:
     """Wrap a format's raw stream in the conversions and checks of the module docstring (done by
     :func:`open_log`; formats not read from a path, e.g. DataFrames, call it themselves)."""
     as_matrices(stream, options.euler, options.angle_unit)  # Euler angles (a no-op for other attitudes)
-    raw = stream._chunks
-    stream._chunks = lambda: _checked(stream, raw, options)
+    stream.convert(lambda raw: _checked(stream, raw, options))
     stream.options = options
     if options.rotation == "inertial-to-body" and stream.kind != "directions":
         stream.notes.append("rotation: inertial-to-body (inverted to body-to-inertial; rates in body axes)")
