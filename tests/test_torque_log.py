@@ -187,3 +187,14 @@ def test_a_torque_log_on_another_clock_or_unordered_is_refused(tmp_path, capsys)
     assert read.names == ("t", "mx", "my", "mz")
     assert main(["estimate", str(src), "-o", str(out), "--torque-columns", "a,b,c"]) == 2
     assert "--torque-columns names the columns of a --torque FILE" in capsys.readouterr().err
+
+
+def test_one_torque_log_is_for_one_attitude_log(tmp_path, capsys):
+    t = np.arange(50) / 10.0
+    for name in ("a.csv", "b.csv"):
+        write_csv(tmp_path / name, t, Rotation.from_rotvec(np.outer(t, [0.1, 0, 0])))
+    _write_torques(tmp_path / "tau.txt", t, np.zeros((t.size, 3)))
+    args = ["estimate", str(tmp_path / "a.csv"), str(tmp_path / "b.csv"), "-o", str(tmp_path / "out")]
+    assert main([*args, "--torque", str(tmp_path / "tau.txt")]) == 2
+    assert "--torque names the torques of one attitude log" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

@@ -298,6 +298,8 @@ def run_many(args: argparse.Namespace, one: OneFile) -> int:
         )
     if args.times is not None:
         raise ValueError("--times names the times of one pose list; with many inputs give --rate, or run them apart")
+    if getattr(args, "torque", None) is not None:
+        raise ValueError("--torque names the torques of one attitude log; with many inputs run them apart")
     if args.dask is not None and args.jobs is not None:
         raise ValueError("--jobs is for this machine; with --dask the cluster's workers run the files")
     outdir = args.output
