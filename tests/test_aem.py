@@ -232,3 +232,41 @@ def test_a_spacecraft_frame_of_another_name_is_named_with_body(tmp_path, capsys)
         read_log(path, body="SC_BODY_1")
     _, printed = estimate_file(path, tmp_path, capsys, "--body", "BCS")
     assert "attitude of BCS relative to J2000" in printed
+
+
+def test_an_aem_in_gives_an_aem_out_with_the_rates(tmp_path, capsys):
+    times, _ = _truth()
+    q = _quaternions(False)  # spacecraft -> external in the input: the output writes the other direction
+    rows = q.copy()
+    rows[40] = np.nan  # a missing sample: no line in the output, counted
+    meta = _meta("J2000", "STARTRACKER_1", "QUATERNION", "QUATERNION_TYPE = LAST", "B2A")
+    path = tmp_path / "in.aem"
+    path.write_text(_header() + meta + _data(times, rows))
+    want, _ = estimate_file(path, tmp_path, capsys)  # the same estimate as CSV
+    out = tmp_path / "out.aem"
+    assert main(["estimate", str(path), "-o", str(out), "--no-progress"]) == 0
+    assert "119 epochs to" in capsys.readouterr().out
+    text = out.read_text()
+    assert "ATTITUDE_TYPE = QUATERNION/ANGVEL" in text and "ANGVEL_FRAME = STARTRACKER_1" in text
+    assert "COMMENT 1 samples without an attitude or an estimate are left out" in text
+    back = read_log(out)
+    kept = np.delete(np.arange(N), 40)
+    np.testing.assert_allclose(back.t + back.t0 - (want[kept, 0]), 0.0, atol=1e-6)
+    assert [ln.split()[0] for ln in text.splitlines() if ln[:4] == "2026"] == [
+        _epoch(times[k]).rstrip("0") for k in kept
+    ]
+    same = Rotation.from_quat(back.data).inv() * Rotation.from_quat(q[kept] * [-1, -1, -1, 1])
+    assert np.max(same.magnitude()) < 1e-12  # the attitude as read, now written external -> spacecraft
+    rates = np.array([[float(v) for v in ln.split()[5:]] for ln in text.splitlines() if ln[:4] == "2026"])
+    np.testing.assert_allclose(np.radians(rates), want[kept, 1:], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(_rates_of(back), np.tile(OMEGA, (N - 2, 1))[: len(kept) - 1], atol=1e-9)
+
+
+def test_an_aem_output_needs_an_aem_input(tmp_path, capsys):
+    t = np.arange(30) / 10.0
+    q = Rotation.from_rotvec(np.outer(t, OMEGA)).as_quat()
+    src = tmp_path / "log.csv"
+    src.write_text("t,qx,qy,qz,qw\n" + "".join(f"{a},{x},{y},{z},{w}\n" for a, (x, y, z, w) in zip(t, q, strict=True)))
+    assert main(["estimate", str(src), "-o", str(tmp_path / "o.aem"), "--no-progress"]) == 2
+    assert "its frames, time system and epochs" in capsys.readouterr().err
+    assert not (tmp_path / "o.aem").exists()

@@ -80,7 +80,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
 output: t,wx,wy,wz,status  rad/s in body axes; status corrected | predicted (missing sample, gap) |
         unavailable (no estimate yet: nan) | restarted (nan: the step could not be taken, started
         again from that sample); for a bag input also -o X.bag (ROS 1) or -o X (ROS 2):
-        geometry_msgs/TwistStamped in the body frame, header stamps copied
+        geometry_msgs/TwistStamped in the body frame, header stamps copied; for an AEM input also -o X.aem:
+        the attitudes and the rates (deg/s, spacecraft axes) as a CCSDS AEM of type QUATERNION/ANGVEL
 many:   several inputs, a directory or a quoted glob: each log as alone, with the same options; -o OUTDIR gets
         one CSV per input (same name) and omegahat-summary.csv/.txt (file, format, rows, estimator, expected
         error, status); exit 0: all written, 1: some failed (named in the summary), 130/143: interrupted
@@ -148,8 +149,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         required=True,
         help="output: X.csv (t,wx,wy,wz,status; rad/s, body axes) or X.parquet (the same columns); for a bag input "
-        "also X.bag (ROS 1) or X (ROS 2 directory) of geometry_msgs/TwistStamped; with many inputs a directory "
-        "(OUTDIR)",
+        "also X.bag (ROS 1) or X (ROS 2 directory) of geometry_msgs/TwistStamped; for a CCSDS AEM input also "
+        "X.aem (QUATERNION/ANGVEL); with many inputs a directory (OUTDIR)",
     )
     many.add_arguments(parser)
     conv = parser.add_argument_group("conventions of the input")

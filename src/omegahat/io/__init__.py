@@ -23,6 +23,7 @@
 """
 
 from omegahat.io.aem import is_aem, open_aem
+from omegahat.io.aem_output import open_aem_output
 from omegahat.io.c3d import open_c3d
 from omegahat.io.colmap import parse_columns, suggest_columns
 from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, LogFormatError
@@ -106,6 +107,15 @@ def _parquet_writer(path, stream: LogStream) -> ParquetOmegaWriter:
 # output copies the input messages' stamps and frames, and is never overwritten (a ROS 2 bag is a directory).
 register_writer(".csv", _csv_writer, name="csv", title=".csv", noun="CSV file")
 register_writer(".parquet", _parquet_writer, name="parquet", title=".parquet", noun="Parquet file")
+register_writer(
+    ".aem",
+    open_aem_output,
+    name="aem",
+    title=".aem (CCSDS AEM)",
+    noun="CCSDS AEM file",
+    inputs=("aem",),
+    why_inputs="its frames, time system and epochs",
+)
 for _ending, _name, _title in (
     (".bag", "rosbag1", ".bag (ROS 1)"),
     ("", "rosbag2", "a name without extension (ROS 2 bag directory)"),

@@ -77,7 +77,7 @@ from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import head_lines, source_blocks
 
-__all__ = ["SPACECRAFT_EQUIPMENT", "epoch_nanoseconds", "is_aem", "open_aem"]
+__all__ = ["SPACECRAFT_EQUIPMENT", "epoch_nanoseconds", "epoch_text", "is_aem", "open_aem"]
 
 #: the equipment words of the standard's spacecraft body frames (SANA registry, and ``GYRO`` of version 1.0)
 SPACECRAFT_EQUIPMENT = (
@@ -149,6 +149,16 @@ def epoch_nanoseconds(text: str) -> int | None:
     fraction = int(decimals[:9].ljust(9, "0")) + (len(decimals) > 9 and decimals[9] >= "5")
     seconds = (((day - _UNIX_DAY).days * 24 + hour) * 60 + minute) * 60 + second
     return seconds * 1_000_000_000 + fraction
+
+
+def epoch_text(ns: int) -> str:
+    """The epoch ``YYYY-MM-DDThh:mm:ss.d...`` of ``ns`` nanoseconds since 1970-01-01T00:00:00 (the inverse of
+    :func:`epoch_nanoseconds`; the decimals to the last that is not zero, at least one)."""
+    seconds, fraction = divmod(int(ns), 1_000_000_000)
+    days, second = divmod(seconds, 86_400)
+    day = _UNIX_DAY + timedelta(days=days)
+    decimals = f"{fraction:09d}".rstrip("0") or "0"
+    return f"{day.isoformat()}T{second // 3600:02d}:{second // 60 % 60:02d}:{second % 60:02d}.{decimals}"
 
 
 @dataclass
@@ -347,6 +357,9 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     if unused:
         notes.append(f"the rates that {', '.join(sorted(unused))} lines carry after the attitude are not used")
     n_seg = sum(1 for s in segments if s.rows)
+    first = next(s for s in segments if s.rows).keys
+    names = {key.lower(): first[key] for key in ("OBJECT_NAME", "OBJECT_ID", "CENTER_NAME") if key in first}
+    meta = {"aem": {"craft": craft, "external": external, "system": system, "base_ns": base, **names}}
     return LogStream.from_arrays(
         path,
         "quaternion",
@@ -362,5 +375,6 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             f"attitude of {craft} relative to {external}"
         ),
         notes=notes,
+        meta=meta,
         digits=significant_digits(digit_texts) if all_quaternions else None,  # angles' digits say nothing of q's
     )

@@ -8,7 +8,7 @@ needs a bag input: its stamps and frames) or none, the writer settings it takes 
 ``opener(path, stream, **settings)`` that returns the writer (an :class:`omegahat.io.output.AtomicOutput`:
 a context manager with ``write(chunk, omega, status)``, whole or absent). :mod:`omegahat.io` registers ``csv``
 (:class:`omegahat.io.output.OmegaWriter`), ``parquet`` (:class:`omegahat.io.parquet_output.ParquetOmegaWriter`),
-``rosbag1`` and ``rosbag2``
+``aem`` (:class:`omegahat.io.aem_output.AemWriter`, for an AEM input), ``rosbag1`` and ``rosbag2``
 (:class:`omegahat.io.rosbag.TwistBagWriter`); another output plugs in the same way with :func:`register_writer`.
 
 :func:`output_kind` says which format a name asks for (anything else is refused rather than guessed),
