@@ -187,6 +187,10 @@ def test_a_torque_log_on_another_clock_or_unordered_is_refused(tmp_path, capsys)
     assert read.names == ("t", "mx", "my", "mz")
     assert main(["estimate", str(src), "-o", str(out), "--torque-columns", "a,b,c"]) == 2
     assert "--torque-columns names the columns of a --torque FILE" in capsys.readouterr().err
+    assert main(["estimate", str(src), "-o", str(out), "--torque", str(tmp_path / "tau.csv")]) == 2
+    assert "--torque needs --inertia" in capsys.readouterr().err and not out.exists()
+    assert main(["estimate", str(own), "-o", str(out), "--no-progress"]) == 0  # torque columns, no J: said
+    assert "the torques are not used without --inertia" in capsys.readouterr().out
 
 
 def test_one_torque_log_is_for_one_attitude_log(tmp_path, capsys):

@@ -386,6 +386,8 @@ def estimate_file(
     )
     out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
     stream = open_log(args.input, options)
+    if args.torque is not None and args.inertia is None:
+        raise ValueError("--torque needs --inertia: the torques enter Euler's equations through J")
     if args.torque is not None:
         attach_torque(stream, read_torque_log(args.torque, args.time_unit, _torque_columns(args.torque_columns)))
     elif args.torque_columns is not None:

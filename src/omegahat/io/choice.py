@@ -130,6 +130,8 @@ def attitude_choice(
     ``head_done``: the stream's progress (``stream.done``: bytes of a text file) when the head had been read, from
     which the whole log's length is extrapolated when the stream does not know its rows in advance."""
     J, refs = inertia(settings, spell), references(settings, stream, spell)
+    if stream.has_torque and settings.inertia is None:
+        report(f"note: the torques are not used without {spell('inertia', None)}: Euler's equations need J")
     t_h, data_h, tau_h = _head_arrays(head, stream)
     n_head = t_h.size
     ok = np.all(np.isfinite(data_h.reshape(n_head, -1)), axis=1)
