@@ -427,3 +427,35 @@ def test_command_reads_iso_dates_in_both_logs(tmp_path, capsys):
     assert abs(offsets[1] - truth["delta"]) < 1e-3
     assert main(["calibrate", str(dated_att), str(dated_gyro), "--gyro-time-unit", "ms"]) == 2
     assert "its times carry their own unit (dates read as seconds since 1970-01-01 UTC" in capsys.readouterr().err
+
+
+def test_a_star_trackers_aem_against_a_gyro_log_stamped_in_utc(tmp_path, capsys):
+    """A spacecraft's gyroscope calibrated against its attitude ephemeris: the attitude as a CCSDS AEM (UTC epochs,
+    the quaternion from the inertial frame to the body, scalar first) and the gyro log stamped with UTC dates give
+    the offset of the same logs stamped in seconds."""
+    data, truth = simulated(4)
+    ta, Ra, tg, g = data
+    att, gyro = _write_logs(tmp_path, data)
+    start = np.datetime64("2026-01-01T00:00:00", "ns")
+
+    def dates(t):
+        return [str(start + np.timedelta64(round(x * 1e9), "ns")) for x in t]
+
+    q = Rotation.from_matrix(Ra).as_quat()  # body -> inertial: by (A2) the quaternion of inertial -> body
+    meta = ["REF_FRAME_A = EME2000", "REF_FRAME_B = SC_BODY_1", "ATTITUDE_DIR = A2B", "TIME_SYSTEM = UTC"]
+    lines = ["CCSDS_AEM_VERS = 1.0", "META_START", *meta, "ATTITUDE_TYPE = QUATERNION", "QUATERNION_TYPE = FIRST"]
+    lines += ["META_STOP", "DATA_START"]
+    lines += [f"{d} {w!r} {x!r} {y!r} {z!r}" for d, (x, y, z, w) in zip(dates(ta), q.tolist(), strict=True)]
+    aem = tmp_path / "st.aem"
+    aem.write_text("\n".join([*lines, "DATA_STOP"]) + "\n")
+    dated_gyro = tmp_path / "imu_dates.csv"
+    rows = [f"{d}Z,{a!r},{b!r},{c!r}" for d, (a, b, c) in zip(dates(tg), np.degrees(g).tolist(), strict=True)]
+    dated_gyro.write_text("time,gx,gy,gz\n" + "\n".join(rows) + "\n")
+    offsets = []
+    for a, gy in ((att, gyro), (aem, dated_gyro)):
+        out = tmp_path / f"{a.stem}.json"
+        assert main(["calibrate", str(a), str(gy), "--gyro-unit", "deg/s", "-o", str(out)]) == 0
+        offsets.append(json.loads(out.read_text())["offset"])
+    assert "st.aem; times in UTC, as seconds since 1970-01-01T00:00:00 UTC" in capsys.readouterr().out
+    assert abs(offsets[1] - offsets[0]) < 1e-6
+    assert abs(offsets[1] - truth["delta"]) < 1e-3
