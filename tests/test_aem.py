@@ -228,6 +228,8 @@ def test_a_spacecraft_frame_of_another_name_is_named_with_body(tmp_path, capsys)
     with pytest.raises(LogFormatError, match="--body BCS or --body J2000"):
         read_log(path)
     np.testing.assert_allclose(_rates_of(read_log(path, body="bcs")), np.tile(OMEGA, (N - 1, 1)), atol=1e-9)
+    with pytest.raises(LogFormatError, match=r"states which way its attitude maps .*leave --rotation out"):
+        read_log(path, body="BCS", rotation="inertial-to-body")
     with pytest.raises(LogFormatError, match="--body SC_BODY_1 is neither"):
         read_log(path, body="SC_BODY_1")
     _, printed = estimate_file(path, tmp_path, capsys, "--body", "BCS")

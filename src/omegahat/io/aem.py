@@ -47,7 +47,7 @@ frame about its own moving axes, in the order of the sequence) give, from extern
 :math:`R = R_{a_1}(\theta_1)R_{a_2}(\theta_2)R_{a_3}(\theta_3)` (SciPy's upper-case, intrinsic sequence), and the
 ``SPIN`` type's right ascension :math:`\alpha`, declination :math:`\delta` and spin angle :math:`\varphi` are the
 ``ZXZ`` sequence :math:`(90° + \alpha, 90° - \delta, \varphi)`; each is conjugated as in (A2) for the other
-direction.
+direction. ``--rotation`` is refused: the file states which way its attitude maps.
 
 **Types read**: ``QUATERNION``, ``QUATERNION/DERIVATIVE``, ``QUATERNION/RATE`` (1.0), ``QUATERNION/ANGVEL`` (2.0)
 (``QUATERNION_TYPE = FIRST`` or ``LAST`` in version 1.0, where it is required; version 2.0 writes the scalar
@@ -319,6 +319,10 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         raise LogFormatError(
             f"{path}: the XML form of a CCSDS AEM is not read; write it in the KVN (text) form, e.g. with Orekit's "
             "AemWriter"
+        )
+    if options.rotation != "body-to-inertial":
+        raise LogFormatError(
+            f"{path}: an AEM states which way its attitude maps (ATTITUDE_DIR and its frames); leave --rotation out"
         )
     version, segments = _parse(path, _lines(path))
     frames, systems, times, quats, labels, digit_texts = set(), set(), [], [], [], []
