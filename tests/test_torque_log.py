@@ -202,3 +202,14 @@ def test_one_torque_log_is_for_one_attitude_log(tmp_path, capsys):
     assert main([*args, "--torque", str(tmp_path / "tau.txt")]) == 2
     assert "--torque names the torques of one attitude log" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_unit_a_torque_logs_time_column_names(tmp_path):
+    t = np.arange(100) / 10.0
+    src = write_csv(tmp_path / "att.csv", t, Rotation.from_rotvec(np.outer(t, [0.1, 0, 0])))
+    rows_tau = np.column_stack([np.arange(100.0), np.zeros(100), np.zeros(100)])
+    _write_torques(tmp_path / "tau.csv", t * 1000.0, rows_tau, header="time_ms,tau_x,tau_y,tau_z")
+    stream = attach_torque(open_log(src), read_torque_log(tmp_path / "tau.csv"))
+    got = np.vstack([c.torque for c in stream.chunks()])
+    np.testing.assert_allclose(got[:, 0], np.arange(100.0), rtol=0, atol=1e-9)  # each interval within one row
+    assert any("time unit: ms, as the time column's name says ('time_ms'" in n for n in stream.notes)

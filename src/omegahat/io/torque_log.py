@@ -9,7 +9,8 @@ the attitude log (``tau_x, tau_y, tau_z``).
 as for attitude logs) and three torque columns, N·m in body axes: ``tau_x, tau_y, tau_z`` (or ``torque_x ...``, or
 the one triple of names ending in x, y, z whose stem says torque), else ``--torque-columns X,Y,Z``
 (:func:`omegahat.io.gyrolog.read_vectors`: the gyroscope log's reader, with a torque's names). Numeric times are in
-the attitude log's unit (``--time-unit``), on **the attitude log's clock**; dates are seconds since 1970 UTC.
+the attitude log's unit (``--time-unit``) unless the time column's name states one (``time_ms``), on **the
+attitude log's clock**; dates are seconds since 1970 UTC.
 
 **Between its rows** a torque holds its value until the next row: the controller's command, held (zero order),
 
@@ -45,7 +46,7 @@ import numpy as np
 from omegahat.io.columns import TORQUE_COLUMNS, LogFormatError
 from omegahat.io.gyrolog import GyroLog, VectorRole, read_vectors
 from omegahat.io.registry import LogChunk, LogStream
-from omegahat.io.time_units import TIME_UNITS
+from omegahat.io.time_units import TIME_UNITS, unit_stated
 
 __all__ = ["TORQUE", "TorqueLog", "attach_torque", "read_torque_log"]
 
@@ -58,7 +59,7 @@ class TorqueLog:
     """A torque log (module docstring): ``t (M,)`` in seconds on the attitude log's clock, strictly increasing,
     ``tau (M, 3)`` N·m, its ``source`` and ``names`` (time, x, y, z); :meth:`interval_means` is (T2)."""
 
-    def __init__(self, source: str, t: np.ndarray, tau: np.ndarray, names: tuple[str, ...]):
+    def __init__(self, source: str, t: np.ndarray, tau: np.ndarray, names: tuple[str, ...], note: str = ""):
         back = np.flatnonzero(np.diff(t) <= 0)
         if back.size:
             k = int(back[0]) + 1
@@ -68,7 +69,7 @@ class TorqueLog:
             )
         if t.size < 1 or not np.all(np.isfinite(tau)):
             raise LogFormatError(f"{source}: a torque log needs rows of finite torques")
-        self.source, self.t, self.tau, self.names = source, t, tau, names
+        self.source, self.t, self.tau, self.names, self.note = source, t, tau, names, note
         self.hold = float(np.median(np.diff(t))) if t.size > 1 else 0.0
         # I(t_j), the integral of (T1) from t_0 to each row's time
         self._integral = np.vstack([np.zeros(3), np.cumsum(tau[:-1] * np.diff(t)[:, None], axis=0)])
@@ -107,11 +108,14 @@ def read_torque_log(
     time_unit: str = "s",
     columns: tuple[str, str, str] | None = None,
 ) -> TorqueLog:
-    """The torque log at ``path`` (module docstring), its numeric times in ``time_unit``."""
+    """The torque log at ``path`` (module docstring), its numeric times in ``time_unit`` unless the time column's
+    name or size states another (:func:`omegahat.io.time_units.unit_stated`, as for attitude logs)."""
     path = os.fspath(path)
     raw: GyroLog = read_vectors(path, TORQUE, columns)
-    t = raw.t if raw.own_unit else raw.t * TIME_UNITS[time_unit]
-    return TorqueLog(path, t, raw.g, raw.names)
+    if raw.own_unit:
+        return TorqueLog(path, raw.t, raw.g, raw.names, raw.own_unit)
+    stated, note = unit_stated(raw.names[0], time_unit, raw.t[:64])
+    return TorqueLog(path, raw.t * TIME_UNITS[stated or time_unit], raw.g, raw.names, note or "")
 
 
 def attach_torque(stream: LogStream, log: TorqueLog) -> LogStream:
@@ -146,7 +150,7 @@ def attach_torque(stream: LogStream, log: TorqueLog) -> LogStream:
     stream.convert(chunks)
     stream.notes.append(
         f"torque: {log.source}, {log.t.size} rows ({', '.join(log.names[1:])}, N m), each held until the next and "
-        "averaged over each interval between attitude samples"
+        "averaged over each interval between attitude samples" + (f"; {log.note}" if log.note else "")
     )
     return stream
 
