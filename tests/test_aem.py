@@ -272,3 +272,55 @@ def test_an_aem_output_needs_an_aem_input(tmp_path, capsys):
     assert main(["estimate", str(src), "-o", str(tmp_path / "o.aem"), "--no-progress"]) == 2
     assert "its frames, time system and epochs" in capsys.readouterr().err
     assert not (tmp_path / "o.aem").exists()
+
+
+def _compared(printed: str) -> float | None:
+    import re
+
+    m = re.search(r"against the rates the AEM's lines carry, in \w+ axes: RMS difference (\S+) rad/s", printed)
+    return None if m is None else float(m.group(1))
+
+
+@pytest.mark.parametrize(
+    ("kind", "frame", "offset", "external_to_body"),
+    [
+        ("QUATERNION/ANGVEL", "SC_BODY_1", 0.0, True),
+        ("QUATERNION/ANGVEL", "EME2000", 0.0, True),
+        ("QUATERNION/ANGVEL", "SC_BODY_1", 0.01, True),
+        ("QUATERNION/DERIVATIVE", None, 0.0, True),
+        ("QUATERNION/DERIVATIVE", None, 0.0, False),
+    ],
+)
+def test_the_rates_an_aem_carries_are_compared_with_the_estimate(
+    tmp_path, capsys, kind, frame, offset, external_to_body
+):
+    times, rot = _truth()
+    q = _quaternions(external_to_body)
+    if kind.endswith("ANGVEL"):
+        body = np.tile(OMEGA + np.array([offset, 0.0, 0.0]), (N, 1))
+        rates = np.degrees(rot.apply(body) if frame == "EME2000" else body)  # the file's axes, deg/s
+        extra = f"ANGVEL_FRAME = {frame}"
+    else:  # dq/dt = q ⊗ (ω/2, 0) for the quaternion of R; the conjugate's derivative for the other direction
+        qr = rot.as_quat()
+        v, w = qr[:, :3], qr[:, 3:]
+        dq = 0.5 * np.hstack([w * OMEGA + np.cross(v, OMEGA), -(v @ OMEGA)[:, None]])
+        rates = dq if external_to_body else dq * [-1, -1, -1, 1]
+        extra = "QUATERNION_TYPE = LAST"
+    a, b = ("EME2000", "SC_BODY_1") if external_to_body else ("SC_BODY_1", "EME2000")
+    path = tmp_path / "rates.aem"
+    path.write_text(_header("2.0") + _meta(a, b, kind, extra, None) + _data(times, np.hstack([q, rates])))
+    _, printed = estimate_file(path, tmp_path, capsys)
+    got = _compared(printed)
+    assert got is not None, printed
+    assert abs(got - offset) < 1e-3 * max(offset, 1e-3), got
+
+
+def test_rates_of_an_attitude_from_the_spacecraft_are_not_compared(tmp_path, capsys):
+    times, _ = _truth()
+    q = _quaternions(False)
+    rates = np.tile(np.degrees(OMEGA), (N, 1))
+    meta = _meta("SC_BODY_1", "EME2000", "QUATERNION/ANGVEL", "ANGVEL_FRAME = SC_BODY_1", None)
+    path = tmp_path / "rates.aem"
+    path.write_text(_header("2.0") + meta + _data(times, np.hstack([q, rates])))
+    _, printed = estimate_file(path, tmp_path, capsys)
+    assert _compared(printed) is None and "QUATERNION/ANGVEL lines carry after the attitude are not used" in printed

@@ -53,7 +53,10 @@ direction. ``--rotation`` is refused: the file states which way its attitude map
 (``QUATERNION_TYPE = FIRST`` or ``LAST`` in version 1.0, where it is required; version 2.0 writes the scalar
 last); ``EULER_ANGLE``, ``EULER_ANGLE/RATE`` (1.0), ``EULER_ANGLE/DERIVATIVE`` and ``EULER_ANGLE/ANGVEL`` (2.0);
 ``SPIN``. The rates and derivatives a line may carry after its attitude are not used (the note says so): the
-estimate is made from the attitudes alone, so those columns can serve to check it. ``SPIN/NUTATION`` and
+estimate is made from the attitudes alone. Where their meaning is plain (:func:`_file_rates`: ``.../ANGVEL`` of an
+attitude from the external frame to the spacecraft, quaternion derivatives) they go with the rows
+(``extra["reference_rate"]``), and the command's closing lines compare the estimate with them
+(:mod:`omegahat.io.pipeline`): how a gyro-less estimate would have done on a mission's own data. ``SPIN/NUTATION`` and
 ``SPIN/NUTATION_MOM`` are refused.
 
 **Segments** are read one after the other; they must describe the same spacecraft frame relative to the same
@@ -312,6 +315,37 @@ def _attitudes(segment: _Segment, version: str, values: np.ndarray, path: str) -
     return Rotation.from_euler("ZXZ", np.column_stack([90.0 + alpha, 90.0 - delta, phi]), degrees=True).as_quat()
 
 
+def _frame_named(segment: _Segment, key: str, path: str) -> str:
+    """The frame a metadata value names: a frame's name, or ``REF_FRAME_A`` / ``REF_FRAME_B`` for one of the two."""
+    value = _frame(_key(segment, key, path))
+    return _frame(_key(segment, value, path)) if value in ("REF_FRAME_A", "REF_FRAME_B") else value
+
+
+def _file_rates(
+    segment: _Segment, kind: str, values: np.ndarray, q: np.ndarray, frames: tuple[str, str, bool], path: str
+) -> np.ndarray | None:
+    r"""The body rates (rad/s, spacecraft axes) a segment's lines carry after the attitude, where their meaning is
+    unambiguous, else None: ``.../ANGVEL`` of an attitude from the external frame to the spacecraft, in either
+    frame's axes (``ANGVEL_FRAME``; deg/s), and quaternion derivatives in either direction,
+    :math:`\omega = 2\,\mathrm{vec}(\bar q \otimes \dot q) / |q|^2` for the quaternion :math:`q` of :math:`R`
+    (x, y, z, w)."""
+    craft, external, external_to_craft = frames
+    if kind.endswith("/ANGVEL") and external_to_craft:
+        axes = _frame_named(segment, "ANGVEL_FRAME", path)
+        rate = np.radians(values[:, -3:])
+        if axes == external:
+            return Rotation.from_quat(q).inv().apply(rate)  # omega_body = R^T omega_external
+        return rate if axes == craft else None
+    if kind == "QUATERNION/DERIVATIVE":
+        first = _key(segment, "QUATERNION_TYPE", path, "LAST") == "FIRST"
+        dq = values[:, [5, 6, 7, 4]] if first else values[:, 4:8].copy()
+        if not external_to_craft:
+            dq[:, :3] *= -1.0  # the derivative of the conjugate
+        v, w, dv, dw = q[:, :3], q[:, 3:], dq[:, :3], dq[:, 3:]
+        return 2.0 * (w * dv - dw * v - np.cross(v, dv)) / np.sum(q * q, axis=1)[:, None]
+    return None
+
+
 def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """A CCSDS AEM (module docstring) as a stream of quaternions, labelled by line."""
     path = os.fspath(path)
@@ -328,6 +362,7 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     frames, systems, times, quats, labels, digit_texts = set(), set(), [], [], [], []
     all_quaternions = True
     unused: set[str] = set()
+    checks: list[np.ndarray] = []  # the rates the lines carry, where comparable (NaN rows elsewhere)
     for segment in (s for s in segments if s.rows):
         kind = _key(segment, "ATTITUDE_TYPE", path)
         if kind not in _TYPES:
@@ -347,8 +382,10 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         q = _attitudes(segment, version, values, path)
         if not external_to_craft:
             q[:, :3] *= -1.0  # (A2): the conjugate is the inverse rotation
+        rates = _file_rates(segment, kind, values, q, (craft, external, external_to_craft), path)
         if count > attitude:
             unused.add(kind)
+        checks.append(np.full((len(q), 3), np.nan) if rates is None else rates)
         all_quaternions &= kind.startswith("QUATERNION")
         digit_texts += [f for _, fields in segment.rows[:200] for f in fields[1 : 1 + attitude]]
         times.append(_epochs(segment.rows, path))
@@ -358,18 +395,28 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     base = int(ns.min())
     (craft, external), system = frames.pop(), systems.pop()
     notes = [f"times in {system}, as seconds since 1970-01-01T00:00:00 {system}; rates of {craft} in its own axes"]
+    reference = np.concatenate(checks)
+    compared = bool(np.isfinite(reference).any())
     if unused:
-        notes.append(f"the rates that {', '.join(sorted(unused))} lines carry after the attitude are not used")
+        notes.append(
+            f"the rates that {', '.join(sorted(unused))} lines carry after the attitude are not used"
+            + ("; where their meaning is plain they are compared with the estimate at the end" if compared else "")
+        )
     n_seg = sum(1 for s in segments if s.rows)
     first = next(s for s in segments if s.rows).keys
     names = {key.lower(): first[key] for key in ("OBJECT_NAME", "OBJECT_ID", "CENTER_NAME") if key in first}
-    meta = {"aem": {"craft": craft, "external": external, "system": system, "base_ns": base, **names}}
+    meta: dict[str, object] = {
+        "aem": {"craft": craft, "external": external, "system": system, "base_ns": base, **names}
+    }
+    if compared:
+        meta["reference_rate"] = f"the rates the AEM's lines carry, in {craft} axes"
     return LogStream.from_arrays(
         path,
         "quaternion",
         (ns - base) * 1e-9,
         np.concatenate(quats),
         labels=np.asarray(labels),
+        extra={"reference_rate": reference} if compared else None,
         label="line",
         t0=base * 1e-9,
         time_name="epoch",

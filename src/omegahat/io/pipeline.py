@@ -98,6 +98,7 @@ class RunSummary:
     resets: int = 0
     largest_reset: tuple[float, int | None] = (0.0, None)
     elapsed: float = 0.0
+    reference: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])  # Σ|ω̂ − ω_ref|², Σ|ω_ref|², samples
     compile_s: float = 0.0
     lines: list[str] = field(default_factory=list)
 
@@ -221,6 +222,12 @@ class _Run:
             est = Estimate(est.omega, np.where(no_rate, np.int8(Status.UNAVAILABLE), est.status))
         self.writer.write(chunk, est.omega, est.status)
         s.rows += len(chunk)
+        if chunk.extra is not None and "reference_rate" in chunk.extra:  # the log's own rates, to compare with
+            ref = chunk.extra["reference_rate"]
+            both = np.all(np.isfinite(ref), axis=1) & np.all(np.isfinite(est.omega), axis=1)
+            s.reference[0] += float(np.sum((est.omega[both] - ref[both]) ** 2))
+            s.reference[1] += float(np.sum(ref[both] ** 2))
+            s.reference[2] += int(both.sum())
         if self.t_prev is None and self.choice.spacing is None and len(chunk) > 1:
             self.gap_limit = 2.0 * float(np.median(np.diff(chunk.t)))
         dt = np.diff(chunk.t if self.t_prev is None else np.concatenate([[self.t_prev], chunk.t]))
@@ -374,6 +381,13 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
             f"{stream.label} {s.largest_reset[1]}: the attitude source restarted from another reference; the "
             "attitudes after it turned back to continue the body's steps, the sample it reached treated as missing "
             "(status 'predicted')"
+        )
+    if s.reference[2]:
+        diff, scale, n = s.reference
+        against = stream.meta.get("reference_rate", "the log's own rates")
+        lines.append(
+            f"against {against}: RMS difference "
+            f"{math.sqrt(diff / n):.3g} rad/s over {n:.0f} samples (their own RMS {math.sqrt(scale / n):.3g} rad/s)"
         )
     return [*lines, *choice.closing(), choice.used()]
 
