@@ -192,14 +192,17 @@ def test_epochs_to_the_nanosecond():
         (lambda s: s.replace("ATTITUDE_TYPE = QUATERNION", "ATTITUDE_TYPE = SPIN/NUTATION"), "is not read"),
         (lambda s: s.replace(" 0.5\n", "\n", 1), "3 numbers after the epoch; the segment's type has 4"),
         (lambda s: s.replace("DATA_STOP", "DATA_STOP\nJUNK"), "'JUNK' is out of place"),
-        (lambda s: "<?xml version='1.0'?>\n<aem id='CCSDS_AEM_VERS' version='2.0'>\n</aem>\n", "XML form"),
+        (
+            lambda s: "<?xml version='1.0'?>\n<aem id='CCSDS_AEM_VERS' version='2.0'>\n</aem>\n",
+            "without attitude states",
+        ),
     ],
 )
 def test_bad_files_are_refused_naming_the_line(tmp_path, capsys, change, message):
     times = [START + timedelta(seconds=k) for k in range(3)]
     good = _header() + _meta("EME2000", "SC_BODY_1", "QUATERNION", "QUATERNION_TYPE = LAST")
     good += _data(times, [[0.5, 0.5, 0.5, 0.5]] * 3)
-    path = tmp_path / ("bad.xml" if "XML" in message else "bad.aem")
+    path = tmp_path / ("bad.xml" if "states" in message else "bad.aem")
     path.write_text(change(good))
     with pytest.raises(LogFormatError, match=message.replace("(", r"\(").replace(")", r"\)")):
         read_log(path)
@@ -324,3 +327,49 @@ def test_rates_of_an_attitude_from_the_spacecraft_are_not_compared(tmp_path, cap
     path.write_text(_header("2.0") + meta + _data(times, np.hstack([q, rates])))
     _, printed = estimate_file(path, tmp_path, capsys)
     assert _compared(printed) is None and "QUATERNION/ANGVEL lines carry after the attitude are not used" in printed
+
+
+def _xml(a, b, direction, kind, states) -> str:
+    """An AEM in its XML form: one segment, ``states`` the inner XML of each attitude state."""
+    meta = f"<REF_FRAME_A>{a}</REF_FRAME_A><REF_FRAME_B>{b}</REF_FRAME_B><ATTITUDE_DIR>{direction}</ATTITUDE_DIR>"
+    meta += (
+        f"<TIME_SYSTEM>UTC</TIME_SYSTEM><ATTITUDE_TYPE>{kind}</ATTITUDE_TYPE><QUATERNION_TYPE>FIRST</QUATERNION_TYPE>"
+    )
+    body = "".join(f"<attitudeState>\n{s}</attitudeState>\n" for s in states)
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n<aem id="CCSDS_AEM_VERS" version="1.0">\n<header><ORIGINATOR>T'
+        f"</ORIGINATOR></header>\n<body><segment><metadata>{meta}</metadata>\n<data>\n{body}</data></segment></body>"
+        "</aem>\n"
+    )
+
+
+def test_the_xml_form_with_quaternion_derivatives(tmp_path, capsys):
+    times, rot = _truth()
+    q = _quaternions(False)  # spacecraft -> external (B2A, B the spacecraft), the scalar written first
+    qr = rot.as_quat()
+    v, w = qr[:, :3], qr[:, 3:]
+    dq = 0.5 * np.hstack([w * OMEGA + np.cross(v, OMEGA), -(v @ OMEGA)[:, None]]) * [-1, -1, -1, 1]
+    states = [
+        f"<quaternionDerivative><EPOCH>{_epoch(t)}</EPOCH><quaternion><QC>{x[3]!r}</QC><Q1>{x[0]!r}</Q1>"
+        f"<Q2>{x[1]!r}</Q2><Q3>{x[2]!r}</Q3></quaternion>\n<quaternionRate><QC_DOT>{d[3]!r}</QC_DOT>"
+        f"<Q1_DOT>{d[0]!r}</Q1_DOT><Q2_DOT>{d[1]!r}</Q2_DOT><Q3_DOT>{d[2]!r}</Q3_DOT></quaternionRate>"
+        "</quaternionDerivative>\n"
+        for t, x, d in zip(times, q.tolist(), dq.tolist(), strict=True)
+    ]
+    path = tmp_path / "att.xml"
+    path.write_text(_xml("EME2000", "SC_BODY_1", "B2A", "QUATERNION/DERIVATIVE", states))
+    log = read_log(path)
+    np.testing.assert_allclose(_rates_of(log), np.tile(OMEGA, (N - 1, 1)), atol=1e-9)
+    _, printed = estimate_file(path, tmp_path, capsys)
+    assert "CCSDS AEM 1.0: 120 epochs" in printed and (_compared(printed) or 1.0) < 1e-6
+    bad = path.read_text().replace("<Q2_DOT>", "<Q2_DOTX>", 1).replace("</Q2_DOT>", "</Q2_DOTX>", 1)
+    path.write_text(bad)
+    with pytest.raises(LogFormatError, match=r"att\.xml, line 6: the attitude state has no Q2_DOT"):
+        read_log(path)
+    euler = '<eulerAngle><EPOCH>2026-01-01T00:00:00</EPOCH><rotationAngles><rotation1 angle="X_ANGLE">1</rotation1>'
+    path.write_text(_xml("EME2000", "SC_BODY_1", "A2B", "EULER_ANGLE", [euler + "</rotationAngles></eulerAngle>"]))
+    with pytest.raises(LogFormatError, match="Euler angles in the XML form are not read"):
+        read_log(path)
+    path.write_text("<aem id='CCSDS_AEM_VERS' version='1.0'><body><segment></aem>")
+    with pytest.raises(LogFormatError, match="not well-formed XML"):
+        read_log(path)

@@ -72,7 +72,7 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV and MAT, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
         bags (.bag) and ROS 2 bags (directory) (--topic, frames), PX4 flight logs (.ulg, --topic) and ulog2csv's CSV,
-        CCSDS attitude ephemeris messages (AEM, text form: frames, direction and epochs as the file states them).
+        CCSDS attitude ephemeris messages (AEM, text or XML: frames, direction and epochs as the file states them).
         A time column named time, timestamp, Time (s)... is read where there is no t; ISO 8601 dates as seconds
         since 1970 UTC; one quaternion named by its parts (quat_w, orientation.x...) without --columns.
         Equal times: the same attitude is one sample (dropped), different attitudes are an error

@@ -2,7 +2,8 @@ r"""CCSDS Attitude Ephemeris Messages (AEM): the attitude histories spacecraft o
 keyword = value text form (KVN) of the CCSDS Attitude Data Messages standard (CCSDS 504.0-B), versions 1.0 and 2.0.
 
 **Recognised** by its first line, ``CCSDS_AEM_VERS = 1.0`` (or ``2.0``), whatever the file's extension (``.aem``,
-``.kvn``, ``.txt``). The XML form of the standard is recognised and refused with a message.
+``.kvn``, ``.txt``). The XML form (``<aem id="CCSDS_AEM_VERS" ...>``, ``.xml``) is read too, through
+:mod:`omegahat.io.aem_xml`, for quaternions and spin.
 
 **Layout.** A header (``CCSDS_AEM_VERS``, ``CREATION_DATE``, ``ORIGINATOR`` ...), then one or more segments: a
 metadata block (``META_START`` ... ``META_STOP``) and a data block (``DATA_START`` ... ``DATA_STOP``; a version 2.0
@@ -75,6 +76,7 @@ from datetime import date, timedelta
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from omegahat.io.aem_xml import xml_segments
 from omegahat.io.columns import LogFormatError
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
@@ -349,16 +351,19 @@ def _file_rates(
 def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """A CCSDS AEM (module docstring) as a stream of quaternions, labelled by line."""
     path = os.fspath(path)
-    if any(s.strip().startswith("<aem") for s in head_lines(path, 40)):
-        raise LogFormatError(
-            f"{path}: the XML form of a CCSDS AEM is not read; write it in the KVN (text) form, e.g. with Orekit's "
-            "AemWriter"
-        )
     if options.rotation != "body-to-inertial":
         raise LogFormatError(
             f"{path}: an AEM states which way its attitude maps (ATTITUDE_DIR and its frames); leave --rotation out"
         )
-    version, segments = _parse(path, _lines(path))
+    if any(s.strip().startswith("<aem") for s in head_lines(path, 40)):  # the XML form
+        given, raw = xml_segments(path)
+        if given not in ("1.0", "2.0"):
+            raise LogFormatError(f"{path}: <aem version={given!r}>; versions 1.0 and 2.0 are read")
+        version, segments = given[0], [_Segment(*s) for s in raw]
+        if not any(s.rows for s in segments):
+            raise LogFormatError(f"{path}: an AEM without attitude states")
+    else:
+        version, segments = _parse(path, _lines(path))
     frames, systems, times, quats, labels, digit_texts = set(), set(), [], [], [], []
     all_quaternions = True
     unused: set[str] = set()
