@@ -49,7 +49,7 @@ takes_head = "head" in inspect.signature(TurnScreen).parameters
 
 
 def screen():
-    s = TurnScreen(EstimateSettings(), RunSummary(), *([[q[:8192]]] if takes_head else []))
+    s = TurnScreen(EstimateSettings(), RunSummary(), *([[q[:8192]], [t[:8192]]] if takes_head else []))
     for c in chunks:
         s.feed(c)
     s.finish()

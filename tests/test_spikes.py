@@ -87,7 +87,7 @@ def test_motion_and_noise_are_not_spikes(case):
         axis = np.array([0.3, -0.4, 0.87]) / np.linalg.norm([0.3, -0.4, 0.87])
         R = Rotation.from_rotvec(np.outer(angle, axis) + rng.normal(0.0, 1e-4, (n, 3))).as_matrix()
     assert isolated_spikes(R, np.ones(R.shape[0], bool)).samples.size == 0
-    assert stitched(R, np.ones(R.shape[0], bool))[2].samples.size == 0  # nor a reset (P2)
+    assert stitched(R, np.ones(R.shape[0], bool), 0.01 * np.arange(R.shape[0]))[2].samples.size == 0  # nor a reset
 
 
 @pytest.mark.parametrize("frame", ["inertial", "body"])
@@ -102,7 +102,7 @@ def test_a_reset_is_found_and_stitched_with_the_increments_beside_it(frame):
     R = clean.copy()
     R[1000:] = T @ R[1000:] if frame == "inertial" else R[1000:] @ T
     valid = np.ones(t.size, bool)
-    out, used, resets = stitched(R, valid)
+    out, used, resets = stitched(R, valid, t)
     assert resets.samples.tolist() == [1000] and np.degrees(resets.detour[0]) == pytest.approx(100.0, abs=1.0)
     assert used.sum() == t.size - 1 and not used[1000] and valid.all()  # the input is left as it was
     phi = (Rotation.from_matrix(R[:-1]).inv() * Rotation.from_matrix(R[1:])).as_rotvec()
@@ -411,3 +411,45 @@ def test_a_sample_that_is_not_a_rotation_after_a_reset_is_named_as_read():
     for cuts in ([(0, t.size)], [(0, 600), (600, t.size)]):
         with pytest.raises(LogFormatError, match=r"line 902: a quaternion far from unit norm: \|q\| = 2,"):
             _estimated(t, q, cuts)
+
+
+def test_a_large_turn_across_a_gap_is_no_reset_and_no_jump(tmp_path, capsys):
+    """A body turning at a constant 0.06 rad/s, seen every 0.5 s with an outage of 940 s (57 rad unobserved): the
+    turn across the outage is no reset of the source (nothing is stitched, no sample set missing), neither in the
+    command nor in the identification, and every rate after the outage is the body's."""
+    from logmaker import write_csv
+    from omegahat.cli import main
+
+    omega = np.array([0.03, -0.02, 0.05])
+    t = np.concatenate([0.5 * np.arange(120), 1000.0 + 0.5 * np.arange(120)])
+    R = Rotation.from_rotvec(np.outer(t, omega))
+    valid = np.ones(t.size, bool)
+    _, used, resets = stitched(R.as_matrix(), valid, t)
+    assert resets.samples.size == 0 and used.all()
+    src, dst = write_csv(tmp_path / "outage.csv", t, R), tmp_path / "o.csv"
+    assert main(["estimate", str(src), "-o", str(dst), "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    assert "gaps: 1 intervals" in printed and "resets:" not in printed and "jumps:" not in printed
+    rates = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    np.testing.assert_allclose(rates[120:], np.tile(omega, (120, 1)), atol=1e-6)  # from the first after it
+
+
+def test_a_reset_after_frames_left_out_is_still_one(tmp_path, capsys):
+    """100 Hz, three frames left out (an interval of 0.04 s), and the source re-aligned by 100° at the next frame:
+    judged per spacing, the step is a reset, stitched; the rates on both sides are the body's."""
+    from logmaker import write_csv
+    from omegahat.cli import main
+
+    omega = np.array([0.3, -0.2, 0.5])
+    t = np.delete(0.01 * np.arange(1000), [500, 501, 502])
+    R = Rotation.from_rotvec(np.outer(t, omega))
+    R = Rotation.concatenate([R[:500], Rotation.from_rotvec([0.0, 0.0, np.radians(100.0)]) * R[500:]])
+    _, used, resets = stitched(R.as_matrix(), np.ones(t.size, bool), t)
+    assert resets.samples.tolist() == [500] and not used[500]
+    src, dst = write_csv(tmp_path / "frames.csv", t, R), tmp_path / "o.csv"
+    assert main(["estimate", str(src), "-o", str(dst), "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    assert "resets: 1 step far larger than the steps beside it; the largest 101° before line 502" in printed
+    assert "model identified from the log" in printed and "rate: log-likelihood" in printed
+    rates = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
+    np.testing.assert_allclose(np.delete(rates, 500, axis=0)[20:], np.tile(omega, (t.size - 21, 1)), atol=1e-6)

@@ -299,7 +299,7 @@ class Identification:
         )  # fmt: skip
 
 
-def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None, t: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(valid (T,), R (T, 3, 3), the filter's input)``: the attitudes (NaN where missing, a reset's step left out;
     of directions, Wahba's, for the noise bound only) or the directions made unit, a collinear sample skipped, as
     the estimators read them (a magnetometer's µT would otherwise weigh in the innovations)."""
@@ -316,7 +316,7 @@ def _attitudes(data: np.ndarray, kind: str, refs: np.ndarray | None) -> tuple[np
         R[valid] = Rotation.from_quat(data[valid]).as_matrix()
     else:
         R[valid] = data[valid]
-    R, valid, _ = stitched(R, valid)  # (P2)–(P3): the attitudes after a reset of their source turned back
+    R, valid, _ = stitched(R, valid, t)  # (P2)–(P3): the attitudes after a reset of their source turned back
     return valid, R, R
 
 
@@ -424,7 +424,7 @@ def identify(
     t = np.asarray(t, dtype=float)
     data = np.asarray(data, dtype=float)
     refs = None if kind != "directions" else as_directions(references)  # type: ignore[arg-type]
-    valid, R, filt_data = _attitudes(data, kind, refs)
+    valid, R, filt_data = _attitudes(data, kind, refs, t)
     spikes = isolated_spikes(R, valid)  # left out: one such sample throws every fast filter onto an alias
     valid[spikes.samples] = False
     spiked = tuple((float(t[k]), float(d)) for k, d in zip(spikes.samples, spikes.detour, strict=True))  # as stamped

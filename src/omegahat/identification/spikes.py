@@ -38,14 +38,24 @@ where a hand starts or stops within one step; it keeps that motion in the log's 
 (``docs/theory/identification.md``, "Spikes and aliases", measures both kinds on real recordings).
 
 The attitudes from ``j`` on are turned back by one rotation ``S`` (a turn of the inertial frame, which leaves every
-later increment ``R_kᵀ R_{k+1}`` as it was), chosen so that the step across the reset is the mean of its two
-neighbours' increments, and sample ``j`` is then treated as missing (the rate over the reset's step is not in the
+later increment ``R_kᵀ R_{k+1}`` as it was), chosen so that the step across the reset turns at the mean rate of its
+two neighbouring steps, and sample ``j`` is then treated as missing (the rate over the reset's step is not in the
 samples)::
 
-    S = R_{j−1} Exp((φ_{j−2} + φ_j)/2) R_jᵀ,   R_k ← S R_k  (k ≥ j),   φ_k = Log(R_kᵀ R_{k+1})            (P3)
+    S = R_{j−1} Exp(Δ_{j−1} (φ_{j−2}/Δ_{j−2} + φ_j/Δ_j)/2) R_jᵀ,   R_k ← S R_k  (k ≥ j),
+    φ_k = Log(R_kᵀ R_{k+1}),   Δ_k = t_{k+1} − t_k                                                      (P3)
+
+(for evenly spaced samples the mean of the two increments).
 
 A reset that turns the body frame instead (``R_k T``) leaves its later increments turned by ``T``: the rates
 after it are then in the source's new body axes, as the source gives them.
+
+**Gaps.** Over an interval longer than the median spacing (a tracker's outage, frames left out, the time between
+two segments of an attitude ephemeris) the body turns further than over one step. (P2) therefore judges each step
+per median spacing, its angle times ``spacing / Δt`` where ``Δt`` is longer (:func:`per_spacing`): a reset after a
+few frames left out is still one, while the turn across an outage of minutes (any angle up to π, over hundreds of
+steps) is none. A step across a gap, longer than :data:`GAP` median spacings, is no spike's neighbour and no jump
+(:func:`across_gaps`): the turn over it is unknown, and the command's summary counts the gap itself.
 """
 
 from __future__ import annotations
@@ -59,13 +69,16 @@ from omegahat import so3
 
 __all__ = [
     "FASTEST",
+    "GAP",
     "ISOLATION",
     "SCALE",
     "Spikes",
+    "across_gaps",
     "describe_spikes",
     "isolated_spikes",
     "judged_resets",
     "judged_spikes",
+    "per_spacing",
     "reset_turn",
     "step_scales",
     "stitched",
@@ -74,6 +87,7 @@ __all__ = [
 ISOLATION = 4.0  #: a spike's detour is at least this many times its neighbours' steps (P1)
 SCALE = 20.0  #: and at least this many times the log's median step (P1), (P2)
 FASTEST = 99.0  #: (P2): a reset's step is ISOLATION times this percentile of the log's steps
+GAP = 2.0  #: an interval longer than this many median spacings is a gap (as the command's summary counts them)
 
 
 class Spikes(NamedTuple):
@@ -128,6 +142,26 @@ def judged_spikes(
     return Spikes(k[spike], detour[spike])
 
 
+def _intervals(t: np.ndarray, spacing: float | None) -> tuple[np.ndarray, float]:
+    dt = np.diff(np.asarray(t, dtype=float))
+    return dt, (float(np.median(dt)) if spacing is None and dt.size else spacing or 0.0)
+
+
+def across_gaps(step: np.ndarray, t: np.ndarray, spacing: float | None = None) -> np.ndarray:
+    """``step`` ``(T − 1,)``, the angles between the samples at times ``t`` ``(T,)``, with NaN across each gap (module
+    docstring): where the interval is longer than :data:`GAP` times ``spacing`` (default the median interval)."""
+    dt, h = _intervals(t, spacing)
+    return np.where(dt > GAP * h, np.nan, step) if dt.size else step
+
+
+def per_spacing(step: np.ndarray, t: np.ndarray, spacing: float | None = None) -> np.ndarray:
+    """``step`` per ``spacing`` (default the median interval) where an interval is longer (module docstring):
+    ``step · min(1, spacing / Δt)``, the scale (P2) judges resets on."""
+    dt, h = _intervals(t, spacing)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return step * np.minimum(1.0, h / dt) if dt.size else step
+
+
 def step_scales(step: np.ndarray) -> tuple[float, float]:
     """The scales (P1) and (P2) judge a log's steps ``step (T − 1,)`` (rad, NaN where a sample is missing) against:
     their median and their :data:`FASTEST` percentile (0 and 0 where no step is known)."""
@@ -151,24 +185,29 @@ def judged_resets(step: np.ndarray, typical: float, fastest: float, first: int =
     return Spikes(j[reset], into[reset])
 
 
-def reset_turn(before: np.ndarray, at: np.ndarray, phi_before: np.ndarray, phi_after: np.ndarray) -> np.ndarray:
+def reset_turn(
+    before: np.ndarray, at: np.ndarray, phi_before: np.ndarray, phi_after: np.ndarray, intervals: np.ndarray
+) -> np.ndarray:
     """``S`` of (P3): the rotation that turns the attitude ``at`` (3, 3), reached by a reset from ``before``, and
-    every later one back, so that the step across the reset is the mean of the increments beside it."""
-    return before @ so3.exp(0.5 * (phi_before + phi_after)) @ at.T
+    every later one back, so that the step across the reset turns at the mean rate of the increments beside it;
+    ``intervals``: the three steps' durations ``(Δ_{j−2}, Δ_{j−1}, Δ_j)``."""
+    rate = 0.5 * (phi_before / intervals[0] + phi_after / intervals[2])
+    return before @ so3.exp(rate * intervals[1]) @ at.T
 
 
-def stitched(R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, Spikes]:
-    """(P2)–(P3) over a whole log of attitudes ``R (T, 3, 3)`` used where ``valid``: ``(R', valid', resets)``, the
-    attitudes after each reset turned back and the sample reached by it no longer valid; ``R`` and ``valid``
-    themselves where there is none."""
+def stitched(R: np.ndarray, valid: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, Spikes]:
+    """(P2)–(P3) over a whole log of attitudes ``R (T, 3, 3)`` at times ``t`` used where ``valid``: ``(R', valid',
+    resets)``, the attitudes after each reset turned back and the sample reached by it no longer valid; ``R`` and
+    ``valid`` themselves where there is none. Each step is judged per median spacing (:func:`per_spacing`)."""
     Rv = np.where(valid[:, None, None], R, np.nan)
-    step = so3.angle(Rv[:-1], Rv[1:])
+    step = per_spacing(so3.angle(Rv[:-1], Rv[1:]), t)
     resets = judged_resets(step, *step_scales(step))
     if resets.samples.size == 0:
         return R, valid, resets
     R, valid, phi = R.copy(), valid.copy(), so3.increments(Rv)  # a turn of the later ones leaves φ as it is
+    dt = np.diff(np.asarray(t, dtype=float))
     for j in resets.samples:
-        R[j:] = reset_turn(R[j - 1], R[j], phi[j - 2], phi[j]) @ R[j:]
+        R[j:] = reset_turn(R[j - 1], R[j], phi[j - 2], phi[j], dt[j - 2 : j + 1]) @ R[j:]
         valid[j] = False
     return R, valid, resets
 

@@ -182,7 +182,7 @@ class _Run:
         self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing
         self.t_prev: float | None = None
         turns = stream.kind in ("quaternion", "matrix")  # attitudes: the spikes, resets and jumps of the rows read
-        self.screen = TurnScreen(bad.settings, summary, [c.data for c in head]) if turns else None
+        self.screen = TurnScreen(bad.settings, summary, [c.data for c in head], [c.t for c in head]) if turns else None
 
     def _estimate(self, t: np.ndarray, data: np.ndarray, torque: np.ndarray | None) -> Estimate:
         with warnings.catch_warnings():

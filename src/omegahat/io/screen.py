@@ -27,7 +27,14 @@ import numpy as np
 
 from omegahat import measurements as ms
 from omegahat import so3
-from omegahat.identification.spikes import judged_resets, judged_spikes, reset_turn, step_scales
+from omegahat.identification.spikes import (
+    across_gaps,
+    judged_resets,
+    judged_spikes,
+    per_spacing,
+    reset_turn,
+    step_scales,
+)
 from omegahat.io.registry import LogChunk
 
 if TYPE_CHECKING:
@@ -58,13 +65,17 @@ class TurnScreen:
     the whole log), the last never. A spike that is not a rotation at all is left for the pipeline's
     ``BadSamples`` to name, and so is one after a reset (turned, it has the same ``|q|``, ``|RᵀR − I|``, ``det R``)."""
 
-    def __init__(self, settings: EstimateSettings, summary: Counts, head: list[np.ndarray]) -> None:
+    def __init__(
+        self, settings: EstimateSettings, summary: Counts, head: list[np.ndarray], head_times: list[np.ndarray]
+    ) -> None:
         self.settings, self.summary = settings, summary
         self.rows: LogChunk | None = None  # the last two rows handed on (as read), then the rows held back
         self.handed = 0  # how many of ``rows`` were handed on already (the next samples' neighbours)
         # the scales spikes and resets are judged against: the head's (the rows the identification reads), so that
         # every chunk is judged alike wherever the chunks are cut
         self.typical_step, self.fastest_step = step_scales(_turns(np.concatenate(head))) if head else (0.0, 0.0)
+        times = np.concatenate(head_times) if head_times else np.zeros(0)
+        self.spacing = float(np.median(np.diff(times))) if times.size > 1 else np.inf  # a gap: GAP times it
         self.last_missing = False  # the last row handed on was a spike or a reset's, set missing
         self.turn: np.ndarray | None = None  # (P3): the rotation every row read from now on is turned by
 
@@ -87,13 +98,15 @@ class TurnScreen:
         to NaN, jumps counted; ``hold``: keep the last two rows as the next chunk's neighbours."""
         done = self.handed
         step = _turns(rows.data)
-        resets = judged_resets(step, self.typical_step, self.fastest_step, done, ready - 1)
+        scaled = per_spacing(step, rows.t, self.spacing)  # a reset is judged per spacing, across a gap too
+        resets = judged_resets(scaled, self.typical_step, self.fastest_step, done, ready - 1)
         if resets.samples.size:
+            turned = step[resets.samples - 1]  # the reset's own angle (judged per spacing, said as it is)
             rows = self._stitched(rows, resets.samples)
             step = _turns(rows.data)
             self.summary.resets += resets.samples.size
-            self.summary.largest_reset = largest_of(self.summary.largest_reset, resets.samples, resets.detour,
-                                                    rows.labels)  # fmt: skip
+            self.summary.largest_reset = largest_of(self.summary.largest_reset, resets.samples, turned, rows.labels)
+        step = across_gaps(step, rows.t, self.spacing)  # no spike's neighbour and no jump across a gap
         data = rows.data
         found = judged_spikes(step, lambda k: so3.angle(data[k - 1], data[k + 1]), self.typical_step, done, ready - 1)
         status, _ = ms.sample_status(
@@ -126,7 +139,7 @@ class TurnScreen:
         for j in reached:  # set missing after all: a second reset's neighbour may be the first's sample
             R = _matrices(rows.data[j - 2 : j + 2])  # the increments beside the reset: a turn leaves them as they are
             phi = so3.increments(R)
-            S = reset_turn(R[1], R[2], phi[0], phi[2])
+            S = reset_turn(R[1], R[2], phi[0], phi[2], np.diff(rows.t[j - 2 : j + 2]))
             self._turn(rows.data[j:], S)
             self.turn = S if self.turn is None else S @ self.turn
         rows.data[reached] = np.nan
