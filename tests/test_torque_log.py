@@ -1,7 +1,8 @@
 """Known torques from a log of their own (``--torque FILE``): the interval means (T2) against hand sums and an
 independent overlap computation, the same estimate as the torques written in the attitude log, and a spacecraft
-whose commanded torques (10 Hz, held) drive it between 2 Hz star-tracker attitudes, integrated here by SciPy's
-``solve_ivp`` interval by interval: with the torque log the estimate is far closer to the truth than without."""
+whose commanded torques (10 Hz, held) drive it between 2 Hz star-tracker attitudes, integrated by SciPy's
+``solve_ivp`` interval by interval (:mod:`spacecraft`): with the torque log the estimate is far closer to the truth
+than without."""
 
 from __future__ import annotations
 
@@ -9,24 +10,16 @@ from itertools import pairwise
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
+import spacecraft
 from logmaker import noisy, write_csv
 from omegahat.cli import main
 from omegahat.io import LogFormatError, ReadOptions, open_log
 from omegahat.io.torque_log import TorqueLog, attach_torque, read_torque_log
 from recording_files import estimate_file
 
-J = np.diag([300.0, 250.0, 200.0])  # kg m^2
-
-
-def _write_torques(path, t, tau, header="t,tau_x,tau_y,tau_z") -> None:
-    path.write_text(
-        header
-        + "\n"
-        + "".join(f"{a!r},{x!r},{y!r},{z!r}\n" for a, (x, y, z) in zip(t.tolist(), tau.tolist(), strict=True))
-    )
+_write_torques = spacecraft.write_torques
 
 
 def _overlap_means(rows_t, rows_tau, times, last_hold) -> np.ndarray:
@@ -88,57 +81,14 @@ def test_the_same_estimate_as_the_torques_written_in_the_log(tmp_path, capsys):
 
 
 def _spacecraft(tmp_path):
-    """A spacecraft slewing under torques commanded at 10 Hz (held), its attitude every 0.5 s as a CCSDS AEM with
-    2e-5 rad of noise; the truth integrated by ``solve_ivp`` over each command's interval (Euler's equations and
-    the quaternion's kinematics, rtol 1e-11)."""
-    commands = np.arange(0.0, 120.0, 0.1)
-    tau = 0.05 * np.column_stack(
-        [
-            np.sign(np.sin(2 * np.pi * commands / 60)),
-            np.sin(2 * np.pi * commands / 45),
-            np.cos(2 * np.pi * commands / 80),
-        ]
-    )
-    Jd = np.diag(J)
-
-    def rhs(_, y, u):
-        q, w = y[:4], y[4:]
-        wdot = (u - np.cross(w, Jd * w)) / Jd
-        x, yv, z, s = q  # scalar last; body rates: qdot = 1/2 q ⊗ (w, 0)
-        qdot = 0.5 * np.array(
-            [
-                s * w[0] + yv * w[2] - z * w[1],
-                s * w[1] + z * w[0] - x * w[2],
-                s * w[2] + x * w[1] - yv * w[0],
-                -(x * w[0] + yv * w[1] + z * w[2]),
-            ]
-        )
-        return np.concatenate([qdot, wdot])
-
+    """A spacecraft slewing under torques commanded at 10 Hz (held) for 120 s, its attitude every 0.5 s as a CCSDS
+    AEM with 2e-5 rad of noise (:mod:`spacecraft`); the true rates at those samples."""
+    command_t, tau = spacecraft.commands(120.0)
     samples = np.arange(0.0, 119.6, 0.5)
-    y = np.concatenate([Rotation.from_rotvec([0.3, -0.2, 0.5]).as_quat(), [0.01, -0.02, 0.015]])
-    states = {}
-    for k, (a, u) in enumerate(zip(commands, tau, strict=True)):
-        b = a + 0.1
-        inside = samples[(samples >= a - 1e-9) & (samples < b - 1e-9)]
-        sol = solve_ivp(rhs, (a, b), y, args=(u,), rtol=1e-11, atol=1e-13, dense_output=True)
-        for s in inside:
-            states[round(s, 6)] = sol.sol(s)
-        y = sol.y[:, -1]
-        y[:4] /= np.linalg.norm(y[:4])
-        assert k < len(commands)
-    truth = np.array([states[round(s, 6)] for s in samples])
-    rot = noisy(Rotation.from_quat(truth[:, :4]), 2e-5)
-    epochs = [f"2026-01-01T00:{int(s // 60):02d}:{s % 60:06.3f}" for s in samples]
-    lines = [
-        "CCSDS_AEM_VERS = 2.0", "META_START", "REF_FRAME_A = EME2000", "REF_FRAME_B = SC_BODY_1", "TIME_SYSTEM = UTC",
-        "ATTITUDE_TYPE = QUATERNION", "META_STOP",
-        *(f"{e} " + " ".join(repr(float(v)) for v in q) for e, q in zip(epochs, rot.as_quat(), strict=True)),
-    ]  # fmt: skip
-    (tmp_path / "sc.aem").write_text("\n".join(lines) + "\n")
-    base = 1767225600.0  # 2026-01-01T00:00:00 UTC
-    _write_torques(tmp_path / "cmd.csv", base + commands, tau)
-    return truth[:, 4:]
+    rot, w = spacecraft.slew(samples, command_t, tau)
+    spacecraft.write_aem(tmp_path / "sc.aem", samples, noisy(rot, 2e-5))
+    spacecraft.write_torques(tmp_path / "cmd.csv", spacecraft.EPOCH_NS * 1e-9 + command_t, tau)
+    return w
 
 
 def test_a_spacecraft_driven_by_its_commanded_torques(tmp_path, capsys):
