@@ -22,7 +22,7 @@ from omegahat.calibration import MODES, Calibration, band_limited, calibrate
 from omegahat.cli import add_column_options, add_euler_conventions, add_quaternion_order, positive_float
 from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
-from omegahat.io.gyrolog import read_gyro
+from omegahat.io.gyrolog import column_triple, read_gyro
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
 from omegahat.io.time_units import unit_stated
 
@@ -175,9 +175,7 @@ def run(args: argparse.Namespace) -> int:
     if args.gyro_unit == "raw" and args.scale == "none":
         raise ValueError("--gyro-unit raw needs scale factors: add --scale axes or --scale matrix")
     check_search(args.offset, args.max_offset)  # before either log is read
-    columns = None if args.gyro_columns is None else tuple(c.strip() for c in args.gyro_columns.split(","))
-    if columns is not None and len(columns) != 3:
-        raise ValueError(f"--gyro-columns names 3 columns x,y,z; got {args.gyro_columns!r}")
+    columns = column_triple(args.gyro_columns)
     options = ReadOptions(
         time_unit=args.time_unit,
         time_column=args.time_column,
@@ -199,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
         )
     gyro = read_gyro(
         args.gyro,
-        None if columns is None else (columns[0], columns[1], columns[2]),
+        columns,
         None if args.gyro_rate is not None else args.gyro_time_column,
         args.gyro_header_rows,
         args.gyro_topic,

@@ -49,12 +49,13 @@ from tqdm import tqdm
 from omegahat import measurements as ms
 from omegahat.cli import add_column_options, add_euler_conventions, add_quaternion_order, many
 from omegahat.io import ReadOptions, check_output, open_log, open_output
+from omegahat.io.gyrolog import column_triple
 from omegahat.io.output import AtomicOutput
 from omegahat.io.pipeline import RunSummary, estimate_stream
 from omegahat.io.registry import ROTATIONS, STAMPS, TIME_UNITS, LogStream
 from omegahat.io.rosbag import DEFAULT_TWIST_TOPIC
 from omegahat.io.settings import ESTIMATORS, PRESETS, STARTS, EstimateSettings
-from omegahat.io.torque_log import attach_torque, read_torque_log
+from omegahat.io.torque_log import TORQUE, attach_torque, read_torque_log
 from omegahat.kernels import compiling
 from omegahat.observer.gains import ObserverGains
 
@@ -345,15 +346,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _torque_columns(text: str | None) -> tuple[str, str, str] | None:
-    if text is None:
-        return None
-    names = tuple(c.strip() for c in text.split(","))
-    if len(names) != 3 or not all(names):
-        raise ValueError(f"--torque-columns names 3 columns x,y,z; got {text!r}")
-    return names[0], names[1], names[2]
-
-
 def estimate_file(
     args: argparse.Namespace,
     report: Callable[[str], None] = print,
@@ -389,7 +381,7 @@ def estimate_file(
     if args.torque is not None and args.inertia is None:
         raise ValueError("--torque needs --inertia: the torques enter Euler's equations through J")
     if args.torque is not None:
-        attach_torque(stream, read_torque_log(args.torque, args.time_unit, _torque_columns(args.torque_columns)))
+        attach_torque(stream, read_torque_log(args.torque, args.time_unit, column_triple(args.torque_columns, TORQUE)))
     elif args.torque_columns is not None:
         raise ValueError("--torque-columns names the columns of a --torque FILE; give the file")
     settings = EstimateSettings(

@@ -36,7 +36,16 @@ from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import delimiter, is_number, split_line
 from omegahat.io.timestamps import text_dates
 
-__all__ = ["GYROSCOPE", "GYRO_COLUMNS", "GyroLog", "VectorRole", "gyro_columns", "read_gyro", "read_vectors"]
+__all__ = [
+    "GYROSCOPE",
+    "GYRO_COLUMNS",
+    "GyroLog",
+    "VectorRole",
+    "column_triple",
+    "gyro_columns",
+    "read_gyro",
+    "read_vectors",
+]
 
 GYRO_COLUMNS = (
     ("gx", "gy", "gz"),
@@ -75,6 +84,17 @@ class GyroLog(NamedTuple):
     g: np.ndarray
     names: tuple[str, str, str, str]
     own_unit: str = ""
+
+
+def column_triple(text: str | None, role: VectorRole = GYROSCOPE) -> tuple[str, str, str] | None:
+    """The three columns ``X,Y,Z`` (names or 1-based positions) an option such as ``--gyro-columns`` names (the
+    role's flag), or None where it is not given; anything but three names is refused."""
+    if text is None:
+        return None
+    names = [c.strip() for c in text.split(",")]
+    if len(names) != 3 or not all(names):
+        raise ValueError(f"{role.flag}-columns names 3 columns x,y,z; got {text!r}")
+    return names[0], names[1], names[2]
 
 
 def _triples(names: list[str]) -> list[tuple[str, str, str]]:
