@@ -46,10 +46,11 @@ q = (Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])) * noise).as_quat()
 chunks = [LogChunk(t[a:a + CHUNK_ROWS], q[a:a + CHUNK_ROWS], None, np.arange(a, min(n, a + CHUNK_ROWS)))
           for a in range(0, n, CHUNK_ROWS)]
 takes_head = "head" in inspect.signature(TurnScreen).parameters
+spacing = [0.01] if "spacing" in inspect.signature(TurnScreen).parameters else []  # older trees judge no gaps
 
 
 def screen():
-    s = TurnScreen(EstimateSettings(), RunSummary(), *([[q[:8192]], [t[:8192]]] if takes_head else []))
+    s = TurnScreen(EstimateSettings(), RunSummary(), *([[q[:8192]]] if takes_head else []), *spacing)
     for c in chunks:
         s.feed(c)
     s.finish()

@@ -46,6 +46,7 @@ from typing import Protocol
 import numpy as np
 
 from omegahat import measurements as ms
+from omegahat.identification.spikes import GAP
 from omegahat.interface import Estimate, Status
 from omegahat.io.choice import attitude_choice, references
 from omegahat.io.columns import LogFormatError
@@ -179,10 +180,10 @@ class _Run:
     ) -> None:
         self.choice, self.est, self.stream, self.writer, self.bad = choice, choice.estimator, stream, writer, bad
         self.summary = summary
-        self.gap_limit = np.inf if choice.spacing is None else 2.0 * choice.spacing
+        self.gap_limit = np.inf if choice.spacing is None else GAP * choice.spacing
         self.t_prev: float | None = None
         turns = stream.kind in ("quaternion", "matrix")  # attitudes: the spikes, resets and jumps of the rows read
-        self.screen = TurnScreen(bad.settings, summary, [c.data for c in head], [c.t for c in head]) if turns else None
+        self.screen = TurnScreen(bad.settings, summary, [c.data for c in head], choice.spacing) if turns else None
 
     def _estimate(self, t: np.ndarray, data: np.ndarray, torque: np.ndarray | None) -> Estimate:
         with warnings.catch_warnings():
@@ -229,7 +230,7 @@ class _Run:
             s.reference[1] += float(np.sum(ref[both] ** 2))
             s.reference[2] += int(both.sum())
         if self.t_prev is None and self.choice.spacing is None and len(chunk) > 1:
-            self.gap_limit = 2.0 * float(np.median(np.diff(chunk.t)))
+            self.gap_limit = GAP * float(np.median(np.diff(chunk.t)))
         dt = np.diff(chunk.t if self.t_prev is None else np.concatenate([[self.t_prev], chunk.t]))
         big = np.flatnonzero(dt > self.gap_limit)
         s.gaps += big.size

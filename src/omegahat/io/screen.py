@@ -66,7 +66,7 @@ class TurnScreen:
     ``BadSamples`` to name, and so is one after a reset (turned, it has the same ``|q|``, ``|RᵀR − I|``, ``det R``)."""
 
     def __init__(
-        self, settings: EstimateSettings, summary: Counts, head: list[np.ndarray], head_times: list[np.ndarray]
+        self, settings: EstimateSettings, summary: Counts, head: list[np.ndarray], spacing: float | None = None
     ) -> None:
         self.settings, self.summary = settings, summary
         self.rows: LogChunk | None = None  # the last two rows handed on (as read), then the rows held back
@@ -74,8 +74,7 @@ class TurnScreen:
         # the scales spikes and resets are judged against: the head's (the rows the identification reads), so that
         # every chunk is judged alike wherever the chunks are cut
         self.typical_step, self.fastest_step = step_scales(_turns(np.concatenate(head))) if head else (0.0, 0.0)
-        times = np.concatenate(head_times) if head_times else np.zeros(0)
-        self.spacing = float(np.median(np.diff(times))) if times.size > 1 else np.inf  # a gap: GAP times it
+        self.spacing = np.inf if spacing is None else spacing  # the head's median spacing (None: no gap judged)
         self.last_missing = False  # the last row handed on was a spike or a reset's, set missing
         self.turn: np.ndarray | None = None  # (P3): the rotation every row read from now on is turned by
 
