@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+import spacecraft
 from calibration_logs import euler_motion, simulated, z_scores
 from omegahat.calibration import Calibration, calibrate
 from omegahat.cli import main
@@ -394,31 +395,46 @@ def test_command_reads_euler_attitudes_and_a_gyro_time_in_the_unit_its_name_stat
     assert abs(offsets[1] - truth["delta"]) < 1e-3
 
 
+_DATES_START = np.datetime64("2026-01-01T00:00:00", "ns")
+
+
+def _dates(t) -> list[str]:
+    """ISO 8601 texts of the times ``t`` (s after 2026-01-01T00:00:00, to the nanosecond), without a zone."""
+    return [str(_DATES_START + np.timedelta64(round(x * 1e9), "ns")) for x in t]
+
+
+def _dated_gyro(tmp_path, tg, g):
+    """The gyro log stamped with UTC dates (``Z``), rates in deg/s."""
+    path = tmp_path / "imu_dates.csv"
+    rows = [f"{d}Z,{a!r},{b!r},{c!r}" for d, (a, b, c) in zip(_dates(tg), np.degrees(g).tolist(), strict=True)]
+    path.write_text("time,gx,gy,gz\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def _offsets(tmp_path, pairs) -> list[float]:
+    """The offset ``omegahat calibrate`` finds for each (attitude log, gyro log in deg/s)."""
+    offsets = []
+    for a, gy in pairs:
+        out = tmp_path / f"{a.stem}.json"
+        assert main(["calibrate", str(a), str(gy), "--gyro-unit", "deg/s", "-o", str(out)]) == 0
+        offsets.append(json.loads(out.read_text())["offset"])
+    return offsets
+
+
 def test_command_reads_iso_dates_in_both_logs(tmp_path, capsys):
     """Both logs stamped with ISO 8601 dates (the attitude's without a zone, as pandas writes them; the gyro's in
     UTC with ``Z``) give the offset of the logs stamped in seconds: both are read as seconds since 1970 UTC."""
     data, truth = simulated(4)
     ta, Ra, tg, g = data
     att, gyro = _write_logs(tmp_path, data)
-    start = np.datetime64("2026-01-01T00:00:00", "ns")
-
-    def dates(t):
-        return [str(start + np.timedelta64(round(x * 1e9), "ns")) for x in t]
-
     q = Rotation.from_matrix(Ra).as_quat()
     dated_att = tmp_path / "mocap_dates.csv"
     rows = [
-        f"{d.replace('T', ' ')},{w!r},{x!r},{y!r},{z!r}" for d, (x, y, z, w) in zip(dates(ta), q.tolist(), strict=True)
+        f"{d.replace('T', ' ')},{w!r},{x!r},{y!r},{z!r}" for d, (x, y, z, w) in zip(_dates(ta), q.tolist(), strict=True)
     ]
     dated_att.write_text("Timestamp,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
-    dated_gyro = tmp_path / "imu_dates.csv"
-    rows = [f"{d}Z,{a!r},{b!r},{c!r}" for d, (a, b, c) in zip(dates(tg), np.degrees(g).tolist(), strict=True)]
-    dated_gyro.write_text("time,gx,gy,gz\n" + "\n".join(rows) + "\n")
-    offsets = []
-    for a, gy in ((att, gyro), (dated_att, dated_gyro)):
-        out = tmp_path / f"{a.stem}.json"
-        assert main(["calibrate", str(a), str(gy), "--gyro-unit", "deg/s", "-o", str(out)]) == 0
-        offsets.append(json.loads(out.read_text())["offset"])
+    dated_gyro = _dated_gyro(tmp_path, tg, g)
+    offsets = _offsets(tmp_path, ((att, gyro), (dated_att, dated_gyro)))
     text = capsys.readouterr().out
     assert "time 'time'" in text and "dates read as seconds since 1970-01-01 UTC" in text
     # the gyro's stamps name their zone (Z), the attitude's do not, and the notes say which
@@ -430,32 +446,14 @@ def test_command_reads_iso_dates_in_both_logs(tmp_path, capsys):
 
 
 def test_a_star_trackers_aem_against_a_gyro_log_stamped_in_utc(tmp_path, capsys):
-    """A spacecraft's gyroscope calibrated against its attitude ephemeris: the attitude as a CCSDS AEM (UTC epochs,
-    the quaternion from the inertial frame to the body, scalar first) and the gyro log stamped with UTC dates give
-    the offset of the same logs stamped in seconds."""
+    """A spacecraft's gyroscope calibrated against its attitude ephemeris: the attitude as a CCSDS AEM (UTC epochs
+    from 2026-01-01, :func:`spacecraft.write_aem`) and the gyro log stamped with UTC dates give the offset of the
+    same logs stamped in seconds."""
     data, truth = simulated(4)
     ta, Ra, tg, g = data
     att, gyro = _write_logs(tmp_path, data)
-    start = np.datetime64("2026-01-01T00:00:00", "ns")
-
-    def dates(t):
-        return [str(start + np.timedelta64(round(x * 1e9), "ns")) for x in t]
-
-    q = Rotation.from_matrix(Ra).as_quat()  # body -> inertial: by (A2) the quaternion of inertial -> body
-    meta = ["REF_FRAME_A = EME2000", "REF_FRAME_B = SC_BODY_1", "ATTITUDE_DIR = A2B", "TIME_SYSTEM = UTC"]
-    lines = ["CCSDS_AEM_VERS = 1.0", "META_START", *meta, "ATTITUDE_TYPE = QUATERNION", "QUATERNION_TYPE = FIRST"]
-    lines += ["META_STOP", "DATA_START"]
-    lines += [f"{d} {w!r} {x!r} {y!r} {z!r}" for d, (x, y, z, w) in zip(dates(ta), q.tolist(), strict=True)]
-    aem = tmp_path / "st.aem"
-    aem.write_text("\n".join([*lines, "DATA_STOP"]) + "\n")
-    dated_gyro = tmp_path / "imu_dates.csv"
-    rows = [f"{d}Z,{a!r},{b!r},{c!r}" for d, (a, b, c) in zip(dates(tg), np.degrees(g).tolist(), strict=True)]
-    dated_gyro.write_text("time,gx,gy,gz\n" + "\n".join(rows) + "\n")
-    offsets = []
-    for a, gy in ((att, gyro), (aem, dated_gyro)):
-        out = tmp_path / f"{a.stem}.json"
-        assert main(["calibrate", str(a), str(gy), "--gyro-unit", "deg/s", "-o", str(out)]) == 0
-        offsets.append(json.loads(out.read_text())["offset"])
+    aem = spacecraft.write_aem(tmp_path / "st.aem", ta, Rotation.from_matrix(Ra))
+    offsets = _offsets(tmp_path, ((att, gyro), (aem, _dated_gyro(tmp_path, tg, g))))
     assert "st.aem; times in UTC, as seconds since 1970-01-01T00:00:00 UTC" in capsys.readouterr().out
     assert abs(offsets[1] - offsets[0]) < 1e-6
     assert abs(offsets[1] - truth["delta"]) < 1e-3
