@@ -128,7 +128,12 @@ def is_aem(path: str | os.PathLike[str]) -> bool:
     (the XML form) its first lines open an ``<aem`` element."""
     lines = [s.strip() for s in head_lines(os.fspath(path), 40) if s.strip()]
     first = next((s for s in lines if not s.startswith("COMMENT")), "")
-    return first.startswith("CCSDS_AEM_VERS") or any(s.startswith("<aem") for s in lines)
+    return first.startswith("CCSDS_AEM_VERS") or _xml_form(lines)
+
+
+def _xml_form(lines: list[str]) -> bool:
+    """Whether a file's first lines open the XML form's ``<aem`` element."""
+    return any(s.strip().startswith("<aem") for s in lines)
 
 
 def epoch_nanoseconds(text: str) -> int | None:
@@ -355,7 +360,7 @@ def open_aem(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         raise LogFormatError(
             f"{path}: an AEM states which way its attitude maps (ATTITUDE_DIR and its frames); leave --rotation out"
         )
-    if any(s.strip().startswith("<aem") for s in head_lines(path, 40)):  # the XML form
+    if _xml_form(head_lines(path, 40)):
         given, raw = xml_segments(path)
         if given not in ("1.0", "2.0"):
             raise LogFormatError(f"{path}: <aem version={given!r}>; versions 1.0 and 2.0 are read")
