@@ -133,6 +133,15 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
     epochs = [f"2026-01-01T00:00:{k // 100:02d}.{k % 100:02d}" for k in range(rows)]
     aem = head + [f"{e} " + " ".join(repr(float(x)) for x in q[k]) for k, e in enumerate(epochs)]
     seeds.append(Seed("aem", {"att.aem": ("\n".join(aem) + "\n").encode()}, "att.aem", "att.aem", rows, len(head)))
+
+    # a Universal Robots RTDE recording (blank-separated; the tool's rotation vector in actual_TCP_pose_3..5)
+    names = ["timestamp", *(f"actual_q_{i}" for i in range(6)), *(f"actual_TCP_pose_{i}" for i in range(6))]
+    rv = Rotation.from_quat(q).as_rotvec()
+    ur = [" ".join(names)] + [
+        " ".join(repr(float(x)) for x in (12.5 + k * 0.008, *range(6), 0.1, 0.2, 0.3, *rv[k])) for k in range(rows)
+    ]
+    seeds.append(Seed("ur-rtde", {"robot_data.csv": ("\n".join(ur) + "\n").encode()}, "robot_data.csv",
+                      "robot_data.csv", rows, 1))  # fmt: skip
     return seeds
 
 

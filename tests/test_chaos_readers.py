@@ -26,9 +26,10 @@ def seeds(tmp_path_factory):
 
 
 def _pairs():
-    names = ("csv", "npz", "parquet", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2", "aem")
+    names = ("csv", "npz", "parquet", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2", "aem", "ur-rtde")
     for name in names:
-        kinds = chaos.TEXT_MUTATIONS if name in ("csv", "motive", "vicon", "aem") else chaos.BINARY_MUTATIONS
+        text = ("csv", "motive", "vicon", "aem", "ur-rtde")
+        kinds = chaos.TEXT_MUTATIONS if name in text else chaos.BINARY_MUTATIONS
         for kind in kinds:
             why = KNOWN.get((name, kind))
             marks = [pytest.mark.xfail(strict=True, reason=why)] if why else []

@@ -78,6 +78,24 @@ def test_cr_only_line_ends_are_read_as_line_ends(tmp_path, rows):
     np.testing.assert_array_equal(log.data, read_log(write(tmp_path / "unix.csv", rows)).data)
 
 
+@pytest.mark.parametrize("delimiter", [",", " "])
+def test_a_carriage_return_inside_a_line_is_named_not_taken_for_a_blank(tmp_path, delimiter):
+    # a lone CR ends a line in some files: inside a row it is two rows run together or a damaged one. A
+    # blank-separated log once read it as a blank, so that a row damaged so read as a whole one (found by the
+    # chaos suite); CRLF line ends stay line ends
+    lines = [delimiter.join(f"{x:.6f}" for x in (k * 0.01, 0.0, 0.0, 0.0, 1.0)) for k in range(50)]
+    header = delimiter.join(("t", "qx", "qy", "qz", "qw"))
+    crlf = tmp_path / "crlf.txt"
+    crlf.write_bytes(("\r\n".join([header, *lines]) + "\r\n").encode())
+    mapped = {"columns": "t=t,qx=qx,qy=qy,qz=qz,qw=qw"} if delimiter == " " else {}  # blanks need a column map
+    assert len(read_log(crlf, **mapped)) == 50
+    lines[20] = lines[20].replace(f"{delimiter}0.000000{delimiter}", f"{delimiter}0.0\r00{delimiter}", 1)
+    damaged = tmp_path / "damaged.txt"
+    damaged.write_bytes(("\n".join([header, *lines]) + "\n").encode())
+    with pytest.raises(LogFormatError, match=r"damaged\.txt, line 22: a carriage return \(CR\) inside the line"):
+        read_log(damaged, **mapped)
+
+
 def test_time_column_naming_an_attitude_column(tmp_path, rows, capsys):
     src = write(tmp_path / "x.csv", rows[:10])
     with pytest.raises(

@@ -67,13 +67,15 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
           b1x,b1y,b1z,b2x,... body-frame directions of known inertial ones (--references); one direction
                               alone (a sun sensor) needs a tumbling body and --inertia (its own observer), or
           roll,pitch,yaw      Euler angles about x, y, z, with --euler SEQ and --angle-unit deg|rad
+          rotvec_x,rotvec_y,rotvec_z  a rotation vector (axis times angle), radians
           tau_x,tau_y,tau_z   optional known torque, N m, body axes
         an attitude with an empty field, nan or inf is a missing sample; other columns are ignored.
         other names: --columns t=NAME,qw=NAME,... (or positions t=1,qw=2,...), --header-rows N.
         Also, recognised from the file: OptiTrack Motive and Vicon CSV exports, Qualisys 6D TSV and MAT, C3D files
         with rigid-body rotations (--body), EuRoC CSV, TUM and KITTI (--rate/--times) trajectories, ROS 1
         bags (.bag) and ROS 2 bags (directory) (--topic, frames), PX4 flight logs (.ulg, --topic) and ulog2csv's CSV,
-        CCSDS attitude ephemeris messages (AEM, text or XML: frames, direction and epochs as the file states them).
+        CCSDS attitude ephemeris messages (AEM, text or XML: frames, direction and epochs as the file states them),
+        Universal Robots RTDE recordings (the tool's actual_TCP_pose; rates in the tool's axes).
         A time column named time, timestamp, Time (s)... is read where there is no t; ISO 8601 dates as seconds
         since 1970 UTC; one quaternion named by its parts (quat_w, orientation.x...) without --columns.
         Equal times: the same attitude is one sample (dropped), different attitudes are an error

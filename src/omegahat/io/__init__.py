@@ -8,7 +8,8 @@
    :mod:`omegahat.io.qtm_mat`), the
    EuRoC / ASL, TUM and KITTI trajectories of robotics (:mod:`omegahat.io.trajectories`), C3D files
    (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`), PX4 ULog flight logs and
-   ulog2csv's CSV files (:mod:`omegahat.io.px4`), CCSDS attitude ephemeris messages (:mod:`omegahat.io.aem`);
+   ulog2csv's CSV files (:mod:`omegahat.io.px4`), CCSDS attitude ephemeris messages (:mod:`omegahat.io.aem`),
+   Universal Robots RTDE recordings (:mod:`omegahat.io.ur_rtde`);
    pandas and Polars DataFrames enter the same path through :func:`omegahat.io.frames.open_frame`.
 2. :func:`open_log` opens any of them as a :class:`LogStream` of :class:`LogChunk` and applies, in one place,
    the time unit, the rotation convention, the precision policy (:mod:`omegahat.io.precision`) and the timestamp
@@ -53,6 +54,7 @@ from omegahat.io.registry import (
 from omegahat.io.rosbag import is_ros2_bag, open_bag, open_twist_output
 from omegahat.io.timestamps import DUPLICATE_TOL
 from omegahat.io.trajectories import is_euroc, is_kitti, is_tum, open_euroc, open_kitti, open_tum
+from omegahat.io.ur_rtde import is_ur_rtde, open_ur_rtde
 from omegahat.io.writers import check_output, open_output, output_kind, register_writer
 
 _BAG = ("topic", "parent_frame", "child_frame", "stamp")
@@ -64,6 +66,14 @@ register_format(
 register_format(".csv", open_vicon_csv, name="vicon", title="a Vicon CSV export", sniff=is_vicon, options=("body",))
 register_format(".csv", open_euroc, name="euroc", title="an EuRoC / ASL trajectory CSV", sniff=is_euroc, options=())
 register_format(".csv", open_px4_csv, name="px4-csv", title="a PX4 ulog2csv topic CSV", sniff=is_px4_csv, options=())
+register_format(
+    (".csv", ".txt"),
+    open_ur_rtde,
+    name="ur-rtde",
+    title="a Universal Robots RTDE recording",
+    sniff=is_ur_rtde,
+    options=(),
+)
 register_format(
     (".aem", ".kvn", ".txt", ".xml"),
     open_aem,

@@ -34,6 +34,7 @@ from omegahat.io.columns import (
     EULER_COLUMNS,
     MATRIX_COLUMNS,
     QUATERNION_COLUMNS,
+    ROTVEC_COLUMNS,
     TORQUE_COLUMNS,
     LogFormatError,
     attitude_groups,
@@ -61,6 +62,7 @@ _GROUPS = {
     "quaternion": QUATERNION_COLUMNS,
     "matrix": MATRIX_COLUMNS,
     "euler": EULER_COLUMNS,
+    "rotvec": ROTVEC_COLUMNS,
     "torque": TORQUE_COLUMNS,
 }
 #: what :func:`suggest_columns` prints where the names suggest no reading
@@ -70,7 +72,7 @@ COLUMNS_TEMPLATE = "--columns t=NAME,qw=NAME,qx=NAME,qy=NAME,qz=NAME (or by posi
 def _group(key: str) -> str:
     for g, keys in _GROUPS.items():
         if key in keys:
-            return "attitude" if g in ("quaternion", "matrix", "euler") else g
+            return "attitude" if g in ("quaternion", "matrix", "euler", "rotvec") else g
     return "attitude" if _DIRECTION_KEY.fullmatch(key) else ""
 
 
@@ -273,11 +275,25 @@ def _euler_line(names: Sequence[str], base: list[str], unique: set[str], pos: di
     to fill in (the unit given when every name states the same one: ``Roll (deg)``), or the template."""
     found = {a: base.index(a) for a in EULER_COLUMNS if a in unique}
     if len(found) < 3:
-        return COLUMNS_TEMPLATE
+        return _rx_ry_rz_lines(base, unique, pos, time)
     units = {u for j in found.values() for u in ("deg", "rad") if re.search(rf"[\[(]\s*{u}", names[j].lower())}
     unit = units.pop() if len(units) == 1 else "deg|rad"
     line = columns_line([("t", pos[time]), *((a, pos[j]) for a, j in found.items())])
     return f"{line} --euler SEQ --angle-unit {unit} (SEQ the angles' sequence, e.g. ZYX: yaw, pitch, then roll)"
+
+
+def _rx_ry_rz_lines(base: list[str], unique: set[str], pos: dict, time: int) -> str:
+    """For columns ``rx, ry, rz`` (a Universal Robots or Vicon rotation vector, or Euler angles elsewhere: the names
+    cannot say) the line for either reading, or the template."""
+    if not {"rx", "ry", "rz"} <= unique:
+        return COLUMNS_TEMPLATE
+    cols = [pos[base.index(f"r{a}")] for a in "xyz"]
+    rotvec = columns_line([("t", pos[time]), *zip(ROTVEC_COLUMNS, cols, strict=True)])
+    angles = columns_line([("t", pos[time]), *zip(EULER_COLUMNS, cols, strict=True)])
+    return (
+        f"{rotvec} if rx, ry, rz are a rotation vector in radians (Universal Robots, Vicon), or {angles} --euler SEQ "
+        "--angle-unit deg|rad if they are Euler angles"
+    )
 
 
 def _four(base: list[str], unique: set[str], suffix: str, sets: tuple[set[str], ...]) -> list[tuple[str, dict]]:

@@ -11,6 +11,7 @@ removed, lower case (spreadsheet programs write ``\\ufeffT`` or ``QW``). Groups,
 * body-frame directions ``b1x, b1y, b1z, b2x, …`` (numbered without gaps; one direction alone goes to
   :mod:`omegahat.io.single_direction`);
 * Euler angles ``roll, pitch, yaw`` (about x, y, z; the sequence and unit are options: :mod:`omegahat.io.euler`);
+* a rotation vector ``rotvec_x, rotvec_y, rotvec_z`` (radians, axis times angle: :mod:`omegahat.io.rotvec`);
 * torque ``tau_x, tau_y, tau_z``.
 
 Exactly one attitude group may be present. A reader (CSV, NPZ, or a format registered in
@@ -31,6 +32,7 @@ __all__ = [
     "MAX_COLUMNS",
     "QUATERNION_COLUMNS",
     "QUATERNION_ORDERS",
+    "ROTVEC_COLUMNS",
     "TIME_COLUMN_NAMES",
     "TORQUE_COLUMNS",
     "Layout",
@@ -48,6 +50,7 @@ QUATERNION_COLUMNS = ("qx", "qy", "qz", "qw")  # stored in this order: SciPy's s
 MATRIX_COLUMNS = tuple(f"r{i}{j}" for i in range(1, 4) for j in range(1, 4))
 TORQUE_COLUMNS = ("tau_x", "tau_y", "tau_z")
 EULER_COLUMNS = ("roll", "pitch", "yaw")  # the angles about x, y, z (omegahat.io.euler)
+ROTVEC_COLUMNS = ("rotvec_x", "rotvec_y", "rotvec_z")  # axis times angle, radians (omegahat.io.rotvec)
 QUATERNION_ORDERS = ("wxyz", "xyzw")
 MAX_COLUMNS = 200_000  #: a header naming more columns is refused before its names are split (issue 23: size limits)
 _AXES = ("x", "y", "z")
@@ -59,7 +62,15 @@ _NUMBERED: dict[tuple[str, ...], dict[str, tuple[str, ...]]] = {
 
 
 _KEYS = frozenset(
-    ("t", *QUATERNION_COLUMNS, *MATRIX_COLUMNS, *EULER_COLUMNS, *TORQUE_COLUMNS, *(f"q{i}" for i in range(5)))
+    (
+        "t",
+        *QUATERNION_COLUMNS,
+        *MATRIX_COLUMNS,
+        *EULER_COLUMNS,
+        *ROTVEC_COLUMNS,
+        *TORQUE_COLUMNS,
+        *(f"q{i}" for i in range(5)),
+    )
 )
 
 
@@ -72,7 +83,7 @@ class Layout:
     """Where a log's quantities are: names as found (normalised), attitude columns in storage order."""
 
     time: str
-    kind: str  # "quaternion", "matrix", "directions" or "euler" (angles about x, y, z)
+    kind: str  # "quaternion", "matrix", "directions", "euler" (angles about x, y, z) or "rotvec"
     attitude: tuple[str, ...]
     torque: tuple[str, ...] | None
     quaternion_named: bool = True  # False for q0..q3 / q1..q4 (order from the option)
@@ -184,7 +195,7 @@ def _numbered_quaternion(present: set[str]) -> tuple[str, ...] | None:
 
 
 def attitude_groups(names: list[str]) -> dict[str, list[str]]:
-    """The attitude groups (quaternion, matrix, directions, euler) of which some column is among ``names``
+    """The attitude groups (quaternion, matrix, directions, euler, rotvec) of which some column is among ``names``
     (normalised), each with its columns."""
     present = set(names)
     numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
@@ -193,6 +204,7 @@ def attitude_groups(names: list[str]) -> dict[str, list[str]]:
         "matrix": list(MATRIX_COLUMNS),
         "directions": direction_columns(names),
         "euler": list(EULER_COLUMNS),
+        "rotvec": list(ROTVEC_COLUMNS),
     }
     return {kind: cols for kind, cols in groups.items() if cols and present & set(cols)}
 
@@ -225,7 +237,7 @@ def layout(names: Iterable[str], where: str, time_column: str | None = "t", scal
     if not touched:
         raise LogFormatError(
             f"{where}: no attitude columns; expected qw,qx,qy,qz or r11..r33 or b1x,b1y,b1z,b2x,... or roll,pitch,yaw "
-            f"(found: {', '.join(normalised)})"
+            f"or rotvec_x,rotvec_y,rotvec_z (found: {', '.join(normalised)})"
         )
     if len(touched) > 1:
         raise LogFormatError(f"{where}: attitude given more than one way ({' and '.join(touched)}); keep one")

@@ -347,7 +347,7 @@ def _attitude_name(lay: Layout, labels: list[str], names: list[str]) -> str:
         return "qw,qx,qy,qz"
     if lay.kind == "quaternion":
         return ",".join(sorted(lay.attitude))
-    if lay.kind == "euler":
+    if lay.kind in ("euler", "rotvec"):
         return ",".join(lay.attitude)
     return "r11..r33" if lay.kind == "matrix" else f"b1x..b{lay.n_directions}z"
 

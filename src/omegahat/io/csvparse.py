@@ -134,6 +134,10 @@ class ChunkParser:
             text = raw.decode("utf-8", errors="replace").rstrip("\r")
             if not text.strip():
                 continue
+            if "\r" in text:  # a lone CR ends a line elsewhere: two rows run together, or a damaged one
+                raise LogFormatError(
+                    f"{self._where(line)}: a carriage return (CR) inside the line, where only a line end may have one"
+                )
             try:
                 row = next(csv.reader([text], delimiter=self.delim))
             except csv.Error as exc:  # a field beyond csv.field_size_limit()

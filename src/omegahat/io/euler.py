@@ -31,7 +31,7 @@ as for every attitude. Sequences that repeat an axis (``ZXZ``) have no column pe
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from typing import Any
 
@@ -39,7 +39,7 @@ import numpy as np
 
 from omegahat.io.columns import EULER_COLUMNS, LogFormatError
 
-__all__ = ["ANGLE_UNITS", "as_matrices", "check_conventions", "matrices"]
+__all__ = ["ANGLE_UNITS", "as_matrices", "check_conventions", "matrices", "turned_into_matrices"]
 
 ANGLE_UNITS = ("deg", "rad")
 _ASK = (
@@ -100,27 +100,45 @@ def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
         )
     assert euler is not None and angle_unit is not None  # and checked (check_conventions) by ReadOptions
     degrees = angle_unit == "deg"
-    seen = {"largest": 0.0}
-
-    def chunks(raw: Iterator) -> Iterator:
-        for chunk in raw:
-            angles = np.asarray(chunk.data, dtype=float)
-            finite = angles[np.all(np.isfinite(angles), axis=1)]
-            if finite.size:
-                seen["largest"] = max(seen["largest"], float(np.max(np.abs(finite))))
-            yield replace(chunk, data=matrices(angles, euler, degrees))
-        if not degrees and seen["largest"] > 2 * np.pi + 0.5:
-            stream.notes.append(
-                f"angles up to {seen['largest']:.4g} read as radians (--angle-unit rad): more than a turn; if they are "
-                "degrees, pass --angle-unit deg"
-            )
-
     names = ", ".join(EULER_COLUMNS)
     about = "rotating" if euler.isupper() else "fixed"
     stream.notes.append(
         f"attitude: Euler angles {names} in {'degrees' if degrees else 'radians'}, sequence {euler} (about the "
         f"{about} axes)"
     )
+    turned_into_matrices(
+        stream,
+        lambda angles: matrices(angles, euler, degrees),
+        np.abs,
+        None
+        if degrees
+        else "angles up to {largest:.4g} read as radians (--angle-unit rad): more than a turn; if they are degrees, "
+        "pass --angle-unit deg",
+    )
+
+
+def turned_into_matrices(
+    stream: Any,
+    to_matrices: Callable[[np.ndarray], np.ndarray],
+    magnitude: Callable[[np.ndarray], np.ndarray],
+    beyond_a_turn: str | None,
+) -> None:
+    """Make ``stream`` (a :class:`~omegahat.io.registry.LogStream` of three numbers per sample: Euler angles, a
+    rotation vector) a stream of rotation matrices ``to_matrices(rows)`` as its chunks are read. Where
+    ``beyond_a_turn`` is given and the ``magnitude`` of some finite row exceeds a turn (2π + 0.5), it is noted,
+    formatted with the ``largest``: radians that may be degrees."""
+    seen = {"largest": 0.0}
+
+    def chunks(raw: Iterator) -> Iterator:
+        for chunk in raw:
+            rows = np.asarray(chunk.data, dtype=float)
+            finite = rows[np.all(np.isfinite(rows), axis=1)]
+            if finite.size:
+                seen["largest"] = max(seen["largest"], float(np.max(magnitude(finite))))
+            yield replace(chunk, data=to_matrices(rows))
+        if beyond_a_turn is not None and seen["largest"] > 2 * np.pi + 0.5:
+            stream.notes.append(beyond_a_turn.format(largest=seen["largest"]))
+
     stream.kind = "matrix"
-    stream.digits = None  # the angles' digits say nothing of the matrices' precision
+    stream.digits = None  # the numbers' digits say nothing of the matrices' precision
     stream.convert(chunks)

@@ -52,6 +52,7 @@ from omegahat.io.colmap import ColumnMap, parse_columns
 from omegahat.io.columns import LogFormatError
 from omegahat.io.euler import as_matrices, check_conventions
 from omegahat.io.precision import Normaliser
+from omegahat.io.rotvec import vectors_as_matrices
 from omegahat.io.time_units import TIME_UNITS
 from omegahat.io.timestamps import DUPLICATE_CHOICES, TimePolicy
 
@@ -373,10 +374,7 @@ def _refuse_options(path: str, fmt: Format, options: ReadOptions) -> None:
     )
 
 
-def _conjugate(q: np.ndarray) -> np.ndarray:
-    out = q.copy()
-    out[:, :3] *= -1.0  # scalar last: (−x, −y, −z, w) is the inverse rotation
-    return out
+_CONJUGATE = np.array([-1.0, -1.0, -1.0, 1.0])  # scalar last: (−x, −y, −z, w) is the inverse rotation
 
 
 def _checked(stream: LogStream, raw: Iterator[LogChunk], options: ReadOptions) -> Iterator[LogChunk]:
@@ -401,7 +399,7 @@ def _checked(stream: LogStream, raw: Iterator[LogChunk], options: ReadOptions) -
             )
         data = precise.feed(chunk.data, chunk.labels)
         if invert:
-            data = _conjugate(data) if stream.kind == "quaternion" else np.swapaxes(data, 1, 2).copy()
+            data = data * _CONJUGATE if stream.kind == "quaternion" else np.swapaxes(data, 1, 2).copy()
         arrays, keep = policy.feed((t, chunk.t, data, chunk.torque, chunk.labels, chunk.extra))
         part = _chunk(arrays, keep)
         if len(part):
@@ -429,6 +427,7 @@ def checked_stream(stream: LogStream, options: ReadOptions) -> LogStream:
     """Wrap a format's raw stream in the conversions and checks of the module docstring (done by
     :func:`open_log`; formats not read from a path, e.g. DataFrames, call it themselves)."""
     as_matrices(stream, options.euler, options.angle_unit)  # Euler angles (a no-op for other attitudes)
+    vectors_as_matrices(stream)  # rotation vectors (likewise)
     stream.convert(lambda raw: _checked(stream, raw, options))
     stream.options = options
     if options.rotation == "inertial-to-body" and stream.kind != "directions":

@@ -1,0 +1,93 @@
+r"""Universal Robots recordings: the RTDE data a UR arm streams, as its recorders write it, recognised by its header.
+
+Universal Robots' own recorder (``record.py`` of the RTDE client library) writes one line of names, then one line
+per controller cycle, separated by blanks; the ``ur_rtde`` library's ``startFileRecording`` writes the same names
+separated by commas. A vector field has one column per component, ``name_0 … name_5``:
+
+``timestamp actual_q_0 … actual_TCP_pose_0 actual_TCP_pose_1 … actual_TCP_pose_5 actual_TCP_speed_0 …``
+
+* ``timestamp``: seconds since the controller started (read as they are; the first is ``t0``);
+* ``actual_TCP_pose``: the tool centre point's pose in the robot's base frame, ``x, y, z`` in metres and then the
+  **rotation vector** ``rx, ry, rz`` in radians (components 3–5; :mod:`omegahat.io.rotvec`, (V1)). It maps the
+  tool's axes into the base's (body → inertial, omegahat's ``R``), so the rate comes out in the **tool's axes**.
+  The position columns, the joints and every other field are not read.
+
+The commanded pose ``target_TCP_pose`` is not read: it is what the controller asked for, not what the arm did, and
+a file holding only it is refused with the ``--columns`` line that reads it anyway. ``--rotation`` is refused, since
+the format states the direction. The lines are read by the CSV reader (chunks of any size, every error naming its
+line and column).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+from omegahat.io.colmap import ColumnMap, columns_line
+from omegahat.io.columns import Layout, LogFormatError, normalise_name
+from omegahat.io.csvlog import TextFormat, open_text
+from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.textlines import head_lines
+
+__all__ = ["is_ur_rtde", "open_ur_rtde"]
+
+_POSE = ("actual_tcp_pose", "target_tcp_pose")
+_ROTATION = (3, 4, 5)  # the rotation vector's components in a pose [x, y, z, rx, ry, rz]
+
+
+def _names(path: str) -> list[str]:
+    """The first line's names (blank- or comma-separated), normalised; empty where the file cannot be read."""
+    lines = head_lines(path, 1)
+    return [normalise_name(n) for n in re.split(r"[,\s]+", lines[0].strip())] if lines else []
+
+
+def _rotation_columns(names: list[str], pose: str) -> list[int] | None:
+    """The positions (0-based) of ``pose``'s rotation vector among ``names``, or None where any is missing."""
+    try:
+        return [names.index(f"{pose}_{k}") for k in _ROTATION]
+    except ValueError:
+        return None
+
+
+def is_ur_rtde(path: str | os.PathLike[str]) -> bool:
+    """Whether a text file is a Universal Robots RTDE recording: a first line naming ``timestamp`` and the rotation
+    components (3–5) of ``actual_TCP_pose`` or ``target_TCP_pose``."""
+    names = _names(os.fspath(path))
+    return "timestamp" in names and any(_rotation_columns(names, pose) is not None for pose in _POSE)
+
+
+def _describe(stream: LogStream, lay: Layout, names: list[str]) -> str:
+    del stream, lay, names
+    return (
+        "Universal Robots RTDE recording: attitude from actual_TCP_pose_3..5 (the tool's rotation vector in the "
+        "base frame, radians), time from 'timestamp' in s (since the controller started); rates in the tool's axes"
+    )
+
+
+def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
+    """The tool's attitude in a Universal Robots RTDE recording (module docstring)."""
+    path = os.fspath(path)
+    names = _names(path)
+    actual = _rotation_columns(names, _POSE[0])
+    if "timestamp" not in names or actual is None:
+        target = _rotation_columns(names, _POSE[1])
+        if "timestamp" in names and target is not None:
+            rotation = ((f"rotvec_{a}", f"target_TCP_pose_{k}") for a, k in zip("xyz", _ROTATION, strict=True))
+            raise LogFormatError(
+                f"{path}, line 1: a Universal Robots recording without actual_TCP_pose: target_TCP_pose is the pose "
+                "the controller commanded, not the one the arm reached; to read it anyway: "
+                f"{columns_line([('t', 'timestamp'), *rotation])}"
+            )
+        raise LogFormatError(
+            f"{path}, line 1: not a Universal Robots recording (no timestamp and actual_TCP_pose_3..5)"
+        )
+    if options.rotation != "body-to-inertial":
+        raise LogFormatError(
+            f"{path}: a Universal Robots pose maps the tool's axes into the base's, as omegahat's R does; leave "
+            "--rotation out"
+        )
+    cmap: ColumnMap = (
+        ("t", names.index("timestamp") + 1),
+        *((f"rotvec_{a}", j + 1) for a, j in zip("xyz", actual, strict=True)),
+    )
+    return open_text(path, options, TextFormat(columns=cmap, describe=_describe))
