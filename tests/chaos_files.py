@@ -142,6 +142,24 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
     ]
     seeds.append(Seed("ur-rtde", {"robot_data.csv": ("\n".join(ur) + "\n").encode()}, "robot_data.csv",
                       "robot_data.csv", rows, 1))  # fmt: skip
+
+    # the trajectories of robotics: TUM and KITTI (blank-separated, a '#' line above the poses), EuRoC (ns stamps)
+    tum = ["# timestamp tx ty tz qx qy qz qw"]
+    tum += [" ".join(repr(float(x)) for x in (1.7e9 + t[k], 1.0, 2.0, 3.0, *q[k])) for k in range(rows)]
+    seeds.append(Seed("tum", {"traj.txt": ("\n".join(tum) + "\n").encode()}, "traj.txt", "traj.txt", rows, 1))
+    kitti = ["# t r11 r12 r13 tx r21 r22 r23 ty r31 r32 r33 tz"]
+    kitti += [
+        " ".join(repr(float(x)) for x in (t[k], *np.column_stack([R[k], [1, 2, 3]]).ravel())) for k in range(rows)
+    ]
+    seeds.append(Seed("kitti", {"poses.txt": ("\n".join(kitti) + "\n").encode()}, "poses.txt", "poses.txt", rows, 1))
+    euroc = ["#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m],q_RS_w [],q_RS_x [],q_RS_y [],q_RS_z []"]
+    euroc += [
+        ",".join(
+            [str(1403715524900000000 + 10_000_000 * k), "1.0", "2.0", "3.0", *map(repr, map(float, q[k, [3, 0, 1, 2]]))]
+        )
+        for k in range(rows)
+    ]
+    seeds.append(Seed("euroc", {"data.csv": ("\n".join(euroc) + "\n").encode()}, "data.csv", "data.csv", rows, 1))
     return seeds
 
 

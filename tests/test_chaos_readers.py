@@ -26,9 +26,9 @@ def seeds(tmp_path_factory):
 
 
 def _pairs():
-    names = ("csv", "npz", "parquet", "motive", "vicon", "qtm-mat", "c3d", "rosbag1", "rosbag2", "aem", "ur-rtde")
+    text = ("csv", "motive", "vicon", "aem", "ur-rtde", "tum", "kitti", "euroc")
+    names = ("npz", "parquet", "qtm-mat", "c3d", "rosbag1", "rosbag2", *text)
     for name in names:
-        text = ("csv", "motive", "vicon", "aem", "ur-rtde")
         kinds = chaos.TEXT_MUTATIONS if name in text else chaos.BINARY_MUTATIONS
         for kind in kinds:
             why = KNOWN.get((name, kind))
