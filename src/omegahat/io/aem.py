@@ -54,8 +54,8 @@ direction. ``--rotation`` is refused: the file states which way its attitude map
 (``QUATERNION_TYPE = FIRST`` or ``LAST`` in version 1.0, where it is required; version 2.0 writes the scalar
 last); ``EULER_ANGLE``, ``EULER_ANGLE/RATE`` (1.0), ``EULER_ANGLE/DERIVATIVE`` and ``EULER_ANGLE/ANGVEL`` (2.0);
 ``SPIN``. The rates and derivatives a line may carry after its attitude are not used (the note says so): the
-estimate is made from the attitudes alone. Where their meaning is plain (:func:`_file_rates`: ``.../ANGVEL`` of an
-attitude from the external frame to the spacecraft, quaternion derivatives) they go with the rows
+estimate is made from the attitudes alone. Where their meaning is plain (:func:`_file_rates`: ``.../ANGVEL``,
+quaternion derivatives) they go with the rows
 (``extra["reference_rate"]``), and the command's closing lines compare the estimate with them
 (:mod:`omegahat.io.pipeline`): how a gyro-less estimate would have done on a mission's own data. ``SPIN/NUTATION`` and
 ``SPIN/NUTATION_MOM`` are refused.
@@ -332,14 +332,16 @@ def _file_rates(
     segment: _Segment, kind: str, values: np.ndarray, q: np.ndarray, frames: tuple[str, str, bool], path: str
 ) -> np.ndarray | None:
     r"""The body rates (rad/s, spacecraft axes) a segment's lines carry after the attitude, where their meaning is
-    unambiguous, else None: ``.../ANGVEL`` of an attitude from the external frame to the spacecraft, in either
-    frame's axes (``ANGVEL_FRAME``; deg/s), and quaternion derivatives in either direction,
+    unambiguous, else None: ``.../ANGVEL`` in either frame's axes (``ANGVEL_FRAME``; deg/s), the rate of the
+    attitude's end frame relative to its start frame (the CCSDS registry of attitude elements: "the rotational rate
+    of frame B with respect to frame A"; Orekit reads it so), the spacecraft's relative to the external frame or its
+    opposite; and quaternion derivatives in either direction,
     :math:`\omega = 2\,\mathrm{vec}(\bar q \otimes \dot q) / |q|^2` for the quaternion :math:`q` of :math:`R`
     (x, y, z, w)."""
     craft, external, external_to_craft = frames
-    if kind.endswith("/ANGVEL") and external_to_craft:
+    if kind.endswith("/ANGVEL"):
         axes = _frame_named(segment, "ANGVEL_FRAME", path)
-        rate = np.radians(values[:, -3:])
+        rate = np.radians(values[:, -3:]) * (1.0 if external_to_craft else -1.0)  # the spacecraft's rate
         if axes == external:
             return Rotation.from_quat(q).inv().apply(rate)  # omega_body = R^T omega_external
         return rate if axes == craft else None
