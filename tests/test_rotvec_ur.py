@@ -76,6 +76,24 @@ def test_a_missing_component_is_a_missing_sample_and_degrees_get_a_note(tmp_path
     assert not any("more than a turn" in n for n in log.notes)
 
 
+def test_rotation_vectors_in_npz_and_parquet_logs(tmp_path):
+    t, R = _truth(300)
+    phi = R.as_rotvec()
+    np.savez(tmp_path / "whole.npz", t=t, rotvec=phi)
+    np.savez(tmp_path / "columns.npz", t=t, rotvec_x=phi[:, 0], rotvec_y=phi[:, 1], rotvec_z=phi[:, 2])
+    pd.DataFrame({"t": t, "rotvec_x": phi[:, 0], "rotvec_y": phi[:, 1], "rotvec_z": phi[:, 2]}).to_parquet(
+        tmp_path / "log.parquet"
+    )
+    for name in ("whole.npz", "columns.npz", "log.parquet"):
+        np.testing.assert_allclose(read_log(tmp_path / name).data, _rodrigues(phi), atol=1e-12)
+    np.savez(tmp_path / "both.npz", t=t, rotvec=phi, q=R.as_quat())
+    with pytest.raises(LogFormatError, match=r"attitude given more than one way \(q, rotvec\)"):
+        read_log(tmp_path / "both.npz")
+    np.savez(tmp_path / "short.npz", t=t, rotvec=phi[:-1])
+    with pytest.raises(LogFormatError, match="rotvec"):
+        read_log(tmp_path / "short.npz")
+
+
 def test_rotation_vectors_in_a_dataframe_and_beside_another_attitude(tmp_path):
     t, R = _truth(300)
     frame = pd.DataFrame(R.as_rotvec(), columns=["rotvec_x", "rotvec_y", "rotvec_z"]).assign(t=t)

@@ -1,6 +1,7 @@
 r"""NPZ logs (``numpy.savez``): arrays by name, every error naming the array.
 
-Arrays: ``t (T,)``; the attitude as ``q (T, 4)``, ``R (T, 3, 3)`` or ``b (T, n, 3)``, or column by column under the
+Arrays: ``t (T,)``; the attitude as ``q (T, 4)``, ``R (T, 3, 3)``, ``b (T, n, 3)`` or ``rotvec (T, 3)`` (rotation
+vectors in radians, as SciPy's ``as_rotvec`` gives them: :mod:`omegahat.io.rotvec`), or column by column under the
 CSV names (:mod:`omegahat.io.columns`); optionally ``tau (T, 3)`` or ``tau_x, tau_y, tau_z``. A row with any
 non-finite entry is a missing sample.
 
@@ -31,7 +32,14 @@ from typing import IO
 
 import numpy as np
 
-from omegahat.io.columns import MATRIX_COLUMNS, QUATERNION_COLUMNS, TORQUE_COLUMNS, direction_columns, layout
+from omegahat.io.columns import (
+    MATRIX_COLUMNS,
+    QUATERNION_COLUMNS,
+    ROTVEC_COLUMNS,
+    TORQUE_COLUMNS,
+    direction_columns,
+    layout,
+)
 from omegahat.io.columns import LogFormatError as _Err
 from omegahat.io.registry import LogStream, ReadOptions
 
@@ -222,8 +230,10 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             raise _Err(f"{path}: no array 't' (found: {', '.join(names) or 'none'})")
         t = get("t", "(T,)", lambda s: len(s) == 1 and s[0] > 0)
         T = t.size
-        whole = [n for n in ("q", "R", "b") if n in names]
-        columns = [n for n in names if n in QUATERNION_COLUMNS + MATRIX_COLUMNS or direction_columns([n])]
+        whole = [n for n in ("q", "R", "b", "rotvec") if n in names]
+        columns = [
+            n for n in names if n in QUATERNION_COLUMNS + MATRIX_COLUMNS + ROTVEC_COLUMNS or direction_columns([n])
+        ]
         if len(whole) + bool(columns) > 1:
             raise _Err(f"{path}: attitude given more than one way ({', '.join(whole + columns)}); keep one")
         if "q" in whole:
@@ -236,6 +246,8 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         elif "b" in whole:
             ok = lambda s: len(s) == 3 and s[0] == T and s[1] >= 1 and s[2] == 3  # noqa: E731
             data, kind, name = get("b", f"({T}, n, 3)", ok), "directions", "b"
+        elif "rotvec" in whole:
+            data, kind, name = get("rotvec", f"({T}, 3)", lambda s: s == (T, 3)), "rotvec", "rotvec"
         else:
             lay = layout([n for n in names if n not in ("tau",)], path, "t", options.scalar_first)
             kind, name = lay.kind, ",".join(lay.attitude)
