@@ -105,13 +105,31 @@ def test_the_conventions_are_asked_for_and_nothing_is_written(tmp_path, capsys, 
     assert not out.exists()
 
 
-def test_conventions_for_a_log_without_euler_angles_are_refused(tmp_path):
+def test_conventions_for_a_log_without_euler_angles_are_not_used_and_said(tmp_path):
+    # as --scalar-first for named quaternion columns; a folder run gives every log the same options
     t, angles = sample_angles()
     path = tmp_path / "q.csv"
-    np.savetxt(path, np.column_stack([t, Rotation.from_rotvec(angles).as_quat()]), delimiter=",",
+    q = Rotation.from_rotvec(angles).as_quat()
+    np.savetxt(path, np.column_stack([t, q]), delimiter=",", header="t,qx,qy,qz,qw", comments="")
+    log = read_log(path, euler="ZYX", angle_unit="deg")
+    np.testing.assert_allclose(log.data, q, atol=1e-15)  # the quaternions, as read without the options
+    assert any("--euler and --angle-unit not used" in n and "qw,qx,qy,qz" in n for n in log.notes)
+
+
+def test_a_folder_of_euler_and_quaternion_logs_runs_with_the_conventions(tmp_path, capsys):
+    t, angles = sample_angles()
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    write(folder / "angles.csv", t, np.degrees(angles))
+    R = by_hand("ZYX", angles)
+    np.savetxt(folder / "quats.csv", np.column_stack([t, Rotation.from_matrix(R).as_quat()]), delimiter=",",
                header="t,qx,qy,qz,qw", comments="")  # fmt: skip
-    with pytest.raises(LogFormatError, match="read roll,pitch,yaw columns; this log's attitude is qw,qx,qy,qz"):
-        read_log(path, euler="ZYX", angle_unit="deg")
+    out = tmp_path / "out"
+    code = main(["estimate", str(folder), "-o", str(out), "--euler", "ZYX", "--angle-unit", "deg", "--no-progress"])
+    printed = capsys.readouterr()
+    assert code == 0, printed.out + printed.err
+    rates = {name: read_omega_csv(out / name)[0][:, 1:] for name in ("angles.csv", "quats.csv")}
+    np.testing.assert_allclose(rates["angles.csv"], rates["quats.csv"], atol=1e-6)  # the same rotations
 
 
 @pytest.mark.parametrize("seq", ["ZXZ", "zyX", "abc", "ZY", "xyzx", ""])

@@ -82,13 +82,13 @@ def matrices(angles: np.ndarray, euler: str, degrees: bool) -> np.ndarray:
 def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
     """Make ``stream`` (a :class:`~omegahat.io.registry.LogStream`; that module imports this one) of kind
     ``"euler"`` (chunks of angles ``(m, 3)`` about x, y, z) a stream of rotation matrices by (E1)/(E2). Raises
-    :class:`LogFormatError` asking for the conventions when either is missing, and when they are given for a log of
-    another attitude."""
+    :class:`LogFormatError` asking for the conventions when either is missing; given for a log of another attitude,
+    they are not used, and a note says so (a folder run gives every log the same options)."""
     if stream.kind != "euler":
-        if euler is not None or angle_unit is not None:
-            raise LogFormatError(
-                f"{stream.source}{stream.context}: --euler and --angle-unit read roll,pitch,yaw columns; this log's "
-                f"attitude is {stream.attitude_name or stream.kind} (leave them out)"
+        if euler is not None or angle_unit is not None:  # as --scalar-first for named quaternion columns: said
+            stream.notes.append(
+                f"--euler and --angle-unit not used: they read roll,pitch,yaw columns, and this log's attitude is "
+                f"{stream.attitude_name or stream.kind}"
             )
         return
     missing = [flag for flag, value in (("--euler", euler), ("--angle-unit", angle_unit)) if value is None]
