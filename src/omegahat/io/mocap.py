@@ -18,9 +18,9 @@ rotation (body not tracked in that frame) is a missing sample.
 (``Subject:Segment``; Tracker may write ``Global Angle Name``), a row of labels ``Frame,Sub Frame,RX,RY,RZ,TX,
 TY,TZ,...`` and a row of units (``deg`` or ``rad``, ``mm``); a blank line ends the section. ``RX, RY, RZ`` are
 Vicon's *helical* angles: the rotation vector (axis times angle) of the segment's rotation into the global frame,
-converted here with the exponential map; its wrap-around at 180° changes the vector, not the rotation, so it
-causes no spike. Time is ``Frame / rate`` (frame numbers may skip: dropped frames). A file with marker
-trajectories only is refused with a message saying which export holds rotations.
+converted with the exponential map ((V1) of :mod:`omegahat.io.rotvec`); its wrap-around at 180° changes the vector,
+not the rotation, so it causes no spike. Time is ``Frame / rate`` (frame numbers may skip: dropped frames). A file
+with marker trajectories only is refused with a message saying which export holds rotations.
 
 **Selection.** ``ReadOptions.body`` (``--body``) names the rigid body (Motive) or object/segment (Vicon); with a
 single one it may be omitted, with several the error lists them. Detection looks only at the first lines
@@ -44,6 +44,7 @@ from omegahat.io.columns import LogFormatError
 from omegahat.io.euler import matrices as euler_matrices
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.rotvec import matrices as rotvec_matrices
 from omegahat.io.textlines import is_number
 
 __all__ = ["choose_body", "is_motive", "is_vicon", "open_motive_csv", "open_vicon_csv"]
@@ -382,12 +383,7 @@ def open_vicon_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStr
     if not frames:
         raise LogFormatError(f"{path}, line {start}: the {sec['title']} section has no data rows")
     frame_numbers = np.array(frames)
-    rotvec = np.array(vecs) * scale
-    from scipy.spatial.transform import Rotation  # SciPy's transforms load in 0.1 s: only for Vicon files
-
-    valid = np.all(np.isfinite(rotvec), axis=1)
-    R = np.full((frame_numbers.size, 3, 3), np.nan)
-    R[valid] = Rotation.from_rotvec(rotvec[valid]).as_matrix()
+    R = rotvec_matrices(np.array(vecs).reshape(-1, 3) * scale)  # (V1); a missing sample stays NaN
     description = (
         f"Vicon CSV, section {sec['title']!r} at {rate:g} Hz: {name!r}, helical angles RX,RY,RZ in {unit} "
         f"(rotation vector into the global frame), time = Frame / {rate:g}, {frame_numbers.size} frames"
