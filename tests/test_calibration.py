@@ -247,6 +247,26 @@ def test_command_messages(tmp_path, capsys):
         read_gyro(gyro)
 
 
+@pytest.mark.parametrize("delimiter", [",", " "])
+def test_a_gyroscope_row_of_another_width_or_with_a_carriage_return_inside_is_refused(tmp_path, delimiter):
+    # both were read before: the extra field ignored, and a CR splitting a blank-separated number shifted the
+    # columns after it (0.2\r5 read as gy = 0.2, gz = 5)
+    rows = [delimiter.join(("t", "gx", "gy", "gz"))] + [delimiter.join(("0.01", "0.1", "0.2", "0.3"))] * 4
+    path = tmp_path / "gyro.txt"
+    wide = rows.copy()
+    wide[2] += delimiter + "0.9"
+    path.write_text("\n".join(wide) + "\n")
+    with pytest.raises(LogFormatError, match=r"gyro\.txt, line 3: 5 fields, but the header \(line 1\) names 4"):
+        read_gyro(path)
+    damaged = rows.copy()
+    damaged[3] = damaged[3].replace("0.3", "0.\r3")
+    path.write_text("\n".join(damaged) + "\n")
+    with pytest.raises(LogFormatError, match=r"gyro\.txt, line 4: a carriage return \(CR\) inside the line"):
+        read_gyro(path)
+    path.write_text("\r\n".join(rows) + "\r\n")  # CRLF line ends are line ends
+    assert read_gyro(path)[1].shape == (4, 3)
+
+
 def test_read_gyro_npz(tmp_path):
     t = np.arange(5.0)
     np.savez(tmp_path / "g.npz", t=t, g=np.ones((5, 3)))

@@ -29,7 +29,7 @@ import pyarrow.csv as pacsv
 
 from omegahat.io.columns import Layout, LogFormatError
 from omegahat.io.registry import LogChunk
-from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean
+from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean, refuse_inner_carriage_return
 from omegahat.io.timestamps import ARROW_ERRORS, ExactTimes, first_failure
 
 __all__ = ["ChunkParser"]
@@ -134,10 +134,7 @@ class ChunkParser:
             text = raw.decode("utf-8", errors="replace").rstrip("\r")
             if not text.strip():
                 continue
-            if "\r" in text:  # a lone CR ends a line elsewhere: two rows run together, or a damaged one
-                raise LogFormatError(
-                    f"{self._where(line)}: a carriage return (CR) inside the line, where only a line end may have one"
-                )
+            refuse_inner_carriage_return(text, self._where(line))
             try:
                 row = next(csv.reader([text], delimiter=self.delim))
             except csv.Error as exc:  # a field beyond csv.field_size_limit()

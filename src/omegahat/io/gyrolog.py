@@ -5,7 +5,8 @@ frequent in the header), or by blanks where there is none of them (:func:`omegah
 ``header_rows`` lines name them (``2``: a group title over ``X, Y, Z``, names joined per column as for attitude
 logs, :func:`omegahat.io.colmap.join_header_rows`; ``0``: no header, the columns named by their 1-based position).
 A decimal comma is read where the delimiter is not ``,``. Blank lines are skipped; any other field that is not a
-number is an error naming its line and column.
+number is an error naming its line and column, and so is a row with more or fewer fields than the header names, or
+with a carriage return inside it (a damaged row is never read in part).
 
 **Columns**: ``time_column`` (default ``t``, or where the header has no ``t`` its one column named as a time,
 :func:`omegahat.io.columns.time_column_by_name`; None: no times are read, ``t`` is the row's index from 0, for the
@@ -33,7 +34,7 @@ import numpy as np
 from omegahat.io.colmap import join_header_rows
 from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
-from omegahat.io.textlines import delimiter, is_number, split_line
+from omegahat.io.textlines import DELIMITERS, delimiter, is_number, refuse_inner_carriage_return, split_line
 from omegahat.io.timestamps import text_dates
 
 __all__ = [
@@ -201,7 +202,15 @@ def read_vectors(
     comma = delim != ","  # a decimal comma: only where the comma does not separate the columns
     out = np.empty((len(body), 4))
     out[:, 0] = np.arange(len(body))  # the row's index, where no time column is read
-    rows = [split_line(row, delim, f"{path}, line {line}") for line, row in body]
+    rows = []
+    for line, row in body:  # every row as wide as the header: a row that is not is damaged, never read in part
+        refuse_inner_carriage_return(row, f"{path}, line {line}")
+        rows.append(split_line(row, delim, f"{path}, line {line}"))
+        if len(rows[-1]) != len(names):
+            named = f"the header (line {head[-1][0]}) names" if head else f"line {first[0]} has"
+            raise LogFormatError(
+                f"{path}, line {line}: {len(rows[-1])} fields, but {named} {len(names)} (delimiter {DELIMITERS[delim]})"
+            )
     dates = None
     if time_column is not None:  # ISO 8601 dates: seconds since 1970 (the attitude reader's rule)
         texts = [fields[idx[0]] if idx[0] < len(fields) else None for fields in rows]

@@ -170,6 +170,13 @@ def delimiter(line: str, where: str, allow_blanks: bool) -> str:
     return best
 
 
+def refuse_inner_carriage_return(line: str, where: str) -> None:
+    """Refuse a line (its line end removed) that still holds a carriage return: a lone CR ends a line in some files,
+    so inside a row it is two rows run together or a damaged one, never a blank to skip."""
+    if "\r" in line:
+        raise LogFormatError(f"{where}: a carriage return (CR) inside the line, where only a line end may have one")
+
+
 def split_line(line: str, delim: str, where: str) -> list[str]:
     """The fields of one line (quotes honoured within the line); the number of fields is checked against
     :data:`~omegahat.io.columns.MAX_COLUMNS` before anything is split."""
