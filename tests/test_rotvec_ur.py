@@ -166,6 +166,19 @@ def test_a_recording_with_only_the_commanded_pose_is_refused_with_the_line_that_
                                atol=1e-6)  # fmt: skip
 
 
+def test_a_pose_recording_of_ones_own_with_another_time_column(tmp_path, capsys):
+    s, R = _truth(400)
+    pose = {f"actual_TCP_pose_{i}": np.zeros(s.size) for i in range(3)}
+    pose.update({f"actual_TCP_pose_{i + 3}": R.as_rotvec()[:, i] for i in range(3)})
+    pd.DataFrame({"Time (ms)": 1000 * s, **pose}).to_csv(tmp_path / "mine.csv", index=False)
+    table, printed = estimate_file(tmp_path / "mine.csv", tmp_path, capsys)
+    assert "time from 'time (ms)'" in printed
+    np.testing.assert_allclose(table[50:, 1:], np.tile(OMEGA, (350, 1)), atol=1e-6)
+    pd.DataFrame(pose).to_csv(tmp_path / "timeless.csv", index=False)
+    with pytest.raises(LogFormatError, match=r"without a time column .*--columns t=NAME,rotvec_x=actual_TCP_pose_3"):
+        read_log(tmp_path / "timeless.csv")
+
+
 def test_rotation_is_refused_for_a_universal_robots_recording(tmp_path, capsys):
     path = _ur_recording(tmp_path / "robot_data.csv", n=100)
     out = tmp_path / "o.csv"

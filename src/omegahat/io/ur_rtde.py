@@ -6,7 +6,10 @@ separated by commas. A vector field has one column per component, ``name_0 … n
 
 ``timestamp actual_q_0 … actual_TCP_pose_0 actual_TCP_pose_1 … actual_TCP_pose_5 actual_TCP_speed_0 …``
 
-* ``timestamp``: seconds since the controller started (read as they are; the first is ``t0``);
+* ``timestamp``: seconds since the controller started (read as they are; the first is ``t0``). A recording of
+  one's own with ``actual_TCP_pose_0..5`` and another time column (``t``, or the one named as a time: ``time``,
+  ``Time (s)``, ``time_ns``, read in the unit its name states) is read the same way; without one it is refused with
+  the ``--columns`` line to complete;
 * ``actual_TCP_pose``: the tool centre point's pose in the robot's base frame, ``x, y, z`` in metres and then the
   **rotation vector** ``rx, ry, rz`` in radians (components 3–5; :mod:`omegahat.io.rotvec`, (V1)). It maps the
   tool's axes into the base's (body → inertial, omegahat's ``R``), so the rate comes out in the **tool's axes**.
@@ -21,13 +24,12 @@ line and column).
 from __future__ import annotations
 
 import os
-import re
 
 from omegahat.io.colmap import ColumnMap, columns_line
-from omegahat.io.columns import Layout, LogFormatError, normalise_name
+from omegahat.io.columns import Layout, LogFormatError, normalise_name, time_named_columns
 from omegahat.io.csvlog import TextFormat, open_text
 from omegahat.io.registry import LogStream, ReadOptions
-from omegahat.io.textlines import head_lines
+from omegahat.io.textlines import delimiter, head_lines, split_line
 
 __all__ = ["is_ur_rtde", "open_ur_rtde"]
 
@@ -36,9 +38,15 @@ _ROTATION = (3, 4, 5)  # the rotation vector's components in a pose [x, y, z, rx
 
 
 def _names(path: str) -> list[str]:
-    """The first line's names (blank- or comma-separated), normalised; empty where the file cannot be read."""
+    """The first line's names (separated by blanks, or by the delimiter the line shows), normalised; empty where
+    the file cannot be read or the line has no fields."""
     lines = head_lines(path, 1)
-    return [normalise_name(n) for n in re.split(r"[,\s]+", lines[0].strip())] if lines else []
+    if not lines or not lines[0].strip():
+        return []
+    try:
+        return [normalise_name(n) for n in split_line(lines[0], delimiter(lines[0], path, True), path)]
+    except LogFormatError:  # a header too wide to be a recording's
+        return []
 
 
 def _rotation_columns(names: list[str], pose: str) -> list[int] | None:
@@ -50,36 +58,41 @@ def _rotation_columns(names: list[str], pose: str) -> list[int] | None:
 
 
 def is_ur_rtde(path: str | os.PathLike[str]) -> bool:
-    """Whether a text file is a Universal Robots RTDE recording: a first line naming ``timestamp`` and the rotation
-    components (3–5) of ``actual_TCP_pose`` or ``target_TCP_pose``."""
+    """Whether a text file is a Universal Robots recording: a first line naming the rotation components (3–5) of
+    ``actual_TCP_pose`` or ``target_TCP_pose``."""
     names = _names(os.fspath(path))
-    return "timestamp" in names and any(_rotation_columns(names, pose) is not None for pose in _POSE)
+    return any(_rotation_columns(names, pose) is not None for pose in _POSE)
 
 
-def _describe(stream: LogStream, lay: Layout, names: list[str]) -> str:
-    del stream, lay, names
-    return (
-        "Universal Robots RTDE recording: attitude from actual_TCP_pose_3..5 (the tool's rotation vector in the "
-        "base frame, radians), time from 'timestamp' in s (since the controller started); rates in the tool's axes"
-    )
+def _time_column(names: list[str]) -> str | None:
+    """``timestamp``, or else the one column named as a time (``time``, ``t``, ``Time (s)``), or None."""
+    if "timestamp" in names or "t" in names:
+        return "timestamp" if "timestamp" in names else "t"
+    found = time_named_columns(names)
+    return found[0] if len(found) == 1 else None
 
 
 def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
-    """The tool's attitude in a Universal Robots RTDE recording (module docstring)."""
+    """The tool's attitude in a Universal Robots recording (module docstring)."""
     path = os.fspath(path)
     names = _names(path)
-    actual = _rotation_columns(names, _POSE[0])
-    if "timestamp" not in names or actual is None:
-        target = _rotation_columns(names, _POSE[1])
-        if "timestamp" in names and target is not None:
-            rotation = ((f"rotvec_{a}", f"target_TCP_pose_{k}") for a, k in zip("xyz", _ROTATION, strict=True))
-            raise LogFormatError(
-                f"{path}, line 1: a Universal Robots recording without actual_TCP_pose: target_TCP_pose is the pose "
-                "the controller commanded, not the one the arm reached; to read it anyway: "
-                f"{columns_line([('t', 'timestamp'), *rotation])}"
-            )
+    actual, target = (_rotation_columns(names, pose) for pose in _POSE)
+    time = _time_column(names)
+    pose = "actual_TCP_pose" if actual is not None else "target_TCP_pose"
+    line = columns_line(
+        [("t", time or "NAME"), *((f"rotvec_{a}", f"{pose}_{k}") for a, k in zip("xyz", _ROTATION, strict=True))]
+    )
+    if actual is None and target is not None:
         raise LogFormatError(
-            f"{path}, line 1: not a Universal Robots recording (no timestamp and actual_TCP_pose_3..5)"
+            f"{path}, line 1: a Universal Robots recording without actual_TCP_pose: target_TCP_pose is the pose the "
+            f"controller commanded, not the one the arm reached; to read it anyway: {line}"
+        )
+    if actual is None:
+        raise LogFormatError(f"{path}, line 1: not a Universal Robots recording (no actual_TCP_pose_3..5)")
+    if time is None:
+        raise LogFormatError(
+            f"{path}, line 1: a Universal Robots pose without a time column ('timestamp', or one named as a time); "
+            f"name the column that holds the time: {line}"
         )
     if options.rotation != "body-to-inertial":
         raise LogFormatError(
@@ -87,7 +100,16 @@ def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
             "--rotation out"
         )
     cmap: ColumnMap = (
-        ("t", names.index("timestamp") + 1),
+        ("t", names.index(time) + 1),
         *((f"rotvec_{a}", j + 1) for a, j in zip("xyz", actual, strict=True)),
     )
-    return open_text(path, options, TextFormat(columns=cmap, describe=_describe))
+
+    def describe(stream: LogStream, lay: Layout, _names: list[str]) -> str:
+        del stream, lay
+        since = " (since the controller started)" if time == "timestamp" else ""
+        return (
+            "Universal Robots RTDE recording: attitude from actual_TCP_pose_3..5 (the tool's rotation vector in the "
+            f"base frame, radians), time from {time!r} in s{since}; rates in the tool's axes"
+        )
+
+    return open_text(path, options, TextFormat(columns=cmap, describe=describe))
