@@ -65,6 +65,16 @@ def test_the_estimate_turns_at_the_bodys_rate_with_no_spike_at_the_wrap(tmp_path
     assert "spike" not in printed
 
 
+def test_a_body_at_rest_at_a_half_turn_written_as_either_vector_is_at_rest(tmp_path, capsys):
+    # a UR controller at a half turn writes φ and −φ by turns (seen in a real recording): one rotation, exp(φ×) =
+    # exp(−φ×) where |φ| = π
+    axis = np.array([0.72, -0.69, 0.08]) / np.linalg.norm([0.72, -0.69, 0.08])
+    t = np.arange(200) * STEP
+    phi = np.pi * axis * np.where(np.arange(200) % 3 == 0, 1.0, -1.0)[:, None]
+    table, _ = estimate_file(_write(tmp_path / "rest.csv", t, phi), tmp_path, capsys)
+    assert np.abs(table[:, 1:]).max() < 1e-9
+
+
 def test_a_missing_component_is_a_missing_sample_and_degrees_get_a_note(tmp_path):
     t, R = _truth(200)
     phi = R.as_rotvec()
