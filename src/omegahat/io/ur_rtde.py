@@ -9,7 +9,7 @@ separated by commas. A vector field has one column per component, ``name_0 … n
 * ``timestamp``: seconds since the controller started (read as they are; the first is ``t0``). A recording of
   one's own with ``actual_TCP_pose_0..5`` and another time column (``t``, or the one named as a time: ``time``,
   ``Time (s)``, ``time_ns``, read in the unit its name states) is read the same way; without one it is refused with
-  the ``--columns`` line to complete;
+  the ``--columns`` lines that read it, with the time column or with ``--rate``;
 * ``actual_TCP_pose``: the tool centre point's pose in the robot's base frame, ``x, y, z`` in metres and then the
   **rotation vector** ``rx, ry, rz`` in radians (components 3–5; :mod:`omegahat.io.rotvec`, (V1)). It maps the
   tool's axes into the base's (body → inertial, omegahat's ``R``), so the rate comes out in the **tool's axes**.
@@ -79,9 +79,8 @@ def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     actual, target = (_rotation_columns(names, pose) for pose in _POSE)
     time = _time_column(names)
     pose = "actual_TCP_pose" if actual is not None else "target_TCP_pose"
-    line = columns_line(
-        [("t", time or "NAME"), *((f"rotvec_{a}", f"{pose}_{k}") for a, k in zip("xyz", _ROTATION, strict=True))]
-    )
+    rotation = [(f"rotvec_{a}", f"{pose}_{k}") for a, k in zip("xyz", _ROTATION, strict=True)]
+    line = columns_line([("t", time or "NAME"), *rotation])
     if actual is None and target is not None:
         raise LogFormatError(
             f"{path}, line 1: a Universal Robots recording without actual_TCP_pose: target_TCP_pose is the pose the "
@@ -92,7 +91,8 @@ def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     if time is None:
         raise LogFormatError(
             f"{path}, line 1: a Universal Robots pose without a time column ('timestamp', or one named as a time); "
-            f"name the column that holds the time: {line}"
+            f"name the column that holds the time: {line}, or where none does, give the rate it was recorded at: "
+            f"{columns_line(rotation)} --rate HZ (record.py records at 125 Hz unless told otherwise)"
         )
     if options.rotation != "body-to-inertial":
         raise LogFormatError(
