@@ -62,6 +62,9 @@ def backward_rates(t: np.ndarray, R: np.ndarray) -> np.ndarray:
 
 
 def one(path: Path, rate: float | None, folder: Path) -> list[str] | None:
+    if not path.is_file():
+        print(f"{path}: no such file: skipped")
+        return None
     with open(path) as f:
         header = f.readline()
     delimiter = "," if "," in header else None  # ur_rtde's CSV, or record.py's blanks
