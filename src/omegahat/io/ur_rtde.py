@@ -26,7 +26,7 @@ from __future__ import annotations
 import os
 
 from omegahat.io.colmap import ColumnMap, columns_line
-from omegahat.io.columns import Layout, LogFormatError, normalise_name, time_named_columns
+from omegahat.io.columns import Layout, LogFormatError, normalise_name, time_column_by_name
 from omegahat.io.csvlog import TextFormat, open_text
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import delimiter, head_lines, split_line
@@ -65,11 +65,10 @@ def is_ur_rtde(path: str | os.PathLike[str]) -> bool:
 
 
 def _time_column(names: list[str]) -> str | None:
-    """``timestamp``, or else the one column named as a time (``time``, ``t``, ``Time (s)``), or None."""
-    if "timestamp" in names or "t" in names:
-        return "timestamp" if "timestamp" in names else "t"
-    found = time_named_columns(names)
-    return found[0] if len(found) == 1 else None
+    """``timestamp``, or else ``t`` or the one column named as a time (the CSV reader's rule,
+    :func:`omegahat.io.columns.time_column_by_name`), or None."""
+    name = "timestamp" if "timestamp" in names else time_column_by_name(names, "t")[0]
+    return name if name in names else None
 
 
 def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
@@ -106,10 +105,10 @@ def open_ur_rtde(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
 
     def describe(stream: LogStream, lay: Layout, _names: list[str]) -> str:
         del stream, lay
-        since = " (since the controller started)" if time == "timestamp" else ""
+        since = " in s since the controller started" if time == "timestamp" else ""  # else the unit its name says
         return (
             "Universal Robots RTDE recording: attitude from actual_TCP_pose_3..5 (the tool's rotation vector in the "
-            f"base frame, radians), time from {time!r} in s{since}; rates in the tool's axes"
+            f"base frame, radians), time from {time!r}{since}; rates in the tool's axes"
         )
 
     return open_text(path, options, TextFormat(columns=cmap, describe=describe))
