@@ -29,7 +29,7 @@ import pyarrow.csv as pacsv
 
 from omegahat.io.columns import Layout, LogFormatError
 from omegahat.io.registry import LogChunk
-from omegahat.io.textlines import DELIMITERS, WHITESPACE, clean, refuse_inner_carriage_return
+from omegahat.io.textlines import WHITESPACE, clean, refuse_inner_carriage_return, wrong_width
 from omegahat.io.timestamps import ARROW_ERRORS, ExactTimes, first_failure
 
 __all__ = ["ChunkParser"]
@@ -143,12 +143,7 @@ class ChunkParser:
                 continue
             if len(row) != self.n_fields:
                 quote = " (a stray quote '\"' joins the fields after it)" if '"' in text else ""
-                raise LogFormatError(
-                    f"{self._where(line)}: {len(row)} fields, but the header (line {self.header_line}) names "
-                    f"{self.n_fields} (delimiter {DELIMITERS[self.delim]}){quote}"
-                    if self.header_line
-                    else f"{self._where(line)}: {len(row)} fields, but the first row has {self.n_fields}{quote}"
-                )
+                raise wrong_width(self._where(line), len(row), self.n_fields, self.delim, self.header_line, quote)
             for c, i in zip(self.cols, idx, strict=True):
                 out[c].append(row[i])
             lines.append(line)

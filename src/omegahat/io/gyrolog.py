@@ -34,7 +34,7 @@ import numpy as np
 from omegahat.io.colmap import join_header_rows
 from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
-from omegahat.io.textlines import DELIMITERS, delimiter, is_number, refuse_inner_carriage_return, split_line
+from omegahat.io.textlines import delimiter, is_number, refuse_inner_carriage_return, split_line, wrong_width
 from omegahat.io.timestamps import text_dates
 
 __all__ = [
@@ -207,10 +207,7 @@ def read_vectors(
         refuse_inner_carriage_return(row, f"{path}, line {line}")
         rows.append(split_line(row, delim, f"{path}, line {line}"))
         if len(rows[-1]) != len(names):
-            named = f"the header (line {head[-1][0]}) names" if head else f"line {first[0]} has"
-            raise LogFormatError(
-                f"{path}, line {line}: {len(rows[-1])} fields, but {named} {len(names)} (delimiter {DELIMITERS[delim]})"
-            )
+            raise wrong_width(f"{path}, line {line}", len(rows[-1]), len(names), delim, head[-1][0] if head else 0)
     dates = None
     if time_column is not None:  # ISO 8601 dates: seconds since 1970 (the attitude reader's rule)
         texts = [fields[idx[0]] if idx[0] < len(fields) else None for fields in rows]

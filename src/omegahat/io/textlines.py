@@ -177,6 +177,17 @@ def refuse_inner_carriage_return(line: str, where: str) -> None:
         raise LogFormatError(f"{where}: a carriage return (CR) inside the line, where only a line end may have one")
 
 
+def wrong_width(where: str, fields: int, expected: int, delim: str, header_line: int, why: str = "") -> LogFormatError:
+    """The error for a row of ``fields`` fields where the header (its last line ``header_line``; 0: none, then the
+    first row) has ``expected``; ``why`` follows the message (a stray quote's part)."""
+    against = (
+        f"the header (line {header_line}) names {expected} (delimiter {DELIMITERS[delim]})"
+        if header_line
+        else f"the first row has {expected}"
+    )
+    return LogFormatError(f"{where}: {fields} fields, but {against}{why}")
+
+
 def split_line(line: str, delim: str, where: str) -> list[str]:
     """The fields of one line (quotes honoured within the line); the number of fields is checked against
     :data:`~omegahat.io.columns.MAX_COLUMNS` before anything is split."""
