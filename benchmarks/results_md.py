@@ -6,6 +6,8 @@ import datetime
 import math
 import os
 import platform
+import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 RESULTS = Path(__file__).with_name("RESULTS.md")
@@ -65,3 +67,24 @@ def gmean(xs) -> float:
 def geo(xs: list[float]) -> str:
     """A table cell for ratios: ``geometric mean; lowest–highest`` (three decimals)."""
     return f"{gmean(xs):.3f}; {min(xs):.3f}–{max(xs):.3f}"
+
+
+def rows_of_files(paths: list[Path], one: Callable[[Path, Path], list[str] | None]) -> list[list[str]]:
+    """A table's rows, ``one(path, scratch folder)`` for each of ``paths`` (None: skipped, as ``one`` says), each
+    printed as it comes."""
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in paths:
+            row = one(path, Path(tmp))
+            if row is not None:
+                rows.append(row)
+                print(" | ".join(row))
+    return rows
+
+
+def write_table(title: str, command: str, text: str, head: list[str], rows: list[list[str]]) -> None:
+    """Write the section ``title``: the machine, the ``command`` that measured it, ``text``, and a table of ``rows``
+    under ``head`` (the first column left-aligned, the others right)."""
+    align = "| --- |" + " ---: |" * (len(head) - 1)
+    table = "\n".join([f"| {' | '.join(head)} |", align, *(f"| {' | '.join(r)} |" for r in rows)])
+    write_section(title, f"{machine_line()}\n\nCommand: `{command}` {text}\n\n{table}\n")

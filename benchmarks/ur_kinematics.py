@@ -23,7 +23,6 @@ import argparse
 import contextlib
 import io
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +30,7 @@ from scipy.spatial.transform import Rotation
 
 from omegahat.cli import main
 from omegahat.io import read_log
-from results_md import machine_line, write_section
+from results_md import rows_of_files, write_table
 
 SECTION = "## Real Universal Robots recordings against the arm's joint angles (benchmarks/ur_kinematics.py)"
 TWISTS = (np.pi / 2, 0.0, 0.0, np.pi / 2, -np.pi / 2, 0.0)  # α_i of every UR arm's chain
@@ -102,29 +101,21 @@ def one(path: Path, rate: float | None, folder: Path) -> list[str] | None:
 
 
 def run(paths: list[Path], rate: float | None) -> None:
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for path in paths:
-            row = one(path, rate, Path(tmp))
-            if row is not None:
-                rows.append(row)
-                print(" | ".join(row))
+    rows = rows_of_files(paths, lambda path, folder: one(path, rate, folder))
     if not rows:
         print("no recordings with joint angles: nothing written")
         return
-    head = (
-        "| recording | samples | Hz | turned (deg) | largest angle to the joints' rotation (rad) | the same, "
-        "transposed (rad) | default's rates − joints' rates, RMS (rad/s) | joints' rates, RMS (rad/s) |\n"
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n"
-    )
     given = "" if rate is None else f" --rate {rate:g}"
-    body = (
-        f"{machine_line()}\n\nCommand: `python benchmarks/ur_kinematics.py PATH...{given}`"
-        " (recordings given on the command line, not part of this repository). The rotations as read against the"
+    write_table(
+        SECTION,
+        f"python benchmarks/ur_kinematics.py PATH...{given}",
+        "(recordings given on the command line, not part of this repository). The rotations as read against the"
         " joint angles' kinematic chain (module docstring): the reader's convention agrees where the first angle is"
-        " small and the transposed one is not.\n\n" + head + "\n".join(f"| {' | '.join(r)} |" for r in rows) + "\n"
-    )
-    write_section(SECTION, body)
+        " small and the transposed one is not.",
+        ["recording", "samples", "Hz", "turned (deg)", "largest angle to the joints' rotation (rad)",
+         "the same, transposed (rad)", "default's rates − joints' rates, RMS (rad/s)", "joints' rates, RMS (rad/s)"],
+        rows,
+    )  # fmt: skip
 
 
 if __name__ == "__main__":

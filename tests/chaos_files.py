@@ -160,6 +160,11 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
         for k in range(rows)
     ]
     seeds.append(Seed("euroc", {"data.csv": ("\n".join(euroc) + "\n").encode()}, "data.csv", "data.csv", rows, 1))
+    # an Xsens MT Manager export: a '//' preamble, tabs, empty SampleTimeFine fields, R column by column
+    xsens = ["// Start Time: Unknown", "// Update Rate: 100.0Hz", "// Filter Profile: human (46.1)"]
+    xsens += ["\t".join(["PacketCounter", "SampleTimeFine", *(f"Mat[{i}][{j}]" for j in "123" for i in "123")])]
+    xsens += ["\t".join([f"{k:05d}", "", *(f"{x:.6f}" for x in R[k].T.ravel())]) for k in range(rows)]
+    seeds.append(Seed("xsens", {"mt.txt": ("\n".join(xsens) + "\n").encode()}, "mt.txt", "mt.txt", rows, 4))
     return seeds
 
 

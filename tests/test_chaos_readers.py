@@ -13,7 +13,7 @@ import pytest
 
 import chaos_files as chaos
 
-CASES = 8  #: mutated files per (reader, mutation) pair: 64 pairs, 512 files
+CASES = 8  #: mutated files per (reader, mutation) pair
 
 #: (reader, mutation) -> why it fails today (each reproducible: ``chaos.mutate(seed, mutation, rng(seed))``); none
 #: since a stray non-UTF-8 byte is shown in the message and ezc3d reads in a child process (its abort a message)
@@ -26,7 +26,7 @@ def seeds(tmp_path_factory):
 
 
 def _pairs():
-    text = ("csv", "motive", "vicon", "aem", "ur-rtde", "tum", "kitti", "euroc")
+    text = ("csv", "motive", "vicon", "aem", "ur-rtde", "tum", "kitti", "euroc", "xsens")
     names = ("npz", "parquet", "qtm-mat", "c3d", "rosbag1", "rosbag2", *text)
     for name in names:
         kinds = chaos.TEXT_MUTATIONS if name in text else chaos.BINARY_MUTATIONS

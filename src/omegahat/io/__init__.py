@@ -9,7 +9,7 @@
    EuRoC / ASL, TUM and KITTI trajectories of robotics (:mod:`omegahat.io.trajectories`), C3D files
    (:mod:`omegahat.io.c3d`), ROS 1 and ROS 2 bags (:mod:`omegahat.io.rosbag`), PX4 ULog flight logs and
    ulog2csv's CSV files (:mod:`omegahat.io.px4`), CCSDS attitude ephemeris messages (:mod:`omegahat.io.aem`),
-   Universal Robots RTDE recordings (:mod:`omegahat.io.ur_rtde`);
+   Universal Robots RTDE recordings (:mod:`omegahat.io.ur_rtde`), Xsens MT Manager exports (:mod:`omegahat.io.xsens`);
    pandas and Polars DataFrames enter the same path through :func:`omegahat.io.frames.open_frame`.
 2. :func:`open_log` opens any of them as a :class:`LogStream` of :class:`LogChunk` and applies, in one place,
    the time unit, the rotation convention, the precision policy (:mod:`omegahat.io.precision`) and the timestamp
@@ -56,6 +56,7 @@ from omegahat.io.timestamps import DUPLICATE_TOL
 from omegahat.io.trajectories import is_euroc, is_kitti, is_tum, open_euroc, open_kitti, open_tum
 from omegahat.io.ur_rtde import is_ur_rtde, open_ur_rtde
 from omegahat.io.writers import check_output, open_output, output_kind, register_writer
+from omegahat.io.xsens import is_xsens, open_xsens
 
 _BAG = ("topic", "parent_frame", "child_frame", "stamp")
 # Sniffing formats before the plain one of their extension (registry.detect_format): the order below is the order
@@ -73,6 +74,14 @@ register_format(
     title="a Universal Robots RTDE recording",
     sniff=is_ur_rtde,
     options=(),
+)
+register_format(
+    (".txt", ".csv", ".tsv"),
+    open_xsens,
+    name="xsens",
+    title="an Xsens MT Manager export",
+    sniff=is_xsens,
+    options=("rate",),
 )
 register_format(
     (".aem", ".kvn", ".txt", ".xml"),

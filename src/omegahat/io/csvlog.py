@@ -69,7 +69,10 @@ class TextFormat:
     ``names`` of the columns when there is no header, ``comment`` (``#`` lines are blank), ``blanks`` (columns
     separated by blanks; None: only with a column map), the format's own column ``columns`` (``--columns``
     overrides), ``time_scale`` (seconds per time unit, for formats that state it; then ``--time-unit`` is not
-    taken), and ``describe(stream, lay, names) -> str`` saying what was recognised (empty: omegahat's own)."""
+    taken), ``describe(stream, lay, names) -> str`` saying what was recognised (empty: omegahat's own),
+    ``preamble``: lines starting with it above the header are the format's own and skipped (Xsens' ``//`` lines,
+    whatever they hold), and ``extra``: pairs ``(key, names)`` of further columns read into each chunk's
+    ``extra[key]`` ``(m, len(names))``, NaN where a field is empty (the rates a log carries, to compare with)."""
 
     header_rows: int = 1
     names: tuple[str, ...] | None = None
@@ -78,6 +81,8 @@ class TextFormat:
     columns: ColumnMap | None = None
     time_scale: float | None = None
     describe: Callable[[LogStream, Layout, list[str]], str] | None = None
+    preamble: str = ""
+    extra: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
 
 class _Lines:
@@ -169,8 +174,9 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
             break
         if not header and _blank(clean(raw, comment, False), comment):
             continue
-        if not header and n_header and _prose_comment(raw):  # '# sampling frequency: 30' above the header
-            skipped_comments += 1
+        own = bool(fmt.preamble) and raw.lstrip().startswith(fmt.preamble.encode())
+        if not header and n_header and (own or _prose_comment(raw)):  # '# sampling frequency: 30' above the header
+            skipped_comments += not own  # the format's own preamble is no comment to mention
             continue
         if n_header == 0:  # no header: the first row shows the layout, and is data
             first = raw
@@ -266,7 +272,8 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         stream.notes.append(f"times: row k at k / {rate:g} s (--rate; the log has no time column)")
     if skipped_comments:
         stream.notes.append(f"{skipped_comments} comment line(s) starting with '#' or '//' above the header skipped")
-    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, time_scale or 1.0, comment, rate)
+    extra = {key: [names.index(normalise_name(n)) for n in cols] for key, cols in fmt.extra}
+    parser = ChunkParser(path, names, labels, lay, delim, header_line, times, time_scale or 1.0, comment, rate, extra)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
 

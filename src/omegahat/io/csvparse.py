@@ -41,7 +41,9 @@ class ChunkParser:
     blank-separated text), ``header_line`` the header's last line (0: none), ``times`` the time column's
     conversion, ``time_scale`` seconds per time unit the reader applies itself (EuRoC's ns), ``comment``: ``#``
     lines are blank; ``rate`` (Hz, for a log without a time column, ``lay.time`` empty): row ``k`` of the log (a line
-    with fields, blank lines not counted) is at ``k / rate`` s, counted across the buffers parsed in order."""
+    with fields, blank lines not counted) is at ``k / rate`` s, counted across the buffers parsed in order;
+    ``extra``: further columns by key (positions in ``names``), read into each chunk's ``extra[key]`` ``(m, k)``
+    with NaN for an empty field (they neither make a row a sample nor a blank line)."""
 
     def __init__(
         self,
@@ -55,6 +57,7 @@ class ChunkParser:
         time_scale: float = 1.0,
         comment: bool = False,
         rate: float | None = None,
+        extra: dict[str, list[int]] | None = None,
     ):
         self.path, self.names, self.labels, self.lay = path, list(names), list(labels), lay
         self.delim, self.header_line, self.times, self.time_scale, self.comment = (
@@ -67,6 +70,8 @@ class ChunkParser:
         self.n_fields = len(names)
         index = {n: i for i, n in enumerate(names) if n}
         self.cols = [f"c{index[c]}" for c in lay.columns]
+        self.extra = {key: [f"c{j}" for j in js] for key, js in (extra or {}).items()}
+        self.read = self.cols + [c for cols in self.extra.values() for c in cols if c not in self.cols]
         self.time_col = f"c{index[lay.time]}" if lay.time else None
         # --rate: how many rows the earlier buffers held, and the last one's line (times from the rate)
         self.rate, self.rows, self.last_line = rate, 0, 0
@@ -106,7 +111,7 @@ class ChunkParser:
 
     def _arrow(self, buf: bytes, as_text: bool) -> pa.Table:
         types = {
-            c: pa.string() if as_text or (c == self.time_col and self.times.exact) else pa.float64() for c in self.cols
+            c: pa.string() if as_text or (c == self.time_col and self.times.exact) else pa.float64() for c in self.read
         }
         return pacsv.read_csv(
             io.BytesIO(buf),
@@ -115,7 +120,7 @@ class ChunkParser:
             ),
             parse_options=pacsv.ParseOptions(delimiter=self.delim, ignore_empty_lines=True),
             convert_options=pacsv.ConvertOptions(
-                include_columns=self.cols,
+                include_columns=self.read,
                 column_types=types,
                 null_values=[""] if not as_text else [],
                 strings_can_be_null=not as_text,
@@ -126,8 +131,8 @@ class ChunkParser:
 
     def _python_rows(self, buf: bytes, first_line: int) -> tuple[dict[str, list[str]], np.ndarray]:
         """Each line on its own through Python's csv: the needed fields as text, and the line of each row."""
-        idx = [int(c[1:]) for c in self.cols]
-        out: dict[str, list[str]] = {c: [] for c in self.cols}
+        idx = [int(c[1:]) for c in self.read]
+        out: dict[str, list[str]] = {c: [] for c in self.read}
         lines = []
         for k, raw in enumerate(buf.split(b"\n")):
             line = first_line + k
@@ -144,7 +149,7 @@ class ChunkParser:
             if len(row) != self.n_fields:
                 quote = " (a stray quote '\"' joins the fields after it)" if '"' in text else ""
                 raise wrong_width(self._where(line), len(row), self.n_fields, self.delim, self.header_line, quote)
-            for c, i in zip(self.cols, idx, strict=True):
+            for c, i in zip(self.read, idx, strict=True):
                 out[c].append(row[i])
             lines.append(line)
         return out, np.array(lines, dtype=np.int64)
@@ -179,7 +184,7 @@ class ChunkParser:
             try:
                 table = self._arrow(buf, as_text=False)
                 if table.num_rows == lines.size:
-                    values = {c: table[c] for c in self.cols}
+                    values = {c: table[c] for c in self.read}
                     if self.times.exact and self.time_col is not None:
                         values[self.time_col] = self._numbers(
                             table[self.time_col].combine_chunks(), lines, self.time_col
@@ -188,7 +193,7 @@ class ChunkParser:
                 try:
                     table = self._arrow(buf, as_text=True)
                     if table.num_rows == lines.size:  # _numbers raises naming the first field that is no number
-                        values = {c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.cols}
+                        values = {c: self._numbers(table[c].combine_chunks(), lines, c) for c in self.read}
                 except ARROW_ERRORS:
                     values = None
         if values is None:
@@ -258,7 +263,8 @@ class ChunkParser:
             att = att.reshape(-1, 3, 3)
         elif lay.kind == "directions":
             att = att.reshape(-1, lay.n_directions, 3)
-        return LogChunk(t, att, torque, lines)
+        extra = {key: np.column_stack([arrays[c] for c in cols]) for key, cols in self.extra.items()}
+        return LogChunk(t, att, torque, lines, extra or None)
 
 
 def _text(x: float) -> str:

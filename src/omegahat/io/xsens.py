@@ -1,0 +1,219 @@
+r"""Xsens MT Manager exports: the text files MT Manager writes for an MTi or MTw (Awinda), recognised by the header.
+
+An export is a preamble of lines starting with ``//`` (``// Update Rate: 100.0Hz`` in older versions; device,
+filter and coordinate-system lines in newer ones), then one line of names and one line per sample, separated by
+tabs (the default), commas or semicolons::
+
+    // Update Rate: 100.0Hz
+    PacketCounter	SampleTimeFine	Acc_X	…	Gyr_X	Gyr_Y	Gyr_Z	Quat_q0	Quat_q1	Quat_q2	Quat_q3
+
+* **Attitude**, the first of these the export holds: the quaternion ``Quat_q0..q3`` (scalar first); the rotation
+  matrix ``Mat[i][j]``, the element of row i and column j of R, whatever order the columns come in; the Euler
+  angles ``Roll, Pitch, Yaw`` in degrees, R = Rz(yaw) Ry(pitch) Rx(roll) (``ZYX``, :mod:`omegahat.io.euler`). Each
+  is the sensor's orientation in the export's global frame (ENU unless the preamble says otherwise): it maps the
+  sensor's axes into the global ones (body → inertial, omegahat's ``R``), so the rate comes out in the **sensor's
+  axes**, those of ``Gyr_X..Z``. The three agree with each other in MT Manager's exports to their printed digits.
+* **Time**, the first of these the export gives: ``SampleTimeFine``, the device's clock in ticks of 100 µs
+  (:data:`TICK`), where the rows carry it; else ``PacketCounter`` at the rate of the ``// Update Rate`` line; else
+  ``PacketCounter`` at ``--rate HZ`` (newer exports do not state their rate: the message asks for it). Both counters
+  wrap (``PacketCounter`` is 16 bits: every 11 minutes at 100 Hz; ``SampleTimeFine`` 32 bits) and are unwrapped
+  (:func:`unwrapped`). A wireless MTw drops packets: the counter then skips, the times keep the missing samples'
+  places, and a note counts them.
+* **Gyroscope**: ``Gyr_X..Z`` (rad/s, sensor axes), where the export holds it, is compared with the estimate in the
+  command's closing lines. The export's orientation was itself computed from these gyroscopes, so the comparison
+  checks frames and conventions, not the estimate's accuracy.
+
+An export separated by single spaces is read only when no field is empty: there, two spaces cannot show an empty
+field between them, and it is refused with how to export it otherwise. ``--rotation`` is refused, since the format
+states the direction. The lines are read by the CSV reader (chunks of any size, every error naming its line and
+column).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from omegahat.io.colmap import ColumnMap
+from omegahat.io.columns import LogFormatError, normalise_name
+from omegahat.io.csvlog import TextFormat, open_text
+from omegahat.io.euler import matrices, turned_into_matrices
+from omegahat.io.registry import LogChunk, LogStream, ReadOptions
+from omegahat.io.textlines import WHITESPACE, delimiter, head_lines, split_line
+
+__all__ = ["TICK", "is_xsens", "open_xsens", "unwrapped"]
+
+TICK = 1e-4  #: SampleTimeFine's unit (s): MT Manager's exports count the device's clock in 10 kHz ticks
+_WRAP = {"packetcounter": 2**16, "sampletimefine": 2**32}  # each counter's modulus
+_QUATERNION = (("qw", "quat_q0"), ("qx", "quat_q1"), ("qy", "quat_q2"), ("qz", "quat_q3"))
+_MATRIX = tuple((f"r{i}{j}", f"mat[{i}][{j}]") for i in (1, 2, 3) for j in (1, 2, 3))
+_EULER = (("roll", "roll"), ("pitch", "pitch"), ("yaw", "yaw"))
+_ATTITUDES = (("Quat_q0..q3", _QUATERNION), ("Mat[1][1]..Mat[3][3]", _MATRIX), ("Roll, Pitch, Yaw", _EULER))
+_GYROSCOPE = ("gyr_x", "gyr_y", "gyr_z")
+_RATE = re.compile(r"^//\s*update rate:\s*([0-9.]+)\s*hz", re.IGNORECASE)
+_HEAD = 64  # lines read to find the header and the first rows
+
+
+def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
+    """The preamble's lines, the header's line number (1-based; 0: none), its names (normalised) and the first data
+    line (empty if none)."""
+    lines = head_lines(path, _HEAD)
+    preamble = []
+    for k, line in enumerate(lines):
+        if line.lstrip().startswith("//"):
+            preamble.append(line.strip())
+        elif line.strip():
+            try:
+                names = split_line(line, delimiter(line, path, True), path)
+            except LogFormatError:
+                return preamble, 0, [], []
+            rows = [r for r in lines[k + 1 :] if r.strip()]
+            return preamble, k + 1, [normalise_name(n) for n in names], rows[:1]
+    return preamble, 0, [], []
+
+
+def _attitude(names: list[str]) -> tuple[str, tuple[tuple[str, str], ...]] | None:
+    return next(((label, group) for label, group in _ATTITUDES if all(c in names for _, c in group)), None)
+
+
+def is_xsens(path: str | os.PathLike[str]) -> bool:
+    """Whether a text file is an MT Manager export: a header naming ``PacketCounter`` or ``SampleTimeFine``, under
+    a preamble of ``//`` lines, or with a whole attitude group of MT Manager's names."""
+    preamble, line, names, _ = _head(os.fspath(path))
+    counter = bool({"packetcounter", "sampletimefine"} & set(names))
+    return bool(line) and counter and (bool(preamble) or _attitude(names) is not None)
+
+
+def unwrapped(raw: np.ndarray, period: float, previous: float | None = None, offset: float = 0.0) -> np.ndarray:
+    """Times ``raw`` of a counter that wraps every ``period`` (in the times' unit) made continuous: a step back by
+    more than half a period is a wrap. ``previous`` is the raw time before ``raw[0]`` (the last chunk's; None:
+    none) and ``offset`` what was added to it; a smaller step back is left as it is, for the timestamp policy to
+    name."""
+    steps = np.diff(raw, prepend=raw[0] if previous is None else previous)
+    return raw + offset + period * np.cumsum(steps < -period / 2)
+
+
+def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
+    """The sensor's attitude in an MT Manager export (module docstring)."""
+    path = os.fspath(path)
+    preamble, line, names, first = _head(path)
+    found = _attitude(names)
+    if found is None:
+        raise LogFormatError(
+            f"{path}, line {line} (header): an Xsens MT Manager export without an orientation (Quat_q0..q3, "
+            "Mat[1][1]..Mat[3][3] or Roll, Pitch, Yaw); export it with one (MT Manager's exporter settings)"
+        )
+    label, group = found
+    where = f"{path}, line {line} (header)"
+    if options.rotation != "body-to-inertial":
+        raise LogFormatError(
+            f"{where}: an Xsens orientation maps the sensor's axes into the global frame, as "
+            "omegahat's R does; leave --rotation out"
+        )
+    header = head_lines(path, line)[-1]
+    blanks = delimiter(header, path, True) == WHITESPACE
+    if blanks and first and len(first[0].split()) != len(names):
+        raise LogFormatError(
+            f"{path}, line {line + 1}: {len(first[0].split())} fields under {len(names)} names: this export is "
+            "separated by single spaces, where an empty field cannot be told from the space beside it; export it "
+            "with tabs (MT Manager's default), commas or semicolons"
+        )
+    stated = next((float(m.group(1)) for p in preamble if (m := _RATE.match(p))), None)
+    fine = "sampletimefine" in names and first and _filled(first[0], header, names.index("sampletimefine"), path)
+    notes = []
+    rate: float | None = None  # packets per second, where the times are the packet counter's
+    if fine:
+        if options.rate is not None:
+            raise LogFormatError(f"{where}: the export's rows carry their times (SampleTimeFine); leave --rate out")
+        clock, scale, said = "sampletimefine", TICK, "SampleTimeFine, the device's clock in 100 µs ticks"
+    elif "packetcounter" not in names:
+        raise LogFormatError(f"{path}, line {line + 1}: SampleTimeFine is empty and there is no PacketCounter")
+    else:
+        rate = options.rate if options.rate is not None else stated
+        if rate is None:
+            raise LogFormatError(
+                f"{where}: the export does not state its rate (no '// Update Rate' line, SampleTimeFine empty); "
+                "give the rate it was recorded at: --rate HZ (MT Manager's update rate; the times are then "
+                "PacketCounter / HZ, so dropped packets keep their places)"
+            )
+        if options.rate is not None and stated is not None and not np.isclose(options.rate, stated):
+            notes.append(f"--rate {options.rate:g} Hz used, where the export states {stated:g} Hz")
+        clock, scale = "packetcounter", 1.0  # counts, divided by the rate once unwrapped (exact times)
+        said = f"PacketCounter at {rate:g} Hz" + (" (--rate)" if options.rate is not None else "")
+    cmap: ColumnMap = (("t", names.index(clock) + 1), *((key, names.index(c) + 1) for key, c in group))
+    gyro = all(c in names for c in _GYROSCOPE)
+
+    def describe(stream: LogStream, lay, _names) -> str:
+        del stream, lay
+        return (
+            f"Xsens MT Manager export: attitude from {label} (the sensor's axes into the global frame), time from "
+            f"{said}; rates in the sensor's axes"
+        )
+
+    fmt = TextFormat(
+        columns=cmap,
+        time_scale=scale,
+        describe=describe,
+        blanks=blanks,  # tabs, commas or semicolons keep an empty field's place
+        preamble="//",
+        extra=(("reference_rate", _GYROSCOPE),) if gyro else (),
+    )
+    stream = open_text(path, replace(options, rate=None), fmt)
+    stream.notes.extend(notes)
+    if gyro:
+        stream.meta["reference_rate"] = (
+            "the export's gyroscope (Gyr_X..Z, sensor axes; the orientation was fused from it)"
+        )
+    _follow_counter(stream, _WRAP[clock] * scale, rate if clock == "packetcounter" else None)
+    if group is _EULER:
+        stream.notes.append("attitude: Roll, Pitch, Yaw in degrees, R = Rz(yaw) Ry(pitch) Rx(roll) (Xsens' sequence)")
+        turned_into_matrices(stream, lambda angles: matrices(angles, "ZYX", True), np.abs, None)
+    return stream
+
+
+def _filled(row: str, header: str, j: int, path: str) -> bool:
+    """Whether field ``j`` of the data line ``row`` holds a finite number."""
+    try:
+        field = split_line(row, delimiter(header, path, True), path)[j].strip()
+        return bool(np.isfinite(float(field)))
+    except (LogFormatError, IndexError, ValueError):
+        return False
+
+
+@dataclass
+class _Clock:
+    """Where the counter stands between chunks: the last raw time, what was added to it, the packets missed."""
+
+    raw: float | None = None
+    offset: float = 0.0
+    missing: int = 0
+    skips: int = 0
+
+
+def _follow_counter(stream: LogStream, period: float, rate: float | None) -> None:
+    """Unwrap the clock's times as the chunks are read (:func:`unwrapped`). With ``rate`` (Hz) the times are packet
+    counts, divided by it once unwrapped, and the packets the counter skips are counted in a note."""
+    clock = _Clock()
+
+    def chunks(raw: Iterator[LogChunk]) -> Iterator[LogChunk]:
+        for chunk in raw:
+            before = None if clock.raw is None else clock.raw + clock.offset
+            t = unwrapped(chunk.t, period, clock.raw, clock.offset)
+            clock.raw, clock.offset = float(chunk.t[-1]), float(t[-1] - chunk.t[-1])
+            if rate is not None:
+                steps = np.diff(t, prepend=t[0] if before is None else before)
+                clock.missing += int(np.sum(np.maximum(steps - 1, 0)))
+                clock.skips += int(np.sum(steps > 1))
+                t = t / rate
+            yield replace(chunk, t=t)
+        if clock.missing:
+            stream.notes.append(
+                f"{clock.missing} packet(s) missing in {clock.skips} place(s) (PacketCounter skips): the times keep "
+                "their places, so the rates across them are those of the time that passed"
+            )
+
+    stream.convert(chunks)

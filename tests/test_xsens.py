@@ -1,0 +1,148 @@
+"""Xsens MT Manager exports (omegahat.io.xsens).
+
+The exports are written here as MT Manager writes them (a ``//`` preamble, then names and rows separated by tabs,
+commas, semicolons or single spaces; empty fields where a value is not exported), for a body turning at a known rate
+in its own axes, ``R(t) = R0 exp(S(ω) t)``, with SciPy's conversions, not omegahat's: the quaternion scalar first,
+``Mat[i][j]`` the element of row i and column j (written column by column, as MT Manager orders them), Roll, Pitch,
+Yaw in degrees of the sequence R = Rz(yaw) Ry(pitch) Rx(roll). A reader that transposed R, or took another
+sequence, would get another rate than ω in the sensor's axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from omegahat.cli import main
+from omegahat.io import read_log
+from omegahat.io.xsens import TICK, unwrapped
+from recording_files import estimate_file
+
+OMEGA = np.array([0.5, -0.8, 0.6])  # rad/s, sensor axes
+R0 = Rotation.from_rotvec([0.4, 2.2, -1.0])
+OLD_PREAMBLE = "// Start Time: Unknown\n// Update Rate: {rate}Hz\n// Filter Profile: human (46.1)\n"
+NEW_PREAMBLE = (
+    "// General information: \n//  MT Manager version: 2022.2.0 \n// Device settings: \n"
+    "//  Option Flags: Orientation Smoother Disabled, AHS Disabled, ICC Disabled\n// Coordinate system: ENU\n"
+)
+MATRIX_NAMES = [f"Mat[{i}][{j}]" for j in (1, 2, 3) for i in (1, 2, 3)]  # MT Manager's order: column by column
+
+
+def _export(path, counter, *, rate=100.0, attitude="quat", sep="\t", preamble=OLD_PREAMBLE, fine=None, drop=()):
+    """An MT Manager export of the body turning at OMEGA: one row per packet ``counter`` (wrapping at 2**16), times
+    ``counter / rate`` (unwrapped) or SampleTimeFine ticks ``fine``; rows ``drop`` left out (lost packets)."""
+    counts = np.asarray(counter, dtype=np.int64)
+    s = (counts - counts[0]) / rate
+    R = R0 * Rotation.from_rotvec(np.outer(s, OMEGA))
+    names = ["PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
+    if attitude == "quat":
+        names += ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]
+        q = R.as_quat()
+        values = np.column_stack([q[:, 3], q[:, :3]])
+    elif attitude == "matrix":
+        names += MATRIX_NAMES
+        m = R.as_matrix()
+        values = np.column_stack([m[:, i - 1, j - 1] for j in (1, 2, 3) for i in (1, 2, 3)])
+    else:
+        names += ["Roll", "Pitch", "Yaw"]
+        values = R.as_euler("ZYX", degrees=True)[:, ::-1]  # yaw, pitch, roll → roll, pitch, yaw
+    lines = [sep.join(names)]
+    for k, c in enumerate(counts % 2**16):
+        if k in drop:
+            continue
+        time = "" if fine is None else str(int(fine[k]) % 2**32)
+        fields = [f"{c:05d}", time, "0.1", "0.2", "9.8", *(repr(float(w)) for w in OMEGA)]
+        lines.append(sep.join(fields + [repr(float(v)) for v in values[k]]))
+    path.write_text(preamble.format(rate=rate) + "\n".join(lines) + "\n")
+    return path, s, R
+
+
+@pytest.mark.parametrize("attitude", ["quat", "matrix", "euler"])
+def test_each_attitude_of_an_export_is_the_sensors_orientation(tmp_path, attitude):
+    path, s, R = _export(tmp_path / "mt.txt", 1000 + np.arange(300), attitude=attitude)
+    log = read_log(path)
+    assert log.format == "xsens"
+    assert log.description.startswith("Xsens MT Manager export")
+    np.testing.assert_allclose(log.t + log.t0, 10.0 + s, atol=1e-12)  # counter 1000 at 100 Hz
+    got = Rotation.from_quat(log.data) if log.kind == "quaternion" else Rotation.from_matrix(log.data)
+    assert np.max((got.inv() * R).magnitude()) < 1e-9
+    steps = (got[:-1].inv() * got[1:]).as_rotvec()  # increments in the sensor's axes
+    np.testing.assert_allclose(steps, np.tile(OMEGA * 0.01, (len(s) - 1, 1)), atol=1e-9)
+    np.testing.assert_allclose(log.extra["reference_rate"], np.tile(OMEGA, (len(s), 1)), atol=0)
+
+
+def test_the_estimate_is_the_rate_in_the_sensors_axes_and_is_compared_with_the_gyroscope(tmp_path, capsys):
+    path, s, _ = _export(tmp_path / "mt.txt", 500 + np.arange(600), attitude="matrix")
+    table, printed = estimate_file(path, tmp_path, capsys)
+    np.testing.assert_allclose(table[:, 0], 5.0 + s, atol=1e-12)
+    np.testing.assert_allclose(table[50:, 1:], np.tile(OMEGA, (len(s) - 50, 1)), atol=1e-6)
+    assert "against the export's gyroscope (Gyr_X..Z, sensor axes" in printed
+
+
+def test_the_packet_counter_wraps_and_dropped_packets_keep_their_places(tmp_path, capsys):
+    counter = 65536 - 150 + np.arange(400)  # wraps at 2**16 after 150 packets
+    drop = {20, 21, 22, 200}
+    path, *_ = _export(tmp_path / "mt.txt", counter, rate=60.0, drop=drop)
+    # small chunks, so that the wrap and the gaps fall across chunk boundaries
+    log = read_log(path, chunk_bytes=4096)
+    kept = np.array([k for k in range(len(counter)) if k not in drop])
+    np.testing.assert_allclose(log.t + log.t0, counter[kept] / 60.0, rtol=0, atol=1e-9)
+    assert any("4 packet(s) missing in 2 place(s)" in n for n in log.notes)
+    table, _ = estimate_file(path, tmp_path, capsys)
+    np.testing.assert_allclose(table[30:, 1:], np.tile(OMEGA, (len(kept) - 30, 1)), atol=1e-6)
+
+
+def test_a_newer_export_without_its_rate_asks_for_it_and_reads_with_it(tmp_path, capsys):
+    path, s, _ = _export(tmp_path / "mt.csv", 51400 + np.arange(200), sep=",", preamble=NEW_PREAMBLE, rate=40.0)
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and "does not state its rate" in err and "--rate HZ" in err and "Traceback" not in err
+    assert not (tmp_path / "o.csv").exists()
+    table, _ = estimate_file(path, tmp_path, capsys, "--rate", "40")
+    np.testing.assert_allclose(table[:, 0], 51400 / 40 + s, atol=1e-9)
+    np.testing.assert_allclose(table[30:, 1:], np.tile(OMEGA, (len(s) - 30, 1)), atol=1e-6)
+
+
+def test_sample_time_fine_gives_the_times_in_100_us_ticks_across_its_wrap(tmp_path, capsys):
+    ticks = 2**32 - 50 * 100 + np.arange(300) * 100  # a 100 Hz device clock wrapping after 50 samples
+    path, *_ = _export(tmp_path / "mt.txt", 7 + np.arange(300), sep=";", fine=ticks, attitude="euler")
+    log = read_log(path, chunk_bytes=4096)
+    np.testing.assert_allclose(log.t + log.t0, ticks * TICK, rtol=0, atol=1e-6)
+    assert "SampleTimeFine" in log.description
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress", "--rate", "100"])
+    assert code == 2 and "leave --rate out" in capsys.readouterr().err
+
+
+def test_single_spaces_are_read_without_empty_fields_and_refused_with_them(tmp_path, capsys):
+    # with SampleTimeFine filled no field is empty: the blanks are read
+    path, s, _ = _export(tmp_path / "full.txt", np.arange(200), sep=" ", fine=np.arange(200) * 100)
+    table, _ = estimate_file(path, tmp_path, capsys)
+    np.testing.assert_allclose(table[30:, 1:], np.tile(OMEGA, (len(s) - 30, 1)), atol=1e-6)
+    path, *_ = _export(tmp_path / "empty.txt", np.arange(200), sep=" ")  # SampleTimeFine empty: "00001  0.1 ..."
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and "single spaces" in err and "line 5" in err and "tabs" in err
+
+
+def test_an_export_without_orientation_and_rotation_option_are_refused(tmp_path, capsys):
+    path = tmp_path / "acc.txt"
+    path.write_text(NEW_PREAMBLE + "PacketCounter\tSampleTimeFine\tAcc_X\tAcc_Y\tAcc_Z\n1\t\t0.1\t0.2\t9.8\n")
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and "without an orientation" in err and "line 6" in err
+    path, *_ = _export(tmp_path / "mt.txt", np.arange(100))
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--rotation", "inertial-to-body"])
+    assert code == 2 and "leave --rotation out" in capsys.readouterr().err
+
+
+def test_unwrapped_counts_equal_the_counts_before_the_modulus():
+    counts = 65000 + np.arange(3000)  # two wraps of a 16-bit counter
+    raw = (counts % 2**16).astype(float)
+    np.testing.assert_array_equal(unwrapped(raw, 2**16), counts - 0)
+    # in two pieces, the second told where the first ended
+    first = unwrapped(raw[:1000], 2**16)
+    second = unwrapped(raw[1000:], 2**16, float(raw[999]), float(first[-1] - raw[999]))
+    np.testing.assert_array_equal(np.concatenate([first, second]), counts)
+    # a small step back is no wrap: left for the timestamp policy
+    np.testing.assert_array_equal(unwrapped(np.array([10.0, 12.0, 11.0]), 2**16), [10.0, 12.0, 11.0])
