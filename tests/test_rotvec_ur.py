@@ -129,6 +129,17 @@ def test_rx_ry_rz_are_refused_with_both_readings_and_the_rotation_vector_one_rea
                                atol=1e-6)  # fmt: skip
 
 
+def test_a_dataframe_with_rx_ry_rz_is_refused_with_the_columns_that_read_it(tmp_path):
+    t, R = _truth(300)
+    df = pd.DataFrame(np.column_stack([t, R.as_rotvec()]), columns=["timestamp", "rx", "ry", "rz"])
+    with pytest.raises(LogFormatError) as err:
+        estimate_frame(df)
+    line = "t=timestamp,rotvec_x=rx,rotvec_y=ry,rotvec_z=rz"
+    assert "columns= reads others" in str(err.value) and f"--columns {line}" in str(err.value)
+    out = estimate_frame(df, columns=line)
+    np.testing.assert_allclose(out[["wx", "wy", "wz"]].to_numpy()[50:], np.tile(OMEGA, (250, 1)), atol=1e-6)
+
+
 # ------------------------------------------------------------------------------------- Universal Robots RTDE
 
 _JOINTS = [f"{field}_{i}" for field in ("target_q", "actual_q") for i in range(6)]

@@ -38,7 +38,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from omegahat.interface import STATUS_WORDS
-from omegahat.io.colmap import apply_columns, frame_names, named_quaternion, named_quaternion_note
+from omegahat.io.colmap import (
+    COLUMNS_TEMPLATE,
+    apply_columns,
+    frame_names,
+    named_quaternion,
+    named_quaternion_note,
+    suggest_columns,
+)
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name, time_column_by_name
 from omegahat.io.frame_columns import frame_numbers, pandas_times, polars_times, time_index
 from omegahat.io.registry import LogStream, ReadOptions, checked_stream
@@ -125,7 +132,13 @@ def open_frame(
     else:
         times, time_name = polars_times(df, time)
     used = [as_named.get(n, n) for n in names]
-    lay = layout([u for u, n in zip(used, names, strict=True) if n != time_name], "DataFrame", None)
+    try:
+        lay = layout([u for u, n in zip(used, names, strict=True) if n != time_name], "DataFrame", None)
+    except LogFormatError as exc:  # the columns= that reads them, where their names suggest one (as a CSV's)
+        line = COLUMNS_TEMPLATE if options.column_map else suggest_columns(names)
+        if line == COLUMNS_TEMPLATE:
+            raise
+        raise LogFormatError(f"{exc}; columns= reads others, as the command line's --columns does: {line}") from None
     original = {normalise_name(u): n for u, n in zip(used, names, strict=True)}
     data = frame_numbers(df, [original[c] for c in lay.attitude], frame_kind)
     T = data.shape[0]
