@@ -30,6 +30,11 @@ Noise in the increments lowers ``|H|`` and ``γ²`` alike (to ``SNR_b/(1 + SNR_b
 noise in the gyroscope lowers ``γ²`` only, so ``|H|`` well below ``γ²`` means the reference itself responds less
 than the attitude's motion: its own filtering, or a marker body that moves against the sensor. A causal filter that
 restores the interval mean's ``sinc`` loss is then scored against a rate that never had it.
+
+**Where in the band is the loss?** Both modes also give the filter's error over differencing's with the score's
+low-pass moved down to 8, 6 and 4 Hz (:data:`LOWER_CUTOFFS_HZ`, where below the row's own cut-off): a loss that
+goes where the band stops short of the frequencies at which (R1) finds the reference responding less is the
+reference's, not the estimate's.
 """
 
 from __future__ import annotations
@@ -52,6 +57,20 @@ from omegahat.lab.evaluation.corpus import load_recording, recordings
 from results_md import gmean
 
 BANDS_HZ = (0.5, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0)
+LOWER_CUTOFFS_HZ = (8.0, 6.0, 4.0)  #: the score's low-pass moved down (Hz), for where the loss lies
+
+
+def lower_band_ratios(rec, estimate: np.ndarray, differences: np.ndarray) -> dict[float, float]:
+    """The estimate's score over differencing's with the error low-passed at each of :data:`LOWER_CUTOFFS_HZ` below
+    the recording's own cut-off."""
+    options = rec.score_options()
+    own = score_cutoff_hz(rec.fs, options.get("cutoff_hz"))
+    return {
+        cut: score(rec, estimate, **{**options, "cutoff_hz": cut}).rms
+        / score(rec, differences, **{**options, "cutoff_hz": cut}).rms
+        for cut in LOWER_CUTOFFS_HZ
+        if cut < own
+    }
 
 
 def longest_run(ok: np.ndarray) -> slice:
@@ -115,6 +134,7 @@ def cross_validated(corpus: Path) -> int:
     expected one (whole band) and the score's band's expected ratio by each half's filter judged by the other half;
     then the summary (geometric means, and the rule of the module docstring)."""
     rows, kept_differencing = [], 0
+    lower: list[dict[float, float]] = []  # per row, the ratio with the low-pass moved down
     for path in recordings(corpus):
         rec = load_recording(path)
         if rec.kind != "quaternion" or rec.meta.get("truth"):  # a simulated plant is scored against its truth
@@ -128,17 +148,22 @@ def cross_validated(corpus: Path) -> int:
             if design.is_differencing or not np.isfinite(design.expected_rms):
                 kept_differencing += 1
                 continue
-            bwd = score(r, DifferencingEstimator().run(r.t, r.data).omega, **options).rms
-            mine = score(r, DifferencingEstimator(taps=design.taps).run(r.t, r.data).omega, **options).rms
+            plain = DifferencingEstimator().run(r.t, r.data).omega
+            filtered = DifferencingEstimator(taps=design.taps).run(r.t, r.data).omega
+            mine = score(r, filtered, **options).rms / score(r, plain, **options).rms
             judged = [b for _, b in parts]
-            rows.append((r.name, mine / bwd, design.expected_rms / design.differencing_rms, *judged))
-            print(f"{r.name:48s} measured {mine / bwd:.4f}  expected {rows[-1][2]:.3f}  "
-                  f"by the other half, in the score's band {judged[0]:.3f} / {judged[1]:.3f}", flush=True)  # fmt: skip
+            rows.append((r.name, mine, design.expected_rms / design.differencing_rms, *judged))
+            lower.append(lower_band_ratios(r, filtered, plain))
+            print(f"{r.name:48s} measured {mine:.4f}  expected {rows[-1][2]:.3f}  "
+                  f"by the other half, in the score's band {judged[0]:.3f} / {judged[1]:.3f}; "
+                  + ", ".join(f"to {c:g} Hz {x:.4f}" for c, x in lower[-1].items()), flush=True)  # fmt: skip
     if not rows:
         print(f"skipped: no attitude recording with a filter in {corpus}")
         return 0
     a = np.array([row[1:] for row in rows], dtype=float)
-    a = a[np.all(np.isfinite(a), axis=1)]
+    finite = np.all(np.isfinite(a), axis=1)
+    lower = [x for x, ok in zip(lower, finite, strict=True) if ok]
+    a = a[finite]
     measured, expected, first, second = a.T
     declined = (first >= 1.0) | (second >= 1.0)
     ruled = np.where(declined, 1.0, measured)
@@ -150,6 +175,13 @@ def cross_validated(corpus: Path) -> int:
           f"(worst {measured[declined].max() if declined.any() else float('nan'):.4f}), "
           f"{np.sum(declined & (measured > 1.02))} of the rows above 1.02")  # fmt: skip
     print(f"  with the rule: {gmean(ruled):.4f}, worst {ruled.max():.4f}, above 1.02 on {np.sum(ruled > 1.02)}")
+    for cut in LOWER_CUTOFFS_HZ:  # the same rows, with the score's low-pass moved down where it is below theirs
+        at = np.array([x[cut] for x in lower if cut in x])
+        over = np.array([m for m, x in zip(measured, lower, strict=True) if cut in x])
+        if at.size:
+            print(f"  to {cut:g} Hz ({at.size} rows whose cut-off is higher): {gmean(at):.4f}, worst {at.max():.4f}, "
+                  f"above 1.02 on {np.sum(at > 1.02)} (the same rows at their own cut-off: {gmean(over):.4f}, worst "
+                  f"{over.max():.4f}, above 1.02 on {np.sum(over > 1.02)})")  # fmt: skip
     return 0
 
 
@@ -180,6 +212,13 @@ def main(argv: list[str]) -> int:
         print(f"{spec}\n  expected ÷ differencing: whole log {whole:.3f}; {judged}", flush=True)
         cells = [f"{lo:g}-{hi:g} Hz {gain:.2f} γ² {coh:.2f}" for lo, hi, gain, coh in response(path, int(step or 1))]
         print("  reference ÷ increments (R1): " + "; ".join(cells), flush=True)
+        options = rec.score_options()
+        plain = DifferencingEstimator().run(rec.t, rec.data).omega
+        filtered = DifferencingEstimator(taps=design.taps).run(rec.t, rec.data).omega
+        ratios = {score_cutoff_hz(rec.fs, options.get("cutoff_hz")): score(rec, filtered, **options).rms
+                  / score(rec, plain, **options).rms, **lower_band_ratios(rec, filtered, plain)}  # fmt: skip
+        print("  the filter ÷ differencing, the error low-passed at " + ", ".join(
+            f"{c:g} Hz {x:.4f}" for c, x in ratios.items()), flush=True)  # fmt: skip
     return 0
 
 
