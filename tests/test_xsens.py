@@ -125,6 +125,16 @@ def test_single_spaces_are_read_without_empty_fields_and_refused_with_them(tmp_p
     assert code == 2 and "single spaces" in err and "line 5" in err and "tabs" in err
 
 
+def test_a_preamble_rate_of_zero_is_refused_and_rate_reads_the_export(tmp_path, capsys):
+    path, s, _ = _export(tmp_path / "mt.txt", np.arange(200), preamble="// Update Rate: 0.0Hz\n")
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and "'// Update Rate' is 0 Hz" in err and "--rate HZ" in err and "Warning" not in err
+    table, printed = estimate_file(path, tmp_path, capsys, "--rate", "100")
+    np.testing.assert_allclose(table[30:, 1:], np.tile(OMEGA, (len(s) - 30, 1)), atol=1e-6)
+    assert "--rate 100 Hz used, where the export states 0 Hz" in printed
+
+
 def test_an_export_without_orientation_and_rotation_option_are_refused(tmp_path, capsys):
     path = tmp_path / "acc.txt"
     path.write_text(NEW_PREAMBLE + "PacketCounter\tSampleTimeFine\tAcc_X\tAcc_Y\tAcc_Z\n1\t\t0.1\t0.2\t9.8\n")

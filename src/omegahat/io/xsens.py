@@ -31,6 +31,7 @@ column).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Iterator
@@ -123,6 +124,11 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             "with tabs (MT Manager's default), commas or semicolons"
         )
     stated = next((float(m.group(1)) for p in preamble if (m := _RATE.match(p))), None)
+    if stated is not None and not (math.isfinite(stated) and stated > 0) and options.rate is None:
+        raise LogFormatError(
+            f"{path}: the preamble's '// Update Rate' is {stated:g} Hz, no rate to count packets by; give the rate "
+            "it was recorded at: --rate HZ"
+        )
     fine = "sampletimefine" in names and first and _filled(first[0], header, names.index("sampletimefine"), path)
     notes = []
     rate: float | None = None  # packets per second, where the times are the packet counter's
