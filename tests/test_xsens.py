@@ -110,8 +110,20 @@ def test_sample_time_fine_gives_the_times_in_100_us_ticks_across_its_wrap(tmp_pa
     log = read_log(path, chunk_bytes=4096)
     np.testing.assert_allclose(log.t + log.t0, ticks * TICK, rtol=0, atol=1e-6)
     assert "SampleTimeFine" in log.description
-    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress", "--rate", "100"])
-    assert code == 2 and "leave --rate out" in capsys.readouterr().err
+    # --rate counts the packets instead (here the same times: the clock and the counter agree)
+    log = read_log(path, rate=100.0)
+    np.testing.assert_allclose(log.t + log.t0, (7 + np.arange(300)) / 100.0, atol=1e-9)
+    assert any("SampleTimeFine not read" in n for n in log.notes)
+
+
+def test_sample_time_fine_in_other_ticks_than_the_stated_rate_is_refused(tmp_path, capsys):
+    # a device clock in microseconds (as an Xsens DOT counts) under a preamble of 100 Hz: 100 times too slow
+    path, s, _ = _export(tmp_path / "mt.txt", np.arange(300), fine=5_000_000 + np.arange(300) * 10_000)
+    code = main(["estimate", str(path), "-o", str(tmp_path / "o.csv"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert code == 2 and "SampleTimeFine steps by 10000 ticks, 1 Hz" in err and "--rate 100" in err
+    table, _ = estimate_file(path, tmp_path, capsys, "--rate", "100")
+    np.testing.assert_allclose(table[30:, 1:], np.tile(OMEGA, (len(s) - 30, 1)), atol=1e-6)
 
 
 def test_single_spaces_are_read_without_empty_fields_and_refused_with_them(tmp_path, capsys):

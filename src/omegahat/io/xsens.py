@@ -15,10 +15,12 @@ tabs (the default), commas or semicolons::
   axes**, those of ``Gyr_X..Z``. The three agree with each other in MT Manager's exports to their printed digits.
 * **Time**, the first of these the export gives: ``SampleTimeFine``, the device's clock in ticks of 100 µs
   (:data:`TICK`), where the rows carry it; else ``PacketCounter`` at the rate of the ``// Update Rate`` line; else
-  ``PacketCounter`` at ``--rate HZ`` (newer exports do not state their rate: the message asks for it). Both counters
-  wrap (``PacketCounter`` is 16 bits: every 11 minutes at 100 Hz; ``SampleTimeFine`` 32 bits) and are unwrapped
-  (:func:`unwrapped`). A wireless MTw drops packets: the counter then skips, the times keep the missing samples'
-  places, and a note counts them.
+  ``PacketCounter`` at ``--rate HZ`` (newer exports do not state their rate: the message asks for it; given, it
+  counts the packets whatever else the export holds). ``SampleTimeFine`` whose steps are more than twice off the
+  preamble's rate is refused (its ticks are not MT Manager's), with the ``--rate`` that counts the packets. Both
+  counters wrap (``PacketCounter`` is 16 bits: every 11 minutes at 100 Hz; ``SampleTimeFine`` 32 bits) and are
+  unwrapped (:func:`unwrapped`). A wireless MTw drops packets: the counter then skips, the times keep the missing
+  samples' places, and a note counts them.
 * **Gyroscope**: ``Gyr_X..Z`` (rad/s, sensor axes), where the export holds it, is compared with the estimate in the
   command's closing lines. The export's orientation was itself computed from these gyroscopes, so the comparison
   checks frames and conventions, not the estimate's accuracy.
@@ -61,7 +63,7 @@ _HEAD = 64  # lines read to find the header and the first rows
 
 def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
     """The preamble's lines, the header's line number (1-based; 0: none), its names (normalised) and the first data
-    line (empty if none)."""
+    lines (up to :data:`_HEAD` lines are read; none if there are none)."""
     lines = head_lines(path, _HEAD)
     preamble = []
     for k, line in enumerate(lines):
@@ -73,7 +75,7 @@ def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
             except LogFormatError:
                 return preamble, 0, [], []
             rows = [r for r in lines[k + 1 :] if r.strip()]
-            return preamble, k + 1, [normalise_name(n) for n in names], rows[:1]
+            return preamble, k + 1, [normalise_name(n) for n in names], rows
     return preamble, 0, [], []
 
 
@@ -129,12 +131,11 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             f"{path}: the preamble's '// Update Rate' is {stated:g} Hz, no rate to count packets by; give the rate "
             "it was recorded at: --rate HZ"
         )
-    fine = "sampletimefine" in names and first and _filled(first[0], header, names.index("sampletimefine"), path)
+    ticks = _column(first, header, names.index("sampletimefine"), path) if "sampletimefine" in names else None
     notes = []
     rate: float | None = None  # packets per second, where the times are the packet counter's
-    if fine:
-        if options.rate is not None:
-            raise LogFormatError(f"{where}: the export's rows carry their times (SampleTimeFine); leave --rate out")
+    if ticks is not None and options.rate is None:
+        _check_ticks(ticks, stated, where)
         clock, scale, said = "sampletimefine", TICK, "SampleTimeFine, the device's clock in 100 µs ticks"
     elif "packetcounter" not in names:
         raise LogFormatError(f"{path}, line {line + 1}: SampleTimeFine is empty and there is no PacketCounter")
@@ -148,6 +149,8 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             )
         if options.rate is not None and stated is not None and not np.isclose(options.rate, stated):
             notes.append(f"--rate {options.rate:g} Hz used, where the export states {stated:g} Hz")
+        if ticks is not None:
+            notes.append("SampleTimeFine not read: --rate counts the packets instead")
         clock, scale = "packetcounter", 1.0  # counts, divided by the rate once unwrapped (exact times)
         said = f"PacketCounter at {rate:g} Hz" + (" (--rate)" if options.rate is not None else "")
     cmap: ColumnMap = (("t", names.index(clock) + 1), *((key, names.index(c) + 1) for key, c in group))
@@ -181,13 +184,34 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     return stream
 
 
-def _filled(row: str, header: str, j: int, path: str) -> bool:
-    """Whether field ``j`` of the data line ``row`` holds a finite number."""
-    try:
-        field = split_line(row, delimiter(header, path, True), path)[j].strip()
-        return bool(np.isfinite(float(field)))
-    except (LogFormatError, IndexError, ValueError):
-        return False
+def _column(rows: list[str], header: str, j: int, path: str) -> np.ndarray | None:
+    """Field ``j`` of the data lines ``rows`` as numbers, where the first holds a finite one (else None); a field
+    that is no number is NaN (the reader names it later)."""
+    delim = delimiter(header, path, True)
+    values = []
+    for row in rows:
+        try:
+            values.append(float(split_line(row, delim, path)[j]))
+        except (LogFormatError, IndexError, ValueError):
+            values.append(math.nan)
+    return np.array(values) if values and math.isfinite(values[0]) else None
+
+
+def _check_ticks(ticks: np.ndarray, stated: float | None, where: str) -> None:
+    """SampleTimeFine's steps against the preamble's rate: 100 µs ticks are MT Manager's, and a device counting in
+    another unit (an Xsens DOT counts microseconds) would give times off by that factor, so a step more than twice
+    off the stated rate's is refused."""
+    steps = np.diff(ticks[np.isfinite(ticks)])
+    steps = steps[steps > 0]
+    if stated is None or not steps.size:
+        return
+    implied = 1.0 / (float(np.median(steps)) * TICK)
+    if not 0.5 < implied / stated < 2.0:
+        raise LogFormatError(
+            f"{where}: SampleTimeFine steps by {float(np.median(steps)):g} ticks, {implied:.4g} Hz at 100 µs a tick, "
+            f"where the preamble states {stated:g} Hz: its ticks are not MT Manager's; count the packets instead: "
+            f"--rate {stated:g}"
+        )
 
 
 @dataclass
