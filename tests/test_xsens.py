@@ -14,8 +14,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from calibration_logs import simulated, z_scores
+from omegahat.calibration import Calibration
 from omegahat.cli import main
 from omegahat.io import read_log
+from omegahat.io.gyrolog import read_gyro
 from omegahat.io.xsens import TICK, unwrapped
 from recording_files import estimate_file
 
@@ -168,3 +171,55 @@ def test_unwrapped_counts_equal_the_counts_before_the_modulus():
     np.testing.assert_array_equal(np.concatenate([first, second]), counts)
     # a small step back is no wrap: left for the timestamp policy
     np.testing.assert_array_equal(unwrapped(np.array([10.0, 12.0, 11.0]), 2**16), [10.0, 12.0, 11.0])
+
+
+# ------------------------------------------------------------------------------ the export as a gyroscope log
+
+
+def _gyro_export(path, counter, g, rate=200.0, drop=()):
+    """An MT Manager export of ``Gyr_X..Z`` rows ``g`` (rad/s) only, one per packet ``counter`` (wrapping)."""
+    lines = ["PacketCounter\tSampleTimeFine\tAcc_X\tAcc_Y\tAcc_Z\tGyr_X\tGyr_Y\tGyr_Z"]
+    for k, c in enumerate(np.asarray(counter) % 2**16):
+        if k not in drop:
+            lines.append("\t".join([f"{c:05d}", "", "0.1", "0.2", "9.8", *(repr(float(v)) for v in g[k])]))
+    path.write_text(OLD_PREAMBLE.format(rate=rate) + "\n".join(lines) + "\n")
+    return path
+
+
+def test_an_export_is_a_gyroscope_log_on_its_own_clock(tmp_path):
+    counter = 2**16 - 40 + np.arange(200)  # wraps after 40 packets
+    g = np.random.default_rng(3).normal(size=(200, 3))
+    path = _gyro_export(tmp_path / "imu.txt", counter, g, drop={10, 11, 150})
+    kept = np.array([k for k in range(200) if k not in {10, 11, 150}])
+    log = read_gyro(path)
+    np.testing.assert_allclose(log.t, counter[kept] / 200.0, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(log.g, g[kept])
+    assert log.names == ("packetcounter", "gyr_x", "gyr_y", "gyr_z") and "PacketCounter at 200 Hz" in log.own_unit
+    counted = read_gyro(path, time_column=None)  # --gyro-rate: the counts, for the command to divide
+    np.testing.assert_array_equal(counted.t, counter[kept])
+    assert not counted.own_unit
+
+
+def test_calibrate_reads_an_export_as_the_plain_csv_at_the_same_times(tmp_path, capsys):
+    data, truth = simulated(5)
+    ta, Ra, tg, g = data
+    start = max(round(tg[0] * 200), 0)  # the counter at the first packet (no counter is negative): near the gyro's
+    counter = start + np.arange(tg.size)
+    export = _gyro_export(tmp_path / "imu.txt", counter, g)
+    att = tmp_path / "mocap.csv"
+    q = Rotation.from_matrix(Ra).as_quat()
+    np.savetxt(att, np.column_stack([ta, q[:, 3], q[:, :3]]), delimiter=",", header="t,qw,qx,qy,qz", comments="")
+    plain = tmp_path / "imu.csv"
+    np.savetxt(plain, np.column_stack([counter / 200.0, g]), delimiter=",", header="t,gx,gy,gz", comments="",
+               fmt="%.17g")  # fmt: skip
+
+    def run(gyro):
+        out = tmp_path / f"{gyro.stem}.json"
+        assert main(["calibrate", str(att), str(gyro), "-o", str(out)]) == 0
+        text = capsys.readouterr().out
+        return text[text.index("clock offset") :], Calibration.load(out)
+
+    from_export, cal = run(export)
+    assert from_export == run(plain)[0]
+    z = z_scores(cal, {**truth, "delta": truth["delta"] + start / 200.0 - tg[0]})
+    assert max(abs(v) for v in z) < 5, z

@@ -19,6 +19,10 @@ stem names a gyroscope (``IMU Gyroscope X``, ``gyr.x``...); the errors list what
 
 **PX4 ULog** (``.ulg``, recognised by its first bytes): a gyroscope topic, in seconds
 (:func:`omegahat.io.px4.read_ulog_gyro`).
+
+**Xsens MT Manager exports** (recognised by their header, :func:`omegahat.io.xsens.is_xsens`): ``Gyr_X..Z`` in
+rad/s against the export's own clock, ``SampleTimeFine`` or the packet counter at the stated rate, unwrapped
+(:func:`omegahat.io.xsens.export_clock`); with ``--gyro-rate`` the packet counter at that rate.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import delimiter, is_number, refuse_inner_carriage_return, split_line, wrong_width
 from omegahat.io.timestamps import text_dates
+from omegahat.io.xsens import export_clock, is_xsens
 
 __all__ = [
     "GYROSCOPE",
@@ -157,7 +162,18 @@ def read_gyro(
         return _read_npz(path, time_column, columns)
     if is_ulog(path):
         return GyroLog(*read_ulog_gyro(path, topic))
+    if is_xsens(path):
+        return _read_xsens(path, columns, counted=time_column is None)
     return read_vectors(path, GYROSCOPE, columns, time_column, header_rows)
+
+
+def _read_xsens(path: str, columns: tuple[str, str, str] | None, counted: bool) -> GyroLog:
+    """An Xsens MT Manager export as a gyroscope log: ``Gyr_X..Z`` (rad/s; or ``columns``) against the export's own
+    clock (:func:`omegahat.io.xsens.export_clock`) in seconds; with ``counted`` (a rate given, ``--gyro-rate``) the
+    packet counter unwrapped, for the caller to divide by the rate, so that dropped packets keep their places."""
+    clock = export_clock(path, 1.0 if counted else None)  # rate 1: the counts themselves
+    log = read_vectors(path, GYROSCOPE, columns, clock.column, preamble="//")
+    return log._replace(t=clock.seconds(log.t), own_unit="" if counted else f"s, from {clock.said}")
 
 
 def read_vectors(
@@ -166,9 +182,11 @@ def read_vectors(
     columns: tuple[str, str, str] | None = None,
     time_column: str | None = "t",
     header_rows: int = 1,
+    preamble: str = "",
 ) -> GyroLog:
     """A text log of a time column and three columns (module docstring, **Text** and **Columns**, with ``role``'s
-    names and flags): ``t`` as written, unless ``own_unit`` says otherwise, and the three columns ``(M, 3)``."""
+    names and flags): ``t`` as written, unless ``own_unit`` says otherwise, and the three columns ``(M, 3)``;
+    lines starting with ``preamble`` (an Xsens export's ``//``) are left out, their numbers kept."""
     if header_rows < 0:
         raise ValueError(f"{role.flag}-header-rows is 0 or more; got {header_rows}")
     try:
@@ -176,7 +194,11 @@ def read_vectors(
             text = f.read()
     except UnicodeDecodeError as exc:
         raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
-    lines = [(k + 1, line.rstrip("\r")) for k, line in enumerate(text.split("\n")) if line.strip()]
+    lines = [
+        (k + 1, line.rstrip("\r"))
+        for k, line in enumerate(text.split("\n"))
+        if line.strip() and not (preamble and line.lstrip().startswith(preamble))
+    ]
     if len(lines) <= header_rows:
         raise LogFormatError(f"{path}: {len(lines)} non-blank line(s), expected {header_rows} of header and rows")
     head, body = lines[:header_rows], lines[header_rows:]

@@ -38,6 +38,7 @@ import os
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -48,7 +49,7 @@ from omegahat.io.euler import matrices, turned_into_matrices
 from omegahat.io.registry import LogChunk, LogStream, ReadOptions
 from omegahat.io.textlines import WHITESPACE, delimiter, head_lines, split_line
 
-__all__ = ["TICK", "is_xsens", "open_xsens", "unwrapped"]
+__all__ = ["TICK", "ExportClock", "export_clock", "is_xsens", "open_xsens", "unwrapped"]
 
 TICK = 1e-4  #: SampleTimeFine's unit (s): MT Manager's exports count the device's clock in 10 kHz ticks
 _WRAP = {"packetcounter": 2**16, "sampletimefine": 2**32}  # each counter's modulus
@@ -100,10 +101,77 @@ def unwrapped(raw: np.ndarray, period: float, previous: float | None = None, off
     return raw + offset + period * np.cumsum(steps < -period / 2)
 
 
+class ExportClock(NamedTuple):
+    """Where an export's times come from (:func:`export_clock`): the ``column`` read (normalised), ``scale`` (s per
+    unit: :data:`TICK` for SampleTimeFine; 1 for packet counts, divided by ``rate`` once unwrapped, as
+    :meth:`seconds` does), ``rate`` (packets per second where the counter is read, else None), what ``said`` in the
+    description, the ``notes``, and whether the fields are separated by ``blanks``."""
+
+    column: str
+    scale: float
+    rate: float | None
+    said: str
+    notes: tuple[str, ...]
+    blanks: bool
+
+    @property
+    def period(self) -> int:
+        """The column's modulus, in its own units: the counter wraps there."""
+        return _WRAP[self.column]
+
+    def seconds(self, raw: np.ndarray) -> np.ndarray:
+        """The whole column ``raw`` as written, unwrapped, in seconds."""
+        t = unwrapped(np.asarray(raw, dtype=float), self.period) * self.scale
+        return t if self.rate is None else t / self.rate
+
+
+def export_clock(path: str, rate: float | None) -> ExportClock:
+    """The times of the MT Manager export at ``path`` (module docstring, **Time**), ``rate`` the one given (Hz, or
+    None); refused, naming the line, where they cannot be read (also a space-separated export with empty fields)."""
+    preamble, line, names, first = _head(path)
+    where = f"{path}, line {line} (header)"
+    header = head_lines(path, line)[-1]
+    blanks = delimiter(header, path, True) == WHITESPACE
+    if blanks and first and len(first[0].split()) != len(names):
+        raise LogFormatError(
+            f"{path}, line {line + 1}: {len(first[0].split())} fields under {len(names)} names: this export is "
+            "separated by single spaces, where an empty field cannot be told from the space beside it; export it "
+            "with tabs (MT Manager's default), commas or semicolons"
+        )
+    stated = next((float(m.group(1)) for p in preamble if (m := _RATE.match(p))), None)
+    if stated is not None and not (math.isfinite(stated) and stated > 0) and rate is None:
+        raise LogFormatError(
+            f"{path}: the preamble's '// Update Rate' is {stated:g} Hz, no rate to count packets by; give the rate "
+            "it was recorded at: --rate HZ"
+        )
+    ticks = _column(first, header, names.index("sampletimefine"), path) if "sampletimefine" in names else None
+    if ticks is not None and rate is None:
+        _check_ticks(ticks, stated, where)
+        return ExportClock(
+            "sampletimefine", TICK, None, "SampleTimeFine, the device's clock in 100 µs ticks", (), blanks
+        )
+    if "packetcounter" not in names:
+        raise LogFormatError(f"{path}, line {line + 1}: SampleTimeFine is empty and there is no PacketCounter")
+    counted = rate if rate is not None else stated
+    if counted is None:
+        raise LogFormatError(
+            f"{where}: the export does not state its rate (no '// Update Rate' line, SampleTimeFine empty); "
+            "give the rate it was recorded at: --rate HZ (MT Manager's update rate; the times are then "
+            "PacketCounter / HZ, so dropped packets keep their places)"
+        )
+    notes = []
+    if rate is not None and stated is not None and not np.isclose(rate, stated):
+        notes.append(f"--rate {rate:g} Hz used, where the export states {stated:g} Hz")
+    if ticks is not None:
+        notes.append("SampleTimeFine not read: --rate counts the packets instead")
+    said = f"PacketCounter at {counted:g} Hz" + (" (--rate)" if rate is not None else "")
+    return ExportClock("packetcounter", 1.0, counted, said, tuple(notes), blanks)  # counts: exact once divided
+
+
 def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """The sensor's attitude in an MT Manager export (module docstring)."""
     path = os.fspath(path)
-    preamble, line, names, first = _head(path)
+    _, line, names, _ = _head(path)
     found = _attitude(names)
     if found is None:
         raise LogFormatError(
@@ -117,67 +185,32 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             f"{where}: an Xsens orientation maps the sensor's axes into the global frame, as "
             "omegahat's R does; leave --rotation out"
         )
-    header = head_lines(path, line)[-1]
-    blanks = delimiter(header, path, True) == WHITESPACE
-    if blanks and first and len(first[0].split()) != len(names):
-        raise LogFormatError(
-            f"{path}, line {line + 1}: {len(first[0].split())} fields under {len(names)} names: this export is "
-            "separated by single spaces, where an empty field cannot be told from the space beside it; export it "
-            "with tabs (MT Manager's default), commas or semicolons"
-        )
-    stated = next((float(m.group(1)) for p in preamble if (m := _RATE.match(p))), None)
-    if stated is not None and not (math.isfinite(stated) and stated > 0) and options.rate is None:
-        raise LogFormatError(
-            f"{path}: the preamble's '// Update Rate' is {stated:g} Hz, no rate to count packets by; give the rate "
-            "it was recorded at: --rate HZ"
-        )
-    ticks = _column(first, header, names.index("sampletimefine"), path) if "sampletimefine" in names else None
-    notes = []
-    rate: float | None = None  # packets per second, where the times are the packet counter's
-    if ticks is not None and options.rate is None:
-        _check_ticks(ticks, stated, where)
-        clock, scale, said = "sampletimefine", TICK, "SampleTimeFine, the device's clock in 100 µs ticks"
-    elif "packetcounter" not in names:
-        raise LogFormatError(f"{path}, line {line + 1}: SampleTimeFine is empty and there is no PacketCounter")
-    else:
-        rate = options.rate if options.rate is not None else stated
-        if rate is None:
-            raise LogFormatError(
-                f"{where}: the export does not state its rate (no '// Update Rate' line, SampleTimeFine empty); "
-                "give the rate it was recorded at: --rate HZ (MT Manager's update rate; the times are then "
-                "PacketCounter / HZ, so dropped packets keep their places)"
-            )
-        if options.rate is not None and stated is not None and not np.isclose(options.rate, stated):
-            notes.append(f"--rate {options.rate:g} Hz used, where the export states {stated:g} Hz")
-        if ticks is not None:
-            notes.append("SampleTimeFine not read: --rate counts the packets instead")
-        clock, scale = "packetcounter", 1.0  # counts, divided by the rate once unwrapped (exact times)
-        said = f"PacketCounter at {rate:g} Hz" + (" (--rate)" if options.rate is not None else "")
-    cmap: ColumnMap = (("t", names.index(clock) + 1), *((key, names.index(c) + 1) for key, c in group))
+    clock = export_clock(path, options.rate)
+    cmap: ColumnMap = (("t", names.index(clock.column) + 1), *((key, names.index(c) + 1) for key, c in group))
     gyro = all(c in names for c in _GYROSCOPE)
 
     def describe(stream: LogStream, lay, _names) -> str:
         del stream, lay
         return (
             f"Xsens MT Manager export: attitude from {label} (the sensor's axes into the global frame), time from "
-            f"{said}; rates in the sensor's axes"
+            f"{clock.said}; rates in the sensor's axes"
         )
 
     fmt = TextFormat(
         columns=cmap,
-        time_scale=scale,
+        time_scale=clock.scale,
         describe=describe,
-        blanks=blanks,  # tabs, commas or semicolons keep an empty field's place
+        blanks=clock.blanks,  # tabs, commas or semicolons keep an empty field's place
         preamble="//",
         extra=(("reference_rate", _GYROSCOPE),) if gyro else (),
     )
     stream = open_text(path, replace(options, rate=None), fmt)
-    stream.notes.extend(notes)
+    stream.notes.extend(clock.notes)
     if gyro:
         stream.meta["reference_rate"] = (
             "the export's gyroscope (Gyr_X..Z, sensor axes; the orientation was fused from it)"
         )
-    _follow_counter(stream, _WRAP[clock] * scale, rate if clock == "packetcounter" else None)
+    _follow_counter(stream, clock.period * clock.scale, clock.rate)
     if group is _EULER:
         stream.notes.append("attitude: Roll, Pitch, Yaw in degrees, R = Rz(yaw) Ry(pitch) Rx(roll) (Xsens' sequence)")
         turned_into_matrices(stream, lambda angles: matrices(angles, "ZYX", True), np.abs, None)
