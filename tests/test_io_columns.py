@@ -520,3 +520,28 @@ def test_epoch_stamps_that_cannot_be_seconds_are_read_in_the_one_unit_they_fit(t
     plain = read_log(relative)
     np.testing.assert_array_equal(plain.t, np.arange(6) * 10.0)
     assert not any("time unit" in n for n in plain.notes)
+
+
+def test_a_table_of_several_topics_is_estimated_at_every_row_and_says_why_most_are_predictions(tmp_path, capsys):
+    # PlotJuggler's CSV export of a pose topic beside a faster IMU topic: one row per time of either, the pose's
+    # cells empty at the IMU's times. The estimate at the pose's rows is its rate; the other rows are predictions
+    n = 300
+    t = 1_700_000_000 + np.arange(n) * 0.01
+    omega = np.array([0.3, -0.2, 0.5])
+    q = Rotation.from_rotvec(np.outer(np.arange(n) * 0.01, omega)).as_quat()
+    rows = {round(float(x), 6): f",{','.join(f'{v:.12g}' for v in q[k])}" for k, x in enumerate(t)}
+    imu = [round(float(x), 6) for x in t[0] + 0.003 + np.arange(3 * n) * (0.01 / 3)]
+    for x in imu:
+        rows[x] = "0.1,,,," if x not in rows else "0.1" + rows[x]
+    names = "time,/imu/linear_acceleration/x," + ",".join(f"/vicon/pose/orientation/{a}" for a in "xyzw")
+    path = tmp_path / "plotjuggler.csv"
+    path.write_text(names + "\n" + "\n".join(f"{x:.6f},{rows[x]}" for x in sorted(rows)) + "\n")
+    out = tmp_path / "o.csv"
+    assert main(["estimate", str(path), "-o", str(out), "--no-progress"]) == 0
+    captured = capsys.readouterr()
+    printed = captured.out + captured.err
+    assert f"skipped {len(imu)} of {len(imu) + n} samples" in printed and "most rows have no attitude at all" in printed
+    table, status = read_omega_csv(out)
+    at_pose = np.isin(np.round(table[:, 0], 6), np.round(t, 6))
+    assert at_pose.sum() == n and np.all(status[~at_pose] == "predicted")
+    np.testing.assert_allclose(table[at_pose][20:, 1:], np.tile(omega, (n - 20, 1)), atol=1e-6)

@@ -81,7 +81,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "attitude", type=Path, metavar="ATTITUDE", help="attitude log (any format omegahat estimate reads)"
     )
-    parser.add_argument("gyro", type=Path, metavar="GYRO", help="gyroscope log: CSV t,gx,gy,gz, NPZ, PX4 ULog or Xsens export")
+    parser.add_argument(
+        "gyro", type=Path, metavar="GYRO", help="gyroscope log: CSV t,gx,gy,gz, NPZ, PX4 ULog or Xsens export"
+    )
     parser.add_argument("-o", "--output", type=Path, help="write the calibration as JSON (for benchmarks/corpus.py)")
     parser.add_argument("--plot", type=Path, metavar="FILE.png", help="draw the band-limited gyro, model and residuals")
     fit = parser.add_argument_group("the fit")

@@ -346,6 +346,13 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
         lines.append(
             f"skipped {missing + s.n_collinear} of {s.rows} samples ({missing} missing, {s.n_collinear} with nearly "
             "collinear directions): predicted through (status 'predicted')"
+            + (  # rows of other sensors in one table (PlotJuggler's export of several topics): say where they come from
+                "; most rows have no attitude at all, as where a table interleaves other sensors' rows (an export of "
+                "several topics): their estimates are predictions at those rows' times, and a table of the attitude "
+                "alone has them at its own"
+                if 2 * missing > s.rows
+                else ""
+            )
         )
     n_restarts = getattr(choice.estimator, "n_restarts", 0)
     if n_restarts:
