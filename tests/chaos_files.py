@@ -165,6 +165,12 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
     xsens += ["\t".join(["PacketCounter", "SampleTimeFine", *(f"Mat[{i}][{j}]" for j in "123" for i in "123")])]
     xsens += ["\t".join([f"{k:05d}", "", *(f"{x:.6f}" for x in R[k].T.ravel())]) for k in range(rows)]
     seeds.append(Seed("xsens", {"mt.txt": ("\n".join(xsens) + "\n").encode()}, "mt.txt", "mt.txt", rows, 4))
+    # an Xsens DOT's CSV: 'sep=,' and 'Key:,value' lines, a blank line, the device clock in µs
+    dot = ["sep=,", "DeviceTag:,dot1,,,,", "OutputRate:,100Hz,,,,", "", "PacketCounter,SampleTimeFine,Quat_W,Quat_X,"
+           "Quat_Y,Quat_Z"]  # fmt: skip
+    dot += [", ".join([str(k), str(5_000_000 + 10_000 * k), *map(repr, map(float, q[k, [3, 0, 1, 2]]))])
+            for k in range(rows)]  # fmt: skip
+    seeds.append(Seed("xsens-dot", {"dot.csv": ("\n".join(dot) + "\n").encode()}, "dot.csv", "dot.csv", rows, 4))
     return seeds
 
 

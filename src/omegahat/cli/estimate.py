@@ -76,8 +76,8 @@ input:  a CSV whose header names the columns (any order, any case; ',' ';' or ta
         bags (.bag) and ROS 2 bags (directory) (--topic, frames), PX4 flight logs (.ulg, --topic) and ulog2csv's CSV,
         CCSDS attitude ephemeris messages (AEM, text or XML: frames, direction and epochs as the file states them),
         Universal Robots RTDE recordings (the tool's actual_TCP_pose; rates in the tool's axes), Xsens MT Manager
-        exports (Quat_q0..q3, Mat[i][j] or Roll, Pitch, Yaw; rates in the sensor's axes, compared with Gyr_X..Z;
-        --rate HZ where the export does not state it).
+        exports and DOT CSV files (Quat_q0..q3, Mat[i][j], Roll, Pitch, Yaw or Quat_W..Z; rates in the sensor's
+        axes, compared with an MT Manager export's Gyr_X..Z; --rate HZ where the export does not state it).
         A time column named time, timestamp, Time (s)... is read where there is no t; ISO 8601 dates as seconds
         since 1970 UTC; one quaternion named by its parts (quat_w, orientation.x...) without --columns.
         Equal times: the same attitude is one sample (dropped), different attitudes are an error

@@ -79,9 +79,9 @@ register_format(
     (".txt", ".csv", ".tsv"),
     open_xsens,
     name="xsens",
-    title="an Xsens MT Manager export",
+    title="an Xsens export (MT Manager, DOT)",
     sniff=is_xsens,
-    options=("rate",),
+    options=("rate", "euler", "angle_unit"),
 )
 register_format(
     (".aem", ".kvn", ".txt", ".xml"),

@@ -70,8 +70,8 @@ class TextFormat:
     separated by blanks; None: only with a column map), the format's own column ``columns`` (``--columns``
     overrides), ``time_scale`` (seconds per time unit, for formats that state it; then ``--time-unit`` is not
     taken), ``describe(stream, lay, names) -> str`` saying what was recognised (empty: omegahat's own),
-    ``preamble``: lines starting with it above the header are the format's own and skipped (Xsens' ``//`` lines,
-    whatever they hold), and ``extra``: pairs ``(key, names)`` of further columns read into each chunk's
+    ``preamble_lines``: the first lines are the format's own and skipped (Xsens' preamble, whatever it holds), and
+    ``extra``: pairs ``(key, names)`` of further columns read into each chunk's
     ``extra[key]`` ``(m, len(names))``, NaN where a field is empty (the rates a log carries, to compare with)."""
 
     header_rows: int = 1
@@ -81,7 +81,7 @@ class TextFormat:
     columns: ColumnMap | None = None
     time_scale: float | None = None
     describe: Callable[[LogStream, Layout, list[str]], str] | None = None
-    preamble: str = ""
+    preamble_lines: int = 0
     extra: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
 
@@ -174,9 +174,10 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
             break
         if not header and _blank(clean(raw, comment, False), comment):
             continue
-        own = bool(fmt.preamble) and raw.lstrip().startswith(fmt.preamble.encode())
-        if not header and n_header and (own or _prose_comment(raw)):  # '# sampling frequency: 30' above the header
-            skipped_comments += not own  # the format's own preamble is no comment to mention
+        if lines.line <= fmt.preamble_lines:  # the format's own preamble: no comment to mention
+            continue
+        if not header and n_header and _prose_comment(raw):  # '# sampling frequency: 30' above the header
+            skipped_comments += 1
             continue
         if n_header == 0:  # no header: the first row shows the layout, and is data
             first = raw

@@ -172,7 +172,7 @@ def _read_xsens(path: str, columns: tuple[str, str, str] | None, counted: bool) 
     clock (:func:`omegahat.io.xsens.export_clock`) in seconds; with ``counted`` (a rate given, ``--gyro-rate``) the
     packet counter unwrapped, for the caller to divide by the rate, so that dropped packets keep their places."""
     clock = export_clock(path, 1.0 if counted else None)  # rate 1: the counts themselves
-    log = read_vectors(path, GYROSCOPE, columns, clock.column, preamble="//")
+    log = read_vectors(path, GYROSCOPE, columns, clock.column, skip_lines=clock.header_line - 1)
     return log._replace(t=clock.seconds(log.t), own_unit="" if counted else f"s, from {clock.said}")
 
 
@@ -182,11 +182,11 @@ def read_vectors(
     columns: tuple[str, str, str] | None = None,
     time_column: str | None = "t",
     header_rows: int = 1,
-    preamble: str = "",
+    skip_lines: int = 0,
 ) -> GyroLog:
     """A text log of a time column and three columns (module docstring, **Text** and **Columns**, with ``role``'s
     names and flags): ``t`` as written, unless ``own_unit`` says otherwise, and the three columns ``(M, 3)``;
-    lines starting with ``preamble`` (an Xsens export's ``//``) are left out, their numbers kept."""
+    the first ``skip_lines`` lines (an Xsens export's preamble) are left out, the others' numbers kept."""
     if header_rows < 0:
         raise ValueError(f"{role.flag}-header-rows is 0 or more; got {header_rows}")
     try:
@@ -194,11 +194,7 @@ def read_vectors(
             text = f.read()
     except UnicodeDecodeError as exc:
         raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
-    lines = [
-        (k + 1, line.rstrip("\r"))
-        for k, line in enumerate(text.split("\n"))
-        if line.strip() and not (preamble and line.lstrip().startswith(preamble))
-    ]
+    lines = [(k + 1, line.rstrip("\r")) for k, line in enumerate(text.split("\n")) if line.strip() and k >= skip_lines]
     if len(lines) <= header_rows:
         raise LogFormatError(f"{path}: {len(lines)} non-blank line(s), expected {header_rows} of header and rows")
     head, body = lines[:header_rows], lines[header_rows:]

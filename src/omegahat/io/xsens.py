@@ -1,4 +1,4 @@
-r"""Xsens MT Manager exports: the text files MT Manager writes for an MTi or MTw (Awinda), recognised by the header.
+r"""Xsens exports: the text files MT Manager writes for an MTi or MTw (Awinda), and an Xsens DOT's CSV files.
 
 An export is a preamble of lines starting with ``//`` (``// Update Rate: 100.0Hz`` in older versions; device,
 filter and coordinate-system lines in newer ones), then one line of names and one line per sample, separated by
@@ -24,6 +24,14 @@ tabs (the default), commas or semicolons::
 * **Gyroscope**: ``Gyr_X..Z`` (rad/s, sensor axes), where the export holds it, is compared with the estimate in the
   command's closing lines. The export's orientation was itself computed from these gyroscopes, so the comparison
   checks frames and conventions, not the estimate's accuracy.
+
+**Xsens DOT** CSV files (the DOT app's and SDK's: ``sep=,``, then ``Key:,value,,,`` lines with ``OutputRate:,60Hz``,
+a blank line, then ``PacketCounter,SampleTimeFine,Quat_W,Quat_X,Quat_Y,Quat_Z,…``) are read the same way, told apart
+by their names: the quaternion ``Quat_W..Z`` (scalar first, the same direction), ``SampleTimeFine`` in microseconds
+(:data:`DOT_TICK`, checked against ``OutputRate`` as above). Their Euler angles ``Euler_X..Z`` are read as angles
+about x, y, z whose sequence and unit are asked for (``--euler``, ``--angle-unit``, :mod:`omegahat.io.euler`), and
+their gyroscope is not compared (the DOT's unit is not stated in the file). The header of either is the first line
+naming ``PacketCounter`` or ``SampleTimeFine``; every line above it is the preamble.
 
 An export separated by single spaces is read only when no field is empty: there, two spaces cannot show an empty
 field between them, and it is refused with how to export it otherwise. ``--rotation`` is refused, since the format
@@ -52,32 +60,48 @@ from omegahat.io.textlines import WHITESPACE, delimiter, head_lines, split_line
 __all__ = ["TICK", "ExportClock", "export_clock", "is_xsens", "open_xsens", "unwrapped"]
 
 TICK = 1e-4  #: SampleTimeFine's unit (s): MT Manager's exports count the device's clock in 10 kHz ticks
+DOT_TICK = 1e-6  #: an Xsens DOT's SampleTimeFine counts microseconds
 _WRAP = {"packetcounter": 2**16, "sampletimefine": 2**32}  # each counter's modulus
 _QUATERNION = (("qw", "quat_q0"), ("qx", "quat_q1"), ("qy", "quat_q2"), ("qz", "quat_q3"))
 _MATRIX = tuple((f"r{i}{j}", f"mat[{i}][{j}]") for i in (1, 2, 3) for j in (1, 2, 3))
 _EULER = (("roll", "roll"), ("pitch", "pitch"), ("yaw", "yaw"))
-_ATTITUDES = (("Quat_q0..q3", _QUATERNION), ("Mat[1][1]..Mat[3][3]", _MATRIX), ("Roll, Pitch, Yaw", _EULER))
+_DOT_QUATERNION = (("qw", "quat_w"), ("qx", "quat_x"), ("qy", "quat_y"), ("qz", "quat_z"))
+_DOT_EULER = (("roll", "euler_x"), ("pitch", "euler_y"), ("yaw", "euler_z"))  # conventions asked, as any log's
+_ATTITUDES = (
+    ("Quat_q0..q3", _QUATERNION),
+    ("Mat[1][1]..Mat[3][3]", _MATRIX),
+    ("Roll, Pitch, Yaw", _EULER),
+    ("Quat_W..Z", _DOT_QUATERNION),
+    ("Euler_X..Z", _DOT_EULER),
+)
+_DOT_NAMES = ("quat_w", "euler_x")  # names of an Xsens DOT's export, where MT Manager writes others
 _GYROSCOPE = ("gyr_x", "gyr_y", "gyr_z")
-_RATE = re.compile(r"^//\s*update rate:\s*([0-9.]+)\s*hz", re.IGNORECASE)
+# MT Manager's '// Update Rate: 100.0Hz', a DOT's 'OutputRate:,60Hz,,,'
+_RATE = re.compile(r"^(?://\s*update rate|outputrate)\s*:[\s,]*([0-9.]+)\s*hz", re.IGNORECASE)
 _HEAD = 64  # lines read to find the header and the first rows
 
 
 def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
-    """The preamble's lines, the header's line number (1-based; 0: none), its names (normalised) and the first data
-    lines (up to :data:`_HEAD` lines are read; none if there are none)."""
+    """The preamble's non-blank lines, the header's line number (1-based; 0: none), its names (normalised) and the
+    data lines after it (up to :data:`_HEAD` lines are read). The header is the first line naming ``PacketCounter``
+    or ``SampleTimeFine``; every line above it is the preamble (MT Manager's ``//`` lines, a DOT's ``sep=,`` and
+    ``Key:,value`` lines)."""
     lines = head_lines(path, _HEAD)
-    preamble = []
     for k, line in enumerate(lines):
-        if line.lstrip().startswith("//"):
-            preamble.append(line.strip())
-        elif line.strip():
-            try:
-                names = split_line(line, delimiter(line, path, True), path)
-            except LogFormatError:
-                return preamble, 0, [], []
-            rows = [r for r in lines[k + 1 :] if r.strip()]
-            return preamble, k + 1, [normalise_name(n) for n in names], rows
-    return preamble, 0, [], []
+        if not re.search(r"packetcounter|sampletimefine", line, re.IGNORECASE):
+            continue
+        try:
+            names = [normalise_name(n) for n in split_line(line, delimiter(line, path, True), path)]
+        except LogFormatError:
+            return [], 0, [], []
+        if {"packetcounter", "sampletimefine"} & set(names):
+            preamble = [p.strip() for p in lines[:k] if p.strip()]
+            return preamble, k + 1, names, [r for r in lines[k + 1 :] if r.strip()]
+    return [], 0, [], []
+
+
+def _is_dot(names: list[str]) -> bool:
+    return any(n in names for n in _DOT_NAMES)
 
 
 def _attitude(names: list[str]) -> tuple[str, tuple[tuple[str, str], ...]] | None:
@@ -85,11 +109,10 @@ def _attitude(names: list[str]) -> tuple[str, tuple[tuple[str, str], ...]] | Non
 
 
 def is_xsens(path: str | os.PathLike[str]) -> bool:
-    """Whether a text file is an MT Manager export: a header naming ``PacketCounter`` or ``SampleTimeFine``, under
-    a preamble of ``//`` lines, or with a whole attitude group of MT Manager's names."""
+    """Whether a text file is an Xsens export (MT Manager's or a DOT's): a header naming ``PacketCounter`` or
+    ``SampleTimeFine``, under a preamble, or with a whole attitude group of Xsens' names."""
     preamble, line, names, _ = _head(os.fspath(path))
-    counter = bool({"packetcounter", "sampletimefine"} & set(names))
-    return bool(line) and counter and (bool(preamble) or _attitude(names) is not None)
+    return bool(line) and (bool(preamble) or _attitude(names) is not None)
 
 
 def unwrapped(raw: np.ndarray, period: float, previous: float | None = None, offset: float = 0.0) -> np.ndarray:
@@ -105,7 +128,8 @@ class ExportClock(NamedTuple):
     """Where an export's times come from (:func:`export_clock`): the ``column`` read (normalised), ``scale`` (s per
     unit: :data:`TICK` for SampleTimeFine; 1 for packet counts, divided by ``rate`` once unwrapped, as
     :meth:`seconds` does), ``rate`` (packets per second where the counter is read, else None), what ``said`` in the
-    description, the ``notes``, and whether the fields are separated by ``blanks``."""
+    description, the ``notes``, whether the fields are separated by ``blanks``, and the header's line number
+    ``header_line`` (the lines above it are the preamble)."""
 
     column: str
     scale: float
@@ -113,6 +137,7 @@ class ExportClock(NamedTuple):
     said: str
     notes: tuple[str, ...]
     blanks: bool
+    header_line: int
 
     @property
     def period(self) -> int:
@@ -141,21 +166,22 @@ def export_clock(path: str, rate: float | None) -> ExportClock:
     stated = next((float(m.group(1)) for p in preamble if (m := _RATE.match(p))), None)
     if stated is not None and not (math.isfinite(stated) and stated > 0) and rate is None:
         raise LogFormatError(
-            f"{path}: the preamble's '// Update Rate' is {stated:g} Hz, no rate to count packets by; give the rate "
-            "it was recorded at: --rate HZ"
+            f"{path}: the preamble states a rate of {stated:g} Hz, no rate to count packets by; give the rate it "
+            "was recorded at: --rate HZ"
         )
     ticks = _column(first, header, names.index("sampletimefine"), path) if "sampletimefine" in names else None
     if ticks is not None and rate is None:
-        _check_ticks(ticks, stated, where)
-        return ExportClock(
-            "sampletimefine", TICK, None, "SampleTimeFine, the device's clock in 100 µs ticks", (), blanks
-        )
+        tick, unit = (DOT_TICK, "µs, an Xsens DOT's") if _is_dot(names) else (TICK, "100 µs ticks, MT Manager's")
+        _check_ticks(ticks, tick, stated, where)
+        said = f"SampleTimeFine, the device's clock in {unit}"
+        return ExportClock("sampletimefine", tick, None, said, (), blanks, line)
     if "packetcounter" not in names:
         raise LogFormatError(f"{path}, line {line + 1}: SampleTimeFine is empty and there is no PacketCounter")
     counted = rate if rate is not None else stated
     if counted is None:
         raise LogFormatError(
-            f"{where}: the export does not state its rate (no '// Update Rate' line, SampleTimeFine empty); "
+            f"{where}: the export does not state its rate (no '// Update Rate' or 'OutputRate' line, SampleTimeFine "
+            "empty); "
             "give the rate it was recorded at: --rate HZ (MT Manager's update rate; the times are then "
             "PacketCounter / HZ, so dropped packets keep their places)"
         )
@@ -165,7 +191,7 @@ def export_clock(path: str, rate: float | None) -> ExportClock:
     if ticks is not None:
         notes.append("SampleTimeFine not read: --rate counts the packets instead")
     said = f"PacketCounter at {counted:g} Hz" + (" (--rate)" if rate is not None else "")
-    return ExportClock("packetcounter", 1.0, counted, said, tuple(notes), blanks)  # counts: exact once divided
+    return ExportClock("packetcounter", 1.0, counted, said, tuple(notes), blanks, line)  # counts: exact once divided
 
 
 def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
@@ -187,12 +213,13 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         )
     clock = export_clock(path, options.rate)
     cmap: ColumnMap = (("t", names.index(clock.column) + 1), *((key, names.index(c) + 1) for key, c in group))
-    gyro = all(c in names for c in _GYROSCOPE)
+    gyro = all(c in names for c in _GYROSCOPE) and not _is_dot(names)  # a DOT's unit is not the export's to say
 
     def describe(stream: LogStream, lay, _names) -> str:
         del stream, lay
+        device = "DOT" if _is_dot(names) else "MT Manager"
         return (
-            f"Xsens MT Manager export: attitude from {label} (the sensor's axes into the global frame), time from "
+            f"Xsens {device} export: attitude from {label} (the sensor's axes into the global frame), time from "
             f"{clock.said}; rates in the sensor's axes"
         )
 
@@ -201,7 +228,7 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         time_scale=clock.scale,
         describe=describe,
         blanks=clock.blanks,  # tabs, commas or semicolons keep an empty field's place
-        preamble="//",
+        preamble_lines=line - 1,
         extra=(("reference_rate", _GYROSCOPE),) if gyro else (),
     )
     stream = open_text(path, replace(options, rate=None), fmt)
@@ -230,20 +257,19 @@ def _column(rows: list[str], header: str, j: int, path: str) -> np.ndarray | Non
     return np.array(values) if values and math.isfinite(values[0]) else None
 
 
-def _check_ticks(ticks: np.ndarray, stated: float | None, where: str) -> None:
-    """SampleTimeFine's steps against the preamble's rate: 100 µs ticks are MT Manager's, and a device counting in
-    another unit (an Xsens DOT counts microseconds) would give times off by that factor, so a step more than twice
-    off the stated rate's is refused."""
+def _check_ticks(ticks: np.ndarray, tick: float, stated: float | None, where: str) -> None:
+    """SampleTimeFine's steps against the preamble's rate: a clock counting in another unit than ``tick`` (s) would
+    give times off by that factor, so a step more than twice off the stated rate's is refused."""
     steps = np.diff(ticks[np.isfinite(ticks)])
     steps = steps[steps > 0]
     if stated is None or not steps.size:
         return
-    implied = 1.0 / (float(np.median(steps)) * TICK)
+    implied = 1.0 / (float(np.median(steps)) * tick)
     if not 0.5 < implied / stated < 2.0:
         raise LogFormatError(
-            f"{where}: SampleTimeFine steps by {float(np.median(steps)):g} ticks, {implied:.4g} Hz at 100 µs a tick, "
-            f"where the preamble states {stated:g} Hz: its ticks are not MT Manager's; count the packets instead: "
-            f"--rate {stated:g}"
+            f"{where}: SampleTimeFine steps by {float(np.median(steps)):g} ticks, {implied:.4g} Hz at {tick * 1e6:g} "
+            f"µs a tick, where the preamble states {stated:g} Hz: its ticks are not the device's usual ones; count "
+            f"the packets instead: --rate {stated:g}"
         )
 
 
