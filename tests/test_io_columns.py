@@ -13,6 +13,7 @@ from scipy.spatial.transform import Rotation
 import omegahat
 from omegahat.cli import main
 from omegahat.io import LogFormatError, read_log, suggest_columns
+from omegahat.io.gyrolog import read_gyro
 from omegahat.io.precision import file_tolerance, significant_digits
 from recording_files import read_omega_csv
 
@@ -545,3 +546,17 @@ def test_a_table_of_several_topics_is_estimated_at_every_row_and_says_why_most_a
     at_pose = np.isin(np.round(table[:, 0], 6), np.round(t, 6))
     assert at_pose.sum() == n and np.all(status[~at_pose] == "predicted")
     np.testing.assert_allclose(table[at_pose][20:, 1:], np.tile(omega, (n - 20, 1)), atol=1e-6)
+
+
+def test_excels_delimiter_hint_above_the_header_is_skipped_in_attitude_and_gyroscope_logs(tmp_path):
+    t = np.arange(200) * 0.01
+    q = Rotation.from_rotvec(np.outer(t, [0.2, 0.1, -0.4])).as_quat()
+    rows = "\n".join(";".join(f"{v:.15g}" for v in (t[k], q[k, 3], *q[k, :3])) for k in range(t.size))
+    path = tmp_path / "excel.csv"
+    path.write_text("sep=;\nt;qw;qx;qy;qz\n" + rows + "\n")
+    log = read_log(path)
+    assert log.t.size == 200 and log.labels[0] == 3  # the first row is line 3
+    assert any("'sep=;', Excel's delimiter hint, skipped" in n for n in log.notes)
+    gyro = tmp_path / "gyro.csv"
+    gyro.write_text("sep=,\nt,gx,gy,gz\n0,1,2,3\n0.01,4,5,6\n")
+    np.testing.assert_array_equal(read_gyro(gyro).g, [[1, 2, 3], [4, 5, 6]])

@@ -50,6 +50,7 @@ from omegahat.io.textlines import (
     clean,
     cut_lines,
     delimiter,
+    excel_separator,
     header_fields,
     is_number,
     source_blocks,
@@ -175,6 +176,9 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         if not header and _blank(clean(raw, comment, False), comment):
             continue
         if lines.line <= fmt.preamble_lines:  # the format's own preamble: no comment to mention
+            continue
+        if not header and n_header and excel_separator(_decode(raw)):  # Excel's hint: the header follows
+            stream.notes.append(f"line {lines.line}: {_decode(raw.strip())!r}, Excel's delimiter hint, skipped")
             continue
         if not header and n_header and _prose_comment(raw):  # '# sampling frequency: 30' above the header
             skipped_comments += 1

@@ -38,7 +38,14 @@ import numpy as np
 from omegahat.io.colmap import join_header_rows
 from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
-from omegahat.io.textlines import delimiter, is_number, refuse_inner_carriage_return, split_line, wrong_width
+from omegahat.io.textlines import (
+    delimiter,
+    excel_separator,
+    is_number,
+    refuse_inner_carriage_return,
+    split_line,
+    wrong_width,
+)
 from omegahat.io.timestamps import text_dates
 from omegahat.io.xsens import export_clock, is_xsens
 
@@ -195,6 +202,8 @@ def read_vectors(
     except UnicodeDecodeError as exc:
         raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
     lines = [(k + 1, line.rstrip("\r")) for k, line in enumerate(text.split("\n")) if line.strip() and k >= skip_lines]
+    if header_rows and lines and excel_separator(lines[0][1]):  # Excel's delimiter hint above the header
+        lines = lines[1:]
     if len(lines) <= header_rows:
         raise LogFormatError(f"{path}: {len(lines)} non-blank line(s), expected {header_rows} of header and rows")
     head, body = lines[:header_rows], lines[header_rows:]

@@ -31,6 +31,7 @@ __all__ = [
     "clean",
     "cut_lines",
     "delimiter",
+    "excel_separator",
     "head_lines",
     "header_fields",
     "is_number",
@@ -168,6 +169,13 @@ def delimiter(line: str, where: str, allow_blanks: bool) -> str:
             "with one of them"
         )
     return best
+
+
+def excel_separator(line: str) -> bool:
+    """Whether ``line`` is Excel's delimiter hint, ``sep=,`` (any one character after ``=``): a first line that
+    names no column, the header following it."""
+    text = line.strip()
+    return len(text) == 5 and text.startswith("sep=")
 
 
 def refuse_inner_carriage_return(line: str, where: str) -> None:
