@@ -5,8 +5,9 @@ What a CSV log may look like (:mod:`omegahat.io.columns` says which names hold w
 the encodings, line ends, delimiters and size limits):
 
 * **header**: the first non-blank line names the columns (compared ignoring case and surrounding whitespace; other,
-  ignored columns may hold anything); a header spanning N rows is read with ``--header-rows N``, a file without one
-  with ``--header-rows 0`` (:mod:`omegahat.io.colmap`);
+  ignored columns may hold anything); a first line ``sep=,`` above it (Excel's delimiter hint) is skipped with a
+  note; a header spanning N rows is read with ``--header-rows N``, a file without one with ``--header-rows 0``
+  (:mod:`omegahat.io.colmap`);
 * **columns** named otherwise are read with a column map, ``--columns t=NAME,qw=NAME,...`` by name or 1-based
   position; with one, blank-separated columns are read too;
 * **rows**: numbers as C's ``strtod`` reads them (``1``, ``-2.5e-3``, ``nan``, ``inf``; surrounding blanks allowed;
