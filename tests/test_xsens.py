@@ -19,7 +19,7 @@ from omegahat.calibration import Calibration
 from omegahat.cli import main
 from omegahat.io import read_log
 from omegahat.io.gyrolog import read_gyro
-from omegahat.io.xsens import TICK, unwrapped
+from omegahat.io.xsens import TICK, is_xsens, unwrapped
 from recording_files import estimate_file
 
 OMEGA = np.array([0.5, -0.8, 0.6])  # rad/s, sensor axes
@@ -229,7 +229,8 @@ def test_calibrate_reads_an_export_as_the_plain_csv_at_the_same_times(tmp_path, 
 
 DOT_PREAMBLE = (
     "sep=,\nDeviceTag:,dot1,,,,,,,\nFirmwareVersion:,2.4.0,,,,,,,\nOutputRate:,{rate}Hz,,,,,,,\n"
-    "FilterProfile:,General,,,,,,,\nStartTime:,2024-05-01 10:00:00.000 +0200,,,,,,,\n\n"
+    "FilterProfile:,General,,,,,,,\nStartTime:,2024-05-01 10:00:00.000 +0200,,,,,,,\n"
+    "Movella Technologies B. V. 2005-2024,,,,,,,,,\n\n"
 )
 
 
@@ -274,3 +275,14 @@ def test_a_dot_clock_in_other_ticks_than_its_stated_rate_is_refused_and_its_eule
     assert code == 2 and "the attitude is Euler angles" in err and "--euler SEQ" in err
     table, _ = estimate_file(path, tmp_path, capsys, "--euler", "ZYX", "--angle-unit", "deg")
     np.testing.assert_allclose(table[30:, 1:], np.tile(OMEGA, (len(s) - 30, 1)), atol=1e-6)
+
+
+def test_a_log_of_ones_own_with_a_packet_counter_is_not_taken_for_an_export(tmp_path):
+    t = np.arange(100) * 0.01
+    q = (R0 * Rotation.from_rotvec(np.outer(t, OMEGA))).as_quat()
+    rows = "\n".join(",".join(repr(float(v)) for v in (t[k], k, q[k, 3], *q[k, :3])) for k in range(100))
+    path = tmp_path / "own.csv"
+    path.write_text("# my rig, 100 Hz, body frame\nt,PacketCounter,qw,qx,qy,qz\n" + rows + "\n")
+    assert not is_xsens(path)
+    assert read_log(path).format == "csv"
+    assert is_xsens(_export(tmp_path / "mt.txt", np.arange(50))[0])

@@ -79,6 +79,8 @@ _GYROSCOPE = ("gyr_x", "gyr_y", "gyr_z")
 # MT Manager's '// Update Rate: 100.0Hz', a DOT's 'OutputRate:,60Hz,,,'
 _RATE = re.compile(r"^(?://\s*update rate|outputrate)\s*:[\s,]*([0-9.]+)\s*hz", re.IGNORECASE)
 _HEAD = 64  # lines read to find the header and the first rows
+# a preamble line of MT Manager ('// ...') or of a DOT ('sep=,', 'DeviceTag:,dot1,,,', a title and commas only)
+_PREAMBLE = re.compile(r"^(//.*|sep=.|[A-Za-z][\w .()/-]*:,.*|[^,;\t]*[,;]*)$")
 
 
 def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
@@ -110,9 +112,10 @@ def _attitude(names: list[str]) -> tuple[str, tuple[tuple[str, str], ...]] | Non
 
 def is_xsens(path: str | os.PathLike[str]) -> bool:
     """Whether a text file is an Xsens export (MT Manager's or a DOT's): a header naming ``PacketCounter`` or
-    ``SampleTimeFine``, under a preamble, or with a whole attitude group of Xsens' names."""
+    ``SampleTimeFine``, under a preamble of Xsens' kind of lines, or with a whole attitude group of Xsens' names."""
     preamble, line, names, _ = _head(os.fspath(path))
-    return bool(line) and (bool(preamble) or _attitude(names) is not None)
+    own = bool(preamble) and all(_PREAMBLE.match(p) for p in preamble)
+    return bool(line) and (own or _attitude(names) is not None)
 
 
 def unwrapped(raw: np.ndarray, period: float, previous: float | None = None, offset: float = 0.0) -> np.ndarray:
