@@ -282,7 +282,9 @@ def test_a_log_of_ones_own_with_a_packet_counter_is_not_taken_for_an_export(tmp_
     q = (R0 * Rotation.from_rotvec(np.outer(t, OMEGA))).as_quat()
     rows = "\n".join(",".join(repr(float(v)) for v in (t[k], k, q[k, 3], *q[k, :3])) for k in range(100))
     path = tmp_path / "own.csv"
-    path.write_text("# my rig, 100 Hz, body frame\nt,PacketCounter,qw,qx,qy,qz\n" + rows + "\n")
+    path.write_text("t,PacketCounter,qw,qx,qy,qz\n" + rows + "\n")
     assert not is_xsens(path)
     assert read_log(path).format == "csv"
+    path.write_text("# my rig, 100 Hz, body frame\nt,PacketCounter,qw,qx,qy,qz\n" + rows + "\n")  # no Xsens line
+    assert not is_xsens(path)
     assert is_xsens(_export(tmp_path / "mt.txt", np.arange(50))[0])
