@@ -25,13 +25,14 @@ tabs (the default), commas or semicolons::
   command's closing lines. The export's orientation was itself computed from these gyroscopes, so the comparison
   checks frames and conventions, not the estimate's accuracy.
 
-**Xsens DOT** CSV files (the DOT app's and SDK's: ``sep=,``, then ``Key:,value,,,`` lines with ``OutputRate:,60Hz``,
-a blank line, then ``PacketCounter,SampleTimeFine,Quat_W,Quat_X,Quat_Y,Quat_Z,…``) are read the same way, told apart
-by their names: the quaternion ``Quat_W..Z`` (scalar first, the same direction), ``SampleTimeFine`` in microseconds
-(:data:`DOT_TICK`, checked against ``OutputRate`` as above). Their Euler angles ``Euler_X..Z`` are read as angles
-about x, y, z whose sequence and unit are asked for (``--euler``, ``--angle-unit``, :mod:`omegahat.io.euler`), and
-their gyroscope is not compared (the DOT's unit is not stated in the file). The header of either is the first line
-naming ``PacketCounter`` or ``SampleTimeFine``; every line above it is the preamble.
+**Xsens DOT** CSV files (as the DOT SDK's logger writes them: ``sep=,``, then ``Key:,value,,,`` lines with
+``OutputRate:,60Hz``, a blank line, then ``PacketCounter,SampleTimeFine,Quat_W,Quat_X,Quat_Y,Quat_Z,…``) are read
+the same way, told apart by their names: the quaternion ``Quat_W..Z`` (scalar first, the same direction),
+``SampleTimeFine`` in microseconds (:data:`DOT_TICK`, checked against ``OutputRate`` as above). Their Euler angles
+``Euler_X..Z`` are read as angles about x, y, z whose sequence and unit are asked for (``--euler``,
+``--angle-unit``, :mod:`omegahat.io.euler`), and their gyroscope is not compared (the DOT's unit is not stated in
+the file). The header of either is the first line naming ``PacketCounter`` or ``SampleTimeFine``; every line above
+it is the preamble.
 
 An export separated by single spaces is read only when no field is empty: there, two spaces cannot show an empty
 field between them, and it is refused with how to export it otherwise. ``--rotation`` is refused, since the format
