@@ -288,3 +288,17 @@ def test_a_log_of_ones_own_with_a_packet_counter_is_not_taken_for_an_export(tmp_
     path.write_text("# my rig, 100 Hz, body frame\nt,PacketCounter,qw,qx,qy,qz\n" + rows + "\n")  # no Xsens line
     assert not is_xsens(path)
     assert is_xsens(_export(tmp_path / "mt.txt", np.arange(50))[0])
+
+
+def test_a_dots_gyroscope_is_read_with_a_note_that_its_unit_is_the_callers(tmp_path, capsys):
+    fine = 5_000_000 + np.arange(900) * 16667
+    path, _ = _dot_export(tmp_path / "dot.csv", fine)
+    log = read_gyro(path)
+    np.testing.assert_allclose(log.t, fine * 1e-6, atol=1e-9)
+    np.testing.assert_allclose(log.g, np.tile(np.degrees(OMEGA), (900, 1)))  # as written: the caller's unit
+    assert "--gyro-unit" in log.note
+    assert not read_gyro(_gyro_export(tmp_path / "mt.txt", np.arange(50), np.zeros((50, 3)))).note
+    # the command prints what it read before it fits (a constant rate then has nothing to calibrate against)
+    main(["calibrate", str(path), str(path), "--gyro-unit", "deg/s"])
+    out = capsys.readouterr().out
+    assert "rate gyr_x, gyr_y, gyr_z; s, from SampleTimeFine" in out and "in the unit --gyro-unit gives" in out

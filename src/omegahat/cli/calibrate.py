@@ -217,7 +217,8 @@ def run(args: argparse.Namespace) -> int:
         stated, note = unit_stated(gyro.names[0], args.gyro_time_unit, gyro.t[:64])
     time_unit = stated or args.gyro_time_unit
     said = f"; {note}" if note else ""
-    print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}{said}")
+    unsure = f"; {gyro.note}" if gyro.note else ""
+    print(f"gyroscope: {gyro.t.size} rows of {args.gyro}, {times}, rate {', '.join(gyro.names[1:])}{said}{unsure}")
     t_g = gyro.t / args.gyro_rate if args.gyro_rate is not None else gyro.t * TIME_UNITS[time_unit]
     g = gyro.g * GYRO_UNITS[args.gyro_unit]
     t_a = log.absolute_times

@@ -135,8 +135,8 @@ def open_frame(
     try:
         lay = layout([u for u, n in zip(used, names, strict=True) if n != time_name], "DataFrame", None)
     except LogFormatError as exc:  # the columns= that reads them, where their names suggest one (as a CSV's)
-        line = COLUMNS_TEMPLATE if options.column_map else suggest_columns(names)
-        if line == COLUMNS_TEMPLATE:
+        line = None if options.column_map else suggest_columns(names)
+        if line in (None, COLUMNS_TEMPLATE):  # a map given, or names that suggest none
             raise
         raise LogFormatError(f"{exc}; columns= reads others, as the command line's --columns does: {line}") from None
     original = {normalise_name(u): n for u, n in zip(used, names, strict=True)}

@@ -20,9 +20,10 @@ stem names a gyroscope (``IMU Gyroscope X``, ``gyr.x``...); the errors list what
 **PX4 ULog** (``.ulg``, recognised by its first bytes): a gyroscope topic, in seconds
 (:func:`omegahat.io.px4.read_ulog_gyro`).
 
-**Xsens MT Manager exports** (recognised by their header, :func:`omegahat.io.xsens.is_xsens`): ``Gyr_X..Z`` in
-rad/s against the export's own clock, ``SampleTimeFine`` or the packet counter at the stated rate, unwrapped
-(:func:`omegahat.io.xsens.export_clock`); with ``--gyro-rate`` the packet counter at that rate.
+**Xsens exports** (MT Manager's and a DOT's, recognised by their header, :func:`omegahat.io.xsens.is_xsens`):
+``Gyr_X..Z`` (rad/s in MT Manager's; a DOT's file states no unit, and a note says so) against the export's own
+clock, ``SampleTimeFine`` or the packet counter at the stated rate, unwrapped (:func:`omegahat.io.xsens.export_clock`);
+with ``--gyro-rate`` the packet counter at that rate.
 """
 
 from __future__ import annotations
@@ -91,12 +92,14 @@ class GyroLog(NamedTuple):
     """What :func:`read_gyro` read: ``t (M,)`` as written, ``g (M, 3)``, and the columns' names as the file gives
     them (time, x, y, z); ``own_unit``: empty where ``t`` is as written (its unit the caller's), else what says how
     the reader turned the log's own times into seconds (ISO 8601 dates, :func:`omegahat.io.timestamps.text_dates`;
-    a PX4 ULog's microseconds, :func:`omegahat.io.px4.read_ulog_gyro`)."""
+    a PX4 ULog's microseconds, :func:`omegahat.io.px4.read_ulog_gyro`); ``note``: what the file could not say and
+    the caller must (an Xsens DOT's rate unit)."""
 
     t: np.ndarray
     g: np.ndarray
     names: tuple[str, str, str, str]
     own_unit: str = ""
+    note: str = ""
 
 
 def column_triple(text: str | None, role: VectorRole = GYROSCOPE) -> tuple[str, str, str] | None:
@@ -175,12 +178,13 @@ def read_gyro(
 
 
 def _read_xsens(path: str, columns: tuple[str, str, str] | None, counted: bool) -> GyroLog:
-    """An Xsens MT Manager export as a gyroscope log: ``Gyr_X..Z`` (rad/s; or ``columns``) against the export's own
+    """An Xsens export as a gyroscope log: ``Gyr_X..Z`` (rad/s; or ``columns``) against the export's own
     clock (:func:`omegahat.io.xsens.export_clock`) in seconds; with ``counted`` (a rate given, ``--gyro-rate``) the
     packet counter unwrapped, for the caller to divide by the rate, so that dropped packets keep their places."""
     clock = export_clock(path, 1.0 if counted else None)  # rate 1: the counts themselves
     log = read_vectors(path, GYROSCOPE, columns, clock.column, skip_lines=clock.header_line - 1)
-    return log._replace(t=clock.seconds(log.t), own_unit="" if counted else f"s, from {clock.said}")
+    unsure = "Gyr_X..Z in the unit --gyro-unit gives (a DOT's file does not state it)" if clock.dot else ""
+    return log._replace(t=clock.seconds(log.t), own_unit="" if counted else f"s, from {clock.said}", note=unsure)
 
 
 def read_vectors(

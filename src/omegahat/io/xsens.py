@@ -58,7 +58,7 @@ from omegahat.io.euler import matrices, turned_into_matrices
 from omegahat.io.registry import LogChunk, LogStream, ReadOptions
 from omegahat.io.textlines import WHITESPACE, delimiter, head_lines, split_line
 
-__all__ = ["TICK", "ExportClock", "export_clock", "is_xsens", "open_xsens", "unwrapped"]
+__all__ = ["DOT_TICK", "TICK", "ExportClock", "export_clock", "is_xsens", "open_xsens", "unwrapped"]
 
 TICK = 1e-4  #: SampleTimeFine's unit (s): MT Manager's exports count the device's clock in 10 kHz ticks
 DOT_TICK = 1e-6  #: an Xsens DOT's SampleTimeFine counts microseconds
@@ -104,6 +104,7 @@ def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
 
 
 def _is_dot(names: list[str]) -> bool:
+    """Whether an export's header ``names`` (normalised) are an Xsens DOT's, not MT Manager's."""
     return any(n in names for n in _DOT_NAMES)
 
 
@@ -132,8 +133,8 @@ class ExportClock(NamedTuple):
     """Where an export's times come from (:func:`export_clock`): the ``column`` read (normalised), ``scale`` (s per
     unit: :data:`TICK` for SampleTimeFine; 1 for packet counts, divided by ``rate`` once unwrapped, as
     :meth:`seconds` does), ``rate`` (packets per second where the counter is read, else None), what ``said`` in the
-    description, the ``notes``, whether the fields are separated by ``blanks``, and the header's line number
-    ``header_line`` (the lines above it are the preamble)."""
+    description, the ``notes``, whether the fields are separated by ``blanks``, the header's line number
+    ``header_line`` (the lines above it are the preamble), and whether the export is a ``dot``'s."""
 
     column: str
     scale: float
@@ -142,6 +143,7 @@ class ExportClock(NamedTuple):
     notes: tuple[str, ...]
     blanks: bool
     header_line: int
+    dot: bool
 
     @property
     def period(self) -> int:
@@ -155,7 +157,7 @@ class ExportClock(NamedTuple):
 
 
 def export_clock(path: str, rate: float | None) -> ExportClock:
-    """The times of the MT Manager export at ``path`` (module docstring, **Time**), ``rate`` the one given (Hz, or
+    """The times of the Xsens export at ``path`` (module docstring, **Time**), ``rate`` the one given (Hz, or
     None); refused, naming the line, where they cannot be read (also a space-separated export with empty fields)."""
     preamble, line, names, first = _head(path)
     where = f"{path}, line {line} (header)"
@@ -178,15 +180,14 @@ def export_clock(path: str, rate: float | None) -> ExportClock:
         tick, unit = (DOT_TICK, "µs, an Xsens DOT's") if _is_dot(names) else (TICK, "100 µs ticks, MT Manager's")
         _check_ticks(ticks, tick, stated, where)
         said = f"SampleTimeFine, the device's clock in {unit}"
-        return ExportClock("sampletimefine", tick, None, said, (), blanks, line)
+        return ExportClock("sampletimefine", tick, None, said, (), blanks, line, _is_dot(names))
     if "packetcounter" not in names:
         raise LogFormatError(f"{path}, line {line + 1}: SampleTimeFine is empty and there is no PacketCounter")
     counted = rate if rate is not None else stated
     if counted is None:
         raise LogFormatError(
             f"{where}: the export does not state its rate (no '// Update Rate' or 'OutputRate' line, SampleTimeFine "
-            "empty); "
-            "give the rate it was recorded at: --rate HZ (MT Manager's update rate; the times are then "
+            "empty); give the rate it was recorded at: --rate HZ (MT Manager's update rate; the times are then "
             "PacketCounter / HZ, so dropped packets keep their places)"
         )
     notes = []
@@ -195,18 +196,21 @@ def export_clock(path: str, rate: float | None) -> ExportClock:
     if ticks is not None:
         notes.append("SampleTimeFine not read: --rate counts the packets instead")
     said = f"PacketCounter at {counted:g} Hz" + (" (--rate)" if rate is not None else "")
-    return ExportClock("packetcounter", 1.0, counted, said, tuple(notes), blanks, line)  # counts: exact once divided
+    return ExportClock(
+        "packetcounter", 1.0, counted, said, tuple(notes), blanks, line, _is_dot(names)
+    )  # counts: exact once divided
 
 
 def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
-    """The sensor's attitude in an MT Manager export (module docstring)."""
+    """The sensor's attitude in an Xsens export, MT Manager's or a DOT's (module docstring)."""
     path = os.fspath(path)
     _, line, names, _ = _head(path)
     found = _attitude(names)
     if found is None:
+        groups = ", ".join(label for label, _ in _ATTITUDES)
         raise LogFormatError(
-            f"{path}, line {line} (header): an Xsens MT Manager export without an orientation (Quat_q0..q3, "
-            "Mat[1][1]..Mat[3][3] or Roll, Pitch, Yaw); export it with one (MT Manager's exporter settings)"
+            f"{path}, line {line} (header): an Xsens export without an orientation ({groups}); export it with one "
+            "(MT Manager's exporter settings, the DOT's measurement mode)"
         )
     label, group = found
     where = f"{path}, line {line} (header)"
@@ -217,11 +221,11 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         )
     clock = export_clock(path, options.rate)
     cmap: ColumnMap = (("t", names.index(clock.column) + 1), *((key, names.index(c) + 1) for key, c in group))
-    gyro = all(c in names for c in _GYROSCOPE) and not _is_dot(names)  # a DOT's unit is not the export's to say
+    gyro = all(c in names for c in _GYROSCOPE) and not clock.dot  # a DOT's file does not state its unit
 
     def describe(stream: LogStream, lay, _names) -> str:
         del stream, lay
-        device = "DOT" if _is_dot(names) else "MT Manager"
+        device = "DOT" if clock.dot else "MT Manager"
         return (
             f"Xsens {device} export: attitude from {label} (the sensor's axes into the global frame), time from "
             f"{clock.said}; rates in the sensor's axes"
