@@ -560,3 +560,30 @@ def test_excels_delimiter_hint_above_the_header_is_skipped_in_attitude_and_gyros
     gyro = tmp_path / "gyro.csv"
     gyro.write_text("sep=,\nt,gx,gy,gz\n0,1,2,3\n0.01,4,5,6\n")
     np.testing.assert_array_equal(read_gyro(gyro).g, [[1, 2, 3], [4, 5, 6]])
+
+
+def test_comment_lines_with_delimiters_above_the_header_are_comments_unless_the_data_follow(tmp_path):
+    """``# exported by Tool, version 1.2`` above ``t,qw,...`` is a comment: a line of names follows it. A ``#`` line
+    that the data follow names the columns (EuRoC's ``#timestamp [ns],...``), also where the first row is ``nan``
+    or a date; the same rule holds in a gyroscope log."""
+    t = np.arange(50) * 0.01
+    q = Rotation.from_rotvec(np.outer(t, [0.2, 0.1, -0.4])).as_quat()
+    rows = [",".join(f"{v:.17g}" for v in (t[k], q[k, 3], *q[k, :3])) for k in range(t.size)]
+    path = tmp_path / "tool.csv"
+    path.write_text("# exported by Tool, version 1.2\n\n# frame: world, units: s\nt,qw,qx,qy,qz\n" + "\n".join(rows))
+    log = read_log(path)
+    np.testing.assert_array_equal(log.data, q)
+    assert log.labels[0] == 5  # the first row is line 5
+    assert "2 comment line(s) starting with '#' or '//' above the header skipped" in log.notes
+    path.write_text("// Tool, 1.2\n#t,qw,qx,qy,qz\n" + "\n".join(rows))  # the second comment names the columns
+    with pytest.raises(LogFormatError, match=r"tool\.csv, line 2 \(header\): no time column 't'"):
+        read_log(path)  # '#t' is not 't' (--columns reads it), but the header is the line that the data follow
+    path.write_text("#t,qw,qx,qy,qz\nnan,nan,nan,nan,nan\n" + "\n".join(rows))
+    with pytest.raises(LogFormatError, match=r"tool\.csv, line 1 \(header\)"):
+        read_log(path)
+    path.write_text("# time,qw,qx,qy,qz\n2026-01-01T00:00:00,1,0,0,0\n")
+    with pytest.raises(LogFormatError, match=r"tool\.csv, line 1 \(header\)"):
+        read_log(path)
+    gyro = tmp_path / "gyro.csv"
+    gyro.write_text("# gyroscope, rad/s\n# sensor: imu0, rate 100 Hz\nt,gx,gy,gz\n0,1,2,3\n0.01,4,5,6\n")
+    np.testing.assert_array_equal(read_gyro(gyro).g, [[1, 2, 3], [4, 5, 6]])

@@ -49,6 +49,7 @@ from omegahat.io.textlines import (
     DELIMITERS,
     WHITESPACE,
     clean,
+    comment_above_header,
     cut_lines,
     delimiter,
     excel_separator,
@@ -130,14 +131,6 @@ def _blank(raw: bytes, comment: bool) -> bool:
     return not text or (comment and text.startswith(b"#"))
 
 
-def _prose_comment(raw: bytes) -> bool:
-    """A line of prose after ``#`` or ``//`` above a header (``// Update Rate: 100.0Hz``, as IMU exports write
-    them): no delimiter in it, so it cannot name columns (a ``#`` line that has them, as EuRoC's
-    ``#timestamp [ns],...``, is the header)."""
-    text = raw.strip()
-    return text.startswith((b"#", b"//")) and not any(d in text for d in (b",", b";", b"\t"))
-
-
 def open_csv(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """Open a CSV log (module docstring); its header is read now, its rows chunk by chunk."""
     return open_text(path, options, TextFormat())
@@ -181,7 +174,8 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         if not header and n_header and excel_separator(_decode(raw)):  # Excel's hint: the header follows
             stream.notes.append(f"line {lines.line}: {_decode(raw.strip())!r}, Excel's delimiter hint, skipped")
             continue
-        if not header and n_header and _prose_comment(raw):  # '# sampling frequency: 30' above the header
+        following = [_decode(x) for x in lines.peek_rows(8)]
+        if not header and n_header and comment_above_header(_decode(raw), following):  # '# sampling frequency: 30'
             skipped_comments += 1
             continue
         if n_header == 0:  # no header: the first row shows the layout, and is data

@@ -4,7 +4,8 @@ r"""Gyroscope logs for ``omegahat calibrate``: a time column and three rate colu
 frequent in the header), or by blanks where there is none of them (:func:`omegahat.io.textlines.delimiter`);
 ``header_rows`` lines name them (``2``: a group title over ``X, Y, Z``, names joined per column as for attitude
 logs, :func:`omegahat.io.colmap.join_header_rows`; ``0``: no header, the columns named by their 1-based position).
-A decimal comma is read where the delimiter is not ``,``. Blank lines are skipped; any other field that is not a
+A decimal comma is read where the delimiter is not ``,``. Blank lines are skipped, and so are comment lines above the
+header (:func:`omegahat.io.textlines.comment_above_header`) and Excel's ``sep=,``; any other field that is not a
 number is an error naming its line and column, and so is a row with more or fewer fields than the header names, or
 with a carriage return inside it (a damaged row is never read in part).
 
@@ -40,6 +41,7 @@ from omegahat.io.colmap import join_header_rows
 from omegahat.io.columns import LogFormatError, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import (
+    comment_above_header,
     delimiter,
     excel_separator,
     is_number,
@@ -208,6 +210,8 @@ def read_vectors(
     lines = [(k + 1, line.rstrip("\r")) for k, line in enumerate(text.split("\n")) if line.strip() and k >= skip_lines]
     if header_rows and lines and excel_separator(lines[0][1]):  # Excel's delimiter hint above the header
         lines = lines[1:]
+    while header_rows and lines and comment_above_header(lines[0][1], [x for _, x in lines[1:9]]):
+        lines = lines[1:]  # '# recorded with ...' above the header
     if len(lines) <= header_rows:
         raise LogFormatError(f"{path}: {len(lines)} non-blank line(s), expected {header_rows} of header and rows")
     head, body = lines[:header_rows], lines[header_rows:]

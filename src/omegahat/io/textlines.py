@@ -6,7 +6,8 @@ What a text log (omegahat's CSV, EuRoC, TUM, a file read with a column map) may 
   fly); UTF-16 without a mark is refused with a message;
 * **line ends**: ``\n`` or ``\r\n``, or ``\r`` alone (classic Mac OS; Excel's "CSV (Macintosh)"), which is read as
   line ends and noted;
-* **comments** (formats that have them, e.g. TUM): a line whose first non-blank character is ``#`` is blank;
+* **comments** (formats that have them, e.g. TUM): a line whose first non-blank character is ``#`` is blank; above
+  a header, a ``#`` or ``//`` line is a comment unless the data follow it (:func:`comment_above_header`);
 * **delimiter**: ``,`` ``;`` or tab, whichever the header line holds most of outside quotes; runs of blanks for the
   whitespace-separated formats (TUM, KITTI) and for files read with a column map;
 * **sizes**: a line longer than :data:`MAX_LINE_BYTES` or a header of more than
@@ -20,7 +21,7 @@ from __future__ import annotations
 import codecs
 import csv
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 from omegahat.io.columns import MAX_COLUMNS, LogFormatError
 
@@ -29,6 +30,7 @@ __all__ = [
     "MAX_LINE_BYTES",
     "WHITESPACE",
     "clean",
+    "comment_above_header",
     "cut_lines",
     "delimiter",
     "excel_separator",
@@ -176,6 +178,23 @@ def excel_separator(line: str) -> bool:
     names no column, the header following it."""
     text = line.strip()
     return len(text) == 5 and text.startswith("sep=")
+
+
+def comment_above_header(line: str, following: Sequence[str]) -> bool:
+    """Whether ``line``, above a header, is a comment: after ``#`` or ``//``, either prose without a delimiter
+    (``// Update Rate: 100.0Hz``, as IMU exports write it), which cannot name columns, or any line that a line of
+    names or another comment follows (``# exported by Tool, version 1.2`` above ``t,qx,...``). A ``#`` line with
+    delimiters that the data follow, as EuRoC's ``#timestamp [ns],...``, is the header. ``following``: lines after
+    ``line`` (the next non-blank one decides; none known: the header)."""
+    text = line.strip()
+    if not text.startswith(("#", "//")):
+        return False
+    if not any(d in text for d in (",", ";", "\t")):
+        return True
+    after = next((x.strip(" \t\r\"'") for x in following if x.strip(" \t\r,;\"'")), "")
+    if is_number(re.split(r"[,;\t ]", after, maxsplit=1)[0], decimal_comma=False):  # data ('nan' too)
+        return False
+    return after.startswith(("#", "//")) or after[:1].isalpha()  # names start with a letter; dates do not
 
 
 def refuse_inner_carriage_return(line: str, where: str) -> None:
