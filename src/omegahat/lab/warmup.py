@@ -1,4 +1,4 @@
-r"""Compile the kernels before a user needs them: every path of ``omegahat estimate`` and ``omegahat paper``, run once.
+r"""Compile the kernels before a user needs them: every path of ``omegahat estimate``, ``paper`` and ``montecarlo``.
 
 Run when the wheel is built (``build_support/omegahat_build.py``, the build step of ``pip install .``): in a child
 process whose ``omegahat`` is the build's copy, so that Numba's cache files (``*.nbi``, ``*.nbc``) land in that
@@ -14,12 +14,15 @@ sizes, read-only flags) are those a user's run asks for:
   short horizon: the step count does not change what is compiled) — ``omegahat paper`` less its figures — and the
   same on the threaded lockstep engine (:func:`~omegahat.simulation.simulate_batch`, a public name whose first
   call otherwise compiles at length);
+* a simulation with three directions (the three rows of R: a full attitude sensor);
+* a chunk of ``omegahat montecarlo``'s campaign (``examples/campaign.toml``'s body, sensors and two torque terms),
+  on Numba's threads and on the calling thread (as a Dask task runs it);
 * the MEKF baseline's ``run`` and its smoother, the library's estimators not on the command's default paths;
 * the gyro-free peers of ``omegahat compare`` (minimum-energy, predictive, Sun-line SEKF, differencing).
 
 The simulation engine is compiled for each number of directions and of torque terms (literal sizes): the warm-up
-covers the paper's; another problem's first simulation compiles its own (each size would lengthen every install by
-as much).
+covers the paper's, three directions, and the example campaign's; another problem's first simulation compiles its own
+(30–50 s each; every size shipped lengthens every install by as much).
 
 Any run can do the same (``python -m omegahat.lab.warmup``): it fills the cache the package uses. Each step's
 seconds are printed; a failing step is reported and the others still run (exit status 1 then).
@@ -89,10 +92,34 @@ def _paper(logs: dict[str, Path], folder: Path) -> None:
     simulate(paper_problem(), horizon=0.2)
 
 
+def _full_attitude(logs: dict[str, Path], folder: Path) -> None:
+    from omegahat.observer.gains import ObserverGains
+    from omegahat.simulation import CoupledProblem, simulate
+
+    problem = CoupledProblem(  # the three rows of R measured: a full attitude sensor's three directions
+        J=np.diag([3.0, 2.0, 1.0]),
+        gains=ObserverGains(k=np.full(3, 14.5), l_offset=np.ones(3)),
+        omega0=np.array([2.0, -1.0, 0.6]),
+        references=np.eye(3),
+        r_hat0=-np.eye(3),
+    )
+    simulate(problem, horizon=0.2)
+
+
 def _batch(logs: dict[str, Path], folder: Path) -> None:
     from omegahat.simulation import paper_problem, simulate_batch
 
     simulate_batch([paper_problem(), paper_problem()], t_out=[0.0, 0.2])  # the lockstep engine, threaded (default)
+
+
+def _campaign(logs: dict[str, Path], folder: Path) -> None:
+    from omegahat.lab import campaigns as mc
+    from omegahat.observer.gains import theorem_gains
+
+    J = np.diag([3.0, 2.0, 1.0])  # the example campaign's body and sensors, its two torque terms (the defaults)
+    campaign = mc.Campaign(J=J, omega_max=3.0, gains={"theorem": theorem_gains(J, 3.0)}, runs=2, horizon=0.2)
+    mc.run_chunk(campaign, 0, 2, parallel=True)  # omegahat montecarlo on this machine (Numba's threads)
+    mc.run_chunk(campaign, 0, 2, parallel=False)  # the same, one chunk per Dask task
 
 
 def _mekf(logs: dict[str, Path], folder: Path) -> None:
@@ -129,7 +156,9 @@ STEPS: tuple[tuple[str, Callable[[dict[str, Path], Path], None]], ...] = (
     ("estimate, two directions", _estimate("directions", "--references=1,0,0;0,1,0")),
     ("estimate, one direction", _estimate("direction", "--references=1,0,0", "--inertia", "3", "2", "1")),
     ("paper's simulation", _paper),
+    ("simulation, three directions", _full_attitude),
     ("simulate_batch", _batch),
+    ("a Monte-Carlo campaign", _campaign),
     ("MEKF and its smoother", _mekf),
     ("the gyro-free peers", _peers),
 )
