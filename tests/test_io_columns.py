@@ -587,3 +587,14 @@ def test_comment_lines_with_delimiters_above_the_header_are_comments_unless_the_
     gyro = tmp_path / "gyro.csv"
     gyro.write_text("# gyroscope, rad/s\n# sensor: imu0, rate 100 Hz\nt,gx,gy,gz\n0,1,2,3\n0.01,4,5,6\n")
     np.testing.assert_array_equal(read_gyro(gyro).g, [[1, 2, 3], [4, 5, 6]])
+    counted = tmp_path / "picoquake.csv"  # PicoQuake's layout (its documentation): '#' lines, then a counter
+    counted.write_text(
+        "# PLab PicoQuake Data\n# Time: 2024-04-21 15:54:46.333682, Device: D4E9 (E6632891E36F2029)\n"
+        "# Config: data_rate = 100.0 Hz, filter = 42 Hz, acc_range = 4 g, gyro_range = 250.0 dps\n"
+        "count,a_x,a_y,a_z,g_x,g_y,g_z\n0,0,0,1,1.5,2,3\n1,0,0,1,4,5,6.25\n"
+    )
+    with pytest.raises(LogFormatError, match=r"no column 't' .*; a log without times: --gyro-rate HZ"):
+        read_gyro(counted)
+    log = read_gyro(counted, time_column=None)  # what --gyro-rate reads: the rows' indices
+    np.testing.assert_array_equal(log.g, [[1.5, 2, 3], [4, 5, 6.25]])
+    np.testing.assert_array_equal(log.t, [0, 1])

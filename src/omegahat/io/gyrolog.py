@@ -65,6 +65,7 @@ __all__ = [
 
 GYRO_COLUMNS = (
     ("gx", "gy", "gz"),
+    ("g_x", "g_y", "g_z"),
     ("wx", "wy", "wz"),
     ("gyro_x", "gyro_y", "gyro_z"),
     ("gyr_x", "gyr_y", "gyr_z"),
@@ -157,6 +158,7 @@ def _index(name: str, names: list[str], path: str, what: str, role: VectorRole) 
     raise LogFormatError(
         f"{path}: no column {name!r} (found: {', '.join(names)}); name the {role.noun} log's {what} with "
         + f"{role.flag}-{'time-column' if what == 'time' else 'columns'} (a name or a 1-based position)"
+        + ("; a log without times: --gyro-rate HZ (row k at k / HZ)" if what == "time" and role is GYROSCOPE else "")
     )
 
 
