@@ -1,8 +1,9 @@
 """The chaos suite's engine (issue 23), shared by ``tests/test_chaos_*.py`` (a small budget, in CI) and
 ``benchmarks/chaos.py`` (a longer seeded run): valid files of every reader, mutated, read, and each outcome classified.
 
-**Seeds.** :func:`make_seeds` writes one valid file per reader (omegahat's CSV with an ignored column, NPZ,
-Motive, Vicon, C3D, ROS 1 and ROS 2 bags, a CCSDS AEM) and knows how many rows reading it gives.
+**Seeds.** :func:`make_seeds` writes one valid file per reader (omegahat's CSV with an ignored column, the same
+under comment lines, NPZ, Motive, Vicon, C3D, ROS 1 and ROS 2 bags, a CCSDS AEM...) and knows how many rows reading it
+gives.
 
 **Mutations** (:data:`TEXT_MUTATIONS`, :data:`BINARY_MUTATIONS`), seeded: byte flips, truncation, a block of
 zeros, a duplicated block; for text also a stray quote (anywhere, or opening a field), CR-LF or CR-only line ends, a
@@ -85,6 +86,11 @@ def make_seeds(folder: Path, rows: int = 120) -> list[Seed]:
         for k in range(rows)
     ]
     seeds.append(Seed("csv", {"log.csv": ("\n".join(csv) + "\n").encode()}, "log.csv", "log.csv", rows, 1))
+    # comment lines with delimiters above the header (a tool's banner): comments, since names follow them
+    banner = ["# exported by Tool, version 1.2", "# frame: world, units: s, quaternion", *csv]
+    seeds.append(
+        Seed("csv-comments", {"tool.csv": ("\n".join(banner) + "\n").encode()}, "tool.csv", "tool.csv", rows, 3)
+    )
 
     np.savez(folder / "log.npz", t=t, q=q)
     seeds.append(Seed("npz", {"log.npz": (folder / "log.npz").read_bytes()}, "log.npz", "log.npz", rows))

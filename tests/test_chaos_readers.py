@@ -26,7 +26,7 @@ def seeds(tmp_path_factory):
 
 
 def _pairs():
-    text = ("csv", "motive", "vicon", "aem", "ur-rtde", "tum", "kitti", "euroc", "xsens", "xsens-dot")
+    text = ("csv", "csv-comments", "motive", "vicon", "aem", "ur-rtde", "tum", "kitti", "euroc", "xsens", "xsens-dot")
     names = ("npz", "parquet", "qtm-mat", "c3d", "rosbag1", "rosbag2", *text)
     for name in names:
         kinds = chaos.TEXT_MUTATIONS if name in text else chaos.BINARY_MUTATIONS
