@@ -174,10 +174,10 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
         if not header and n_header and excel_separator(_decode(raw)):  # Excel's hint: the header follows
             stream.notes.append(f"line {lines.line}: {_decode(raw.strip())!r}, Excel's delimiter hint, skipped")
             continue
-        following = [_decode(x) for x in lines.peek_rows(8)]
-        if not header and n_header and comment_above_header(_decode(raw), following):  # '# sampling frequency: 30'
-            skipped_comments += 1
-            continue
+        if not header and n_header and raw.lstrip().startswith((b"#", b"//")):  # '# sampling frequency: 30' above
+            if comment_above_header(_decode(raw), [_decode(x) for x in lines.peek_rows(8)]):  # the next line decides
+                skipped_comments += 1
+                continue
         if n_header == 0:  # no header: the first row shows the layout, and is data
             first = raw
             lines.pending.append(raw)
