@@ -198,6 +198,7 @@ def main() -> None:
             print(suite_row, flush=True)
     load = os.getloadavg()
     options = (f" --installs {args.installs}" if args.installs > 1 else "") + (" --suite" if args.suite else "")
+    options += "".join(f" --skip {s}" for s in args.skip)  # the command as run, so that it reproduces the section
     body = (
         f"{machine_line()} Command: `python benchmarks/first_run.py{options}` ({args.label or 'this commit'}; "
         "load average at the end "
