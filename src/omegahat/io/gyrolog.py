@@ -210,10 +210,16 @@ def read_vectors(
     except UnicodeDecodeError as exc:
         raise LogFormatError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from None
     lines = [(k + 1, line.rstrip("\r")) for k, line in enumerate(text.split("\n")) if line.strip() and k >= skip_lines]
-    if header_rows and lines and excel_separator(lines[0][1]):  # Excel's delimiter hint above the header
-        lines = lines[1:]
-    while header_rows and lines and comment_above_header(lines[0][1], [x for _, x in lines[1:9]]):
-        lines = lines[1:]  # '# recorded with ...' above the header
+    above = 0  # lines above the header that are not part of it: Excel's delimiter hint, then comments
+    if header_rows and lines and excel_separator(lines[0][1]):
+        above = 1
+    while (
+        header_rows
+        and above < len(lines)
+        and comment_above_header(lines[above][1], [x for _, x in lines[above + 1 : above + 9]])
+    ):
+        above += 1  # '# recorded with ...' above the header
+    lines = lines[above:]  # one copy, whatever the number of comments
     if len(lines) <= header_rows:
         raise LogFormatError(f"{path}: {len(lines)} non-blank line(s), expected {header_rows} of header and rows")
     head, body = lines[:header_rows], lines[header_rows:]

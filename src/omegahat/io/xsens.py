@@ -84,23 +84,37 @@ _HEAD = 64  # lines read to find the header and the first rows
 _PREAMBLE = re.compile(r"^(//.*|sep=.|[A-Za-z][\w .()/-]*:,.*|[^,;\t]*[,;]*)$")
 
 
-def _head(path: str) -> tuple[list[str], int, list[str], list[str]]:
-    """The preamble's non-blank lines, the header's line number (1-based; 0: none), its names (normalised) and the
-    data lines after it (up to :data:`_HEAD` lines are read). The header is the first line naming ``PacketCounter``
-    or ``SampleTimeFine``; every line above it is the preamble (MT Manager's ``//`` lines, a DOT's ``sep=,`` and
-    ``Key:,value`` lines)."""
+class _Head(NamedTuple):
+    """What :func:`_head` found: the preamble's non-blank lines, the header's line number (1-based; 0: none), its
+    names (normalised) and delimiter, and the data lines after it."""
+
+    preamble: list[str]
+    line: int
+    names: list[str]
+    delim: str
+    rows: list[str]
+
+
+_NO_HEADER = _Head([], 0, [], ",", [])
+
+
+def _head(path: str) -> _Head:
+    """The export's head (up to :data:`_HEAD` lines are read). The header is the first line naming
+    ``PacketCounter`` or ``SampleTimeFine``; every line above it is the preamble (MT Manager's ``//`` lines, a DOT's
+    ``sep=,`` and ``Key:,value`` lines)."""
     lines = head_lines(path, _HEAD)
     for k, line in enumerate(lines):
         if not re.search(r"packetcounter|sampletimefine", line, re.IGNORECASE):
             continue
         try:
-            names = [normalise_name(n) for n in split_line(line, delimiter(line, path, True), path)]
+            delim = delimiter(line, path, True)
+            names = [normalise_name(n) for n in split_line(line, delim, path)]
         except LogFormatError:
-            return [], 0, [], []
+            return _NO_HEADER
         if {"packetcounter", "sampletimefine"} & set(names):
             preamble = [p.strip() for p in lines[:k] if p.strip()]
-            return preamble, k + 1, names, [r for r in lines[k + 1 :] if r.strip()]
-    return [], 0, [], []
+            return _Head(preamble, k + 1, names, delim, [r for r in lines[k + 1 :] if r.strip()])
+    return _NO_HEADER
 
 
 def _is_dot(names: list[str]) -> bool:
@@ -115,9 +129,9 @@ def _attitude(names: list[str]) -> tuple[str, tuple[tuple[str, str], ...]] | Non
 def is_xsens(path: str | os.PathLike[str]) -> bool:
     """Whether a text file is an Xsens export (MT Manager's or a DOT's): a header naming ``PacketCounter`` or
     ``SampleTimeFine``, under a preamble of Xsens' kind of lines, or with a whole attitude group of Xsens' names."""
-    preamble, line, names, _ = _head(os.fspath(path))
-    own = bool(preamble) and all(_PREAMBLE.match(p) for p in preamble)
-    return bool(line) and (own or _attitude(names) is not None)
+    head = _head(os.fspath(path))
+    own = bool(head.preamble) and all(_PREAMBLE.match(p) for p in head.preamble)
+    return bool(head.line) and (own or _attitude(head.names) is not None)
 
 
 def unwrapped(raw: np.ndarray, period: float, previous: float | None = None, offset: float = 0.0) -> np.ndarray:
@@ -159,10 +173,9 @@ class ExportClock(NamedTuple):
 def export_clock(path: str, rate: float | None) -> ExportClock:
     """The times of the Xsens export at ``path`` (module docstring, **Time**), ``rate`` the one given (Hz, or
     None); refused, naming the line, where they cannot be read (also a space-separated export with empty fields)."""
-    preamble, line, names, first = _head(path)
+    preamble, line, names, delim, first = _head(path)
     where = f"{path}, line {line} (header)"
-    header = head_lines(path, line)[-1]
-    blanks = delimiter(header, path, True) == WHITESPACE
+    blanks = delim == WHITESPACE
     if blanks and first and len(first[0].split()) != len(names):
         raise LogFormatError(
             f"{path}, line {line + 1}: {len(first[0].split())} fields under {len(names)} names: this export is "
@@ -175,7 +188,7 @@ def export_clock(path: str, rate: float | None) -> ExportClock:
             f"{path}: the preamble states a rate of {stated:g} Hz, no rate to count packets by; give the rate it "
             "was recorded at: --rate HZ"
         )
-    ticks = _column(first, header, names.index("sampletimefine"), path) if "sampletimefine" in names else None
+    ticks = _column(first, delim, names.index("sampletimefine"), path) if "sampletimefine" in names else None
     if ticks is not None and rate is None:
         tick, unit = (DOT_TICK, "µs, an Xsens DOT's") if _is_dot(names) else (TICK, "100 µs ticks, MT Manager's")
         _check_ticks(ticks, tick, stated, where)
@@ -204,7 +217,8 @@ def export_clock(path: str, rate: float | None) -> ExportClock:
 def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     """The sensor's attitude in an Xsens export, MT Manager's or a DOT's (module docstring)."""
     path = os.fspath(path)
-    _, line, names, _ = _head(path)
+    head = _head(path)
+    line, names = head.line, head.names
     found = _attitude(names)
     if found is None:
         groups = ", ".join(label for label, _ in _ATTITUDES)
@@ -252,10 +266,9 @@ def open_xsens(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
     return stream
 
 
-def _column(rows: list[str], header: str, j: int, path: str) -> np.ndarray | None:
-    """Field ``j`` of the data lines ``rows`` as numbers, where the first holds a finite one (else None); a field
-    that is no number is NaN (the reader names it later)."""
-    delim = delimiter(header, path, True)
+def _column(rows: list[str], delim: str, j: int, path: str) -> np.ndarray | None:
+    """Field ``j`` of the data lines ``rows`` (separated by ``delim``) as numbers, where the first holds a finite
+    one (else None); a field that is no number is NaN (the reader names it later)."""
     values = []
     for row in rows:
         try:
