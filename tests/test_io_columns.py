@@ -575,6 +575,9 @@ def test_comment_lines_with_delimiters_above_the_header_are_comments_unless_the_
     np.testing.assert_array_equal(log.data, q)
     assert log.labels[0] == 5  # the first row is line 5
     assert "2 comment line(s) starting with '#' or '//' above the header skipped" in log.notes
+    banner = "# exported by Tool, " + "x" * (4096 - 21) + "\n"  # a comment that ends where the first 4 kB end:
+    path.write_text(banner + "t,qw,qx,qy,qz\n" + "\n".join(rows))  # the line after it is still seen
+    np.testing.assert_array_equal(read_log(path, chunk_bytes=4096).data, q)
     path.write_text("// Tool, 1.2\n#t,qw,qx,qy,qz\n" + "\n".join(rows))  # the second comment names the columns
     with pytest.raises(LogFormatError, match=r"tool\.csv, line 2 \(header\): no time column 't'"):
         read_log(path)  # '#t' is not 't' (--columns reads it), but the header is the line that the data follow

@@ -93,22 +93,31 @@ class _Lines:
 
     def __init__(self, buffers: Iterator[bytes]):
         self.buffers, self.line = buffers, 0
-        self.pending: list[bytes] = []  # the current buffer's unread lines, last first
+        self.pending: list[bytes] = []  # the unread lines of the buffers read so far, last first
+
+    def _read_buffer(self) -> bool:
+        """Put the next buffer's lines after the unread ones; False at the end of the file."""
+        buf = next(self.buffers, None)
+        if buf is None:
+            return False
+        more = buf.split(b"\n")
+        if buf.endswith(b"\n"):
+            more.pop()
+        self.pending[:0] = more[::-1]
+        return True
 
     def next_line(self) -> bytes | None:
         while not self.pending:
-            buf = next(self.buffers, None)
-            if buf is None:
+            if not self._read_buffer():
                 return None
-            self.pending = buf.split(b"\n")
-            if buf.endswith(b"\n"):
-                self.pending.pop()
-            self.pending.reverse()
         self.line += 1
         return self.pending.pop()
 
     def peek_rows(self, n: int) -> list[bytes]:
-        """Up to ``n`` of the unread lines of the current buffer (not consumed)."""
+        """Up to ``n`` of the unread lines (not consumed), from further buffers where the current one ends sooner,
+        so that what is seen does not depend on where the buffers end."""
+        while len(self.pending) < n and self._read_buffer():
+            pass
         return self.pending[::-1][:n]
 
     def rest(self) -> Iterator[bytes]:
