@@ -601,3 +601,25 @@ def test_comment_lines_with_delimiters_above_the_header_are_comments_unless_the_
     log = read_gyro(counted, time_column=None)  # what --gyro-rate reads: the rows' indices
     np.testing.assert_array_equal(log.g, [[1.5, 2, 3], [4, 5, 6.25]])
     np.testing.assert_array_equal(log.t, [0, 1])
+
+
+def test_a_refusal_lists_a_wide_or_long_header_in_a_few_lines(tmp_path):
+    """A header of 5,000 columns, or one long comment line with commas read as the header, is named by its first
+    names (each cut to 40 characters) and its count: the message is not the whole header."""
+    wide = tmp_path / "wide.csv"
+    wide.write_text(",".join(f"c{j}" for j in range(5000)) + "\n" + ",".join("1" * 5000) + "\n")
+    long_field = "x" * 4000
+    long = tmp_path / "long.csv"
+    long.write_text(f"time,{long_field}\n0,1\n0.01,1\n")
+    for path, count in ((wide, 5000), (long, 2)):
+        with pytest.raises(LogFormatError) as caught:
+            read_log(path)
+        text = str(caught.value)
+        assert len(text) < 800, text[:200]
+        assert (f"... ({count} in all)" in text) == (count > 24)
+    with pytest.raises(LogFormatError, match=r"c23, \.\.\. \(5000 in all\)"):
+        read_log(wide)
+    with pytest.raises(LogFormatError, match=r"x{37}\.\.\."):
+        read_log(long)
+    with pytest.raises(LogFormatError, match=r"found: 1:c0, 2:c1, .* 24:c23, \.\.\. \(5000 in all\)"):
+        read_log(wide, columns="t=c0,qw=zz,qx=c1,qy=c2,qz=c3")

@@ -38,6 +38,7 @@ from omegahat.io.columns import (
     TORQUE_COLUMNS,
     LogFormatError,
     attitude_groups,
+    found_names,
     normalise_name,
     time_column_by_name,
 )
@@ -166,7 +167,9 @@ def _resolve(value: str | int, names: list[str], labels: Sequence[str], key: str
     if hits:
         at = ", ".join(str(j + 1) for j in hits)
         raise LogFormatError(f"{where}: --columns {key}={value!r} matches columns {at}; give the position instead")
-    raise LogFormatError(f"{where}: --columns {key}={value!r}: no such column (found: {_listing(labels)})")
+    raise LogFormatError(
+        f"{where}: --columns {key}={value!r}: no such column (found: {found_names(labels, numbered=True)})"
+    )
 
 
 def apply_columns(names: Sequence[str], columns: ColumnMap | None, where: str, time_column: str = "t") -> list[str]:
@@ -191,12 +194,6 @@ def apply_columns(names: Sequence[str], columns: ColumnMap | None, where: str, t
         used[j] = key
         out[j] = key
     return out
-
-
-def _listing(names: Sequence[str], limit: int = 40) -> str:
-    shown = [f"{j + 1}:{n}" if n else f"{j + 1}:(empty)" for j, n in enumerate(names[:limit])]
-    more = f", ... ({len(names)} columns)" if len(names) > limit else ""
-    return ", ".join(shown) + more
 
 
 def columns_line(pairs: Sequence[tuple[str, str | int]]) -> str:

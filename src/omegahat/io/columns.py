@@ -39,6 +39,7 @@ __all__ = [
     "LogFormatError",
     "attitude_groups",
     "direction_columns",
+    "found_names",
     "layout",
     "normalise_name",
     "time_column_by_name",
@@ -96,6 +97,20 @@ class Layout:
     def columns(self) -> tuple[str, ...]:
         """Every column read, time first (when it is a column)."""
         return (*((self.time,) if self.time else ()), *self.attitude, *(self.torque or ()))
+
+
+def found_names(names: Iterable[str], numbered: bool = False, most: int = 24, width: int = 40) -> str:
+    """The names a file has, for a message: at most ``most`` of them, each cut to ``width`` characters (a header
+    that is one long comment, or a file of thousands of columns, would otherwise fill the screen), with their 1-based
+    positions when ``numbered``."""
+    shown, count = [], 0
+    for j, name in enumerate(names):
+        count = j + 1
+        if j < most:
+            text = name if len(name) <= width else name[: width - 3] + "..."
+            shown.append(f"{j + 1}:{text or '(empty)'}" if numbered else text)
+    more = f", ... ({count} in all)" if count > most else ""
+    return (", ".join(shown) or "none") + more
 
 
 def normalise_name(name: str) -> str:
@@ -229,7 +244,7 @@ def layout(names: Iterable[str], where: str, time_column: str | None = "t", scal
             tip = f"; pass --time-column {hint[0]}"
         elif hint:
             tip = f"; several columns are named as a time ({', '.join(hint)}): pass --time-column with the one to read"
-        raise LogFormatError(f"{where}: no time column {time_column!r} (found: {', '.join(normalised)}){tip}")
+        raise LogFormatError(f"{where}: no time column {time_column!r} (found: {found_names(normalised)}){tip}")
     touched = attitude_groups(normalised)
     numbered = _numbered_quaternion(present) if not present & set(QUATERNION_COLUMNS) else None
     if len(touched) > 1:  # Euler angles beside an exact attitude (exports often write both): the exact one is read
@@ -237,7 +252,7 @@ def layout(names: Iterable[str], where: str, time_column: str | None = "t", scal
     if not touched:
         raise LogFormatError(
             f"{where}: no attitude columns; expected qw,qx,qy,qz or r11..r33 or b1x,b1y,b1z,b2x,... or roll,pitch,yaw "
-            f"or rotvec_x,rotvec_y,rotvec_z (found: {', '.join(normalised)})"
+            f"or rotvec_x,rotvec_y,rotvec_z (found: {found_names(normalised)})"
         )
     if len(touched) > 1:
         raise LogFormatError(f"{where}: attitude given more than one way ({' and '.join(touched)}); keep one")

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from omegahat.io.columns import LogFormatError
+from omegahat.io.columns import LogFormatError, found_names
 from omegahat.io.registry import TIME_UNITS
 from omegahat.io.timestamps import text_dates
 
@@ -24,7 +24,7 @@ def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None]:
     if time is not None or "t" in df.columns:
         name = time or "t"
         if name not in df.columns:
-            raise LogFormatError(f"DataFrame: no time column {name!r} (found: {', '.join(map(str, df.columns))})")
+            raise LogFormatError(f"DataFrame: no time column {name!r} (found: {found_names(map(str, df.columns))})")
         s = df[name]
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
             return nanoseconds(s, name), name
@@ -79,7 +79,9 @@ def polars_times(df: Any, time: str | None) -> tuple[np.ndarray, str]:
 
     name = time or "t"
     if name not in df.columns:
-        raise LogFormatError(f"DataFrame: no time column {name!r}; give time='column' (found: {', '.join(df.columns)})")
+        raise LogFormatError(
+            f"DataFrame: no time column {name!r}; give time='column' (found: {found_names(map(str, df.columns))})"
+        )
     s = df.get_column(name)
     if s.null_count():
         k = int(np.flatnonzero(s.is_null().to_numpy())[0])

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from omegahat.io.colmap import join_header_rows
-from omegahat.io.columns import LogFormatError, time_column_by_name
+from omegahat.io.columns import LogFormatError, found_names, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import (
     comment_above_header,
@@ -143,7 +143,7 @@ def gyro_columns(names: list[str], where: str, role: VectorRole = GYROSCOPE) -> 
         return taken[0]
     tip = f" (perhaps {role.flag}-columns {shlex.quote(','.join(triples[0]))})" if len(triples) == 1 else ""
     raise LogFormatError(
-        f"{where}: no {role.noun} columns (found: {', '.join(names)}); expected one of "
+        f"{where}: no {role.noun} columns (found: {found_names(names)}); expected one of "
         f"{'; '.join(','.join(g) for g in role.groups)}: name them with {flag}{tip}"
     )
 
@@ -156,7 +156,7 @@ def _index(name: str, names: list[str], path: str, what: str, role: VectorRole) 
     if key.isdigit() and 1 <= int(key) <= len(names):
         return int(key) - 1
     raise LogFormatError(
-        f"{path}: no column {name!r} (found: {', '.join(names)}); name the {role.noun} log's {what} with "
+        f"{path}: no column {name!r} (found: {found_names(names)}); name the {role.noun} log's {what} with "
         + f"{role.flag}-{'time-column' if what == 'time' else 'columns'} (a name or a 1-based position)"
         + ("; a log without times: --gyro-rate HZ (row k at k / HZ)" if what == "time" and role is GYROSCOPE else "")
     )
@@ -280,14 +280,14 @@ def _read_npz(path: str, time_column: str | None, columns: tuple[str, str, str] 
         raise LogFormatError(f"{path}: not a readable .npz file of numbers ({exc})") from None
     time_name = "row" if time_column is None else time_column.lower()
     if time_column is not None and time_name not in arrays:
-        raise LogFormatError(f"{path}: no array {time_name!r} (found: {', '.join(arrays)})")
+        raise LogFormatError(f"{path}: no array {time_name!r} (found: {found_names(arrays)})")
     if columns is None and "g" in arrays:
         g, rate = arrays["g"], ("g[:, 0]", "g[:, 1]", "g[:, 2]")
     else:
         x, y, z = gyro_columns(list(arrays), path) if columns is None else columns
         rate = (x.lower(), y.lower(), z.lower())
         if not all(c in arrays for c in rate):
-            raise LogFormatError(f"{path}: no arrays {', '.join(rate)} (found: {', '.join(arrays)})")
+            raise LogFormatError(f"{path}: no arrays {', '.join(rate)} (found: {found_names(arrays)})")
         g = np.column_stack([arrays[c].ravel() for c in rate])
     t = np.arange(len(g), dtype=float) if time_column is None else arrays[time_name].ravel()
     if g.shape != (t.size, 3):

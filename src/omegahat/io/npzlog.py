@@ -38,6 +38,7 @@ from omegahat.io.columns import (
     ROTVEC_COLUMNS,
     TORQUE_COLUMNS,
     direction_columns,
+    found_names,
     layout,
 )
 from omegahat.io.columns import LogFormatError as _Err
@@ -227,7 +228,7 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         get = z.get
 
         if "t" not in names:
-            raise _Err(f"{path}: no array 't' (found: {', '.join(names) or 'none'})")
+            raise _Err(f"{path}: no array 't' (found: {found_names(names)})")
         t = get("t", "(T,)", lambda s: len(s) == 1 and s[0] > 0)
         T = t.size
         whole = [n for n in ("q", "R", "b", "rotvec") if n in names]
