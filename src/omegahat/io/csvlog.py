@@ -72,7 +72,7 @@ class TextFormat:
     ``names`` of the columns when there is no header, ``comment`` (``#`` lines are blank), ``blanks`` (columns
     separated by blanks; None: only with a column map), the format's own column ``columns`` (``--columns``
     overrides), ``time_scale`` (seconds per time unit, for formats that state it; then ``--time-unit`` is not
-    taken), ``describe(stream, lay, names) -> str`` saying what was recognised (empty: omegahat's own),
+    taken), ``describe(stream, lay, names) -> str`` saying what was recognised (None: omegahat's own columns, said as such),
     ``preamble_lines``: the first lines are the format's own and skipped (Xsens' preamble, whatever it holds), and
     ``extra``: pairs ``(key, names)`` of further columns read into each chunk's
     ``extra[key]`` ``(m, len(names))``, NaN where a field is empty (the rates a log carries, to compare with)."""
@@ -285,6 +285,8 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     parser = ChunkParser(path, names, labels, lay, delim, header_line, times, time_scale or 1.0, comment, rate, extra)
     if fmt.describe is not None:
         stream.description = fmt.describe(stream, lay, original)
+    else:  # omegahat's own columns: what each was read as, as every other reader says
+        stream.description = f"CSV log: {lay.kind} columns {stream.attitude_name}, time {stream.time_name}"
 
     def chunks() -> Iterator[LogChunk]:
         line = lines.line + 1
