@@ -73,8 +73,8 @@ class TextFormat:
     separated by blanks; None: only with a column map), the format's own column ``columns`` (``--columns``
     overrides), ``time_scale`` (seconds per time unit, for formats that state it; then ``--time-unit`` is not
     taken), ``describe(stream, lay, names) -> str`` saying what was recognised (None: omegahat's own columns, said
-    as such), ``preamble_lines``: the first lines are the format's own and skipped (Xsens' preamble, whatever it holds), and
-    ``extra``: pairs ``(key, names)`` of further columns read into each chunk's
+    as such), ``preamble_lines``: the first lines are the format's own and skipped (Xsens' preamble, whatever it
+    holds), and ``extra``: pairs ``(key, names)`` of further columns read into each chunk's
     ``extra[key]`` ``(m, len(names))``, NaN where a field is empty (the rates a log carries, to compare with)."""
 
     header_rows: int = 1
