@@ -247,6 +247,31 @@ def test_command_messages(tmp_path, capsys):
         read_gyro(gyro)
 
 
+def test_the_outputs_are_checked_before_the_fit_and_never_replace_an_input(tmp_path, capsys):
+    """``-o`` or ``--plot`` naming an input log, each other, a missing folder or a type Matplotlib cannot write is
+    refused before any log is read (nothing printed on standard output), and the inputs are left as they were."""
+    data, _ = simulated(4)
+    att, gyro = _write_logs(tmp_path, data)
+    before = {p: p.read_bytes() for p in (att, gyro)}
+    out, png = tmp_path / "cal.json", tmp_path / "res.png"
+    for extra, said in (
+        (["-o", str(gyro)], f"the output {gyro} is the input {gyro}; write the calibration to another file"),
+        (["-o", str(att)], f"the output {att} is the input {att}"),
+        (["--plot", str(att)], "write the plot to another file"),
+        (["-o", str(out), "--plot", str(out)], "-o and --plot name the same file"),
+        (["-o", str(tmp_path / "no" / "cal.json")], "does not exist; create it first"),
+        (["-o", str(out), "--plot", str(tmp_path / "res.csv")], "not an image type Matplotlib writes; use .eps"),
+    ):
+        assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", *extra]) == 2, extra
+        captured = capsys.readouterr()
+        assert said in captured.err and captured.out == "", (extra, captured.err)
+    assert {p: p.read_bytes() for p in (att, gyro)} == before and not out.exists()
+    assert main(["calibrate", str(att), str(gyro), "--gyro-unit", "deg/s", "-o", str(out), "--plot", str(png)]) == 0
+    assert Calibration.load(out).offset == json.loads(out.read_text())["offset"]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cal.json", "imu.csv", "mocap.csv", "res.png"]  # no .part
+
+
 @pytest.mark.parametrize("delimiter", [",", " "])
 def test_a_gyroscope_row_of_another_width_or_with_a_carriage_return_inside_is_refused(tmp_path, delimiter):
     # both were read before: the extra field ignored, and a CR splitting a blank-separated number shifted the

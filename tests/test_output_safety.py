@@ -157,7 +157,16 @@ def test_a_link_to_the_input_is_still_refused(log, tmp_path, capsys):
     link = tmp_path / "link.csv"
     link.symlink_to(log)
     code, _, err = run(capsys, "estimate", log, "-o", link)
-    assert code == 2 and "is the input log" in err
+    assert code == 2 and "is the input" in err
+
+
+def test_an_output_that_is_the_torque_log_is_refused_and_the_log_kept(log, tmp_path, capsys):
+    torque = tmp_path / "torque.csv"
+    torque.write_text("t,tau_x,tau_y,tau_z\n0,0,0,0\n100,0,0,0\n")
+    before = torque.read_bytes()
+    code, _, err = run(capsys, "estimate", log, "--inertia", "1", "1", "1", "--torque", torque, "-o", torque)
+    assert code == 2 and f"the output {torque} is the input {torque}; write the estimate to another file" in err
+    assert torque.read_bytes() == before
 
 
 def test_a_full_disk_in_a_bag_output_leaves_nothing(tmp_path, capsys, monkeypatch):

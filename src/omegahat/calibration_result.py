@@ -82,11 +82,14 @@ class Calibration:
             d[f.name] = v.tolist() if isinstance(v, np.ndarray) else list(v) if isinstance(v, tuple) else v
         return d
 
+    def to_json(self) -> str:
+        """:meth:`to_dict` as JSON text, what :meth:`save` writes and :meth:`load` reads."""
+        return json.dumps(self.to_dict(), indent=1) + "\n"
+
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write :meth:`to_dict` as JSON."""
+        """Write :meth:`to_json`."""
         with open(path, "w", encoding="utf-8") as f:
-            json.dump(self.to_dict(), f, indent=1)
-            f.write("\n")
+            f.write(self.to_json())
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Calibration:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
@@ -23,6 +24,7 @@ from omegahat.cli import add_column_options, add_euler_conventions, add_quaterni
 from omegahat.clock_offset import check_search
 from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import column_triple, read_gyro
+from omegahat.io.output import check_output_path, target_of, write_whole
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
 from omegahat.io.time_units import unit_stated
 
@@ -177,6 +179,7 @@ def run(args: argparse.Namespace) -> int:
     if args.gyro_unit == "raw" and args.scale == "none":
         raise ValueError("--gyro-unit raw needs scale factors: add --scale axes or --scale matrix")
     check_search(args.offset, args.max_offset)  # before either log is read
+    check_outputs(args)
     columns = column_triple(args.gyro_columns)
     options = ReadOptions(
         time_unit=args.time_unit,
@@ -228,16 +231,34 @@ def run(args: argparse.Namespace) -> int:
     print(f"calibrated {args.gyro} against {args.attitude}: gyro(t + offset) = A omega_body(t) + bias")
     print(table(cal, unit))
     if args.output is not None:
-        cal.save(args.output)
+        write_whole(args.output, lambda f: f.write(cal.to_json().encode()))
         print(f"wrote {args.output}")
     if args.plot is not None:
-        plot(cal, band_limited(cal, t_a, log.data, t_g, g), args.plot, unit)
+        series = band_limited(cal, t_a, log.data, t_g, g)
+        write_whole(args.plot, lambda f: plot(cal, series, f, unit, args.plot.suffix[1:].lower()))
         print(f"wrote {args.plot}")
     return 0
 
 
-def plot(cal: Calibration, series: tuple, path: Path, unit: str) -> None:
-    """The band-limited gyro against the model, and their difference, on the samples the fit used."""
+def check_outputs(args: argparse.Namespace) -> None:
+    """Before any work: ``-o`` and ``--plot`` are writable, neither is an input nor the other, and the plot's
+    extension is a format Matplotlib writes."""
+    for path, what in ((args.output, "the calibration"), (args.plot, "the plot")):
+        if path is not None:
+            check_output_path(path, [args.attitude, args.gyro], what)
+    if args.plot is not None and args.output is not None and target_of(args.plot) == target_of(args.output):
+        raise ValueError(f"-o and --plot name the same file, {args.output}; give each its own")
+    if args.plot is not None:
+        from matplotlib.backend_bases import FigureCanvasBase
+
+        kinds = FigureCanvasBase.get_supported_filetypes()
+        if args.plot.suffix[1:].lower() not in kinds:
+            raise ValueError(f"--plot {args.plot}: not an image type Matplotlib writes; use .{', .'.join(kinds)}")
+
+
+def plot(cal: Calibration, series: tuple, f: BinaryIO, unit: str, kind: str) -> None:
+    """The band-limited gyro against the model, and their difference, on the samples the fit used, written to
+    ``f`` as ``kind`` (png, pdf, svg, ...)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -258,5 +279,5 @@ def plot(cal: Calibration, series: tuple, path: Path, unit: str) -> None:
     bottom.set_xlabel("s from the attitude log's first sample")
     bottom.legend(ncol=3, fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(f, format=kind, dpi=120)
     plt.close(fig)

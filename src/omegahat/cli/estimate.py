@@ -380,7 +380,10 @@ def estimate_file(
         euler=args.euler,
         angle_unit=args.angle_unit,
     )
-    out, kind = check_output(args.output, args.input, frame_id=args.frame_id, topic=args.output_topic)
+    torque_log = [] if args.torque is None else [args.torque]
+    out, kind = check_output(
+        args.output, args.input, frame_id=args.frame_id, topic=args.output_topic, also_read=torque_log
+    )
     stream = open_log(args.input, options)
     if args.torque is not None and args.inertia is None:
         raise ValueError("--torque needs --inertia: the torques enter Euler's equations through J")

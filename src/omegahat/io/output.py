@@ -40,7 +40,7 @@ import os
 import re
 import secrets
 import shutil
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from types import TracebackType
@@ -76,6 +76,7 @@ __all__ = [
     "staged_folder",
     "target_of",
     "write_error",
+    "write_whole",
 ]
 
 # the estimators' statuses, one enum (omegahat.interface.Status; "restarted" too), written as their words
@@ -102,13 +103,16 @@ def target_of(path: str | os.PathLike[str]) -> Path:
     return Path(os.path.realpath(path)) if path.is_symlink() else path
 
 
-def check_output_path(output: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]] = ()) -> Path:
-    """Refuse, before any work, an output that cannot be written or that is one of ``inputs`` (module docstring).
+def check_output_path(
+    output: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]] = (), what: str = "the estimate"
+) -> Path:
+    """Refuse, before any work, an output that cannot be written or that is one of ``inputs`` (every file the run
+    reads: the log, a torque log, a gyroscope log; module docstring); ``what`` the output holds, for the message.
     Returns the output as given."""
     out = Path(output)
     for src in inputs:
         if _same_file(out, Path(src)):
-            raise ValueError(f"the output {out} is the input log {src}; write the estimate to another file")
+            raise ValueError(f"the output {out} is the input {src}; write {what} to another file")
     target = target_of(out)
     shown = str(out) if target == out else f"{out} (a link to {target})"
     if target.is_dir():
@@ -286,6 +290,26 @@ class PartFile:
         """Remove the temporary file or folder and release it."""
         _remove_quietly(self.path)
         self.release()
+
+
+def write_whole(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
+    """Write a small output whole or not at all: ``write(f)`` fills a locked temporary file beside ``path``, which
+    then replaces it (module docstring); on any failure nothing is left and the error names ``path``."""
+    target = target_of(path)
+    part = PartFile(target)
+    try:
+        with part.open() as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+            publish_mode(part.path)
+            os.replace(part.path, target)
+    except OSError as exc:
+        _remove_quietly(part.path)
+        raise write_error(exc, Path(path)) from exc
+    except BaseException:
+        _remove_quietly(part.path)
+        raise
 
 
 def publish_mode(path: Path) -> None:

@@ -18,7 +18,7 @@ a context manager with ``write(chunk, omega, status)``, whole or absent). :mod:`
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -126,11 +126,13 @@ def check_output(
     *,
     frame_id: str | None = None,
     topic: str | None = None,
+    also_read: Sequence[str | os.PathLike[str]] = (),
 ) -> tuple[Path, str]:
     """``(path, kind)`` of an output for the input at ``input_path``, checked before any work: its kind from its
     name and the input's format (:func:`output_kind`), the path (:func:`omegahat.io.output.check_output_path`),
     that an output its format may not replace does not exist, and that writer settings (``frame_id``,
-    ``topic``) come with an output that takes them."""
+    ``topic``) come with an output that takes them; ``also_read``: the other files the run reads (a torque log),
+    which the output may not be either."""
     kind = output_kind(output, detect_format(input_path).name)
     w = get_writer(kind)
     given = [k for k, v in (("frame_id", frame_id), ("topic", topic)) if v is not None and k not in w.settings]
@@ -143,7 +145,7 @@ def check_output(
         )
     if not w.overwrite and (target_of(output).exists() or Path(output).exists()):
         raise FileExistsError(f"{output} exists; omegahat does not overwrite a {w.noun} (choose another output)")
-    return check_output_path(output, [input_path]), kind
+    return check_output_path(output, [input_path, *also_read]), kind
 
 
 def open_output(output: str | os.PathLike[str], kind: str, stream: LogStream, **settings: Any) -> AtomicOutput:
