@@ -32,6 +32,19 @@ def log(tmp_path):
     return write_csv(tmp_path / "log.csv", t, constant_rate(t, OMEGA, sigma=1e-4))
 
 
+@pytest.mark.parametrize("spacing", [1e100, 1e-20])
+@pytest.mark.parametrize("option", [[], ["--smooth"], ["--estimator", "sarras"]])
+def test_samples_no_sensor_takes_are_refused_by_their_spacing(tmp_path, capsys, spacing, option):
+    """Times k·1e100 s overflowed the model's noise power (a traceback), k·1e-20 s gave NumPy's own "maximum
+    allowed dimension exceeded": both are named by their spacing, and nothing is written."""
+    t = np.arange(400) / 100.0
+    src = write_csv(tmp_path / "log.csv", t, constant_rate(t, OMEGA, sigma=1e-4), t_scale=100.0 * spacing)
+    code, _, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv", *option)
+    assert code == 2 and "Traceback" not in err
+    assert f"samples are {spacing:.4g} s apart" in err and "no log is estimated at less than 1e-09 Hz" in err
+    assert not (tmp_path / "o.csv").exists()
+
+
 def leftovers(folder) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.name.endswith(".part"))
 

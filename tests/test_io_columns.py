@@ -5,6 +5,8 @@ every error with its message."""
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from scipy.linalg import polar
@@ -623,3 +625,21 @@ def test_a_refusal_lists_a_wide_or_long_header_in_a_few_lines(tmp_path):
         read_log(long)
     with pytest.raises(LogFormatError, match=r"found: 1:c0, 2:c1, .* 24:c23, \.\.\. \(5000 in all\)"):
         read_log(wide, columns="t=c0,qw=zz,qx=c1,qy=c2,qz=c3")
+
+
+def test_a_huge_field_is_named_by_its_start_and_length_and_a_quoted_decimal_comma_is_said(tmp_path):
+    huge = tmp_path / "huge.csv"
+    huge.write_text("t,qw,qx,qy,qz\n0,1,0,0,0\n0.01," + "9" * 100_000 + "a,0,0,0\n")
+    start = time.perf_counter()
+    with pytest.raises(LogFormatError) as caught:
+        read_log(huge)
+    assert time.perf_counter() - start < 20.0  # linear: the digit count's regex took 267 s on this field (quadratic)
+    text = str(caught.value)
+    assert len(text) < 200 and "line 3, column qw: '" + "9" * 57 + "'... (100001 characters) is not a number" in text
+    for rows, said in (
+        ('"0,00","1,0","0,0","0,0","0,0"', r"'0,00' is not a number \(a decimal comma: where ',' separates the col"),
+        ('0,1,0,0,0\n"1,000",1,0,0,0', r"'1,000' is not a number \(digit grouping is not read\)"),
+    ):
+        (tmp_path / "commas.csv").write_text(f"t,qw,qx,qy,qz\n{rows}\n")
+        with pytest.raises(LogFormatError, match=said):
+            read_log(tmp_path / "commas.csv")

@@ -77,7 +77,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from omegahat.io.aem_xml import xml_segments
-from omegahat.io.columns import LogFormatError
+from omegahat.io.columns import LogFormatError, shown_value
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
 from omegahat.io.textlines import head_lines, source_blocks
@@ -288,7 +288,9 @@ def _numbers(rows: list[tuple[int, list[str]]], expected: int, path: str) -> np.
             try:
                 values[i, j] = float(text)
             except ValueError:
-                raise LogFormatError(f"{path}, line {number}, field {j + 2}: {text!r} is not a number") from None
+                raise LogFormatError(
+                    f"{path}, line {number}, field {j + 2}: {shown_value(text)} is not a number"
+                ) from None
     return values
 
 

@@ -6,7 +6,8 @@ the head of the stream (its first :data:`omegahat.observer.autogain.HEAD_SAMPLES
 whatever the reader's chunk size, so that the same data get the same gains in every format) it:
 
 1. measures the sample rate, the attitude noise and the motion (:func:`omegahat.observer.autogain.measure_motion`),
-   and warns when the sample spacing is implausible for the time unit (:func:`time_unit_warning`);
+   and warns when the sample spacing is implausible for the time unit (:func:`time_unit_warning`; refuses it
+   beyond any sensor's rates);
 2. chooses the gains (:func:`omegahat.observer.autogain.select_gains`: automatic unless gains or a bandwidth are
    given); with J and τ given, warns when Euler's equations fit the other rotation convention markedly better;
 3. starts: ``fit`` (a least-squares rate over the first window: the fixed-gain observer's (D), or the identified
@@ -38,7 +39,7 @@ from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
-from omegahat.io.time_units import plausible
+from omegahat.io.time_units import POSSIBLE_RATES_HZ, plausible
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
@@ -96,7 +97,8 @@ def references(settings: EstimateSettings, stream: LogStream, spell: Spelling) -
 
 def time_unit_warning(h: float, t0: float, unit: str, spell: Spelling) -> str | None:
     """A warning when samples ``h`` s apart (first time ``t0``) are implausible in ``unit``
-    (:func:`omegahat.io.time_units.plausible`), suggesting the unit that would make them plausible."""
+    (:func:`omegahat.io.time_units.plausible`), suggesting the unit that would make them plausible; beyond
+    :data:`~omegahat.io.time_units.POSSIBLE_RATES_HZ`, the same words as an error."""
     rate = 1.0 / h
     if not plausible(t0, h):
         scale = TIME_UNITS[unit]
@@ -105,7 +107,11 @@ def time_unit_warning(h: float, t0: float, unit: str, spell: Spelling) -> str | 
             f"; if the times are in {u}, pass {spell('time_unit', u)} ({scale / (h * TIME_UNITS[u]):.4g} Hz)"
             for u in better[:1]
         )
-        return f"warning: samples are {h:.4g} s apart ({rate:.4g} Hz) with {spell('time_unit', unit)}{tip}"
+        said = f"samples are {h:.4g} s apart ({rate:.4g} Hz) with {spell('time_unit', unit)}{tip}"
+        low, high = POSSIBLE_RATES_HZ
+        if not low <= rate <= high:
+            raise ValueError(f"{said}; no log is estimated at less than {low:g} Hz or more than {high:g} Hz")
+        return f"warning: {said}"
     return None
 
 

@@ -42,6 +42,7 @@ __all__ = [
     "found_names",
     "layout",
     "normalise_name",
+    "shown_value",
     "time_column_by_name",
     "time_named_columns",
     "time_unit_in_name",
@@ -111,6 +112,16 @@ def found_names(names: Iterable[str], numbered: bool = False, most: int = 24, wi
             shown.append(f"{j + 1}:{text or '(empty)'}" if numbered else text)
     more = f", ... ({count} in all)" if count > most else ""
     return (", ".join(shown) or "none") + more
+
+
+def shown_value(value: object, width: int = 60) -> str:
+    """A field's value for a message, quoted as Python does, cut to about ``width`` characters with its length
+    said (a 100 kB field is named, not echoed)."""
+    shown = repr(value)
+    if len(shown) <= width:
+        return shown
+    text = str(value)
+    return f"{text[: width - 3]!r}... ({len(text)} characters)"
 
 
 def normalise_name(name: str) -> str:

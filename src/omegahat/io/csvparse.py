@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from collections.abc import Sequence
 
 import numpy as np
@@ -27,7 +28,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 
-from omegahat.io.columns import Layout, LogFormatError
+from omegahat.io.columns import Layout, LogFormatError, shown_value
 from omegahat.io.registry import LogChunk
 from omegahat.io.textlines import WHITESPACE, clean, refuse_inner_carriage_return, wrong_width
 from omegahat.io.timestamps import ARROW_ERRORS, ExactTimes, first_failure
@@ -170,9 +171,13 @@ class ChunkParser:
             expected = self.times.expected if col == self.time_col else "a number"
             grouped = expected == "a number" and ("_" in value or (not self.decimal_comma and "," in value))
             hint = " (digit grouping is not read)" if grouped else ""
+            if grouped and re.fullmatch(r"[+-]?\d*,\d+", value) and not re.fullmatch(r"[+-]?\d{1,3}(,\d{3})+", value):
+                hint = " (a decimal comma: where ',' separates the columns, decimals are written with '.')"
             if col == self.time_col and expected == "a number" and any(ch in value for ch in "/:"):
                 hint = " (dates and times are read in ISO 8601 form: 2026-01-31 12:00:00.010)"
-            raise LogFormatError(f"{self._where(int(lines[lo]), col)}: {value!r} is not {expected}{hint}") from None
+            raise LogFormatError(
+                f"{self._where(int(lines[lo]), col)}: {shown_value(value)} is not {expected}{hint}"
+            ) from None
 
     def parse(self, buf: bytes, first_line: int) -> tuple[LogChunk | None, int]:
         """``(chunk or None if no rows, number of lines in buf)``."""

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from omegahat.io.columns import LogFormatError, found_names
+from omegahat.io.columns import LogFormatError, found_names, shown_value
 from omegahat.io.registry import TIME_UNITS
 from omegahat.io.timestamps import text_dates
 
@@ -125,5 +125,5 @@ def not_a_number(df: Any, cols: list[str], frame_kind: str, exc: Exception | Non
             try:
                 float(v)
             except (ValueError, TypeError):
-                return LogFormatError(f"DataFrame, row {k}, column {c}: {v!r} is not a number")
+                return LogFormatError(f"DataFrame, row {k}, column {c}: {shown_value(v)} is not a number")
     return LogFormatError(f"DataFrame, column(s) {', '.join(map(str, cols))}: not numbers ({exc})")

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from omegahat.io.colmap import join_header_rows
-from omegahat.io.columns import LogFormatError, found_names, time_column_by_name
+from omegahat.io.columns import LogFormatError, found_names, shown_value, time_column_by_name
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import (
     comment_above_header,
@@ -265,7 +265,7 @@ def read_vectors(
             try:
                 out[r, c] = float(field.replace(",", ".") if comma else field)
             except ValueError:
-                shown = repr(field) if i < len(fields) else "nothing"
+                shown = shown_value(field) if i < len(fields) else "nothing"
                 raise LogFormatError(f"{path}, line {line}, column {names[i]}: {shown} is not a number") from None
     x, y, z = (names[i] for i in idx[-3:])
     time_name = names[idx[0]] if time_column is not None else "row"

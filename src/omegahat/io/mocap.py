@@ -40,7 +40,7 @@ import os
 
 import numpy as np
 
-from omegahat.io.columns import LogFormatError
+from omegahat.io.columns import LogFormatError, shown_value
 from omegahat.io.euler import matrices as euler_matrices
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
@@ -116,7 +116,7 @@ def _number(field: str, path: str, line: int, column: str) -> float:
     try:
         return float(field)
     except ValueError:
-        raise LogFormatError(f"{path}, line {line}, column {column}: {field!r} is not a number") from None
+        raise LogFormatError(f"{path}, line {line}, column {column}: {shown_value(field)} is not a number") from None
 
 
 def choose_body(names: list[str], body: str | None, path: str, what: str, plural: str) -> str:

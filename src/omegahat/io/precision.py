@@ -47,7 +47,9 @@ FLOOR = 1e-2  #: (P2) the file tolerance is never below this: interpolated expor
 PLAIN = 0.1  #: (3) deviation beyond which a sample is plainly no rotation
 CAP = PLAIN / 2  #: (P2) the file tolerance never exceeds this, whatever the digits
 HEAD = 1000  #: (3) valid samples from the start on which "more than half plainly no rotation" is judged
-_NUMBER = re.compile(r"\s*[-+]?(\d*)[.,]?(\d*)(?:[eE][-+]?\d+)?\s*")  # a decimal comma too
+# a decimal comma too; the fraction's digits only after its separator: with both runs optional, a long field that
+# is no number took time quadratic in its length to refuse (the regex tried every split of its digits)
+_NUMBER = re.compile(r"\s*[-+]?(\d*)(?:[.,](\d*))?(?:[eE][-+]?\d+)?\s*")
 
 
 def significant_digits(fields: Iterable[str]) -> int | None:
@@ -58,7 +60,7 @@ def significant_digits(fields: Iterable[str]) -> int | None:
         m = _NUMBER.fullmatch(f)
         if not m:
             continue
-        digits = (m.group(1) + m.group(2)).lstrip("0")
+        digits = (m.group(1) + (m.group(2) or "")).lstrip("0")
         if digits:
             best = max(best or 0, len(digits))
     return best

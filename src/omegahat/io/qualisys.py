@@ -30,7 +30,7 @@ import os
 
 import numpy as np
 
-from omegahat.io.columns import LogFormatError
+from omegahat.io.columns import LogFormatError, shown_value
 from omegahat.io.euler import matrices as euler_matrices
 from omegahat.io.mocap import choose_body
 from omegahat.io.precision import significant_digits
@@ -188,4 +188,4 @@ def _value(text: str, path: str, line: int, column: str, required: bool = False)
     try:
         return float(text)
     except ValueError:
-        raise LogFormatError(f"{path}, line {line}, column {column}: {text!r} is not a number") from None
+        raise LogFormatError(f"{path}, line {line}, column {column}: {shown_value(text)} is not a number") from None

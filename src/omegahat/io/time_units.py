@@ -16,6 +16,7 @@ from omegahat.io.columns import time_unit_in_name
 __all__ = [
     "PLAUSIBLE_RATES_HZ",
     "PLAUSIBLE_SECONDS",
+    "POSSIBLE_RATES_HZ",
     "TIME_UNITS",
     "magnitude_note",
     "named_unit_note",
@@ -28,6 +29,9 @@ __all__ = [
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
 PLAUSIBLE_SECONDS = 1e11  #: no log's time (s from any origin) is larger: 3,000 years
 PLAUSIBLE_RATES_HZ = (0.5, 5000.0)  #: the sample rates of the logs omegahat reads
+#: no log is estimated outside these rates (Hz): beyond them the spacing is not the time unit's (a column that is
+#: not a time, or a unit off by many orders) and the model's noise powers (h to the fifth) leave floating point
+POSSIBLE_RATES_HZ = (1e-9, 1e12)
 
 
 def named_unit_note(named: str, column: str, given: str) -> str:

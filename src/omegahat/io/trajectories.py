@@ -34,7 +34,7 @@ import re
 import numpy as np
 
 from omegahat.io.colmap import ColumnMap
-from omegahat.io.columns import Layout, LogFormatError, normalise_name
+from omegahat.io.columns import Layout, LogFormatError, normalise_name, shown_value
 from omegahat.io.csvlog import TextFormat, open_by_header, open_text
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import LogStream, ReadOptions
@@ -157,7 +157,9 @@ def _floats(rows: list[list[str]], lines: list[int], width: int, path: str) -> n
             try:
                 out[k, j] = float(field)
             except ValueError:
-                raise LogFormatError(f"{path}, line {line}, number {j + 1}: {field!r} is not a number") from None
+                raise LogFormatError(
+                    f"{path}, line {line}, number {j + 1}: {shown_value(field)} is not a number"
+                ) from None
     return out
 
 
