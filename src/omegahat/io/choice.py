@@ -333,9 +333,13 @@ def _used(est: Estimator, J: np.ndarray, inertia_given: bool, start: str) -> Cal
         if isinstance(est, ChosenSmoother):
             kept = "the identified model's smoother" if est.chosen is est.model else "the log's own Wiener smoother"
             jitter = JITTER.get(est.spectrum.timestamps, "") if est.chosen is est.spectrum else ""
+            model, spectrum = (
+                f"{x:.2g} rad/s" if math.isfinite(x) else "not known"
+                for x in (est.expected["model"], est.expected["spectrum"])
+            )
             return (
                 f"estimator used: {kept} (offline, zero lag; expected RMS error: the model's smoother "
-                f"{est.expected['model']:.2g} rad/s, the Wiener smoother {est.expected['spectrum']:.2g} rad/s"
+                f"{model}, the Wiener smoother {spectrum}"
                 f"{fold_remark(est.spectrum.expected_rms, est.spectrum.fold_rms)}{jitter}), {body}"
             )
         if isinstance(est, ModelSmoother):

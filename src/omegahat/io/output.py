@@ -14,23 +14,20 @@ output removes the temporary files of runs that are gone (:func:`remove_stale_pa
 its temporary file while it lives, so a run writing the same output at the same time is left alone).
 
 **A symbolic link** as the output is written *through*: the link stays and its target gets the new content (as a
-shell's ``>`` does), the temporary file beside the target so that the rename stays atomic. A dangling link
-creates its target.
+shell's ``>`` does), the temporary file beside the target so that the rename stays atomic (a dangling link too).
 
 :class:`OmegaWriter` writes ``t,wx,wy,wz,status`` (s, rad/s in body axes, one word) chunk by chunk. ``status``
 says what each row is:
 
 * ``corrected``: the estimate after a measured sample;
-* ``predicted``: no usable sample at that time (missing, skipped, nearly collinear directions): the estimate was
-  predicted through;
+* ``predicted``: no usable sample at that time (missing, skipped, held, nearly collinear directions): predicted;
 * ``unavailable``: no estimate yet (before the first valid sample, and at it: one attitude gives no rate; with a
   warm start until the second); the rate columns are ``nan`` there, never 0;
 * ``restarted``: the estimator could not take the step to this sample (its result was not finite: a gap too long
   for the model, a torque or gains too large) and started again from it; ``nan`` there, then ``unavailable`` until
   the restart's warm start gives an estimate again.
 
-:func:`staged_folder` gives the laboratory's commands the same guarantee for a folder of files: each file
-appears whole, or not at all.
+:func:`staged_folder` gives a folder of files the same guarantee, :func:`write_whole` a small file (a calibration).
 """
 
 from __future__ import annotations
@@ -107,8 +104,7 @@ def check_output_path(
     output: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]] = (), what: str = "the estimate"
 ) -> Path:
     """Refuse, before any work, an output that cannot be written or that is one of ``inputs`` (every file the run
-    reads: the log, a torque log, a gyroscope log; module docstring); ``what`` the output holds, for the message.
-    Returns the output as given."""
+    reads; module docstring); ``what`` the output holds, for the message. Returns the output as given."""
     out = Path(output)
     for src in inputs:
         if _same_file(out, Path(src)):
@@ -293,22 +289,19 @@ class PartFile:
 
 
 def write_whole(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
-    """Write a small output whole or not at all: ``write(f)`` fills a locked temporary file beside ``path``, which
-    then replaces it (module docstring); on any failure nothing is left and the error names ``path``."""
-    target = target_of(path)
-    part = PartFile(target)
+    """A small output whole or absent: ``write(f)`` fills a locked temporary file, which then replaces ``path``."""
+    part = PartFile(target_of(path))
     try:
         with part.open() as f:
             write(f)
             f.flush()
             os.fsync(f.fileno())
             publish_mode(part.path)
-            os.replace(part.path, target)
-    except OSError as exc:
+            os.replace(part.path, target_of(path))  # while still locked: no cleaner can take it for stale
+    except BaseException as exc:
         _remove_quietly(part.path)
-        raise write_error(exc, Path(path)) from exc
-    except BaseException:
-        _remove_quietly(part.path)
+        if isinstance(exc, OSError):
+            raise write_error(exc, Path(path)) from exc
         raise
 
 

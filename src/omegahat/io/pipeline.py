@@ -50,6 +50,7 @@ from omegahat.identification.spikes import GAP
 from omegahat.interface import Estimate, Status
 from omegahat.io.choice import attitude_choice, references
 from omegahat.io.columns import LogFormatError
+from omegahat.io.held import HeldSamples
 from omegahat.io.registry import LogChunk, LogStream, prefetch
 from omegahat.io.screen import JUMP_ANGLE, TurnScreen, largest_of
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
@@ -96,6 +97,8 @@ class RunSummary:
     largest_jump: tuple[float, int | None] = (0.0, None)
     spikes: int = 0
     largest_spike: tuple[float, int | None] = (0.0, None)
+    held: int = 0  # rows that repeat the attitude exactly, read as missing (io.held), and their line
+    held_line: str = ""
     resets: int = 0
     largest_reset: tuple[float, int | None] = (0.0, None)
     elapsed: float = 0.0
@@ -303,7 +306,8 @@ def estimate_stream(
     compiled_before = compiling.seconds()
     with compiling.announced(announce):  # said when a compilation starts (the head's check, a chunk)
         bad = BadSamples(settings, stream, spell)
-        source = stream.chunks()
+        held = HeldSamples()
+        source = held.screen(stream.chunks())  # rows that repeat an attitude exactly, set missing (io.held)
         head: list[LogChunk] = []
         if stream.kind == "directions" and stream.n_directions == 1:  # one direction: its own observer (no attitude)
             if settings.preset is not None:
@@ -335,13 +339,14 @@ def estimate_stream(
     describe = getattr(writer, "describe", None)
     summary.output = describe() if describe is not None else f"{summary.rows} estimates"
     summary.n_skipped, summary.n_collinear, summary.n_bad = est.n_skipped, getattr(est, "n_collinear", 0), bad.count
+    summary.held, summary.held_line = held.count, held.closing(stream.label)
     summary.lines = _summary_lines(summary, choice, stream, bad, spell, stream.notes[n_notes:])
     return summary
 
 
 def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell: Spelling, notes) -> list[str]:
     lines = [f"note: {note}" for note in notes]  # what the timestamp policy changed, known once the stream is read
-    missing = s.n_skipped - s.n_collinear - s.spikes - s.resets  # set missing: said on their own lines
+    missing = s.n_skipped - s.n_collinear - s.spikes - s.resets - s.held  # set missing: said on their own lines
     if missing > 0 or s.n_collinear:
         lines.append(
             f"skipped {missing + s.n_collinear} of {s.rows} samples ({missing} missing, {s.n_collinear} with nearly "
@@ -375,6 +380,8 @@ def _summary_lines(s: RunSummary, choice: Choice, stream, bad: BadSamples, spell
             f"{math.degrees(s.largest_jump[0]):.0f}° before {stream.label} {s.largest_jump[1]}: faster than the "
             "samples can follow, or a reset or glitch of the attitude source (the rates there are not the body's)"
         )
+    if s.held:
+        lines.append(s.held_line)
     if s.spikes:
         lines.append(
             f"spikes: {s.spikes} isolated sample{'s' if s.spikes > 1 else ''} far from both neighbours, which agree "
