@@ -5,6 +5,7 @@ reference rates from the same rotations logged with numeric times."""
 
 from __future__ import annotations
 
+import re
 from datetime import UTC, datetime, timedelta, timezone
 
 import numpy as np
@@ -183,6 +184,31 @@ def test_a_column_t_is_read_whatever_else_is_named_as_a_time(tmp_path):
     log = read_log(both)
     assert log.t.tolist() == [0.25]
     assert not any("time column" in note for note in log.notes)
+
+
+def test_a_capital_t_beside_a_column_named_as_a_time_is_asked_about(tmp_path):
+    """``Time,T,qw,...`` (T a temperature): T read as t gave rates ten times off with no word; now the CSV, the
+    Parquet table and the gyroscope log ask which column is the time, and either choice is read as asked."""
+    pd = pytest.importorskip("pandas")
+    rows = "0.00,25.0,1,0,0,0\n0.01,25.1,1,0,0,0\n0.02,25.2,1,0,0,0\n"
+    csv = tmp_path / "temp.csv"
+    csv.write_text("Time,T,qw,qx,qy,qz\n" + rows)
+    said = "columns 'T' and 'Time' could each be the time (names are compared ignoring case, so 'T' reads as t)"
+    with pytest.raises(LogFormatError, match=rf"temp\.csv, line 1 \(header\): {re.escape(said)}: pass --time-column T"):
+        read_log(csv)
+    assert read_log(csv, options=ReadOptions(time_column="Time")).t.tolist() == [0.0, 0.01, 0.02]
+    np.testing.assert_allclose(read_log(csv, options=ReadOptions(time_column="T")).t, [25.0, 25.1, 25.2])
+    frame = pd.read_csv(csv)
+    frame.to_parquet(tmp_path / "temp.parquet")
+    with pytest.raises(LogFormatError, match=re.escape(said)):
+        read_log(tmp_path / "temp.parquet")
+    gyro = tmp_path / "gyro.csv"
+    gyro.write_text("time,T,gx,gy,gz\n0.5,25,1,2,3\n0.6,25,4,5,6\n")
+    with pytest.raises(LogFormatError, match="pass --gyro-time-column T or --gyro-time-column time"):
+        read_gyro(gyro)
+    alone = tmp_path / "alone.csv"
+    alone.write_text("T,qw,qx,qy,qz\n0.5,1,0,0,0\n")
+    assert read_log(alone).t.tolist() == [0.5]  # a capital T with no other time is the time, as before
 
 
 def test_a_parquet_tables_time_named_column_and_a_gyro_logs(tmp_path):

@@ -41,7 +41,7 @@ from omegahat.io.colmap import (
     named_quaternion_note,
     suggest_columns,
 )
-from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name, time_column_by_name
+from omegahat.io.columns import Layout, LogFormatError, layout, normalise_name, time_column_by_name, time_or_capital_t
 from omegahat.io.csvparse import ChunkParser
 from omegahat.io.precision import significant_digits
 from omegahat.io.registry import TIME_UNITS, LogChunk, LogStream, ReadOptions
@@ -220,6 +220,9 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     names = apply_columns(original, mapped, where, options.time_column)
     time_column: str | None = "t" if mapped and "t" in dict(mapped) else options.time_column
     if "t" not in dict(mapped or ()) and options.rate is None:  # no column t: the one named as a time, if one is
+        ask = time_or_capital_t(original, options.time_column) if n_header else None
+        if ask:
+            raise LogFormatError(f"{where}: {ask}")
         time_column, named = time_column_by_name(names, options.time_column)
         stream.notes.extend([named] if named else [])
     has_time = bool(time_column) and normalise_name(str(time_column)) in {normalise_name(n) for n in names}

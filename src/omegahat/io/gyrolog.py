@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 
 from omegahat.io.colmap import join_header_rows
-from omegahat.io.columns import LogFormatError, found_names, shown_value, time_column_by_name
+from omegahat.io.columns import LogFormatError, found_names, shown_value, time_column_by_name, time_or_capital_t
 from omegahat.io.px4 import is_ulog, read_ulog_gyro
 from omegahat.io.textlines import (
     comment_above_header,
@@ -227,7 +227,12 @@ def read_vectors(
     delim = delimiter(first[1], f"{path}, line {first[0]}", allow_blanks=True)
     if head:
         rows = [split_line(h, delim, f"{path}, line {k}") for k, h in head]
-        names = [n.strip().lower() for n in (rows[0] if header_rows == 1 else join_header_rows(rows))]
+        written = rows[0] if header_rows == 1 else join_header_rows(rows)
+        if time_column is not None and (ask := time_or_capital_t(written, time_column)):
+            raise LogFormatError(
+                f"{path}, line {head[0][0]}: {ask.replace('--time-column', f'{role.flag}-time-column')}"
+            )
+        names = [n.strip().lower() for n in written]
     else:
         names = [str(j + 1) for j in range(len(split_line(first[1], delim, f"{path}, line {first[0]}")))]
     if head and all(is_number(n) for n in names):

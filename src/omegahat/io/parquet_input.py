@@ -27,7 +27,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from omegahat.io.colmap import apply_columns, named_quaternion, named_quaternion_note
-from omegahat.io.columns import LogFormatError, layout, time_column_by_name
+from omegahat.io.columns import LogFormatError, layout, time_column_by_name, time_or_capital_t
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
 from omegahat.io.time_units import unit_stated
 
@@ -81,6 +81,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
     time_column = "t" if mapped and "t" in dict(mapped) else options.time_column
     named = None
     if "t" not in dict(mapped or ()):  # no column t: the one named as a time, if there is one
+        if ask := time_or_capital_t(original, time_column):
+            raise LogFormatError(f"{where}: {ask}")
         time_column, named = time_column_by_name(names, time_column)
     lay = layout(names, where, time_column, options.scalar_first)
     if not lay.time:
