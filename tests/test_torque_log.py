@@ -163,3 +163,26 @@ def test_the_unit_a_torque_logs_time_column_names(tmp_path):
     got = np.vstack([c.torque for c in stream.chunks()])
     np.testing.assert_allclose(got[:, 0], np.arange(100.0), rtol=0, atol=1e-9)  # each interval within one row
     assert any("time unit: ms, as the time column's name says ('time_ms'" in n for n in stream.notes)
+
+
+def test_a_torque_log_in_milliseconds_read_as_seconds_is_said_and_its_messages_name_no_missing_option(tmp_path):
+    """Torque rows 1 s apart written in ms and read as s (1000 s apart) were read without a word, the whole attitude
+    log then inside the first row's interval; the note now gives the spacing and the column name that reads it.
+    A torque log's time has no option of its own: its messages say how to name the column, not a flag that does
+    not exist (they offered --torque-time-column)."""
+    tau = np.column_stack([np.arange(11.0), np.zeros(11), np.zeros(11)])
+    _write_torques(tmp_path / "tau.csv", np.arange(11) * 1000.0, tau, header="t,tau_x,tau_y,tau_z")
+    log = read_torque_log(tmp_path / "tau.csv")
+    assert log.note == (
+        "its rows are 1000 s apart (0.001 Hz) in s, as --time-unit says; if they are in ms, name its time column "
+        "time_ms (its name then states its unit)"
+    )
+    _write_torques(tmp_path / "tau.csv", np.arange(11) * 1.0, tau, header="t,tau_x,tau_y,tau_z")
+    assert read_torque_log(tmp_path / "tau.csv").note == ""  # 1 Hz rows in s: plausible, nothing said
+    _write_torques(tmp_path / "zeit.csv", np.arange(11) * 1.0, tau, header="zeit,tau_x,tau_y,tau_z")
+    with pytest.raises(LogFormatError, match=r"no column 't' \(found: zeit, tau_x, tau_y, tau_z\); name its time co"):
+        read_torque_log(tmp_path / "zeit.csv")
+    _write_torques(tmp_path / "both.csv", np.arange(11) * 1.0, tau, header="time,T,tau_x,tau_y")
+    with pytest.raises(LogFormatError) as caught:
+        read_torque_log(tmp_path / "both.csv")
+    assert "'T' and 'time' could each be the time" in str(caught.value) and "--torque-time" not in str(caught.value)

@@ -78,17 +78,21 @@ GYRO_COLUMNS = (
 class VectorRole(NamedTuple):
     """What a log of three columns holds, for the column search and the messages: ``noun`` ("gyroscope"),
     ``flag`` (the options' prefix, ``--gyro``), ``groups`` (column names recognised), ``stem`` (a regular expression
-    the stem of the one triple ``stem·x, stem·y, stem·z`` must match to be taken without a group's names) and
-    ``what`` (the three columns' word in messages: "rate")."""
+    the stem of the one triple ``stem·x, stem·y, stem·z`` must match to be taken without a group's names),
+    ``what`` (the three columns' word in messages: "rate") and ``time_option`` (whether ``{flag}-time-column``
+    exists; where not, a time column is named by its header)."""
 
     noun: str
     flag: str
     groups: tuple[tuple[str, str, str], ...]
     stem: str
     what: str
+    time_option: bool = True
 
 
 GYROSCOPE = VectorRole("gyroscope", "--gyro", GYRO_COLUMNS, "gyr", "rate")
+#: where a log's time column is named by its header alone (no option names it)
+TIME_NAMES_TIP = "; name its time column t, time or timestamp, with its unit where not s (time_ms, timestamp_ns)"
 
 
 class GyroLog(NamedTuple):
@@ -155,6 +159,8 @@ def _index(name: str, names: list[str], path: str, what: str, role: VectorRole) 
         return names.index(key)
     if key.isdigit() and 1 <= int(key) <= len(names):
         return int(key) - 1
+    if what == "time" and not role.time_option:
+        raise LogFormatError(f"{path}: no column {name!r} (found: {found_names(names)}){TIME_NAMES_TIP}")
     raise LogFormatError(
         f"{path}: no column {name!r} (found: {found_names(names)}); name the {role.noun} log's {what} with "
         + f"{role.flag}-{'time-column' if what == 'time' else 'columns'} (a name or a 1-based position)"
@@ -229,9 +235,10 @@ def read_vectors(
         rows = [split_line(h, delim, f"{path}, line {k}") for k, h in head]
         written = rows[0] if header_rows == 1 else join_header_rows(rows)
         if time_column is not None and (ask := time_or_capital_t(written, time_column)):
-            raise LogFormatError(
-                f"{path}, line {head[0][0]}: {ask.replace('--time-column', f'{role.flag}-time-column')}"
+            ask = (
+                ask.replace("--time-column", f"{role.flag}-time-column") if role.time_option else ask.split(": pass")[0]
             )
+            raise LogFormatError(f"{path}, line {head[0][0]}: {ask}{'' if role.time_option else TIME_NAMES_TIP}")
         names = [n.strip().lower() for n in written]
     else:
         names = [str(j + 1) for j in range(len(split_line(first[1], delim, f"{path}, line {first[0]}")))]

@@ -38,6 +38,7 @@ an attitude log that has torque columns of its own.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterator
 
@@ -46,12 +47,12 @@ import numpy as np
 from omegahat.io.columns import TORQUE_COLUMNS, LogFormatError
 from omegahat.io.gyrolog import GyroLog, VectorRole, read_vectors
 from omegahat.io.registry import LogChunk, LogStream
-from omegahat.io.time_units import TIME_UNITS, unit_stated
+from omegahat.io.time_units import TIME_UNITS, plausible, unit_stated
 
 __all__ = ["TORQUE", "TorqueLog", "attach_torque", "read_torque_log"]
 
 TORQUE = VectorRole(
-    "torque", "--torque", (TORQUE_COLUMNS, ("torque_x", "torque_y", "torque_z")), r"tau|torq|moment", "torque"
+    "torque", "--torque", (TORQUE_COLUMNS, ("torque_x", "torque_y", "torque_z")), r"tau|torq|moment", "torque", False
 )
 
 
@@ -115,7 +116,23 @@ def read_torque_log(
     if raw.own_unit:
         return TorqueLog(path, raw.t, raw.g, raw.names, raw.own_unit)
     stated, note = unit_stated(raw.names[0], time_unit, raw.t[:64])
-    return TorqueLog(path, raw.t * TIME_UNITS[stated or time_unit], raw.g, raw.names, note or "")
+    unit = stated or time_unit
+    t = raw.t * TIME_UNITS[unit]
+    h = float(np.median(np.diff(t))) if t.size > 1 else math.nan
+    if not stated and h > 0 and not plausible(float(t[0]), h):  # a torque log in ms read as s: rows 1000 s apart
+        other = [
+            u
+            for u in TIME_UNITS
+            if u != unit
+            and plausible(float(t[0]) / TIME_UNITS[unit] * TIME_UNITS[u], h / TIME_UNITS[unit] * TIME_UNITS[u])
+        ]
+        tip = (
+            f"; if they are in {other[0]}, name its time column time_{other[0]} (its name then states its unit)"
+            if other
+            else ""
+        )
+        note = f"its rows are {h:.4g} s apart ({1 / h:.4g} Hz) in {unit}, as --time-unit says{tip}"
+    return TorqueLog(path, t, raw.g, raw.names, note or "")
 
 
 def attach_torque(stream: LogStream, log: TorqueLog) -> LogStream:
