@@ -502,3 +502,19 @@ def test_a_star_trackers_aem_against_a_gyro_log_stamped_in_utc(tmp_path, capsys)
     assert "st.aem; times in UTC, as seconds since 1970-01-01T00:00:00 UTC" in capsys.readouterr().out
     assert abs(offsets[1] - offsets[0]) < 1e-6
     assert abs(offsets[1] - truth["delta"]) < 1e-3
+
+
+def test_a_log_in_milliseconds_read_as_seconds_is_named_with_the_option_that_reads_it(tmp_path, capsys):
+    """Times in ms read as s made the fit fail on an overlap or a sample count, naming neither log's unit; the
+    command now says which log's spacing is implausible and the option that reads it, before the fit."""
+    data, _ = simulated(4)
+    att, gyro = _write_logs(tmp_path, data)
+    lines = gyro.read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    gyro_ms = tmp_path / "imu_ms.csv"
+    gyro_ms.write_text("\n".join([lines[0]] + [",".join([repr(float(r[0]) * 1000.0), *r[1:]]) for r in rows]) + "\n")
+    main(["calibrate", str(att), str(gyro_ms), "--gyro-unit", "deg/s"])
+    out = capsys.readouterr().out
+    assert "warning: the gyroscope's rows are" in out and "if its times are in ms, pass --gyro-time-unit ms" in out
+    assert main(["calibrate", str(att), str(gyro_ms), "--gyro-unit", "deg/s", "--gyro-time-unit", "ms"]) == 0
+    assert "warning" not in capsys.readouterr().out

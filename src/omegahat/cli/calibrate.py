@@ -26,7 +26,7 @@ from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import column_triple, read_gyro
 from omegahat.io.output import check_output_path, target_of, write_whole
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
-from omegahat.io.time_units import unit_stated
+from omegahat.io.time_units import plausible, unit_stated, units_that_fit
 
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
@@ -225,6 +225,11 @@ def run(args: argparse.Namespace) -> int:
     t_g = gyro.t / args.gyro_rate if args.gyro_rate is not None else gyro.t * TIME_UNITS[time_unit]
     g = gyro.g * GYRO_UNITS[args.gyro_unit]
     t_a = log.absolute_times
+    warnings = spacing_warning("attitude log's samples", t_a, "--time-unit", args.time_unit)
+    if args.gyro_rate is None:
+        warnings += spacing_warning("gyroscope's rows", t_g, "--gyro-time-unit", time_unit)
+    for line in warnings:
+        print(line)
     cal = calibrate(t_a, log.data, t_g, g, scale=args.scale, cutoff_hz=args.cutoff, offset_guess=args.offset,
                     max_offset=args.max_offset)  # fmt: skip
     unit = "counts" if args.gyro_unit == "raw" else "rad/s"
@@ -238,6 +243,17 @@ def run(args: argparse.Namespace) -> int:
         write_whole(args.plot, lambda f: plot(cal, series, f, unit, args.plot.suffix[1:].lower()))
         print(f"wrote {args.plot}")
     return 0
+
+
+def spacing_warning(name: str, t: np.ndarray, flag: str, unit: str) -> list[str]:
+    """The warning, as a list of at most one line, for a log whose spacing is implausible in ``unit`` (its times
+    ``t`` in s), with the unit in which it would not be (as ``estimate``'s)."""
+    h = float(np.median(np.diff(t))) if t.size > 1 else math.nan
+    if not h > 0 or plausible(float(t[0]), h):
+        return []
+    fits = units_that_fit(float(t[0]), h, unit)
+    tip = f"; if its times are in {fits[0]}, pass {flag} {fits[0]}" if fits else ""
+    return [f"warning: the {name} are {h:.4g} s apart ({1 / h:.4g} Hz) with {flag} {unit}{tip}"]
 
 
 def check_outputs(args: argparse.Namespace) -> None:

@@ -39,7 +39,7 @@ from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
 from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
-from omegahat.io.time_units import POSSIBLE_RATES_HZ, plausible
+from omegahat.io.time_units import POSSIBLE_RATES_HZ, plausible, units_that_fit
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
@@ -102,7 +102,7 @@ def time_unit_warning(h: float, t0: float, unit: str, spell: Spelling) -> str | 
     rate = 1.0 / h
     if not plausible(t0, h):
         scale = TIME_UNITS[unit]
-        better = [u for u, f in TIME_UNITS.items() if u != unit and plausible(t0 / scale * f, h / scale * f)]
+        better = units_that_fit(t0, h, unit)
         tip = "".join(
             f"; if the times are in {u}, pass {spell('time_unit', u)} ({scale / (h * TIME_UNITS[u]):.4g} Hz)"
             for u in better[:1]

@@ -24,6 +24,7 @@ __all__ = [
     "time_unit_in_name",
     "unit_by_magnitude",
     "unit_stated",
+    "units_that_fit",
 ]
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
@@ -45,6 +46,13 @@ def plausible(t0: float, h: float) -> bool:
     """Whether a log whose first time is ``t0`` s and whose samples are ``h`` s apart is plausible (module
     docstring)."""
     return abs(t0) <= PLAUSIBLE_SECONDS and h > 0 and PLAUSIBLE_RATES_HZ[0] <= 1.0 / h <= PLAUSIBLE_RATES_HZ[1]
+
+
+def units_that_fit(t0: float, h: float, unit: str) -> list[str]:
+    """The other units in which times read in ``unit`` as ``t0`` s, ``h`` s apart, would be plausible (the tip of an
+    implausible spacing: rows 1000 s apart read in s are 1 s apart in ms)."""
+    scale = TIME_UNITS[unit]
+    return [u for u, f in TIME_UNITS.items() if u != unit and plausible(t0 / scale * f, h / scale * f)]
 
 
 def unit_by_magnitude(t0: float, h: float) -> str | None:

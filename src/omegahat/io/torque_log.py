@@ -47,7 +47,7 @@ import numpy as np
 from omegahat.io.columns import TORQUE_COLUMNS, LogFormatError
 from omegahat.io.gyrolog import GyroLog, VectorRole, read_vectors
 from omegahat.io.registry import LogChunk, LogStream
-from omegahat.io.time_units import TIME_UNITS, plausible, unit_stated
+from omegahat.io.time_units import TIME_UNITS, plausible, unit_stated, units_that_fit
 
 __all__ = ["TORQUE", "TorqueLog", "attach_torque", "read_torque_log"]
 
@@ -120,12 +120,7 @@ def read_torque_log(
     t = raw.t * TIME_UNITS[unit]
     h = float(np.median(np.diff(t))) if t.size > 1 else math.nan
     if not stated and h > 0 and not plausible(float(t[0]), h):  # a torque log in ms read as s: rows 1000 s apart
-        other = [
-            u
-            for u in TIME_UNITS
-            if u != unit
-            and plausible(float(t[0]) / TIME_UNITS[unit] * TIME_UNITS[u], h / TIME_UNITS[unit] * TIME_UNITS[u])
-        ]
+        other = units_that_fit(float(t[0]), h, unit)
         tip = (
             f"; if they are in {other[0]}, name its time column time_{other[0]} (its name then states its unit)"
             if other
