@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from logmaker import two_passes
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
-from omegahat.identification import identify
+from omegahat.identification import identify, steps
 from omegahat.identification.likelihood import Sums, log_likelihood, noise_intensity, steady_rate_error
 from omegahat.identification.noise import quiet_noise, window_quantile
 from omegahat.identification.smoother import ModelSmoother, combine
@@ -594,3 +594,12 @@ def test_the_higher_differences_see_the_noise_under_a_smooth_motion():
     phi = (R[:-1].inv() * R[1:]).as_rotvec()
     assert quiet_noise(t, phi) > 1e-6
     assert quiet_noise(t, phi, higher=True) == pytest.approx(1e-7, rel=0.2)
+
+
+def test_a_turn_faster_than_the_samples_can_follow_is_named_when_no_model_fits():
+    """A body spinning 170° per sample (or flipping 180°): no likelihood is finite, and the error says why."""
+    t = np.arange(200) * 0.01
+    R = Rotation.from_rotvec(np.outer(t, [0.0, 0.0, np.radians(170.0) / 0.01])).as_matrix()
+    with pytest.raises(ValueError, match=r"evaluation failed\): the attitude turns 170° per step \(median\), faster"):
+        identify(t, R, "matrix")
+    assert steps.too_fast(np.tile([0.0, 0.0, np.radians(80.0)], (5, 1))) == ""

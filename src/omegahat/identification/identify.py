@@ -454,9 +454,9 @@ def identify(
     candidates = [_fitted(model, t, filt_data, valid, h, bound, J_, torque, refs, linear_hold) for model in models]
     finite = [c for c in candidates if np.isfinite(c.bic)]
     if not finite:
-        raise ValueError("no model could be fitted to this log (every likelihood evaluation failed)")
-    # without J, the acceleration model is fitted and reported but not run (module docstring, step 5)
-    eligible = [c for c in finite if J is not None or c.model != "acceleration"] or finite
+        why = steps.too_fast(phi)  # a turn the samples cannot follow
+        raise ValueError(f"no model could be fitted to this log (every likelihood evaluation failed){why}")
+    eligible = [c for c in finite if J is not None or c.model != "acceleration"] or finite  # without J: step 5
     chosen = min(eligible, key=lambda c: c.bic)
     expected = (  # (4): with Euler's equations, the filter's own covariance (their coupling of the axes)
         likelihood.coupled_rate_error(t, filt_data, valid, chosen.model, chosen.tracking_index, chosen.sigma, h=h,

@@ -38,7 +38,7 @@ import numpy as np
 
 from omegahat import so3
 
-__all__ = ["JITTER_LINK", "UNEVEN_STEP", "bridged", "read_steps", "stamped_steps", "stretches"]
+__all__ = ["JITTER_LINK", "UNEVEN_STEP", "bridged", "read_steps", "stamped_steps", "stretches", "too_fast"]
 
 UNEVEN_STEP = 1e-3  #: a stretch whose steps differ from their mean by more than 0.1 % has jittered steps (S8)
 JITTER_LINK = 0.5  #: a step within 50 % of the median joins two samples in a stretch (a dropped sample does not)
@@ -93,3 +93,12 @@ def bridged(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray
     filled[k] = R[k - 1] @ so3.exp(s[:, None] * across)
     used[k] = True
     return filled, used
+
+
+def too_fast(increments: np.ndarray) -> str:
+    """Why no model fits a log whose steps ``increments`` (rotation vectors) turn more than 90° in the median (its
+    words, after a colon), else "": beyond 90° a step's direction is not known, and at 180° not even its size."""
+    turn = math.degrees(float(np.median(np.linalg.norm(increments, axis=1)))) if len(increments) else 0.0
+    return (
+        f": the attitude turns {turn:.0f}° per step (median), faster than the samples can follow" if turn > 90 else ""
+    )
