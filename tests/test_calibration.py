@@ -518,3 +518,12 @@ def test_a_log_in_milliseconds_read_as_seconds_is_named_with_the_option_that_rea
     assert "warning: the gyroscope's rows are" in out and "if its times are in ms, pass --gyro-time-unit ms" in out
     assert main(["calibrate", str(att), str(gyro_ms), "--gyro-unit", "deg/s", "--gyro-time-unit", "ms"]) == 0
     assert "warning" not in capsys.readouterr().out
+
+
+def test_an_accelerometers_columns_are_not_offered_as_the_gyroscopes(tmp_path):
+    for header, offered in (("t,ax,ay,az", False), ("t,acc_x,acc_y,acc_z", False), ("t,rate_x,rate_y,rate_z", True)):
+        path = tmp_path / "g.csv"
+        path.write_text(f"{header}\n0,1,2,3\n0.1,1,2,3\n")
+        with pytest.raises(LogFormatError) as caught:
+            read_gyro(path)
+        assert ("(perhaps --gyro-columns" in str(caught.value)) == offered, header

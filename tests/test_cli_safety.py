@@ -397,3 +397,17 @@ def test_nested_compilations_count_once(monkeypatch):
     with event.trigger_event("numba:compile", data=data), event.trigger_event("numba:compile", data=data):
         pass
     assert compiling.seconds() - before == pytest.approx(2.0, abs=1e-9)
+
+
+def test_a_table_with_an_attitude_every_few_seconds_among_rows_10_ms_apart_gets_no_time_unit_advice(tmp_path, capsys):
+    """The rows' spacing, not the attitudes', tells the unit: rows 10 ms apart with an attitude every 3 s (other
+    sensors' rows between) are in seconds; the run advised --time-unit ms."""
+    t = np.arange(1000) / 100.0
+    src = write_csv(tmp_path / "log.csv", t, constant_rate(t, OMEGA))
+    lines = src.read_text().splitlines()
+    for k in range(1, len(lines)):
+        if (k - 1) % 300:
+            lines[k] = lines[k].split(",")[0] + ",nan,nan,nan,nan"
+    src.write_text("\n".join(lines) + "\n")
+    code, out, err = run(capsys, "estimate", src, "-o", tmp_path / "o.csv")
+    assert code == 0 and "--time-unit" not in out + err and "most rows have no attitude at all" in out

@@ -156,7 +156,10 @@ def attitude_choice(
         duration = float(t_h[-1] - t_h[0]) * total / n_head
     options = stream.options
     unit = options.time_unit if options is not None else "s"
-    warning = time_unit_warning(motion.h, float(stream.t0 + t_h[0]), unit, spell)
+    # the rows' spacing, not the attitudes': a table whose rows are 10 ms apart with an attitude every 3 s (other
+    # sensors' rows between) is in seconds, and ms would be wrong advice
+    rows_h = float(np.median(np.diff(t_h))) if n_head > 1 else motion.h
+    warning = time_unit_warning(rows_h if rows_h > 0 else motion.h, float(stream.t0 + t_h[0]), unit, spell)
     if warning:
         report(warning)
     fixed_gains = settings.estimator == "sarras" or settings.gains is not None or settings.bandwidth_hz is not None

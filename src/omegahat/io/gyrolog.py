@@ -91,6 +91,8 @@ class VectorRole(NamedTuple):
 
 
 GYROSCOPE = VectorRole("gyroscope", "--gyro", GYRO_COLUMNS, "gyr", "rate")
+#: the stems of x, y, z columns that are another sensor's (accelerations, fields, positions, velocities, angles)
+OTHER_SENSORS = r"a|acc\w*|m|mag\w*|p|pos\w*|v|vel\w*|lin\w*|euler\w*|angle\w*|rot\w*|q|quat\w*"
 #: where a log's time column is named by its header alone (no option names it)
 TIME_NAMES_TIP = "; name its time column t, time or timestamp, with its unit where not s (time_ms, timestamp_ns)"
 
@@ -145,7 +147,12 @@ def gyro_columns(names: list[str], where: str, role: VectorRole = GYROSCOPE) -> 
     taken = [t for t in triples if re.search(role.stem, t[0])]
     if len(taken) == 1:
         return taken[0]
-    tip = f" (perhaps {role.flag}-columns {shlex.quote(','.join(triples[0]))})" if len(triples) == 1 else ""
+    others = [t for t in triples if re.fullmatch(OTHER_SENSORS, t[0][:-1].rstrip("_.- "))]  # ax,ay,az: no tip
+    tip = (
+        f" (perhaps {role.flag}-columns {shlex.quote(','.join(triples[0]))})"
+        if len(triples) == 1 and not others
+        else ""
+    )
     raise LogFormatError(
         f"{where}: no {role.noun} columns (found: {found_names(names)}); expected one of "
         f"{'; '.join(','.join(g) for g in role.groups)}: name them with {flag}{tip}"
