@@ -1,6 +1,7 @@
 """Tutorial: body rates from a Motive export and from a ROS bag (run by tests/test_docs.py)."""
 
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -70,7 +71,11 @@ log = read_log(take)  # what was detected, and the samples the estimator runs on
 print(log.description)
 frame = pd.DataFrame(log.data, columns=["qx", "qy", "qz", "qw"])
 frame["t"] = log.t
-omega = omegahat.estimate_frame(frame)  # gains chosen from the data, as the command does; one row per input row
+with warnings.catch_warnings(record=True) as said:  # what Python would print to stderr, shown here with the rest
+    warnings.simplefilter("always")
+    omega = omegahat.estimate_frame(frame)  # the model identified from the data, as the command does; a row per row
+for w in said:
+    print(f"{w.category.__name__}: {w.message}")
 print(omega.iloc[-3:])
 
 # --- 4. A ROS bag: a geometry_msgs/PoseStamped topic in, TwistStamped out -------------------------------------
