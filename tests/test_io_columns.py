@@ -643,3 +643,18 @@ def test_a_huge_field_is_named_by_its_start_and_length_and_a_quoted_decimal_comm
         (tmp_path / "commas.csv").write_text(f"t,qw,qx,qy,qz\n{rows}\n")
         with pytest.raises(LogFormatError, match=said):
             read_log(tmp_path / "commas.csv")
+
+
+def test_rows_of_delimiters_only_are_counted_in_a_note(tmp_path):
+    """A spreadsheet's empty rows (',,,,') are blank lines, no samples; they were left out without a word."""
+    t = np.arange(12) / 100.0
+    rows = [f"{x!r},1,0,0,0" for x in t.tolist()]
+    rows[4:4] = [",,,,", " , ,,,", ",,,,"]
+    path = tmp_path / "empty_rows.csv"
+    path.write_text("t,qw,qx,qy,qz\n" + "\n".join(rows) + "\n")
+    log = read_log(path)
+    assert log.t.size == 12
+    assert (
+        "3 rows of delimiters only (empty rows, as a spreadsheet exports them; the first at line 6) read as blank "
+        "lines: no sample there" in log.notes
+    )

@@ -305,6 +305,11 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
             raise LogFormatError(
                 f"{path}: no data rows" + (f" after the header (line {header_line})" if n_header else "")
             )
+        if parser.empty_rows:
+            stream.notes.append(
+                f"{parser.empty_rows} rows of delimiters only (empty rows, as a spreadsheet exports them; the first at "
+                f"line {parser.first_empty}) read as blank lines: no sample there"
+            )
 
     stream._chunks = chunks
     return stream

@@ -69,6 +69,7 @@ class ChunkParser:
             comment,
         )
         self.n_fields = len(names)
+        self.empty_rows, self.first_empty = 0, 0  # rows of delimiters only (a spreadsheet's empty row): skipped, said
         index = {n: i for i, n in enumerate(names) if n}
         self.cols = [f"c{index[c]}" for c in lay.columns]
         self.extra = {key: [f"c{j}" for j in js] for key, js in (extra or {}).items()}
@@ -217,6 +218,8 @@ class ChunkParser:
             blank = np.zeros(lines.size, dtype=bool)
             blank[cand] = self._blank_rows(buf, spans, cand)
             if blank.any():
+                self.empty_rows += int(blank.sum())  # said once the log is read (csvlog)
+                self.first_empty = self.first_empty or int(lines[np.flatnonzero(blank)[0]])
                 keep = ~blank
                 lines = lines[keep]
                 arrays = {c: a[keep] for c, a in arrays.items()}
