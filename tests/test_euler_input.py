@@ -187,6 +187,19 @@ def test_degrees_read_as_radians_are_pointed_out(tmp_path):
     assert not any("more than a turn" in n for n in calm.notes)
 
 
+def test_a_unit_the_names_state_against_the_one_given_is_said(tmp_path):
+    """Columns named ``Roll (deg)`` read with --angle-unit rad (small angles: no turn exceeded) were read with no
+    word; the note now says what the names state. Read in the unit they state, nothing more is said."""
+    path = tmp_path / "named.csv"
+    path.write_text("t,Roll (deg),Pitch (deg),Yaw (deg)\n0,1,2,3\n0.01,1.1,2.1,3.1\n")
+    columns = "t=t,roll=Roll (deg),pitch=Pitch (deg),yaw=Yaw (deg)"
+    said = "their names say deg (Roll (deg) (roll),Pitch (deg) (pitch),Yaw (deg) (yaw)): --angle-unit is what is read"
+    assert any(said in n for n in read_log(path, columns=columns, euler="ZYX", angle_unit="rad").notes)
+    assert not any("names say" in n for n in read_log(path, columns=columns, euler="ZYX", angle_unit="deg").notes)
+    plain = write(tmp_path / "plain.csv", *sample_angles())
+    assert not any("names say" in n for n in read_log(plain, euler="ZYX", angle_unit="rad").notes)
+
+
 def test_euler_angles_beside_a_quaternion_leave_the_quaternion_read(tmp_path):
     """Exports often write both: the exact attitude is read, as before the angles were read at all."""
     t, angles = sample_angles()

@@ -31,6 +31,7 @@ as for every attitude. Sequences that repeat an axis (``ZXZ``) have no column pe
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 from typing import Any
@@ -42,6 +43,12 @@ from omegahat.io.columns import EULER_COLUMNS, LogFormatError
 __all__ = ["ANGLE_UNITS", "as_matrices", "check_conventions", "matrices", "turned_into_matrices"]
 
 ANGLE_UNITS = ("deg", "rad")
+#: a unit an angle column's name states in its last word (``Roll (deg)``, ``yaw_rad``), said where it is not read
+_NAMED_UNIT = {
+    **dict.fromkeys(("deg", "degs", "degree", "degrees", "°"), "deg"),
+    **dict.fromkeys(("rad", "rads", "radian", "radians"), "rad"),
+}
+_UNIT_WORD = re.compile(rf"(?:^|[\s_.\-\[(]+)({'|'.join(_NAMED_UNIT)})\s*[\])]?$")
 _ASK = (
     "--euler SEQ (e.g. ZYX: yaw, then pitch, then roll about the body's rotating axes, the aerospace convention; "
     "lower case turns about the fixed axes) and --angle-unit deg or rad"
@@ -102,9 +109,16 @@ def as_matrices(stream: Any, euler: str | None, angle_unit: str | None) -> None:
     degrees = angle_unit == "deg"
     names = ", ".join(EULER_COLUMNS)
     about = "rotating" if euler.isupper() else "fixed"
+    written = [re.sub(r"\s*\((roll|pitch|yaw)\)$", "", n) for n in stream.attitude_name.split(",")]  # less the map's
+    stated = {_NAMED_UNIT[m.group(1)] for n in written if (m := _UNIT_WORD.search(n.lower()))}
+    against = (
+        f"; their names say {stated.pop()} ({stream.attitude_name}): --angle-unit is what is read"
+        if len(stated) == 1 and angle_unit not in stated
+        else ""
+    )
     stream.notes.append(
         f"attitude: Euler angles {names} in {'degrees' if degrees else 'radians'}, sequence {euler} (about the "
-        f"{about} axes)"
+        f"{about} axes){against}"
     )
     turned_into_matrices(
         stream,
