@@ -275,3 +275,21 @@ def test_other_objects_are_refused_with_a_message(make, match):
     df = pd.DataFrame(q, columns=["qx", "qy", "qz", "qw"]).assign(t=t)
     with pytest.raises(TypeError, match=match):
         omegahat.estimate_frame(make(df), **FIXED)
+
+
+def test_a_frame_with_a_spike_warns_of_it_and_a_frame_in_ns_warns_of_its_unit():
+    """A marker swap (one sample far from both neighbours) ended estimate_frame in a bare StopIteration after the
+    whole run (only missing samples have a line starting "skipped"); the command's warnings (here, times in ns read
+    as s: rates 1e9 times too small, every row 'corrected') were dropped unless verbose."""
+    t = np.arange(500) / 100.0
+    q = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    q[250] = Rotation.from_rotvec([2.0, 0.0, 0.0]).as_quat()  # a misread frame
+    frame = pd.DataFrame({"t": t, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    with pytest.warns(SkippedSamplesWarning, match=r"spikes: 1 isolated sample far from both neighbours"):
+        out = omegahat.estimate_frame(frame)
+    assert out["status"].iloc[250] == "predicted"
+    clean = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    frame = pd.DataFrame({"t": (t * 1e9).round().astype(np.int64), "qx": clean[:, 0], "qy": clean[:, 1]})
+    frame = frame.assign(qz=clean[:, 2], qw=clean[:, 3])
+    with pytest.warns(UserWarning, match=r"if the times are in ns, pass time_unit='ns'"):
+        omegahat.estimate_frame(frame)

@@ -374,11 +374,12 @@ def estimate_frame(
     collector.spread(stream.meta["row_t"])
     if verbose:
         print("\n".join(summary.lines))
-    if summary.n_skipped:
+    if summary.n_skipped:  # missing, held, spikes, resets: each kind's line (only missing ones start "skipped")
         from omegahat.observer.estimator import SkippedSamplesWarning
 
-        skipped = next(line for line in summary.lines if line.startswith("skipped"))
-        warnings.warn(SkippedSamplesWarning(skipped), stacklevel=2)
+        for line in summary.lines:
+            if line.startswith(("skipped", "held:", "spikes:", "resets:")):
+                warnings.warn(SkippedSamplesWarning(line), stacklevel=2)
     for note in summary.lines:  # rows dropped as the caller chose (duplicate_times): said even when not verbose
         if note.startswith("note: --duplicate-times"):
             warnings.warn(note.removeprefix("note: "), stacklevel=2)
@@ -403,7 +404,10 @@ def _polars_output(df: pl.DataFrame, W: np.ndarray, status: np.ndarray, time_nam
 
 
 def _quiet(text: str) -> None:
-    del text
+    """What the command prints, kept quiet, but for its warnings (an implausible time unit, an attitude that Euler's
+    equations fit better inverted): raised as Python warnings, since the estimate may be wrong without them."""
+    if text.startswith("warning: "):
+        warnings.warn(text.removeprefix("warning: "), UserWarning, stacklevel=4)
 
 
 def _argument(key: str, value: object = None) -> str:
