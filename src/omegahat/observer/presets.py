@@ -415,9 +415,10 @@ class MocapPreset(StreamingEstimator):
         return self.estimator.n_skipped
 
     def update(self, t: float, sample: Measurement, torque: ArrayLike | None = None) -> Estimate:
-        """The estimate at ``t`` (``torque`` not used)."""
-        self._fresh = False
-        return self.estimator.update(t, sample)
+        """The estimate at ``t`` (``torque`` not used); a refused sample leaves the estimator as it was."""
+        out = self.estimator.update(t, sample)
+        self._fresh = False  # only once a sample was taken: a refused one must not change what run() does next
+        return out
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at every sample; from a fresh state without ``measurement_noise``, an estimator for the log's
