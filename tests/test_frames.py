@@ -293,3 +293,12 @@ def test_a_frame_with_a_spike_warns_of_it_and_a_frame_in_ns_warns_of_its_unit():
     frame = frame.assign(qz=clean[:, 2], qw=clean[:, 3])
     with pytest.warns(UserWarning, match=r"if the times are in ns, pass time_unit='ns'"):
         omegahat.estimate_frame(frame)
+
+
+@pytest.mark.parametrize("gains", [3, {"k": [1.0]}])
+def test_gains_that_are_not_observer_gains_are_named(gains):
+    frame = pd.DataFrame({"t": np.arange(50) / 10.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "qw": 1.0})
+    with pytest.raises(
+        TypeError, match=rf"gains must be an ObserverGains .*, not {type(gains).__name__}; or give bandw"
+    ):
+        omegahat.estimate_frame(frame, gains=gains)

@@ -91,6 +91,14 @@ class EstimateSettings:
         one_of("estimator", self.estimator, EstimatorName)
         if self.preset is not None:
             one_of("preset", self.preset, Preset)
+        if self.gains is not None:  # an int or a dict failed deep in the gain check (AttributeError: no 'k')
+            from omegahat.observer import gains as observer_gains
+
+            if not isinstance(self.gains, observer_gains.ObserverGains):
+                raise TypeError(
+                    f"gains must be an ObserverGains (omegahat.observer.gains; e.g. from sensor_gains), not "
+                    f"{type(self.gains).__name__}; or give bandwidth_hz"
+                )
 
     def check(self, spell: Spelling = ms.python_option) -> None:
         """Refuse combinations that cannot run (``ValueError`` naming the options with ``spell``)."""

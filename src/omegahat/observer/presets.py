@@ -406,6 +406,8 @@ class MocapPreset(StreamingEstimator):
     command does, and :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade
     noise. ``options`` go to :func:`mocap_estimator`. The torque is not used (the preset is for unknown ones)."""
 
+    estimator: SupervisedKalmanEstimator  # the one that runs: :func:`mocap_estimator`'s (set by reset and run)
+
     def __init__(self, *, rate_hz: float, measurement_noise: float | None = None, **options: object) -> None:
         self.rate_hz, self.measurement_noise, self.options = rate_hz, measurement_noise, options
         self.reset()
