@@ -35,6 +35,7 @@ from omegahat.observer.gains import ObserverGains
 from omegahat.observer.kalman import SupervisedKalmanEstimator
 from omegahat.observer.presets import MocapPreset, MocapSmoother, mocap_estimator
 from omegahat.observer.single_direction import SingleDirectionEstimator
+from omegahat.observer.tuning import sensor_gains
 
 RATE = 50.0
 T = 60
@@ -338,3 +339,28 @@ def test_word_options_are_checked_against_their_literal_type(make_bad, match):
 def test_the_least_angle_between_directions_is_checked_alike(make, angle):
     with pytest.raises(ValueError, match=r"^min_angle_deg must be in \[0, 90\); got "):
         make(angle)
+
+
+def test_a_missing_sample_right_after_a_restart_is_unavailable_not_predicted():
+    """After a step that could not be taken (a finite but absurd torque: 'restarted'), the next sample missing had
+    status 'predicted' with a NaN rate, in run and in update: NaN is 'unavailable' (the contract)."""
+    t = np.arange(0.0, 0.2, 0.01)
+    q = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    tau = np.zeros((t.size, 3))
+    tau[8] = 1e300
+    q[10] = np.nan
+    J = np.diag([1.0, 2.0, 3.0])
+    gains = sensor_gains(np.eye(3), rate_hz=100.0, measurement_noise=1e-3, bandwidth_hz=1.0)
+    for make in (
+        lambda: SarrasEstimator(J, gains=gains),
+        lambda: SupervisedKalmanEstimator(J, rate_hz=100.0, measurement_noise=1e-3),
+    ):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            W, S = make().run(t, q, tau)
+            one = make()
+            by_update = [one.update(a, b, c) for a, b, c in zip(t, q, tau, strict=True)]
+        assert [Status(s) for s in S[9:12]] == [Status.RESTARTED, Status.UNAVAILABLE, Status.CORRECTED]
+        assert [e.status for e in by_update[9:12]] == [Status.RESTARTED, Status.UNAVAILABLE, Status.CORRECTED]
+        no_rate = ~np.isfinite(W).all(axis=1)
+        assert not np.isin(S[no_rate], [Status.CORRECTED, Status.PREDICTED]).any()

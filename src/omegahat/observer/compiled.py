@@ -32,6 +32,7 @@ the estimator), and how to commit a state. The base does the rest, the same way 
 from __future__ import annotations
 
 import abc
+import math
 import warnings
 from typing import Any
 
@@ -169,8 +170,8 @@ class CompiledEstimator(StreamingEstimator):
                 self.n_skipped += 1
                 self.n_collinear += code == ms.COLLINEAR
                 self.skipped_times.append(float(t))
-        if self._n_valid < self._need:
-            return Estimate(_NAN3.copy(), _UNAVAILABLE)
+        if self._n_valid < self._need or (status is not _CORRECTED and not math.isfinite(w[0])):
+            return Estimate(_NAN3.copy(), _UNAVAILABLE)  # (or predicted after a restart: nothing to predict from)
         return _new(Estimate, (w.copy(), status))  # Estimate(w, status) at half the cost (the hot path)
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
@@ -225,4 +226,7 @@ class CompiledEstimator(StreamingEstimator):
                 SkippedSamplesWarning,
                 stacklevel=2,
             )
+        status[(status == Status.PREDICTED) & ~np.isfinite(W[:, 0])] = (
+            Status.UNAVAILABLE
+        )  # after a restart: no estimate
         return Estimate(W, status)
