@@ -401,10 +401,9 @@ def _shifted(t, w, d):
 
 
 class MocapPreset(StreamingEstimator):
-    """``omegahat estimate --preset mocap`` behind the estimator contract (causal). ``measurement_noise``: the
-    log's σ̂; None: :meth:`run` on a fresh estimator measures it on the log's head first (:func:`attitude_noise`), as the
-    command does, and :meth:`update` (sample by sample, where the log is not known ahead) takes motion-capture grade
-    noise. ``options`` go to :func:`mocap_estimator`. The torque is not used (the preset is for unknown ones)."""
+    """``--preset mocap`` behind the estimator contract (causal). ``measurement_noise``: the log's σ̂; None: :meth:`run`
+    on a fresh estimator measures it on the log's head (:func:`attitude_noise`), :meth:`update` takes motion-capture
+    grade noise. ``options`` go to :func:`mocap_estimator`. The torque is not used (the preset is for unknown ones)."""
 
     estimator: SupervisedKalmanEstimator  # the one that runs: :func:`mocap_estimator`'s (set by reset and run)
 
@@ -418,8 +417,7 @@ class MocapPreset(StreamingEstimator):
 
     def update(self, t: float, sample: Measurement, torque: ArrayLike | None = None) -> Estimate:
         """The estimate at ``t`` (``torque`` not used); a refused sample leaves the estimator as it was."""
-        out = self.estimator.update(t, sample)
-        self._fresh = False  # only once a sample was taken: a refused one must not change what run() does next
+        out, self._fresh = self.estimator.update(t, sample), False  # after it: a refused one changes nothing
         return out
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
@@ -437,8 +435,7 @@ class MocapPreset(StreamingEstimator):
 
     def reset(self) -> None:
         """Back to a new estimator (nothing seen)."""
-        self.estimator = mocap_estimator(self.rate_hz, self.measurement_noise, **self.options)  # type: ignore[arg-type]
-        self._fresh = True
+        self.estimator, self._fresh = mocap_estimator(self.rate_hz, self.measurement_noise, **self.options), True  # type: ignore[arg-type]
 
 
 class MocapSmoother(Estimator):
