@@ -283,3 +283,20 @@ def test_a_registered_format_gets_the_one_path(tmp_path):
     finally:
         unregister_format("toy")
     assert detect_format(p).name == "csv"
+
+
+def test_npz_integer_epoch_nanoseconds_are_read_exactly_and_in_their_unit(tmp_path):
+    """int64 ns since 1970 in an NPZ went through float64 before the first stamp was subtracted (steps of an exact
+    1 ms off by up to 4.8e-4 of a step) and were read as seconds with no note; now as the CSV and Parquet readers
+    do: relative to the first in integers, and in ns by their size."""
+    n = 200
+    ns = 1_700_000_000_123_456_789 + np.arange(n, dtype=np.int64) * 1_000_000  # exact 1 ms steps
+    q = Rotation.from_rotvec(np.outer(np.arange(n) * 1e-3, [0.3, -0.2, 0.5])).as_quat()
+    np.savez(tmp_path / "epoch.npz", t=ns, q=q)
+    for given in ({}, {"time_unit": "ns"}):
+        log = read_log(tmp_path / "epoch.npz", **given)
+        np.testing.assert_allclose(np.diff(log.t), 1e-3, rtol=1e-12, atol=0)
+        assert log.t0 == pytest.approx(1_700_000_000.123456789, abs=1e-6)
+    assert any(n.startswith("time unit: ns, by the times themselves") for n in read_log(tmp_path / "epoch.npz").notes)
+    np.savez(tmp_path / "small.npz", t=np.arange(n, dtype=np.int64), q=q)  # integer seconds: read as they are
+    np.testing.assert_array_equal(read_log(tmp_path / "small.npz").t, np.arange(n, dtype=float))

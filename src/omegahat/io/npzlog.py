@@ -43,6 +43,7 @@ from omegahat.io.columns import (
 )
 from omegahat.io.columns import LogFormatError as _Err
 from omegahat.io.registry import LogStream, ReadOptions
+from omegahat.io.time_units import TIME_UNITS, magnitude_note, unit_by_magnitude
 
 __all__ = ["MAX_NPZ_BYTES", "open_npz"]
 
@@ -124,9 +125,9 @@ class _Archive:
         self.headers[name] = (tuple(shape), bool(fortran), dtype, offset)
         return self.headers[name]
 
-    def get(self, name: str, want: str, shape_ok) -> np.ndarray:
-        """The array ``name`` as floats, its dtype, ``shape_ok(shape)`` (``want`` says what is expected), size and
-        the memory limit checked from its header before it is read."""
+    def get(self, name: str, want: str, shape_ok, exact: bool = False) -> np.ndarray:
+        """The array ``name`` as floats (``exact``: integers kept as stored), its dtype, ``shape_ok(shape)``
+        (``want`` says what is expected), size and the memory limit checked from its header before it is read."""
         shape, _, dtype, offset = self.header(name)
         if dtype.kind == "c":
             raise self._fail(name, f"expected real numbers, got dtype {dtype}")
@@ -152,7 +153,7 @@ class _Archive:
             )
         out = self._read(name)
         self.read_bytes += nbytes
-        return np.asarray(out, dtype=float)
+        return out if exact and dtype.kind in "iu" else np.asarray(out, dtype=float)
 
     def small(self, name: str, limit: int = 64) -> np.ndarray:
         """A small array of any dtype but objects as it is stored (a flag such as ``scalar_first``); a larger one
@@ -221,7 +222,7 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         zf = zipfile.ZipFile(path)
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise _Err(f"{path}: not a readable .npz file ({exc})") from None
-    notes = []
+    notes: list[str] = []
     with zf:
         z = _Archive(zf, path)
         names = z.files
@@ -229,7 +230,7 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
 
         if "t" not in names:
             raise _Err(f"{path}: no array 't' (found: {found_names(names)})")
-        t = get("t", "(T,)", lambda s: len(s) == 1 and s[0] > 0)
+        t, clock = _exact_times(get("t", "(T,)", lambda s: len(s) == 1 and s[0] > 0, exact=True), options, notes)
         T = t.size
         whole = [n for n in ("q", "R", "b", "rotvec") if n in names]
         columns = [
@@ -270,4 +271,22 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             k = int(np.flatnonzero(~np.all(np.isfinite(torque), axis=1))[0])
             raise _Err(f"{path}, torque at index {k}: not finite ({torque[k].tolist()})")
 
-    return LogStream.from_arrays(path, kind, t, data, torque, notes=notes, attitude_name=name)
+    return LogStream.from_arrays(path, kind, t, data, torque, notes=notes, attitude_name=name, **clock)
+
+
+def _exact_times(raw: np.ndarray, options: ReadOptions, notes: list[str]) -> tuple[np.ndarray, dict]:
+    """Integer times (epoch nanoseconds) as the CSV reader keeps them: made relative to the first in integers
+    before they become floats (a float64 of 1.7e18 is 256 ns coarse), and where they cannot be seconds, read in
+    the one unit their size and rate fit, said in a note; ``(t, the stream's t0 and meta)``."""
+    if raw.dtype.kind not in "iu" or not raw.size or (raw.dtype.kind == "u" and int(raw.max()) >= 2**63):
+        return np.asarray(raw, dtype=float), {}
+    base = int(raw[0])
+    t = (raw.astype(np.int64) - np.int64(base)).astype(float)
+    unit = options.time_unit
+    h = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    found = unit_by_magnitude(float(base), h) if unit == "s" else None
+    if found:
+        notes.append(magnitude_note(found, float(base), h))
+        t = t * TIME_UNITS[found]  # in s now: the checks' scale (--time-unit s) is 1
+    scale = TIME_UNITS[found or unit]
+    return t, {"t0": base * scale, "meta": {"time_base": base}}
