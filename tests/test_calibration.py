@@ -515,7 +515,10 @@ def test_a_log_in_milliseconds_read_as_seconds_is_named_with_the_option_that_rea
     gyro_ms.write_text("\n".join([lines[0]] + [",".join([repr(float(r[0]) * 1000.0), *r[1:]]) for r in rows]) + "\n")
     main(["calibrate", str(att), str(gyro_ms), "--gyro-unit", "deg/s"])
     out = capsys.readouterr().out
-    assert "warning: the gyroscope's rows are" in out and "if its times are in ms, pass --gyro-time-unit ms" in out
+    assert (
+        "warning: the gyroscope's rows are" in out
+        and "if the times are in ms, pass --gyro-time-unit ms (200 Hz)" in out
+    )
     assert main(["calibrate", str(att), str(gyro_ms), "--gyro-unit", "deg/s", "--gyro-time-unit", "ms"]) == 0
     assert "warning" not in capsys.readouterr().out
 

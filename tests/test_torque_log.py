@@ -174,8 +174,8 @@ def test_a_torque_log_in_milliseconds_read_as_seconds_is_said_and_its_messages_n
     _write_torques(tmp_path / "tau.csv", np.arange(11) * 1000.0, tau, header="t,tau_x,tau_y,tau_z")
     log = read_torque_log(tmp_path / "tau.csv")
     assert log.note == (
-        "its rows are 1000 s apart (0.001 Hz) in s, as --time-unit says; if they are in ms, name its time column "
-        "time_ms (its name then states its unit)"
+        "its rows are 1000 s apart (0.001 Hz) in s, as --time-unit says; if the times are in ms, name its time "
+        "column time_ms, which states its unit (1 Hz)"
     )
     _write_torques(tmp_path / "tau.csv", np.arange(11) * 1.0, tau, header="t,tau_x,tau_y,tau_z")
     assert read_torque_log(tmp_path / "tau.csv").note == ""  # 1 Hz rows in s: plausible, nothing said

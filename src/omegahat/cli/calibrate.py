@@ -26,7 +26,7 @@ from omegahat.io import ReadOptions, read_log
 from omegahat.io.gyrolog import column_triple, read_gyro
 from omegahat.io.output import check_output_path, target_of, write_whole
 from omegahat.io.registry import ROTATIONS, TIME_UNITS
-from omegahat.io.time_units import plausible, unit_stated, units_that_fit
+from omegahat.io.time_units import implausible_spacing, unit_stated
 
 EPILOG = """\
 model:  gyro(t + offset) = A omega(t) + bias,  A = R (rotation gyro <- body), diag(s) R (--scale axes) or any 3x3
@@ -245,15 +245,16 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def spacing_warning(name: str, t: np.ndarray, flag: str, unit: str) -> list[str]:
-    """The warning, as a list of at most one line, for a log whose spacing is implausible in ``unit`` (its times
-    ``t`` in s), with the unit in which it would not be (as ``estimate``'s)."""
+def spacing_warning(rows: str, t: np.ndarray, flag: str, unit: str) -> list[str]:
+    """The warning, as a list of at most one line, for a log whose ``rows`` (times ``t`` in s) are implausibly far
+    apart in ``unit`` (:func:`~omegahat.io.time_units.implausible_spacing`, as ``estimate``'s)."""
     h = float(np.median(np.diff(t))) if t.size > 1 else math.nan
-    if not h > 0 or plausible(float(t[0]), h):
-        return []
-    fits = units_that_fit(float(t[0]), h, unit)
-    tip = f"; if its times are in {fits[0]}, pass {flag} {fits[0]}" if fits else ""
-    return [f"warning: the {name} are {h:.4g} s apart ({1 / h:.4g} Hz) with {flag} {unit}{tip}"]
+    said = (
+        implausible_spacing(h, float(t[0]), unit, f"with {flag} {unit}", lambda u: f"pass {flag} {u}", rows)
+        if h > 0
+        else None
+    )
+    return [] if said is None else [f"warning: the {said}"]
 
 
 def check_outputs(args: argparse.Namespace) -> None:

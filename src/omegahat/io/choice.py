@@ -37,9 +37,9 @@ from omegahat.identification.spectral import SpectralSmoother
 from omegahat.identification.start import balanced_start, noise_window
 from omegahat.interface import Estimator
 from omegahat.io.columns import LogFormatError
-from omegahat.io.registry import ROTATIONS, TIME_UNITS, LogChunk, LogStream
+from omegahat.io.registry import ROTATIONS, LogChunk, LogStream
 from omegahat.io.settings import Choice, EstimateSettings, Spelling, naming
-from omegahat.io.time_units import POSSIBLE_RATES_HZ, plausible, units_that_fit
+from omegahat.io.time_units import implausible_spacing
 from omegahat.observer import autogain
 from omegahat.observer.estimator import SarrasEstimator
 from omegahat.observer.gains import ObserverGains
@@ -96,23 +96,13 @@ def references(settings: EstimateSettings, stream: LogStream, spell: Spelling) -
 
 
 def time_unit_warning(h: float, t0: float, unit: str, spell: Spelling) -> str | None:
-    """A warning when samples ``h`` s apart (first time ``t0``) are implausible in ``unit``
-    (:func:`omegahat.io.time_units.plausible`), suggesting the unit that would make them plausible; beyond
-    :data:`~omegahat.io.time_units.POSSIBLE_RATES_HZ`, the same words as an error."""
-    rate = 1.0 / h
-    if not plausible(t0, h):
-        scale = TIME_UNITS[unit]
-        better = units_that_fit(t0, h, unit)
-        tip = "".join(
-            f"; if the times are in {u}, pass {spell('time_unit', u)} ({scale / (h * TIME_UNITS[u]):.4g} Hz)"
-            for u in better[:1]
-        )
-        said = f"samples are {h:.4g} s apart ({rate:.4g} Hz) with {spell('time_unit', unit)}{tip}"
-        low, high = POSSIBLE_RATES_HZ
-        if not low <= rate <= high:
-            raise ValueError(f"{said}; no log is estimated at less than {low:g} Hz or more than {high:g} Hz")
-        return f"warning: {said}"
-    return None
+    """A warning when samples ``h`` s apart (first time ``t0``) are implausible in ``unit``, suggesting the unit
+    that would make them plausible (:func:`omegahat.io.time_units.implausible_spacing`, which refuses beyond any
+    sensor's rates)."""
+    said = implausible_spacing(
+        h, t0, unit, f"with {spell('time_unit', unit)}", lambda u: f"pass {spell('time_unit', u)}"
+    )
+    return None if said is None else f"warning: {said}"
 
 
 def _head_arrays(head: list[LogChunk], stream: LogStream):

@@ -198,21 +198,21 @@ def time_column_by_name(names: list[str], time_column: str) -> tuple[str, str | 
     return found[0], f"time column: {found[0]!r}, the one named as a time (the log has no column 't')"
 
 
-def time_or_capital_t(names: Sequence[str], time_column: str) -> str | None:
+def time_or_capital_t(names: Sequence[str], time_column: str, flag: str | None = "--time-column") -> str | None:
     """Where the time is read from the default column ``t``, the header (as written) spells it ``T`` and another
     column is named as a time (``Time,T,qw,...``: ``T`` a temperature or a tension): the message that asks which
-    is the time (the caller adds the place); else None. Read as the time, such a ``T`` gave rates ten times off."""
+    is the time, with the ``flag`` that chooses (None: no option does; the caller says how); the caller adds the
+    place; else None. Read as the time, such a ``T`` gave rates ten times off."""
     if time_column != "t":  # the default, or a time column the user named (--time-column T chooses it)
         return None
     capital = [n for n in names if normalise_name(n) == "t" and "T" in n]
     others = [n for n in names if normalise_name(n) in time_named_columns([normalise_name(n)])]
     if not capital or not others:
         return None
-    return (
-        f"columns {capital[0].strip()!r} and {others[0].strip()!r} could each be the time (names are compared "
-        f"ignoring case, so {capital[0].strip()!r} reads as t): pass --time-column {shlex.quote(capital[0].strip())} "
-        f"or --time-column {shlex.quote(others[0].strip())}"
-    )
+    a, b = capital[0].strip(), others[0].strip()
+    choose = f": pass {flag} {shlex.quote(a)} or {flag} {shlex.quote(b)}" if flag else ""
+    said = f"columns {a!r} and {b!r} could each be the time (names are compared ignoring case, so {a!r} reads as t)"
+    return said + choose
 
 
 def direction_columns(names: Iterable[str]) -> list[str]:

@@ -241,11 +241,9 @@ def read_vectors(
     if head:
         rows = [split_line(h, delim, f"{path}, line {k}") for k, h in head]
         written = rows[0] if header_rows == 1 else join_header_rows(rows)
-        if time_column is not None and (ask := time_or_capital_t(written, time_column)):
-            ask = (
-                ask.replace("--time-column", f"{role.flag}-time-column") if role.time_option else ask.split(": pass")[0]
-            )
-            raise LogFormatError(f"{path}, line {head[0][0]}: {ask}{'' if role.time_option else TIME_NAMES_TIP}")
+        flag = f"{role.flag}-time-column" if role.time_option else None
+        if time_column is not None and (ask := time_or_capital_t(written, time_column, flag)):
+            raise LogFormatError(f"{path}, line {head[0][0]}: {ask}{'' if flag else TIME_NAMES_TIP}")
         names = [n.strip().lower() for n in written]
     else:
         names = [str(j + 1) for j in range(len(split_line(first[1], delim, f"{path}, line {first[0]}")))]

@@ -77,9 +77,8 @@ class HeldSamples:
         valid = np.flatnonzero(np.all(np.isfinite(rows), axis=1))
         if not valid.size:
             return chunk
-        previous = rows[valid[:-1]] if self._last is None else np.vstack([self._last, rows[valid[:-1]]])
-        current = rows[valid[1:]] if self._last is None else rows[valid]
-        held = (valid[1:] if self._last is None else valid)[np.all(current == previous, axis=1)]
+        last = np.full(rows.shape[1], np.nan) if self._last is None else self._last  # NaN equals nothing
+        held = valid[np.all(rows[valid] == np.vstack([last, rows[valid[:-1]]]), axis=1)]
         self._last = rows[valid[-1]].copy()
         if not held.size:
             return chunk

@@ -43,7 +43,7 @@ from omegahat.io.columns import (
 )
 from omegahat.io.columns import LogFormatError as _Err
 from omegahat.io.registry import LogStream, ReadOptions
-from omegahat.io.time_units import TIME_UNITS, magnitude_note, unit_by_magnitude
+from omegahat.io.time_units import TIME_UNITS, unit_stated
 
 __all__ = ["MAX_NPZ_BYTES", "open_npz"]
 
@@ -282,11 +282,9 @@ def _exact_times(raw: np.ndarray, options: ReadOptions, notes: list[str]) -> tup
         return np.asarray(raw, dtype=float), {}
     base = int(raw[0])
     t = (raw.astype(np.int64) - np.int64(base)).astype(float)
-    unit = options.time_unit
-    h = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    found = unit_by_magnitude(float(base), h) if unit == "s" else None
+    found, note = unit_stated("t", options.time_unit, raw[:64])  # by their size, as a CSV's or a Parquet table's
     if found:
-        notes.append(magnitude_note(found, float(base), h))
+        notes.append(note or "")
         t = t * TIME_UNITS[found]  # in s now: the checks' scale (--time-unit s) is 1
-    scale = TIME_UNITS[found or unit]
+    scale = TIME_UNITS[found or options.time_unit]
     return t, {"t0": base * scale, "meta": {"time_base": base}}

@@ -287,6 +287,13 @@ class PartFile:
         _remove_quietly(self.path)
         self.release()
 
+    def publish(self, f: BinaryIO, target: Path) -> None:
+        """The file written through ``f`` (from :meth:`open`), on the disk, becomes ``target``, readable."""
+        f.flush()
+        os.fsync(f.fileno())  # the content is on the disk before the name says it is complete
+        publish_mode(self.path)
+        os.replace(self.path, target)  # while still locked: no cleaner can take it for stale
+
 
 def write_whole(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
     """A small output whole or absent: ``write(f)`` fills a locked temporary file, which then replaces ``path``."""
@@ -294,10 +301,7 @@ def write_whole(path: str | os.PathLike[str], write: Callable[[BinaryIO], object
     try:
         with part.open() as f:
             write(f)
-            f.flush()
-            os.fsync(f.fileno())
-            publish_mode(part.path)
-            os.replace(part.path, target_of(path))  # while still locked: no cleaner can take it for stale
+            part.publish(f, target_of(path))
     except BaseException as exc:
         _remove_quietly(part.path)
         if isinstance(exc, OSError):
@@ -363,7 +367,6 @@ class OmegaWriter(AtomicOutput):
             self._part = PartFile(self.target)
         except OSError as exc:
             raise write_error(exc, self.path) from exc
-        self._tmp = self._part.path
         self._f: BinaryIO | None = None
         self.rows = 0
         self._pool: ThreadPoolExecutor | None = None
@@ -434,10 +437,7 @@ class OmegaWriter(AtomicOutput):
             self._wait()
             self._shutdown()
             self._end()
-            f.flush()
-            os.fsync(f.fileno())  # the content is on the disk before the name says it is complete
-            publish_mode(self._tmp)
-            os.replace(self._tmp, self.target)  # while still locked: no cleaner can take it for stale
+            self._part.publish(f, self.target)
         except OSError as exc:
             self.abort()
             raise write_error(exc, self.path) from exc

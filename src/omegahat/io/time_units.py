@@ -8,6 +8,8 @@ origin) and samples :data:`PLAUSIBLE_RATES_HZ` apart. Epoch stamps show their un
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -24,7 +26,6 @@ __all__ = [
     "time_unit_in_name",
     "unit_by_magnitude",
     "unit_stated",
-    "units_that_fit",
 ]
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
@@ -48,11 +49,23 @@ def plausible(t0: float, h: float) -> bool:
     return abs(t0) <= PLAUSIBLE_SECONDS and h > 0 and PLAUSIBLE_RATES_HZ[0] <= 1.0 / h <= PLAUSIBLE_RATES_HZ[1]
 
 
-def units_that_fit(t0: float, h: float, unit: str) -> list[str]:
-    """The other units in which times read in ``unit`` as ``t0`` s, ``h`` s apart, would be plausible (the tip of an
-    implausible spacing: rows 1000 s apart read in s are 1 s apart in ms)."""
+def implausible_spacing(
+    h: float, t0: float, unit: str, reading: str, remedy: Callable[[str], str], rows: str = "samples"
+) -> str | None:
+    """The words for ``rows`` ``h`` s apart (first time ``t0``, read in ``unit`` as ``reading`` says: "with
+    --time-unit s") where that is implausible (:func:`plausible`), with ``remedy(u)`` for the first other unit ``u``
+    in which it would not be ("pass --time-unit ms", "name its time column time_ms"); None where it is plausible.
+    Beyond :data:`POSSIBLE_RATES_HZ` the same words are an error (no estimate is made of such a log)."""
+    if plausible(t0, h):
+        return None
     scale = TIME_UNITS[unit]
-    return [u for u, f in TIME_UNITS.items() if u != unit and plausible(t0 / scale * f, h / scale * f)]
+    fits = [u for u, f in TIME_UNITS.items() if u != unit and plausible(t0 / scale * f, h / scale * f)]
+    tip = "".join(f"; if the times are in {u}, {remedy(u)} ({scale / (h * TIME_UNITS[u]):.4g} Hz)" for u in fits[:1])
+    said = f"{rows} are {h:.4g} s apart ({1.0 / h:.4g} Hz) {reading}{tip}"
+    low, high = POSSIBLE_RATES_HZ
+    if not low <= 1.0 / h <= high:
+        raise ValueError(f"{said}; no log is estimated at less than {low:g} Hz or more than {high:g} Hz")
+    return said
 
 
 def unit_by_magnitude(t0: float, h: float) -> str | None:

@@ -47,7 +47,7 @@ import numpy as np
 from omegahat.io.columns import TORQUE_COLUMNS, LogFormatError
 from omegahat.io.gyrolog import GyroLog, VectorRole, read_vectors
 from omegahat.io.registry import LogChunk, LogStream
-from omegahat.io.time_units import TIME_UNITS, plausible, unit_stated, units_that_fit
+from omegahat.io.time_units import TIME_UNITS, implausible_spacing, unit_stated
 
 __all__ = ["TORQUE", "TorqueLog", "attach_torque", "read_torque_log"]
 
@@ -119,14 +119,9 @@ def read_torque_log(
     unit = stated or time_unit
     t = raw.t * TIME_UNITS[unit]
     h = float(np.median(np.diff(t))) if t.size > 1 else math.nan
-    if not stated and h > 0 and not plausible(float(t[0]), h):  # a torque log in ms read as s: rows 1000 s apart
-        other = units_that_fit(float(t[0]), h, unit)
-        tip = (
-            f"; if they are in {other[0]}, name its time column time_{other[0]} (its name then states its unit)"
-            if other
-            else ""
-        )
-        note = f"its rows are {h:.4g} s apart ({1 / h:.4g} Hz) in {unit}, as --time-unit says{tip}"
+    if not stated and h > 0:  # a torque log in ms read as s: rows 1000 s apart; no option sets its unit alone
+        remedy = lambda u: f"name its time column time_{u}, which states its unit"  # noqa: E731
+        note = implausible_spacing(h, float(t[0]), unit, f"in {unit}, as --time-unit says", remedy, "its rows") or note
     return TorqueLog(path, t, raw.g, raw.names, note or "")
 
 
