@@ -173,3 +173,26 @@ def test_a_rate_above_max_rate_is_lost_at_once():
     assert bounded.restarts > 0.9 * t.size and bounded.last_source[-1] == 0.0
     with pytest.raises(ValueError, match="max_rate"):
         SupervisedKalmanEstimator(np.eye(3), max_rate=-1.0, **common)
+
+
+def test_a_gap_that_leaves_the_ekf_without_an_estimate_restarts_it_from_the_observer():
+    # (S5): an EKF carrying an unknown acceleration extrapolated it through a 0.5 s gap (its rate spread grew to
+    # ~500 rad/s against the yardstick's 5): 3.9 rad/s off at the gap's end, then 1.4-10 rad/s off, "corrected",
+    # at the fixes after it. The truth is the constant rate itself.
+    w = np.array([0.3, -0.2, 0.5])
+    t, q = _constant_rate_log(100.0, w, seconds=10.0, noise=1e-4)
+    q[400:450] = np.nan
+    common = {"rate_hz": 100.0, "measurement_noise": 1e-3, "rate_noise": 1e-6, "disturbance_noise": 1500.0}
+    est = SupervisedKalmanEstimator(np.eye(3), disagreement_factor=50.0, disagreement_yardstick="observer", **common)
+    with pytest.warns(UserWarning, match="skipped 50"):
+        W, status = est.run(t, q)
+    err = np.linalg.norm(W - w, axis=1)
+    assert est.restarts == 1  # once, at the first fix after the gap; the missing one at 400 restarts nothing
+    assert np.all(status[400:450] == Status.PREDICTED) and err[400:450].max() < 0.2
+    assert err[450:].max() < 2.0 * err[100:400].max()  # after the gap as before it
+    one_missing = _constant_rate_log(100.0, w, seconds=10.0, noise=1e-4)[1]
+    one_missing[400] = np.nan
+    again = SupervisedKalmanEstimator(np.eye(3), disagreement_factor=50.0, disagreement_yardstick="observer", **common)
+    with pytest.warns(UserWarning, match="skipped 1 "):
+        again.run(t, one_missing)
+    assert again.restarts == 0

@@ -9,7 +9,7 @@ Two estimators run side by side on every sample (``docs/theory/supervised.md`` e
   equations as :class:`omegahat.baselines.mekf.MEKF`): it weighs each fix with the right time-varying gain, so its
   steady-state error is the smallest a model-based filter gets, but it converges only from close enough.
 
-A supervisor (:mod:`omegahat.observer.supervised`, (S1)–(S4)) starts the EKF from the observer, watches its
+A supervisor (:mod:`omegahat.observer.supervised`, (S1)–(S5)) starts the EKF from the observer, watches its
 innovations and its agreement with the observer, and restarts it from the observer whenever it is inconsistent,
 uncertain or persistently disagreeing. The output is the EKF's estimate while it is trusted, else the observer's.
 

@@ -37,16 +37,17 @@ innovations are never white, and the test would restart the EKF every few sample
 :func:`log_differencing_error`), σ_m, σ_a and σ_d are multiplied by one factor ``s``, which leaves the filter's
 gains as they are (they depend on the ratios) and puts the observer's noise, the test's yardstick, in the motion's
 scale; the EKF is restarted (with its acceleration at zero) when it leaves the observer by
-:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR` times that noise for three samples, or at once when its rate
-is above the rotation's Nyquist bound ``π / h`` (:data:`~omegahat.observer.kalman.NYQUIST_RATE`)::
+:data:`~omegahat.observer.kalman.DIVERGENCE_FACTOR` times that noise for three samples, at once when its rate
+is above the rotation's Nyquist bound ``π / h`` (:data:`~omegahat.observer.kalman.NYQUIST_RATE`) or its own rate
+spread above the same yardstick (after a gap: (S5) of :mod:`omegahat.observer.supervised`)::
 
     s = max(1, e_d h / (√6 σ_m))                                                                        (P5)
 
 Without it, an EKF that diverged after an optical gap stayed diverged (up to 1e7 rad/s written as corrected on
 BROAD trials 28 and 29 at 286 Hz, 100–700 times differencing's error on trials 08 and 28 at 29 Hz); with it the
 same logs score 0.64–1.05 times differencing's error, and the logs it never fired on are unchanged
-(``docs/theory/mocap.md``). Without ``differencing_rms`` (:func:`mocap_estimator` sample by sample, where the log
-is not known ahead) only a state that stops being finite restarts the EKF.
+(``docs/theory/mocap.md``). Without ``differencing_rms`` (sample by sample, the log not known ahead) only a state
+that stops being finite restarts the EKF.
 
 **Smoothing** (:func:`smooth`): the same estimator run forward, and again on the log reversed in time (where the
 body rate is ``−ω``); each pass is moved by the filter's own lag ``d`` (:func:`filter_lag`: the steady delay of
@@ -483,8 +484,7 @@ class MocapSmoother(Estimator):
         rotation_tol: float = ms.ROTATION_TOL,
         quat_norm_tol: float = ms.QUAT_NORM_TOL,
     ) -> None:
-        self.rate_hz, self.measurement_noise = rate_hz, measurement_noise
-        self.scalar_first = bool(scalar_first)
+        self.rate_hz, self.measurement_noise, self.scalar_first = rate_hz, measurement_noise, bool(scalar_first)
         self.rotation_tol, self.quat_norm_tol = ms.tolerances(rotation_tol, quat_norm_tol)
 
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:

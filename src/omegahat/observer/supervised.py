@@ -18,6 +18,11 @@ stationary noise level (rad/s, from the gain design)::
     lost = ν̄ > ν_max  or  c ≥ c_max  or  |ω̂_EKF| > ω_max  or  the EKF's state (R̂, ω̂, â, P) not finite     (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
     lost by (S2), ω_max or not finite ⇒  also â ← 0 (an unknown acceleration the EKF carries; by ν̄ it is kept)
+    uncertain = s > κ σ_obs, with the yardstick σ_obs alone (supervision in the motion's scale)           (S5)
+
+(S5), after a gap: a skipped sample gives the observer's prediction instead of the EKF's, and a fix that leaves the
+EKF uncertain restarts it (S4) with â ← 0 and the rate's spread κ σ_obs, the observer's rate being stale by the gap
+(``docs/theory/supervised.md``).
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -204,11 +209,15 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
             pe[EKF_PARAMS.dynamic] != 0.0, pe[EKF_PARAMS.max_step], pe[EKF_PARAMS.max_angle],
         )  # fmt: skip
     finite = started and ekf_finite(R, w, a, P)  # the EKF's guard
+    sigma_obs = pe[EKF_PARAMS.sigma_obs]
+    kappa = pe[EKF_PARAMS.kappa]
+    in_motion_scale = pe[EKF_PARAMS.own_spread] == 0.0  # (S5) applies where σ_obs is in the motion's scale
+    uncertain = in_motion_scale and not math.sqrt(P[3, 3] + P[4, 4] + P[5, 5]) <= kappa * sigma_obs  # (S5)
     if status != checks.OK:  # skipped: both parts predicted through it; the EKF is not judged without a fix
         if started and not finite:  # its step could not be taken: it starts again from the observer at a fix
             xe_out[EKF_STATE.started] = 0.0
             xe_out[EKF_STATE.resets] += 1.0
-        elif started and xe[EKF_STATE.source] == FROM_EKF:
+        elif started and xe[EKF_STATE.source] == FROM_EKF and not uncertain:
             xe_out[EKF_STATE.source] = FROM_EKF
             return status, info, w
         return status, info, w_obs
@@ -238,15 +247,16 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     d0, d1, d2 = w[0] - w_obs[0], w[1] - w_obs[1], w[2] - w_obs[2]
     d = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     s = math.sqrt(P[3, 3] + P[4, 4] + P[5, 5])
-    sigma_obs = pe[EKF_PARAMS.sigma_obs]
-    kappa = pe[EKF_PARAMS.kappa]
     yardstick = max(s, sigma_obs) if pe[EKF_PARAMS.own_spread] != 0.0 else sigma_obs
     disagree = xe[EKF_STATE.disagree] + 1.0 if d > kappa * yardstick else 0.0  # (S2)
     speed = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     diverged = disagree >= pe[EKF_PARAMS.disagree_max] or not ekf_finite(R, w, a, P) or speed > pe[EKF_PARAMS.max_rate]
-    lost = diverged or not nis_avg <= pe[EKF_PARAMS.nis_max]  # (S3); a NaN average counts as lost
+    uncertain = in_motion_scale and not s <= kappa * sigma_obs  # (S5) after its fix
+    lost = diverged or uncertain or not nis_avg <= pe[EKF_PARAMS.nis_max]  # (S3); a NaN average counts as lost
     if lost:  # (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs], not diverged)
+        _reinitialise(
+            xe_out, pe, w_obs, R_meas, kappa * sigma_obs if uncertain else sigma_obs, not (diverged or uncertain)
+        )
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     xe_out[EKF_STATE.nis_avg] = nis_avg
