@@ -295,6 +295,34 @@ def test_a_frame_with_a_spike_warns_of_it_and_a_frame_in_ns_warns_of_its_unit():
         omegahat.estimate_frame(frame)
 
 
+def test_integer_epoch_times_are_read_exactly_in_the_unit_their_size_or_name_states():
+    """An int64 column of epoch nanoseconds was read as seconds (rates 1e9 times too small, every row 'corrected',
+    a warning only) and through float64 first (256 ns steps at 1.7e18). Now it is read as the CSV, Parquet and NPZ
+    readers read it: relative to the first in integers, in the one unit its size fits, or the unit its name states.
+    The truth: the constant turn the quaternions were made from."""
+    t = np.arange(500) / 100.0
+    w = np.array([0.3, -0.2, 0.5])
+    q = Rotation.from_rotvec(np.outer(t, w)).as_quat()
+    ns = np.int64(1_700_000_000_000_000_000) + np.round(t * 1e9).astype(np.int64)
+    cols = {"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}
+    for frame in (
+        pd.DataFrame({"t": ns, **cols}),
+        pl.DataFrame({"t": ns, **cols}),
+        pd.DataFrame({"stamp_ms": (t * 1000).round().astype(np.int64), **cols}),
+    ):
+        out = omegahat.estimate_frame(frame, **({"time": "stamp_ms"} if "stamp_ms" in frame.columns else {}))
+        W = (out[["wx", "wy", "wz"]] if isinstance(out, pd.DataFrame) else out.select(["wx", "wy", "wz"])).to_numpy()
+        np.testing.assert_allclose(W[1:], np.tile(w, (499, 1)), atol=1e-9)
+    too_big = pd.DataFrame(
+        {"t": np.array([2**63, 2**63 + 10**7], dtype=np.uint64), **{k: v[:2] for k, v in cols.items()}}
+    )
+    with pytest.raises(LogFormatError, match=r"row 0, column t: time 9223372036854775808 beyond what int64 holds"):
+        omegahat.estimate_frame(too_big)
+    gap = pd.DataFrame({"t": pd.array([0, None, 20], dtype="Int64"), **{k: v[:3] for k, v in cols.items()}})
+    with pytest.raises(LogFormatError, match=r"row 1, column t: missing time"):
+        omegahat.estimate_frame(gap)
+
+
 @pytest.mark.parametrize("gains", [3, {"k": [1.0]}])
 def test_gains_that_are_not_observer_gains_are_named(gains):
     frame = pd.DataFrame({"t": np.arange(50) / 10.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "qw": 1.0})

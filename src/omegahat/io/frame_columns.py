@@ -13,12 +13,32 @@ from omegahat.io.columns import LogFormatError, found_names, shown_value
 from omegahat.io.registry import TIME_UNITS
 from omegahat.io.timestamps import text_dates
 
-__all__ = ["frame_numbers", "nanoseconds", "not_a_number", "pandas_times", "polars_times", "row_of", "time_index"]
+__all__ = [
+    "frame_numbers",
+    "nanoseconds",
+    "not_a_number",
+    "pandas_times",
+    "polars_times",
+    "row_of",
+    "time_index",
+    "whole_numbers",
+]
 
 
-def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None]:
-    """The times of a pandas frame (a column: ``time``, or ``t``; else its index) and the column read (None: the
-    index): integer nanoseconds for datetimes, durations and date texts, else floats in seconds."""
+def whole_numbers(values: Any, name: str) -> np.ndarray:
+    """An integer time column (no missing value) as int64, exactly (as floats, epoch nanoseconds would be off by up to
+    256 ns); a value beyond int64 is an error naming its row."""
+    raw = np.asarray(values)
+    if raw.dtype.kind == "u" and raw.size and raw.max() > np.iinfo(np.int64).max:
+        k = int(np.argmax(raw > np.iinfo(np.int64).max))
+        raise LogFormatError(f"DataFrame, row {k}, column {name}: time {int(raw[k])} beyond what int64 holds")
+    return raw.astype(np.int64)
+
+
+def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None, bool]:
+    """The times of a pandas frame (a column: ``time``, or ``t``; else its index), the column read (None: the
+    index) and whether they are a clock's: integer nanoseconds for datetimes, durations and date texts (True), the
+    numbers as written for an integer column (int64, False), else floats (False)."""
     import pandas as pd
 
     if time is not None or "t" in df.columns:
@@ -27,14 +47,19 @@ def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None]:
             raise LogFormatError(f"DataFrame: no time column {name!r} (found: {found_names(map(str, df.columns))})")
         s = df[name]
         if pd.api.types.is_datetime64_any_dtype(s) or pd.api.types.is_timedelta64_dtype(s):
-            return nanoseconds(s, name), name
+            return nanoseconds(s, name), name, True
+        if pd.api.types.is_integer_dtype(s) and not pd.api.types.is_bool_dtype(s):
+            if s.hasnans:  # a nullable integer column
+                k = int(np.flatnonzero(s.isna().to_numpy())[0])
+                raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
+            return whole_numbers(s.to_numpy(), name), name, False
         dates = text_dates(s.tolist(), row_of(name)) if pd.api.types.is_string_dtype(s) else None
-        return (frame_numbers(df, [name], "pandas")[:, 0] if dates is None else dates[0]), name
+        return (frame_numbers(df, [name], "pandas")[:, 0] if dates is None else dates[0]), name, dates is not None
     idx = df.index
     if isinstance(idx, pd.DatetimeIndex | pd.TimedeltaIndex):
-        return nanoseconds(idx, "index"), None
+        return nanoseconds(idx, "index"), None, True
     if time_index(idx):
-        return idx.to_numpy(dtype=float), None
+        return idx.to_numpy(dtype=float), None, False
     raise LogFormatError(
         "DataFrame: no time: give a column 't' (seconds) or time='column', or use a DatetimeIndex, TimedeltaIndex "
         f"or float index in seconds (the index is {type(idx).__name__} of {idx.dtype})"
@@ -72,9 +97,9 @@ def nanoseconds(values: Any, name: str) -> np.ndarray:
         raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold ({exc})") from None
 
 
-def polars_times(df: Any, time: str | None) -> tuple[np.ndarray, str]:
-    """The times of a Polars frame (the column ``time``, or ``t``) and the column read: integer nanoseconds for
-    datetimes, durations and date texts, else floats in seconds."""
+def polars_times(df: Any, time: str | None) -> tuple[np.ndarray, str, bool]:
+    """The times of a Polars frame (the column ``time``, or ``t``), the column read and whether they are a clock's,
+    as :func:`pandas_times`."""
     import polars as pl
 
     name = time or "t"
@@ -92,10 +117,12 @@ def polars_times(df: Any, time: str | None) -> tuple[np.ndarray, str]:
             ticks = s.to_physical().to_numpy().astype(np.int64)
             if ticks.size and np.abs(ticks).max() > np.iinfo(np.int64).max // ns_per_tick:  # no silent wrap-around
                 raise LogFormatError(f"DataFrame, column {name}: times beyond what nanoseconds hold")
-            return ticks * ns_per_tick, name
+            return ticks * ns_per_tick, name, True
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
+    if s.dtype.is_integer():
+        return whole_numbers(s.to_numpy(), name), name, False
     dates = text_dates(s.to_list(), row_of(name)) if s.dtype == pl.String else None
-    return (frame_numbers(df, [name], "polars")[:, 0] if dates is None else dates[0]), name
+    return (frame_numbers(df, [name], "polars")[:, 0] if dates is None else dates[0]), name, dates is not None
 
 
 def frame_numbers(df: Any, cols: list[str], frame_kind: str) -> np.ndarray:

@@ -9,8 +9,11 @@ is the column ``t`` (seconds, or ``time_unit``) or the one named by ``time=``; f
 ``DatetimeIndex``, ``TimedeltaIndex`` or floating-point index; else the one column named as a time (``time``,
 ``Timestamp``), whose ISO 8601 date texts are read as a CSV's (:mod:`omegahat.io.frame_columns`). Datetime and
 duration times are used as integer nanoseconds, so that equal stamps compare exactly; a
-timezone-aware time is the instant it names (a clock change is no gap). A Polars ``LazyFrame`` is collected first
-(the estimate needs every row; the result is a ``DataFrame``); anything else (a ``Series``, an array) is refused.
+timezone-aware time is the instant it names (a clock change is no gap). Integer times are taken relative to the
+first in integers (exact), in the unit their column's name states (``time_ms``) or, where they cannot be seconds
+(epoch nanoseconds), the one unit their size and spacing fit, said in a note (as a CSV's). A Polars
+``LazyFrame`` is collected first (the estimate needs every row; the result is a ``DataFrame``); anything else (a
+``Series``, an array) is refused.
 
 :func:`open_frame` turns the frame into a :class:`~omegahat.io.registry.LogStream` (rows in time order, labelled by
 their position in the frame) and passes it through :func:`~omegahat.io.registry.checked_stream`, so a frame gets
@@ -48,7 +51,8 @@ from omegahat.io.colmap import (
 )
 from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name, time_column_by_name
 from omegahat.io.frame_columns import frame_numbers, pandas_times, polars_times, time_index
-from omegahat.io.registry import LogStream, ReadOptions, checked_stream
+from omegahat.io.registry import TIME_UNITS, LogStream, ReadOptions, checked_stream
+from omegahat.io.time_units import unit_stated
 from omegahat.io.timestamps import sort_by_time
 
 if TYPE_CHECKING:
@@ -128,9 +132,9 @@ def open_frame(
         found, named = time_column_by_name(names, "t")  # no column t: the one named as a time, if there is one
         time = next((n for n in names if normalise_name(n) == found), None) if named else None
     if frame_kind == "pandas":
-        times, time_name = pandas_times(df, time)
+        times, time_name, clock = pandas_times(df, time)
     else:
-        times, time_name = polars_times(df, time)
+        times, time_name, clock = polars_times(df, time)
     used = [as_named.get(n, n) for n in names]
     try:
         lay = layout([u for u, n in zip(used, names, strict=True) if n != time_name], "DataFrame", None)
@@ -155,13 +159,20 @@ def open_frame(
         if bad.size:
             raise LogFormatError(f"DataFrame, row {int(bad[0])}: torque {torque[bad[0]].tolist()} is not finite")
     order, n_late = sort_by_time(times)
-    if np.issubdtype(times.dtype, np.integer):  # nanoseconds: seconds since the first, exact for equal stamps
+    unit_note = None
+    if np.issubdtype(times.dtype, np.integer):  # relative to the first in integers, then floats: exact steps
         base = int(times[order[0]])
-        row_t, t0 = (times - base).astype(np.float64) * 1e-9, base * 1e-9
+        row_t = (times - base).astype(np.float64)
+        # a clock's nanoseconds; else numbers in the unit their name or size states (as a CSV's), or --time-unit's
+        unit: str | None = "ns"
+        if not clock:
+            unit, unit_note = unit_stated(time_name or "", options.time_unit, times[order[:64]])
+        scale = TIME_UNITS[unit] if unit else 1.0  # a unit: in s now, the checks' scale (--time-unit s) is 1
+        row_t, t0 = row_t * scale, base * (scale if unit else TIME_UNITS[options.time_unit])
     else:
         row_t, t0 = np.asarray(times, dtype=float), 0.0
     late = f"{n_late} row(s) came after a later one: sorted by time" if n_late else ""
-    notes = [n for n in (named_quaternion_note(auto) if auto else "", named, late) if n]
+    notes = [n for n in (named_quaternion_note(auto) if auto else "", named, late, unit_note) if n]
     cols = ", ".join(original[c] for c in lay.attitude)
     stream = LogStream.from_arrays(
         "DataFrame",
@@ -268,7 +279,7 @@ def estimate_frame(
     quaternion : sequence of str, optional
         The quaternion's four columns, in ``x, y, z, w`` order (default: the columns' own names, module docstring).
     time_unit : {"s", "ms", "us", "ns"}, optional
-        The unit of float times.
+        The unit of numeric times (integer ones: unless their name or size states another, module docstring).
     rotation : {"body-to-inertial", "inertial-to-body"}, optional
         What the attitude maps (default ``body-to-inertial``).
     columns : str or dict, optional
