@@ -158,3 +158,21 @@ def test_epoch_nanoseconds_in_an_integer_column_are_read_as_such(tmp_path):
     np.testing.assert_allclose(log.t, t, rtol=1e-15, atol=1e-17)
     assert log.t0 == 1_700_000_000.0
     assert any(n.startswith("time unit: ns, by the times themselves") for n in log.notes)
+
+
+def test_unsigned_times_read_exactly_and_past_int64_named(tmp_path, capsys):
+    """A uint64 time column past 2^63 ended in PyArrow's bare "Integer value ... not in range"; one within int64 is
+    read as the int64 one is."""
+    t = np.arange(50) * 0.01
+    q = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    cols = {"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}
+    stamps = np.uint64(1_700_000_000_000_000_000) + np.arange(50, dtype=np.uint64) * np.uint64(10_000_000)
+    path = tmp_path / "u.parquet"
+    pq.write_table(pa.table({"t": pa.array(stamps, pa.uint64()), **cols}), path)
+    np.testing.assert_allclose(read_log(path).t, t, rtol=1e-15, atol=1e-17)
+    late = stamps.copy()
+    late[40:] += np.uint64(2**63)  # past int64 in the second half
+    pq.write_table(pa.table({"t": pa.array(late, pa.uint64()), **cols}), path)
+    assert main(["estimate", str(path), "-o", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert f"row 40, column t: time {int(late[40])} beyond what int64 holds" in err and "Traceback" not in err

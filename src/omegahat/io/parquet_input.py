@@ -43,6 +43,16 @@ def _floats(column: pa.Array) -> np.ndarray:
     return pc.fill_null(column.cast(pa.float64()), np.nan).to_numpy(zero_copy_only=False)
 
 
+def _int64(column: pa.Array, path: str, row: int, name: str) -> np.ndarray:
+    """An integer column (rows from ``row``) as int64; a value beyond int64 (a uint64 past 2^63) is an error naming
+    its row and column."""
+    values = column.to_numpy(zero_copy_only=False)
+    if values.dtype.kind == "u" and values.size and values.max() > np.iinfo(np.int64).max:
+        k = int(np.argmax(values > np.iinfo(np.int64).max))
+        raise LogFormatError(f"{path}, row {row + k}, column {name}: time {int(values[k])} beyond what int64 holds")
+    return values.astype(np.int64)
+
+
 def _temporal_unit(field: pa.Field) -> float | None:
     """Seconds per unit of a timestamp or duration column (Arrow's units are the time units'); None for a number."""
     if pa.types.is_timestamp(field.type) or pa.types.is_duration(field.type):
@@ -112,7 +122,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         raise LogFormatError(f"{path}, row 0, column {time_name}: no time (null)")
     # the first row's time is the stream's t0 (s), and the chunks' times count from it: an epoch keeps its digits
     # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
-    first = head.cast(pa.int64())[0].as_py() if whole else float(_floats(head)[0])
+    first = _int64(head, path, 0, time_name)[0] if whole else float(_floats(head)[0])
     scale = unit if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
     stated, note = None, None  # a number's unit, where its name or size states it (as a CSV's)
     if unit is None:
@@ -146,7 +156,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
                 k = int(np.flatnonzero(times.is_null().to_numpy(zero_copy_only=False))[0])
                 raise LogFormatError(f"{path}, row {row + k}, column {time_name}: no time (null)")
             if whole:
-                t = (times.cast(pa.int64()).to_numpy(zero_copy_only=False) - first).astype(np.float64) * scale
+                t = (_int64(times, path, row, time_name) - first).astype(np.float64) * scale
             else:
                 t = (_floats(times) - first) * scale  # the checked stream scales by --time-unit
             data = np.column_stack([_floats(batch.column(1 + j)) for j in range(len(attitude))])
