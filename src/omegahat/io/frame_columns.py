@@ -11,6 +11,7 @@ import numpy as np
 
 from omegahat.io.columns import LogFormatError, found_names, shown_value
 from omegahat.io.registry import TIME_UNITS
+from omegahat.io.time_units import whole_times
 from omegahat.io.timestamps import text_dates
 
 __all__ = [
@@ -21,18 +22,7 @@ __all__ = [
     "polars_times",
     "row_of",
     "time_index",
-    "whole_numbers",
 ]
-
-
-def whole_numbers(values: Any, name: str) -> np.ndarray:
-    """An integer time column (no missing value) as int64, exactly (as floats, epoch nanoseconds would be off by up to
-    256 ns); a value beyond int64 is an error naming its row."""
-    raw = np.asarray(values)
-    if raw.dtype.kind == "u" and raw.size and raw.max() > np.iinfo(np.int64).max:
-        k = int(np.argmax(raw > np.iinfo(np.int64).max))
-        raise LogFormatError(f"DataFrame, row {k}, column {name}: time {int(raw[k])} beyond what int64 holds")
-    return raw.astype(np.int64)
 
 
 def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None, bool]:
@@ -52,7 +42,7 @@ def pandas_times(df: Any, time: str | None) -> tuple[np.ndarray, str | None, boo
             if s.hasnans:  # a nullable integer column
                 k = int(np.flatnonzero(s.isna().to_numpy())[0])
                 raise LogFormatError(f"DataFrame, row {k}, column {name}: missing time (every row needs one)")
-            return whole_numbers(s.to_numpy(), name), name, False
+            return whole_times(s.to_numpy(), row_of(name)), name, False
         dates = text_dates(s.tolist(), row_of(name)) if pd.api.types.is_string_dtype(s) else None
         return (frame_numbers(df, [name], "pandas")[:, 0] if dates is None else dates[0]), name, dates is not None
     idx = df.index
@@ -120,7 +110,7 @@ def polars_times(df: Any, time: str | None) -> tuple[np.ndarray, str, bool]:
             return ticks * ns_per_tick, name, True
         raise LogFormatError(f"DataFrame, column {name}: time of type {s.dtype} (use seconds, Datetime or Duration)")
     if s.dtype.is_integer():
-        return whole_numbers(s.to_numpy(), name), name, False
+        return whole_times(s.to_numpy(), row_of(name)), name, False
     dates = text_dates(s.to_list(), row_of(name)) if s.dtype == pl.String else None
     return (frame_numbers(df, [name], "polars")[:, 0] if dates is None else dates[0]), name, dates is not None
 

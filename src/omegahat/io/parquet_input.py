@@ -29,7 +29,7 @@ import pyarrow.parquet as pq
 from omegahat.io.colmap import apply_columns, named_quaternion, named_quaternion_note
 from omegahat.io.columns import LogFormatError, layout, time_column_by_name, time_or_capital_t
 from omegahat.io.registry import CHUNK_ROWS, TIME_UNITS, LogChunk, LogStream, ReadOptions
-from omegahat.io.time_units import unit_stated
+from omegahat.io.time_units import unit_stated, whole_times
 
 __all__ = ["open_parquet"]
 
@@ -41,16 +41,6 @@ def _numeric(field: pa.Field) -> bool:
 def _floats(column: pa.Array) -> np.ndarray:
     """A numeric column as float64, nulls as NaN."""
     return pc.fill_null(column.cast(pa.float64()), np.nan).to_numpy(zero_copy_only=False)
-
-
-def _int64(column: pa.Array, path: str, row: int, name: str) -> np.ndarray:
-    """An integer column (rows from ``row``) as int64; a value beyond int64 (a uint64 past 2^63) is an error naming
-    its row and column."""
-    values = column.to_numpy(zero_copy_only=False)
-    if values.dtype.kind == "u" and values.size and values.max() > np.iinfo(np.int64).max:
-        k = int(np.argmax(values > np.iinfo(np.int64).max))
-        raise LogFormatError(f"{path}, row {row + k}, column {name}: time {int(values[k])} beyond what int64 holds")
-    return values.astype(np.int64)
 
 
 def _temporal_unit(field: pa.Field) -> float | None:
@@ -122,7 +112,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         raise LogFormatError(f"{path}, row 0, column {time_name}: no time (null)")
     # the first row's time is the stream's t0 (s), and the chunks' times count from it: an epoch keeps its digits
     # (integers, nanoseconds since 1970 among them, are subtracted as integers, before they become floats)
-    first = _int64(head, path, 0, time_name)[0] if whole else float(_floats(head)[0])
+    at_row = lambda start: lambda k: f"{path}, row {start + k}, column {time_name}"  # noqa: E731
+    first = whole_times(head.to_numpy(zero_copy_only=False), at_row(0))[0] if whole else float(_floats(head)[0])
     scale = unit if unit is not None else 1.0  # to seconds; a number's unit is --time-unit's (the stream's)
     stated, note = None, None  # a number's unit, where its name or size states it (as a CSV's)
     if unit is None:
@@ -156,7 +147,7 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
                 k = int(np.flatnonzero(times.is_null().to_numpy(zero_copy_only=False))[0])
                 raise LogFormatError(f"{path}, row {row + k}, column {time_name}: no time (null)")
             if whole:
-                t = (_int64(times, path, row, time_name) - first).astype(np.float64) * scale
+                t = (whole_times(times.to_numpy(zero_copy_only=False), at_row(row)) - first).astype(np.float64) * scale
             else:
                 t = (_floats(times) - first) * scale  # the checked stream scales by --time-unit
             data = np.column_stack([_floats(batch.column(1 + j)) for j in range(len(attitude))])

@@ -13,7 +13,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from omegahat.io.columns import time_unit_in_name
+from omegahat.io.columns import LogFormatError, time_unit_in_name
 
 __all__ = [
     "PLAUSIBLE_RATES_HZ",
@@ -26,6 +26,7 @@ __all__ = [
     "time_unit_in_name",
     "unit_by_magnitude",
     "unit_stated",
+    "whole_times",
 ]
 
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}  #: seconds per unit
@@ -104,3 +105,13 @@ def unit_stated(column: str, given: str, head: ArrayLike) -> tuple[str | None, s
     t0, h = float(times[0]), float(np.median(np.diff(times)))
     found = unit_by_magnitude(t0, h) if h > 0 else None
     return (None, None) if found in (None, "s") else (found, magnitude_note(found, t0, h))
+
+
+def whole_times(values: ArrayLike, where: Callable[[int], str]) -> np.ndarray:
+    """Integer times (no missing one) as int64, exactly (as floats, epoch nanoseconds would be off by up to 256 ns);
+    a value beyond int64 (a uint64 past 2^63) is an error, ``where(k)`` naming its row ``k``."""
+    raw = np.asarray(values)
+    if raw.dtype.kind == "u" and raw.size and raw.max() > np.iinfo(np.int64).max:
+        k = int(np.argmax(raw > np.iinfo(np.int64).max))
+        raise LogFormatError(f"{where(k)}: time {int(raw[k])} beyond what int64 holds")
+    return raw.astype(np.int64)
