@@ -323,6 +323,23 @@ def test_integer_epoch_times_are_read_exactly_in_the_unit_their_size_or_name_sta
         omegahat.estimate_frame(gap)
 
 
+def test_a_capital_t_is_the_time_as_in_a_csv_unless_another_column_is_named_as_one():
+    """A frame whose time column is ``T`` was refused ("no time"), where the CSV and Parquet readers read it; beside
+    a ``Time`` column (``T`` a temperature?) it is asked, as they ask."""
+    t = np.arange(200) / 100.0
+    w = np.array([0.3, -0.2, 0.5])
+    q = Rotation.from_rotvec(np.outer(t, w)).as_quat()
+    cols = {"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}
+    for make in (pd.DataFrame, pl.DataFrame):
+        out = omegahat.estimate_frame(make({"T": t, **cols}))
+        W = (out[["wx", "wy", "wz"]] if isinstance(out, pd.DataFrame) else out.select(["wx", "wy", "wz"])).to_numpy()
+        np.testing.assert_allclose(W[1:], np.tile(w, (199, 1)), atol=1e-9)
+        with pytest.raises(LogFormatError, match=r"columns 'T' and 'Time' could each be the time .* give time="):
+            omegahat.estimate_frame(make({"Time": t, "T": np.full(t.size, 21.5), **cols}))
+        chosen = omegahat.estimate_frame(make({"Time": t, "T": np.full(t.size, 21.5), **cols}), time="Time")
+        assert len(chosen) == t.size
+
+
 @pytest.mark.parametrize("gains", [3, {"k": [1.0]}])
 def test_gains_that_are_not_observer_gains_are_named(gains):
     frame = pd.DataFrame({"t": np.arange(50) / 10.0, "qx": 0.0, "qy": 0.0, "qz": 0.0, "qw": 1.0})

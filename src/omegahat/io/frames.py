@@ -49,7 +49,14 @@ from omegahat.io.colmap import (
     named_quaternion_note,
     suggest_columns,
 )
-from omegahat.io.columns import QUATERNION_COLUMNS, LogFormatError, layout, normalise_name, time_column_by_name
+from omegahat.io.columns import (
+    QUATERNION_COLUMNS,
+    LogFormatError,
+    layout,
+    normalise_name,
+    time_column_by_name,
+    time_or_capital_t,
+)
 from omegahat.io.frame_columns import frame_numbers, pandas_times, polars_times, time_index
 from omegahat.io.registry import TIME_UNITS, LogStream, ReadOptions, checked_stream
 from omegahat.io.time_units import unit_stated
@@ -129,8 +136,10 @@ def open_frame(
         as_named = {n: m for n, m in zip(names, mapped, strict=True) if m != "t"} if options.column_map or auto else {}
     named = None
     if time is None and "t" not in names and not indexed:
-        found, named = time_column_by_name(names, "t")  # no column t: the one named as a time, if there is one
-        time = next((n for n in names if normalise_name(n) == found), None) if named else None
+        if ask := time_or_capital_t(names, "t", None):  # Time,T,...: T may be a temperature
+            raise LogFormatError(f"DataFrame: {ask}: give time= the one that is")
+        found, named = time_column_by_name(names, "t")  # no column t: T, or the one named as a time, if there is one
+        time = next((n for n in names if normalise_name(n) == normalise_name(found)), None)
     if frame_kind == "pandas":
         times, time_name, clock = pandas_times(df, time)
     else:
