@@ -176,3 +176,32 @@ def test_unsigned_times_read_exactly_and_past_int64_named(tmp_path, capsys):
     assert main(["estimate", str(path), "-o", str(tmp_path / "o.csv")]) == 2
     err = capsys.readouterr().err
     assert f"row 40, column t: time {int(late[40])} beyond what int64 holds" in err and "Traceback" not in err
+
+
+def test_a_time_that_goes_back_is_quoted_as_the_table_holds_it(tmp_path, capsys):
+    """The message quoted the times less the first row's (-0.02 is not after 0.49) instead of the table's own."""
+    t = 1000.0 + np.arange(100) * 0.01
+    t[50] = t[48] - 0.5
+    q = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    cols = {"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}
+    path = tmp_path / "back.parquet"
+    for times, said in (
+        (t, f"time {float(t[50])!r} is not after {float(t[49])!r} (row 49)"),
+        ((t * 1e3).round().astype(np.int64), "time 999980.0 is not after 1000490.0 (row 49)"),
+    ):
+        pq.write_table(pa.table({"t": times, **cols}), path)
+        assert (
+            main(
+                [
+                    "estimate",
+                    str(path),
+                    "--time-unit",
+                    "s" if times.dtype.kind == "f" else "ms",
+                    "-o",
+                    str(tmp_path / "o.csv"),
+                ]
+            )
+            == 2
+        )
+        err = capsys.readouterr().err
+        assert f"row 50, column t: {said}" in err, err

@@ -18,6 +18,7 @@ position in the table, the first being row 0) and the column. The stream then ta
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterator
 
@@ -134,6 +135,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
         t0=t0,
     )
+    if scale == 1.0 and math.isfinite(first):  # the chunks' raw times are the file's less it: messages add it back
+        stream.meta["time_base"] = int(first) if whole else float(first)
     guessed = named_quaternion_note(mapped) if mapped and not options.column_map else ""
     stream.notes.extend(n for n in (guessed, named, note) if n)
     if options.column_map:

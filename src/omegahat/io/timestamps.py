@@ -267,10 +267,10 @@ class TimePolicy:
     ``unit`` is the labels' word (``"line"``, ``"index"``, ``"message"`` ...), ``time_name`` the time column named
     in messages, ``duplicates`` one of :data:`DUPLICATE_CHOICES` (rule 3; checked by
     :class:`omegahat.io.ReadOptions`), ``time_base`` the integer :class:`ExactTimes` subtracted from the raw times
-    (added back in messages; ``dates``: shown as dates, (6)). :meth:`feed` takes arrays ``(t, raw_t,
-    data, torque, labels, extra)`` of one chunk (``t`` in seconds, ``raw_t`` as the file writes it, for messages)
-    and returns the indices of the rows to hand on and the concatenated arrays they index; :meth:`finish` returns
-    the last sample held back.
+    (added back in messages; ``dates``: shown as dates, (6)), or a float one (a binary table's first time).
+    :meth:`feed` takes arrays ``(t, raw_t, data, torque, labels, extra)`` of one chunk (``t`` in seconds, ``raw_t``
+    as the file writes it, for messages) and returns the indices of the rows to hand on and the concatenated arrays
+    they index; :meth:`finish` returns the last sample held back.
     """
 
     def __init__(
@@ -280,7 +280,7 @@ class TimePolicy:
         unit: str,
         time_name: str | None,
         duplicates: str = "error",
-        time_base: int = 0,
+        time_base: int | float = 0,
         dates: bool = False,
     ):
         self.kind, self.where, self.unit, self.time_name = kind, where, unit, time_name
@@ -342,9 +342,11 @@ class TimePolicy:
     def _num(self, x) -> str:
         """A raw time as the file writes it (its exact base added back as decimals: a float would round it)."""
         if self.dates:
-            return date_text(self.time_base, float(x))
+            return date_text(int(self.time_base), float(x))
         if not self.time_base:
             return repr(float(x))
+        if isinstance(self.time_base, float):  # a binary float's: the sum is the float the file holds
+            return repr(self.time_base + float(x))
         return str(Decimal(self.time_base) + Decimal(repr(float(x))))
 
     def _rounding(self, t: np.ndarray, raw: np.ndarray, j: int) -> str:
