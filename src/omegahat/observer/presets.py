@@ -57,9 +57,9 @@ its rate on a constant-acceleration turn, 0 for (P1), 0.33 samples for (P2)), an
 
 (``ω̂_b`` the backward pass's rate at the same instant, in reversed time; the shifts by cubic-spline interpolation of
 each pass). The forward pass lags and the backward one leads by the same amount, so the average has no lag. Near
-the ends one pass has only just started: the average is weighted by each pass's settling, the inverse of its rate
-variance that many samples after its start (:func:`rate_variance_after_start`, (P4)); in the middle the weights are
-equal.
+the ends, and after a gap that restarted a pass, one pass has only just started: the average is weighted by each
+pass's settling, the inverse of its rate variance that many samples after its (re)start
+(:func:`rate_variance_after_start`, (P4)); elsewhere the weights are equal.
 """
 
 from __future__ import annotations
@@ -314,8 +314,6 @@ def smooth(
     >>> q = Rotation.from_rotvec(np.outer(0.5 * t**2, axis)).as_quat()
     >>> causal = mocap_estimator(50.0).run(t, q).omega
     >>> smoothed = smooth(t, q)
-    >>> smoothed.shape
-    (100, 3)
     >>> for name, omega in (("causal", causal), ("smoothed", smoothed), ("true", t[:, None] * axis)):
     ...     print(f"{name:8} at t = {t[50]:.1f} s:", " ".join(f"{x:.3f}" for x in omega[50]))
     causal   at t = 1.0 s: 0.477 0.596 0.636
@@ -328,8 +326,7 @@ def smooth(
     t, R = log.times, np.where(log.valid[:, None, None], log.values, np.nan)
     if t.size < 3:
         raise ValueError(f"smoothing needs at least 3 samples; got {t.size}")
-    if rate_hz is None:
-        rate_hz = 1.0 / float(np.median(np.diff(t)))
+    rate_hz = 1.0 / float(np.median(np.diff(t))) if rate_hz is None else rate_hz
     if measurement_noise is None:
         measurement_noise = attitude_noise(t, R)
     if "differencing_rms" not in options:
@@ -342,23 +339,32 @@ def smooth(
     d = filter_lag(rate_hz, measurement_noise)
     if d > 0:
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
-    settling = rate_variance_after_start(mocap_model(rate_hz, measurement_noise), 1.0 / rate_hz, t.size)
-    settling[0] = np.inf  # a pass's first sample carries no rate: weight 0 (the other pass has settled there)
-    weights = np.stack([1.0 / settling, 1.0 / settling[::-1]])[:, :, None] * np.ones((1, 1, 3))  # (P4)
+    variance = rate_variance_after_start(mocap_model(rate_hz, measurement_noise), 1.0 / rate_hz, t.size)
+    variance[0] = np.inf  # at its (re)start a pass carries the observer's rate: weight 0 (the other has settled)
+    ok = np.all(np.isfinite(R), axis=(1, 2))
+    ages = [_since_restart(passes[0].last_source, ok), _since_restart(passes[1].last_source, ok[::-1])[::-1]]
+    weights = np.stack([1.0 / variance[a] for a in ages])[:, :, None] * np.ones((1, 1, 3))  # (P4)
     both = np.stack([forward, backward])
-    weights[~np.isfinite(both)] = 0.0
+    weights = np.where(np.isfinite(both), weights, 0.0)
+    weights = np.where(weights.sum(axis=0) > 0, weights, np.isfinite(both))  # both just (re)started: the plain mean
     total = (weights * np.where(np.isfinite(both), both, 0.0)).sum(axis=0)
     norm = weights.sum(axis=0)
     return np.where(norm > 0, total / np.where(norm > 0, norm, 1.0), np.nan)
+
+
+def _since_restart(source: np.ndarray | None, fix: np.ndarray) -> np.ndarray:
+    """(P4)'s ``n`` per sample of a pass: samples since a fix last gave the observer's rate (its start, a restart)."""
+    index = np.arange(fix.size)
+    restart = fix & (np.zeros(fix.size) if source is None else np.asarray(source).ravel() == 0.0)
+    return index - np.maximum.accumulate(np.where(restart, index, 0))
 
 
 def rate_variance_after_start(model: MocapModel, h: float, n: int) -> np.ndarray:
     """(P4): the variance of one axis of the filter's rate estimate ``n`` samples into a pass, ``(n,)``, by the
     Kalman recursion of the model's linear kinematic chain (``[θ, ω]`` or ``[θ, ω, a]`` per axis, spacing ``h``,
     the attitude measured with variance σ_m², the prior 1 rad/s on the rate and 1 rad/s² on the acceleration).
-    Weighting the two passes of (P3) by its inverse lets each end of the log rely on the pass that has settled
-    there; in the middle both have and the weights are equal. Run until it settles (relative change below 1e-9),
-    then held."""
+    Weighting the two passes of (P3) by its inverse lets each end of the log, and each gap's, rely on the pass that
+    has settled there. Run until it settles (relative change below 1e-9), then held."""
     if model.disturbance_noise is not None:
         Phi = np.array([[1.0, h, h * h / 2], [0.0, 1.0, h], [0.0, 0.0, 1.0]])
         c = np.array([[h**5 / 20, h**4 / 8, h**3 / 6], [h**4 / 8, h**3 / 3, h**2 / 2], [h**3 / 6, h**2 / 2, h]])
@@ -369,8 +375,7 @@ def rate_variance_after_start(model: MocapModel, h: float, n: int) -> np.ndarray
         P = np.diag([model.measurement_noise**2, 1.0])
     out = np.empty(n)
     for k in range(n):
-        if k:
-            P = Phi @ P @ Phi.T + Q
+        P = Phi @ P @ Phi.T + Q if k else P
         gain = P[:, 0] / (P[0, 0] + model.measurement_noise**2)
         P = P - np.outer(gain, P[0, :])
         out[k] = P[1, 1]
@@ -396,9 +401,7 @@ def filter_lag(rate_hz: float, measurement_noise: float | None = None) -> float:
 def _shifted(t, w, d):
     """``w`` at ``t + d`` by cubic-spline interpolation of its finite rows (extrapolated at the ends)."""
     ok = np.all(np.isfinite(w), axis=1)
-    if ok.sum() < 4:
-        return w
-    return CubicSpline(t[ok], w[ok], axis=0)(t + d)
+    return w if ok.sum() < 4 else CubicSpline(t[ok], w[ok], axis=0)(t + d)
 
 
 class MocapPreset(StreamingEstimator):
@@ -448,14 +451,10 @@ class MocapSmoother(Estimator):
 
     Parameters
     ----------
-    rate_hz : float, optional
-        The sample rate (Hz; None: from the log, as :func:`smooth`).
-    measurement_noise : float, optional
-        The log's attitude noise σ̂ (rad per axis; None: measured on the log, as :func:`smooth`).
-    scalar_first : bool, optional
-        Quaternion order (default False: SciPy's ``(x, y, z, w)``).
-    rotation_tol, quat_norm_tol : float, optional
-        The input checks of :mod:`omegahat.measurements`.
+    rate_hz, measurement_noise : float, optional
+        The sample rate (Hz) and the log's attitude noise σ̂ (rad per axis): as :func:`smooth` (None: from the log).
+    scalar_first, rotation_tol, quat_norm_tol : optional
+        The input checks of :mod:`omegahat.measurements` (quaternions scalar last by default, as SciPy's).
 
     Examples
     --------
