@@ -399,9 +399,10 @@ def filter_lag(rate_hz: float, measurement_noise: float | None = None) -> float:
 
 
 def _shifted(t, w, d):
-    """``w`` at ``t + d`` by cubic-spline interpolation of its finite rows (extrapolated at the ends)."""
+    """``w`` at ``t + d`` by cubic-spline interpolation of its finite rows, where it has them (a pass with no rate
+    before its first fix gets none by extrapolation: a cubic over a missing stretch ran to 90 rad/s)."""
     ok = np.all(np.isfinite(w), axis=1)
-    return w if ok.sum() < 4 else CubicSpline(t[ok], w[ok], axis=0)(t + d)
+    return w if ok.sum() < 4 else np.where(ok[:, None], CubicSpline(t[ok], w[ok], axis=0)(t + d), np.nan)
 
 
 class MocapPreset(StreamingEstimator):

@@ -18,11 +18,12 @@ stationary noise level (rad/s, from the gain design)::
     lost = ν̄ > ν_max  or  c ≥ c_max  or  |ω̂_EKF| > ω_max  or  the EKF's state (R̂, ω̂, â, P) not finite     (S3)
     lost ⇒  R̂ ← the measured attitude, ω̂_EKF ← ω̂_obs,  P ← diag(σ_θ² I, (σ_obs²/3) I),  ν̄ ← 1, c ← 0     (S4)
     lost by (S2), ω_max or not finite ⇒  also â ← 0 (an unknown acceleration the EKF carries; by ν̄ it is kept)
-    uncertain = s > κ σ_obs, with the yardstick σ_obs alone (supervision in the motion's scale)           (S5)
+    uncertain = s > κ σ_obs before the fix, with the yardstick σ_obs alone (supervision in the motion's scale)  (S5)
 
-(S5), after a gap: a skipped sample gives the observer's prediction instead of the EKF's, and a fix that leaves the
-EKF uncertain restarts it (S4) with â ← 0 and the rate's spread κ σ_obs, the observer's rate being stale by the gap
-(``docs/theory/supervised.md``).
+(S5), after a gap: a skipped sample gives the observer's prediction instead of the EKF's, and at a fix an uncertain
+prediction (no point to linearise the fix at: its innovation may be past half a turn) restarts the EKF (S4) with
+â ← 0 and the rate's spread κ σ_obs, the observer's rate being stale by the gap; the fix after such a restart is not
+judged by (S5), whose yardstick that spread is (``docs/theory/supervised.md``).
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -63,7 +64,8 @@ class EkfStateLayout(NamedTuple):
     """Offsets in the EKF's flat state: started (0/1), ν̄ (S1), c (S2), resets so far, the output's source
     (:data:`FROM_OBSERVER` / :data:`FROM_EKF`), R̂ (9, row-major), ω̂ (3), the unknown acceleration â (3; zero
     unless the filter carries it), P (36 or 81, row-major; room for 81), then the sum of ν/m over the fixes the
-    EKF was judged on and their number (the mean tells whether its noise model fits the data)."""
+    EKF was judged on and their number (the mean tells whether its noise model fits the data), and 1 from a
+    restart by (S5) until the EKF's next fix (which is not judged by (S5) again: its spread is the yardstick's)."""
 
     started: int
     nis_avg: int
@@ -76,12 +78,13 @@ class EkfStateLayout(NamedTuple):
     P: int
     nis_sum: int
     nis_count: int
+    gap_restart: int
     size: int
 
 
 EKF_STATE = EkfStateLayout(
     started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, accel=17, P=20, nis_sum=101, nis_count=102,
-    size=103,
+    gap_restart=103, size=104,
 )  # fmt: skip
 
 
@@ -231,9 +234,13 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
             _reinitialise(xe_out, pe, w_obs, R_meas, sigma, True)
             xe_out[EKF_STATE.started] = 1.0
         return status, info, w_obs
-    if not finite:  # (S3) for a propagation that could not be taken: restarted from the observer (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs], False)
+    fresh = xe[EKF_STATE.gap_restart] != 0.0  # restarted by (S5) at the last fix: its spread is the yardstick's
+    xe_out[EKF_STATE.gap_restart] = 0.0
+    gap = uncertain and not fresh  # (S5): a prediction (over a gap) that is no estimate: no point to linearise at
+    if not finite or gap:  # (S3) for a propagation that could not be taken, and (S5): restarted (S4)
+        _reinitialise(xe_out, pe, w_obs, R_meas, kappa * sigma_obs if gap else sigma_obs, False)
         xe_out[EKF_STATE.resets] += 1.0
+        xe_out[EKF_STATE.gap_restart] = 1.0 if gap else 0.0
         return status, info, w_obs
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
@@ -251,12 +258,9 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     disagree = xe[EKF_STATE.disagree] + 1.0 if d > kappa * yardstick else 0.0  # (S2)
     speed = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     diverged = disagree >= pe[EKF_PARAMS.disagree_max] or not ekf_finite(R, w, a, P) or speed > pe[EKF_PARAMS.max_rate]
-    uncertain = in_motion_scale and not s <= kappa * sigma_obs  # (S5) after its fix
-    lost = diverged or uncertain or not nis_avg <= pe[EKF_PARAMS.nis_max]  # (S3); a NaN average counts as lost
+    lost = diverged or not nis_avg <= pe[EKF_PARAMS.nis_max]  # (S3); a NaN average counts as lost
     if lost:  # (S4)
-        _reinitialise(
-            xe_out, pe, w_obs, R_meas, kappa * sigma_obs if uncertain else sigma_obs, not (diverged or uncertain)
-        )
+        _reinitialise(xe_out, pe, w_obs, R_meas, pe[EKF_PARAMS.sigma_obs], not diverged)
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     xe_out[EKF_STATE.nis_avg] = nis_avg
