@@ -54,6 +54,7 @@ from omegahat.io.columns import (
     LogFormatError,
     layout,
     normalise_name,
+    shown_value,
     time_column_by_name,
     time_or_capital_t,
 )
@@ -181,6 +182,16 @@ def open_frame(
     else:
         row_t, t0 = np.asarray(times, dtype=float), 0.0
     late = f"{n_late} row(s) came after a later one: sorted by time" if n_late else ""
+    if n_late:  # rows in any order are read, but a clock that stepped back interleaves the samples around the step
+        first = int(np.flatnonzero(times[1:] < np.maximum.accumulate(times)[:-1])[0]) + 1
+        at, before = (shown_value(x.item()) for x in (times[first], np.max(times[:first])))
+        warnings.warn(
+            f"DataFrame: {late} (the first: row {first}, {time_name or 'index'} {at} after {before}); where a clock "
+            "stepped back, the rows around the step are interleaved and their rates wrong: sort the frame yourself, "
+            "or cut it there",
+            UserWarning,
+            stacklevel=3,
+        )
     notes = [n for n in (named_quaternion_note(auto) if auto else "", named, late, unit_note) if n]
     cols = ", ".join(original[c] for c in lay.attitude)
     stream = LogStream.from_arrays(
