@@ -359,3 +359,16 @@ def test_gains_that_are_not_observer_gains_are_named(gains):
         TypeError, match=rf"gains must be an ObserverGains .*, not {type(gains).__name__}; or give bandw"
     ):
         omegahat.estimate_frame(frame, gains=gains)
+
+
+def test_a_frames_integer_times_are_quoted_as_it_holds_them():
+    """An epoch time_ms column's conflicting stamps were quoted in seconds since the first row ("the same time
+    1.17"), which the frame does not hold."""
+    t = np.arange(200) / 100.0
+    q = Rotation.from_rotvec(np.outer(t, [0.3, -0.2, 0.5])).as_quat()
+    ms = np.int64(1_700_000_000_000) + np.round(t * 1000).astype(np.int64)
+    ms[120] = ms[117]
+    frame = pd.DataFrame({"time_ms": ms, "qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]})
+    with pytest.warns(UserWarning, match="came after a later one"):
+        with pytest.raises(LogFormatError, match=r"row 117 and row 120: two samples at the same time 1700000001170 "):
+            omegahat.estimate_frame(frame)

@@ -314,3 +314,30 @@ def test_a_conflicting_stamp_in_fixed_decimals_is_not_called_rounding(tmp_path, 
     assert code == 2
     assert "two samples at the same time 3.0 with" in err and "broken time source" in err
     assert "lose decimals" not in err and "--rate" not in err
+
+
+@pytest.mark.parametrize(
+    ("column", "stamps", "said"),
+    [
+        (
+            "time_ms",
+            [1_700_000_001_980, 1_700_000_001_990, 1_700_000_001_945],
+            "time 1700000001945 is not after 1700000001990",
+        ),
+        (
+            "t",
+            [1_700_000_001.98, 1_700_000_001.99, 1_700_000_001.945],
+            "time 1700000001.945 is not after 1700000001.99",
+        ),
+    ],
+)
+def test_a_time_that_goes_back_is_quoted_as_the_file_writes_it(tmp_path, column, stamps, said):
+    """The message added a time already in seconds to the file's base in milliseconds ("1700000000001.945 is not
+    after 1700000000001.99"), and float noise to decimal ones ("1700000001.9900000000000002")."""
+    q = Rotation.from_rotvec(np.outer(np.arange(40) * 0.01, [0.3, -0.2, 0.5])).as_quat()
+    times = [stamps[0] - (stamps[1] - stamps[0]) * k for k in range(37, 0, -1)] + stamps
+    path = tmp_path / "back.csv"
+    rows = [f"{t!r},{x!r},{y!r},{z!r},{w!r}" for t, (x, y, z, w) in zip(times, q.tolist(), strict=True)]
+    path.write_text(f"{column},qx,qy,qz,qw\n" + "\n".join(rows) + "\n")
+    with pytest.raises(LogFormatError, match=f"line 41, column {column}: {said} \\(line 40\\)"):
+        read_log(path)

@@ -269,6 +269,7 @@ def open_text(path: str | os.PathLike[str], options: ReadOptions, fmt: TextForma
     stream.t0 = times.base * scale
     if times.exact:
         stream.meta["time_base"] = times.base  # in the file's unit, exactly (descriptions)
+        stream.meta["time_scale"] = time_scale or 1.0  # the chunks' raw times: seconds where the unit is stated
     if lay.kind == "quaternion" and options.scalar_first is not None and lay.quaternion_named:
         stream.notes.append(
             f"--scalar-{'first' if options.scalar_first else 'last'} not needed: the header names qw,qx,qy,qz say "

@@ -169,7 +169,7 @@ def open_frame(
         if bad.size:
             raise LogFormatError(f"DataFrame, row {int(bad[0])}: torque {torque[bad[0]].tolist()} is not finite")
     order, n_late = sort_by_time(times)
-    unit_note = None
+    unit_note, shown = None, {}  # shown: how messages give the times back as the frame holds them
     if np.issubdtype(times.dtype, np.integer):  # relative to the first in integers, then floats: exact steps
         base = int(times[order[0]])
         row_t = (times - base).astype(np.float64)
@@ -179,6 +179,7 @@ def open_frame(
             unit, unit_note = unit_stated(time_name or "", options.time_unit, times[order[:64]])
         scale = TIME_UNITS[unit] if unit else 1.0  # a unit: in s now, the checks' scale (--time-unit s) is 1
         row_t, t0 = row_t * scale, base * (scale if unit else TIME_UNITS[options.time_unit])
+        shown = {"time_base": base, "time_scale": scale}
     else:
         row_t, t0 = np.asarray(times, dtype=float), 0.0
     late = f"{n_late} row(s) came after a later one: sorted by time" if n_late else ""
@@ -207,7 +208,7 @@ def open_frame(
         description=f"DataFrame ({frame_kind}): {lay.kind} columns {cols}",
         notes=notes,
         attitude_name=cols,
-        meta={"frame": frame_kind, "time_column": time_name, "row_t": row_t},
+        meta={"frame": frame_kind, "time_column": time_name, "row_t": row_t, **shown},
         format="dataframe",
     )
     return checked_stream(stream, options)

@@ -135,8 +135,8 @@ def open_parquet(path: str | os.PathLike[str], options: ReadOptions) -> LogStrea
         description=f"Parquet table: {lay.kind} columns {','.join(attitude)}, time {time_name}",
         t0=t0,
     )
-    if scale == 1.0 and math.isfinite(first):  # the chunks' raw times are the file's less it: messages add it back
-        stream.meta["time_base"] = int(first) if whole else float(first)
+    if math.isfinite(first):  # the chunks' raw times are the file's less it, times scale: messages add it back
+        stream.meta["time_base"], stream.meta["time_scale"] = (int(first) if whole else float(first)), scale
     guessed = named_quaternion_note(mapped) if mapped and not options.column_map else ""
     stream.notes.extend(n for n in (guessed, named, note) if n)
     if options.column_map:

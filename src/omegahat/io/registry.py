@@ -387,7 +387,8 @@ def _checked(stream: LogStream, raw: Iterator[LogChunk], options: ReadOptions) -
         )
     meta = stream.meta
     policy = TimePolicy(stream.kind, stream.where, stream.label, stream.time_name, options.duplicate_times,
-                        meta.get("time_base", 0), bool(meta.get("time_dates", False)))  # fmt: skip
+                        meta.get("time_base", 0), bool(meta.get("time_dates", False)),
+                        float(meta.get("time_scale", 1.0)))  # fmt: skip
     precise = Normaliser(stream.kind, stream.digits, stream.where, stream.attitude_name, stream.columns, stream.label)
     for chunk in raw:
         t = chunk.t * scale if scale != 1.0 else np.asarray(chunk.t, dtype=float)

@@ -267,7 +267,8 @@ class TimePolicy:
     ``unit`` is the labels' word (``"line"``, ``"index"``, ``"message"`` ...), ``time_name`` the time column named
     in messages, ``duplicates`` one of :data:`DUPLICATE_CHOICES` (rule 3; checked by
     :class:`omegahat.io.ReadOptions`), ``time_base`` the integer :class:`ExactTimes` subtracted from the raw times
-    (added back in messages; ``dates``: shown as dates, (6)), or a float one (a binary table's first time).
+    (added back in messages; ``dates``: shown as dates, (6)), or a float one (a binary table's first time);
+    ``time_scale`` the seconds per unit of ``time_base`` where the raw times are seconds (a unit a name states).
     :meth:`feed` takes arrays ``(t, raw_t, data, torque, labels, extra)`` of one chunk (``t`` in seconds, ``raw_t``
     as the file writes it, for messages) and returns the indices of the rows to hand on and the concatenated arrays
     they index; :meth:`finish` returns the last sample held back.
@@ -282,10 +283,12 @@ class TimePolicy:
         duplicates: str = "error",
         time_base: int | float = 0,
         dates: bool = False,
+        time_scale: float = 1.0,
     ):
         self.kind, self.where, self.unit, self.time_name = kind, where, unit, time_name
         self.time_base = time_base  # (5): raw times are relative to it; messages show the time the file writes
         self.dates = dates  # (6): raw times are seconds after time_base since 1970, shown as dates
+        self.time_scale = time_scale  # seconds per unit of time_base, where the raw times are already seconds
         self.duplicates = duplicates
         self.n_dropped = 0  # exact duplicates (rule 2)
         self.n_conflicts = 0  # samples dropped from times whose samples disagree (rule 3, first or last)
@@ -343,11 +346,14 @@ class TimePolicy:
         """A raw time as the file writes it (its exact base added back as decimals: a float would round it)."""
         if self.dates:
             return date_text(int(self.time_base), float(x))
+        # in the file's unit where the raw times are seconds, to 12 digits (the subtraction's rounding left out)
+        raw = float(f"{float(x) / self.time_scale:.12g}")
         if not self.time_base:
-            return repr(float(x))
+            return repr(raw)
         if isinstance(self.time_base, float):  # a binary float's: the sum is the float the file holds
-            return repr(self.time_base + float(x))
-        return str(Decimal(self.time_base) + Decimal(repr(float(x))))
+            return repr(self.time_base + raw)
+        exact = Decimal(self.time_base) + Decimal(repr(raw))
+        return str(exact.to_integral_value() if exact == exact.to_integral_value() else exact)
 
     def _rounding(self, t: np.ndarray, raw: np.ndarray, j: int) -> str:
         """For the message of a conflicting duplicate at row ``j`` of a chunk: where the file writes its times
