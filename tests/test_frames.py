@@ -372,3 +372,16 @@ def test_a_frames_integer_times_are_quoted_as_it_holds_them():
     with pytest.warns(UserWarning, match="came after a later one"):
         with pytest.raises(LogFormatError, match=r"row 117 and row 120: two samples at the same time 1700000001170 "):
             omegahat.estimate_frame(frame)
+
+
+def test_float_epoch_times_are_read_in_the_unit_their_size_or_name_states():
+    """Epoch nanoseconds held as float64 (pandas makes an int column with a missing value so) were read as seconds:
+    rates 1e9 times too small, 'corrected', a warning only. Now as the integer ones, to float precision (256 ns at
+    1.7e18). The truth: the constant turn."""
+    t = np.arange(500) / 100.0
+    w = np.array([0.3, -0.2, 0.5])
+    q = Rotation.from_rotvec(np.outer(t, w)).as_quat()
+    cols = {"qx": q[:, 0], "qy": q[:, 1], "qz": q[:, 2], "qw": q[:, 3]}
+    for frame in (pd.DataFrame({"t": 1.7e18 + np.round(t * 1e9), **cols}), pd.DataFrame({"time_ms": t * 1e3, **cols})):
+        out = omegahat.estimate_frame(frame, **({"time": "time_ms"} if "time_ms" in frame.columns else {}))
+        np.testing.assert_allclose(out[["wx", "wy", "wz"]].to_numpy()[1:], np.tile(w, (499, 1)), atol=1e-4)

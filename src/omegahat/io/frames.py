@@ -11,7 +11,8 @@ is the column ``t`` (seconds, or ``time_unit``) or the one named by ``time=``; f
 duration times are used as integer nanoseconds, so that equal stamps compare exactly; a
 timezone-aware time is the instant it names (a clock change is no gap). Integer times are taken relative to the
 first in integers (exact), in the unit their column's name states (``time_ms``) or, where they cannot be seconds
-(epoch nanoseconds), the one unit their size and spacing fit, said in a note (as a CSV's). A Polars
+(epoch nanoseconds), the one unit their size and spacing fit, said in a note (as a CSV's); float times too (epoch
+nanoseconds held as floats, as pandas holds an integer column with a missing value), to float precision. A Polars
 ``LazyFrame`` is collected first (the estimate needs every row; the result is a ``DataFrame``); anything else (a
 ``Series``, an array) is refused.
 
@@ -180,8 +181,13 @@ def open_frame(
         scale = TIME_UNITS[unit] if unit else 1.0  # a unit: in s now, the checks' scale (--time-unit s) is 1
         row_t, t0 = row_t * scale, base * (scale if unit else TIME_UNITS[options.time_unit])
         shown = {"time_base": base, "time_scale": scale}
-    else:
+    else:  # floats: as written, or in the unit their name or size states (epoch ns through a missing value)
         row_t, t0 = np.asarray(times, dtype=float), 0.0
+        unit, unit_note = unit_stated(time_name or "", options.time_unit, row_t[order[:64]])
+        if unit:
+            origin = float(row_t[order[0]])
+            row_t, t0 = (row_t - origin) * TIME_UNITS[unit], origin * TIME_UNITS[unit]
+            shown = {"time_base": origin, "time_scale": TIME_UNITS[unit]}
     late = f"{n_late} row(s) came after a later one: sorted by time" if n_late else ""
     if n_late:  # rows in any order are read, but a clock that stepped back interleaves the samples around the step
         first = int(np.flatnonzero(times[1:] < np.maximum.accumulate(times)[:-1])[0]) + 1

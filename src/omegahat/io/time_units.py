@@ -84,7 +84,7 @@ def magnitude_note(unit: str, t0: float, h: float) -> str:
     f = TIME_UNITS[unit]
     return (
         f"time unit: {unit}, by the times themselves ({t0:.4g} cannot be seconds; in {unit} they are {t0 * f:.4g} s "
-        f"since their origin, samples {h * f:.4g} s apart; --time-unit says otherwise)"
+        f"since their origin, samples {h * f:.4g} s apart; another unit: --time-unit)"
     )
 
 
