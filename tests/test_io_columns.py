@@ -635,7 +635,8 @@ def test_a_huge_field_is_named_by_its_start_and_length_and_a_quoted_decimal_comm
         read_log(huge)
     assert time.perf_counter() - start < 20.0  # linear: the digit count's regex took 267 s on this field (quadratic)
     text = str(caught.value)
-    assert len(text) < 200 and "line 3, column qw: '" + "9" * 57 + "'... (100001 characters) is not a number" in text
+    shown = text.replace(str(huge), "")  # the temporary path's length is pytest's, not the message's
+    assert len(shown) < 160 and "line 3, column qw: '" + "9" * 57 + "'... (100001 characters) is not a number" in text
     for rows, said in (
         ('"0,00","1,0","0,0","0,0","0,0"', r"'0,00' is not a number \(a decimal comma: where ',' separates the col"),
         ('0,1,0,0,0\n"1,000",1,0,0,0', r"'1,000' is not a number \(digit grouping is not read\)"),
