@@ -62,7 +62,7 @@ from omegahat.io.columns import (
 from omegahat.io.frame_columns import frame_numbers, pandas_times, polars_times, time_index
 from omegahat.io.registry import TIME_UNITS, LogStream, ReadOptions, checked_stream
 from omegahat.io.time_units import unit_stated
-from omegahat.io.timestamps import sort_by_time
+from omegahat.io.timestamps import late_rows, sort_by_time
 
 if TYPE_CHECKING:
     import pandas as pd  # optional, like polars: imported where a frame of theirs is read
@@ -190,7 +190,7 @@ def open_frame(
             shown = {"time_base": origin, "time_scale": TIME_UNITS[unit]}
     late = f"{n_late} row(s) came after a later one: sorted by time" if n_late else ""
     if n_late:  # rows in any order are read, but a clock that stepped back interleaves the samples around the step
-        first = int(np.flatnonzero(times[1:] < np.maximum.accumulate(times)[:-1])[0]) + 1
+        first = int(np.flatnonzero(late_rows(times))[0])
         at, before = (shown_value(x.item()) for x in (times[first], np.max(times[:first])))
         warnings.warn(
             f"DataFrame: {late} (the first: row {first}, {time_name or 'index'} {at} after {before}); where a clock "

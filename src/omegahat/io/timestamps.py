@@ -69,6 +69,7 @@ __all__ = [
     "TimePolicy",
     "date_text",
     "first_failure",
+    "late_rows",
     "sort_by_time",
     "text_dates",
 ]
@@ -216,8 +217,16 @@ def sort_by_time(times: np.ndarray) -> tuple[np.ndarray, int]:
     times = np.asarray(times)
     if times.size == 0:
         return np.zeros(0, dtype=np.int64), 0
-    n_late = int(np.count_nonzero(times[1:] < np.maximum.accumulate(times)[:-1]))
-    return np.argsort(times, kind="stable"), n_late
+    return np.argsort(times, kind="stable"), int(np.count_nonzero(late_rows(times)))
+
+
+def late_rows(times: np.ndarray) -> np.ndarray:
+    """``(N,)``: True for each sample that came after one with a later time (a late arrival, or a clock stepping
+    back)."""
+    times = np.asarray(times)
+    late = np.zeros(times.size, dtype=bool)
+    late[1:] = times[1:] < np.maximum.accumulate(times)[:-1]
+    return late
 
 
 def _matrix(q: np.ndarray) -> np.ndarray | None:

@@ -341,8 +341,8 @@ def smooth(
         forward, backward = _shifted(t, forward, d), _shifted(t, backward, -d)
     variance = rate_variance_after_start(mocap_model(rate_hz, measurement_noise), 1.0 / rate_hz, t.size)
     variance[0] = np.inf  # at its (re)start a pass carries the observer's rate: weight 0 (the other has settled)
-    ok = np.all(np.isfinite(R), axis=(1, 2))
-    ages = [_since_restart(passes[0].last_source, ok), _since_restart(passes[1].last_source, ok[::-1])[::-1]]
+    fix = log.valid
+    ages = [_since_restart(passes[0].last_source, fix), _since_restart(passes[1].last_source, fix[::-1])[::-1]]
     weights = np.stack([1.0 / variance[a] for a in ages])[:, :, None] * np.ones((1, 1, 3))  # (P4)
     both = np.stack([forward, backward])
     weights = np.where(np.isfinite(both), weights, 0.0)
