@@ -249,3 +249,30 @@ def test_whole_steps_of_one_interval_are_those_of_an_array():
     assert all(isinstance(x, float) for x in one_by_one)
     np.testing.assert_array_equal(one_by_one, as_array)
     assert min(one_by_one) == 0.01
+
+
+@pytest.mark.parametrize("options", [{}, {"cutoff_hz": 3.0}, {"taps": [0.6, 0.3, 0.1], "cutoff_hz": 3.0}])
+def test_no_difference_across_half_a_turn_of_the_last_rate(options):
+    """(D6): a body at a constant 0.06 rad/s seen every 0.5 s, unseen for 940 s (56 rad, aliased: the difference
+    across is 0.0015 rad/s) and then for 20 s (1.2 rad, no alias): the row after the long outage holds the last
+    rate, ``predicted``, and the next rows are the body's; the short outage is differenced. ``update``, ``run`` and
+    ``run`` in pieces (one cut just before the held row, one just after) give the same rows and statuses."""
+    w = np.array([0.03, -0.02, 0.05])
+    t = np.concatenate([0.5 * np.arange(120), 1000.0 + 0.5 * np.arange(60), 1050.0 + 0.5 * np.arange(60)])
+    q = Rotation.from_rotvec(np.outer(t, w)).as_quat()
+    aliased = (Rotation.from_quat(q[119]).inv() * Rotation.from_quat(q[120])).as_rotvec() / 940.5
+    assert np.linalg.norm(aliased) < 0.03 * np.linalg.norm(w)  # what differencing across would give
+    whole = DifferencingEstimator(**options).run(t, q)
+    streamed = DifferencingEstimator(**options)
+    one_by_one = [streamed.update(tk, qk) for tk, qk in zip(t, q, strict=True)]
+    pieced = DifferencingEstimator(**options)
+    pieces = [pieced.run(t[a:b], q[a:b]) for a, b in ((0, 119), (119, 120), (120, 125), (125, 240))]
+    for rows, status in (
+        (whole.omega, whole.status),
+        (np.array([e.omega for e in one_by_one]), [e.status for e in one_by_one]),
+        (np.vstack([p.omega for p in pieces]), np.concatenate([p.status for p in pieces])),
+    ):
+        np.testing.assert_allclose(rows[1:], np.tile(w, (239, 1)), atol=1e-9)
+        assert np.flatnonzero(np.asarray(status) == Status.PREDICTED).tolist() == [120]
+    plain = log_difference(t, q)  # the formula itself, as peers compute it
+    np.testing.assert_allclose(plain[120], aliased, atol=1e-12)

@@ -432,6 +432,8 @@ def test_a_large_turn_across_a_gap_is_no_reset_and_no_jump(tmp_path, capsys):
     assert "gaps: 1 intervals" in printed and "resets:" not in printed and "jumps:" not in printed
     rates = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=(1, 2, 3))
     np.testing.assert_allclose(rates[120:], np.tile(omega, (120, 1)), atol=1e-6)  # from the first after it
+    status = np.loadtxt(dst, delimiter=",", skiprows=1, usecols=4, dtype=str)
+    assert np.flatnonzero(status != "corrected").tolist() == [120]  # the turn across is unknown: (D6) holds the rate
 
 
 def test_a_reset_after_frames_left_out_is_still_one(tmp_path, capsys):

@@ -48,6 +48,16 @@ Samples that are not finite (NaN or inf anywhere) are skipped: the next valid sa
 the last valid one over the longer interval, and the outputs at skipped samples hold the last estimate
 (``n_skipped`` counts them; their status is ``predicted``). Until two (backward) or three (central) valid samples
 have been seen there is no estimate: NaN (status ``unavailable``).
+
+**Across an interval the last rate turns half a turn.** ``Log`` is the shortest rotation, at most π, so a
+difference over an interval in which the body may have turned more than half a turn can be anything (a body at
+0.06 rad/s seen again after 940 s gives 0.0015 rad/s). Where the last estimate ``ω̂`` says so, the estimator
+(backward scheme) does not difference across the interval: it holds ``ω̂`` (status ``predicted``, as at a skipped
+sample), takes the new attitude as the next difference's start, and a filter's stretch (D4) starts afresh::
+
+    |ω̂_{k−1}| h_k ≥ π   ⇒   ω̂_k = ω̂_{k−1}, predicted                                                   (D6)
+
+:func:`log_difference` is the formula itself, as peers compute it; so is the central scheme.
 """
 
 from __future__ import annotations
@@ -92,8 +102,7 @@ def _check_cutoff_hz(cutoff_hz):
 
 def _hold(values, valid):
     """Rows where ``valid`` is False take the last valid row before them (NaN before the first)."""
-    idx = np.where(valid, np.arange(valid.size), -1)
-    idx = np.maximum.accumulate(idx)
+    idx = np.maximum.accumulate(np.where(valid, np.arange(valid.size), -1))
     out = np.full_like(values, np.nan)
     ok = idx >= 0
     out[ok] = values[idx[ok]]
@@ -127,6 +136,13 @@ def _hold_skipped(est, valid, scheme):
     if scheme == "central" and valid.any():
         out[np.flatnonzero(valid)[-1] :] = np.nan
     return out
+
+
+def _half_turns(out: np.ndarray, valid: np.ndarray, clock: np.ndarray) -> np.ndarray:
+    """(D6): the valid rows ``(T,)`` whose interval turns the output ``out`` at the valid row before by π or more."""
+    iv, turns = np.flatnonzero(valid), np.zeros(valid.shape, bool)
+    turns[iv[1:]] = np.linalg.norm(out[iv[:-1]], axis=1) * np.diff(clock[iv]) >= np.pi  # NaN (no output) is none
+    return turns
 
 
 def log_difference(
@@ -366,8 +382,12 @@ class DifferencingEstimator(StreamingEstimator):
             return self._output(Status.PREDICTED)
         raw, when = None, np.nan  # the new estimate, if any, and its time (set together)
         if self.scheme == "backward":
+            span = self._span(t - self._t[-1]) if self._t else np.nan
+            if np.linalg.norm(self._y) * span >= np.pi:  # (D6): no difference across half a turn
+                self._R, self._t, self._skipped_since = [R], [t], False
+                self._stretch = Stretch([], [], None, span)
+                return self._output(Status.PREDICTED)
             if self._t:
-                span = self._span(t - self._t[-1])
                 raw = so3.log(self._R[-1].T @ R) / span  # (D1)
                 when = t
                 if self.taps is not None:
@@ -402,6 +422,23 @@ class DifferencingEstimator(StreamingEstimator):
         rate, self._stretch = next_in_stretch(self._stretch, self.taps, difference, span, self._skipped_since)
         return rate
 
+    def _rates(self, differences, valid, held, clock, times, p) -> tuple[np.ndarray, Stretch]:
+        """``run``'s rows from the ``differences`` at the ``valid`` samples, those ``held`` by (D6) holding the
+        last rate (``p``: the first row is the last sample fed, whose output is the last one), and the filter's
+        stretch after them."""
+        est, stretch = differences.copy(), self._stretch
+        if self.taps is not None:
+            stretch = filtered_differences(est, valid, clock, self.taps, self._stretch if p else None, cut=held)
+        if self.omega_hat0 is not None and valid.any() and not p:  # the first valid sample: the given rate
+            est[np.flatnonzero(valid)[0]] = self.omega_hat0
+        if p:
+            est[0] = self._y  # the last output: the low-pass's state, held through skipped rows
+        est[held] = np.nan
+        if self.cutoff_hz is not None:  # (LP) from the last output's time; NaN rows are ignored by the filter
+            since = np.r_[self._y_time, times[1:]] if p and self._y_time is not None else times
+            est = lowpass(est, since, self.cutoff_hz)
+        return _hold_skipped(est, valid & ~held, self.scheme), stretch
+
     def run(self, t: ArrayLike, data: Measurements, torque: ArrayLike | None = None) -> Estimate:
         """ω̂ for every sample time, ``(T, 3)``, row k for ``t[k]`` (for ``"central"`` too: rows are not delayed,
         and the last is ``unavailable``). Vectorised differences, the filter (D4)–(D5) by stretches and the compiled
@@ -432,17 +469,17 @@ class DifferencingEstimator(StreamingEstimator):
         times = np.concatenate([carried_t, times]) if p else times
         R = np.concatenate([np.reshape(carried_R, (p, 3, 3)), R]) if p else R
         clock = times if self.step is None else sample_clock(times, self.step)  # (D3)
-        est, valid = _differences(clock, R, self.scheme)
-        if self.taps is not None:
-            self._stretch = filtered_differences(est, valid, clock, self.taps, self._stretch if p else None)
-        if self.omega_hat0 is not None and valid.any() and not p:  # the first valid sample: the given rate
-            est[np.flatnonzero(valid)[0]] = self.omega_hat0
-        if p:
-            est[0] = self._y  # the last output: the low-pass's state (at self._t[-1]), held through skipped rows
-        if self.cutoff_hz is not None:
-            est = lowpass(est, times, self.cutoff_hz)  # NaN rows are ignored by the filter
-        est = _hold_skipped(est, valid, self.scheme)
-        status = batch_status(valid, est)
+        differences, valid = _differences(clock, R, self.scheme)
+        held = np.zeros(valid.shape, bool)  # (D6): rows held rather than differenced across half a turn
+        while True:  # a row's (D6) depends on the rows before it: the first disagreement is decided, the rest guessed
+            est, stretch = self._rates(differences, valid, held, clock, times, p)
+            turns = _half_turns(est, valid, clock) if self.scheme == "backward" else held
+            wrong = np.flatnonzero(turns != held)
+            if not wrong.size:
+                break
+            held[wrong[0] :] = turns[wrong[0] :]
+        self._stretch = stretch
+        status = batch_status(valid & ~held, est)
         # Streaming state consistent with the log.
         iv = np.flatnonzero(valid)
         keep = 1 if self.scheme == "backward" else 2
@@ -454,8 +491,10 @@ class DifferencingEstimator(StreamingEstimator):
         elif times.size:  # nothing valid yet: every sample skipped
             self._skipped_since = True
         self._t_last = float(times[-1]) if times.size else self._t_last
-        last = iv[-keep] if iv.size >= keep else None  # the sample the last estimate is for
-        if last is not None and (self.scheme == "backward" or iv.size >= 3) and np.all(np.isfinite(est[last])):
+        own = np.flatnonzero(valid & ~held)  # the samples with an estimate of their own
+        last = own[-keep] if own.size >= keep else None  # the sample the last estimate is for (p: 0 is the last one)
+        fresh = last is not None and not (p and last == 0) and (self.scheme == "backward" or own.size >= 3)
+        if fresh and np.all(np.isfinite(est[last])):
             self._y, self._y_time = est[last].copy(), float(times[last])
         self.estimate_time = self._y_time
         return Estimate(est[p:], status[p:])

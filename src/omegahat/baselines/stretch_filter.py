@@ -84,12 +84,18 @@ def two_passes(
 
 
 def filtered_differences(
-    est: np.ndarray, valid: np.ndarray, clock: np.ndarray, taps: np.ndarray, before: Stretch | None = None
+    est: np.ndarray,
+    valid: np.ndarray,
+    clock: np.ndarray,
+    taps: np.ndarray,
+    before: Stretch | None = None,
+    cut: np.ndarray | None = None,
 ) -> Stretch:
     """(D4)–(D5) over the backward differences ``est (T, 3)`` (rows at the ``valid`` samples after the first; the
     intervals from ``clock (T,)``), in place; the stretches as :func:`next_in_stretch` keeps them. ``before``: the
-    state the first difference continues (None: the log starts here), as :func:`next_in_stretch` would take it.
-    Returns the streaming state of the last one."""
+    state the first difference continues (None: the log starts here), as :func:`next_in_stretch` would take it;
+    ``cut (T,)``: rows whose difference is left out, the next stretch starting after them. Returns the streaming
+    state of the last one."""
     empty = Stretch([], [], None, None) if before is None else before
     iv = np.flatnonzero(valid)
     if iv.size < 2:
@@ -97,7 +103,8 @@ def filtered_differences(
     rows, spans = iv[1:], np.diff(clock[iv])
     previous_span = np.inf if before is None or before.span is None else before.span
     longer = spans > STRETCH_BREAK * np.concatenate([[previous_span], spans[:-1]])
-    breaks = np.flatnonzero((np.diff(iv) > 1) | longer)  # the differences that break a stretch
+    skipped = (np.diff(iv) > 1) | longer if cut is None else (np.diff(iv) > 1) | longer | cut[rows]
+    breaks = np.flatnonzero(skipped)  # the differences that break a stretch
     L = taps.shape[0]
     start, state = 0, empty._replace(span=float(spans[-1]))
     for stop in [*breaks.tolist(), rows.size]:  # a break's own difference stays as it is, the stretch follows it

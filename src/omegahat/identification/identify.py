@@ -22,7 +22,8 @@ and of backward differencing, and the estimator to run (:meth:`Identification.es
    discrete algebraic Riccati equation, ``scipy.linalg.solve_discrete_are``), for Euler's equations (which couple
    the axes) the EKF's own over the head's second half; backward differencing's is its noise
    ``√6 σ / h`` with the motion's share over half a sample, ``√(max(0, E|Δū|² − 18 σ²/h²)) / 2`` (``ū_k`` the
-   differenced rates, ``Δ`` between consecutive ones; (D1), :func:`omegahat.observer.tuning.differencing_error`).
+   rates differenced over one spacing, not across gaps, ``Δ`` between consecutive ones; (D1),
+   :func:`omegahat.observer.tuning.differencing_error`).
 5. **The estimator.** The chosen model's filter (the observer supervising its gyro-less EKF) runs when the log
    supports it; otherwise backward differencing (the rate model's fast limit), through the log's own causal filter
    ((C1)–(C3) of :mod:`omegahat.identification.causal`: no more error than differencing's in any band). The model
@@ -464,15 +465,11 @@ def identify(
         if chosen.model in likelihood.DYNAMIC
         else likelihood.steady_rate_error(chosen.model, chosen.tracking_index, chosen.sigma, h)
     )  # fmt: skip
-    differencing = differencing_error(spikes.skipped(phi, valid), h, chosen.sigma)  # (D1): steps of one spacing
+    across = np.diff(tv) > 1.5 * h  # a step across missing samples is no one spacing's: (D1) would read a gap's turn
+    differencing = differencing_error(np.where(across[:, None], np.nan, spikes.skipped(phi, valid)), h, chosen.sigma)
     if chosen.misfit > MISFIT_MAX:
-        use, why = (
-            False,
-            (
-                f"the model does not describe this log: its innovations are {chosen.misfit:.3g} times what the noise "
-                "explains"
-            ),
-        )
+        misfit = f"{chosen.misfit:.3g} times what the noise explains"
+        use, why = False, f"the model does not describe this log: its innovations are {misfit}"
     elif chosen.at_fast_limit:
         use, why = False, "the model is at its fast limit: no measurement noise the log can tell from motion"
     elif not expected < GAIN_REQUIRED * differencing:
