@@ -138,3 +138,15 @@ class KeepWriter(DiscardWriter):
     def rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(labels, omega, status)`` of every row written, in order."""
         return np.concatenate(self.labels), np.concatenate(self.omega), np.concatenate(self.status)
+
+
+def turning_axis_log(gap_seconds: float, fs: float = 240.0):
+    """12 s of ``R(t) = Exp(A t) Exp(B t)`` (rate ``Exp(−B t) A + B``, closed form: a smooth motion whose rate turns
+    at 2 rad/s) at ``fs`` with 0.25 mrad of noise, the samples from 5 s on missing for ``gap_seconds``."""
+    a, b = np.array([1.4, -0.6, 1.0]), np.array([0.4, 1.8, -0.8])
+    t = np.arange(0.0, 12.0, 1.0 / fs)
+    turn = Rotation.from_rotvec(np.outer(t, a)) * Rotation.from_rotvec(np.outer(t, b))
+    noise = Rotation.from_rotvec(2.5e-4 * np.random.default_rng(3).standard_normal((t.size, 3)))
+    q = (turn * noise).as_quat()
+    q[(t >= 5.0) & (t < 5.0 + gap_seconds)] = np.nan
+    return t, q, Rotation.from_rotvec(-np.outer(t, b)).apply(a) + b

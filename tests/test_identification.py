@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from logmaker import two_passes
+from logmaker import turning_axis_log, two_passes
 from omegahat.baselines.differencing import DifferencingEstimator, log_difference
 from omegahat.identification import identify, steps
 from omegahat.identification.likelihood import Sums, log_likelihood, noise_intensity, steady_rate_error
@@ -618,3 +618,18 @@ def test_differencings_expected_error_leaves_out_the_step_across_a_gap():
     gap = identify(t, q, "quaternion").differencing_rms
     assert whole == pytest.approx(np.sqrt(6.0) * 2.5e-4 * 240.0, rel=0.1)
     assert gap == pytest.approx(whole, rel=0.02)
+
+
+def test_a_long_dropout_does_not_decide_the_process_noise():
+    """The likelihood's pass restarts after a long dropout (RESTART_GAP): it had counted the fix after a 2 s
+    dropout, many times its predicted spread, and the filter's ringing after it, which turned Λ from 0.36 into 224
+    and sent the default to differencing at 3.7 times the model's error. With the dropout the identification is the
+    gap-free log's."""
+    t, q, _ = turning_axis_log(0.0)
+    whole = identify(t, q, "quaternion")
+    t, q, _ = turning_axis_log(2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        gap = identify(t, q, "quaternion")
+    assert whole.use_model and gap.use_model and gap.chosen.model == whole.chosen.model == "rate"
+    assert gap.chosen.tracking_index == pytest.approx(whole.chosen.tracking_index, rel=0.05)

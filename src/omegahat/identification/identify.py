@@ -250,6 +250,7 @@ class Identification:
                 "disagreement_factor": DIVERGENCE_FACTOR,
                 "disagreement_yardstick": "observer",
                 "max_rate": NYQUIST_RATE * self.rate_hz,
+                "restart_after": likelihood.RESTART_GAP / self.rate_hz,  # where the likelihood's pass restarted
                 **options,
             }
         J = self.J if dynamic else np.eye(3)

@@ -110,6 +110,10 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         ``ω_max`` of (S3) (rad/s; default: no bound): an EKF rate above it is lost at once. Without a dynamic
         model a rate above ``π × rate_hz`` turns the body more than half a turn between samples, which the
         attitudes cannot tell from the shorter turn the other way (:data:`NYQUIST_RATE` per hertz).
+    restart_after : float, optional
+        (S5): an interval between fixes (s) above which both start over at the fix, the observer from its warm
+        start at the next (default: none; ``omegahat estimate`` without a dynamic model: where its identification
+        restarts, :data:`omegahat.identification.likelihood.RESTART_GAP` spacings).
 
     Raises
     ------
@@ -165,6 +169,7 @@ class SupervisedKalmanEstimator(CompiledEstimator):
         disagreement_samples: int = 3,
         disagreement_yardstick: Yardstick = "either",
         max_rate: float = math.inf,
+        restart_after: float = math.inf,
     ) -> None:
         self.rate_hz = float(as_positive(rate_hz, "rate_hz")[0])
         self.measurement_noise = float(as_positive(measurement_noise, "measurement_noise")[0])
@@ -203,6 +208,9 @@ class SupervisedKalmanEstimator(CompiledEstimator):
             "sigma_obs": self.observer_noise,
             "own_spread": float(one_of("disagreement_yardstick", disagreement_yardstick, Yardstick) == "either"),
             "max_rate": math.inf if max_rate == math.inf else float(as_positive(max_rate, "max_rate")[0]),
+            "restart_after": math.inf
+            if restart_after == math.inf
+            else float(as_positive(restart_after, "restart_after")[0]),
             "sigma_start": 0.0
             if omega_hat0_noise is None or omega_hat0 is None
             else float(as_positive(omega_hat0_noise, "omega_hat0_noise")[0]),

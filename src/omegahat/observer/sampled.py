@@ -48,6 +48,7 @@ __all__ = [
     "initial_state_vector",
     "pack_params",
     "run",
+    "start_over",
     "step",
 ]
 
@@ -253,9 +254,17 @@ def _warm_start(Jm, Jinv, k, l_off, l_slope, tau, h, w, r, e, r_meas):
 def _restart(out, t, r_meas, valid):
     """The guard's restart (status ``RESTARTED``): the step to ``t`` gave a non-finite state (a gap too long for
     the model, an overflowing torque, gains beyond floating point), so the state is discarded and the estimator
-    starts again from this sample: ``r`` ← the measurement when it is valid (``e = 0``, a warm start waiting for
-    the next valid sample), else uninitialised; ω̂ is NaN (no estimate) until that warm start. Returns the code."""
+    starts again from this sample (:func:`start_over`); ω̂ is NaN (no estimate) until its warm start. Returns the
+    code."""
     out[STATE.omega_hat : STATE.omega_hat + 3] = np.nan
+    start_over(out, t, r_meas, valid)
+    return checks.RESTARTED
+
+
+@numba.njit(cache=True, error_model="numpy")
+def start_over(out, t, r_meas, valid):
+    """The state ``out`` started again from the sample at ``t``: ``r`` ← the measurement when it is valid (``e = 0``,
+    a warm start (W) waiting for the next valid sample), else uninitialised; ω̂ is left as it is (the caller's)."""
     out[STATE.aim :] = 0.0  # Γ, r, e (the sample's torque stays: it is held from t)
     if valid:
         out[STATE.stage] = WARM_PENDING
@@ -266,7 +275,6 @@ def _restart(out, t, r_meas, valid):
     else:
         out[STATE.stage] = UNINITIALISED
         out[STATE.t_meas] = np.nan
-    return checks.RESTARTED
 
 
 @numba.njit(cache=True, error_model="numpy")

@@ -20,10 +20,13 @@ stationary noise level (rad/s, from the gain design)::
     lost by (S2), ω_max or not finite ⇒  also â ← 0 (an unknown acceleration the EKF carries; by ν̄ it is kept)
     uncertain = s > κ σ_obs before the fix, with the yardstick σ_obs alone (supervision in the motion's scale)  (S5)
 
-(S5), after a gap: a skipped sample gives the observer's prediction instead of the EKF's, and at a fix an uncertain
-prediction (no point to linearise the fix at: its innovation may be past half a turn) restarts the EKF (S4) with
-â ← 0 and the rate's spread κ σ_obs, the observer's rate being stale by the gap; the fix after such a restart is not
-judged by (S5), whose yardstick that spread is (``docs/theory/supervised.md``).
+(S5), after a gap: a skipped sample gives the observer's prediction instead of the EKF's where its spread is past
+the yardstick. At the first fix after skipped samples, when the prediction is uncertain or the gap is longer than
+``restart_after``, both start over from the fix: the observer waits for its warm start (W) at the next fix (the rate
+from the two fixes), the EKF starts again from that warm start, and the fix's rate is the EKF's update where its
+prediction's attitude spread is within a quarter turn (``3 √tr P_θθ < π/2``), the rate held through the gap where
+it is not, and the observer's where (S5) found the prediction uncertain. The observer's own correction, which read
+the whole innovation (past half a turn, maybe), is not kept (``docs/theory/supervised.md``).
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -64,8 +67,7 @@ class EkfStateLayout(NamedTuple):
     """Offsets in the EKF's flat state: started (0/1), ν̄ (S1), c (S2), resets so far, the output's source
     (:data:`FROM_OBSERVER` / :data:`FROM_EKF`), R̂ (9, row-major), ω̂ (3), the unknown acceleration â (3; zero
     unless the filter carries it), P (36 or 81, row-major; room for 81), then the sum of ν/m over the fixes the
-    EKF was judged on and their number (the mean tells whether its noise model fits the data), and 1 from a
-    restart by (S5) until the EKF's next fix (which is not judged by (S5) again: its spread is the yardstick's)."""
+    EKF was judged on and their number (the mean tells whether its noise model fits the data)."""
 
     started: int
     nis_avg: int
@@ -78,13 +80,12 @@ class EkfStateLayout(NamedTuple):
     P: int
     nis_sum: int
     nis_count: int
-    gap_restart: int
     size: int
 
 
 EKF_STATE = EkfStateLayout(
     started=0, nis_avg=1, disagree=2, resets=3, source=4, R=5, omega=14, accel=17, P=20, nis_sum=101, nis_count=102,
-    gap_restart=103, size=104,
+    size=103,
 )  # fmt: skip
 
 
@@ -93,7 +94,8 @@ class EkfParamLayout(NamedTuple):
     α, ν_max, κ, c_max, dynamic model (0/1), the substep bounds (s, rad), the unknown acceleration's PSD q_a
     (rad²/s⁵; 0: not carried) and its prior σ (rad/s²), and σ of the rate it starts from at the first fix (rad/s,
     the 3-vector's RMS; 0: σ_obs, the observer's), the yardstick of (S2) (1: max(s, σ_obs); 0: σ_obs alone), and
-    the largest rate the EKF may give (rad/s; above it, lost (S3))."""
+    the largest rate the EKF may give (rad/s; above it, lost (S3)), and the interval between fixes above which
+    both start over ((S5); s)."""
 
     q: int
     meas_var: int
@@ -111,12 +113,14 @@ class EkfParamLayout(NamedTuple):
     sigma_start: int
     own_spread: int
     max_rate: int
+    restart_after: int
     size: int
 
 
 EKF_PARAMS = EkfParamLayout(
     q=0, meas_var=1, sigma_theta=2, sigma_obs=3, alpha=4, nis_max=5, kappa=6, disagree_max=7, dynamic=8, max_step=9,
-    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, own_spread=14, max_rate=15, size=16,
+    max_angle=10, q_a=11, sigma_accel=12, sigma_start=13, own_spread=14, max_rate=15,
+    restart_after=16, size=17,
 )  # fmt: skip
 
 
@@ -180,6 +184,20 @@ def _measured_attitude(p, m, kind, r_meas, R_work, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _start_over(xs_out, xe_out, t, r_meas, w_now):
+    """(S5): the observer (``xs_out``) starts over from the fix at ``t`` (its warm start (W) at the next one), its
+    rate meanwhile ``w_now`` (its own correction, which read an innovation that may be past half a turn, is not
+    kept), and the EKF (``xe_out``) starts again from that warm start. Returns the observer's rate (``w_now``)."""
+    w_out = xs_out[STATE.omega_hat : STATE.omega_hat + 3]
+    sampled.start_over(xs_out, t, r_meas, True)
+    for c in range(3):
+        w_out[c] = w_now[c]
+    xe_out[EKF_STATE.started] = 0.0
+    xe_out[EKF_STATE.resets] += 1.0
+    return w_out
+
+
+@numba.njit(cache=True, error_model="numpy")
 def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
     """One sample: the observer (``xs`` → ``xs_out``), the EKF and the supervisor (``xe`` → ``xe_out``); returns
     ``(status, info, ω̂)``. On a rejection the outputs are unspecified and the inputs untouched. ``wk``: the
@@ -234,19 +252,23 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
             _reinitialise(xe_out, pe, w_obs, R_meas, sigma, True)
             xe_out[EKF_STATE.started] = 1.0
         return status, info, w_obs
-    fresh = xe[EKF_STATE.gap_restart] != 0.0  # restarted by (S5) at the last fix: its spread is the yardstick's
-    xe_out[EKF_STATE.gap_restart] = 0.0
-    gap = uncertain and not fresh  # (S5): a prediction (over a gap) that is no estimate: no point to linearise at
-    if not finite or gap:  # (S3) for a propagation that could not be taken, and (S5): restarted (S4)
-        _reinitialise(xe_out, pe, w_obs, R_meas, kappa * sigma_obs if gap else sigma_obs, False)
+    since = t - xs[STATE.t_meas]  # (S5): after a gap, a prediction that is no estimate, or a long gap
+    gap = xs[STATE.t_meas] != xs[STATE.t] and (uncertain or since > pe[EKF_PARAMS.restart_after])
+    if gap and (uncertain or not finite):  # (S5): no point to linearise at: the observer's rate at the fix
+        return status, info, _start_over(xs_out, xe_out, t, r_meas, w_obs)
+    if not finite:  # (S3) for a propagation that could not be taken: restarted (S4)
+        _reinitialise(xe_out, pe, w_obs, R_meas, sigma_obs, False)
         xe_out[EKF_STATE.resets] += 1.0
-        xe_out[EKF_STATE.gap_restart] = 1.0 if gap else 0.0
         return status, info, w_obs
+    if gap and not 3.0 * math.sqrt(P[0, 0] + P[1, 1] + P[2, 2]) < 0.5 * math.pi:  # (S5): its 3σ past a quarter turn
+        return status, info, _start_over(xs_out, xe_out, t, r_meas, w)  # no update: the rate held through the gap
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
         nis = ekf_vector_update(R, w, a, P, r_meas, V, pe[EKF_PARAMS.meas_var], scratch) / (3.0 * n)
     else:
         nis = ekf_attitude_update(R, w, a, P, R_meas, pe[EKF_PARAMS.meas_var], scratch) / 3.0
+    if gap:  # (S5) after a long gap: the EKF's update (its linearisation holds) is this fix's rate; both start over
+        return status, info, _start_over(xs_out, xe_out, t, r_meas, w)
     alpha = pe[EKF_PARAMS.alpha]
     nis_avg = (1.0 - alpha) * xe[EKF_STATE.nis_avg] + alpha * nis  # (S1)
     xe_out[EKF_STATE.nis_sum] += nis
