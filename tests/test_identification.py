@@ -633,3 +633,19 @@ def test_a_long_dropout_does_not_decide_the_process_noise():
         gap = identify(t, q, "quaternion")
     assert whole.use_model and gap.use_model and gap.chosen.model == whole.chosen.model == "rate"
     assert gap.chosen.tracking_index == pytest.approx(whole.chosen.tracking_index, rel=0.05)
+
+
+def test_a_glitch_right_after_a_long_dropout_bridges_the_gap_instead():
+    """A restarted pass follows the samples after the gap from scratch: where they jump by up to 2.9 rad per step
+    for a few samples (a phone's orientation re-converging, held-out TyrEx recordings), the fresh filter's rate passes
+    half a turn per step and the pass ends (every Λ failed: 'no model could be fitted'). There the gap is bridged,
+    as a settled filter weighs such a glitch."""
+    t, q, _ = turning_axis_log(0.25, fs=60.0)
+    first = np.flatnonzero(t >= 5.25 - 1e-9)[0]
+    q[first + 3 : first + 5] = np.nan  # three fixes after the gap, two samples missing, then the glitch
+    wild = Rotation.from_rotvec([[0.0, 2.9, 0.0], [0.3, 0.2, 0.0], [2.2, 0.0, 0.9], [0.4, -0.3, 0.1]])
+    q[first + 5 : first + 9] = (wild * Rotation.from_quat(q[first + 5 : first + 9])).as_quat()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        glitch = identify(t, q, "quaternion")
+    assert glitch.chosen.model in ("rate", "acceleration") and np.isfinite(glitch.chosen.log_likelihood)
