@@ -207,13 +207,19 @@ def test_after_a_long_dropout_both_start_over_and_the_next_fixes_are_the_bodys()
     away = (t > 1.0) & ((t < 4.0) | (t > 8.0))
     for seconds in (0.5, 2.0):
         t, q, _ = turning_axis_log(seconds)
+        estimator = identify(t, q, "quaternion").estimator()
         with pytest.warns(UserWarning, match="skipped"):
-            W = identify(t, q, "quaternion").estimator().run(t, q).omega
+            W, status = estimator.run(t, q)
         err = np.linalg.norm(W - truth, axis=1)
         first = np.flatnonzero(t >= 5.0 + seconds - 1e-9)[0]
         assert err[first + 1 : first + 240].max() < 0.25
         assert np.sqrt(np.mean(err[away] ** 2)) == pytest.approx(np.sqrt(np.mean(whole[away] ** 2)), rel=0.02)
         if seconds == 0.5:
-            assert err[first] < 0.6  # the EKF's update
-        else:
-            np.testing.assert_array_equal(W[first], W[first - 1])  # held
+            assert err[first] < 0.6 and status[first] == Status.CORRECTED  # the EKF's update
+        else:  # held, and said so; sample by sample alike
+            np.testing.assert_array_equal(W[first], W[first - 1])
+            assert status[first] == Status.PREDICTED and np.all(status[first + 1 :] == Status.CORRECTED)
+            estimator.reset()
+            one_by_one = [estimator.update(tk, qk) for tk, qk in zip(t, q, strict=True)]
+            np.testing.assert_allclose([e.omega for e in one_by_one], W, rtol=1e-12, atol=1e-12)
+            np.testing.assert_array_equal([e.status for e in one_by_one], status)

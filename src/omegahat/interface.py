@@ -29,7 +29,7 @@ leaves the state as it was before the call.
                  since one attitude gives no rate; an offline method without enough samples around this one)
     CORRECTED    the estimate after a measured sample
     PREDICTED    no usable sample at that time (missing: NaN or inf, or nearly collinear directions): the estimate
-                 was predicted through it
+                 was predicted through it; or the first fix after a long gap whose rate is the one held through it
     RESTARTED    the state could not be propagated to this sample (it would not stay finite): the estimator
                  restarted from it
 
@@ -84,7 +84,8 @@ class Status(enum.IntEnum):
       was given, since one attitude gives no rate; an offline method without enough samples around this one);
     * ``CORRECTED`` (1): the estimate after a measured sample;
     * ``PREDICTED`` (2): no usable sample at that time (missing: NaN or inf, or nearly collinear directions); the
-      estimate was predicted through it;
+      estimate was predicted through it; or the first fix after a long gap, whose rate is the one held through it
+      (the supervised estimator's (S5));
     * ``RESTARTED`` (3): the state could not be propagated to this sample (it would not stay finite); the
       estimator restarted from it.
 

@@ -75,6 +75,7 @@ from omegahat.interface import Estimate, Estimator, Measurement, Measurements, b
 from omegahat.kernels.checks import (
     COLLINEAR,
     ERROR,
+    HELD,
     KIND_DIRECTIONS,
     KIND_MATRIX,
     KIND_QUAT,
@@ -108,6 +109,7 @@ from omegahat.validation import as_directions
 __all__ = [
     "COLLINEAR",
     "ERROR",
+    "HELD",
     "KIND_DIRECTIONS",
     "KIND_MATRIX",
     "KIND_QUAT",

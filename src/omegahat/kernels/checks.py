@@ -11,8 +11,9 @@ r"""The compiled input checks (Numba), written once: every estimator's samples, 
 
 Every check returns ``(status, info)``: below :data:`ERROR` the sample is used (:data:`OK`) or skipped
 (:data:`MISSING`: a NaN or inf in it; :data:`COLLINEAR`); from :data:`ERROR` on it is rejected and ``info`` is the
-offending value (documented with each code). One more code below :data:`ERROR` is an estimator's, not a check's:
-:data:`RESTARTED`, a sample at which the step could not be taken and the estimator started again from that sample.
+offending value (documented with each code). Two more codes below :data:`ERROR` are an estimator's, not a check's:
+:data:`RESTARTED`, a sample at which the step could not be taken and the estimator started again from that sample,
+and :data:`HELD`, a sample used for the attitude whose rate is the one held through the gap before it.
 :func:`check_sample` runs the checks of one sample in the order time, time order, torque, measurement and reports
 the first that fails.
 """
@@ -28,6 +29,7 @@ from omegahat.kernels.vec3 import cross, mat3, matvec_transposed, norm
 __all__ = [
     "COLLINEAR",
     "ERROR",
+    "HELD",
     "KIND_DIRECTIONS",
     "KIND_MATRIX",
     "KIND_QUAT",
@@ -56,6 +58,7 @@ OK = 0  #: a valid sample
 MISSING = 1  #: NaN or inf somewhere in the sample: skipped, the estimator keeps predicting
 COLLINEAR = 2  #: measured directions nearly collinear: skipped like a missing sample, counted separately
 RESTARTED = 3  #: the step to this sample could not be taken: the estimator restarted from the sample (no estimate)
+HELD = 4  #: a sample used (the attitude), the rate the one held through the gap before it ((S5)): predicted
 ERROR = 10
 NOT_ORTHOGONAL = 10  #: info = ‖RᵀR − I‖_F
 NOT_PROPER = 11  #: info = det R (a reflection)

@@ -52,6 +52,7 @@ STATUS_OF_CODE: dict[int, Status] = {
     ms.MISSING: Status.PREDICTED,
     ms.COLLINEAR: Status.PREDICTED,
     ms.RESTARTED: Status.RESTARTED,
+    ms.HELD: Status.PREDICTED,
 }
 _SKIPPED = (ms.MISSING, ms.COLLINEAR)  # the codes n_skipped counts
 # STATUS_OF_CODE as a table indexed by code (a run's codes are all below ERROR): one indexing per run
@@ -163,6 +164,8 @@ class CompiledEstimator(StreamingEstimator):
             status = _CORRECTED
         else:
             status = STATUS_OF_CODE[code]
+            if code == ms.HELD and self._n_valid < 2:  # a valid sample, its rate held: (S5)
+                self._n_valid += 1
             if code == ms.RESTARTED:
                 self.n_restarts += 1
                 return Estimate(_NAN3.copy(), status)
@@ -194,7 +197,7 @@ class CompiledEstimator(StreamingEstimator):
             gaps = np.diff(times) if np.isnan(t_prev) else np.diff(times, prepend=t_prev)
             if gaps.size:
                 self.largest_interval = max(self.largest_interval, float(gaps.max()))
-        valid = codes == ms.OK
+        valid = (codes == ms.OK) | (codes == ms.HELD)
         status = _STATUS_TABLE[codes]
         if self._n_valid < self._need:  # no estimate until the `need`-th valid sample of the stream
             seen = self._n_valid + np.cumsum(valid)

@@ -25,8 +25,9 @@ the yardstick. At the first fix after skipped samples, when the prediction is un
 ``restart_after``, both start over from the fix: the observer waits for its warm start (W) at the next fix (the rate
 from the two fixes), the EKF starts again from that warm start, and the fix's rate is the EKF's update where its
 prediction's attitude spread is within a quarter turn (``3 √tr P_θθ < π/2``), the rate held through the gap where
-it is not, and the observer's where (S5) found the prediction uncertain. The observer's own correction, which read
-the whole innovation (past half a turn, maybe), is not kept (``docs/theory/supervised.md``).
+it is not (code ``HELD``: status ``predicted``), and the observer's where (S5) found the prediction uncertain. The
+observer's own correction, which read the whole innovation (past half a turn, maybe), is not kept
+(``docs/theory/supervised.md``).
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -261,7 +262,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     if gap and not 3.0 * math.sqrt(P[0, 0] + P[1, 1] + P[2, 2]) < 0.5 * math.pi:  # (S5): its 3σ past a quarter turn
-        return status, info, _start_over(xs_out, xe_out, t, r_meas, w)  # no update: the rate held through the gap
+        return checks.HELD, info, _start_over(xs_out, xe_out, t, r_meas, w)  # no update: the rate held, predicted
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
         nis = ekf_vector_update(R, w, a, P, r_meas, V, pe[EKF_PARAMS.meas_var], scratch) / (3.0 * n)
