@@ -223,3 +223,22 @@ def test_after_a_long_dropout_both_start_over_and_the_next_fixes_are_the_bodys()
             one_by_one = [estimator.update(tk, qk) for tk, qk in zip(t, q, strict=True)]
             np.testing.assert_allclose([e.omega for e in one_by_one], W, rtol=1e-12, atol=1e-12)
             np.testing.assert_array_equal([e.status for e in one_by_one], status)
+
+
+def test_a_jump_of_the_clock_starts_over_as_missing_samples_do():
+    """The same 2 s dropout with its rows left out of the log (the clock jumps, no sample is missing): the default
+    starts over at the same fix (the interval since the last fix is what counts, as in its likelihood), the first
+    fix's rate held and ``predicted``, and the later rows equal those of the log with the missing rows."""
+    from omegahat.identification import identify
+
+    t, q, truth = turning_axis_log(2.0)
+    with pytest.warns(UserWarning, match="skipped"):
+        W_missing, _ = identify(t, q, "quaternion").estimator().run(t, q)
+    kept = np.all(np.isfinite(q), axis=1)
+    W, status = identify(t[kept], q[kept], "quaternion").estimator().run(t[kept], q[kept])
+    first = np.flatnonzero(t[kept] >= 7.0 - 1e-9)[0]
+    np.testing.assert_array_equal(W[first], W[first - 1])
+    assert status[first] == Status.PREDICTED and np.all(status[first + 1 :] == Status.CORRECTED)
+    err = np.linalg.norm(W - truth[kept], axis=1)
+    assert err[first + 1 : first + 240].max() < 0.25
+    np.testing.assert_allclose(W[first + 1 :], W_missing[kept][first + 1 :], atol=1e-6)

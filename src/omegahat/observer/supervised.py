@@ -21,13 +21,13 @@ stationary noise level (rad/s, from the gain design)::
     uncertain = s > κ σ_obs before the fix, with the yardstick σ_obs alone (supervision in the motion's scale)  (S5)
 
 (S5), after a gap: a skipped sample gives the observer's prediction instead of the EKF's where its spread is past
-the yardstick. At the first fix after skipped samples, when the prediction is uncertain or the gap is longer than
-``restart_after``, both start over from the fix: the observer waits for its warm start (W) at the next fix (the rate
-from the two fixes), the EKF starts again from that warm start, and the fix's rate is the EKF's update where its
-prediction's attitude spread is within a quarter turn (``3 √tr P_θθ < π/2``), the rate held through the gap where
-it is not (code ``HELD``: status ``predicted``), and the observer's where (S5) found the prediction uncertain. The
-observer's own correction, which read the whole innovation (past half a turn, maybe), is not kept
-(``docs/theory/supervised.md``).
+the yardstick. At a fix whose prediction is uncertain, or after an interval (missing samples or a jump of the
+clock) longer than ``restart_after``, both start over from the fix: the observer waits for its warm start (W) at
+the next fix (the rate from the two fixes), the EKF starts again from that warm start, and the fix's rate is the
+EKF's update where its prediction's attitude spread is within a quarter turn (``3 √tr P_θθ < π/2``), the rate held
+through the gap where it is not (code ``HELD``: status ``predicted``), and the observer's where (S5) found the
+prediction uncertain. The observer's own correction, which read the whole innovation (past half a turn, maybe), is
+not kept (``docs/theory/supervised.md``).
 
 The output is the EKF's estimate unless it was lost (and restarted) at this sample, then the observer's. The EKF's
 state is a flat array with the named offsets :data:`EKF_STATE`; its parameters :data:`EKF_PARAMS`.
@@ -253,8 +253,7 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
             _reinitialise(xe_out, pe, w_obs, R_meas, sigma, True)
             xe_out[EKF_STATE.started] = 1.0
         return status, info, w_obs
-    since = t - xs[STATE.t_meas]  # (S5): after a gap, a prediction that is no estimate, or a long gap
-    gap = xs[STATE.t_meas] != xs[STATE.t] and (uncertain or since > pe[EKF_PARAMS.restart_after])
+    gap = uncertain or t - xs[STATE.t_meas] > pe[EKF_PARAMS.restart_after]  # (S5): missing samples or a time jump
     if gap and (uncertain or not finite):  # (S5): no point to linearise at: the observer's rate at the fix
         return status, info, _start_over(xs_out, xe_out, t, r_meas, w_obs)
     if not finite:  # (S3) for a propagation that could not be taken: restarted (S4)
@@ -262,7 +261,8 @@ def step_into(xs, p, xe, pe, t, m, kind, tau, xs_out, xe_out, wk, ek):
         xe_out[EKF_STATE.resets] += 1.0
         return status, info, w_obs
     if gap and not 3.0 * math.sqrt(P[0, 0] + P[1, 1] + P[2, 2]) < 0.5 * math.pi:  # (S5): its 3σ past a quarter turn
-        return checks.HELD, info, _start_over(xs_out, xe_out, t, r_meas, w)  # no update: the rate held, predicted
+        held = w if xe[EKF_STATE.source] == FROM_EKF else xs[STATE.omega_hat : STATE.omega_hat + 3]  # as in the gap
+        return checks.HELD, info, _start_over(xs_out, xe_out, t, r_meas, held)  # no update: the rate held, predicted
     if kind == checks.KIND_DIRECTIONS:
         V = p[PARAMS.k + 3 * n : PARAMS.k + 6 * n].reshape(n, 3)
         nis = ekf_vector_update(R, w, a, P, r_meas, V, pe[EKF_PARAMS.meas_var], scratch) / (3.0 * n)
