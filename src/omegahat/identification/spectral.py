@@ -65,8 +65,10 @@ Two or more skipped samples in a row, and a stretch too short to filter (fewer t
 get SciPy's ``RotationSpline`` through the valid attitudes (status ``predicted`` for the skipped ones).
 
 **Uneven steps** are read by (S8) of :mod:`omegahat.identification.steps`: either every stretch is filtered with
-the samples' mean step, or each step is used as stamped and a step 5 % or more off the median breaks the stretch
-(the rotation spline, exact at uneven times, takes what is too short to filter). **A single missing sample**
+the samples' mean step, or each step is used as stamped and a step 5 % or more off the median ends the stretch whose
+rates are kept (the rotation spline, exact at uneven times, takes what is too short to filter). The filter runs on
+through that step as far as the samples are linked (within 50 % of the median), so a kept stretch's end is filtered
+with the log's own increments beyond it, not with (S4)'s extension (S8'). **A single missing sample**
 between two present ones (a dropped frame, a spike treated as missing) is bridged (S9, same module) for the
 filter, not for the spectrum: cutting the filter's stretch there would leave two ends, where the extension (S4)
 errs more than the filter does inside.
@@ -334,8 +336,9 @@ def stretch_rates(
     t: np.ndarray, phi: np.ndarray, valid: np.ndarray, h: float, jitter: str
 ) -> tuple[list[tuple[int, int]], list[np.ndarray]]:
     """The stretches of at least :data:`MIN_STRETCH` ``valid`` samples, linked as (S8) reads the steps ``jitter``
-    (``"sampling"``: each step as stamped, one 5 % or more off the median breaks the stretch), and their ``b_k``
-    (S1) from the increments ``φ (T − 1, 3)``: over each step, or over the samples' step ``h`` (``"stamps"``)."""
+    (``"sampling"``: each step as stamped, one 5 % or more off the median breaks the stretch; ``"linked"``: each
+    step as stamped, linked as regular ones are, (S8')), and their ``b_k`` (S1) from the increments
+    ``φ (T − 1, 3)``: over each step, or over the samples' step ``h`` (``"stamps"``)."""
     runs = [(a, b) for a, b in stretches(t, valid, REGULAR_STEP if jitter == "sampling" else JITTER_LINK)]
     runs = [(a, b) for a, b in runs if b - a >= MIN_STRETCH]
     return runs, [phi[a : b - 1] / (h if jitter == "stamps" else np.diff(t[a:b])[:, None]) for a, b in runs]
@@ -358,17 +361,24 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
-        runs, rates = spectrum.runs, spectrum.rates
         filled, used = bridged(t, R, valid)  # (S9): the filter's stretches go through a single missing sample
-        if used is not valid:
-            phi = so3.increments(np.where(used[:, None, None], filled, np.nan))
-            runs, rates = stretch_rates(t, phi, used, spectrum.h, spectrum.jitter)
-        for (a, b), r in zip(runs, rates, strict=True):
+        phi = so3.increments(np.where(used[:, None, None], filled, np.nan))
+        # (S8'): the filter runs through the uneven steps that end a stretch of samples taken at their stamps
+        reading = "linked" if spectrum.jitter == "sampling" else spectrum.jitter
+        linked, rates = stretch_rates(t, phi, used, spectrum.h, reading)
+        kept, _ = stretch_rates(t, phi, used, spectrum.h, spectrum.jitter)  # where its rates are written
+        inside = np.zeros(T, dtype=bool)
+        for a, b in kept:
+            inside[a:b] = True
+        for (a, b), r in zip(linked, rates, strict=True):
+            if not inside[a:b].any():
+                continue
             steps = np.full(r.shape[0], spectrum.h) if spectrum.jitter == "stamps" else np.diff(t[a:b])
             first = _filtered(r, freq, F, min(edge, r.shape[0]))
             # (S1c): the increments less their coning term (M1), from the first pass's rates, filtered again
-            omega[a:b] = _filtered(r - so3.coning(first[:-1], first[1:], steps), freq, F, min(edge, r.shape[0]))
-            covered[a:b] = True
+            rate = _filtered(r - so3.coning(first[:-1], first[1:], steps), freq, F, min(edge, r.shape[0]))
+            omega[a:b] = np.where(inside[a:b, None], rate, np.nan)
+            covered[a:b] = inside[a:b]
     if not covered.all():  # skipped samples and short stretches: the rotation spline through the valid attitudes
         spline = RotationSpline(t[valid], Rotation.from_matrix(R[valid]))
         omega[~covered] = spline(t[~covered], 1)

@@ -12,8 +12,10 @@ stretches whose steps differ from their mean by more than 0.1 %::
 
 and then every stretch (linked across steps within 50 % of the median: a dropped sample breaks it, unless (S9)
 bridges it for the filter) is filtered with the samples' step ``h̄``, the mean step over the stretches, which is
-also (S1)'s ``h``. Otherwise each step is used as stamped, and a step 5 % or more off the median breaks the stretch
-(the rotation spline, exact at uneven times, takes what is too short to filter).
+also (S1)'s ``h``. Otherwise each step is used as stamped, and a step 5 % or more off the median ends the stretch
+whose rates are kept (the rotation spline, exact at uneven times, takes what is too short to filter); the filter
+runs on through it, as far as the samples are linked, so that a stretch's end is filtered with the increments
+beyond it and not with an extension of its own (S8').
 
 **A single missing sample.** Where sample ``k`` is missing and ``k − 1`` and ``k + 1`` are present, the smoother's
 stretch would end at ``k − 1`` and start again at ``k + 1``: two ends, each extended by the smoother's (S4), which
