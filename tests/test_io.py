@@ -197,6 +197,46 @@ def test_npz_errors_name_the_array(tmp_path, arrays, match):
         read_npz(p)
 
 
+def test_npz_times_under_the_name_given_or_named_as_a_time(tmp_path):
+    """The NPZ reader takes its times as a CSV's are taken: ``--time-column``'s array (it was ignored: "no array
+    't'" with ``--time-column time``), else ``t``, else the one array named as a time, its unit from its name; names
+    compared ignoring case. Each choice is said in a note; an ambiguous one is asked."""
+    from omegahat.io import ReadOptions
+
+    t = np.arange(6) * 0.01 + 100.0
+    q = Rotation.from_rotvec(np.outer(t, [0.1, 0.2, 0.3])).as_quat()
+    p = tmp_path / "a.npz"
+
+    np.savez(p, stamp=t, time=t + 7.0, q=q)
+    log = read_npz(p, ReadOptions(time_column="stamp"))
+    np.testing.assert_array_equal(log.t, t)
+    with pytest.raises(LogFormatError, match=r"arrays stamp, time could each be the time, or pass --time-column"):
+        read_npz(p)
+
+    np.savez(p, time=t, q=q)
+    log = read_npz(p)
+    np.testing.assert_array_equal(log.t, t)
+    assert any("time array: 'time'" in n for n in log.notes)
+
+    np.savez(p, time_ms=t * 1e3, q=q)  # floats, in the unit the name states
+    np.testing.assert_allclose(read_npz(p).t, t, rtol=1e-15)
+    np.savez(p, timestamp_ns=np.round(t * 1e9).astype(np.int64), q=q)  # integers, relative to the first exactly
+    times = read_npz(p).t
+    np.testing.assert_allclose(times - times[0], t - t[0], atol=1e-12)
+
+    np.savez(p, T=t, q=q)
+    log = read_npz(p)
+    np.testing.assert_array_equal(log.t, t)
+    assert any("time array: 'T'" in n for n in log.notes)
+    np.savez(p, T=t, time=t, q=q)  # T may be a temperature: asked
+    with pytest.raises(LogFormatError, match=r"columns 'T' and 'time' could each be the time"):
+        read_npz(p)
+
+    np.savez(p, time=t, quat=q)
+    with pytest.raises(LogFormatError, match=r"no attitude array; expected q \(T, 4\), R .*\(found: time, quat\)"):
+        read_npz(p)
+
+
 def test_not_an_npz_and_unknown_extension(tmp_path):
     p = write(tmp_path, "hello", "x.npz")
     with pytest.raises(LogFormatError, match=r"x\.npz: not a readable \.npz file"):

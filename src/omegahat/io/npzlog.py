@@ -1,6 +1,8 @@
 r"""NPZ logs (``numpy.savez``): arrays by name, every error naming the array.
 
-Arrays: ``t (T,)``; the attitude as ``q (T, 4)``, ``R (T, 3, 3)``, ``b (T, n, 3)`` or ``rotvec (T, 3)`` (rotation
+Arrays: the times ``t (T,)`` (or the array ``--time-column`` names; where there is no ``t``, the one array named as
+a time, ``time`` or ``timestamp_ns`` as a CSV's column, its unit read from its name; names compared ignoring case);
+the attitude as ``q (T, 4)``, ``R (T, 3, 3)``, ``b (T, n, 3)`` or ``rotvec (T, 3)`` (rotation
 vectors in radians, as SciPy's ``as_rotvec`` gives them: :mod:`omegahat.io.rotvec`), or column by column under the
 CSV names (:mod:`omegahat.io.columns`); optionally ``tau (T, 3)`` or ``tau_x, tau_y, tau_z``. A row with any
 non-finite entry is a missing sample.
@@ -33,6 +35,7 @@ from typing import IO
 import numpy as np
 
 from omegahat.io.columns import (
+    EULER_COLUMNS,
     MATRIX_COLUMNS,
     QUATERNION_COLUMNS,
     ROTVEC_COLUMNS,
@@ -40,6 +43,11 @@ from omegahat.io.columns import (
     direction_columns,
     found_names,
     layout,
+    normalise_name,
+    time_column_by_name,
+    time_named_columns,
+    time_or_capital_t,
+    time_unit_in_name,
 )
 from omegahat.io.columns import LogFormatError as _Err
 from omegahat.io.registry import LogStream, ReadOptions
@@ -228,9 +236,9 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         names = z.files
         get = z.get
 
-        if "t" not in names:
-            raise _Err(f"{path}: no array 't' (found: {found_names(names)})")
-        t, clock = _exact_times(get("t", "(T,)", lambda s: len(s) == 1 and s[0] > 0, exact=True), options, notes)
+        time_name = _time_array(path, names, options.time_column, notes)
+        raw = get(time_name, "(T,)", lambda s: len(s) == 1 and s[0] > 0, exact=True)
+        t, clock = _exact_times(raw, time_name, options, notes)
         T = t.size
         whole = [n for n in ("q", "R", "b", "rotvec") if n in names]
         columns = [
@@ -251,7 +259,12 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
         elif "rotvec" in whole:
             data, kind, name = get("rotvec", f"({T}, 3)", lambda s: s == (T, 3)), "rotvec", "rotvec"
         else:
-            lay = layout([n for n in names if n not in ("tau",)], path, "t", options.scalar_first)
+            if not columns and not any(n in names for n in EULER_COLUMNS):
+                raise _Err(
+                    f"{path}: no attitude array; expected q (T, 4), R (T, 3, 3), b (T, n, 3) or rotvec (T, 3), or "
+                    f"the CSV's columns one per array (qw, qx, qy, qz, ...) (found: {found_names(names)})"
+                )
+            lay = layout([n for n in names if n not in ("tau",)], path, time_name, options.scalar_first)
             kind, name = lay.kind, ",".join(lay.attitude)
             flat = np.column_stack([get(c, f"({T},)", lambda s: s == (T,)) for c in lay.attitude])
             data = (
@@ -271,18 +284,52 @@ def open_npz(path: str | os.PathLike[str], options: ReadOptions) -> LogStream:
             k = int(np.flatnonzero(~np.all(np.isfinite(torque), axis=1))[0])
             raise _Err(f"{path}, torque at index {k}: not finite ({torque[k].tolist()})")
 
-    return LogStream.from_arrays(path, kind, t, data, torque, notes=notes, attitude_name=name, **clock)
+    return LogStream.from_arrays(
+        path, kind, t, data, torque, notes=notes, attitude_name=name, time_name=time_name, **clock
+    )
 
 
-def _exact_times(raw: np.ndarray, options: ReadOptions, notes: list[str]) -> tuple[np.ndarray, dict]:
+def _time_array(path: str, names: list[str], time_column: str, notes: list[str]) -> str:
+    """The array holding the times: ``time_column`` (``--time-column``; ``t`` by default), its name compared
+    ignoring case as a CSV's columns are; where the file has no ``t``, the one array named as a time (``time``,
+    ``timestamp_ns``, ...: :func:`omegahat.io.columns.time_column_by_name`), said in a note."""
+    original = {normalise_name(n): n for n in reversed(names)}  # an exact "t" wins over "T"
+    if "t" in names and normalise_name(time_column) == "t":
+        return "t"
+    if ask := time_or_capital_t(names, time_column):
+        raise _Err(f"{path} (its arrays): {ask}")
+    chosen, note = time_column_by_name([normalise_name(n) for n in names], time_column)
+    if normalise_name(chosen) not in original:
+        several = time_named_columns([normalise_name(n) for n in names])
+        hint = f"arrays {', '.join(original[n] for n in several)} could each be the time" if several else ""
+        raise _Err(
+            f"{path}: no array {time_column!r} (found: {found_names(names)}): "
+            + (hint or "name the times t")
+            + ", or pass --time-column NAME"
+        )
+    found = original[normalise_name(chosen)]
+    if note:
+        notes.append(note.replace("column", "array").replace("the log has no array 't'", "the file has no array 't'"))
+    elif found != time_column:
+        notes.append(f"time array: {found!r} (names are compared ignoring case, as a CSV's columns)")
+    return found
+
+
+def _exact_times(raw: np.ndarray, name: str, options: ReadOptions, notes: list[str]) -> tuple[np.ndarray, dict]:
     """Integer times (epoch nanoseconds) as the CSV reader keeps them: made relative to the first in integers
     before they become floats (a float64 of 1.7e18 is 256 ns coarse), and where they cannot be seconds, read in
-    the one unit their size and rate fit, said in a note; ``(t, the stream's t0 and meta)``."""
+    the one unit their array's ``name`` states (``time_ms``) or their size and rate fit, said in a note; times that
+    are not integers in the unit their name states; ``(t, the stream's t0 and meta)``."""
     if raw.dtype.kind not in "iu" or not raw.size or (raw.dtype.kind == "u" and int(raw.max()) >= 2**63):
-        return np.asarray(raw, dtype=float), {}
+        t = np.asarray(raw, dtype=float)
+        if time_unit_in_name(name) is None:  # floats: no unit guessed from their size (the option's, s by default)
+            return t, {}
+        found, note = unit_stated(name, options.time_unit, t[:64])
+        notes.extend([note] if note else [])
+        return (t * TIME_UNITS[found] if found else t), {}
     base = int(raw[0])
     t = (raw.astype(np.int64) - np.int64(base)).astype(float)
-    found, note = unit_stated("t", options.time_unit, raw[:64])  # by their size, as a CSV's or a Parquet table's
+    found, note = unit_stated(name, options.time_unit, raw[:64])  # by name or size, as a CSV's or a Parquet table's
     if found:
         notes.append(note or "")
         t = t * TIME_UNITS[found]  # in s now: the checks' scale (--time-unit s) is 1
