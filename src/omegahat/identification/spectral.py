@@ -361,16 +361,17 @@ def spectral_rate(t: np.ndarray, R: np.ndarray, valid: np.ndarray) -> SpectralRa
         # the width the filter averages over, ~1 / (2B) steps for its equivalent bandwidth B (cycles per step)
         bandwidth = float(np.max(np.sum(g, axis=0) * (freq[1] - freq[0])))
         edge = int(np.clip(round(0.5 / max(bandwidth, 1e-9)), 3, SEGMENT))
+        runs, rates = spectrum.runs, spectrum.rates
         filled, used = bridged(t, R, valid)  # (S9): the filter's stretches go through a single missing sample
-        phi = so3.increments(np.where(used[:, None, None], filled, np.nan))
-        # (S8'): the filter runs through the uneven steps that end a stretch of samples taken at their stamps
-        reading = "linked" if spectrum.jitter == "sampling" else spectrum.jitter
-        linked, rates = stretch_rates(t, phi, used, spectrum.h, reading)
-        kept, _ = stretch_rates(t, phi, used, spectrum.h, spectrum.jitter)  # where its rates are written
-        inside = np.zeros(T, dtype=bool)
-        for a, b in kept:
+        if used is not valid or spectrum.jitter == "sampling":
+            phi = so3.increments(np.where(used[:, None, None], filled, np.nan))
+            runs, rates = stretch_rates(t, phi, used, spectrum.h, spectrum.jitter)
+        inside = np.zeros(T, dtype=bool)  # the stretches' samples: where the filter's rates are written
+        for a, b in runs:
             inside[a:b] = True
-        for (a, b), r in zip(linked, rates, strict=True):
+        if spectrum.jitter == "sampling":  # (S8'): the filter runs on through the steps that end those stretches
+            runs, rates = stretch_rates(t, phi, used, spectrum.h, "linked")
+        for (a, b), r in zip(runs, rates, strict=True):
             if not inside[a:b].any():
                 continue
             steps = np.full(r.shape[0], spectrum.h) if spectrum.jitter == "stamps" else np.diff(t[a:b])

@@ -293,7 +293,7 @@ def _time_array(path: str, names: list[str], time_column: str, notes: list[str])
     """The array holding the times: ``time_column`` (``--time-column``; ``t`` by default), its name compared
     ignoring case as a CSV's columns are; where the file has no ``t``, the one array named as a time (``time``,
     ``timestamp_ns``, ...: :func:`omegahat.io.columns.time_column_by_name`), said in a note."""
-    original = {normalise_name(n): n for n in reversed(names)}  # an exact "t" wins over "T"
+    original = {normalise_name(n): n for n in reversed(names)}  # of names alike but for case, the first
     if "t" in names and normalise_name(time_column) == "t":
         return "t"
     if ask := time_or_capital_t(names, time_column):
@@ -308,8 +308,8 @@ def _time_array(path: str, names: list[str], time_column: str, notes: list[str])
             + ", or pass --time-column NAME"
         )
     found = original[normalise_name(chosen)]
-    if note:
-        notes.append(note.replace("column", "array").replace("the log has no array 't'", "the file has no array 't'"))
+    if note:  # chosen by its name (time_column_by_name's note speaks of a CSV's columns)
+        notes.append(f"time array: {found!r}, the one named as a time (the file has no array 't')")
     elif found != time_column:
         notes.append(f"time array: {found!r} (names are compared ignoring case, as a CSV's columns)")
     return found
